@@ -1,0 +1,66 @@
+// Background model and segmentation into object-pixel maps (paper §3.1: "each
+// camera's image is compared against a reference background image").
+//
+// Model: a per-pixel median background (BGR) and per-pixel spread of brightness,
+// learnt from frames of the empty scene. A pixel is object when it differs from
+// the background in brightness beyond max(threshold, k * spread), or in hue (where
+// both are saturated enough for hue to mean something) or saturation; a darker
+// pixel whose hue and saturation match is a shadow and stays background. Then the
+// map is cleaned: a morphological opening removes speckle, a closing fills cracks,
+// components smaller than a fraction of the image are dropped and holes inside
+// the remaining components are filled when they are small.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace hullpipe {
+
+/// Segmentation settings. Colour differences are in OpenCV 8-bit HSV units
+/// (H in [0,180), S and V in [0,255]).
+struct SegmentationOptions {
+  double value_threshold = 30;     ///< |V - V_bg| above this is object...
+  double value_noise_k = 4;        ///< ...and above k * the pixel's V spread.
+  double hue_threshold = 12;       ///< circular |H - H_bg| above this is object...
+  double hue_min_saturation = 60;  ///< ...when both S and S_bg exceed this.
+  double saturation_threshold = 60;  ///< |S - S_bg| above this is object.
+  double shadow_min_ratio = 0.45;  ///< V/V_bg in [min, max] with matching H, S
+  double shadow_max_ratio = 0.95;  ///<   is shadow (background).
+  int open_radius = 1;             ///< Opening kernel radius in pixels (0 = none).
+  int close_radius = 3;            ///< Closing kernel radius in pixels (0 = none).
+  double min_component_fraction = 0.002;  ///< Drop components below this * image area.
+  /// Fill background holes enclosed by an object when smaller than this * image
+  /// area (segmentation noise); larger holes are real gaps (an arm akimbo) and stay.
+  double max_hole_fraction = 0.0005;
+  /// Throws std::invalid_argument naming the bad field.
+  void Check() const;
+};
+
+/// A learnt reference background for one camera.
+class BackgroundModel {
+ public:
+  BackgroundModel() = default;
+  /// Learns the model from frames of the empty scene (CV_8UC3 BGR, all one size,
+  /// at least one). Throws std::invalid_argument on empty input or mixed sizes.
+  explicit BackgroundModel(const std::vector<cv::Mat>& empty_frames);
+
+  /// Segments a BGR frame of the model's size into an object-pixel map (CV_8UC1,
+  /// 0/255). Throws std::invalid_argument if the frame's size or type differs.
+  cv::Mat Segment(const cv::Mat& frame_bgr, const SegmentationOptions& options = {}) const;
+
+  bool empty() const { return background_bgr_.empty(); }
+  cv::Size size() const { return background_bgr_.size(); }
+  const cv::Mat& background_bgr() const { return background_bgr_; }
+
+ private:
+  cv::Mat background_bgr_;  // CV_8UC3 median
+  cv::Mat background_hsv_;  // CV_8UC3
+  cv::Mat value_spread_;    // CV_32F, per-pixel robust spread of V (MAD * 1.4826)
+};
+
+/// Removes speckle, fills cracks and holes, drops small components (the cleaning
+/// steps of SegmentationOptions) in place on a CV_8UC1 map.
+void CleanObjectPixelMap(cv::Mat& map, const SegmentationOptions& options);
+
+}  // namespace hullpipe

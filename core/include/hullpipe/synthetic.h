@@ -1,0 +1,70 @@
+// Synthetic scenes with exact ground truth: analytic shapes seen by calibrated
+// cameras. An object pixel is exactly a pixel whose centre ray hits a shape, so
+// every algorithm can be measured against truth. The world frame mirrors the
+// Utrecht rig: z points down, the floor is z = 0.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "hullpipe/camera.h"
+
+namespace hullpipe {
+
+/// One analytic solid. Lengths in world metres.
+struct Shape {
+  enum class Type { kSphere, kBox, kCapsule };
+  Type type = Type::kSphere;
+  Eigen::Vector3d a = Eigen::Vector3d::Zero();  ///< Sphere/box centre; capsule end 1.
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();  ///< Capsule end 2.
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Constant(0.1);  ///< Box half sizes.
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< Box: world_from_box rotation.
+  double radius = 0.1;                                      ///< Sphere/capsule radius.
+  cv::Vec3b colour{60, 60, 200};                            ///< BGR.
+
+  static Shape Sphere(const Eigen::Vector3d& c, double r);
+  static Shape Box(const Eigen::Vector3d& c, const Eigen::Vector3d& half,
+                   const Eigen::Matrix3d& world_from_box = Eigen::Matrix3d::Identity());
+  static Shape Capsule(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double r);
+
+  /// True if the world point is inside or on the solid.
+  bool Contains(const Eigen::Vector3d& p) const;
+  /// Smallest s >= 0 with origin + s * dir on the surface (dir need not be unit),
+  /// or nullopt; a ray starting inside hits at s = 0.
+  std::optional<double> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) const;
+  /// Outward unit normal at a surface point.
+  Eigen::Vector3d Normal(const Eigen::Vector3d& p) const;
+};
+
+/// A set of shapes at one instant.
+struct SyntheticScene {
+  std::vector<Shape> shapes;
+  bool Contains(const Eigen::Vector3d& p) const;
+  /// First hit along a ray over all shapes: {s, shape index}.
+  std::optional<std::pair<double, int>> Intersect(const Eigen::Vector3d& origin,
+                                                  const Eigen::Vector3d& dir) const;
+};
+
+/// The built-in animated scene: a standing figure of capsules and a sphere head
+/// whose right arm waves, at time t seconds (period 4 s). About 1.7 m tall, centred
+/// at the world origin on the floor (z down).
+SyntheticScene AnimatedFigure(double t_seconds);
+
+/// n cameras on a ring of `radius` around `target`, at height `height` above the
+/// floor (world z = -height), all looking at target, image w x h with horizontal
+/// field of view hfov (radians) and the given distortion. Ids 1..n.
+std::vector<Camera> RingCameras(int n, double radius, double height, const Eigen::Vector3d& target,
+                                int width, int height_px, double hfov, const Distortion& distortion = {});
+
+/// Exact object-pixel map: pixel is 255 iff the ray through its centre (with lens
+/// distortion undone) hits a shape. CV_8UC1 of the camera's size.
+cv::Mat RenderExactMap(const Camera& camera, const SyntheticScene& scene);
+
+/// Colour image: shapes shaded by a fixed light over a background of floor
+/// checkers and a plain wall; the background alone when scene is empty. CV_8UC3.
+cv::Mat RenderColour(const Camera& camera, const SyntheticScene& scene);
+
+}  // namespace hullpipe

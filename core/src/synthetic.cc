@@ -1,0 +1,246 @@
+#include "hullpipe/synthetic.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "hullpipe/rigid3.h"
+
+namespace hullpipe {
+
+Shape Shape::Sphere(const Eigen::Vector3d& c, double r) {
+  Shape s;
+  s.type = Type::kSphere;
+  s.a = c;
+  s.radius = r;
+  return s;
+}
+
+Shape Shape::Box(const Eigen::Vector3d& c, const Eigen::Vector3d& half, const Eigen::Matrix3d& rot) {
+  Shape s;
+  s.type = Type::kBox;
+  s.a = c;
+  s.half_extents = half;
+  s.rotation = rot;
+  return s;
+}
+
+Shape Shape::Capsule(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double r) {
+  Shape s;
+  s.type = Type::kCapsule;
+  s.a = p;
+  s.b = q;
+  s.radius = r;
+  return s;
+}
+
+namespace {
+// Closest point of segment [a, b] to p.
+Eigen::Vector3d ClosestOnSegment(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                 const Eigen::Vector3d& p) {
+  const Eigen::Vector3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return a + t * ab;
+}
+
+// Smallest root s >= 0 of |o + s d - c|^2 = r^2, or -1.
+double RaySphere(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& c,
+                 double r) {
+  const Eigen::Vector3d oc = o - c;
+  const double A = d.squaredNorm(), B = oc.dot(d), C = oc.squaredNorm() - r * r;
+  if (C <= 0) return 0;  // inside
+  const double disc = B * B - A * C;
+  if (disc < 0 || B > 0) return -1;
+  return (-B - std::sqrt(disc)) / A;
+}
+}  // namespace
+
+bool Shape::Contains(const Eigen::Vector3d& p) const {
+  switch (type) {
+    case Type::kSphere:
+      return (p - a).squaredNorm() <= radius * radius;
+    case Type::kBox: {
+      const Eigen::Vector3d q = rotation.transpose() * (p - a);
+      return (q.array().abs() <= half_extents.array()).all();
+    }
+    case Type::kCapsule:
+      return (p - ClosestOnSegment(a, b, p)).squaredNorm() <= radius * radius;
+  }
+  return false;
+}
+
+std::optional<double> Shape::Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
+  switch (type) {
+    case Type::kSphere: {
+      const double s = RaySphere(o, d, a, radius);
+      if (s < 0) return std::nullopt;
+      return s;
+    }
+    case Type::kBox: {
+      const Eigen::Vector3d ob = rotation.transpose() * (o - a), db = rotation.transpose() * d;
+      double lo = 0, hi = 1e300;
+      for (int i = 0; i < 3; ++i) {
+        if (std::abs(db[i]) < 1e-300) {
+          if (std::abs(ob[i]) > half_extents[i]) return std::nullopt;
+          continue;
+        }
+        double t0 = (-half_extents[i] - ob[i]) / db[i], t1 = (half_extents[i] - ob[i]) / db[i];
+        if (t0 > t1) std::swap(t0, t1);
+        lo = std::max(lo, t0);
+        hi = std::min(hi, t1);
+        if (lo > hi) return std::nullopt;
+      }
+      return lo;
+    }
+    case Type::kCapsule: {
+      if (Contains(o)) return 0.0;
+      // Infinite cylinder around the axis, clipped to the segment, then end caps.
+      double best = -1;
+      const Eigen::Vector3d ab = b - a;
+      const double len2 = ab.squaredNorm();
+      if (len2 > 0) {
+        const Eigen::Vector3d ao = o - a;
+        const Eigen::Vector3d dp = d - ab * (d.dot(ab) / len2);
+        const Eigen::Vector3d op = ao - ab * (ao.dot(ab) / len2);
+        const double A = dp.squaredNorm(), B = op.dot(dp), C = op.squaredNorm() - radius * radius;
+        const double disc = B * B - A * C;
+        if (A > 0 && disc >= 0) {
+          const double s = (-B - std::sqrt(disc)) / A;
+          const double t = (ao + s * d).dot(ab) / len2;
+          if (s >= 0 && t >= 0 && t <= 1) best = s;
+        }
+      }
+      for (const auto* c : {&a, &b}) {
+        const double s = RaySphere(o, d, *c, radius);
+        if (s >= 0 && (best < 0 || s < best)) best = s;
+      }
+      if (best < 0) return std::nullopt;
+      return best;
+    }
+  }
+  return std::nullopt;
+}
+
+Eigen::Vector3d Shape::Normal(const Eigen::Vector3d& p) const {
+  switch (type) {
+    case Type::kSphere:
+      return (p - a).normalized();
+    case Type::kBox: {
+      const Eigen::Vector3d q = rotation.transpose() * (p - a);
+      int axis = 0;
+      double best = -1e300;
+      for (int i = 0; i < 3; ++i) {
+        const double closeness = std::abs(q[i]) - half_extents[i];
+        if (closeness > best) best = closeness, axis = i;
+      }
+      Eigen::Vector3d n = Eigen::Vector3d::Zero();
+      n[axis] = q[axis] >= 0 ? 1 : -1;
+      return rotation * n;
+    }
+    case Type::kCapsule:
+      return (p - ClosestOnSegment(a, b, p)).normalized();
+  }
+  return Eigen::Vector3d::UnitZ();
+}
+
+bool SyntheticScene::Contains(const Eigen::Vector3d& p) const {
+  return std::any_of(shapes.begin(), shapes.end(), [&](const Shape& s) { return s.Contains(p); });
+}
+
+std::optional<std::pair<double, int>> SyntheticScene::Intersect(const Eigen::Vector3d& o,
+                                                                const Eigen::Vector3d& d) const {
+  std::optional<std::pair<double, int>> best;
+  for (size_t i = 0; i < shapes.size(); ++i) {
+    const auto s = shapes[i].Intersect(o, d);
+    if (s && (!best || *s < best->first)) best = std::make_pair(*s, int(i));
+  }
+  return best;
+}
+
+SyntheticScene AnimatedFigure(double t) {
+  // z is down: heights are negative z.
+  auto P = [](double x, double y, double h) { return Eigen::Vector3d(x, y, -h); };
+  SyntheticScene s;
+  const cv::Vec3b skin{120, 150, 210}, shirt{150, 60, 40}, jeans{90, 50, 30};
+  auto add = [&](Shape sh, cv::Vec3b c) {
+    sh.colour = c;
+    s.shapes.push_back(sh);
+  };
+  add(Shape::Sphere(P(0, 0, 1.58), 0.11), skin);                    // head
+  add(Shape::Capsule(P(0, 0, 1.05), P(0, 0, 1.35), 0.17), shirt);   // torso
+  add(Shape::Capsule(P(-0.1, 0, 0.1), P(-0.1, 0, 0.9), 0.07), jeans);  // legs
+  add(Shape::Capsule(P(0.1, 0, 0.1), P(0.1, 0, 0.9), 0.07), jeans);
+  add(Shape::Capsule(P(-0.24, 0, 1.38), P(-0.3, 0, 0.95), 0.05), shirt);  // left arm down
+  // Right arm: upper arm raised sideways, forearm + hand waving (period 4 s).
+  const double phase = 2 * M_PI * t / 4.0;
+  const Eigen::Vector3d shoulder = P(0.24, 0, 1.38);
+  const Eigen::Vector3d elbow = shoulder + Eigen::Vector3d(0.28, 0.05 * std::sin(phase), 0.02);
+  const double ang = 0.6 * std::sin(phase);
+  const Eigen::Vector3d hand = elbow + 0.27 * Eigen::Vector3d(std::sin(ang), 0.3 * std::cos(phase), -std::cos(ang));
+  add(Shape::Capsule(shoulder, elbow, 0.045), shirt);
+  add(Shape::Capsule(elbow, hand, 0.04), skin);
+  add(Shape::Sphere(hand + 0.05 * (hand - elbow).normalized(), 0.05), skin);  // hand
+  return s;
+}
+
+std::vector<Camera> RingCameras(int n, double radius, double height, const Eigen::Vector3d& target,
+                                int width, int height_px, double hfov, const Distortion& distortion) {
+  std::vector<Camera> cams;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n + 0.3;
+    const Eigen::Vector3d eye(target.x() + radius * std::cos(a), target.y() + radius * std::sin(a), -height);
+    const Rigid3d world_from_cam = LookAt(eye, target, Eigen::Vector3d(0, 0, -1));
+    Camera c;
+    c.id = i + 1;
+    c.width = width;
+    c.height = height_px;
+    c.fx = c.fy = 0.5 * width / std::tan(0.5 * hfov);
+    c.cx = 0.5 * width;
+    c.cy = 0.5 * height_px;
+    c.distortion = distortion;
+    c.cam_from_world = world_from_cam.Inverse();
+    cams.push_back(c);
+  }
+  return cams;
+}
+
+cv::Mat RenderExactMap(const Camera& camera, const SyntheticScene& scene) {
+  cv::Mat map(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  const Eigen::Vector3d o = camera.Center();
+  for (int r = 0; r < camera.height; ++r)
+    for (int c = 0; c < camera.width; ++c) {
+      const Eigen::Vector3d d = camera.PixelRayWorld({c + 0.5, r + 0.5});
+      if (scene.Intersect(o, d)) map.at<uint8_t>(r, c) = 255;
+    }
+  return map;
+}
+
+cv::Mat RenderColour(const Camera& camera, const SyntheticScene& scene) {
+  cv::Mat img(camera.height, camera.width, CV_8UC3);
+  const Eigen::Vector3d o = camera.Center();
+  const Eigen::Vector3d light = Eigen::Vector3d(0.3, -0.4, -1.0).normalized();  // towards light
+  for (int r = 0; r < camera.height; ++r)
+    for (int c = 0; c < camera.width; ++c) {
+      const Eigen::Vector3d d = camera.PixelRayWorld({c + 0.5, r + 0.5});
+      cv::Vec3b px;
+      if (const auto hit = scene.Intersect(o, d)) {
+        const Shape& sh = scene.shapes[size_t(hit->second)];
+        const Eigen::Vector3d p = o + hit->first * d;
+        const double lambert = 0.35 + 0.65 * std::max(0.0, sh.Normal(p).dot(light));
+        for (int k = 0; k < 3; ++k) px[k] = cv::saturate_cast<uint8_t>(sh.colour[k] * lambert);
+      } else if (d.z() > 1e-9 && (-o.z() / d.z()) > 0) {
+        // Floor z = 0: green checkers of 0.5 m.
+        const Eigen::Vector3d f = o + (-o.z() / d.z()) * d;
+        const bool odd = (int(std::floor(f.x() * 2)) + int(std::floor(f.y() * 2))) & 1;
+        px = odd ? cv::Vec3b(110, 150, 40) : cv::Vec3b(90, 130, 30);
+      } else {
+        px = cv::Vec3b(215, 220, 210);  // wall
+      }
+      img.at<cv::Vec3b>(r, c) = px;
+    }
+  return img;
+}
+
+}  // namespace hullpipe
