@@ -1,0 +1,91 @@
+// The virtual scene of sim_node: balls thrown under gravity that collide with the
+// visual hull and the floor. Collision detection is the paper's (§4.1); the
+// response is, for now, a simple bounce (reflect about the direction from the
+// collision points' centroid to the ball centre); the paper's §4.2 response with
+// CP_hull and N_hull comes in a later issue.
+//
+// Scene file (YAML), metres and seconds, world frame of the rig:
+//   gravity: [0, 0, 9.81]         # Utrecht rig: z points down
+//   floor: 0.0                    # floor plane: g_hat . x = floor (omit: no floor)
+//   collision: {max_pixel_size: 0.004, fixed_viewport: 0, max_viewport: 32}
+//   balls:
+//     - id: 1
+//       radius: 0.12
+//       start: [2.0, 0.2, -1.2]
+//       target: [0.35, 0.05, -1.0]  # thrown to pass here after flight_time
+//       flight_time: 0.9
+//       restitution: 0.7
+//       rethrow_period: 4.0         # rethrown from start every period (0: never)
+//       subdivisions: 2             # icosphere level: 320 triangles
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hullpipe/collision.h"
+#include "hullpipe/mesh.h"
+
+namespace hullpipe {
+
+/// One thrown ball.
+struct BallConfig {
+  int id = 1;
+  double radius = 0.12;
+  Eigen::Vector3d start{2.0, 0.2, -1.2};
+  Eigen::Vector3d target{0.35, 0.05, -1.0};
+  double flight_time = 0.9;
+  double restitution = 0.7;
+  double rethrow_period = 4.0;
+  int subdivisions = 2;
+};
+
+/// Scene settings; see the file format above.
+struct SceneConfig {
+  Eigen::Vector3d gravity{0, 0, 9.81};
+  bool has_floor = true;
+  double floor = 0.0;
+  TriangleQueryOptions collision{0.004, 0, 32};
+  double max_substep = 0.01;  ///< Longest integration step (s), limits tunnelling.
+  std::vector<BallConfig> balls{BallConfig{}};
+  /// Throws std::invalid_argument naming the bad field.
+  void Check() const;
+};
+
+/// Reads a scene file. Throws std::runtime_error naming the file and key.
+SceneConfig LoadSceneConfig(const std::string& path);
+
+/// State of one body after a step.
+struct BodyState {
+  int id = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< World metres.
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< World m/s.
+  double radius = 0;
+  bool colliding = false;  ///< Touched the hull during the last step.
+  CollisionResult last_collision;  ///< Of the last substep that collided.
+};
+
+/// Deterministic simulation: the same steps with the same hulls give the same states.
+class BallSimulation {
+ public:
+  explicit BallSimulation(SceneConfig config);
+  /// Advances by dt seconds (clamped to [0, 0.25]) in substeps of at most
+  /// max_substep, each checked against `hull` (nullptr: no hull this step).
+  void Step(double dt, const VolumeQuery* hull);
+  const std::vector<BodyState>& bodies() const { return bodies_; }
+  /// The world-frame mesh of body i at its current position.
+  TriangleMesh WorldMesh(size_t i) const;
+  double time() const { return time_; }
+  const SceneConfig& config() const { return config_; }
+
+ private:
+  void Throw(size_t i);
+  SceneConfig config_;
+  std::vector<TriangleMesh> meshes_;  // body frame
+  std::vector<BodyState> bodies_;
+  std::vector<double> next_throw_;
+  double time_ = 0;
+};
+
+}  // namespace hullpipe

@@ -1,0 +1,26 @@
+// Triangle meshes of virtual objects (world or body metres).
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hullpipe/aabb.h"
+#include "hullpipe/rigid3.h"
+
+namespace hullpipe {
+
+/// Indexed triangle mesh; triangles wind counter-clockwise seen from outside.
+struct TriangleMesh {
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<Eigen::Vector3i> triangles;
+
+  /// Unit-free icosphere of the given radius (metres) centred at the origin:
+  /// subdivisions 0 gives 20 triangles, each level multiplies by 4.
+  static TriangleMesh Icosphere(double radius, int subdivisions);
+  /// The mesh moved by world_from_body.
+  TriangleMesh Transformed(const Rigid3d& world_from_body) const;
+  Aabb Bounds() const;
+};
+
+}  // namespace hullpipe

@@ -1,0 +1,153 @@
+#include "hullpipe/ball_scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <yaml-cpp/yaml.h>
+
+namespace hullpipe {
+
+void SceneConfig::Check() const {
+  if (!gravity.allFinite()) throw std::invalid_argument("scene: gravity must be finite");
+  if (!(max_substep > 0)) throw std::invalid_argument("scene: max_substep must be > 0");
+  collision.Check();
+  for (const auto& b : balls) {
+    if (!(b.radius > 0)) throw std::invalid_argument("scene: ball radius must be > 0");
+    if (!(b.flight_time > 0)) throw std::invalid_argument("scene: ball flight_time must be > 0");
+    if (b.restitution < 0 || b.restitution > 1)
+      throw std::invalid_argument("scene: ball restitution must be in [0, 1]");
+    if (b.subdivisions < 0 || b.subdivisions > 5)
+      throw std::invalid_argument("scene: ball subdivisions must be in [0, 5]");
+  }
+}
+
+namespace {
+Eigen::Vector3d Vec3(const YAML::Node& n, const std::string& path, const char* key,
+                     const Eigen::Vector3d& fallback) {
+  if (!n[key]) return fallback;
+  const auto v = n[key].as<std::vector<double>>();
+  if (v.size() != 3) throw std::runtime_error(path + ": '" + key + "' must have 3 numbers");
+  return {v[0], v[1], v[2]};
+}
+}  // namespace
+
+SceneConfig LoadSceneConfig(const std::string& path) {
+  SceneConfig cfg;
+  try {
+    const YAML::Node root = YAML::LoadFile(path);
+    cfg.gravity = Vec3(root, path, "gravity", cfg.gravity);
+    if (root["floor"]) {
+      if (root["floor"].IsNull()) {
+        cfg.has_floor = false;
+      } else {
+        cfg.floor = root["floor"].as<double>();
+      }
+    }
+    if (const YAML::Node c = root["collision"]) {
+      if (c["max_pixel_size"]) cfg.collision.max_pixel_size = c["max_pixel_size"].as<double>();
+      if (c["fixed_viewport"]) cfg.collision.fixed_viewport = c["fixed_viewport"].as<int>();
+      if (c["max_viewport"]) cfg.collision.max_viewport = c["max_viewport"].as<int>();
+    }
+    if (root["max_substep"]) cfg.max_substep = root["max_substep"].as<double>();
+    if (const YAML::Node balls = root["balls"]) {
+      cfg.balls.clear();
+      int index = 0;
+      for (const auto& b : balls) {
+        BallConfig bc;
+        bc.id = b["id"] ? b["id"].as<int>() : index + 1;
+        if (b["radius"]) bc.radius = b["radius"].as<double>();
+        bc.start = Vec3(b, path, "start", bc.start);
+        bc.target = Vec3(b, path, "target", bc.target);
+        if (b["flight_time"]) bc.flight_time = b["flight_time"].as<double>();
+        if (b["restitution"]) bc.restitution = b["restitution"].as<double>();
+        if (b["rethrow_period"]) bc.rethrow_period = b["rethrow_period"].as<double>();
+        if (b["subdivisions"]) bc.subdivisions = b["subdivisions"].as<int>();
+        cfg.balls.push_back(bc);
+        ++index;
+      }
+    }
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+  try {
+    cfg.Check();
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+  return cfg;
+}
+
+BallSimulation::BallSimulation(SceneConfig config) : config_(std::move(config)) {
+  config_.Check();
+  for (size_t i = 0; i < config_.balls.size(); ++i) {
+    const BallConfig& b = config_.balls[i];
+    meshes_.push_back(TriangleMesh::Icosphere(b.radius, b.subdivisions));
+    BodyState s;
+    s.id = b.id;
+    s.radius = b.radius;
+    bodies_.push_back(s);
+    next_throw_.push_back(0.0);
+    Throw(i);
+  }
+}
+
+void BallSimulation::Throw(size_t i) {
+  const BallConfig& b = config_.balls[i];
+  BodyState& s = bodies_[i];
+  s.position = b.start;
+  // Ballistic: start + v T + g T^2 / 2 = target.
+  const double T = b.flight_time;
+  s.velocity = (b.target - b.start) / T - 0.5 * config_.gravity * T;
+  s.colliding = false;
+  next_throw_[i] = b.rethrow_period > 0 ? time_ + b.rethrow_period : 1e300;
+}
+
+TriangleMesh BallSimulation::WorldMesh(size_t i) const {
+  Rigid3d world_from_body;
+  world_from_body.translation = bodies_[i].position;
+  return meshes_[i].Transformed(world_from_body);
+}
+
+void BallSimulation::Step(double dt, const VolumeQuery* hull) {
+  dt = std::clamp(dt, 0.0, 0.25);
+  for (auto& s : bodies_) s.colliding = false;
+  const int substeps = std::max(1, int(std::ceil(dt / config_.max_substep)));
+  const double h = dt / substeps;
+  const double g_norm = config_.gravity.norm();
+  const Eigen::Vector3d g_hat = g_norm > 0 ? Eigen::Vector3d(config_.gravity / g_norm)
+                                           : Eigen::Vector3d::UnitZ();
+  for (int k = 0; k < substeps; ++k) {
+    time_ += h;
+    for (size_t i = 0; i < bodies_.size(); ++i) {
+      if (time_ >= next_throw_[i]) Throw(i);
+      BodyState& s = bodies_[i];
+      const Eigen::Vector3d previous = s.position;
+      s.velocity += config_.gravity * h;
+      s.position += s.velocity * h;
+      // Floor: keep the ball above g_hat . x = floor.
+      if (config_.has_floor && g_hat.dot(s.position) + s.radius > config_.floor) {
+        s.position -= (g_hat.dot(s.position) + s.radius - config_.floor) * g_hat;
+        const double vn = s.velocity.dot(g_hat);
+        if (vn > 0) s.velocity -= (1 + config_.balls[i].restitution) * vn * g_hat;
+      }
+      if (!hull) continue;
+      CollisionResult c = DetectCollisions(*hull, WorldMesh(i), config_.collision);
+      if (!c.colliding()) continue;
+      Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+      for (const auto& p : c.collision_points) centroid += p;
+      centroid /= double(c.collision_points.size());
+      Eigen::Vector3d n = s.position - centroid;
+      n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized())
+                          : (s.velocity.norm() > 1e-9 ? Eigen::Vector3d(-s.velocity.normalized())
+                                                      : Eigen::Vector3d(-g_hat));
+      const double vn = s.velocity.dot(n);
+      if (vn < 0) s.velocity -= (1 + config_.balls[i].restitution) * vn * n;
+      s.position = previous;  // back out of the hull
+      s.colliding = true;
+      s.last_collision = std::move(c);
+    }
+  }
+}
+
+}  // namespace hullpipe

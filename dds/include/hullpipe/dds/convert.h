@@ -1,0 +1,84 @@
+// Conversion between hullpipe's core types and its DDS messages, with validation
+// of everything that arrives from outside: a sample of the wrong size, a bad
+// encoding or non-finite numbers raise MessageError (the node logs, counts it as
+// rejected and goes on).
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "hullpipe.h"
+#include "hullpipe/aabb.h"
+#include "hullpipe/camera.h"
+#include "hullpipe/plane_sweep.h"
+
+namespace hullpipe::dds {
+
+/// A received sample that cannot be used; what() says why in one line.
+class MessageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Fills a CameraInfo from a camera and the rig's workspace (may be empty).
+hullpipe_msg_CameraInfo CameraToMsg(const Camera& camera, const Aabb& workspace);
+/// Validated Camera from a CameraInfo; *workspace (optional) gets its box.
+Camera CameraFromMsg(const hullpipe_msg_CameraInfo& msg, Aabb* workspace = nullptr);
+
+/// An outgoing sample that owns the buffers its sequences point at. Move-only
+/// (moving keeps the heap buffers, so the pointers stay valid).
+template <typename Msg>
+struct OwnedSample {
+  Msg msg{};
+  std::vector<uint8_t> bytes;
+  std::vector<uint32_t> words;
+  std::vector<float> floats;
+  OwnedSample() = default;
+  OwnedSample(const OwnedSample&) = delete;
+  OwnedSample& operator=(const OwnedSample&) = delete;
+  OwnedSample(OwnedSample&&) = default;
+  OwnedSample& operator=(OwnedSample&&) = default;
+};
+
+/// ObjectPixelMap of one camera's map (CV_8UC1), run-length encoded.
+OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint64_t frame_seq,
+                                                        int64_t capture_time_ns,
+                                                        uint32_t camera_count, const cv::Mat& map);
+/// Decoded map (CV_8UC1 0/255). Throws MessageError on a bad encoding or size.
+cv::Mat MapFromMsg(const hullpipe_msg_ObjectPixelMap& msg);
+
+/// CameraImage of a BGR image, raw (jpeg_quality <= 0) or JPEG.
+OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint64_t frame_seq,
+                                                       int64_t capture_time_ns, const cv::Mat& bgr,
+                                                       int jpeg_quality);
+/// Decoded BGR image. Throws MessageError on a bad encoding or size.
+cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& msg);
+
+/// ViewPose for a novel view.
+hullpipe_msg_ViewPose ViewToMsg(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq,
+                                int64_t stamp_ns);
+/// Validated NovelView (size 1..8192, finite, orthonormal rotation).
+NovelView ViewFromMsg(const hullpipe_msg_ViewPose& msg);
+
+/// One rendered tile of the novel view.
+struct HullTile {
+  cv::Rect rect;   ///< In view pixels.
+  cv::Mat depth;   ///< CV_32FC1 eye z metres, kNoDepth where no hull.
+  cv::Mat colour;  ///< CV_8UC3 BGR.
+  uint32_t node_id = 0, tile_index = 0, tile_count = 1;
+  uint64_t pose_seq = 0, frame_seq = 0;
+  int64_t capture_time_ns = 0;
+  double render_ms = 0;
+};
+OwnedSample<hullpipe_msg_HullView> MakeHullViewMessage(const HullTile& tile, uint32_t planes);
+/// Validated tile (lengths match the rectangle). Throws MessageError.
+HullTile TileFromMsg(const hullpipe_msg_HullView& msg);
+
+inline hullpipe_msg_Vec3 ToMsg(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+inline Eigen::Vector3d FromMsg(const hullpipe_msg_Vec3& v) { return {v.x, v.y, v.z}; }
+
+}  // namespace hullpipe::dds

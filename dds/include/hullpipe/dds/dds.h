@@ -1,0 +1,170 @@
+// The one wrapper of Cyclone DDS's C API in hullpipe. Error policy: every call
+// whose return code is negative throws DdsError naming the call and the code's
+// text. Entities are move-only RAII owners (deleted with dds_delete).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include <dds/dds.h>
+
+namespace hullpipe::dds {
+
+/// A Cyclone call failed; what() is "<call>: <dds_strretcode>".
+class DdsError : public std::runtime_error {
+ public:
+  DdsError(const std::string& call, dds_return_t code);
+  dds_return_t code() const { return code_; }
+
+ private:
+  dds_return_t code_;
+};
+
+/// Returns rc, or throws DdsError(call, rc) if rc < 0.
+dds_return_t Check(dds_return_t rc, const char* call);
+
+/// Owns one DDS entity handle; deletes it (and its children) on destruction.
+class Entity {
+ public:
+  Entity() = default;
+  explicit Entity(dds_entity_t handle) : handle_(handle) {}
+  ~Entity();
+  Entity(const Entity&) = delete;
+  Entity& operator=(const Entity&) = delete;
+  Entity(Entity&& o) noexcept : handle_(std::exchange(o.handle_, 0)) {}
+  Entity& operator=(Entity&& o) noexcept;
+  dds_entity_t handle() const { return handle_; }
+
+ private:
+  dds_entity_t handle_ = 0;
+};
+
+/// QoS settings used by hullpipe's topics.
+struct QosSpec {
+  bool reliable = true;
+  bool transient_local = false;
+  int32_t depth = 1;  ///< keep-last depth
+};
+
+/// Owns a dds_qos_t built from a QosSpec.
+class Qos {
+ public:
+  explicit Qos(const QosSpec& spec);
+  ~Qos();
+  Qos(const Qos&) = delete;
+  Qos& operator=(const Qos&) = delete;
+  const dds_qos_t* get() const { return qos_; }
+
+ private:
+  dds_qos_t* qos_;
+};
+
+/// A domain participant. The domain's configuration comes from CYCLONEDDS_URI
+/// (the launcher writes one that keeps traffic on loopback).
+class Participant : public Entity {
+ public:
+  explicit Participant(uint32_t domain_id);
+};
+
+/// Per-message-type facts: descriptor, topic name and QoS (specialized in topics.h).
+template <typename T>
+struct TopicTraits;
+
+/// Creates the topic of T in the participant (one topic entity per reader/writer).
+template <typename T>
+Entity CreateTopic(const Participant& p) {
+  return Entity(Check(dds_create_topic(p.handle(), TopicTraits<T>::Descriptor(), TopicTraits<T>::kName,
+                                       nullptr, nullptr),
+                      "dds_create_topic"));
+}
+
+/// A typed data writer of T with T's QoS.
+template <typename T>
+class Writer : public Entity {
+ public:
+  explicit Writer(const Participant& p) : Writer(p, CreateTopic<T>(p)) {}
+  /// Publishes one sample (serialized by Cyclone; the sample is not kept).
+  void Write(const T& sample) const { Check(dds_write(handle(), &sample), "dds_write"); }
+  /// Number of matched readers right now.
+  uint32_t MatchedReaders() const {
+    dds_publication_matched_status_t st;
+    Check(dds_get_publication_matched_status(handle(), &st), "dds_get_publication_matched_status");
+    return st.current_count;
+  }
+
+ private:
+  Writer(const Participant& p, Entity topic)
+      : Entity(Check(dds_create_writer(p.handle(), topic.handle(),
+                                       Qos(TopicTraits<T>::kQos).get(), nullptr),
+                     "dds_create_writer")),
+        topic_(std::move(topic)) {}
+  Entity topic_;
+};
+
+/// A typed data reader of T with T's QoS, with a read condition for waitsets.
+template <typename T>
+class Reader : public Entity {
+ public:
+  explicit Reader(const Participant& p) : Reader(p, CreateTopic<T>(p)) {}
+
+  /// Takes every available sample (loaned, in batches of 32) and calls
+  /// f(const T&, const dds_sample_info_t&) for each valid one. Returns how many.
+  template <typename F>
+  size_t TakeEach(F&& f) const {
+    size_t taken = 0;
+    for (;;) {
+      void* samples[32] = {nullptr};
+      dds_sample_info_t infos[32];
+      const dds_return_t n = Check(dds_take(handle(), samples, infos, 32, 32), "dds_take");
+      if (n == 0) break;
+      struct Loan {  // returns the loan even if f throws
+        dds_entity_t reader;
+        void** buf;
+        int32_t n;
+        ~Loan() { dds_return_loan(reader, buf, n); }
+      } loan{handle(), samples, n};
+      for (int32_t i = 0; i < n; ++i) {
+        if (!infos[i].valid_data) continue;
+        f(*static_cast<const T*>(samples[i]), infos[i]);
+        ++taken;
+      }
+      if (n < 32) break;
+    }
+    return taken;
+  }
+  dds_entity_t condition() const { return condition_.handle(); }
+
+ private:
+  Reader(const Participant& p, Entity topic)
+      : Entity(Check(dds_create_reader(p.handle(), topic.handle(),
+                                       Qos(TopicTraits<T>::kQos).get(), nullptr),
+                     "dds_create_reader")),
+        topic_(std::move(topic)),
+        condition_(Check(dds_create_readcondition(handle(), DDS_ANY_STATE), "dds_create_readcondition")) {}
+  Entity topic_;
+  Entity condition_;
+};
+
+/// Waits for data on attached readers, with a timeout so stop requests are seen.
+class WaitSet : public Entity {
+ public:
+  explicit WaitSet(const Participant& p);
+  template <typename T>
+  void Attach(const Reader<T>& r) {
+    Check(dds_waitset_attach(handle(), r.condition(), 0), "dds_waitset_attach");
+  }
+  /// Blocks until some attached reader has data or timeout_s passes. Returns the
+  /// number of triggered conditions (0 on timeout).
+  int Wait(double timeout_s) const;
+};
+
+/// Process-wide stop request, set by SIGINT/SIGTERM once InstallStopHandler ran.
+bool StopRequested();
+void RequestStop();
+/// Installs SIGINT and SIGTERM handlers that call RequestStop (async-signal-safe).
+void InstallStopHandler();
+
+}  // namespace hullpipe::dds

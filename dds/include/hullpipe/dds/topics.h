@@ -1,0 +1,28 @@
+// hullpipe's topics: name, type and QoS of each (see idl/hullpipe.idl).
+#pragma once
+
+#include "hullpipe.h"  // idlc-generated
+#include "hullpipe/dds/dds.h"
+
+namespace hullpipe::dds {
+
+#define HULLPIPE_TOPIC(Type, name, reliable, transient_local, depth)                   \
+  template <>                                                                          \
+  struct TopicTraits<hullpipe_msg_##Type> {                                            \
+    static const dds_topic_descriptor_t* Descriptor() { return &hullpipe_msg_##Type##_desc; } \
+    static constexpr const char* kName = name;                                         \
+    static constexpr QosSpec kQos{reliable, transient_local, depth};                   \
+  };
+
+HULLPIPE_TOPIC(CameraInfo, "hullpipe/camera_info", true, true, 1)
+HULLPIPE_TOPIC(ObjectPixelMap, "hullpipe/object_pixel_map", true, false, 4)
+HULLPIPE_TOPIC(CameraImage, "hullpipe/camera_image", true, false, 4)
+HULLPIPE_TOPIC(ViewPose, "hullpipe/view_pose", true, false, 4)
+HULLPIPE_TOPIC(HullView, "hullpipe/hull_view", true, false, 4)
+HULLPIPE_TOPIC(VirtualObjectState, "hullpipe/object_state", true, false, 1)
+HULLPIPE_TOPIC(CollisionReport, "hullpipe/collision_report", true, false, 4)
+HULLPIPE_TOPIC(NodeStats, "hullpipe/node_stats", true, true, 1)
+
+#undef HULLPIPE_TOPIC
+
+}  // namespace hullpipe::dds

@@ -1,0 +1,240 @@
+#include "hullpipe/dds/convert.h"
+
+#include <cmath>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "hullpipe/object_pixel_map.h"
+
+namespace hullpipe::dds {
+namespace {
+bool AllFinite(const double* v, int n) {
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(v[i])) return false;
+  return true;
+}
+constexpr uint32_t kMaxSide = 16384;
+}  // namespace
+
+hullpipe_msg_CameraInfo CameraToMsg(const Camera& c, const Aabb& ws) {
+  hullpipe_msg_CameraInfo m{};
+  m.camera_id = uint32_t(c.id);
+  m.width = uint32_t(c.width);
+  m.height = uint32_t(c.height);
+  const Eigen::Matrix3d K = c.K();
+  for (int i = 0; i < 9; ++i) {
+    m.K[i] = K(i / 3, i % 3);
+    m.cam_from_world_rotation[i] = c.cam_from_world.rotation(i / 3, i % 3);
+  }
+  for (int i = 0; i < 5; ++i) m.distortion[i] = c.distortion[size_t(i)];
+  for (int i = 0; i < 3; ++i) {
+    m.cam_from_world_translation[i] = c.cam_from_world.translation[i];
+    m.workspace_min[i] = ws.min[i];
+    m.workspace_max[i] = ws.max[i];
+  }
+  return m;
+}
+
+Camera CameraFromMsg(const hullpipe_msg_CameraInfo& m, Aabb* ws) {
+  const std::string who = "CameraInfo of camera " + std::to_string(m.camera_id) + ": ";
+  if (m.width == 0 || m.height == 0 || m.width > kMaxSide || m.height > kMaxSide)
+    throw MessageError(who + "image size out of range");
+  if (!AllFinite(m.K, 9) || !AllFinite(m.distortion, 5) || !AllFinite(m.cam_from_world_rotation, 9) ||
+      !AllFinite(m.cam_from_world_translation, 3))
+    throw MessageError(who + "non-finite calibration");
+  Camera c;
+  c.id = int(m.camera_id);
+  c.width = int(m.width);
+  c.height = int(m.height);
+  c.fx = m.K[0];
+  c.fy = m.K[4];
+  c.cx = m.K[2];
+  c.cy = m.K[5];
+  for (int i = 0; i < 5; ++i) c.distortion[size_t(i)] = m.distortion[i];
+  for (int i = 0; i < 9; ++i) c.cam_from_world.rotation(i / 3, i % 3) = m.cam_from_world_rotation[i];
+  for (int i = 0; i < 3; ++i) c.cam_from_world.translation[i] = m.cam_from_world_translation[i];
+  try {
+    c.Check();
+  } catch (const std::invalid_argument& e) {
+    throw MessageError(who + e.what());
+  }
+  if (ws) {
+    for (int i = 0; i < 3; ++i) {
+      ws->min[i] = m.workspace_min[i];
+      ws->max[i] = m.workspace_max[i];
+    }
+    if (!ws->min.allFinite() || !ws->max.allFinite()) *ws = Aabb{};
+  }
+  return c;
+}
+
+OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint64_t frame_seq,
+                                                        int64_t t, uint32_t camera_count,
+                                                        const cv::Mat& map) {
+  OwnedSample<hullpipe_msg_ObjectPixelMap> s;
+  s.words = RunLengthEncode(map);
+  auto& m = s.msg;
+  m.camera_id = camera_id;
+  m.frame_seq = frame_seq;
+  m.capture_time_ns = t;
+  m.width = uint32_t(map.cols);
+  m.height = uint32_t(map.rows);
+  m.camera_count = camera_count;
+  m.encoding = hullpipe_msg_MAP_ENCODING_RLE;
+  m.runs._buffer = s.words.data();
+  m.runs._length = m.runs._maximum = uint32_t(s.words.size());
+  m.runs._release = false;
+  return s;
+}
+
+cv::Mat MapFromMsg(const hullpipe_msg_ObjectPixelMap& m) {
+  if (m.encoding != hullpipe_msg_MAP_ENCODING_RLE)
+    throw MessageError("ObjectPixelMap of camera " + std::to_string(m.camera_id) +
+                       ": unknown encoding " + std::to_string(int(m.encoding)));
+  try {
+    return RunLengthDecode(m.runs._buffer, m.runs._length, int(std::min(m.width, kMaxSide + 1)),
+                           int(std::min(m.height, kMaxSide + 1)));
+  } catch (const MapDecodeError& e) {
+    throw MessageError("ObjectPixelMap of camera " + std::to_string(m.camera_id) + ": " + e.what());
+  }
+}
+
+OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint64_t frame_seq,
+                                                       int64_t t, const cv::Mat& bgr, int jpeg_quality) {
+  CV_Assert(bgr.type() == CV_8UC3);
+  OwnedSample<hullpipe_msg_CameraImage> s;
+  auto& m = s.msg;
+  m.camera_id = camera_id;
+  m.frame_seq = frame_seq;
+  m.capture_time_ns = t;
+  m.width = uint32_t(bgr.cols);
+  m.height = uint32_t(bgr.rows);
+  if (jpeg_quality > 0) {
+    m.encoding = hullpipe_msg_IMAGE_ENCODING_JPEG;
+    cv::imencode(".jpg", bgr, s.bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
+  } else {
+    m.encoding = hullpipe_msg_IMAGE_ENCODING_BGR8;
+    const cv::Mat cont = bgr.isContinuous() ? bgr : bgr.clone();
+    s.bytes.assign(cont.datastart, cont.dataend);
+  }
+  m.data._buffer = s.bytes.data();
+  m.data._length = m.data._maximum = uint32_t(s.bytes.size());
+  m.data._release = false;
+  return s;
+}
+
+cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& m) {
+  const std::string who = "CameraImage of camera " + std::to_string(m.camera_id) + ": ";
+  if (m.width == 0 || m.height == 0 || m.width > kMaxSide || m.height > kMaxSide)
+    throw MessageError(who + "image size out of range");
+  if (m.encoding == hullpipe_msg_IMAGE_ENCODING_BGR8) {
+    if (uint64_t(m.data._length) != uint64_t(m.width) * m.height * 3)
+      throw MessageError(who + "data has " + std::to_string(m.data._length) + " bytes, expected " +
+                         std::to_string(uint64_t(m.width) * m.height * 3));
+    return cv::Mat(int(m.height), int(m.width), CV_8UC3, m.data._buffer).clone();
+  }
+  if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG) {
+    cv::Mat img;
+    if (m.data._length > 0) {
+      const cv::Mat buf(1, int(m.data._length), CV_8UC1, m.data._buffer);
+      img = cv::imdecode(buf, cv::IMREAD_COLOR);
+    }
+    if (img.empty() || img.cols != int(m.width) || img.rows != int(m.height))
+      throw MessageError(who + "JPEG data does not decode to the stated size");
+    return img;
+  }
+  throw MessageError(who + "unknown encoding " + std::to_string(int(m.encoding)));
+}
+
+hullpipe_msg_ViewPose ViewToMsg(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq, int64_t stamp) {
+  hullpipe_msg_ViewPose m{};
+  m.pose_seq = pose_seq;
+  m.stamp_ns = stamp;
+  m.frame_seq = frame_seq;
+  m.width = uint32_t(v.width);
+  m.height = uint32_t(v.height);
+  m.fx = v.fx, m.fy = v.fy, m.cx = v.cx, m.cy = v.cy;
+  for (int i = 0; i < 9; ++i) m.world_from_eye_rotation[i] = v.world_from_eye.rotation(i / 3, i % 3);
+  for (int i = 0; i < 3; ++i) m.world_from_eye_translation[i] = v.world_from_eye.translation[i];
+  return m;
+}
+
+NovelView ViewFromMsg(const hullpipe_msg_ViewPose& m) {
+  if (m.width == 0 || m.height == 0 || m.width > 8192 || m.height > 8192)
+    throw MessageError("ViewPose " + std::to_string(m.pose_seq) + ": view size out of range");
+  const double k[4] = {m.fx, m.fy, m.cx, m.cy};
+  if (!AllFinite(k, 4) || !AllFinite(m.world_from_eye_rotation, 9) ||
+      !AllFinite(m.world_from_eye_translation, 3))
+    throw MessageError("ViewPose " + std::to_string(m.pose_seq) + ": non-finite values");
+  NovelView v;
+  v.width = int(m.width);
+  v.height = int(m.height);
+  v.fx = m.fx, v.fy = m.fy, v.cx = m.cx, v.cy = m.cy;
+  for (int i = 0; i < 9; ++i) v.world_from_eye.rotation(i / 3, i % 3) = m.world_from_eye_rotation[i];
+  for (int i = 0; i < 3; ++i) v.world_from_eye.translation[i] = m.world_from_eye_translation[i];
+  const Eigen::Matrix3d& R = v.world_from_eye.rotation;
+  if ((R * R.transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-6)
+    throw MessageError("ViewPose " + std::to_string(m.pose_seq) + ": rotation is not orthonormal");
+  try {
+    v.Check();
+  } catch (const std::invalid_argument& e) {
+    throw MessageError(std::string("ViewPose: ") + e.what());
+  }
+  return v;
+}
+
+OwnedSample<hullpipe_msg_HullView> MakeHullViewMessage(const HullTile& t, uint32_t planes) {
+  CV_Assert(t.depth.type() == CV_32FC1 && t.colour.type() == CV_8UC3);
+  CV_Assert(t.depth.size() == t.rect.size() && t.colour.size() == t.rect.size());
+  OwnedSample<hullpipe_msg_HullView> s;
+  const cv::Mat d = t.depth.isContinuous() ? t.depth : t.depth.clone();
+  const cv::Mat c = t.colour.isContinuous() ? t.colour : t.colour.clone();
+  s.floats.assign(d.ptr<float>(0), d.ptr<float>(0) + d.total());
+  s.bytes.assign(c.datastart, c.dataend);
+  auto& m = s.msg;
+  m.node_id = t.node_id;
+  m.tile_index = t.tile_index;
+  m.tile_count = t.tile_count;
+  m.x = uint32_t(t.rect.x), m.y = uint32_t(t.rect.y);
+  m.width = uint32_t(t.rect.width), m.height = uint32_t(t.rect.height);
+  m.pose_seq = t.pose_seq;
+  m.frame_seq = t.frame_seq;
+  m.capture_time_ns = t.capture_time_ns;
+  m.depth._buffer = s.floats.data();
+  m.depth._length = m.depth._maximum = uint32_t(s.floats.size());
+  m.depth._release = false;
+  m.colour._buffer = s.bytes.data();
+  m.colour._length = m.colour._maximum = uint32_t(s.bytes.size());
+  m.colour._release = false;
+  m.planes = planes;
+  m.render_ms = t.render_ms;
+  return s;
+}
+
+HullTile TileFromMsg(const hullpipe_msg_HullView& m) {
+  const std::string who = "HullView from node " + std::to_string(m.node_id) + ": ";
+  if (m.width == 0 || m.height == 0 || m.width > 8192 || m.height > 8192 || m.x > 8192 || m.y > 8192)
+    throw MessageError(who + "tile rectangle out of range");
+  const uint64_t n = uint64_t(m.width) * m.height;
+  if (m.depth._length != n || m.colour._length != n * 3)
+    throw MessageError(who + "depth/colour lengths " + std::to_string(m.depth._length) + "/" +
+                       std::to_string(m.colour._length) + " do not match the " + std::to_string(m.width) +
+                       "x" + std::to_string(m.height) + " tile");
+  if (m.tile_count == 0 || m.tile_index >= m.tile_count) throw MessageError(who + "bad tile index");
+  HullTile t;
+  t.rect = cv::Rect(int(m.x), int(m.y), int(m.width), int(m.height));
+  t.depth = cv::Mat(int(m.height), int(m.width), CV_32FC1, m.depth._buffer).clone();
+  t.colour = cv::Mat(int(m.height), int(m.width), CV_8UC3, m.colour._buffer).clone();
+  t.node_id = m.node_id;
+  t.tile_index = m.tile_index;
+  t.tile_count = m.tile_count;
+  t.pose_seq = m.pose_seq;
+  t.frame_seq = m.frame_seq;
+  t.capture_time_ns = m.capture_time_ns;
+  t.render_ms = m.render_ms;
+  // NaN depths are not allowed to reach the compositor.
+  cv::patchNaNs(t.depth, double(std::numeric_limits<float>::infinity()));
+  return t;
+}
+
+}  // namespace hullpipe::dds

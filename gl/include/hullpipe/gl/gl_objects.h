@@ -1,0 +1,74 @@
+// Move-only RAII owners of OpenGL objects, and shader compilation. Each owner
+// deletes its object on destruction; the context must be current.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#define GL_GLEXT_PROTOTYPES
+#include <GL/glcorearb.h>
+
+namespace hullpipe::gl {
+
+/// A GL call or shader build failed; what() names it.
+class GlError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Throws GlError naming `what` if glGetError reports an error.
+void CheckGl(const char* what);
+
+/// Generic owner: Deleter(GLuint) frees the name.
+template <void (*Deleter)(GLuint)>
+class GlName {
+ public:
+  GlName() = default;
+  explicit GlName(GLuint name) : name_(name) {}
+  ~GlName() {
+    if (name_) Deleter(name_);
+  }
+  GlName(const GlName&) = delete;
+  GlName& operator=(const GlName&) = delete;
+  GlName(GlName&& o) noexcept : name_(std::exchange(o.name_, 0)) {}
+  GlName& operator=(GlName&& o) noexcept {
+    if (this != &o) {
+      if (name_) Deleter(name_);
+      name_ = std::exchange(o.name_, 0);
+    }
+    return *this;
+  }
+  GLuint get() const { return name_; }
+
+ private:
+  GLuint name_ = 0;
+};
+
+namespace detail {
+inline void DeleteTexture(GLuint n) { glDeleteTextures(1, &n); }
+inline void DeleteFramebuffer(GLuint n) { glDeleteFramebuffers(1, &n); }
+inline void DeleteRenderbuffer(GLuint n) { glDeleteRenderbuffers(1, &n); }
+inline void DeleteBuffer(GLuint n) { glDeleteBuffers(1, &n); }
+inline void DeleteVertexArray(GLuint n) { glDeleteVertexArrays(1, &n); }
+inline void DeleteProgram(GLuint n) { glDeleteProgram(n); }
+}  // namespace detail
+
+using Texture = GlName<detail::DeleteTexture>;
+using Framebuffer = GlName<detail::DeleteFramebuffer>;
+using Renderbuffer = GlName<detail::DeleteRenderbuffer>;
+using Buffer = GlName<detail::DeleteBuffer>;
+using VertexArray = GlName<detail::DeleteVertexArray>;
+using Program = GlName<detail::DeleteProgram>;
+
+Texture MakeTexture();
+Framebuffer MakeFramebuffer();
+Renderbuffer MakeRenderbuffer();
+Buffer MakeBuffer();
+VertexArray MakeVertexArray();
+
+/// Compiles and links a vertex + fragment shader pair (GLSL 450 core). Throws
+/// GlError with the compiler's log.
+Program BuildProgram(const char* vertex_src, const char* fragment_src);
+
+}  // namespace hullpipe::gl

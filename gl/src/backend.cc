@@ -1,0 +1,60 @@
+#include "hullpipe/gl/backend.h"
+
+#include <stdexcept>
+
+#include <spdlog/spdlog.h>
+
+#include "hullpipe/gl/egl_context.h"
+#include "hullpipe/gl/gl_volume_query.h"
+
+namespace hullpipe::gl {
+namespace {
+
+class CpuBackend final : public SweepBackend {
+ public:
+  explicit CpuBackend(int threads) : threads_(threads) {}
+  cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d,
+                const cv::Rect& tile) override {
+    return PlaneSweepCpu(q, v, d, tile, nullptr, threads_);
+  }
+  std::string Name() const override { return "cpu"; }
+
+ private:
+  int threads_;
+};
+
+class GlBackend final : public SweepBackend {
+ public:
+  explicit GlBackend(EglContext ctx) : ctx_(std::move(ctx)) {}
+  cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d,
+                const cv::Rect& tile) override {
+    ctx_.MakeCurrent();
+    return sweep_.Sweep(q, v, d, tile);
+  }
+  std::string Name() const override { return "gl (" + ctx_.renderer() + ")"; }
+
+ private:
+  EglContext ctx_;
+  GlPlaneSweep sweep_;  // constructed after ctx_ is current
+};
+
+}  // namespace
+
+std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int threads) {
+  if (name == "cpu") return std::make_unique<CpuBackend>(threads);
+  if (name != "gl" && name != "auto") throw std::invalid_argument("unknown backend '" + name + "'");
+  std::string why;
+  std::optional<EglContext> ctx = EglContext::TryCreate(&why);
+  if (!ctx) {
+    if (name == "gl") throw std::runtime_error("--backend gl: " + why);
+    spdlog::info("auto backend: {}; using the CPU sweep", why);
+    return std::make_unique<CpuBackend>(threads);
+  }
+  if (name == "auto" && ctx->IsSoftware()) {
+    spdlog::info("auto backend: GL renderer is software ({}); the CPU sweep is faster there", ctx->renderer());
+    return std::make_unique<CpuBackend>(threads);
+  }
+  return std::make_unique<GlBackend>(std::move(*ctx));
+}
+
+}  // namespace hullpipe::gl

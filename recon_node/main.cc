@@ -1,0 +1,183 @@
+// recon_node: renders its tile of the novel view's visual hull (paper §3.3).
+// When render_node's ViewPose names a frameset and all n cameras' maps of it are in,
+// it plane-sweeps its tile (CPU or GL backend), textures it from the camera images
+// and publishes a HullView. Latest wins: framesets older than the one asked for are
+// dropped and counted; nothing queues without bound.
+#include <deque>
+#include <optional>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "hullpipe/conventions.h"
+#include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/node.h"
+#include "hullpipe/frameset.h"
+#include "hullpipe/gl/backend.h"
+#include "hullpipe/plane_sweep.h"
+#include "hullpipe/texture.h"
+
+using namespace hullpipe;
+using namespace hullpipe::dds;
+
+int main(int argc, char** argv) {
+  CLI::App app{"hullpipe recon_node: object-pixel maps + ViewPose -> HullView tile"};
+  CommonOptions common;
+  AddCommonOptions(app, common);
+  std::string tile_spec = "0/1";
+  std::string backend_name = "auto";
+  PlaneSweepOptions sweep;
+  int threads = 1;
+  double pose_timeout = 1.0;
+  app.add_option("--tile", tile_spec, "This node's tile i/N of the view (horizontal bands)")->capture_default_str();
+  app.add_option("--backend", backend_name, "Sweep backend: cpu|gl|auto")
+      ->check(CLI::IsMember({"cpu", "gl", "auto"}))->capture_default_str();
+  app.add_option("--planes", sweep.num_planes, "Sweep planes")->capture_default_str();
+  app.add_option("--threads", threads, "CPU sweep threads")->capture_default_str();
+  app.add_option("--pose-timeout", pose_timeout, "Drop a pose whose frameset has not arrived after this many s")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  int tile_i = 0, tile_n = 1;
+  if (std::sscanf(tile_spec.c_str(), "%d/%d", &tile_i, &tile_n) != 2 || tile_n < 1 || tile_i < 0 ||
+      tile_i >= tile_n) {
+    std::fprintf(stderr, "--tile must be i/N with 0 <= i < N\n");
+    return 2;
+  }
+  const std::string name = "recon" + std::to_string(tile_i);
+  try {
+    sweep.Check();
+    auto participant = StartNode(name, common);
+    std::unique_ptr<gl::SweepBackend> backend = gl::MakeSweepBackend(backend_name, threads);
+    spdlog::info("tile {}/{}, backend {}", tile_i, tile_n, backend->Name());
+
+    Reader<hullpipe_msg_CameraInfo> info_reader(*participant);
+    Reader<hullpipe_msg_ObjectPixelMap> map_reader(*participant);
+    Reader<hullpipe_msg_CameraImage> image_reader(*participant);
+    Reader<hullpipe_msg_ViewPose> pose_reader(*participant);
+    Writer<hullpipe_msg_HullView> tile_writer(*participant);
+    WaitSet ws(*participant);
+    ws.Attach(info_reader);
+    ws.Attach(map_reader);
+    ws.Attach(image_reader);
+    ws.Attach(pose_reader);
+    NodeReporter reporter(*participant, name);
+    FramesetAssembler assembler(8, /*want_images=*/true);
+
+    struct PendingPose {
+      hullpipe_msg_ViewPose msg;
+      NovelView view;
+      double received_s;
+    };
+    std::deque<PendingPose> poses;
+    uint64_t rejected_msgs = 0, poses_dropped = 0;
+    auto reject = [&](const std::string& why) {
+      ++rejected_msgs;
+      spdlog::warn("rejected: {}", why);
+    };
+
+    while (!StopRequested()) {
+      ws.Wait(0.1);
+      info_reader.TakeEach([&](const hullpipe_msg_CameraInfo& m, const dds_sample_info_t&) {
+        try {
+          Aabb box;
+          assembler.SetCamera(CameraFromMsg(m, &box));
+          if (!box.empty()) assembler.SetWorkspace(box);
+        } catch (const MessageError& e) {
+          reject(e.what());
+        }
+      });
+      map_reader.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
+        std::string why;
+        try {
+          if (!assembler.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count),
+                                MapFromMsg(m), &why) && !why.empty() && assembler.rejected() > 0)
+            spdlog::debug("{}", why);
+        } catch (const MessageError& e) {
+          reject(e.what());
+        }
+      });
+      image_reader.TakeEach([&](const hullpipe_msg_CameraImage& m, const dds_sample_info_t&) {
+        try {
+          assembler.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m));
+        } catch (const MessageError& e) {
+          reject(e.what());
+        }
+      });
+      pose_reader.TakeEach([&](const hullpipe_msg_ViewPose& m, const dds_sample_info_t&) {
+        try {
+          poses.push_back({m, ViewFromMsg(m), MonotonicSeconds()});
+        } catch (const MessageError& e) {
+          reject(e.what());
+        }
+      });
+      // Serve the newest pose whose frameset is ready; older poses are superseded.
+      while (!poses.empty()) {
+        const PendingPose& p = poses.front();
+        const uint64_t want = p.msg.frame_seq;
+        const bool newer_pose_waiting = poses.size() > 1;
+        const bool ready = want == 0 ? assembler.NewestComplete().has_value() : assembler.IsComplete(want);
+        if (!ready) {
+          const bool gone = want != 0 && assembler.IsGone(want);
+          if (gone || newer_pose_waiting || MonotonicSeconds() - p.received_s > pose_timeout) {
+            ++poses_dropped;
+            poses.pop_front();
+            continue;
+          }
+          break;
+        }
+        if (newer_pose_waiting) {
+          const PendingPose& next = poses[1];
+          const uint64_t next_want = next.msg.frame_seq;
+          if (next_want == 0 || assembler.IsComplete(next_want)) {
+            ++poses_dropped;
+            poses.pop_front();
+            continue;
+          }
+        }
+        std::optional<Frameset> fs = want == 0 ? assembler.TakeNewest() : assembler.Take(want);
+        const PendingPose pose = p;
+        poses.pop_front();
+        if (!fs) continue;
+        reporter.FrameIn();
+        const double t0 = MonotonicSeconds();
+        const cv::Rect rect = TileRect(tile_i, tile_n, pose.view.width, pose.view.height);
+        HullTile tile;
+        std::vector<double> depths;
+        {
+          StageTimer st(reporter, "volume_query_setup");
+          VolumeQuery vq(fs->maps, assembler.workspace());
+          depths = SweepPlaneDepths(vq, pose.view, sweep);
+          {
+            StageTimer st2(reporter, "sweep");
+            tile.depth = backend->Sweep(vq, pose.view, depths, rect);
+          }
+        }
+        {
+          StageTimer st(reporter, "texture");
+          tile.colour = TextureHull(tile.depth, rect, pose.view, fs->images);
+        }
+        tile.rect = rect;
+        tile.node_id = uint32_t(tile_i);
+        tile.tile_index = uint32_t(tile_i);
+        tile.tile_count = uint32_t(tile_n);
+        tile.pose_seq = pose.msg.pose_seq;
+        tile.frame_seq = fs->seq;
+        tile.capture_time_ns = fs->capture_time_ns;
+        tile.render_ms = (MonotonicSeconds() - t0) * 1e3;
+        tile_writer.Write(MakeHullViewMessage(tile, uint32_t(depths.size())).msg);
+        reporter.FrameOut(fs->capture_time_ns);
+      }
+      reporter.SetDropped(assembler.dropped() + poses_dropped);
+      reporter.SetRejected(assembler.rejected() + rejected_msgs);
+      reporter.Publish();
+    }
+    reporter.Publish(true);
+    spdlog::info("stopped: {} tiles out, {} dropped, {} rejected", reporter.frames_out(), reporter.dropped(),
+                 reporter.rejected());
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}
