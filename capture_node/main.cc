@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
         for (size_t i = 0; i < source->cameras().size(); ++i) {
           if (frame.maps[i].empty()) continue;
           const uint32_t id = uint32_t(source->cameras()[i].id);
-          map_writer.Write(MakeMapMessage(id, seq, t_ns, camera_count, frame.maps[i]).msg);
+          map_writer.Write(MakeMapMessage(id, seq, t_ns, frame.time_s, camera_count, frame.maps[i]).msg);
           cv::Mat img = frame.images[i];
           if (image_scale < 1.0)
             cv::resize(img, img, cv::Size(), image_scale, image_scale, cv::INTER_AREA);

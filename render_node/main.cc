@@ -4,6 +4,7 @@
 // hull with the virtual objects (depth test, colliding objects red); writes the
 // video, optional PNGs and stats.json (every node's NodeStats plus its own).
 #include <filesystem>
+#include <limits>
 #include <fstream>
 #include <map>
 #include <set>
@@ -113,6 +114,7 @@ int main(int argc, char** argv) {
     std::map<std::string, nlohmann::json> node_stages;
     uint64_t pose_seq = 0, last_requested = 0, last_composited = 0, rejected = 0, tiles_late = 0;
     uint64_t collisions_drawn = 0;
+    double hull_fraction_sum = 0;  // fraction of view pixels showing hull, summed over frames
     int64_t first_capture_ns = 0;
     double last_new_frame_s = MonotonicSeconds(), last_progress_s = MonotonicSeconds();
     bool any_frame = false, done = false;
@@ -236,6 +238,8 @@ int main(int argc, char** argv) {
           t.depth.copyTo(depth(t.rect));
           t.colour.copyTo(colour(t.rect));
         }
+        hull_fraction_sum += double(cv::countNonZero(depth < std::numeric_limits<float>::infinity())) /
+                             double(depth.total());
         std::vector<VirtualSphere> spheres;
         for (const auto& [id, per] : states) {
           // The state stepped against this frameset, else the newest before it.
@@ -311,6 +315,7 @@ int main(int argc, char** argv) {
     j["frames_composited"] = reporter.frames_out();
     j["last_frame_seq"] = last_composited;
     j["collision_frames_drawn"] = collisions_drawn;
+    j["hull_pixel_fraction_mean"] = reporter.frames_out() ? hull_fraction_sum / double(reporter.frames_out()) : 0.0;
     j["video"] = video_path;
     for (const auto& r : rows)
       j["nodes"][r.name] = {{"fps", r.fps},          {"latency_ms_p50", r.p50}, {"latency_ms_p95", r.p95},

@@ -20,11 +20,7 @@ int main(int argc, char** argv) {
   CommonOptions common;
   AddCommonOptions(app, common);
   std::string scene_path;
-  double frame_rate = 25;
   app.add_option("--scene", scene_path, "Scene file (YAML); default: one ball");
-  app.add_option("--frame-rate", frame_rate,
-                 "Capture frame rate: simulated time advances (seq delta)/rate per frameset, so runs "
-                 "and replays are deterministic")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
     const SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path);
@@ -39,7 +35,10 @@ int main(int argc, char** argv) {
     ws.Attach(map_reader);
     NodeReporter reporter(*participant, "sim");
     FramesetAssembler assembler(6, false);
-    uint64_t rejected = 0, last_seq = 0, collisions = 0;
+    uint64_t rejected = 0, collisions = 0;
+    // Simulated time follows the frames' source time (not the wall clock), so a
+    // run, or a replay of a recording, is deterministic given its inputs.
+    double last_source_time = -1;
     spdlog::info("{} ball(s), gravity [{}, {}, {}]", config.balls.size(), config.gravity.x(), config.gravity.y(),
                  config.gravity.z());
     while (!StopRequested()) {
@@ -56,7 +55,8 @@ int main(int argc, char** argv) {
       });
       map_reader.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
         try {
-          assembler.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count), MapFromMsg(m));
+          assembler.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count), MapFromMsg(m),
+                           nullptr, m.source_time);
         } catch (const MessageError& e) {
           ++rejected;
           spdlog::warn("rejected: {}", e.what());
@@ -64,8 +64,8 @@ int main(int argc, char** argv) {
       });
       while (auto fs = assembler.TakeNewest()) {
         reporter.FrameIn();
-        const double dt = last_seq == 0 ? 0.0 : double(fs->seq - last_seq) / frame_rate;
-        last_seq = fs->seq;
+        const double dt = last_source_time < 0 ? 0.0 : fs->source_time_s - last_source_time;
+        last_source_time = fs->source_time_s;
         {
           StageTimer st(reporter, "step");
           VolumeQuery vq(fs->maps, assembler.workspace());

@@ -49,7 +49,7 @@ FramesetAssembler::Pending* FramesetAssembler::Slot(uint64_t seq, int64_t t, int
 }
 
 bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camera_count, cv::Mat map,
-                               std::string* why) {
+                               std::string* why, double source_time_s) {
   const auto cam = cameras_.find(camera_id);
   if (map.type() != CV_8UC1 || map.empty())
     return Reject(why, "map of camera " + std::to_string(camera_id) + " is not a CV_8UC1 image");
@@ -68,6 +68,7 @@ bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camer
   Pending* p = Slot(seq, t, camera_count);
   if (!p) return false;
   if (p->expected == 0) p->expected = camera_count, p->capture_time_ns = t;
+  p->source_time_s = source_time_s;
   p->maps[camera_id] = std::move(map);
   return true;
 }
@@ -110,6 +111,7 @@ std::optional<Frameset> FramesetAssembler::Take(uint64_t seq) {
   Frameset f;
   f.seq = seq;
   f.capture_time_ns = it->second.capture_time_ns;
+  f.source_time_s = it->second.source_time_s;
   for (auto& [id, map] : it->second.maps) {
     f.maps.push_back({cameras_.at(id), map});
     const auto img = it->second.images.find(id);

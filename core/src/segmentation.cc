@@ -22,6 +22,7 @@ void SegmentationOptions::Check() const {
   require(open_radius >= 0 && close_radius >= 0, "morphology radii must be >= 0");
   require(min_component_fraction >= 0 && min_component_fraction < 1,
           "min_component_fraction must be in [0, 1)");
+  require(min_component_ratio >= 0 && min_component_ratio <= 1, "min_component_ratio must be in [0, 1]");
   require(max_hole_fraction >= 0 && max_hole_fraction < 1, "max_hole_fraction must be in [0, 1)");
 }
 
@@ -110,7 +111,11 @@ void CleanObjectPixelMap(cv::Mat& map, const SegmentationOptions& o) {
   std::vector<std::vector<cv::Point>> contours;
   std::vector<cv::Vec4i> hierarchy;
   cv::findContours(map, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
-  const double min_area = o.min_component_fraction * double(map.total());
+  double largest = 0;
+  for (int i = 0; i >= 0 && !contours.empty(); i = hierarchy[i][0])
+    largest = std::max(largest, cv::contourArea(contours[i]));
+  const double min_area =
+      std::max(o.min_component_fraction * double(map.total()), o.min_component_ratio * largest);
   const double max_hole = o.max_hole_fraction * double(map.total());
   map.setTo(0);
   if (contours.empty()) return;

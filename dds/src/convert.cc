@@ -69,14 +69,15 @@ Camera CameraFromMsg(const hullpipe_msg_CameraInfo& m, Aabb* ws) {
 }
 
 OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint64_t frame_seq,
-                                                        int64_t t, uint32_t camera_count,
-                                                        const cv::Mat& map) {
+                                                        int64_t t, double source_time_s,
+                                                        uint32_t camera_count, const cv::Mat& map) {
   OwnedSample<hullpipe_msg_ObjectPixelMap> s;
   s.words = RunLengthEncode(map);
   auto& m = s.msg;
   m.camera_id = camera_id;
   m.frame_seq = frame_seq;
   m.capture_time_ns = t;
+  m.source_time = source_time_s;
   m.width = uint32_t(map.cols);
   m.height = uint32_t(map.rows);
   m.camera_count = camera_count;

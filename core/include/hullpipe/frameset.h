@@ -23,6 +23,7 @@ namespace hullpipe {
 struct Frameset {
   uint64_t seq = 0;
   int64_t capture_time_ns = 0;
+  double source_time_s = 0;         ///< Frame time in the source's timeline, seconds.
   std::vector<CameraMap> maps;      ///< In camera-id order.
   std::vector<CameraImage> images;  ///< In camera-id order (empty unless wanted).
 };
@@ -51,7 +52,7 @@ class FramesetAssembler {
   /// out of range; false (counted as dropped) if the frame is older than the newest
   /// frameset already taken.
   bool AddMap(int camera_id, uint64_t seq, int64_t capture_time_ns, int camera_count,
-              cv::Mat map, std::string* why = nullptr);
+              cv::Mat map, std::string* why = nullptr, double source_time_s = 0);
   /// Adds one camera's colour image (any size) for frame `seq`; same rules.
   bool AddImage(int camera_id, uint64_t seq, int64_t capture_time_ns, cv::Mat image,
                 std::string* why = nullptr);
@@ -74,6 +75,7 @@ class FramesetAssembler {
  private:
   struct Pending {
     int64_t capture_time_ns = 0;
+    double source_time_s = 0;
     int expected = 0;
     std::map<int, cv::Mat> maps, images;
   };

@@ -7,7 +7,8 @@
 // both are saturated enough for hue to mean something) or saturation; a darker
 // pixel whose hue and saturation match is a shadow and stays background. Then the
 // map is cleaned: a morphological opening removes speckle, a closing fills cracks,
-// components smaller than a fraction of the image are dropped and holes inside
+// components smaller than a fraction of the image or of the largest component are
+// dropped, and holes inside
 // the remaining components are filled when they are small.
 #pragma once
 
@@ -30,9 +31,14 @@ struct SegmentationOptions {
   int open_radius = 1;             ///< Opening kernel radius in pixels (0 = none).
   int close_radius = 3;            ///< Closing kernel radius in pixels (0 = none).
   double min_component_fraction = 0.002;  ///< Drop components below this * image area.
+  /// Drop components smaller than this * the largest one. The real objects are
+  /// the largest; clutter that appeared after the background was recorded (the
+  /// Utrecht rig's checkerboard, in cam3's view only) is smaller. 0 keeps every
+  /// component (several separate objects of very different sizes).
+  double min_component_ratio = 0.3;
   /// Fill background holes enclosed by an object when smaller than this * image
   /// area (segmentation noise); larger holes are real gaps (an arm akimbo) and stay.
-  double max_hole_fraction = 0.0005;
+  double max_hole_fraction = 0.002;
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
 };

@@ -46,7 +46,7 @@ struct OwnedSample {
 
 /// ObjectPixelMap of one camera's map (CV_8UC1), run-length encoded.
 OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint64_t frame_seq,
-                                                        int64_t capture_time_ns,
+                                                        int64_t capture_time_ns, double source_time_s,
                                                         uint32_t camera_count, const cv::Mat& map);
 /// Decoded map (CV_8UC1 0/255). Throws MessageError on a bad encoding or size.
 cv::Mat MapFromMsg(const hullpipe_msg_ObjectPixelMap& msg);

@@ -1,0 +1,56 @@
+#include "hullpipe/reprojection.h"
+
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace hullpipe {
+
+cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, int threads) {
+  cv::Mat out(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  const Aabb& box = q.hull_box();
+  if (box.empty()) return out;
+  const auto& cams = q.fast();
+  const size_t n = cams.size();
+  const Eigen::Vector3d O = camera.Center();
+  std::vector<Eigen::Vector3f> A(n);
+  for (size_t c = 0; c < n; ++c) A[c] = (q.views()[c].camera.cam_from_world * O).cast<float>();
+  auto rows = [&](int r0, int r1) {
+    std::vector<Eigen::Vector3f> B(n);
+    for (int r = r0; r < r1; ++r) {
+      for (int col = 0; col < camera.width; ++col) {
+        const Eigen::Vector3d D = camera.PixelRayWorld({col + 0.5, r + 0.5});
+        double s0 = 0, s1 = 1e9;
+        if (!box.ClipRay(O, D, &s0, &s1)) continue;
+        for (size_t c = 0; c < n; ++c) B[c] = (q.views()[c].camera.cam_from_world.rotation * D).cast<float>();
+        for (double s = s0; s <= s1; s += step) {
+          bool inside = true;
+          for (size_t c = 0; c < n && inside; ++c) {
+            const Eigen::Vector3f X = A[c] + float(s) * B[c];
+            inside = VolumeQuery::Hits(cams[c], X.x(), X.y(), X.z());
+          }
+          if (inside) {
+            out.at<uint8_t>(r, col) = 255;
+            break;
+          }
+        }
+      }
+    }
+  };
+  threads = std::max(1, threads);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t)
+    pool.emplace_back(rows, camera.height * t / threads, camera.height * (t + 1) / threads);
+  for (auto& th : pool) th.join();
+  return out;
+}
+
+double MaskIoU(const cv::Mat& a, const cv::Mat& b) {
+  CV_Assert(a.size() == b.size() && a.type() == CV_8UC1 && b.type() == CV_8UC1);
+  const int inter = cv::countNonZero(a & b), uni = cv::countNonZero(a | b);
+  return uni == 0 ? 1.0 : double(inter) / double(uni);
+}
+
+}  // namespace hullpipe

@@ -1,0 +1,153 @@
+// vh_eval: evaluation of hullpipe's visual hulls.
+//   vh_eval reprojection --rig DIR --frame K [--json] [--step M] [--all-frames]
+// builds the hull of frame K by volume querying and prints, per camera, the IoU
+// between the hull's reprojection and that camera's object-pixel map (iou_all),
+// and the same with the hull built from the other cameras only
+// (iou_leave_one_out). With --all-frames: mean and worst over every frame.
+#include <cstdio>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <spdlog/spdlog.h>
+
+#include "hullpipe/conventions.h"
+#include "hullpipe/reprojection.h"
+#include "hullpipe/rig_source.h"
+
+using namespace hullpipe;
+
+namespace {
+
+struct CameraIoU {
+  int id;
+  double all, loo;
+};
+
+std::vector<CameraIoU> EvaluateFrame(const RigSource& src, const RigFrame& f, double step) {
+  std::vector<CameraMap> views;
+  for (size_t i = 0; i < src.cameras().size(); ++i) views.push_back({src.cameras()[i], f.maps[i]});
+  const VolumeQuery all(views, src.workspace());
+  std::vector<CameraIoU> out;
+  for (size_t i = 0; i < views.size(); ++i) {
+    std::vector<int> others;
+    for (size_t j = 0; j < views.size(); ++j)
+      if (j != i) others.push_back(int(j));
+    const VolumeQuery loo = all.Subset(others);
+    const Camera& cam = views[i].camera;
+    out.push_back({cam.id, MaskIoU(ReprojectHull(all, cam, step), views[i].map),
+                   MaskIoU(ReprojectHull(loo, cam, step), views[i].map)});
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"vh_eval: accuracy of hullpipe's visual hulls"};
+  app.require_subcommand(1);
+  auto* rep = app.add_subcommand("reprojection", "Per-camera IoU of the hull's reprojection with the maps");
+  std::string rig;
+  int frame = 200;
+  bool json = false, all_frames = false;
+  double step = 0.005;
+  std::string save_worst;
+  rep->add_option("--rig", rig, "Rig directory or YAML rig file")->required();
+  rep->add_option("--frame", frame, "Frame index (0-based)")->capture_default_str();
+  rep->add_option("--step", step, "Ray-marching step, metres")->capture_default_str();
+  rep->add_flag("--json", json, "Print one JSON object");
+  rep->add_flag("--all-frames", all_frames, "Evaluate every frame; report mean and worst per camera");
+  rep->add_option("--save-worst", save_worst, "With --all-frames: PNG of the worst frame's reprojections");
+  CLI11_PARSE(app, argc, argv);
+  spdlog::set_level(spdlog::level::warn);
+  try {
+    auto src = OpenVideoRig(rig, {});
+    RigFrame f;
+    nlohmann::json j;
+    if (!all_frames) {
+      for (int k = 0; k <= frame; ++k)
+        if (!src->Next(&f)) throw std::runtime_error("the rig has fewer than " + std::to_string(frame + 1) + " frames");
+      for (size_t i = 0; i < f.maps.size(); ++i)
+        if (f.maps[i].empty()) throw std::runtime_error("frame " + std::to_string(frame) + " unreadable in a camera");
+      const double t0 = MonotonicSeconds();
+      const auto res = EvaluateFrame(*src, f, step);
+      j["frame"] = frame;
+      j["step_m"] = step;
+      j["seconds"] = MonotonicSeconds() - t0;
+      for (const auto& r : res) j["cameras"].push_back({{"id", r.id}, {"iou_all", r.all}, {"iou_leave_one_out", r.loo}});
+      if (!json) {
+        std::printf("frame %d\n%-8s %10s %20s\n", frame, "camera", "iou_all", "iou_leave_one_out");
+        for (const auto& r : res) std::printf("%-8d %10.3f %20.3f\n", r.id, r.all, r.loo);
+      }
+    } else {
+      struct Acc {
+        double sum_all = 0, sum_loo = 0, min_all = 1, min_loo = 1;
+        int worst_frame = -1;
+      };
+      std::map<int, Acc> acc;
+      int k = 0, worst_frame = -1;
+      double worst = 2;
+      for (; src->Next(&f); ++k) {
+        bool ok = true;
+        for (const auto& m : f.maps) ok &= !m.empty();
+        if (!ok) continue;
+        const auto res = EvaluateFrame(*src, f, step);
+        double frame_min = 2;
+        for (const auto& r : res) {
+          Acc& a = acc[r.id];
+          a.sum_all += r.all, a.sum_loo += r.loo;
+          a.min_all = std::min(a.min_all, r.all);
+          if (r.loo < a.min_loo) a.min_loo = r.loo, a.worst_frame = k;
+          frame_min = std::min(frame_min, r.loo);
+        }
+        if (frame_min < worst) {
+          worst = frame_min;
+          worst_frame = k;
+          if (!save_worst.empty()) {
+            std::vector<CameraMap> views;
+            for (size_t i = 0; i < src->cameras().size(); ++i) views.push_back({src->cameras()[i], f.maps[i]});
+            const VolumeQuery all(views, src->workspace());
+            std::vector<cv::Mat> tiles;
+            for (size_t i = 0; i < views.size(); ++i) {
+              std::vector<int> others;
+              for (size_t jx = 0; jx < views.size(); ++jx)
+                if (jx != i) others.push_back(int(jx));
+              const cv::Mat rep_loo = ReprojectHull(all.Subset(others), views[i].camera, step);
+              std::vector<cv::Mat> ch = {rep_loo, views[i].map, views[i].map & rep_loo};
+              cv::Mat vis;
+              cv::merge(ch, vis);  // blue: hull only, green: map only, white/cyan: both
+              tiles.push_back(vis);
+            }
+            cv::Mat row;
+            cv::hconcat(tiles, row);
+            cv::imwrite(save_worst, row);
+          }
+        }
+        if (!json) std::fprintf(stderr, "\rframe %d", k);
+      }
+      j["frames"] = k;
+      j["worst_frame"] = worst_frame;
+      for (const auto& [id, a] : acc) {
+        const double n = double(k);
+        j["cameras"].push_back({{"id", id},
+                                {"iou_all_mean", a.sum_all / n},
+                                {"iou_all_worst", a.min_all},
+                                {"iou_leave_one_out_mean", a.sum_loo / n},
+                                {"iou_leave_one_out_worst", a.min_loo},
+                                {"worst_frame", a.worst_frame}});
+      }
+      if (!json) {
+        std::printf("\n%d frames\n%-8s %14s %14s %14s %14s\n", k, "camera", "all mean", "all worst", "loo mean",
+                    "loo worst");
+        for (const auto& [id, a] : acc)
+          std::printf("%-8d %14.3f %14.3f %14.3f %14.3f\n", id, a.sum_all / k, a.min_all, a.sum_loo / k, a.min_loo);
+      }
+    }
+    if (json) std::cout << j.dump(2) << std::endl;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "vh_eval: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
