@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
     std::map<std::string, hullpipe_msg_NodeStats> node_stats;
     std::map<std::string, nlohmann::json> node_stages;
     uint64_t pose_seq = 0, last_requested = 0, last_composited = 0, rejected = 0, tiles_late = 0;
-    uint64_t collisions_drawn = 0;
+    uint64_t collisions_drawn = 0, collision_reports = 0;
     double hull_fraction_sum = 0;  // fraction of view pixels showing hull, summed over frames
     int64_t first_capture_ns = 0;
     double last_new_frame_s = MonotonicSeconds(), last_progress_s = MonotonicSeconds();
@@ -180,7 +180,9 @@ int main(int argc, char** argv) {
         per[m.frame_seq] = m;
         while (per.size() > 32) per.erase(per.begin());
       });
-      report_reader.TakeEach([&](const hullpipe_msg_CollisionReport&, const dds_sample_info_t&) {});
+      report_reader.TakeEach([&](const hullpipe_msg_CollisionReport& m, const dds_sample_info_t&) {
+        if (m.collision_points._length > 0) ++collision_reports;
+      });
       take_stats();
 
       // Issue new poses for new complete framesets.
@@ -315,6 +317,7 @@ int main(int argc, char** argv) {
     j["frames_composited"] = reporter.frames_out();
     j["last_frame_seq"] = last_composited;
     j["collision_frames_drawn"] = collisions_drawn;
+    j["collision_reports_with_points"] = collision_reports;
     j["hull_pixel_fraction_mean"] = reporter.frames_out() ? hull_fraction_sum / double(reporter.frames_out()) : 0.0;
     j["video"] = video_path;
     for (const auto& r : rows)

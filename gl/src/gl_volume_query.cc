@@ -97,10 +97,13 @@ uniform int u_ncam;
 in vec3 v_world;
 out vec4 o_hit;
 void main() {
-  bool inside = true;
+  // No early break: sampler arrays must be indexed with dynamically uniform
+  // values (GLSL 4.5), which a divergent break would violate.
+  int count = 0;
   for (int c = 0; c < u_ncam; ++c) {
-    if (!Hits(c, u_A[c] + u_M[c] * v_world)) { inside = false; break; }
+    if (Hits(c, u_A[c] + u_M[c] * v_world)) ++count;
   }
+  bool inside = count == u_ncam;
   o_hit = vec4(v_world, inside ? 1.0 : 0.5);
 }
 )";
@@ -151,6 +154,7 @@ GlPlaneSweep::GlPlaneSweep()
 
 void GlPlaneSweep::EnsureTarget(int w, int h) {
   if (w == width_ && h == height_) return;
+  glActiveTexture(GL_TEXTURE0 + kMaxGlCameras);  // units 0..15 hold the maps
   depth_out_ = MakeTexture();
   glBindTexture(GL_TEXTURE_2D, depth_out_.get());
   glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, w, h, 0, GL_RED, GL_FLOAT, nullptr);
@@ -280,6 +284,7 @@ std::vector<TriangleQueryResult> GlTriangleQuery::Query(const VolumeQuery& q, co
   const int per_row = std::max(1, atlas / cell);
   const size_t per_pass = size_t(per_row) * size_t(per_row);
   if (atlas_ != atlas) {
+    glActiveTexture(GL_TEXTURE0 + kMaxGlCameras);  // units 0..15 hold the maps
     colour_ = MakeTexture();
     glBindTexture(GL_TEXTURE_2D, colour_.get());
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, atlas, atlas, 0, GL_RGBA, GL_FLOAT, nullptr);

@@ -37,8 +37,10 @@ struct Camera {
   /// Applies lens distortion to normalized coordinates (x/z, y/z). OpenCV's model.
   Eigen::Vector2d Distort(const Eigen::Vector2d& xn) const;
 
-  /// Inverts Distort by fixed-point iteration (as cv::undistortPoints; 20
-  /// iterations, converges to < 1e-9 inside the valid radius).
+  /// Inverts Distort by Newton's method with the analytic Jacobian (converges to
+  /// ~1e-15 inside the valid radius; cv::undistortPoints' fixed-point iteration
+  /// leaves up to 1e-5 px there). At or beyond the fold of the radial polynomial
+  /// there is no unique inverse: the last iterate is returned.
   Eigen::Vector2d Undistort(const Eigen::Vector2d& xd) const;
 
   /// Squared normalized radius beyond which the radial polynomial stops being

@@ -136,6 +136,12 @@ class Reader : public Entity {
     return taken;
   }
   dds_entity_t condition() const { return condition_.handle(); }
+  /// Number of matched writers right now.
+  uint32_t MatchedWriters() const {
+    dds_subscription_matched_status_t st;
+    Check(dds_get_subscription_matched_status(handle(), &st), "dds_get_subscription_matched_status");
+    return st.current_count;
+  }
 
  private:
   Reader(const Participant& p, Entity topic)

@@ -1,0 +1,137 @@
+// Message conversion and validation, and Cyclone DDS behaviour hullpipe relies on.
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "hullpipe/conventions.h"
+#include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/dds.h"
+#include "hullpipe/dds/topics.h"
+#include "hullpipe/synthetic.h"
+#include "test_util.h"
+
+namespace hullpipe::dds {
+namespace {
+
+Camera TestCamera() {
+  return RingCameras(1, 3, 2, Eigen::Vector3d::Zero(), 64, 48, 1.0, Distortion{-0.2, 0.05, 0.001, 0.002, -0.01})[0];
+}
+
+TEST(Convert, CameraInfoRoundTrip) {
+  const Camera c = TestCamera();
+  Aabb ws;
+  ws.min = Eigen::Vector3d(-1, -2, -3);
+  ws.max = Eigen::Vector3d(1, 2, 0);
+  Aabb back_ws;
+  const Camera back = CameraFromMsg(CameraToMsg(c, ws), &back_ws);
+  EXPECT_EQ(back.id, c.id);
+  EXPECT_EQ(back.K(), c.K());
+  EXPECT_EQ(back.distortion, c.distortion);
+  EXPECT_EQ(back.cam_from_world.rotation, c.cam_from_world.rotation);
+  EXPECT_EQ(back_ws.max, ws.max);
+}
+
+TEST(Convert, BadCameraInfoIsRejected) {
+  auto m = CameraToMsg(TestCamera(), {});
+  m.K[0] = std::nan("");
+  EXPECT_THROW(CameraFromMsg(m), MessageError);
+  m = CameraToMsg(TestCamera(), {});
+  m.width = 0;
+  EXPECT_THROW(CameraFromMsg(m), MessageError);
+  m = CameraToMsg(TestCamera(), {});
+  m.cam_from_world_rotation[0] = 3;  // not a rotation
+  EXPECT_THROW(CameraFromMsg(m), MessageError);
+}
+
+TEST(Convert, MapRoundTripAndWrongSize) {
+  cv::Mat map(48, 64, CV_8UC1, cv::Scalar(0));
+  cv::circle(map, {20, 20}, 9, 255, cv::FILLED);
+  auto s = MakeMapMessage(3, 42, 1234, 0.5, 4, map);
+  EXPECT_EQ(s.msg.frame_seq, 42u);
+  EXPECT_DOUBLE_EQ(s.msg.source_time, 0.5);
+  EXPECT_EQ(cv::countNonZero(MapFromMsg(s.msg) != map), 0);
+  s.msg.width = 65;  // runs no longer sum to the size
+  EXPECT_THROW(MapFromMsg(s.msg), MessageError);
+  s.msg.width = 64;
+  s.msg.encoding = 9;
+  EXPECT_THROW(MapFromMsg(s.msg), MessageError);
+  s.msg.encoding = hullpipe_msg_MAP_ENCODING_RLE;
+  s.msg.width = 0xFFFFFFFFu;  // absurd size
+  EXPECT_THROW(MapFromMsg(s.msg), MessageError);
+}
+
+TEST(Convert, ImagesRawAndJpeg) {
+  cv::Mat img(30, 40, CV_8UC3, cv::Scalar(10, 120, 240));
+  auto raw = MakeImageMessage(1, 1, 1, img, 0);
+  EXPECT_EQ(cv::norm(ImageFromMsg(raw.msg), img, cv::NORM_INF), 0);
+  auto jpg = MakeImageMessage(1, 1, 1, img, 90);
+  EXPECT_LT(jpg.msg.data._length, raw.msg.data._length);
+  EXPECT_LE(cv::norm(ImageFromMsg(jpg.msg), img, cv::NORM_INF), 8);  // JPEG loss on a flat colour
+  raw.msg.data._length -= 1;
+  EXPECT_THROW(ImageFromMsg(raw.msg), MessageError);
+  jpg.msg.data._length = 10;  // truncated JPEG
+  EXPECT_THROW(ImageFromMsg(jpg.msg), MessageError);
+}
+
+TEST(Convert, ViewAndTile) {
+  const NovelView v = NovelView::FromFov(32, 24, 1.0, LookAt({1, 2, 3}, {0, 0, 0}, {0, 0, -1}));
+  const NovelView back = ViewFromMsg(ViewToMsg(v, 5, 6, 7));
+  EXPECT_EQ(back.width, 32);
+  EXPECT_EQ(back.world_from_eye.rotation, v.world_from_eye.rotation);
+  auto bad = ViewToMsg(v, 5, 6, 7);
+  bad.world_from_eye_rotation[4] = 5;
+  EXPECT_THROW(ViewFromMsg(bad), MessageError);
+
+  HullTile t;
+  t.rect = {0, 12, 32, 12};
+  t.depth = cv::Mat(12, 32, CV_32FC1, cv::Scalar(kNoDepth));
+  t.depth.at<float>(3, 4) = 2.5f;
+  t.depth.at<float>(5, 5) = std::nanf("");
+  t.colour = cv::Mat(12, 32, CV_8UC3, cv::Scalar(1, 2, 3));
+  t.tile_index = 1;
+  t.tile_count = 2;
+  auto s = MakeHullViewMessage(t, 100);
+  const HullTile tb = TileFromMsg(s.msg);
+  EXPECT_EQ(tb.rect, t.rect);
+  EXPECT_EQ(tb.depth.at<float>(3, 4), 2.5f);
+  EXPECT_TRUE(std::isinf(tb.depth.at<float>(5, 5)));  // NaN never reaches the compositor
+  s.msg.colour._length -= 3;
+  EXPECT_THROW(TileFromMsg(s.msg), MessageError);
+}
+
+TEST(Dds, ErrorsNameTheCall) {
+  try {
+    Check(DDS_RETCODE_BAD_PARAMETER, "dds_create_writer");
+    FAIL();
+  } catch (const DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("dds_create_writer"), std::string::npos);
+    EXPECT_EQ(e.code(), DDS_RETCODE_BAD_PARAMETER);
+  }
+}
+
+// CameraInfo is transient-local: a reader that joins after it was written still
+// gets it (late joiners must not miss the calibration).
+TEST(Dds, LateJoinerGetsCameraInfo) {
+  const auto dir = test::TempDir("dds_late");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  Participant pub(domain);
+  Writer<hullpipe_msg_CameraInfo> writer(pub);
+  writer.Write(CameraToMsg(TestCamera(), {}));
+  Participant sub(domain);
+  Reader<hullpipe_msg_CameraInfo> reader(sub);
+  WaitSet ws(sub);
+  ws.Attach(reader);
+  int got = 0;
+  const double end = MonotonicSeconds() + 10;
+  while (got == 0 && MonotonicSeconds() < end) {
+    ws.Wait(0.2);
+    reader.TakeEach([&](const hullpipe_msg_CameraInfo& m, const dds_sample_info_t&) {
+      EXPECT_EQ(int(m.camera_id), TestCamera().id);
+      ++got;
+    });
+  }
+  EXPECT_EQ(got, 1);
+}
+
+}  // namespace
+}  // namespace hullpipe::dds

@@ -1,0 +1,272 @@
+// Bad input from outside must never crash a node: each test starts a real node
+// process on its own DDS domain (loopback only), feeds it malformed samples or
+// broken files, checks it logged and counted them, that it still works on good
+// input, and that it stops cleanly on SIGINT.
+#include <gtest/gtest.h>
+
+#include "hullpipe/conventions.h"
+#include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/dds.h"
+#include "hullpipe/dds/topics.h"
+#include "test_util.h"
+
+namespace hullpipe {
+namespace {
+
+using namespace hullpipe::dds;
+
+class NodeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = test::TempDir("node");
+    config_ = test::WriteLoopbackConfig(dir_);
+    setenv("CYCLONEDDS_URI", ("file://" + config_).c_str(), 1);
+    domain_ = test::UniqueDomain();
+    participant_ = std::make_unique<Participant>(domain_);
+  }
+  std::unique_ptr<test::Process> Start(const std::string& exe, std::vector<std::string> args) {
+    args.insert(args.begin(), test::BinDir() + "/" + exe);
+    args.push_back("--domain");
+    args.push_back(std::to_string(domain_));
+    log_ = (dir_ / (exe + ".log")).string();
+    return std::make_unique<test::Process>(args, log_,
+                                           std::vector<std::pair<std::string, std::string>>{
+                                               {"CYCLONEDDS_URI", "file://" + config_}});
+  }
+  /// Waits until an endpoint of ours has matched n of the node's (MatchedReaders
+  /// for our writers, MatchedWriters for our readers).
+  template <typename E>
+  void WaitMatched(const E& e, uint32_t n) {
+    auto matched = [&] {
+      if constexpr (requires { e.MatchedReaders(); }) {
+        return e.MatchedReaders();
+      } else {
+        return e.MatchedWriters();
+      }
+    };
+    const double end = MonotonicSeconds() + 20;
+    while (matched() < n && MonotonicSeconds() < end) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_GE(matched(), n) << "node did not appear on the domain; log:\n" << test::ReadFile(log_);
+    // Matching is seen on each side at its own moment: give the node's readers
+    // time to match our writers too, or the first volatile samples are lost.
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+  /// Newest NodeStats of `name` once its rejected count reaches `min_rejected` (or timeout).
+  hullpipe_msg_NodeStats WaitStats(Reader<hullpipe_msg_NodeStats>& r, const std::string& name, uint64_t min_rejected) {
+    hullpipe_msg_NodeStats last{};
+    const double end = MonotonicSeconds() + 10;
+    while (MonotonicSeconds() < end) {
+      r.TakeEach([&](const hullpipe_msg_NodeStats& m, const dds_sample_info_t&) {
+        if (m.node_name && name == m.node_name) {
+          last = m;
+          last.node_name = nullptr;
+          last.stages = {};
+        }
+      });
+      if (last.rejected >= min_rejected) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return last;
+  }
+
+  std::filesystem::path dir_;
+  std::string config_, log_;
+  uint32_t domain_ = 0;
+  std::unique_ptr<Participant> participant_;
+};
+
+const Eigen::Vector3d kCentre(0, 0, -1);
+
+TEST_F(NodeTest, ReconNodeSurvivesMalformedSamplesAndAStoppedCamera) {
+  auto node = Start("recon_node", {"--tile", "0/1", "--planes", "20", "--backend", "cpu"});
+  Writer<hullpipe_msg_CameraInfo> info(*participant_);
+  Writer<hullpipe_msg_ObjectPixelMap> maps(*participant_);
+  Writer<hullpipe_msg_CameraImage> images(*participant_);
+  Writer<hullpipe_msg_ViewPose> poses(*participant_);
+  Reader<hullpipe_msg_HullView> tiles(*participant_);
+  Reader<hullpipe_msg_NodeStats> stats(*participant_);
+  WaitMatched(info, 1);
+  WaitMatched(images, 1);
+  WaitMatched(poses, 1);
+  WaitMatched(maps, 1);
+  WaitMatched(tiles, 1);
+  WaitMatched(stats, 1);
+  const auto views = test::SphereViews(2, 64, 48, kCentre, 0.3);
+  for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
+  const cv::Mat img(48, 64, CV_8UC3, cv::Scalar(50, 60, 70));
+  const NovelView view = NovelView::FromFov(40, 30, 1.0, LookAt(kCentre + Eigen::Vector3d(2, 0, -0.5), kCentre, {0, 0, -1}));
+
+  auto send_frame = [&](uint64_t seq, bool both) {
+    for (size_t c = 0; c < (both ? 2u : 1u); ++c) {
+      const uint32_t id = uint32_t(views[c].camera.id);
+      maps.Write(MakeMapMessage(id, seq, NowNs(), double(seq) / 25, 2, views[c].map).msg);
+      images.Write(MakeImageMessage(id, seq, NowNs(), img, 0).msg);
+    }
+    poses.Write(ViewToMsg(view, seq, seq, NowNs()));
+  };
+  auto count_tiles = [&](double wait_s) {
+    int n = 0;
+    const double end = MonotonicSeconds() + wait_s;
+    while (MonotonicSeconds() < end) {
+      n += int(tiles.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) {
+        EXPECT_EQ(m.width * m.height, m.depth._length);
+      }));
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return n;
+  };
+  // Handshake: good frames until a tile comes back, so every path is live
+  // (volatile readers drop what was written before they synchronised).
+  uint64_t seq = 100;
+  for (int tries = 0; tries < 50 && count_tiles(0.2) == 0; ++tries) send_frame(++seq, true);
+  ASSERT_GT(seq, 100u);
+  count_tiles(0.5);
+
+  // Malformed: runs that do not sum to the size, an unknown encoding, an image of
+  // the wrong length, a pose with NaN.
+  auto bad_map = MakeMapMessage(1, seq + 1, NowNs(), 0, 2, views[0].map);
+  bad_map.msg.height = 47;
+  maps.Write(bad_map.msg);
+  bad_map.msg.height = 48;
+  bad_map.msg.encoding = 7;
+  maps.Write(bad_map.msg);
+  auto bad_img = MakeImageMessage(1, seq + 1, NowNs(), img, 0);
+  bad_img.msg.data._length -= 5;
+  images.Write(bad_img.msg);
+  auto bad_pose = ViewToMsg(view, seq + 1, seq + 1, NowNs());
+  bad_pose.fx = std::nan("");
+  poses.Write(bad_pose);
+
+  // All four were refused and counted (checked before more traffic: keep-last
+  // histories would let newer samples replace unread ones, by design).
+  EXPECT_GE(WaitStats(stats, "recon0", 4).rejected, 4u) << test::ReadFile(log_);
+  // A burst of frames: latest wins, so at least the newest is rendered.
+  for (int k = 0; k < 5; ++k) send_frame(++seq, true);
+  EXPECT_GE(count_tiles(3.0), 1) << test::ReadFile(log_);
+  // Camera 2 stops sending: no tile can be made, the node waits and keeps running.
+  for (int k = 0; k < 6; ++k) send_frame(++seq, false);
+  EXPECT_EQ(count_tiles(2.0), 0);
+  EXPECT_TRUE(node->Running());
+  // It comes back: tiles again.
+  send_frame(++seq, true);
+  EXPECT_GE(count_tiles(3.0), 1) << test::ReadFile(log_);
+
+  const auto st = WaitStats(stats, "recon0", 4);
+  EXPECT_GE(st.dropped, 1u);  // the poses of the incomplete frames
+  EXPECT_EQ(node->Stop(), 0) << test::ReadFile(log_);
+  const std::string log = test::ReadFile(log_);
+  EXPECT_NE(log.find("rejected: ObjectPixelMap of camera 1: object-pixel map runs sum to"), std::string::npos) << log;
+}
+
+TEST_F(NodeTest, SimNodeRejectsBadMapsAndKeepsSimulating) {
+  auto node = Start("sim_node", {});
+  Writer<hullpipe_msg_CameraInfo> info(*participant_);
+  Writer<hullpipe_msg_ObjectPixelMap> maps(*participant_);
+  Reader<hullpipe_msg_VirtualObjectState> states(*participant_);
+  Reader<hullpipe_msg_NodeStats> stats(*participant_);
+  WaitMatched(info, 1);
+  WaitMatched(maps, 1);
+  WaitMatched(states, 1);
+  WaitMatched(stats, 1);
+  const auto views = test::SphereViews(2, 64, 48, kCentre, 0.3);
+  for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
+  auto send = [&](uint64_t seq) {
+    for (const auto& v : views)
+      maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25, 2, v.map).msg);
+  };
+  auto take_states = [&](double wait_s) {
+    int n = 0;
+    const double end = MonotonicSeconds() + wait_s;
+    while (MonotonicSeconds() < end) {
+      n += int(states.TakeEach([](const hullpipe_msg_VirtualObjectState& m, const dds_sample_info_t&) {
+        EXPECT_TRUE(std::isfinite(m.position.x));
+      }));
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return n;
+  };
+  // Handshake: good framesets until the first state comes back.
+  uint64_t seq = 1;
+  for (int tries = 0; tries < 50 && take_states(0.2) == 0; ++tries) send(++seq);
+  auto bad = MakeMapMessage(1, ++seq, NowNs(), 0, 2, views[0].map);
+  bad.msg.runs._length = 1;
+  maps.Write(bad.msg);
+  int got = 0;
+  for (int k = 0; k < 3; ++k) {
+    send(++seq);
+    got += take_states(0.3);  // one step per frameset
+  }
+  EXPECT_GE(got, 3);
+  EXPECT_GE(WaitStats(stats, "sim", 1).rejected, 1u);
+  EXPECT_EQ(node->Stop(), 0) << test::ReadFile(log_);
+}
+
+TEST_F(NodeTest, RenderNodeRejectsTilesOfTheWrongSize) {
+  auto node = Start("render_node", {"--out", (dir_ / "out").string(), "--idle-timeout", "60"});
+  Writer<hullpipe_msg_HullView> tiles(*participant_);
+  Reader<hullpipe_msg_NodeStats> stats(*participant_);
+  WaitMatched(tiles, 1);
+  WaitMatched(stats, 1);
+  HullTile t;
+  t.rect = {0, 0, 8, 8};
+  t.depth = cv::Mat(8, 8, CV_32FC1, cv::Scalar(1));
+  t.colour = cv::Mat(8, 8, CV_8UC3);
+  auto s = MakeHullViewMessage(t, 1);
+  s.msg.depth._length = 10;
+  tiles.Write(s.msg);
+  EXPECT_GE(WaitStats(stats, "render", 1).rejected, 1u) << test::ReadFile(log_);
+  EXPECT_TRUE(node->Running());
+  EXPECT_EQ(node->Stop(), 0) << test::ReadFile(log_);
+}
+
+// --- capture_node on broken files (needs the Utrecht rig) -------------------
+
+class CaptureFiles : public NodeTest {
+ protected:
+  void SetUp() override {
+    if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
+    NodeTest::SetUp();
+    rig_ = dir_ / "rig";
+    for (int c = 1; c <= 4; ++c) {
+      const auto src = std::filesystem::path(test::RigDir()) / ("cam" + std::to_string(c));
+      const auto dst = rig_ / ("cam" + std::to_string(c));
+      std::filesystem::create_directories(dst);
+      for (const char* f : {"config.xml", "background.avi", "video.avi"})
+        std::filesystem::copy_file(src / f, dst / f);
+    }
+  }
+  std::filesystem::path rig_;
+};
+
+TEST_F(CaptureFiles, TruncatedVideoEndsCleanlyAfterTheGoodFrames) {
+  // Cut cam2's video to 40% of its bytes: the tail is gone mid-frame.
+  const auto video = rig_ / "cam2" / "video.avi";
+  std::filesystem::resize_file(video, std::filesystem::file_size(video) * 4 / 10);
+  auto node = Start("capture_node", {"--rig", rig_.string(), "--fast"});
+  EXPECT_EQ(node->Wait(60), 0) << test::ReadFile(log_);
+  const std::string log = test::ReadFile(log_);
+  EXPECT_NE(log.find("camera 2: no more frames after frame"), std::string::npos) << log;
+  EXPECT_NE(log.find("end of input"), std::string::npos) << log;
+}
+
+TEST_F(CaptureFiles, CalibrationMissingAKeyIsAOneLineError) {
+  const auto cfg = rig_ / "cam3" / "config.xml";
+  std::string text = test::ReadFile(cfg.string());
+  text.erase(text.find("<Translation"), text.find("</Translation>") + 14 - text.find("<Translation"));
+  std::ofstream(cfg) << text;
+  auto node = Start("capture_node", {"--rig", rig_.string(), "--fast"});
+  EXPECT_EQ(node->Wait(30), 1);
+  const std::string log = test::ReadFile(log_);
+  EXPECT_NE(log.find("cam3/config.xml: missing key 'Translation'"), std::string::npos) << log;
+}
+
+TEST_F(CaptureFiles, GarbageVideoIsAClearError) {
+  std::ofstream(rig_ / "cam1" / "video.avi", std::ios::trunc) << std::string(5000, 'x');
+  auto node = Start("capture_node", {"--rig", rig_.string(), "--fast"});
+  EXPECT_EQ(node->Wait(30), 1);
+  const std::string log = test::ReadFile(log_);
+  EXPECT_NE(log.find("camera 1"), std::string::npos) << log;
+}
+
+}  // namespace
+}  // namespace hullpipe

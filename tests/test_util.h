@@ -1,0 +1,151 @@
+// Helpers shared by hullpipe's tests.
+#pragma once
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hullpipe/synthetic.h"
+#include "hullpipe/volume_query.h"
+
+namespace hullpipe::test {
+
+/// The Utrecht rig beside the repository (../shared/data/utrecht-4cam).
+inline std::string RigDir() { return HULLPIPE_RIG_DIR; }
+inline bool HaveRig() { return std::filesystem::exists(RigDir() + "/cam1/config.xml"); }
+
+/// Directory of the built executables.
+inline std::string BinDir() { return HULLPIPE_BIN_DIR; }
+
+/// A fresh temporary directory, removed by the caller if wanted.
+inline std::filesystem::path TempDir(const std::string& tag) {
+  static std::atomic<int> counter{0};
+  const auto p = std::filesystem::temp_directory_path() /
+                 ("hullpipe_test_" + tag + "_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
+  std::filesystem::remove_all(p);
+  std::filesystem::create_directories(p);
+  return p;
+}
+
+/// A DDS domain id unique to this test process (tests run in parallel), 100..229.
+inline uint32_t UniqueDomain() {
+  static std::atomic<int> counter{0};
+  return 100 + uint32_t((getpid() * 7 + counter++) % 130);
+}
+
+/// Writes a Cyclone config that keeps all traffic on loopback; returns its path.
+inline std::string WriteLoopbackConfig(const std::filesystem::path& dir) {
+  const auto path = dir / "cyclonedds.xml";
+  std::ofstream(path) << R"(<?xml version="1.0" encoding="UTF-8"?>
+<CycloneDDS xmlns="https://cdds.io/config"><Domain id="any">
+<General><Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast>
+<MaxMessageSize>65500B</MaxMessageSize></General>
+<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>
+<Peers><Peer address="127.0.0.1"/></Peers></Discovery></Domain></CycloneDDS>
+)";
+  return path.string();
+}
+
+/// n ring cameras (w x h, 60 degree fov) around a sphere of radius r at
+/// `centre`, with exact object-pixel maps.
+inline std::vector<CameraMap> SphereViews(int n, int w, int h, const Eigen::Vector3d& centre, double r,
+                                          const Distortion& d = {}) {
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Sphere(centre, r));
+  std::vector<CameraMap> views;
+  for (const auto& c : RingCameras(n, 3.0, 1.8, centre, w, h, 1.0, d)) views.push_back({c, RenderExactMap(c, scene)});
+  return views;
+}
+
+inline Aabb BigBox() {
+  Aabb b;
+  b.min = Eigen::Vector3d::Constant(-10);
+  b.max = Eigen::Vector3d::Constant(10);
+  return b;
+}
+
+}  // namespace hullpipe::test
+
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <sstream>
+#include <thread>
+
+namespace hullpipe::test {
+
+/// A child process for multi-process tests; SIGKILLed if still running when
+/// destroyed, so a failing test leaves no orphan.
+class Process {
+ public:
+  Process(const std::vector<std::string>& argv, const std::string& log_path,
+          const std::vector<std::pair<std::string, std::string>>& env = {}) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      for (const auto& [k, v] : env) setenv(k.c_str(), v.c_str(), 1);
+      FILE* f = std::fopen(log_path.c_str(), "w");
+      if (f) {
+        dup2(fileno(f), 1);
+        dup2(fileno(f), 2);
+      }
+      std::vector<char*> args;
+      for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+      args.push_back(nullptr);
+      execv(args[0], args.data());
+      _exit(127);
+    }
+  }
+  ~Process() {
+    if (pid_ > 0 && !exited_) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+  }
+  Process(const Process&) = delete;
+  Process& operator=(const Process&) = delete;
+  bool Running() {
+    if (exited_) return false;
+    int st = 0;
+    if (waitpid(pid_, &st, WNOHANG) == pid_) {
+      exited_ = true;
+      status_ = st;
+    }
+    return !exited_;
+  }
+  /// Waits up to timeout_s for the process to exit; returns its exit code, or -1
+  /// on timeout, or 128+signal if killed by a signal.
+  int Wait(double timeout_s) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (Running() && std::chrono::steady_clock::now() < end)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (!exited_) return -1;
+    return WIFEXITED(status_) ? WEXITSTATUS(status_) : 128 + WTERMSIG(status_);
+  }
+  /// SIGINT, then Wait.
+  int Stop(double timeout_s = 10) {
+    if (Running()) kill(pid_, SIGINT);
+    return Wait(timeout_s);
+  }
+
+ private:
+  pid_t pid_ = -1;
+  bool exited_ = false;
+  int status_ = 0;
+};
+
+inline std::string ReadFile(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+}  // namespace hullpipe::test
