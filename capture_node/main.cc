@@ -72,7 +72,11 @@ int main(int argc, char** argv) {
     Writer<hullpipe_msg_CameraInfo> info_writer(*participant);
     Writer<hullpipe_msg_ObjectPixelMap> map_writer(*participant);
     Writer<hullpipe_msg_CameraImage> image_writer(*participant);
-    NodeReporter reporter(*participant, "capture");
+    std::string name = "capture";
+    if (!camera_ids.empty()) {
+      for (size_t i = 0; i < camera_ids.size(); ++i) name += (i ? "," : "-") + std::to_string(camera_ids[i]);
+    }
+    NodeReporter reporter(*participant, name);
     for (const auto& c : source->cameras()) info_writer.Write(CameraToMsg(c, source->workspace()));
 
     if (wait_readers > 0) {
@@ -99,7 +103,7 @@ int main(int argc, char** argv) {
       }
       for (const auto& e : frame.errors) {
         spdlog::warn("{}", e);
-        reporter.Rejected();
+        if (ok) reporter.Rejected();  // a skipped frame; the end of input is no rejection
       }
       if (!ok) {
         if (loop && source->Rewind()) continue;

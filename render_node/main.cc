@@ -117,7 +117,8 @@ int main(int argc, char** argv) {
     double hull_fraction_sum = 0;  // fraction of view pixels showing hull, summed over frames
     int64_t first_capture_ns = 0;
     double last_new_frame_s = MonotonicSeconds(), last_progress_s = MonotonicSeconds();
-    bool any_frame = false, done = false;
+    bool any_frame = false, done = false, capture_done = false;
+    double capture_done_s = 0;
     cv::VideoWriter video;
     const std::string video_path = (fs::path(out_dir) / "hullpipe.mp4").string();
 
@@ -139,6 +140,11 @@ int main(int argc, char** argv) {
         copy.node_name = nullptr;
         copy.stages = {};
         node_stats[name] = copy;
+        if (m.final_report && name.rfind("capture", 0) == 0 && !capture_done) {
+          capture_done = true;
+          capture_done_s = MonotonicSeconds();
+          spdlog::info("{} reports the end of its input", name);
+        }
       });
     };
 
@@ -278,6 +284,12 @@ int main(int argc, char** argv) {
       }
 
       const double now = MonotonicSeconds();
+      // The input ended: capture said so and everything it sent is composited
+      // (0.5 s for the last samples to land), or nothing came for idle_timeout.
+      if (capture_done && in_flight.empty() && !assembler.NewestComplete() && now - capture_done_s > 0.5) {
+        spdlog::info("input ended; all framesets handled");
+        done = true;
+      }
       if (any_frame && now - last_new_frame_s > idle_timeout && in_flight.empty()) {
         spdlog::info("no new frameset for {:.1f} s: input ended", idle_timeout);
         done = true;

@@ -53,11 +53,12 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
       cand.clear();
       for (size_t k = 0; k < cams.size(); ++k) {
         const double cosang = to_eye.dot((centres[k] - X).normalized());
-        if (cosang <= 0) continue;
         const auto uv = cams[k].Project(X);
         if (!uv || !cams[k].InImage(*uv)) continue;
-        cand.push_back({std::pow(cosang, options.angle_power) + 1e-12,
-                        Bilinear(images[k].image, uv->x(), uv->y())});
+        // Cameras facing the eye's side dominate; when none does (the Utrecht
+        // rig has no camera behind the person) the least oblique one still wins.
+        const double w = (cosang > 0 ? std::pow(cosang, options.angle_power) : 0.0) + 1e-9 * (1.0 + cosang);
+        cand.push_back({w, Bilinear(images[k].image, uv->x(), uv->y())});
       }
       cv::Vec3b& px = out.at<cv::Vec3b>(r, c);
       if (cand.empty()) {

@@ -29,7 +29,8 @@ struct TextureOptions {
 
 /// Colours the hull pixels of a depth tile (CV_32FC1 eye z, kNoDepth = none) at
 /// `tile` of `view`. Returns CV_8UC3 of the tile's size, black where there is no
-/// hull. A pixel that no camera sees from its side stays mid-grey. No visibility
+/// hull. Where no camera faces the eye's side of the point, the least oblique
+/// camera colours it; a point no camera images stays mid-grey. No visibility
 /// test yet (a later issue adds one): a camera whose view of the point is blocked
 /// by another part of the hull may still contribute.
 cv::Mat TextureHull(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,

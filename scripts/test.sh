@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# README command (2): install what is needed, build, and run every test.
+# Labels: core, gl (skips with a message where no EGL display exists), dds,
+# nodes (node processes fed bad input), e2e (the five processes on the real rig).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+cmake --build build
+ctest --test-dir build -j2 --output-on-failure --timeout 300 "$@"
