@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
   double hfov_deg = 50, idle_timeout = 5, tile_timeout = 1.0, video_fps = 15;
   double orbit_radius = 3.0, orbit_height = 0.7, orbit_period = 12.0;
   std::vector<double> orbit_centre, up{0, 0, -1};
-  bool window = false;
+  std::string window = "auto";
   app.add_option("--out", out_dir, "Output directory (video, PNGs, stats.json)")->capture_default_str();
   app.add_option("--frames", max_frames, "Stop after compositing the frameset with this sequence number");
   app.add_option("--width", width, "Novel view width")->capture_default_str();
@@ -75,11 +75,14 @@ int main(int argc, char** argv) {
   app.add_option("--orbit-height", orbit_height, "Eye height above the centre, metres")->capture_default_str();
   app.add_option("--orbit-period", orbit_period, "Seconds per turn (frame time)")->capture_default_str();
   app.add_option("--up", up, "World up vector (Utrecht rig: 0,0,-1)")->delimiter(',')->expected(3);
-  app.add_flag("--window", window, "Show the output in a window (needs a display)");
+  app.add_option("--window", window, "Show the output in a window: auto (where a display exists), on, off")
+      ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
     auto participant = StartNode("render", common);
+    const bool have_display = std::getenv("DISPLAY") || std::getenv("WAYLAND_DISPLAY");
+    bool show = window == "on" || (window == "auto" && have_display);
     fs::create_directories(out_dir);
     Reader<hullpipe_msg_CameraInfo> info_reader(*participant);
     Reader<hullpipe_msg_ObjectPixelMap> map_reader(*participant);
@@ -268,9 +271,14 @@ int main(int argc, char** argv) {
         if (png_every > 0 && composited % uint64_t(png_every) == 1 % uint64_t(png_every))
           cv::imwrite((fs::path(out_dir) / cv::format("frame_%05llu.png", (unsigned long long)f.frame_seq)).string(),
                       frame);
-        if (window) {
-          cv::imshow("hullpipe", frame);
-          cv::waitKey(1);
+        if (show) {
+          try {
+            cv::imshow("hullpipe", frame);
+            cv::waitKey(1);
+          } catch (const cv::Exception& e) {
+            spdlog::warn("cannot open a window ({}); continuing without", e.what());
+            show = false;
+          }
         }
         reporter.FrameOut(f.capture_time_ns);
         last_composited = std::max(last_composited, f.frame_seq);

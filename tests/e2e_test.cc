@@ -33,6 +33,18 @@ TEST(EndToEnd, FiveProcessesOnTheRealRig) {
   EXPECT_EQ(log.find("SIGKILL"), std::string::npos) << "a node did not stop on SIGINT:\n" << log;
 }
 
+TEST(EndToEnd, FiveProcessesOnTheSyntheticSource) {
+  // No files: capture_node's built-in scene with exact masks.
+  const auto out = test::TempDir("e2e_synth");
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "30", "--out", out.string(),
+                        "--domain", std::to_string(test::UniqueDomain())},
+                       (out / "launch.log").string());
+  ASSERT_EQ(launch.Wait(180), 0) << test::ReadFile((out / "launch.log").string());
+  const auto j = nlohmann::json::parse(test::ReadFile((out / "stats.json").string()));
+  EXPECT_GE(j["frames_composited"].get<int>(), 5);
+  EXPECT_GT(j["hull_pixel_fraction_mean"].get<double>(), 0.01);
+}
+
 TEST(EndToEnd, ReprojectionIoUAtFrame200) {
   if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
   const auto out = test::TempDir("vh_eval");

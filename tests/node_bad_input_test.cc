@@ -136,6 +136,9 @@ TEST_F(NodeTest, ReconNodeSurvivesMalformedSamplesAndAStoppedCamera) {
   auto bad_pose = ViewToMsg(view, seq + 1, seq + 1, NowNs());
   bad_pose.fx = std::nan("");
   poses.Write(bad_pose);
+  // A camera id that has no CameraInfo: parked with its frame, rejected when the
+  // frame is evicted (checked at the end, after more frames pushed it out).
+  maps.Write(MakeMapMessage(99, seq + 2, NowNs(), 0, 2, views[0].map).msg);
 
   // All four were refused and counted (checked before more traffic: keep-last
   // histories would let newer samples replace unread ones, by design).
@@ -151,7 +154,8 @@ TEST_F(NodeTest, ReconNodeSurvivesMalformedSamplesAndAStoppedCamera) {
   send_frame(++seq, true);
   EXPECT_GE(count_tiles(3.0), 1) << test::ReadFile(log_);
 
-  const auto st = WaitStats(stats, "recon0", 4);
+  const auto st = WaitStats(stats, "recon0", 5);
+  EXPECT_GE(st.rejected, 5u) << "camera 99 was not counted:\n" << test::ReadFile(log_);
   EXPECT_GE(st.dropped, 1u);  // the poses of the incomplete frames
   EXPECT_EQ(node->Stop(), 0) << test::ReadFile(log_);
   const std::string log = test::ReadFile(log_);
