@@ -11,6 +11,7 @@
 
 #include "hullpipe/conventions.h"
 #include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/frameset.h"
 #include "hullpipe/gl/backend.h"
@@ -51,18 +52,13 @@ int main(int argc, char** argv) {
     std::unique_ptr<gl::SweepBackend> backend = gl::MakeSweepBackend(backend_name, threads);
     spdlog::info("tile {}/{}, backend {}", tile_i, tile_n, backend->Name());
 
-    Reader<hullpipe_msg_CameraInfo> info_reader(*participant);
-    Reader<hullpipe_msg_ObjectPixelMap> map_reader(*participant);
-    Reader<hullpipe_msg_CameraImage> image_reader(*participant);
-    Reader<hullpipe_msg_ViewPose> pose_reader(*participant);
-    Writer<hullpipe_msg_HullView> tile_writer(*participant);
     WaitSet ws(*participant);
-    ws.Attach(info_reader);
-    ws.Attach(map_reader);
-    ws.Attach(image_reader);
+    FramesetInput input(*participant, ws, 8, /*with_images=*/true);
+    FramesetAssembler& assembler = input.assembler();
+    Reader<hullpipe_msg_ViewPose> pose_reader(*participant);
     ws.Attach(pose_reader);
+    Writer<hullpipe_msg_HullView> tile_writer(*participant);
     NodeReporter reporter(*participant, name);
-    FramesetAssembler assembler(8, /*want_images=*/true);
 
     struct PendingPose {
       hullpipe_msg_ViewPose msg;
@@ -78,32 +74,7 @@ int main(int argc, char** argv) {
 
     while (!StopRequested()) {
       ws.Wait(0.1);
-      info_reader.TakeEach([&](const hullpipe_msg_CameraInfo& m, const dds_sample_info_t&) {
-        try {
-          Aabb box;
-          assembler.SetCamera(CameraFromMsg(m, &box));
-          if (!box.empty()) assembler.SetWorkspace(box);
-        } catch (const MessageError& e) {
-          reject(e.what());
-        }
-      });
-      map_reader.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
-        std::string why;
-        try {
-          if (!assembler.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count),
-                                MapFromMsg(m), &why) && !why.empty() && assembler.rejected() > 0)
-            spdlog::debug("{}", why);
-        } catch (const MessageError& e) {
-          reject(e.what());
-        }
-      });
-      image_reader.TakeEach([&](const hullpipe_msg_CameraImage& m, const dds_sample_info_t&) {
-        try {
-          assembler.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m));
-        } catch (const MessageError& e) {
-          reject(e.what());
-        }
-      });
+      input.Poll();
       pose_reader.TakeEach([&](const hullpipe_msg_ViewPose& m, const dds_sample_info_t&) {
         try {
           poses.push_back({m, ViewFromMsg(m), MonotonicSeconds()});
@@ -168,8 +139,8 @@ int main(int argc, char** argv) {
         tile_writer.Write(MakeHullViewMessage(tile, uint32_t(depths.size())).msg);
         reporter.FrameOut(fs->capture_time_ns);
       }
-      reporter.SetDropped(assembler.dropped() + poses_dropped);
-      reporter.SetRejected(assembler.rejected() + rejected_msgs);
+      reporter.SetDropped(input.dropped() + poses_dropped);
+      reporter.SetRejected(input.rejected() + rejected_msgs);
       reporter.Publish();
     }
     reporter.Publish(true);

@@ -19,6 +19,7 @@
 #include "hullpipe/compositor.h"
 #include "hullpipe/conventions.h"
 #include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/frameset.h"
 
@@ -84,22 +85,19 @@ int main(int argc, char** argv) {
     const bool have_display = std::getenv("DISPLAY") || std::getenv("WAYLAND_DISPLAY");
     bool show = window == "on" || (window == "auto" && have_display);
     fs::create_directories(out_dir);
-    Reader<hullpipe_msg_CameraInfo> info_reader(*participant);
-    Reader<hullpipe_msg_ObjectPixelMap> map_reader(*participant);
+    WaitSet ws(*participant);
+    FramesetInput input(*participant, ws, 8, false);
+    FramesetAssembler& assembler = input.assembler();
     Reader<hullpipe_msg_HullView> tile_reader(*participant);
     Reader<hullpipe_msg_VirtualObjectState> state_reader(*participant);
     Reader<hullpipe_msg_CollisionReport> report_reader(*participant);
     Reader<hullpipe_msg_NodeStats> stats_reader(*participant);
     Writer<hullpipe_msg_ViewPose> pose_writer(*participant);
-    WaitSet ws(*participant);
-    ws.Attach(info_reader);
-    ws.Attach(map_reader);
     ws.Attach(tile_reader);
     ws.Attach(state_reader);
     ws.Attach(report_reader);
     ws.Attach(stats_reader);
     NodeReporter reporter(*participant, "render");
-    FramesetAssembler assembler(8, false);
 
     OrbitPath orbit;
     orbit.up = Eigen::Vector3d(up[0], up[1], up[2]);
@@ -153,22 +151,7 @@ int main(int argc, char** argv) {
 
     while (!StopRequested() && !done) {
       ws.Wait(0.05);
-      info_reader.TakeEach([&](const hullpipe_msg_CameraInfo& m, const dds_sample_info_t&) {
-        try {
-          Aabb box;
-          assembler.SetCamera(CameraFromMsg(m, &box));
-          if (!box.empty()) assembler.SetWorkspace(box);
-        } catch (const MessageError& e) {
-          reject(e.what());
-        }
-      });
-      map_reader.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
-        try {
-          assembler.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count), MapFromMsg(m));
-        } catch (const MessageError& e) {
-          reject(e.what());
-        }
-      });
+      input.Poll();
       tile_reader.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) {
         try {
           HullTile t = TileFromMsg(m);
@@ -308,7 +291,7 @@ int main(int argc, char** argv) {
                      last_composited, reporter.frames_out(), reporter.fps(), reporter.latency_ms().Percentile(50),
                      reporter.latency_ms().Percentile(95), reporter.dropped());
       }
-      reporter.SetRejected(rejected + assembler.rejected());
+      reporter.SetRejected(rejected + input.rejected());
       reporter.Publish();
     }
     video.release();
@@ -327,7 +310,7 @@ int main(int argc, char** argv) {
                       m.rejected, node_stages[name]});
     }
     NodeRow self{"render", reporter.fps(), reporter.latency_ms().Percentile(50), reporter.latency_ms().Percentile(95),
-                 reporter.frames_in(), reporter.frames_out(), reporter.dropped(), rejected + assembler.rejected(),
+                 reporter.frames_in(), reporter.frames_out(), reporter.dropped(), rejected + input.rejected(),
                  nlohmann::json::object()};
     for (const auto& [n, s] : reporter.stages()) self.stages[n] = {{"ms_mean", s.Mean()}, {"ms_p95", s.Percentile(95)}};
     rows.push_back(self);

@@ -9,6 +9,7 @@
 #include "hullpipe/ball_scene.h"
 #include "hullpipe/conventions.h"
 #include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/frameset.h"
 
@@ -26,16 +27,13 @@ int main(int argc, char** argv) {
     const SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path);
     auto participant = StartNode("sim", common);
     BallSimulation sim(config);
-    Reader<hullpipe_msg_CameraInfo> info_reader(*participant);
-    Reader<hullpipe_msg_ObjectPixelMap> map_reader(*participant);
+    WaitSet ws(*participant);
+    FramesetInput input(*participant, ws, 6, false);
+    FramesetAssembler& assembler = input.assembler();
     Writer<hullpipe_msg_VirtualObjectState> state_writer(*participant);
     Writer<hullpipe_msg_CollisionReport> report_writer(*participant);
-    WaitSet ws(*participant);
-    ws.Attach(info_reader);
-    ws.Attach(map_reader);
     NodeReporter reporter(*participant, "sim");
-    FramesetAssembler assembler(6, false);
-    uint64_t rejected = 0, collisions = 0;
+    uint64_t collisions = 0;
     // Simulated time follows the frames' source time (not the wall clock), so a
     // run, or a replay of a recording, is deterministic given its inputs.
     double last_source_time = -1;
@@ -43,25 +41,7 @@ int main(int argc, char** argv) {
                  config.gravity.z());
     while (!StopRequested()) {
       ws.Wait(0.1);
-      info_reader.TakeEach([&](const hullpipe_msg_CameraInfo& m, const dds_sample_info_t&) {
-        try {
-          Aabb box;
-          assembler.SetCamera(CameraFromMsg(m, &box));
-          if (!box.empty()) assembler.SetWorkspace(box);
-        } catch (const MessageError& e) {
-          ++rejected;
-          spdlog::warn("rejected: {}", e.what());
-        }
-      });
-      map_reader.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
-        try {
-          assembler.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count), MapFromMsg(m),
-                           nullptr, m.source_time);
-        } catch (const MessageError& e) {
-          ++rejected;
-          spdlog::warn("rejected: {}", e.what());
-        }
-      });
+      input.Poll();
       while (auto fs = assembler.TakeNewest()) {
         reporter.FrameIn();
         const double dt = last_source_time < 0 ? 0.0 : fs->source_time_s - last_source_time;
@@ -105,8 +85,8 @@ int main(int argc, char** argv) {
         }
         reporter.FrameOut(fs->capture_time_ns);
       }
-      reporter.SetDropped(assembler.dropped());
-      reporter.SetRejected(assembler.rejected() + rejected);
+      reporter.SetDropped(input.dropped());
+      reporter.SetRejected(input.rejected());
       reporter.Publish();
     }
     reporter.Publish(true);

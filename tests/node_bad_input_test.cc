@@ -51,6 +51,17 @@ class NodeTest : public ::testing::Test {
     // time to match our writers too, or the first volatile samples are lost.
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
   }
+  /// Takes samples of `r` for wait_s seconds, calling f on each; returns how many.
+  template <typename T, typename F>
+  static int Drain(const Reader<T>& r, double wait_s, F f) {
+    int n = 0;
+    const double end = MonotonicSeconds() + wait_s;
+    while (MonotonicSeconds() < end) {
+      n += int(r.TakeEach([&](const T& m, const dds_sample_info_t&) { f(m); }));
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return n;
+  }
   /// Newest NodeStats of `name` once its rejected count reaches `min_rejected` (or timeout).
   hullpipe_msg_NodeStats WaitStats(Reader<hullpipe_msg_NodeStats>& r, const std::string& name, uint64_t min_rejected) {
     hullpipe_msg_NodeStats last{};
@@ -105,15 +116,7 @@ TEST_F(NodeTest, ReconNodeSurvivesMalformedSamplesAndAStoppedCamera) {
     poses.Write(ViewToMsg(view, seq, seq, NowNs()));
   };
   auto count_tiles = [&](double wait_s) {
-    int n = 0;
-    const double end = MonotonicSeconds() + wait_s;
-    while (MonotonicSeconds() < end) {
-      n += int(tiles.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) {
-        EXPECT_EQ(m.width * m.height, m.depth._length);
-      }));
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return n;
+    return Drain(tiles, wait_s, [](const hullpipe_msg_HullView& m) { EXPECT_EQ(m.width * m.height, m.depth._length); });
   };
   // Handshake: good frames until a tile comes back, so every path is live
   // (volatile readers drop what was written before they synchronised).
@@ -179,15 +182,8 @@ TEST_F(NodeTest, SimNodeRejectsBadMapsAndKeepsSimulating) {
       maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25, 2, v.map).msg);
   };
   auto take_states = [&](double wait_s) {
-    int n = 0;
-    const double end = MonotonicSeconds() + wait_s;
-    while (MonotonicSeconds() < end) {
-      n += int(states.TakeEach([](const hullpipe_msg_VirtualObjectState& m, const dds_sample_info_t&) {
-        EXPECT_TRUE(std::isfinite(m.position.x));
-      }));
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return n;
+    return Drain(states, wait_s,
+                 [](const hullpipe_msg_VirtualObjectState& m) { EXPECT_TRUE(std::isfinite(m.position.x)); });
   };
   // Handshake: good framesets until the first state comes back.
   uint64_t seq = 1;

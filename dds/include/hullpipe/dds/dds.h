@@ -159,7 +159,7 @@ class WaitSet : public Entity {
  public:
   explicit WaitSet(const Participant& p);
   template <typename T>
-  void Attach(const Reader<T>& r) {
+  void Attach(const Reader<T>& r) const {
     Check(dds_waitset_attach(handle(), r.condition(), 0), "dds_waitset_attach");
   }
   /// Blocks until some attached reader has data or timeout_s passes. Returns the

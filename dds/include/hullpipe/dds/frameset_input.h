@@ -1,0 +1,39 @@
+// The input side of every node that consumes framesets (recon, sim, render):
+// CameraInfo, ObjectPixelMap and optionally CameraImage readers feeding a
+// FramesetAssembler (core/frameset.h). Malformed samples are logged on one line
+// and counted; they never stop the node.
+#pragma once
+
+#include <memory>
+
+#include "hullpipe/dds/dds.h"
+#include "hullpipe/dds/topics.h"
+#include "hullpipe/frameset.h"
+
+namespace hullpipe::dds {
+
+class FramesetInput {
+ public:
+  /// Creates the readers and attaches them to `waitset`. max_pending and
+  /// with_images as FramesetAssembler's.
+  FramesetInput(const Participant& participant, const WaitSet& waitset, size_t max_pending, bool with_images);
+
+  /// Takes every available CameraInfo, map and image sample into the assembler.
+  void Poll();
+
+  FramesetAssembler& assembler() { return assembler_; }
+  /// Malformed samples plus the assembler's rejections.
+  uint64_t rejected() const { return malformed_ + assembler_.rejected(); }
+  /// Framesets superseded or evicted before use.
+  uint64_t dropped() const { return assembler_.dropped(); }
+
+ private:
+  void Reject(const char* what);
+  Reader<hullpipe_msg_CameraInfo> info_;
+  Reader<hullpipe_msg_ObjectPixelMap> maps_;
+  std::unique_ptr<Reader<hullpipe_msg_CameraImage>> images_;
+  FramesetAssembler assembler_;
+  uint64_t malformed_ = 0;
+};
+
+}  // namespace hullpipe::dds

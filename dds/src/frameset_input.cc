@@ -1,0 +1,57 @@
+#include "hullpipe/dds/frameset_input.h"
+
+#include <spdlog/spdlog.h>
+
+#include "hullpipe/dds/convert.h"
+
+namespace hullpipe::dds {
+
+FramesetInput::FramesetInput(const Participant& p, const WaitSet& ws, size_t max_pending, bool with_images)
+    : info_(p), maps_(p), assembler_(max_pending, with_images) {
+  ws.Attach(info_);
+  ws.Attach(maps_);
+  if (with_images) {
+    images_ = std::make_unique<Reader<hullpipe_msg_CameraImage>>(p);
+    ws.Attach(*images_);
+  }
+}
+
+void FramesetInput::Reject(const char* what) {
+  ++malformed_;
+  spdlog::warn("rejected: {}", what);
+}
+
+void FramesetInput::Poll() {
+  info_.TakeEach([&](const hullpipe_msg_CameraInfo& m, const dds_sample_info_t&) {
+    try {
+      Aabb box;
+      assembler_.SetCamera(CameraFromMsg(m, &box));
+      if (!box.empty()) assembler_.SetWorkspace(box);
+    } catch (const MessageError& e) {
+      Reject(e.what());
+    }
+  });
+  maps_.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
+    try {
+      std::string why;
+      const uint64_t rejected_before = assembler_.rejected();
+      if (!assembler_.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count), MapFromMsg(m),
+                             &why, m.source_time) &&
+          assembler_.rejected() > rejected_before)
+        spdlog::warn("rejected: {}", why);
+    } catch (const MessageError& e) {
+      Reject(e.what());
+    }
+  });
+  if (images_) {
+    images_->TakeEach([&](const hullpipe_msg_CameraImage& m, const dds_sample_info_t&) {
+      try {
+        assembler_.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m));
+      } catch (const MessageError& e) {
+        Reject(e.what());
+      }
+    });
+  }
+}
+
+}  // namespace hullpipe::dds
