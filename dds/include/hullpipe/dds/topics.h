@@ -20,7 +20,7 @@ HULLPIPE_TOPIC(CameraImage, "hullpipe/camera_image", true, false, 4)
 HULLPIPE_TOPIC(ViewPose, "hullpipe/view_pose", true, false, 4)
 HULLPIPE_TOPIC(HullView, "hullpipe/hull_view", true, false, 4)
 HULLPIPE_TOPIC(VirtualObjectState, "hullpipe/object_state", true, false, 1)
-HULLPIPE_TOPIC(CollisionReport, "hullpipe/collision_report", true, false, 4)
+HULLPIPE_TOPIC(CollisionReport, "hullpipe/collision_report", true, false, 16)
 HULLPIPE_TOPIC(NodeStats, "hullpipe/node_stats", true, true, 1)
 
 #undef HULLPIPE_TOPIC
