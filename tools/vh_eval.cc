@@ -9,6 +9,7 @@
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
 
@@ -61,6 +62,7 @@ int main(int argc, char** argv) {
   rep->add_option("--save-worst", save_worst, "With --all-frames: PNG of the worst frame's reprojections");
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   try {
     auto src = OpenVideoRig(rig, {});
     RigFrame f;

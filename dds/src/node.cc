@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <vector>
 
+#include <opencv2/core/utils/logger.hpp>
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/conventions.h"
@@ -19,6 +20,9 @@ void AddCommonOptions(CLI::App& app, CommonOptions& o) {
 std::unique_ptr<Participant> StartNode(const std::string& node_name, const CommonOptions& o) {
   spdlog::set_pattern("[%H:%M:%S.%e] [" + node_name + "] %^%l%$ %v");
   spdlog::set_level(spdlog::level::from_str(o.log_level));
+  // Nodes report bad input themselves, one line each; OpenCV's own log would
+  // repeat it in another format.
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   if (!o.dds_config.empty()) {
     if (!std::filesystem::exists(o.dds_config))
       throw std::runtime_error("--dds-config " + o.dds_config + ": no such file");
