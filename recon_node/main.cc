@@ -114,15 +114,12 @@ int main(int argc, char** argv) {
         const double t0 = MonotonicSeconds();
         const cv::Rect rect = TileRect(tile_i, tile_n, pose.view.width, pose.view.height);
         HullTile tile;
-        std::vector<double> depths;
+        const VolumeQuery vq(fs->maps, assembler.workspace());  // includes the hull box
+        const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, sweep);
+        reporter.Stage("hull_box", (MonotonicSeconds() - t0) * 1e3);
         {
-          StageTimer st(reporter, "volume_query_setup");
-          VolumeQuery vq(fs->maps, assembler.workspace());
-          depths = SweepPlaneDepths(vq, pose.view, sweep);
-          {
-            StageTimer st2(reporter, "sweep");
-            tile.depth = backend->Sweep(vq, pose.view, depths, rect);
-          }
+          StageTimer st(reporter, "sweep");
+          tile.depth = backend->Sweep(vq, pose.view, depths, rect);
         }
         {
           StageTimer st(reporter, "texture");
