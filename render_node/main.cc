@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
     uint64_t pose_seq = 0, last_requested = 0, last_composited = 0, rejected = 0, tiles_late = 0;
     uint64_t collisions_drawn = 0, collision_reports = 0;
     double hull_fraction_sum = 0;  // fraction of view pixels showing hull, summed over frames
-    int64_t first_capture_ns = 0;
+    double first_source_time = 0;
     double last_new_frame_s = MonotonicSeconds(), last_progress_s = MonotonicSeconds();
     bool any_frame = false, done = false, capture_done = false;
     double capture_done_s = 0;
@@ -187,7 +187,7 @@ int main(int argc, char** argv) {
         last_new_frame_s = MonotonicSeconds();
         if (!any_frame) {
           any_frame = true;
-          first_capture_ns = fset->capture_time_ns;
+          first_source_time = fset->source_time_s;
         }
         if (!centre_known) {
           const VolumeQuery vq(fset->maps, assembler.workspace());
@@ -198,8 +198,9 @@ int main(int argc, char** argv) {
                          orbit.centre.y(), orbit.centre.z());
           }
         }
-        // The path is driven by frame time, so a run is reproducible.
-        const double t = double(fset->capture_time_ns - first_capture_ns) * 1e-9;
+        // The path is driven by the frames' source time, not the wall clock, so the
+        // same frame is seen from the same place in every run and replay.
+        const double t = fset->source_time_s - first_source_time;
         InFlight f;
         f.frame_seq = fset->seq;
         f.capture_time_ns = fset->capture_time_ns;
