@@ -88,12 +88,13 @@ int main(int argc, char** argv) {
         int worst_frame = -1;
       };
       std::map<int, Acc> acc;
-      int k = 0, worst_frame = -1;
+      int k = 0, evaluated = 0, worst_frame = -1;
       double worst = 2;
       for (; src->Next(&f); ++k) {
         bool ok = true;
         for (const auto& m : f.maps) ok &= !m.empty();
         if (!ok) continue;
+        ++evaluated;
         const auto res = EvaluateFrame(*src, f, step);
         double frame_min = 2;
         for (const auto& r : res) {
@@ -129,9 +130,10 @@ int main(int argc, char** argv) {
         if (!json) std::fprintf(stderr, "\rframe %d", k);
       }
       j["frames"] = k;
+      j["frames_evaluated"] = evaluated;
       j["worst_frame"] = worst_frame;
       for (const auto& [id, a] : acc) {
-        const double n = double(k);
+        const double n = double(std::max(1, evaluated));
         j["cameras"].push_back({{"id", id},
                                 {"iou_all_mean", a.sum_all / n},
                                 {"iou_all_worst", a.min_all},
@@ -143,7 +145,8 @@ int main(int argc, char** argv) {
         std::printf("\n%d frames\n%-8s %14s %14s %14s %14s\n", k, "camera", "all mean", "all worst", "loo mean",
                     "loo worst");
         for (const auto& [id, a] : acc)
-          std::printf("%-8d %14.3f %14.3f %14.3f %14.3f\n", id, a.sum_all / k, a.min_all, a.sum_loo / k, a.min_loo);
+          std::printf("%-8d %14.3f %14.3f %14.3f %14.3f\n", id, a.sum_all / std::max(1, evaluated), a.min_all,
+                      a.sum_loo / std::max(1, evaluated), a.min_loo);
       }
     }
     if (json) std::cout << j.dump(2) << std::endl;

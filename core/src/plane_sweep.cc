@@ -66,7 +66,8 @@ std::vector<double> SweepPlaneDepths(const VolumeQuery& query, const NovelView& 
 namespace {
 
 void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
-               const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out, SweepStats* stats) {
+               const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out, SweepStats* stats,
+               int refine_iterations) {
   const auto& cams = query.fast();
   const size_t n = cams.size();
   const Aabb& box = query.hull_box();
@@ -97,27 +98,34 @@ void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vecto
         B[c] = (R * D).cast<float>();
       }
       // First plane at or beyond s0 (the box entry), last at or before s1.
-      size_t k = size_t(std::lower_bound(depths.begin(), depths.end(), s0) - depths.begin());
-      for (; k < d.size() && depths[k] <= s1; ++k) {
-        ++local.plane_points;
-        const float dk = d[k];
-        bool inside = true;
+      auto inside_at = [&](float dk) {
         for (size_t j = 0; j < n; ++j) {
           const size_t c = order[j];
           ++local.projections;
           const Eigen::Vector3f X = A[c] + dk * B[c];
           if (!VolumeQuery::Hits(cams[c], X.x(), X.y(), X.z())) {
-            inside = false;
             // The camera that rejected goes first next time: neighbouring points
             // are usually rejected by the same camera.
             if (j > 0) std::rotate(order.begin(), order.begin() + long(j), order.begin() + long(j) + 1);
-            break;
+            return false;
           }
         }
-        if (inside) {
-          out_row[col] = dk;
-          break;
+        return true;
+      };
+      const size_t first = size_t(std::lower_bound(depths.begin(), depths.end(), s0) - depths.begin());
+      for (size_t k = first; k < d.size() && depths[k] <= s1; ++k) {
+        ++local.plane_points;
+        if (!inside_at(d[k])) continue;
+        float hi = d[k];
+        if (refine_iterations > 0) {
+          float lo = k > first ? d[k - 1] : float(s0);
+          for (int it = 0; it < refine_iterations; ++it) {
+            const float mid = 0.5f * (lo + hi);
+            (inside_at(mid) ? hi : lo) = mid;
+          }
         }
+        out_row[col] = hi;
+        break;
       }
     }
   }
@@ -132,20 +140,20 @@ void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vecto
 
 cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                       const std::vector<double>& depths, const cv::Rect& tile, SweepStats* stats,
-                      int threads) {
+                      int threads, int refine_iterations) {
   view.Check();
   cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
   if (depths.empty() || tile.area() == 0 || query.hull_box().empty()) return out;
   threads = std::clamp(threads, 1, std::max(1, tile.height));
   if (threads == 1) {
-    SweepRows(query, view, depths, tile, 0, tile.height, out, stats);
+    SweepRows(query, view, depths, tile, 0, tile.height, out, stats, refine_iterations);
     return out;
   }
   std::vector<SweepStats> per(static_cast<size_t>(threads));
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     const int r0 = tile.height * t / threads, r1 = tile.height * (t + 1) / threads;
-    pool.emplace_back([&, t, r0, r1] { SweepRows(query, view, depths, tile, r0, r1, out, &per[size_t(t)]); });
+    pool.emplace_back([&, t, r0, r1] { SweepRows(query, view, depths, tile, r0, r1, out, &per[size_t(t)], refine_iterations); });
   }
   for (auto& th : pool) th.join();
   if (stats)

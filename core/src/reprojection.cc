@@ -17,6 +17,12 @@ cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, i
   const Eigen::Vector3d O = camera.Center();
   std::vector<Eigen::Vector3f> A(n);
   for (size_t c = 0; c < n; ++c) A[c] = (q.views()[c].camera.cam_from_world * O).cast<float>();
+  // A camera of the query centred where this one is sees every ray of this camera
+  // as a single point: if that point is not on its object pixels the whole ray is
+  // outside, so it is tested once before marching (the iou_all case).
+  std::vector<size_t> same_centre;
+  for (size_t c = 0; c < n; ++c)
+    if ((q.views()[c].camera.Center() - O).norm() < 1e-9) same_centre.push_back(c);
   auto rows = [&](int r0, int r1) {
     std::vector<Eigen::Vector3f> B(n);
     for (int r = r0; r < r1; ++r) {
@@ -25,6 +31,12 @@ cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, i
         double s0 = 0, s1 = 1e9;
         if (!box.ClipRay(O, D, &s0, &s1)) continue;
         for (size_t c = 0; c < n; ++c) B[c] = (q.views()[c].camera.cam_from_world.rotation * D).cast<float>();
+        bool seen = true;
+        for (size_t c : same_centre) {
+          const Eigen::Vector3f X = A[c] + float(0.5 * (s0 + s1)) * B[c];
+          seen = seen && VolumeQuery::Hits(cams[c], X.x(), X.y(), X.z());
+        }
+        if (!seen) continue;
         for (double s = s0; s <= s1; s += step) {
           bool inside = true;
           for (size_t c = 0; c < n && inside; ++c) {

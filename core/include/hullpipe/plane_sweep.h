@@ -67,10 +67,14 @@ struct SweepStats {
 /// plane whose point is inside the hull, or kNoDepth (+inf). The result equals
 /// testing every plane of every pixel in order (the paper's sweep); it skips only
 /// planes outside the hull box, where no point can be inside. threads >= 1 splits
-/// rows across threads.
+/// rows across threads. refine_iterations > 0 (beyond the paper, issue 4) then
+/// bisects each pixel's depth between its last outside point (the previous plane
+/// or the hull box entry) and the first inside plane, with point queries: depth
+/// error shrinks by 2^-iterations of the plane spacing instead of depending on the
+/// plane count. 0 keeps the paper's result, identical to the GL sweep.
 cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                       const std::vector<double>& plane_depths, const cv::Rect& tile,
-                      SweepStats* stats = nullptr, int threads = 1);
+                      SweepStats* stats = nullptr, int threads = 1, int refine_iterations = 0);
 
 /// Tile i of n of a view: n horizontal bands of (nearly) equal height, top first.
 /// Throws std::invalid_argument unless 0 <= i < n <= height.
