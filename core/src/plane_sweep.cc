@@ -70,6 +70,7 @@ void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vecto
                int refine_iterations) {
   const auto& cams = query.fast();
   const size_t n = cams.size();
+  const bool unknown = query.options().out_of_view == OutOfView::kUnknown;
   const Aabb& box = query.hull_box();
   const Eigen::Matrix3d& R_we = view.world_from_eye.rotation;
   const Eigen::Vector3d O = view.world_from_eye.translation;
@@ -99,25 +100,32 @@ void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vecto
       }
       // First plane at or beyond s0 (the box entry), last at or before s1.
       auto inside_at = [&](float dk) {
+        int object = 0, unseen = 0;
         for (size_t j = 0; j < n; ++j) {
           const size_t c = order[j];
           ++local.projections;
           const Eigen::Vector3f X = A[c] + dk * B[c];
-          if (!VolumeQuery::Hits(cams[c], X.x(), X.y(), X.z())) {
+          const Vote vote = VolumeQuery::VoteFast(cams[c], X.x(), X.y(), X.z());
+          if (vote == Vote::kObject) {
+            ++object;
+          } else if (vote == Vote::kBackground || !unknown) {
             // The camera that rejected goes first next time: neighbouring points
             // are usually rejected by the same camera.
             if (j > 0) std::rotate(order.begin(), order.begin() + long(j), order.begin() + long(j) + 1);
             return false;
+          } else {
+            ++unseen;
           }
         }
-        return true;
+        return query.Accepts(object, unseen);
       };
       const size_t first = size_t(std::lower_bound(depths.begin(), depths.end(), s0) - depths.begin());
       for (size_t k = first; k < d.size() && depths[k] <= s1; ++k) {
         ++local.plane_points;
         if (!inside_at(d[k])) continue;
         float hi = d[k];
-        if (refine_iterations > 0) {
+        // The near plane itself is not refined: in front of it the frustum is cut.
+        if (refine_iterations > 0 && k > 0) {
           float lo = k > first ? d[k - 1] : float(s0);
           for (int it = 0; it < refine_iterations; ++it) {
             const float mid = 0.5f * (lo + hi);

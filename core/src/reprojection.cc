@@ -14,6 +14,7 @@ cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, i
   if (box.empty()) return out;
   const auto& cams = q.fast();
   const size_t n = cams.size();
+  const bool unknown = q.options().out_of_view == OutOfView::kUnknown;
   const Eigen::Vector3d O = camera.Center();
   std::vector<Eigen::Vector3f> A(n);
   for (size_t c = 0; c < n; ++c) A[c] = (q.views()[c].camera.cam_from_world * O).cast<float>();
@@ -31,18 +32,24 @@ cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, i
         double s0 = 0, s1 = 1e9;
         if (!box.ClipRay(O, D, &s0, &s1)) continue;
         for (size_t c = 0; c < n; ++c) B[c] = (q.views()[c].camera.cam_from_world.rotation * D).cast<float>();
-        bool seen = true;
+        bool possible = true;
         for (size_t c : same_centre) {
           const Eigen::Vector3f X = A[c] + float(0.5 * (s0 + s1)) * B[c];
-          seen = seen && VolumeQuery::Hits(cams[c], X.x(), X.y(), X.z());
+          const Vote v = VolumeQuery::VoteFast(cams[c], X.x(), X.y(), X.z());
+          possible = possible && (v == Vote::kObject || (v == Vote::kUnseen && unknown));
         }
-        if (!seen) continue;
+        if (!possible) continue;
         for (double s = s0; s <= s1; s += step) {
-          bool inside = true;
-          for (size_t c = 0; c < n && inside; ++c) {
+          int object = 0, unseen = 0;
+          bool rejected = false;
+          for (size_t c = 0; c < n && !rejected; ++c) {
             const Eigen::Vector3f X = A[c] + float(s) * B[c];
-            inside = VolumeQuery::Hits(cams[c], X.x(), X.y(), X.z());
+            const Vote v = VolumeQuery::VoteFast(cams[c], X.x(), X.y(), X.z());
+            rejected = v == Vote::kBackground || (v == Vote::kUnseen && !unknown);
+            object += v == Vote::kObject;
+            unseen += v == Vote::kUnseen;
           }
+          const bool inside = !rejected && q.Accepts(object, unseen);
           if (inside) {
             out.at<uint8_t>(r, col) = 255;
             break;

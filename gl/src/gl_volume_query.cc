@@ -19,19 +19,26 @@ uniform vec4 u_intr[MAXCAM];  // fx fy cx cy
 uniform vec4 u_k[MAXCAM];     // k1 k2 k3 r2max
 uniform vec4 u_p[MAXCAM];     // p1 p2 width height
 uniform sampler2D u_maps[MAXCAM];
-bool Hits(int c, vec3 X) {
-  if (!(X.z > 1e-6)) return false;
+// Where camera c sees camera-frame point X: its pixel, or (-1, -1) if unseen.
+vec2 Pixel(int c, vec3 X) {
+  if (!(X.z > 1e-6)) return vec2(-1.0);
   float iz = 1.0 / X.z;
   vec2 xn = X.xy * iz;
   float r2 = dot(xn, xn);
-  if (r2 > u_k[c].w) return false;
+  if (!(r2 <= u_k[c].w)) return vec2(-1.0);
   float radial = 1.0 + r2 * (u_k[c].x + r2 * (u_k[c].y + r2 * u_k[c].z));
   float xy = xn.x * xn.y;
   vec2 xd = vec2(xn.x * radial + 2.0 * u_p[c].x * xy + u_p[c].y * (r2 + 2.0 * xn.x * xn.x),
                  xn.y * radial + u_p[c].x * (r2 + 2.0 * xn.y * xn.y) + 2.0 * u_p[c].y * xy);
   vec2 uv = vec2(u_intr[c].x * xd.x + u_intr[c].z, u_intr[c].y * xd.y + u_intr[c].w);
-  if (!(uv.x >= 0.0 && uv.y >= 0.0 && uv.x < u_p[c].z && uv.y < u_p[c].w)) return false;
-  return texelFetch(u_maps[c], ivec2(uv), 0).r > 0.0;
+  if (!(uv.x >= 0.0 && uv.y >= 0.0 && uv.x < u_p[c].z && uv.y < u_p[c].w)) return vec2(-1.0);
+  return uv;
+}
+// Camera c's vote on X: 0 background, 1 object, 2 unseen (as VolumeQuery::VoteFast).
+int VoteOf(int c, vec3 X) {
+  vec2 uv = Pixel(c, X);
+  if (uv.x < 0.0) return 2;
+  return texelFetch(u_maps[c], ivec2(uv), 0).r > 0.0 ? 1 : 0;
 }
 )";
 
@@ -46,6 +53,7 @@ std::string SweepCountFs() {
   return std::string("#version 450 core\n") + kProjectGlsl + R"(
 uniform int u_cam;
 uniform float u_depth;
+uniform int u_unknown;  // 1: a camera that cannot see the point does not veto it
 uniform vec4 u_view;    // fx fy cx cy of the novel view
 uniform vec2 u_origin;  // tile origin in view pixels
 out vec4 o_colour;
@@ -54,13 +62,18 @@ void main() {
   vec2 uv = u_origin + gl_FragCoord.xy;
   vec3 ray = vec3((uv.x - u_view.z) / u_view.x, (uv.y - u_view.w) / u_view.y, 1.0);
   vec3 X = u_A[u_cam] + u_depth * (u_M[u_cam] * ray);
-  if (!Hits(u_cam, X)) discard;
+  int v = VoteOf(u_cam, X);
+  if (!(v == 1 || (u_unknown != 0 && v == 2))) discard;
   o_colour = vec4(0.0);
 }
 )";
 }
 
-const char* kSweepResolveFs = R"(#version 450 core
+std::string SweepResolveFs() {
+  return std::string("#version 450 core\n") + kProjectGlsl + R"(
+uniform int u_ncam;
+uniform int u_unknown;
+uniform int u_required;  // cameras that must see the point (kUnknown)
 uniform float u_depth;
 uniform float u_rank;  // (k + 1) / (planes + 1): the first plane wins the depth test
 uniform vec4 u_view;
@@ -75,10 +88,18 @@ void main() {
   vec3 ray = vec3((uv.x - u_view.z) / u_view.x, (uv.y - u_view.w) / u_view.y, 1.0);
   vec3 X = u_O + u_depth * (u_Rwe * ray);
   if (any(lessThan(X, u_bmin)) || any(greaterThan(X, u_bmax))) discard;
+  if (u_unknown != 0) {
+    // The stencil says no camera voted background; enough must have seen it.
+    int seen = 0;
+    for (int c = 0; c < u_ncam; ++c)
+      if (Pixel(c, u_A[c] + u_depth * (u_M[c] * ray)).x >= 0.0) ++seen;
+    if (seen < u_required) discard;
+  }
   gl_FragDepth = u_rank;
   o_depth = vec4(u_depth, 0.0, 0.0, 0.0);
 }
 )";
+}
 
 const char* kTriVs = R"(#version 450 core
 layout(location = 0) in vec2 a_pix;    // vertex in its viewport's pixel coordinates
@@ -94,16 +115,19 @@ void main() {
 std::string TriFs() {
   return std::string("#version 450 core\n") + kProjectGlsl + R"(
 uniform int u_ncam;
+uniform int u_unknown;
+uniform int u_required;
+uniform vec3 u_wmin;  // workspace box, world metres
+uniform vec3 u_wmax;
 in vec3 v_world;
 out vec4 o_hit;
 void main() {
   // No early break: sampler arrays must be indexed with dynamically uniform
   // values (GLSL 4.5), which a divergent break would violate.
-  int count = 0;
-  for (int c = 0; c < u_ncam; ++c) {
-    if (Hits(c, u_A[c] + u_M[c] * v_world)) ++count;
-  }
-  bool inside = count == u_ncam;
+  int votes[3] = int[3](0, 0, 0);
+  for (int c = 0; c < u_ncam; ++c) votes[VoteOf(c, u_A[c] + u_M[c] * v_world)] += 1;
+  bool in_box = all(greaterThanEqual(v_world, u_wmin)) && all(lessThanEqual(v_world, u_wmax));
+  bool inside = in_box && votes[0] == 0 && (votes[2] == 0 || u_unknown != 0) && votes[1] >= u_required;
   o_hit = vec4(v_world, inside ? 1.0 : 0.5);
 }
 )";
@@ -112,7 +136,7 @@ void main() {
 // Uploads maps as R8 textures (row 0 of the image = texel row 0) and sets the
 // per-camera uniforms; M/A given per camera by the caller.
 void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps,
-                const std::vector<Eigen::Matrix3f>& M, const std::vector<Eigen::Vector3f>& A) {
+                const std::vector<Eigen::Matrix3f>& M, const std::vector<Eigen::Vector3f>& A, bool upload = true) {
   const auto& views = q.views();
   const auto& fast = q.fast();
   if (views.size() > size_t(kMaxGlCameras))
@@ -121,6 +145,7 @@ void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps
   glUseProgram(program);
   for (size_t c = 0; c < views.size(); ++c) {
     const cv::Mat& map = views[c].map;
+    if (upload) {
     glActiveTexture(GLenum(GL_TEXTURE0 + c));
     glBindTexture(GL_TEXTURE_2D, maps[c].get());
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
@@ -129,6 +154,7 @@ void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps
     glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    }
     const std::string i = "[" + std::to_string(c) + "]";
     const auto& f = fast[c];
     // Eigen is column-major like GL: no transpose.
@@ -141,6 +167,10 @@ void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps
                 float(f.height));
     glUniform1i(glGetUniformLocation(program, ("u_maps" + i).c_str()), GLint(c));
   }
+  const bool unknown = q.options().out_of_view == OutOfView::kUnknown;
+  glUniform1i(glGetUniformLocation(program, "u_unknown"), unknown ? 1 : 0);
+  glUniform1i(glGetUniformLocation(program, "u_required"), GLint(q.required_seen()));
+  glUniform1i(glGetUniformLocation(program, "u_ncam"), GLint(views.size()));
   CheckGl("upload maps and camera uniforms");
 }
 
@@ -148,7 +178,7 @@ void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps
 
 GlPlaneSweep::GlPlaneSweep()
     : count_program_(BuildProgram(kQuadVs, SweepCountFs().c_str())),
-      resolve_program_(BuildProgram(kQuadVs, kSweepResolveFs)),
+      resolve_program_(BuildProgram(kQuadVs, SweepResolveFs().c_str())),
       vao_(MakeVertexArray()),
       fbo_(MakeFramebuffer()) {}
 
@@ -190,7 +220,7 @@ cv::Mat GlPlaneSweep::Sweep(const VolumeQuery& q, const NovelView& view, const s
   glUniform2f(glGetUniformLocation(cp, "u_origin"), float(tile.x), float(tile.y));
   const GLint loc_cam = glGetUniformLocation(cp, "u_cam"), loc_d = glGetUniformLocation(cp, "u_depth");
   const GLint loc_rd = glGetUniformLocation(rp, "u_depth"), loc_rank = glGetUniformLocation(rp, "u_rank");
-  glUseProgram(rp);
+  SetCameras(rp, q, maps_, M, A, /*upload=*/false);  // leaves rp in use
   glUniform4f(glGetUniformLocation(rp, "u_view"), float(view.fx), float(view.fy), float(view.cx), float(view.cy));
   glUniform2f(glGetUniformLocation(rp, "u_origin"), float(tile.x), float(tile.y));
   const Eigen::Matrix3f Rwe = view.world_from_eye.rotation.cast<float>();
@@ -270,7 +300,9 @@ std::vector<TriangleQueryResult> GlTriangleQuery::Query(const VolumeQuery& q, co
     A[c] = q.views()[c].camera.cam_from_world.translation.cast<float>();
   }
   SetCameras(program_.get(), q, maps_, M, A);
-  glUniform1i(glGetUniformLocation(program_.get(), "u_ncam"), GLint(n));
+  const Eigen::Vector3f wmin = q.workspace().min.cast<float>(), wmax = q.workspace().max.cast<float>();
+  glUniform3fv(glGetUniformLocation(program_.get(), "u_wmin"), 1, wmin.data());
+  glUniform3fv(glGetUniformLocation(program_.get(), "u_wmax"), 1, wmax.data());
   const GLint loc_vp = glGetUniformLocation(program_.get(), "u_vp");
 
   std::vector<TriangleViewport> vps;

@@ -24,9 +24,22 @@ namespace hullpipe {
 /// Closed intervals [first, second] of the ray parameter, sorted and disjoint.
 using Intervals = std::vector<std::pair<double, double>>;
 
+/// A piece [s0, s1] of a ray on which one camera's vote is constant.
+struct VoteSegment {
+  double s0, s1;
+  Vote vote;
+};
+
+/// Camera `camera`'s votes along origin + s * dir, s in [s_min, s_max]: sorted
+/// pieces covering the range, neighbours of equal vote merged. Unseen where the
+/// point is behind the camera, outside its image or its valid distortion radius.
+std::vector<VoteSegment> RayCameraSegments(const VolumeQuery& query, size_t camera, const Eigen::Vector3d& origin,
+                                           const Eigen::Vector3d& dir, double s_min, double s_max);
+
 /// Where the ray origin + s * dir (world metres; dir need not be unit) with s in
-/// [s_min, s_max] lies inside the hull of `query` (all n cameras' object pixels,
-/// and inside the workspace). Boundaries are exact to 1e-12 in s (undistorted).
+/// [s_min, s_max] lies inside the hull of `query`, under the query's out-of-view
+/// policy and inside the workspace: exactly the points VolumeQuery::Inside
+/// accepts. Boundaries are exact to 1e-12 in s (undistorted cameras).
 Intervals RayHullIntervals(const VolumeQuery& query, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
                            double s_min, double s_max);
 

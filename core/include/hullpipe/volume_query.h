@@ -36,27 +36,67 @@ struct FastCamera {
 };
 }  // namespace detail
 
+/// What a camera says of a point it cannot see: behind it (z <= 0), outside its
+/// image, or beyond its distortion model's valid radius.
+enum class OutOfView {
+  /// The camera vetoes the point: it is outside the hull (the paper's rule; the
+  /// hull is clipped to the intersection of all views).
+  kOutside,
+  /// The camera does not vote: the hull is not clipped where a camera cannot see.
+  /// The point is inside iff every camera that sees it puts it on object pixels and
+  /// at least min_seen cameras see it (so a region one camera alone sees is not a
+  /// silhouette cone running to the workspace's edge).
+  kUnknown,
+};
+
+/// One camera's verdict on a point (VolumeQuery::Vote).
+enum class Vote : uint8_t { kBackground = 0, kObject = 1, kUnseen = 2 };
+
+/// Settings of a volume query.
+struct VolumeQueryOptions {
+  OutOfView out_of_view = OutOfView::kUnknown;  ///< Default: do not clip by views.
+  /// With kUnknown: the fewest cameras that must see a point for it to be inside
+  /// (clamped to n; >= 1).
+  int min_seen = 2;
+  /// Throws std::invalid_argument naming the bad field.
+  void Check() const;
+};
+
 /// The visual hull of one frameset, queryable point by point.
-/// Points outside a camera's image (or behind it) are outside the hull, as in the
-/// paper; points outside the workspace box are outside too.
+/// A point outside the workspace box is outside. A camera that cannot see a point
+/// votes as VolumeQueryOptions::out_of_view says (default: it does not vote).
 class VolumeQuery {
  public:
   /// views: the n cameras and their maps (n >= 1). workspace: world box (metres)
   /// outside which nothing is hull (DefaultWorkspace if unsure). Computes the hull's
-  /// bounding box (HullBoundingBox). Throws std::invalid_argument if a map is not
-  /// CV_8UC1 of its camera's size, or n == 0. The maps are shared, not copied.
-  VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace);
+  /// bounding box (HullBoundingBox; with kUnknown, see hull_box()). Throws
+  /// std::invalid_argument if a map is not CV_8UC1 of its camera's size, n == 0, or
+  /// the options fail Check(). The maps are shared, not copied.
+  VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, const VolumeQueryOptions& options = {});
+
+  const VolumeQueryOptions& options() const { return options_; }
+  /// The number of cameras that must see a point for it to be inside: n with
+  /// kOutside (all), min(min_seen, n) with kUnknown.
+  int required_seen() const { return required_seen_; }
 
   /// Number of cameras n.
   size_t size() const { return views_.size(); }
   const std::vector<CameraMap>& views() const { return views_; }
   const Aabb& workspace() const { return workspace_; }
-  /// Conservative box of the hull (empty if some map is empty).
+  /// Conservative box of the hull (every inside point is in it). kOutside: the
+  /// intersection of all cameras' silhouette pyramids (empty if some map is empty).
+  /// kUnknown: the intersection of the pyramids of the cameras that see the whole
+  /// workspace (they always vote), within the union of each camera's own
+  /// pyramid box (an inside point is an object point of at least one camera).
   const Aabb& hull_box() const { return hull_box_; }
 
-  /// True iff X (world metres) projects onto object pixels in all n cameras and
-  /// lies in the workspace. §3.2 eq. "inside iff count == n".
+  /// True iff X (world metres) lies in the workspace and the cameras' votes make
+  /// it inside: kOutside, object in all n (§3.2, "inside iff count == n");
+  /// kUnknown, no camera says background and at least required_seen() see it.
   bool Inside(const Eigen::Vector3d& X_world) const;
+
+  /// Camera i's verdict on X (world metres), in double precision.
+  Vote VoteOf(size_t i, const Eigen::Vector3d& X_world) const;
 
   /// Number of cameras in which X projects onto an object pixel (0..n); the
   /// stencil count of the paper's sweep.
@@ -71,11 +111,16 @@ class VolumeQuery {
   /// True iff camera-frame point (x, y, z) of camera `c` projects onto an object
   /// pixel of its map. Inline for the sweep's inner loop.
   static bool Hits(const detail::FastCamera& c, float x, float y, float z) {
-    if (!(z > 1e-6f)) return false;
+    return VoteFast(c, x, y, z) == Vote::kObject;
+  }
+
+  /// Camera `c`'s verdict on camera-frame point (x, y, z), in floats.
+  static Vote VoteFast(const detail::FastCamera& c, float x, float y, float z) {
+    if (!(z > 1e-6f)) return Vote::kUnseen;
     const float iz = 1.0f / z;
     float xn = x * iz, yn = y * iz;
     const float r2 = xn * xn + yn * yn;
-    if (r2 > c.r2max) return false;
+    if (!(r2 <= c.r2max)) return Vote::kUnseen;
     if (c.distorted) {
       const float radial = 1.0f + r2 * (c.k1 + r2 * (c.k2 + r2 * c.k3));
       const float xy = xn * yn;
@@ -85,13 +130,22 @@ class VolumeQuery {
       yn = yd;
     }
     const float u = c.fx * xn + c.cx, v = c.fy * yn + c.cy;
-    if (!(u >= 0.0f && v >= 0.0f && u < float(c.width) && v < float(c.height))) return false;
-    return c.data[size_t(v) * c.step + size_t(u)] != 0;
+    if (!(u >= 0.0f && v >= 0.0f && u < float(c.width) && v < float(c.height))) return Vote::kUnseen;
+    return c.data[size_t(v) * c.step + size_t(u)] != 0 ? Vote::kObject : Vote::kBackground;
+  }
+
+  /// Whether votes make a point inside: `object` cameras voted object, `unseen`
+  /// could not see it, none voted background (the caller stops at the first
+  /// background vote).
+  bool Accepts(int object, int unseen) const {
+    return (unseen == 0 || options_.out_of_view == OutOfView::kUnknown) && object >= required_seen_;
   }
 
  private:
   std::vector<CameraMap> views_;
   Aabb workspace_;
+  VolumeQueryOptions options_;
+  int required_seen_ = 1;
   Aabb hull_box_;
   std::vector<detail::FastCamera> fast_;
 };
