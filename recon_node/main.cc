@@ -29,12 +29,23 @@ int main(int argc, char** argv) {
   std::string backend_name = "auto";
   PlaneSweepOptions sweep;
   int threads = 1;
+  int refine = 6;
+  int visibility_width = 80;
+  std::string out_of_view = "unknown";
   double pose_timeout = 1.0;
   app.add_option("--tile", tile_spec, "This node's tile i/N of the view (horizontal bands)")->capture_default_str();
   app.add_option("--backend", backend_name, "Sweep backend: cpu|gl|auto")
       ->check(CLI::IsMember({"cpu", "gl", "auto"}))->capture_default_str();
   app.add_option("--planes", sweep.num_planes, "Sweep planes")->capture_default_str();
   app.add_option("--threads", threads, "CPU sweep threads")->capture_default_str();
+  app.add_option("--refine", refine, "Depth refinement bisections after the sweep (0: the paper's plane depth)")
+      ->check(CLI::Range(0, 30))->capture_default_str();
+  app.add_option("--visibility-width", visibility_width,
+                 "Width of each camera's hull depth map for the texture visibility test (0: no test)")
+      ->check(CLI::Range(0, 4096))->capture_default_str();
+  app.add_option("--out-of-view", out_of_view,
+                 "A camera that cannot see a point: unknown (does not vote) or outside (vetoes, as the paper)")
+      ->check(CLI::IsMember({"unknown", "outside"}))->capture_default_str();
   app.add_option("--pose-timeout", pose_timeout, "Drop a pose whose frameset has not arrived after this many s")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -49,7 +60,9 @@ int main(int argc, char** argv) {
   try {
     sweep.Check();
     auto participant = StartNode(name, common);
-    std::unique_ptr<gl::SweepBackend> backend = gl::MakeSweepBackend(backend_name, threads);
+    std::unique_ptr<gl::SweepBackend> backend = gl::MakeSweepBackend(backend_name, threads, refine);
+    VolumeQueryOptions query_options;
+    query_options.out_of_view = out_of_view == "outside" ? OutOfView::kOutside : OutOfView::kUnknown;
     spdlog::info("tile {}/{}, backend {}", tile_i, tile_n, backend->Name());
 
     WaitSet ws(*participant);
@@ -114,7 +127,7 @@ int main(int argc, char** argv) {
         const double t0 = MonotonicSeconds();
         const cv::Rect rect = TileRect(tile_i, tile_n, pose.view.width, pose.view.height);
         HullTile tile;
-        const VolumeQuery vq(fs->maps, assembler.workspace());  // includes the hull box
+        const VolumeQuery vq(fs->maps, assembler.workspace(), query_options);  // includes the hull box
         const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, sweep);
         reporter.Stage("hull_box", (MonotonicSeconds() - t0) * 1e3);
         {
@@ -123,7 +136,15 @@ int main(int argc, char** argv) {
         }
         {
           StageTimer st(reporter, "texture");
-          tile.colour = TextureHull(tile.depth, rect, pose.view, fs->images);
+          std::optional<HullVisibility> vis;
+          if (visibility_width > 0) {
+            std::vector<Camera> cams;
+            for (const auto& im : fs->images) cams.push_back(im.camera);
+            PlaneSweepOptions vis_sweep = sweep;
+            vis_sweep.num_planes = std::min(sweep.num_planes, 48);
+            vis = ComputeHullVisibility(vq, cams, visibility_width, vis_sweep, refine, threads);
+          }
+          tile.colour = TextureHull(tile.depth, rect, pose.view, fs->images, {}, vis ? &*vis : nullptr);
         }
         tile.rect = rect;
         tile.node_id = uint32_t(tile_i);

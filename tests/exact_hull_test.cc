@@ -7,10 +7,14 @@
 #include <cmath>
 #include <random>
 
+#include <Eigen/Geometry>
+
 #include <gtest/gtest.h>
 
 #include "hullpipe/conventions.h"
+#include "hullpipe/depth_eval.h"
 #include "hullpipe/plane_sweep.h"
+#include "hullpipe/texture.h"
 #include "test_util.h"
 
 namespace hullpipe {
@@ -419,6 +423,147 @@ TEST(HardCase, NearAndFarPlanesCutTheShape) {
     for (int c = 0; c < 160; ++c)
       if (std::isfinite(d.at<float>(r, c))) max_depth = std::max(max_depth, double(d.at<float>(r, c)));
   EXPECT_LE(max_depth, so.far + 1e-6);
+}
+
+}  // namespace
+}  // namespace hullpipe
+
+namespace hullpipe {
+namespace {
+
+TEST(Synthetic, TorusIntersectIsTheFirstSurfacePoint) {
+  const Shape torus = Shape::Torus(kCentre, 0.25, 0.08,
+                                   Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int hits = 0;
+  for (int i = 0; i < 500; ++i) {
+    const Eigen::Vector3d o = kCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * 1.5;
+    const Eigen::Vector3d d = kCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)) * 0.3 - o;
+    const auto s = torus.Intersect(o, d);
+    // No sample before the hit is inside (1 mm steps along a 1.5 m ray).
+    const double end = s ? *s : 2.0;
+    for (double t = 0; t < end - 1e-6; t += 0.001 / d.norm()) ASSERT_GT(torus.SignedDistance(o + t * d), -1e-9);
+    if (!s) continue;
+    ++hits;
+    EXPECT_NEAR(torus.SignedDistance(o + *s * d), 0.0, 1e-9);
+    EXPECT_NEAR(torus.Normal(o + *s * d).norm(), 1.0, 1e-12);
+  }
+  EXPECT_GT(hits, 100);
+}
+
+TEST(Synthetic, EveryNamedSceneIsInsideItsExactHull) {
+  // The visual hull contains the object: every shape point (sampled on a grid)
+  // whose projection is well inside each silhouette is inside the hull.
+  for (const char* name : {"sphere", "box", "torus", "hand", "mixed"}) {
+    const SyntheticScene scene = NamedScene(name, 0.7);
+    std::vector<CameraMap> views;
+    for (const auto& c : DomeCameras(6, 3.0, {0, 0, -1.0}, 320, 240, 0.9)) views.push_back({c, RenderExactMap(c, scene)});
+    const VolumeQuery q(views, test::BigBox());
+    int inside = 0;
+    for (double x = -0.5; x <= 0.5; x += 0.01)
+      for (double y = -0.5; y <= 0.5; y += 0.01)
+        for (double z = -1.5; z <= -0.5; z += 0.01) {
+          const Eigen::Vector3d p(x, y, z);
+          // More than one pixel footprint (3.5 m * 0.97 / 320 = 11 mm) inside a shape.
+          double sd = 1e9;
+          for (const auto& sh : scene.shapes) sd = std::min(sd, sh.SignedDistance(p));
+          if (sd > -0.012) continue;
+          ++inside;
+          ASSERT_TRUE(q.Inside(p)) << name << " " << p.transpose();
+        }
+    EXPECT_GT(inside, 10) << name;
+  }
+}
+
+TEST(Texture, VisibilityTestKeepsAnOccludedCamerasColourOff) {
+  // A red sphere behind a blue one as camera A sees it; the eye, beside A, sees
+  // the red sphere. With one camera blended (the best aligned, A), the red
+  // sphere takes A's blue unless the visibility test rejects A there.
+  const Eigen::Vector3d C1(0, 0, -1), C2 = C1 + Eigen::Vector3d(0, -0.6, 0);
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Sphere(C1, 0.2));
+  scene.shapes.back().colour = {40, 40, 220};
+  scene.shapes.push_back(Shape::Sphere(C2, 0.2));
+  scene.shapes.back().colour = {220, 60, 40};
+  auto make = [](const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up) {
+    Camera c;
+    c.width = 240, c.height = 180;
+    c.fx = c.fy = 240 / 2 / std::tan(0.3);
+    c.cx = 120, c.cy = 90;
+    c.cam_from_world = LookAt(eye, target, up).Inverse();
+    return c;
+  };
+  const Eigen::Vector3d up(0, 0, -1);
+  std::vector<Camera> cams = {make(C1 + Eigen::Vector3d(0, -3, 0), C1, up), make(C1 + Eigen::Vector3d(3, 0, 0), C1, up),
+                              make(C1 + Eigen::Vector3d(0, 0, -3), C1, {1, 0, 0}),
+                              make(C1 + Eigen::Vector3d(-2, 2, -1), C1, up)};
+  std::vector<CameraMap> views;
+  std::vector<CameraImage> images;
+  for (auto& c : cams) {
+    views.push_back({c, RenderExactMap(c, scene)});
+    images.push_back({c, RenderColour(c, scene)});
+  }
+  const VolumeQuery q(views, test::BigBox());
+  const NovelView view = NovelView::FromFov(160, 120, 0.5, LookAt(C1 + Eigen::Vector3d(1.6, -2.5, 0), C1, up));
+  PlaneSweepOptions so;
+  so.num_planes = 96;
+  const cv::Rect all(0, 0, 160, 120);
+  const cv::Mat depth = PlaneSweepCpu(q, view, SweepPlaneDepths(q, view, so), all, nullptr, 2, 8);
+  Camera eye = make(view.world_from_eye.translation, C1, up);
+  eye.width = 160, eye.height = 120, eye.fx = view.fx, eye.fy = view.fy, eye.cx = view.cx, eye.cy = view.cy;
+  const cv::Mat truth = RenderColour(eye, scene);
+  TextureOptions one;
+  one.max_cameras = 1;
+  const HullVisibility vis = ComputeHullVisibility(q, cams, 120, so, 8, 2);
+  const cv::Mat plain = TextureHull(depth, all, view, images, one);
+  const cv::Mat tested = TextureHull(depth, all, view, images, one, &vis);
+  // On pixels whose true surface is the red sphere and where the hull lies on it
+  // (within 1 cm; elsewhere the hull's phantom volume, not visibility, decides
+  // which camera sees the point): how many come out blue?
+  const cv::Mat true_depth = SceneDepth(scene, view);
+  int red = 0, blue_plain = 0, blue_tested = 0;
+  for (int r = 0; r < 120; ++r)
+    for (int c = 0; c < 160; ++c) {
+      const cv::Vec3b t = truth.at<cv::Vec3b>(r, c);
+      if (!(t[2] > 2 * t[0] && t[2] > 60) || !std::isfinite(depth.at<float>(r, c))) continue;
+      if (std::abs(depth.at<float>(r, c) - true_depth.at<float>(r, c)) > 0.01) continue;
+      ++red;
+      // Blue: the blue sphere's hue (B well above R), not the grey wall a
+      // grazing camera may blend in at the red sphere's rim.
+      auto blue = [](const cv::Vec3b& p) { return p[0] > 1.5 * p[2]; };
+      blue_plain += blue(plain.at<cv::Vec3b>(r, c));
+      blue_tested += blue(tested.at<cv::Vec3b>(r, c));
+    }
+  ASSERT_GT(red, 300);
+  EXPECT_GT(blue_plain, red / 10) << "the case is hard: camera A sees blue there";
+  EXPECT_LT(blue_tested, red / 50) << "the visibility test rejects A where the blue sphere hides the red one";
+}
+
+TEST(PlaneSweep, RefiningAfterwardsEqualsRefiningInTheSweep) {
+  // The GL backend refines a finished sweep with RefineSweepDepth; it must agree
+  // with the CPU sweep's own refinement (up to float rounding of the bracket).
+  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+  const NovelView view = SideView();
+  PlaneSweepOptions so;
+  so.num_planes = 24;
+  const auto depths = SweepPlaneDepths(q, view, so);
+  const cv::Rect all(0, 0, view.width, view.height);
+  cv::Mat later = PlaneSweepCpu(q, view, depths, all);
+  RefineSweepDepth(q, view, depths, all, 10, &later, 2);
+  const cv::Mat inside = PlaneSweepCpu(q, view, depths, all, nullptr, 1, 10);
+  int finite = 0;
+  for (int r = 0; r < view.height; ++r)
+    for (int c = 0; c < view.width; ++c) {
+      const float a = later.at<float>(r, c), b = inside.at<float>(r, c);
+      ASSERT_EQ(std::isfinite(a), std::isfinite(b));
+      if (!std::isfinite(a)) continue;
+      ++finite;
+      EXPECT_NEAR(a, b, 1e-5) << r << "," << c;
+    }
+  EXPECT_GT(finite, 1000);
+  cv::Mat wrong(3, 3, CV_32FC1);
+  EXPECT_THROW(RefineSweepDepth(q, view, depths, all, 4, &wrong), std::invalid_argument);
 }
 
 }  // namespace

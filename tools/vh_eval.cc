@@ -1,4 +1,8 @@
 // vh_eval: evaluation of hullpipe's visual hulls.
+//   vh_eval sweep [--json] [--full] [--tsv FILE]
+// runs the plane sweep on synthetic scenes with exact maps and reports, per
+// configuration, time per frame and depth error against the exact hull (see
+// vh_eval_sweep.h).
 //   vh_eval reprojection --rig DIR --frame K [--json] [--step M] [--all-frames]
 // builds the hull of frame K by volume querying and prints, per camera, the IoU
 // between the hull's reprojection and that camera's object-pixel map (iou_all),
@@ -16,6 +20,7 @@
 #include "hullpipe/conventions.h"
 #include "hullpipe/reprojection.h"
 #include "hullpipe/rig_source.h"
+#include "vh_eval_sweep.h"
 
 using namespace hullpipe;
 
@@ -48,6 +53,25 @@ std::vector<CameraIoU> EvaluateFrame(const RigSource& src, const RigFrame& f, do
 int main(int argc, char** argv) {
   CLI::App app{"vh_eval: accuracy of hullpipe's visual hulls"};
   app.require_subcommand(1);
+  SweepEvalOptions sw;
+  auto* sweep = app.add_subcommand("sweep", "Plane sweep speed against error, against the exact hull (synthetic)");
+  sweep->add_flag("--json", sw.json, "Print one JSON object with a row per configuration");
+  sweep->add_option("--scene", sw.scene, "Synthetic scene: sphere|box|torus|hand|figure|mixed")->capture_default_str();
+  sweep->add_option("--placement", sw.placement, "Camera placement: dome|ring")
+      ->check(CLI::IsMember({"dome", "ring"}))
+      ->capture_default_str();
+  sweep->add_option("--repeats", sw.repeats, "Timed runs per configuration (median)")->capture_default_str();
+  sweep->add_option("--threads", sw.threads, "CPU sweep threads")->capture_default_str();
+  sweep->add_option("--time", sw.time_s, "Scene time, seconds")->capture_default_str();
+  sweep->add_flag("!--no-gl", sw.gl, "Leave out the GL rows");
+  sweep->add_flag("--full", sw.full, "Every combination of planes, spacing, view, cameras, backend, refine");
+  sweep->add_option("--tsv", sw.tsv, "Also write the rows as TSV (for gnuplot)");
+  TextureEvalOptions tx;
+  auto* texture = app.add_subcommand("texture", "Colour error of the textured hull, with and without visibility");
+  texture->add_flag("--json", tx.json, "Print one JSON object");
+  texture->add_option("--scenes", tx.scenes, "Synthetic scenes")->capture_default_str();
+  texture->add_option("--cameras", tx.cameras, "Camera counts")->capture_default_str();
+  texture->add_option("--threads", tx.threads, "Threads")->capture_default_str();
   auto* rep = app.add_subcommand("reprojection", "Per-camera IoU of the hull's reprojection with the maps");
   std::string rig;
   int frame = 200;
@@ -63,6 +87,14 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+  if (sweep->parsed() || texture->parsed()) {
+    try {
+      return sweep->parsed() ? RunSweepEval(sw) : RunTextureEval(tx);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "vh_eval: %s\n", e.what());
+      return 1;
+    }
+  }
   try {
     auto src = OpenVideoRig(rig, {});
     RigFrame f;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <thread>
 
 #include "hullpipe/conventions.h"
 #include "hullpipe/plane_sweep.h"
@@ -69,7 +70,7 @@ std::vector<VoteSegment> RayCameraSegments(const VolumeQuery& q, size_t ci, cons
       MobiusCrossings(cam.fy * A.y() + cam.cy * A.z(), cam.fy * B.y() + cam.cy * B.z(), A.z(), B.z(), s0, s1,
                       &breaks);
     } else {
-      // Step so the projection moves at most ~0.25 px, bisect every change of
+      // Step so the projection moves at most ~0.5 px, bisect every change of
       // pixel (or of seen/unseen, at the valid radius).
       auto pixel = [&](double s) -> std::pair<long, long> {
         const auto uv = cam.Project(o + s * dir);
@@ -84,7 +85,7 @@ std::vector<VoteSegment> RayCameraSegments(const VolumeQuery& q, size_t ci, cons
         double step = (s1 - s0) / 64;
         if (p0 && p1) {
           const double speed = (*p1 - *p0).norm() / h;
-          if (speed > 0) step = std::min(step, 0.25 / speed);
+          if (speed > 0) step = std::min(step, 0.5 / speed);
         }
         step = std::max(step, 1e-9);
         const double next = std::min(s + step, s1);
@@ -173,17 +174,24 @@ Intervals RayHullIntervals(const VolumeQuery& q, const Eigen::Vector3d& o, const
   return out;
 }
 
-cv::Mat ExactHullDepth(const VolumeQuery& q, const NovelView& view, const cv::Rect& tile) {
+cv::Mat ExactHullDepth(const VolumeQuery& q, const NovelView& view, const cv::Rect& tile, int threads) {
   cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
   const Eigen::Vector3d O = view.world_from_eye.translation;
-  for (int r = 0; r < tile.height; ++r)
-    for (int c = 0; c < tile.width; ++c) {
-      const Eigen::Vector3d D = view.world_from_eye.rotation * view.EyeRay(tile.x + c + 0.5, tile.y + r + 0.5);
-      double s0 = 1e-6, s1 = 1e6;
-      if (!q.hull_box().ClipRay(O, D, &s0, &s1)) continue;
-      const Intervals iv = RayHullIntervals(q, O, D, s0, s1);
-      if (!iv.empty()) out.at<float>(r, c) = float(iv.front().first);  // eye z: D has z = 1
-    }
+  auto rows = [&](int r0, int r1) {
+    for (int r = r0; r < r1; ++r)
+      for (int c = 0; c < tile.width; ++c) {
+        const Eigen::Vector3d D = view.world_from_eye.rotation * view.EyeRay(tile.x + c + 0.5, tile.y + r + 0.5);
+        double s0 = 1e-6, s1 = 1e6;
+        if (!q.hull_box().ClipRay(O, D, &s0, &s1)) continue;
+        const Intervals iv = RayHullIntervals(q, O, D, s0, s1);
+        if (!iv.empty()) out.at<float>(r, c) = float(iv.front().first);  // eye z: D has z = 1
+      }
+  };
+  threads = std::clamp(threads, 1, std::max(1, tile.height));
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(rows, tile.height * t / threads, tile.height * (t + 1) / threads);
+  rows(0, tile.height / threads);
+  for (auto& th : pool) th.join();
   return out;
 }
 

@@ -65,78 +65,105 @@ std::vector<double> SweepPlaneDepths(const VolumeQuery& query, const NovelView& 
 
 namespace {
 
+// The points of one view's pixel rays in every camera's frame, for hot loops: the
+// point at eye depth d along the current pixel's ray is A_c + d * B_c in camera c.
+class RayQuery {
+ public:
+  RayQuery(const VolumeQuery& q, const NovelView& view)
+      : q_(q), cams_(q.fast()), n_(cams_.size()), unknown_(q.options().out_of_view == OutOfView::kUnknown),
+        view_(view), A_(n_), B_(n_), order_(n_) {
+    const Eigen::Vector3d O = view.world_from_eye.translation;
+    for (size_t c = 0; c < n_; ++c) {
+      A_[c] = (q.views()[c].camera.cam_from_world * O).cast<float>();
+      order_[c] = c;
+    }
+  }
+  // Aims at pixel (u, v) of the view; returns the ray's part [*s0, *s1] in the
+  // hull box (false if it misses).
+  bool Aim(double u, double v, double* s0, double* s1) {
+    const Eigen::Vector3d D = view_.world_from_eye.rotation * view_.EyeRay(u, v);
+    if (!q_.hull_box().ClipRay(view_.world_from_eye.translation, D, s0, s1)) return false;
+    for (size_t c = 0; c < n_; ++c) B_[c] = (q_.views()[c].camera.cam_from_world.rotation * D).cast<float>();
+    return true;
+  }
+  // Is the point at eye depth d on the aimed ray inside the hull?
+  bool InsideAt(float d) {
+    int object = 0, unseen = 0;
+    for (size_t j = 0; j < n_; ++j) {
+      const size_t c = order_[j];
+      ++projections;
+      const Eigen::Vector3f X = A_[c] + d * B_[c];
+      const Vote vote = VolumeQuery::VoteFast(cams_[c], X.x(), X.y(), X.z());
+      if (vote == Vote::kObject) {
+        ++object;
+      } else if (vote == Vote::kBackground || !unknown_) {
+        // The camera that rejected goes first next time: neighbouring points are
+        // usually rejected by the same camera.
+        if (j > 0) std::rotate(order_.begin(), order_.begin() + long(j), order_.begin() + long(j) + 1);
+        return false;
+      } else {
+        ++unseen;
+      }
+    }
+    return q_.Accepts(object, unseen);
+  }
+  // Bisects between an outside depth lo and an inside depth hi; returns the final
+  // inside end.
+  float Bisect(float lo, float hi, int iterations) {
+    for (int it = 0; it < iterations; ++it) {
+      const float mid = 0.5f * (lo + hi);
+      (InsideAt(mid) ? hi : lo) = mid;
+    }
+    return hi;
+  }
+  int64_t projections = 0;
+
+ private:
+  const VolumeQuery& q_;
+  const std::vector<detail::FastCamera>& cams_;
+  size_t n_;
+  bool unknown_;
+  const NovelView& view_;
+  std::vector<Eigen::Vector3f> A_, B_;
+  std::vector<size_t> order_;
+};
+
+// The bracket below plane k for refinement: the previous plane or the hull box
+// entry, whichever is deeper. The near plane (k == 0) is not refined: in front of
+// it the frustum is cut.
+bool RefineBracket(const std::vector<double>& depths, size_t k, double s0, float* lo) {
+  if (k == 0) return false;
+  *lo = float(std::max(depths[k - 1], s0));
+  return true;
+}
+
 void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
                const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out, SweepStats* stats,
                int refine_iterations) {
-  const auto& cams = query.fast();
-  const size_t n = cams.size();
-  const bool unknown = query.options().out_of_view == OutOfView::kUnknown;
-  const Aabb& box = query.hull_box();
-  const Eigen::Matrix3d& R_we = view.world_from_eye.rotation;
-  const Eigen::Vector3d O = view.world_from_eye.translation;
-  // Camera-frame point at eye depth d along a pixel ray: A_c + d * B_c.
-  std::vector<Eigen::Vector3f> A(n), B(n);
-  for (size_t c = 0; c < n; ++c) {
-    const Eigen::Matrix3d& R = query.views()[c].camera.cam_from_world.rotation;
-    A[c] = (R * O + query.views()[c].camera.cam_from_world.translation).cast<float>();
-  }
-  std::vector<float> d(depths.begin(), depths.end());
-  std::vector<size_t> order(n);
-  for (size_t c = 0; c < n; ++c) order[c] = c;
+  RayQuery ray(query, view);
+  const std::vector<float> d(depths.begin(), depths.end());
   SweepStats local;
   for (int r = row_begin; r < row_end; ++r) {
     float* out_row = out.ptr<float>(r);
-    const double v = tile.y + r + 0.5;
     for (int col = 0; col < tile.width; ++col) {
       out_row[col] = kNoDepth;
-      const double u = tile.x + col + 0.5;
-      const Eigen::Vector3d D = R_we * view.EyeRay(u, v);
       double s0 = depths.front(), s1 = depths.back();
-      if (!box.ClipRay(O, D, &s0, &s1)) continue;
+      if (!ray.Aim(tile.x + col + 0.5, tile.y + r + 0.5, &s0, &s1)) continue;
       ++local.rays;
-      for (size_t c = 0; c < n; ++c) {
-        const Eigen::Matrix3d& R = query.views()[c].camera.cam_from_world.rotation;
-        B[c] = (R * D).cast<float>();
-      }
       // First plane at or beyond s0 (the box entry), last at or before s1.
-      auto inside_at = [&](float dk) {
-        int object = 0, unseen = 0;
-        for (size_t j = 0; j < n; ++j) {
-          const size_t c = order[j];
-          ++local.projections;
-          const Eigen::Vector3f X = A[c] + dk * B[c];
-          const Vote vote = VolumeQuery::VoteFast(cams[c], X.x(), X.y(), X.z());
-          if (vote == Vote::kObject) {
-            ++object;
-          } else if (vote == Vote::kBackground || !unknown) {
-            // The camera that rejected goes first next time: neighbouring points
-            // are usually rejected by the same camera.
-            if (j > 0) std::rotate(order.begin(), order.begin() + long(j), order.begin() + long(j) + 1);
-            return false;
-          } else {
-            ++unseen;
-          }
-        }
-        return query.Accepts(object, unseen);
-      };
       const size_t first = size_t(std::lower_bound(depths.begin(), depths.end(), s0) - depths.begin());
       for (size_t k = first; k < d.size() && depths[k] <= s1; ++k) {
         ++local.plane_points;
-        if (!inside_at(d[k])) continue;
-        float hi = d[k];
-        // The near plane itself is not refined: in front of it the frustum is cut.
-        if (refine_iterations > 0 && k > 0) {
-          float lo = k > first ? d[k - 1] : float(s0);
-          for (int it = 0; it < refine_iterations; ++it) {
-            const float mid = 0.5f * (lo + hi);
-            (inside_at(mid) ? hi : lo) = mid;
-          }
-        }
-        out_row[col] = hi;
+        if (!ray.InsideAt(d[k])) continue;
+        float lo = 0;
+        out_row[col] = refine_iterations > 0 && RefineBracket(depths, k, s0, &lo)
+                           ? ray.Bisect(lo, d[k], refine_iterations)
+                           : d[k];
         break;
       }
     }
   }
+  local.projections = ray.projections;
   if (stats) {
     stats->rays += local.rays;
     stats->plane_points += local.plane_points;
@@ -144,7 +171,50 @@ void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vecto
   }
 }
 
+// Runs rows(r0, r1, stats) over `threads` bands of [0, height).
+template <class Rows>
+void ForRowBands(int height, int threads, SweepStats* stats, Rows rows) {
+  threads = std::clamp(threads, 1, std::max(1, height));
+  std::vector<SweepStats> per(static_cast<size_t>(threads));
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t)
+    pool.emplace_back([&, t] { rows(height * t / threads, height * (t + 1) / threads, &per[size_t(t)]); });
+  rows(0, height / threads, &per[0]);
+  for (auto& th : pool) th.join();
+  if (stats)
+    for (const auto& st : per) {
+      stats->rays += st.rays;
+      stats->plane_points += st.plane_points;
+      stats->projections += st.projections;
+    }
+}
+
 }  // namespace
+
+void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
+                      const cv::Rect& tile, int iterations, cv::Mat* depth, int threads) {
+  view.Check();
+  if (depth == nullptr || depth->type() != CV_32FC1 || depth->size() != tile.size())
+    throw std::invalid_argument("RefineSweepDepth: depth must be CV_32FC1 of the tile's size");
+  if (iterations <= 0 || depths.empty() || query.hull_box().empty()) return;
+  ForRowBands(tile.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
+    RayQuery ray(query, view);
+    for (int r = r0; r < r1; ++r) {
+      float* row = depth->ptr<float>(r);
+      for (int col = 0; col < tile.width; ++col) {
+        if (!std::isfinite(row[col])) continue;
+        double s0 = depths.front(), s1 = depths.back();
+        if (!ray.Aim(tile.x + col + 0.5, tile.y + r + 0.5, &s0, &s1)) continue;
+        // The plane the sweep found: the nearest plane depth to the value.
+        const auto it = std::lower_bound(depths.begin(), depths.end(), double(row[col]) - 1e-6);
+        if (it == depths.end()) continue;
+        float lo = 0;
+        if (RefineBracket(depths, size_t(it - depths.begin()), s0, &lo) && lo < row[col])
+          row[col] = ray.Bisect(lo, row[col], iterations);
+      }
+    }
+  });
+}
 
 cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                       const std::vector<double>& depths, const cv::Rect& tile, SweepStats* stats,
@@ -152,24 +222,9 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   view.Check();
   cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
   if (depths.empty() || tile.area() == 0 || query.hull_box().empty()) return out;
-  threads = std::clamp(threads, 1, std::max(1, tile.height));
-  if (threads == 1) {
-    SweepRows(query, view, depths, tile, 0, tile.height, out, stats, refine_iterations);
-    return out;
-  }
-  std::vector<SweepStats> per(static_cast<size_t>(threads));
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    const int r0 = tile.height * t / threads, r1 = tile.height * (t + 1) / threads;
-    pool.emplace_back([&, t, r0, r1] { SweepRows(query, view, depths, tile, r0, r1, out, &per[size_t(t)], refine_iterations); });
-  }
-  for (auto& th : pool) th.join();
-  if (stats)
-    for (const auto& s : per) {
-      stats->rays += s.rays;
-      stats->plane_points += s.plane_points;
-      stats->projections += s.projections;
-    }
+  ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
+    SweepRows(query, view, depths, tile, r0, r1, out, st, refine_iterations);
+  });
   return out;
 }
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include <Eigen/Geometry>
 
@@ -32,6 +34,16 @@ Shape Shape::Capsule(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double 
   s.a = p;
   s.b = q;
   s.radius = r;
+  return s;
+}
+
+Shape Shape::Torus(const Eigen::Vector3d& c, double R, double r, const Eigen::Matrix3d& rot) {
+  Shape s;
+  s.type = Type::kTorus;
+  s.a = c;
+  s.major_radius = R;
+  s.radius = r;
+  s.rotation = rot;
   return s;
 }
 
@@ -67,8 +79,29 @@ bool Shape::Contains(const Eigen::Vector3d& p) const {
     }
     case Type::kCapsule:
       return (p - ClosestOnSegment(a, b, p)).squaredNorm() <= radius * radius;
+    case Type::kTorus:
+      return SignedDistance(p) <= 0;
   }
   return false;
+}
+
+double Shape::SignedDistance(const Eigen::Vector3d& p) const {
+  switch (type) {
+    case Type::kSphere:
+      return (p - a).norm() - radius;
+    case Type::kBox: {
+      const Eigen::Vector3d q = (rotation.transpose() * (p - a)).cwiseAbs() - half_extents;
+      return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+    }
+    case Type::kCapsule:
+      return (p - ClosestOnSegment(a, b, p)).norm() - radius;
+    case Type::kTorus: {
+      const Eigen::Vector3d q = rotation.transpose() * (p - a);
+      const double ring = std::hypot(q.x(), q.y()) - major_radius;
+      return std::hypot(ring, q.z()) - radius;
+    }
+  }
+  return 0;
 }
 
 std::optional<double> Shape::Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
@@ -119,6 +152,20 @@ std::optional<double> Shape::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
       if (best < 0) return std::nullopt;
       return best;
     }
+    case Type::kTorus: {
+      // Sphere tracing: the distance is exact, so a step never crosses the surface.
+      const double bound = RaySphere(o, d, a, major_radius + radius);
+      if (bound < 0) return std::nullopt;
+      const double dn = d.norm();
+      double s = bound;
+      for (int it = 0; it < 4000; ++it) {
+        const double dist = SignedDistance(o + s * d);
+        if (dist < 1e-10) return s;
+        s += dist / dn;
+        if ((o + s * d - a).norm() > major_radius + radius + 1e-9 && (o + s * d - a).dot(d) > 0) break;
+      }
+      return std::nullopt;
+    }
   }
   return std::nullopt;
 }
@@ -141,6 +188,13 @@ Eigen::Vector3d Shape::Normal(const Eigen::Vector3d& p) const {
     }
     case Type::kCapsule:
       return (p - ClosestOnSegment(a, b, p)).normalized();
+    case Type::kTorus: {
+      const Eigen::Vector3d q = rotation.transpose() * (p - a);
+      const double rho = std::hypot(q.x(), q.y());
+      const Eigen::Vector3d ring =
+          rho > 0 ? Eigen::Vector3d(q.x() * major_radius / rho, q.y() * major_radius / rho, 0) : Eigen::Vector3d::Zero();
+      return rotation * (q - ring).normalized();
+    }
   }
   return Eigen::Vector3d::UnitZ();
 }
@@ -183,6 +237,106 @@ SyntheticScene AnimatedFigure(double t) {
   add(Shape::Capsule(elbow, hand, 0.04), skin);
   add(Shape::Sphere(hand + 0.05 * (hand - elbow).normalized(), 0.05), skin);  // hand
   return s;
+}
+
+SyntheticScene HandAndForearm(double t, const Eigen::Vector3d& wrist) {
+  SyntheticScene s;
+  const cv::Vec3b skin{120, 150, 210}, sleeve{150, 60, 40};
+  const double phase = 2 * M_PI * t / 3.0;
+  const double open = 0.5 + 0.5 * std::sin(phase);  // 0 fist-ish, 1 open
+  // Hand frame: x along the hand (wrist to fingers), y across the palm, z the palm
+  // normal; turning slowly about x.
+  const Eigen::Matrix3d R =
+      (Eigen::AngleAxisd(0.4 * std::sin(0.5 * phase), Eigen::Vector3d::UnitX()) *
+       Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()))
+          .toRotationMatrix();
+  auto H = [&](double x, double y, double z) { return Eigen::Vector3d(wrist + R * Eigen::Vector3d(x, y, z)); };
+  auto add = [&](Shape sh, cv::Vec3b c) {
+    sh.colour = c;
+    s.shapes.push_back(sh);
+  };
+  add(Shape::Capsule(H(-0.26, 0, 0), H(-0.02, 0, 0), 0.032), sleeve);  // forearm
+  add(Shape::Capsule(H(0.0, -0.025, 0), H(0.07, -0.03, 0), 0.016), skin);  // palm, three strips
+  add(Shape::Capsule(H(0.0, 0.0, 0), H(0.075, 0.0, 0), 0.016), skin);
+  add(Shape::Capsule(H(0.0, 0.025, 0), H(0.07, 0.03, 0), 0.016), skin);
+  // Fingers: base across the palm's end, spread by `open`, curled by 1 - open.
+  const double ys[4] = {-0.033, -0.011, 0.011, 0.033};
+  const double lens[4] = {0.07, 0.08, 0.075, 0.06};
+  for (int f = 0; f < 4; ++f) {
+    const double spread = (f - 1.5) * 0.12 * open;
+    const double curl = 0.9 * (1 - open);
+    Eigen::Vector3d p = H(0.08, ys[f], 0);
+    Eigen::Vector3d dir = R * Eigen::Vector3d(std::cos(spread), std::sin(spread), 0);
+    const Eigen::Vector3d bend_axis = R * Eigen::Vector3d::UnitY();
+    for (int seg = 0; seg < 3; ++seg) {
+      const Eigen::Vector3d q = p + dir * (lens[f] / 3.0);
+      add(Shape::Capsule(p, q, 0.0085 - 0.001 * seg), skin);
+      p = q;
+      dir = Eigen::AngleAxisd(curl * 0.6, bend_axis) * dir;
+    }
+  }
+  // Thumb: two segments from the palm's side, swinging in and out.
+  const Eigen::Vector3d t0 = H(0.02, -0.04, 0.0);
+  const Eigen::Vector3d t1 = t0 + R * Eigen::Vector3d(0.03, -0.03 * (0.5 + open), 0.01);
+  const Eigen::Vector3d t2 = t1 + R * Eigen::Vector3d(0.035, -0.01 * open, 0.005);
+  add(Shape::Capsule(t0, t1, 0.011), skin);
+  add(Shape::Capsule(t1, t2, 0.0095), skin);
+  return s;
+}
+
+SyntheticScene NamedScene(const std::string& name, double t) {
+  const Eigen::Vector3d c(0, 0, -1.0);
+  const Eigen::Vector3d drift(0.1 * std::sin(2 * M_PI * t / 5.0), 0.1 * std::cos(2 * M_PI * t / 5.0), 0);
+  SyntheticScene s;
+  const Eigen::Matrix3d turn =
+      (Eigen::AngleAxisd(0.5 + 0.3 * t, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  if (name == "sphere") {
+    s.shapes.push_back(Shape::Sphere(c + drift, 0.3));
+  } else if (name == "box") {
+    s.shapes.push_back(Shape::Box(c + drift, {0.25, 0.15, 0.1}, turn));
+  } else if (name == "torus") {
+    s.shapes.push_back(Shape::Torus(c + drift, 0.25, 0.08, turn));
+  } else if (name == "hand") {
+    return HandAndForearm(t, c + drift);
+  } else if (name == "figure") {
+    return AnimatedFigure(t);
+  } else if (name == "mixed") {
+    s.shapes.push_back(Shape::Sphere(c + drift + Eigen::Vector3d(-0.35, 0.1, 0.1), 0.15));
+    s.shapes.push_back(Shape::Box(c + drift + Eigen::Vector3d(0.3, -0.2, 0.15), {0.12, 0.08, 0.1}, turn));
+    s.shapes.push_back(Shape::Torus(c + drift + Eigen::Vector3d(0.05, 0.25, -0.1), 0.16, 0.05, turn));
+    s.shapes.push_back(Shape::Capsule(c + drift + Eigen::Vector3d(-0.2, -0.3, 0.2),
+                                      c + drift + Eigen::Vector3d(0.1, -0.1, -0.25), 0.05));
+  } else {
+    throw std::invalid_argument("unknown synthetic scene '" + name +
+                                "' (sphere, box, torus, hand, figure, mixed)");
+  }
+  return s;
+}
+
+std::vector<Camera> DomeCameras(int n, double radius, const Eigen::Vector3d& target, int width, int height_px,
+                                double hfov, const Distortion& distortion) {
+  std::vector<Camera> cams;
+  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double f = n > 1 ? double(i) / double(n - 1) : 0.5;
+    const double elev = (15.0 + 55.0 * f) * M_PI / 180.0, az = golden * i + 0.3;
+    // z is down: "above" is -z.
+    const Eigen::Vector3d eye = target + radius * Eigen::Vector3d(std::cos(elev) * std::cos(az),
+                                                                  std::cos(elev) * std::sin(az), -std::sin(elev));
+    const Eigen::Vector3d up = std::abs(std::sin(elev)) > 0.99 ? Eigen::Vector3d(1, 0, 0) : Eigen::Vector3d(0, 0, -1);
+    Camera c;
+    c.id = i + 1;
+    c.width = width;
+    c.height = height_px;
+    c.fx = c.fy = 0.5 * width / std::tan(0.5 * hfov);
+    c.cx = 0.5 * width;
+    c.cy = 0.5 * height_px;
+    c.distortion = distortion;
+    c.cam_from_world = LookAt(eye, target, up).Inverse();
+    cams.push_back(c);
+  }
+  return cams;
 }
 
 std::vector<Camera> RingCameras(int n, double radius, double height, const Eigen::Vector3d& target,

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "hullpipe/conventions.h"
 
@@ -11,6 +13,7 @@ namespace hullpipe {
 void TextureOptions::Check() const {
   if (max_cameras < 1) throw std::invalid_argument("TextureOptions: max_cameras must be >= 1");
   if (!(angle_power >= 0)) throw std::invalid_argument("TextureOptions: angle_power must be >= 0");
+  if (!(visibility_bias_m >= 0)) throw std::invalid_argument("TextureOptions: visibility_bias_m must be >= 0");
 }
 
 namespace {
@@ -26,10 +29,49 @@ cv::Vec3f Bilinear(const cv::Mat& img, double u, double v) {
 }
 }  // namespace
 
+HullVisibility ComputeHullVisibility(const VolumeQuery& query, const std::vector<Camera>& cameras, int width,
+                                     const PlaneSweepOptions& sweep, int refine_iterations, int threads) {
+  HullVisibility vis;
+  for (const Camera& cam : cameras) {
+    const double s = double(width) / cam.width;
+    NovelView v;
+    v.width = width;
+    v.height = std::max(1, int(std::lround(cam.height * s)));
+    v.fx = cam.fx * s, v.fy = cam.fy * double(v.height) / cam.height;
+    v.cx = cam.cx * s, v.cy = cam.cy * double(v.height) / cam.height;
+    v.world_from_eye = cam.cam_from_world.Inverse();
+    const auto depths = SweepPlaneDepths(query, v, sweep);
+    vis.depth.push_back(PlaneSweepCpu(query, v, depths, {0, 0, v.width, v.height}, nullptr, threads, refine_iterations));
+    vis.views.push_back(v);
+  }
+  return vis;
+}
+
+namespace {
+// Does camera k's hull depth map let it see world point X?
+bool Visible(const HullVisibility& vis, size_t k, const Eigen::Vector3d& X, double bias) {
+  const NovelView& v = vis.views[k];
+  const Eigen::Vector3d p = v.world_from_eye.Inverse() * X;
+  if (!(p.z() > 0)) return false;
+  const double u = v.fx * p.x() / p.z() + v.cx, w = v.fy * p.y() / p.z() + v.cy;
+  if (!(u >= 0 && w >= 0 && u < v.width && w < v.height)) return false;
+  // The hull's depth at the nearest pixel centre.
+  const int x = std::clamp(int(u), 0, v.width - 1), y = std::clamp(int(w), 0, v.height - 1);
+  const float d = vis.depth[k].at<float>(y, x);
+  const double surface = std::isfinite(d) ? double(d) : std::numeric_limits<double>::infinity();
+  const double footprint = p.z() / v.fx;
+  return p.z() <= surface + bias + 2 * footprint;
+}
+}  // namespace
+
 cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
-                    const std::vector<CameraImage>& images, const TextureOptions& options) {
+                    const std::vector<CameraImage>& images, const TextureOptions& options,
+                    const HullVisibility* visibility) {
   options.Check();
   CV_Assert(depth.type() == CV_32FC1 && depth.size() == tile.size());
+  if (visibility && (visibility->views.size() != images.size() || visibility->depth.size() != images.size()))
+    throw std::invalid_argument("TextureHull: visibility has " + std::to_string(visibility->views.size()) +
+                                " cameras, images " + std::to_string(images.size()));
   cv::Mat out(tile.size(), CV_8UC3, cv::Scalar(0, 0, 0));
   std::vector<Camera> cams;
   std::vector<Eigen::Vector3d> centres;
@@ -55,6 +97,7 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
         const double cosang = to_eye.dot((centres[k] - X).normalized());
         const auto uv = cams[k].Project(X);
         if (!uv || !cams[k].InImage(*uv)) continue;
+        if (visibility && !Visible(*visibility, k, X, options.visibility_bias_m)) continue;
         // Cameras facing the eye's side dominate; when none does (the Utrecht
         // rig has no camera behind the person) the least oblique one still wins.
         const double w = (cosang > 0 ? std::pow(cosang, options.angle_power) : 0.0) + 1e-9 * (1.0 + cosang);

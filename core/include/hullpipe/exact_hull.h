@@ -50,8 +50,10 @@ Intervals RayCameraIntervals(const VolumeQuery& query, size_t camera, const Eige
 /// Intersection of two interval sets.
 Intervals IntersectIntervals(const Intervals& a, const Intervals& b);
 
-/// Exact first-hit eye depth of every pixel of `tile` of the view (CV_32FC1,
-/// kNoDepth where the ray misses the hull), within the hull box.
-cv::Mat ExactHullDepth(const VolumeQuery& query, const struct NovelView& view, const cv::Rect& tile);
+/// Exact first-hit eye depth (metres) of every pixel of `tile` of the view
+/// (CV_32FC1, kNoDepth where the pixel centre's ray misses the hull), within the
+/// hull box. The reference for the sweep's depth error. threads >= 1.
+cv::Mat ExactHullDepth(const VolumeQuery& query, const struct NovelView& view, const cv::Rect& tile,
+                       int threads = 1);
 
 }  // namespace hullpipe

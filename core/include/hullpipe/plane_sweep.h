@@ -76,6 +76,16 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                       const std::vector<double>& plane_depths, const cv::Rect& tile,
                       SweepStats* stats = nullptr, int threads = 1, int refine_iterations = 0);
 
+/// Depth refinement (beyond the paper, issue 4) of a finished sweep, for backends
+/// that cannot refine themselves (the GL sweep): each finite depth in *depth (a
+/// plane of `depths`, as the sweep returned it for `tile`) is bisected
+/// `iterations` times between the previous plane (or the hull box entry) and
+/// itself with point queries. Gives the same result as PlaneSweepCpu with
+/// refine_iterations, up to float rounding. Throws std::invalid_argument if *depth
+/// is not CV_32FC1 of the tile's size.
+void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
+                      const cv::Rect& tile, int iterations, cv::Mat* depth, int threads = 1);
+
 /// Tile i of n of a view: n horizontal bands of (nearly) equal height, top first.
 /// Throws std::invalid_argument unless 0 <= i < n <= height.
 cv::Rect TileRect(int i, int n, int width, int height);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -16,24 +17,36 @@ namespace hullpipe {
 
 /// One analytic solid. Lengths in world metres.
 struct Shape {
-  enum class Type { kSphere, kBox, kCapsule };
+  enum class Type { kSphere, kBox, kCapsule, kTorus };
   Type type = Type::kSphere;
   Eigen::Vector3d a = Eigen::Vector3d::Zero();  ///< Sphere/box centre; capsule end 1.
   Eigen::Vector3d b = Eigen::Vector3d::Zero();  ///< Capsule end 2.
   Eigen::Vector3d half_extents = Eigen::Vector3d::Constant(0.1);  ///< Box half sizes.
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< Box: world_from_box rotation.
-  double radius = 0.1;                                      ///< Sphere/capsule radius.
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< Box/torus: world_from_shape rotation.
+  double radius = 0.1;                                      ///< Sphere/capsule radius; torus tube radius.
+  double major_radius = 0.2;                                ///< Torus: centre to tube centre.
   cv::Vec3b colour{60, 60, 200};                            ///< BGR.
 
   static Shape Sphere(const Eigen::Vector3d& c, double r);
   static Shape Box(const Eigen::Vector3d& c, const Eigen::Vector3d& half,
                    const Eigen::Matrix3d& world_from_box = Eigen::Matrix3d::Identity());
   static Shape Capsule(const Eigen::Vector3d& p, const Eigen::Vector3d& q, double r);
+  /// Torus centred at c, its axis the shape frame's z (world_from_torus rotation),
+  /// ring radius R, tube radius r < R. A concave shape: its visual hull fills the hole
+  /// only where no camera sees through it.
+  static Shape Torus(const Eigen::Vector3d& c, double R, double r,
+                     const Eigen::Matrix3d& world_from_torus = Eigen::Matrix3d::Identity());
+
+  /// Signed distance (world metres) from p to the surface: negative inside.
+  /// Exact (Euclidean) for every type.
+  double SignedDistance(const Eigen::Vector3d& p) const;
 
   /// True if the world point is inside or on the solid.
   bool Contains(const Eigen::Vector3d& p) const;
   /// Smallest s >= 0 with origin + s * dir on the surface (dir need not be unit),
-  /// or nullopt; a ray starting inside hits at s = 0.
+  /// or nullopt; a ray starting inside hits at s = 0. Closed form for sphere, box
+  /// and capsule; the torus by sphere tracing its exact distance to 1e-10 m (a ray
+  /// grazing the tube within that distance may be reported as a miss).
   std::optional<double> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) const;
   /// Outward unit normal at a surface point.
   Eigen::Vector3d Normal(const Eigen::Vector3d& p) const;
@@ -52,6 +65,23 @@ struct SyntheticScene {
 /// whose right arm waves, at time t seconds (period 4 s). About 1.7 m tall, centred
 /// at the world origin on the floor (z down).
 SyntheticScene AnimatedFigure(double t_seconds);
+
+/// A right hand and forearm as a chain of capsules (forearm, palm, five fingers of
+/// two or three segments, ~1.5-2 cm thick) around `wrist`, opening and closing and
+/// turning with period 3 s: fingers a few mm to cm apart, the hard case for a hull.
+SyntheticScene HandAndForearm(double t_seconds, const Eigen::Vector3d& wrist = Eigen::Vector3d(0, 0, -1.0));
+
+/// Synthetic evaluation scenes by name at time t: "sphere" (r 0.3 m), "box"
+/// (0.5 x 0.3 x 0.2 m, turned), "torus" (R 0.25, r 0.08, tilted), "hand"
+/// (HandAndForearm), "figure" (AnimatedFigure), "mixed" (sphere, box, torus and a
+/// capsule). All but "figure" are centred near (0, 0, -1), 1 m above the floor.
+/// Throws std::invalid_argument for another name.
+SyntheticScene NamedScene(const std::string& name, double t_seconds);
+
+/// n cameras spread over a dome (a hemisphere above `target`, elevations 15-70
+/// degrees, golden-angle azimuths) of `radius`, all looking at target. Ids 1..n.
+std::vector<Camera> DomeCameras(int n, double radius, const Eigen::Vector3d& target, int width, int height_px,
+                                double hfov, const Distortion& distortion = {});
 
 /// n cameras on a ring of `radius` around `target`, at height `height` above the
 /// floor (world z = -height), all looking at target, image w x h with horizontal

@@ -25,7 +25,9 @@ class SweepBackend {
 /// name: "cpu", "gl" or "auto". auto takes GL on a hardware renderer and the CPU
 /// on a software one (Mesa's llvmpipe), where the CPU path is faster; and the CPU
 /// where no EGL display exists. "gl" without a usable EGL context throws
-/// std::runtime_error saying why. threads: CPU sweep threads.
-std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int threads = 1);
+/// std::runtime_error saying why. threads: CPU sweep threads. refine: depth
+/// refinement bisections after the sweep (PlaneSweepCpu, RefineSweepDepth; 0 = the
+/// paper's plane-quantised depth); throws std::invalid_argument if negative.
+std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int threads = 1, int refine = 0);
 
 }  // namespace hullpipe::gl
