@@ -33,9 +33,18 @@ int main(int argc, char** argv) {
   uint32_t wait_readers = 0;
   double wait_timeout = 10;
   std::string synthetic_size = "320x240";
+  SyntheticRigOptions synthetic_options;
   app.add_option("--rig", rig_path, "Rig directory (Utrecht layout) or YAML rig file");
   app.add_flag("--synthetic", synthetic, "Use the built-in synthetic scene (exact masks, no files)");
   app.add_option("--synthetic-size", synthetic_size, "Synthetic camera size WxH")->capture_default_str();
+  app.add_option("--synthetic-scene", synthetic_options.scene, "Synthetic scene: figure|hand|sphere|box|torus|mixed")
+      ->capture_default_str();
+  app.add_option("--synthetic-placement", synthetic_options.placement, "Synthetic cameras: ring|dome")
+      ->capture_default_str();
+  app.add_option("--synthetic-cameras", synthetic_options.cameras, "Number of synthetic cameras (3-16)")
+      ->check(CLI::Range(1, 16))->capture_default_str();
+  app.add_option("--synthetic-k1", synthetic_options.distortion[0], "Synthetic radial distortion k1")
+      ->capture_default_str();
   app.add_option("--cameras", camera_ids, "Camera ids to capture (default: all)")->delimiter(',');
   app.add_option("--frames", frames, "Stop after this many frames (0: end of input)");
   app.add_option("--fps", fps, "Pace at this rate (default: the source's rate)");
@@ -53,7 +62,7 @@ int main(int argc, char** argv) {
     auto participant = StartNode("capture", common);
     std::unique_ptr<RigSource> source;
     if (synthetic) {
-      SyntheticRigOptions so;
+      SyntheticRigOptions so = synthetic_options;
       if (std::sscanf(synthetic_size.c_str(), "%dx%d", &so.width, &so.height) != 2)
         throw std::invalid_argument("--synthetic-size must be WxH");
       so.camera_ids = camera_ids;

@@ -65,6 +65,7 @@ int main(int argc, char** argv) {
   sweep->add_option("--time", sw.time_s, "Scene time, seconds")->capture_default_str();
   sweep->add_flag("!--no-gl", sw.gl, "Leave out the GL rows");
   sweep->add_flag("--full", sw.full, "Every combination of planes, spacing, view, cameras, backend, refine");
+  sweep->add_flag("--headline", sw.headline_only, "Only the CPU rows at 320x240 with 4 cameras");
   sweep->add_option("--tsv", sw.tsv, "Also write the rows as TSV (for gnuplot)");
   TextureEvalOptions tx;
   auto* texture = app.add_subcommand("texture", "Colour error of the textured hull, with and without visibility");

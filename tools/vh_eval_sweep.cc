@@ -149,7 +149,13 @@ int RunSweepEval(const SweepEvalOptions& o) {
       std::fprintf(stderr, "vh_eval sweep: no GL rows: %s\n", why.c_str());
     }
   }
-  const std::vector<Config> grid = o.full ? FullGrid(bool(ctx)) : StandardGrid(bool(ctx));
+  std::vector<Config> grid = o.full ? FullGrid(bool(ctx)) : StandardGrid(bool(ctx));
+  if (o.headline_only)
+    grid.erase(std::remove_if(grid.begin(), grid.end(),
+                              [](const Config& c) {
+                                return c.width != 320 || c.cameras != 4 || c.distortion != "none" || c.backend != "cpu";
+                              }),
+               grid.end());
   std::map<std::tuple<int, int, int, bool>, Setting> settings;
   nlohmann::json rows = nlohmann::json::array();
   nlohmann::json refs = nlohmann::json::array();

@@ -17,6 +17,7 @@ struct SweepEvalOptions {
   int threads_reference = 2;      ///< Threads for the exact reference (not timed).
   bool gl = true;                 ///< Include GL rows where an EGL display exists.
   bool full = false;              ///< The full cross product instead of the standard grid.
+  bool headline_only = false;     ///< Only the CPU rows at 320x240 with 4 cameras.
   bool json = false;              ///< Print one JSON object instead of a table.
   std::string tsv;                ///< Also write rows as TSV for gnuplot.
 };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -87,7 +88,10 @@ class RayQuery {
     return true;
   }
   // Is the point at eye depth d on the aimed ray inside the hull?
-  bool InsideAt(float d) {
+  // *near_miss (if given) is set when every camera but the last one asked accepted
+  // the point: the stencil count was n - 1, the hull is probably very close.
+  bool InsideAt(float d, bool* near_miss = nullptr) {
+    if (near_miss) *near_miss = false;
     int object = 0, unseen = 0;
     for (size_t j = 0; j < n_; ++j) {
       const size_t c = order_[j];
@@ -99,6 +103,7 @@ class RayQuery {
       } else if (vote == Vote::kBackground || !unknown_) {
         // The camera that rejected goes first next time: neighbouring points are
         // usually rejected by the same camera.
+        if (near_miss) *near_miss = j + 1 == n_;
         if (j > 0) std::rotate(order_.begin(), order_.begin() + long(j), order_.begin() + long(j) + 1);
         return false;
       } else {
@@ -131,6 +136,8 @@ class RayQuery {
 // The bracket below plane k for refinement: the previous plane or the hull box
 // entry, whichever is deeper. The near plane (k == 0) is not refined: in front of
 // it the frustum is cut.
+constexpr size_t kMaxNearMisses = 8;
+
 bool RefineBracket(const std::vector<double>& depths, size_t k, double s0, float* lo) {
   if (k == 0) return false;
   *lo = float(std::max(depths[k - 1], s0));
@@ -152,15 +159,48 @@ void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vecto
       ++local.rays;
       // First plane at or beyond s0 (the box entry), last at or before s1.
       const size_t first = size_t(std::lower_bound(depths.begin(), depths.end(), s0) - depths.begin());
+      // Refinement remembers the planes where the stencil count was n - 1 before the
+      // first inside plane: a piece of hull thinner than the spacing may lie
+      // between them and their neighbours.
+      size_t near_misses[kMaxNearMisses];
+      size_t n_near = 0;
+      size_t hit = d.size();
       for (size_t k = first; k < d.size() && depths[k] <= s1; ++k) {
         ++local.plane_points;
-        if (!ray.InsideAt(d[k])) continue;
-        float lo = 0;
-        out_row[col] = refine_iterations > 0 && RefineBracket(depths, k, s0, &lo)
-                           ? ray.Bisect(lo, d[k], refine_iterations)
-                           : d[k];
-        break;
+        bool near = false;
+        if (ray.InsideAt(d[k], refine_iterations > 0 ? &near : nullptr)) {
+          hit = k;
+          break;
+        }
+        if (near && n_near < kMaxNearMisses) near_misses[n_near++] = k;
       }
+      if (refine_iterations > 0) {
+        // Scan around each near miss, front to back, at 1/8 of the spacing.
+        for (size_t m = 0; m < n_near; ++m) {
+          const size_t k = near_misses[m];
+          const double a = std::max(s0, k > 0 ? depths[k - 1] : depths[k]);
+          const double b = std::min({s1, k + 1 < depths.size() ? depths[k + 1] : depths[k]});
+          const double step = (b - a) / 16;
+          if (!(step > 0)) continue;
+          double prev = a;
+          bool found = false;
+          for (double t = a + step; t < b; t += step) {
+            if (ray.InsideAt(float(t))) {
+              out_row[col] = ray.Bisect(float(prev), float(t), refine_iterations);
+              found = true;
+              break;
+            }
+            prev = t;
+          }
+          if (found) break;
+        }
+        if (std::isfinite(out_row[col])) continue;
+      }
+      if (hit == d.size()) continue;
+      float lo = 0;
+      out_row[col] = refine_iterations > 0 && RefineBracket(depths, hit, s0, &lo)
+                         ? ray.Bisect(lo, d[hit], refine_iterations)
+                         : d[hit];
     }
   }
   local.projections = ray.projections;
@@ -191,6 +231,107 @@ void ForRowBands(int height, int threads, SweepStats* stats, Rows rows) {
 
 }  // namespace
 
+namespace {
+
+// Spacing of the planes around eye depth d (the gap below the plane at or after d).
+double SpacingAt(const std::vector<double>& depths, double d) {
+  if (depths.size() < 2) return 0;
+  size_t k = size_t(std::lower_bound(depths.begin(), depths.end(), d) - depths.begin());
+  k = std::clamp<size_t>(k, 1, depths.size() - 1);
+  return depths[k] - depths[k - 1];
+}
+
+// The silhouette pass of the refinement. The sweep misses a piece of hull shorter
+// than the plane spacing along a ray: that happens where a ray grazes the hull, at
+// its silhouette or at an occluding rim as seen from the eye, where neighbouring
+// pixels differ in depth by more than a plane or one has no hull. For such a pixel
+// the hull is most likely near its neighbour's depth, so the ray is scanned there
+// at an eighth of the plane spacing and a hit is bisected. Reads `swept`, writes
+// `out` (both the region's size); updates pixels of `inner` (region coordinates).
+// `changed` (CV_8UC1, region size, or empty for the first pass) marks pixels the
+// previous pass moved; only their neighbours are looked at again. `moved` gets
+// this pass's marks.
+void RefineEdges(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
+                 const cv::Rect& region, const cv::Rect& inner, int iterations, const cv::Mat& swept, cv::Mat& out,
+                 const cv::Mat& changed, cv::Mat& moved, int threads) {
+  moved = cv::Mat::zeros(swept.size(), CV_8UC1);
+  ForRowBands(inner.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
+    RayQuery ray(query, view);
+    std::vector<std::pair<double, double>> windows;
+    for (int rr = r0; rr < r1; ++rr) {
+      const int r = inner.y + rr;
+      for (int c = inner.x; c < inner.x + inner.width; ++c) {
+        const float dp = swept.at<float>(r, c);
+        windows.clear();
+        const int nb[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
+        for (const auto& o : nb) {
+          const int y = r + o[0], x = c + o[1];
+          if (y < 0 || x < 0 || y >= swept.rows || x >= swept.cols) continue;
+          if (!changed.empty() && !changed.at<uint8_t>(y, x)) continue;
+          const float dq = swept.at<float>(y, x);
+          if (!std::isfinite(dq)) continue;
+          const double sp = SpacingAt(depths, dq);
+          if (std::isfinite(dp) && dq >= dp - 1.5 * sp) continue;
+          windows.emplace_back(dq - 2 * sp, dq + 2 * sp);
+        }
+        if (windows.empty()) continue;
+        double s0 = depths.front(), s1 = depths.back();
+        if (!ray.Aim(region.x + c + 0.5, region.y + r + 0.5, &s0, &s1)) continue;
+        const double limit = std::isfinite(dp) ? std::min(double(dp), s1) : s1;
+        std::sort(windows.begin(), windows.end());
+        double best = std::isfinite(dp) ? double(dp) : std::numeric_limits<double>::infinity();
+        for (const auto& [w0, w1] : windows) {
+          const double a = std::max({w0, s0, depths.front()}), b = std::min(w1, limit);
+          if (!(b > a) || a >= best) continue;
+          const double step = SpacingAt(depths, a) / 8;
+          if (!(step > 0)) continue;
+          double prev = a;
+          for (double t = a; t <= b && t < best; t += step) {
+            if (ray.InsideAt(float(t))) {
+              if (t == a) {
+                // Inside at the window's start: the entry lies in front, after the
+                // last plane before it (which the sweep found outside) or the box entry.
+                const auto k = std::lower_bound(depths.begin(), depths.end(), a);
+                prev = std::max(s0, k == depths.begin() ? s0 : *(k - 1));
+                if (!(prev < a)) {
+                  best = a;
+                  break;
+                }
+              }
+              best = double(ray.Bisect(float(prev), float(t), iterations));
+              break;
+            }
+            prev = t;
+          }
+        }
+        if (best < double(dp) || (!std::isfinite(dp) && std::isfinite(best))) {
+          out.at<float>(r, c) = float(best);
+          moved.at<uint8_t>(r, c) = 1;
+        }
+      }
+    }
+  });
+}
+
+// Silhouette passes: each reads the previous pass's depths, so after P passes a
+// pixel depends only on sweep results within P pixels of it (tiles need a margin
+// of P to match a whole-view render exactly). On the synthetic scenes of
+// `vh_eval sweep` passes after the first changed nothing, so there is one.
+constexpr int kEdgePasses = 1;
+
+void RefineEdgesPasses(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
+                       const cv::Rect& region, const cv::Rect& inner, int iterations, cv::Mat& depth, int threads) {
+  cv::Mat changed, moved;
+  for (int pass = 0; pass < kEdgePasses; ++pass) {
+    const cv::Mat before = depth.clone();
+    RefineEdges(query, view, depths, region, inner, iterations, before, depth, changed, moved, threads);
+    if (cv::countNonZero(moved) == 0) break;
+    changed = moved;
+  }
+}
+
+}  // namespace
+
 void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
                       const cv::Rect& tile, int iterations, cv::Mat* depth, int threads) {
   view.Check();
@@ -214,6 +355,9 @@ void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std
       }
     }
   });
+  // The silhouette pass sees only this tile's pixels: at a tile's border it has
+  // fewer neighbours than in a whole-view render (PlaneSweepCpu has no such seam).
+  RefineEdgesPasses(query, view, depths, tile, {0, 0, tile.width, tile.height}, iterations, *depth, threads);
 }
 
 cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
@@ -222,9 +366,28 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   view.Check();
   cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
   if (depths.empty() || tile.area() == 0 || query.hull_box().empty()) return out;
-  ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
-    SweepRows(query, view, depths, tile, r0, r1, out, st, refine_iterations);
+  if (refine_iterations <= 0) {
+    ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
+      SweepRows(query, view, depths, tile, r0, r1, out, st, 0);
+    });
+    return out;
+  }
+  // Refinement: sweep with a margin of kEdgePasses pixels inside the view, so the
+  // silhouette passes see the same neighbours as a whole-view render and tiles
+  // meet without seams, then refine and crop.
+  const int m = kEdgePasses;
+  const cv::Rect region = cv::Rect(tile.x - m, tile.y - m, tile.width + 2 * m, tile.height + 2 * m) &
+                          cv::Rect(0, 0, view.width, view.height);
+  cv::Mat swept(region.height, region.width, CV_32FC1, cv::Scalar(kNoDepth));
+  ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
+    SweepRows(query, view, depths, region, r0, r1, swept, st, refine_iterations);
   });
+  // Every pass refines the whole region (pixels near its border see fewer
+  // neighbours, but they are at least P - pass pixels from the tile).
+  RefineEdgesPasses(query, view, depths, region, {0, 0, region.width, region.height}, refine_iterations, swept,
+                    threads);
+  const cv::Rect inner(tile.x - region.x, tile.y - region.y, tile.width, tile.height);
+  swept(inner).copyTo(out);
   return out;
 }
 

@@ -160,8 +160,13 @@ class SyntheticRig final : public RigSource {
   explicit SyntheticRig(const SyntheticRigOptions& o) : options_(o) {
     if (o.cameras < 1 || o.width < 8 || o.height < 8 || !(o.fps > 0))
       throw std::invalid_argument("synthetic rig: need >= 1 camera, size >= 8, fps > 0");
-    const auto all = RingCameras(o.cameras, 4.0, 2.0, Eigen::Vector3d(0, 0, -0.9), o.width, o.height, o.hfov,
-                                 o.distortion);
+    (void)NamedScene(o.scene, 0);  // throws on an unknown name
+    if (o.placement != "ring" && o.placement != "dome")
+      throw std::invalid_argument("synthetic rig: placement must be ring or dome, not '" + o.placement + "'");
+    const Eigen::Vector3d target = o.scene == "figure" ? Eigen::Vector3d(0, 0, -0.9) : Eigen::Vector3d(0, 0, -1.0);
+    const auto all = o.placement == "dome"
+                         ? DomeCameras(o.cameras, 3.0, target, o.width, o.height, o.hfov, o.distortion)
+                         : RingCameras(o.cameras, 4.0, 2.0, target, o.width, o.height, o.hfov, o.distortion);
     for (const auto& c : all)
       if (Selected(o.camera_ids, c.id)) cameras_.push_back(c);
     if (cameras_.empty()) throw std::invalid_argument("synthetic rig: no camera selected");
@@ -175,7 +180,7 @@ class SyntheticRig final : public RigSource {
   bool Next(RigFrame* f) override {
     if (index_ >= options_.frames) return false;
     f->time_s = double(index_) / options_.fps;
-    const SyntheticScene scene = AnimatedFigure(f->time_s);
+    const SyntheticScene scene = NamedScene(options_.scene, f->time_s);
     f->images.clear();
     f->maps.clear();
     f->errors.clear();

@@ -68,10 +68,15 @@ struct SweepStats {
 /// testing every plane of every pixel in order (the paper's sweep); it skips only
 /// planes outside the hull box, where no point can be inside. threads >= 1 splits
 /// rows across threads. refine_iterations > 0 (beyond the paper, issue 4) then
-/// bisects each pixel's depth between its last outside point (the previous plane
-/// or the hull box entry) and the first inside plane, with point queries: depth
-/// error shrinks by 2^-iterations of the plane spacing instead of depending on the
-/// plane count. 0 keeps the paper's result, identical to the GL sweep.
+/// (1) bisects each pixel's depth between its last outside point (the previous
+/// plane or the hull box entry) and the first inside plane, with point queries:
+/// depth error shrinks by 2^-iterations of the plane spacing instead of depending
+/// on the plane count; (2) at silhouettes and occluding rims (a neighbour nearer by
+/// more than a plane, or a neighbour with hull where this pixel has none), where a
+/// grazing ray's piece of hull can fall between two planes, rescans the ray near
+/// the neighbour's depth at 1/8 of the spacing and bisects a hit. Tiles of a view
+/// still assemble to exactly the whole-view result. 0 keeps the paper's result,
+/// identical to the GL sweep.
 cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                       const std::vector<double>& plane_depths, const cv::Rect& tile,
                       SweepStats* stats = nullptr, int threads = 1, int refine_iterations = 0);

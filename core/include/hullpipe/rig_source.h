@@ -66,10 +66,13 @@ struct SyntheticRigOptions {
   Distortion distortion{};
   int frames = 250;              ///< Frames before the input ends.
   std::vector<int> camera_ids;   ///< Subset (empty = all).
+  std::string scene = "figure";  ///< NamedScene: figure, hand, sphere, box, torus, mixed.
+  std::string placement = "ring";  ///< ring (4 m around the scene, 2 m up) or dome (3 m).
 };
 
-/// The built-in synthetic scene (AnimatedFigure seen by RingCameras): exact maps,
-/// shaded colour, no files needed.
+/// The built-in synthetic scene (NamedScene, moving, seen by RingCameras or
+/// DomeCameras): exact maps, shaded colour, no files needed. Throws
+/// std::invalid_argument on bad options (naming them).
 std::unique_ptr<RigSource> OpenSyntheticRig(const SyntheticRigOptions& options);
 
 }  // namespace hullpipe
