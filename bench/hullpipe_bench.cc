@@ -132,6 +132,8 @@ int main(int argc, char** argv) {
       Row("plane sweep CPU, 1 thread", cfg, MedianMs(repeats, [&] { (void)PlaneSweepCpu(q, view, depths, full); }), note);
       Row("plane sweep CPU, half view", cfg + " (one recon tile)",
           MedianMs(repeats, [&] { (void)PlaneSweepCpu(q, view, depths, TileRect(0, 2, w, h)); }));
+      Row("plane sweep CPU + refine 6", cfg + " (one recon tile)",
+          MedianMs(repeats, [&] { (void)PlaneSweepCpu(q, view, depths, TileRect(0, 2, w, h), nullptr, 1, 6); }));
       if (gl_sweep)
         Row("plane sweep " + gl_name, cfg, MedianMs(std::max(3, repeats / 2), [&] { (void)gl_sweep->Sweep(q, view, depths, full); }));
     }
@@ -139,6 +141,19 @@ int main(int argc, char** argv) {
     const cv::Mat d = PlaneSweepCpu(q, view, depths, full);
     Row("texture (2 best cameras)", std::to_string(w) + "x" + std::to_string(h),
         MedianMs(repeats, [&] { (void)TextureHull(d, full, view, images); }));
+    if (w == 320) {
+      std::vector<Camera> cams;
+      for (const auto& im : images) cams.push_back(im.camera);
+      PlaneSweepOptions vo;
+      vo.num_planes = 48;
+      Row("visibility maps (4 cameras)", "80 px across, 48 planes, refine 6",
+          MedianMs(repeats, [&] { (void)ComputeHullVisibility(q, cams, 80, vo, 6); }));
+      Row("visibility maps (4 cameras)", "80 px across, 48 planes, refine 0",
+          MedianMs(repeats, [&] { (void)ComputeHullVisibility(q, cams, 80, vo, 0); }));
+      const HullVisibility vis = ComputeHullVisibility(q, cams, 80, vo, 0);
+      Row("texture with visibility", std::to_string(w) + "x" + std::to_string(h),
+          MedianMs(repeats, [&] { (void)TextureHull(d, full, view, images, {}, &vis); }));
+    }
     const cv::Mat colour(h, w, CV_8UC3, cv::Scalar(0));
     Row("composite", std::to_string(w) + "x" + std::to_string(h),
         MedianMs(repeats, [&] { (void)Composite(view, d, colour, {{centre, 0.12, false}}); }));

@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
   CLI::App app{"hullpipe_launch: run the five-process pipeline and stop it cleanly"};
   std::string rig, out = "out", description, scene, backend = "auto", bin_dir, dds_config;
   bool synthetic = false;
-  int frames = 0, width = 320, height = 240, planes = 100, domain = -1;
+  int frames = 0, width = 320, height = 240, planes = 50, domain = -1;
   double grace = 5.0;
   app.add_option("--rig", rig, "Rig directory or YAML rig file");
   app.add_flag("--synthetic", synthetic, "Use capture_node's built-in synthetic scene");

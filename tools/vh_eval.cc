@@ -57,14 +57,15 @@ int main(int argc, char** argv) {
   auto* sweep = app.add_subcommand("sweep", "Plane sweep speed against error, against the exact hull (synthetic)");
   sweep->add_flag("--json", sw.json, "Print one JSON object with a row per configuration");
   sweep->add_option("--scene", sw.scene, "Synthetic scene: sphere|box|torus|hand|figure|mixed")->capture_default_str();
-  sweep->add_option("--placement", sw.placement, "Camera placement: dome|ring")
-      ->check(CLI::IsMember({"dome", "ring"}))
+  sweep->add_option("--placement", sw.placement, "Camera placement: dome|ring|rig (the cameras of --rig)")
+      ->check(CLI::IsMember({"dome", "ring", "rig"}))
       ->capture_default_str();
   sweep->add_option("--repeats", sw.repeats, "Timed runs per configuration (median)")->capture_default_str();
   sweep->add_option("--threads", sw.threads, "CPU sweep threads")->capture_default_str();
   sweep->add_option("--time", sw.time_s, "Scene time, seconds")->capture_default_str();
   sweep->add_flag("!--no-gl", sw.gl, "Leave out the GL rows");
   sweep->add_flag("--full", sw.full, "Every combination of planes, spacing, view, cameras, backend, refine");
+  sweep->add_option("--rig", sw.rig, "Rig directory or YAML file, for --placement rig");
   sweep->add_flag("--headline", sw.headline_only, "Only the CPU rows at 320x240 with 4 cameras");
   sweep->add_option("--tsv", sw.tsv, "Also write the rows as TSV (for gnuplot)");
   TextureEvalOptions tx;

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "hullpipe/calibration.h"
 #include "hullpipe/depth_eval.h"
 #include "hullpipe/exact_hull.h"
 #include "hullpipe/gl/egl_context.h"
@@ -52,14 +53,41 @@ struct Setting {
 
 const Distortion kLensDistortion{-0.25, 0.08, 0.001, -0.001, -0.01};
 
+// The point nearest (least squares) to every camera's optical axis: where a
+// rig's cameras look.
+Eigen::Vector3d WhereCamerasLook(const std::vector<Camera>& cams) {
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const auto& c : cams) {
+    const Eigen::Vector3d axis = c.cam_from_world.rotation.row(2).transpose();
+    const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - axis * axis.transpose();
+    A += P;
+    b += P * c.Center();
+  }
+  return A.ldlt().solve(b);
+}
+
 Setting MakeSetting(const SweepEvalOptions& o, int cameras, int width, int height, bool distorted) {
   Setting s;
-  const SyntheticScene scene = NamedScene(o.scene, o.time_s);
-  const Eigen::Vector3d target = o.scene == "figure" ? Eigen::Vector3d(0, 0, -0.9) : Eigen::Vector3d(0, 0, -1.0);
+  SyntheticScene scene = NamedScene(o.scene, o.time_s);
+  Eigen::Vector3d target = o.scene == "figure" ? Eigen::Vector3d(0, 0, -0.9) : Eigen::Vector3d(0, 0, -1.0);
   const Distortion d = distorted ? kLensDistortion : Distortion{};
-  s.true_cams = o.placement == "ring"
-                    ? RingCameras(cameras, 3.0, 1.8, target, o.camera_width, o.camera_height, 0.9, d)
-                    : DomeCameras(cameras, 3.0, target, o.camera_width, o.camera_height, 0.9, d);
+  if (o.placement == "rig") {
+    // The real rig's cameras (their own intrinsics and distortion); the scene is
+    // moved to where they look, kept 1 m above the floor (z down, floor z = 0).
+    s.true_cams = LoadRig(o.rig).Cameras();
+    Eigen::Vector3d look = WhereCamerasLook(s.true_cams);
+    look.z() = std::min(look.z(), -1.0);
+    for (auto& sh : scene.shapes) {
+      sh.a += look - target;
+      sh.b += look - target;
+    }
+    target = look;
+  } else {
+    s.true_cams = o.placement == "ring"
+                      ? RingCameras(cameras, 3.0, 1.8, target, o.camera_width, o.camera_height, 0.9, d)
+                      : DomeCameras(cameras, 3.0, target, o.camera_width, o.camera_height, 0.9, d);
+  }
   std::vector<CameraMap> views, ignored;
   for (const auto& c : s.true_cams) {
     s.maps.push_back(RenderExactMap(c, scene));
@@ -150,6 +178,18 @@ int RunSweepEval(const SweepEvalOptions& o) {
     }
   }
   std::vector<Config> grid = o.full ? FullGrid(bool(ctx)) : StandardGrid(bool(ctx));
+  if (o.placement == "rig") {
+    // The rig fixes the cameras (count, size, distortion): its rows are the
+    // headline ones with its own camera count, distortion "rig".
+    const int n = int(LoadRig(o.rig).cameras.size());
+    grid.erase(std::remove_if(grid.begin(), grid.end(),
+                              [](const Config& c) {
+                                return c.width != 320 || c.cameras != 4 || c.distortion != "none" ||
+                                       c.backend != "cpu" || c.spacing != PlaneSpacing::kUniformDepth;
+                              }),
+               grid.end());
+    for (auto& c : grid) c.cameras = n, c.distortion = "rig";
+  }
   if (o.headline_only)
     grid.erase(std::remove_if(grid.begin(), grid.end(),
                               [](const Config& c) {
@@ -161,7 +201,7 @@ int RunSweepEval(const SweepEvalOptions& o) {
   nlohmann::json refs = nlohmann::json::array();
   size_t done = 0;
   for (const Config& c : grid) {
-    const bool distorted = c.distortion != "none";
+    const bool distorted = c.distortion == "corrected" || c.distortion == "ignored";
     const auto key = std::make_tuple(c.cameras, c.width, c.height, distorted);
     if (!settings.count(key)) {
       settings.emplace(key, MakeSetting(o, c.cameras, c.width, c.height, distorted));
@@ -227,10 +267,10 @@ int RunSweepEval(const SweepEvalOptions& o) {
   // more accurate.
   for (auto& r : rows) {
     r["pareto"] = false;
-    if (r["width"] != 320 || r["cameras"] != 4 || r["distortion"] != "none") continue;
+    if (r["width"] != 320 || r["cameras"] != 4 || (r["distortion"] != "none" && r["distortion"] != "rig")) continue;
     bool dominated = false;
     for (const auto& x : rows) {
-      if (x["width"] != 320 || x["cameras"] != 4 || x["distortion"] != "none") continue;
+      if (x["width"] != 320 || x["cameras"] != 4 || x["distortion"] != r["distortion"]) continue;
       const double xm = x["ms"], rm = r["ms"], xe = x["depth_err_mm_p95"], re = r["depth_err_mm_p95"];
       if (xm <= rm && xe <= re && (xm < rm || xe < re)) dominated = true;
     }
@@ -240,7 +280,9 @@ int RunSweepEval(const SweepEvalOptions& o) {
   // cameras in under 20 ms; the fastest CPU row meeting the error part.
   nlohmann::json goal = nullptr;
   for (const auto& r : rows) {
-    if (r["width"] != 320 || r["cameras"] != 4 || r["distortion"] != "none" || r["backend"] != "cpu") continue;
+    if (r["width"] != 320 || r["cameras"] != 4 || (r["distortion"] != "none" && r["distortion"] != "rig") ||
+        r["backend"] != "cpu")
+      continue;
     if (double(r["depth_err_mm_median"]) < 1.0 && double(r["depth_err_mm_p95"]) < 5.0 &&
         (goal.is_null() || double(r["ms"]) < double(goal["ms"])))
       goal = r;

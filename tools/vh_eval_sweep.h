@@ -9,7 +9,8 @@ namespace hullpipe {
 /// Settings of `vh_eval sweep`.
 struct SweepEvalOptions {
   std::string scene = "mixed";    ///< NamedScene name.
-  std::string placement = "dome"; ///< dome | ring.
+  std::string placement = "dome"; ///< dome | ring | rig (the cameras of `rig`).
+  std::string rig;                ///< Rig directory or YAML file for placement rig.
   int camera_width = 640, camera_height = 480;  ///< Each synthetic camera's image.
   double time_s = 0.5;            ///< Scene time.
   int repeats = 3;                ///< Timed runs per configuration (median reported).

@@ -38,7 +38,7 @@ enum class PlaneSpacing { kUniformDepth, kUniformInverseDepth };
 
 /// Plane sweep settings.
 struct PlaneSweepOptions {
-  int num_planes = 100;     ///< Planes between near and far (>= 2).
+  int num_planes = 50;      ///< Planes between near and far (>= 2); with refinement 50 beat 100 unrefined.
   double near = 0.05;       ///< Nearest plane, eye z in metres (> 0).
   double far = 50.0;        ///< Farthest plane, eye z in metres (> near).
   PlaneSpacing spacing = PlaneSpacing::kUniformDepth;
