@@ -90,7 +90,11 @@ TEST(Convert, ViewAndTile) {
   t.tile_index = 1;
   t.tile_count = 2;
   auto s = MakeHullViewMessage(t, 100);
+  // On the wire: no NaN or infinity, 0 for no hull.
+  for (uint32_t i = 0; i < s.msg.depth._length; ++i) ASSERT_TRUE(std::isfinite(s.msg.depth._buffer[i]));
+  EXPECT_EQ(s.msg.depth._buffer[0], 0.0f);
   const HullTile tb = TileFromMsg(s.msg);
+  EXPECT_TRUE(std::isinf(tb.depth.at<float>(0, 0))) << "no hull is kNoDepth inside";
   EXPECT_EQ(tb.rect, t.rect);
   EXPECT_EQ(tb.depth.at<float>(3, 4), 2.5f);
   EXPECT_TRUE(std::isinf(tb.depth.at<float>(5, 5)));  // NaN never reaches the compositor

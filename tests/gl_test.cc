@@ -7,6 +7,7 @@
 #include "hullpipe/gl/gl_volume_query.h"
 #include "hullpipe/mesh.h"
 #include "hullpipe/plane_sweep.h"
+#include "hullpipe/synthetic.h"
 #include "hullpipe/triangle_query.h"
 #include "test_util.h"
 
@@ -56,6 +57,45 @@ TEST_F(Gl, PlaneSweepMatchesCpu) {
       ExpectSweepsMatch(gl.Sweep(q, view, depths, tile), PlaneSweepCpu(q, view, depths, tile),
                         depths[1] - depths[0]);
     }
+  }
+}
+
+TEST_F(Gl, PlaneSweepMatchesCpuUnderBothOutOfViewRulesAndMixedResolutions) {
+  // Camera 0 is turned so the sphere straddles its image border (unseen there),
+  // and the cameras have different resolutions: the GL stencil vote (with the
+  // resolve pass counting the cameras that see the point) equals the CPU's.
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Sphere(kCentre, 0.3));
+  auto cams = RingCameras(4, 3.0, 1.8, kCentre, 160, 120, 1.0);
+  const Eigen::Vector3d C = cams[0].Center();
+  const double dist = (kCentre - C).norm();
+  cams[0].cam_from_world =
+      LookAt(C, kCentre + (kCentre - C).cross(Eigen::Vector3d(0, 0, -1)).normalized() * dist * std::tan(0.55),
+             {0, 0, -1})
+          .Inverse();
+  cams[2] = ScaledCamera(cams[2], 240, 180);
+  cams[3] = ScaledCamera(cams[3], 100, 75);
+  std::vector<CameraMap> views;
+  for (const auto& c : cams) views.push_back({c, RenderExactMap(c, scene)});
+  const NovelView view = NovelView::FromFov(
+      160, 120, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
+  GlPlaneSweep gl;
+  for (const OutOfView p : {OutOfView::kOutside, OutOfView::kUnknown}) {
+    VolumeQueryOptions qo;
+    qo.out_of_view = p;
+    const VolumeQuery q(views, test::BigBox(), qo);
+    PlaneSweepOptions o;
+    o.num_planes = 50;
+    const auto depths = SweepPlaneDepths(q, view, o);
+    const cv::Rect all(0, 0, 160, 120);
+    const cv::Mat cpu = PlaneSweepCpu(q, view, depths, all);
+    if (p == OutOfView::kOutside) {
+      int hull = 0;
+      for (int r = 0; r < 120; ++r)
+        for (int c = 0; c < 160; ++c) hull += std::isfinite(cpu.at<float>(r, c));
+      EXPECT_GT(hull, 200) << "part of the sphere survives the clip";
+    }
+    ExpectSweepsMatch(gl.Sweep(q, view, depths, all), cpu, depths[1] - depths[0]);
   }
 }
 

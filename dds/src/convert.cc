@@ -191,6 +191,10 @@ OwnedSample<hullpipe_msg_HullView> MakeHullViewMessage(const HullTile& t, uint32
   const cv::Mat d = t.depth.isContinuous() ? t.depth : t.depth.clone();
   const cv::Mat c = t.colour.isContinuous() ? t.colour : t.colour.clone();
   s.floats.assign(d.ptr<float>(0), d.ptr<float>(0) + d.total());
+  // On the wire "no hull" is 0 (eye depth of hull is always > 0): no NaN or
+  // infinity leaves a node.
+  for (float& v : s.floats)
+    if (!std::isfinite(v) || !(v > 0)) v = 0.0f;
   s.bytes.assign(c.datastart, c.dataend);
   auto& m = s.msg;
   m.node_id = t.node_id;
@@ -233,8 +237,13 @@ HullTile TileFromMsg(const hullpipe_msg_HullView& m) {
   t.frame_seq = m.frame_seq;
   t.capture_time_ns = m.capture_time_ns;
   t.render_ms = m.render_ms;
-  // NaN depths are not allowed to reach the compositor.
-  cv::patchNaNs(t.depth, double(std::numeric_limits<float>::infinity()));
+  // 0 (no hull on the wire), and anything not a positive finite depth from a bad
+  // sender, becomes kNoDepth (+inf) inside, where depth tests take the minimum.
+  for (int r = 0; r < t.depth.rows; ++r) {
+    float* row = t.depth.ptr<float>(r);
+    for (int c = 0; c < t.depth.cols; ++c)
+      if (!std::isfinite(row[c]) || !(row[c] > 0)) row[c] = std::numeric_limits<float>::infinity();
+  }
   return t;
 }
 
