@@ -92,19 +92,13 @@ std::vector<VoteSegment> RayCameraSegments(const VolumeQuery& q, size_t ci, cons
         const auto cur = pixel(next);
         // Column and row crossings are bisected separately, so a step that
         // crosses both (a pixel corner) yields both breaks.
-        if (cur.first != prev.first) {
+        for (const bool column : {true, false}) {
+          auto index = [&](const std::pair<long, long>& px) { return column ? px.first : px.second; };
+          if (index(cur) == index(prev)) continue;
           double lo = s, hi = next;
           for (int it = 0; it < 60 && hi - lo > 1e-12; ++it) {
             const double mid = 0.5 * (lo + hi);
-            (pixel(mid).first == prev.first ? lo : hi) = mid;
-          }
-          breaks.push_back(hi);
-        }
-        if (cur.second != prev.second) {
-          double lo = s, hi = next;
-          for (int it = 0; it < 60 && hi - lo > 1e-12; ++it) {
-            const double mid = 0.5 * (lo + hi);
-            (pixel(mid).second == prev.second ? lo : hi) = mid;
+            (index(pixel(mid)) == index(prev) ? lo : hi) = mid;
           }
           breaks.push_back(hi);
         }

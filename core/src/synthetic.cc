@@ -314,6 +314,23 @@ SyntheticScene NamedScene(const std::string& name, double t) {
   return s;
 }
 
+namespace {
+// A camera at `eye` looking at `target`, principal point at the image centre.
+Camera LookingCamera(int id, const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up,
+                     int width, int height_px, double hfov, const Distortion& distortion) {
+  Camera c;
+  c.id = id;
+  c.width = width;
+  c.height = height_px;
+  c.fx = c.fy = 0.5 * width / std::tan(0.5 * hfov);
+  c.cx = 0.5 * width;
+  c.cy = 0.5 * height_px;
+  c.distortion = distortion;
+  c.cam_from_world = LookAt(eye, target, up).Inverse();
+  return c;
+}
+}  // namespace
+
 std::vector<Camera> DomeCameras(int n, double radius, const Eigen::Vector3d& target, int width, int height_px,
                                 double hfov, const Distortion& distortion) {
   std::vector<Camera> cams;
@@ -325,16 +342,7 @@ std::vector<Camera> DomeCameras(int n, double radius, const Eigen::Vector3d& tar
     const Eigen::Vector3d eye = target + radius * Eigen::Vector3d(std::cos(elev) * std::cos(az),
                                                                   std::cos(elev) * std::sin(az), -std::sin(elev));
     const Eigen::Vector3d up = std::abs(std::sin(elev)) > 0.99 ? Eigen::Vector3d(1, 0, 0) : Eigen::Vector3d(0, 0, -1);
-    Camera c;
-    c.id = i + 1;
-    c.width = width;
-    c.height = height_px;
-    c.fx = c.fy = 0.5 * width / std::tan(0.5 * hfov);
-    c.cx = 0.5 * width;
-    c.cy = 0.5 * height_px;
-    c.distortion = distortion;
-    c.cam_from_world = LookAt(eye, target, up).Inverse();
-    cams.push_back(c);
+    cams.push_back(LookingCamera(i + 1, eye, target, up, width, height_px, hfov, distortion));
   }
   return cams;
 }
@@ -345,17 +353,7 @@ std::vector<Camera> RingCameras(int n, double radius, double height, const Eigen
   for (int i = 0; i < n; ++i) {
     const double a = 2 * M_PI * i / n + 0.3;
     const Eigen::Vector3d eye(target.x() + radius * std::cos(a), target.y() + radius * std::sin(a), -height);
-    const Rigid3d world_from_cam = LookAt(eye, target, Eigen::Vector3d(0, 0, -1));
-    Camera c;
-    c.id = i + 1;
-    c.width = width;
-    c.height = height_px;
-    c.fx = c.fy = 0.5 * width / std::tan(0.5 * hfov);
-    c.cx = 0.5 * width;
-    c.cy = 0.5 * height_px;
-    c.distortion = distortion;
-    c.cam_from_world = world_from_cam.Inverse();
-    cams.push_back(c);
+    cams.push_back(LookingCamera(i + 1, eye, target, Eigen::Vector3d(0, 0, -1), width, height_px, hfov, distortion));
   }
   return cams;
 }
