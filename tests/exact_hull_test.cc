@@ -127,6 +127,29 @@ void ExpectSweepMatchesExact(const VolumeQuery& q, const NovelView& view, const 
   if (hull_pixels) *hull_pixels = hull;
 }
 
+// Sweeps `view` with `planes` planes (fitted to the hull box) and checks it against
+// the exact reference; returns the number of exact hull pixels.
+int SweepMatchesExact(const VolumeQuery& q, const NovelView& view, int planes) {
+  PlaneSweepOptions so;
+  so.num_planes = planes;
+  const auto depths = SweepPlaneDepths(q, view, so);
+  int hull = 0;
+  ExpectSweepMatchesExact(q, view, depths, PlaneSweepCpu(q, view, depths, {0, 0, view.width, view.height}), &hull);
+  return hull;
+}
+
+// The sphere of these tests, and exact maps of a scene for some cameras.
+SyntheticScene OneSphere() {
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Sphere(kCentre, kRadius));
+  return scene;
+}
+std::vector<CameraMap> ExactViews(const std::vector<Camera>& cams, const SyntheticScene& scene) {
+  std::vector<CameraMap> views;
+  for (const auto& c : cams) views.push_back({c, RenderExactMap(c, scene)});
+  return views;
+}
+
 TEST(ExactHull, SweepEqualsExactPlaneMembership) {
   for (const OutOfView p : {OutOfView::kOutside, OutOfView::kUnknown}) {
     VolumeQueryOptions o;
@@ -239,20 +262,14 @@ TEST(HardCase, CameraAtAGrazingAngleToTheSweepPlanes) {
   const Eigen::Vector3d up(0, 0, -1);
   const Eigen::Vector3d dir = axis1.cross(up).normalized();
   view.world_from_eye = LookAt(kCentre - 2.5 * dir, kCentre, up);
-  PlaneSweepOptions so;
-  so.num_planes = 50;
-  const auto depths = SweepPlaneDepths(q, view, so);
-  int hull = 0;
-  ExpectSweepMatchesExact(q, view, depths, PlaneSweepCpu(q, view, depths, {0, 0, 160, 120}), &hull);
-  EXPECT_GT(hull, 300);
+  EXPECT_GT(SweepMatchesExact(q, view, 50), 300);
 }
 
 TEST(HardCase, ShapePartlyOutsideACameraImage) {
   // Camera 0 is narrow and aimed to the side: the sphere's far half is outside
   // its image. kOutside clips the hull there (the paper); kUnknown lets the other
   // cameras decide.
-  SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(kCentre, kRadius));
+  const SyntheticScene scene = OneSphere();
   auto cams = RingCameras(4, 3.0, 1.8, kCentre, 160, 120, 1.0);
   // Re-aim camera 0 so the sphere centre projects at its right border's column.
   Camera& c0 = cams[0];
@@ -263,8 +280,7 @@ TEST(HardCase, ShapePartlyOutsideACameraImage) {
   const Eigen::Vector3d aim =
       kCentre + (kCentre - C).cross(Eigen::Vector3d(0, 0, -1)).normalized() * dist * std::tan(0.55);
   c0.cam_from_world = LookAt(C, aim, Eigen::Vector3d(0, 0, -1)).Inverse();
-  std::vector<CameraMap> views;
-  for (const auto& c : cams) views.push_back({c, RenderExactMap(c, scene)});
+  const std::vector<CameraMap> views = ExactViews(cams, scene);
   VolumeQueryOptions outside, unknown;
   outside.out_of_view = OutOfView::kOutside;
   const VolumeQuery qo(views, test::BigBox(), outside), qu(views, test::BigBox(), unknown);
@@ -354,17 +370,11 @@ TEST(HardCase, ObjectOnePixelWide) {
   // The sweep from a view beside camera 0 finds the sliver as the exact reference does.
   NovelView view = SideView(200, 150);
   view.world_from_eye = LookAt(cams[1].Center(), kCentre, {0, 0, -1});
-  PlaneSweepOptions so;
-  so.num_planes = 400;
-  const auto depths = SweepPlaneDepths(q, view, so);
-  int hull = 0;
-  ExpectSweepMatchesExact(q, view, depths, PlaneSweepCpu(q, view, depths, {0, 0, 200, 150}), &hull);
-  EXPECT_GT(hull, 0);
+  EXPECT_GT(SweepMatchesExact(q, view, 400), 0);
 }
 
 TEST(HardCase, CamerasOfDifferentResolutions) {
-  SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(kCentre, kRadius));
+  const SyntheticScene scene = OneSphere();
   const int sizes[4][2] = {{64, 48}, {160, 120}, {320, 240}, {101, 77}};
   std::vector<CameraMap> views;
   auto cams = RingCameras(4, 3.0, 1.8, kCentre, 160, 120, 1.0);
@@ -375,20 +385,14 @@ TEST(HardCase, CamerasOfDifferentResolutions) {
     c.fx *= s, c.fy *= s, c.cx = c.width / 2.0, c.cy = c.height / 2.0;
     views.push_back({c, RenderExactMap(c, scene)});
   }
-  const VolumeQuery q(views, test::BigBox());
-  const NovelView view = SideView();
-  const auto depths = SweepPlaneDepths(q, view, {});
-  int hull = 0;
-  ExpectSweepMatchesExact(q, view, depths, PlaneSweepCpu(q, view, depths, {0, 0, 160, 120}), &hull);
-  EXPECT_GT(hull, 1000);
+  EXPECT_GT(SweepMatchesExact(VolumeQuery(views, test::BigBox()), SideView(), 50), 1000);
 }
 
 TEST(HardCase, NearlyParallelCameras) {
   // Two cameras 1 mm apart looking the same way: their pyramids barely cross, so
   // the hull is long along the axis (ill-conditioned depth). The sweep and the
   // exact reference still agree, with no NaN.
-  SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(kCentre, kRadius));
+  const SyntheticScene scene = OneSphere();
   const Eigen::Vector3d C = kCentre + Eigen::Vector3d(0, -3, 0);
   std::vector<CameraMap> views;
   for (double dx : {0.0, 0.001}) {
@@ -399,12 +403,7 @@ TEST(HardCase, NearlyParallelCameras) {
   Aabb ws;
   ws.min = kCentre - Eigen::Vector3d::Constant(1.0);
   ws.max = kCentre + Eigen::Vector3d::Constant(1.0);
-  const VolumeQuery q(views, ws);
-  const NovelView view = SideView();
-  const auto depths = SweepPlaneDepths(q, view, {});
-  int hull = 0;
-  ExpectSweepMatchesExact(q, view, depths, PlaneSweepCpu(q, view, depths, {0, 0, 160, 120}), &hull);
-  EXPECT_GT(hull, 1000);
+  EXPECT_GT(SweepMatchesExact(VolumeQuery(views, ws), SideView(), 50), 1000);
 }
 
 TEST(HardCase, NearAndFarPlanesCutTheShape) {
