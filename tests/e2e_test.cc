@@ -62,5 +62,27 @@ TEST(EndToEnd, ReprojectionIoUAtFrame200) {
   }
 }
 
+TEST(Tools, VhEvalSweepPrintsOneJsonObjectWithTheIssueFields) {
+  // The smoke grid of `vh_eval sweep --json`: synthetic, so it runs anywhere.
+  const auto out = test::TempDir("vh_eval_sweep");
+  test::Process eval({test::BinDir() + "/vh_eval", "sweep", "--json", "--smoke"}, (out / "sweep.json").string());
+  ASSERT_EQ(eval.Wait(120), 0) << test::ReadFile((out / "sweep.json").string());
+  const auto j = nlohmann::json::parse(test::ReadFile((out / "sweep.json").string()));
+  ASSERT_GE(j["rows"].size(), 4u);
+  double unrefined = 0, refined = 0;
+  for (const auto& r : j["rows"]) {
+    for (const char* f : {"planes", "width", "height", "cameras", "backend", "refine", "ms", "depth_err_mm_median",
+                          "depth_err_mm_p95", "wrong_inside", "wrong_outside"})
+      ASSERT_TRUE(r.contains(f)) << f << " missing in " << r.dump();
+    if (r["backend"] == "cpu" && r["planes"] == 64) (r["refine"] == 0 ? unrefined : refined) = r["depth_err_mm_median"];
+    // The sweep never puts hull where the exact hull has none.
+    EXPECT_EQ(r["wrong_inside"].get<double>(), 0.0) << r.dump();
+  }
+  // Refinement frees the depth from the plane spacing (64 planes over ~0.7 m:
+  // ~11 mm spacing; 8 bisections: < 0.1 mm, plus float rounding).
+  EXPECT_GT(unrefined, 2.0);
+  EXPECT_LT(refined, 0.5);
+}
+
 }  // namespace
 }  // namespace hullpipe

@@ -66,6 +66,7 @@ int main(int argc, char** argv) {
   sweep->add_flag("!--no-gl", sw.gl, "Leave out the GL rows");
   sweep->add_flag("--full", sw.full, "Every combination of planes, spacing, view, cameras, backend, refine");
   sweep->add_option("--rig", sw.rig, "Rig directory or YAML file, for --placement rig");
+  sweep->add_flag("--smoke", sw.smoke, "A few small rows in seconds (for tests)");
   sweep->add_flag("--headline", sw.headline_only, "Only the CPU rows at 320x240 with 4 cameras");
   sweep->add_option("--tsv", sw.tsv, "Also write the rows as TSV (for gnuplot)");
   TextureEvalOptions tx;
@@ -91,6 +92,7 @@ int main(int argc, char** argv) {
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   if (sweep->parsed() || texture->parsed()) {
     try {
+      if (sw.smoke) sw.camera_width = 320, sw.camera_height = 240, sw.repeats = 1;
       return sweep->parsed() ? RunSweepEval(sw) : RunTextureEval(tx);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "vh_eval: %s\n", e.what());

@@ -178,6 +178,13 @@ int RunSweepEval(const SweepEvalOptions& o) {
     }
   }
   std::vector<Config> grid = o.full ? FullGrid(bool(ctx)) : StandardGrid(bool(ctx));
+  if (o.smoke) {
+    // A few seconds' worth, for tests: 160x120, 4 cameras, 16 and 64 planes.
+    grid.clear();
+    for (int planes : {16, 64})
+      for (int refine : {0, 8}) grid.push_back({planes, PlaneSpacing::kUniformDepth, 160, 120, 4, "cpu", refine, "none"});
+    if (ctx) grid.push_back({16, PlaneSpacing::kUniformDepth, 160, 120, 4, "gl", 0, "none"});
+  }
   if (o.placement == "rig") {
     // The rig fixes the cameras (count, size, distortion): its rows are the
     // headline ones with its own camera count, distortion "rig".

@@ -11,7 +11,7 @@ struct SweepEvalOptions {
   std::string scene = "mixed";    ///< NamedScene name.
   std::string placement = "dome"; ///< dome | ring | rig (the cameras of `rig`).
   std::string rig;                ///< Rig directory or YAML file for placement rig.
-  int camera_width = 640, camera_height = 480;  ///< Each synthetic camera's image.
+  int camera_width = 640, camera_height = 480;  ///< Each synthetic camera's image (--smoke: 320x240).
   double time_s = 0.5;            ///< Scene time.
   int repeats = 3;                ///< Timed runs per configuration (median reported).
   int threads = 1;                ///< CPU sweep threads.
@@ -19,6 +19,7 @@ struct SweepEvalOptions {
   bool gl = true;                 ///< Include GL rows where an EGL display exists.
   bool full = false;              ///< The full cross product instead of the standard grid.
   bool headline_only = false;     ///< Only the CPU rows at 320x240 with 4 cameras.
+  bool smoke = false;             ///< A handful of small rows (seconds), for tests.
   bool json = false;              ///< Print one JSON object instead of a table.
   std::string tsv;                ///< Also write rows as TSV for gnuplot.
 };
