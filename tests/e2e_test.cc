@@ -1,5 +1,5 @@
 // End to end on the real rig: the launcher starts all five processes on a
-// private domain (loopback), runs ~50 frames, stops them cleanly; the outputs
+// private domain (loopback), runs 120 frames (2.4 s of video), stops them cleanly; the outputs
 // must show a hull, a collision and every node's stats. Then the hull's accuracy
 // at frame 200 against the rig's own maps (vh_eval reprojection).
 #include <gtest/gtest.h>
@@ -13,7 +13,7 @@ namespace {
 TEST(EndToEnd, FiveProcessesOnTheRealRig) {
   if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
   const auto out = test::TempDir("e2e");
-  test::Process launch({test::BinDir() + "/hullpipe_launch", "--rig", test::RigDir(), "--frames", "60", "--out",
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--rig", test::RigDir(), "--frames", "120", "--out",
                         out.string(), "--domain", std::to_string(test::UniqueDomain())},
                        (out / "launch.log").string());
   ASSERT_EQ(launch.Wait(180), 0) << test::ReadFile((out / "launch.log").string());

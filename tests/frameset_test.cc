@@ -70,6 +70,22 @@ TEST_F(Assembler, UnknownCameraIsRejectedWhenItsFrameIsEvicted) {
   EXPECT_FALSE(a.AddMap(1, 3, 0, 0, Map(), &why));  // camera_count out of range
 }
 
+TEST_F(Assembler, MapsEvictedBeforeALateCameraInfoAreDroppedNotRejected) {
+  // DDS does not order samples across topics: under load a camera's CameraInfo
+  // can come after a few of its frames were already evicted. That is a start-up
+  // race, not bad input.
+  FramesetAssembler a(1);
+  a.SetCamera(cams_[0]);
+  a.SetCamera(cams_[1]);
+  a.AddMap(3, 1, 0, 3, Map());  // camera 3's calibration is late
+  a.AddMap(1, 2, 0, 3, Map());  // evicts frame 1
+  EXPECT_EQ(a.rejected(), 1u);
+  const uint64_t dropped = a.dropped();
+  a.SetCamera(cams_[2]);  // id 3 arrives
+  EXPECT_EQ(a.rejected(), 0u);
+  EXPECT_EQ(a.dropped(), dropped + 1);
+}
+
 TEST_F(Assembler, ImagesCanBeRequired) {
   FramesetAssembler a(4, true);
   for (const auto& c : cams_) a.SetCamera(c);

@@ -6,6 +6,16 @@ FramesetAssembler::FramesetAssembler(size_t max_pending, bool want_images)
     : max_pending_(std::max<size_t>(1, max_pending)), want_images_(want_images) {}
 
 void FramesetAssembler::SetCamera(const Camera& camera) {
+  // Maps of this camera evicted before its first CameraInfo were a start-up race
+  // (DDS does not order samples across topics), not bad input: dropped, not rejected.
+  if (!cameras_.count(camera.id)) {
+    const auto e = evicted_uncalibrated_.find(camera.id);
+    if (e != evicted_uncalibrated_.end()) {
+      rejected_ -= e->second;
+      dropped_ += e->second;
+      evicted_uncalibrated_.erase(e);
+    }
+  }
   cameras_[camera.id] = camera;
   // Check maps that arrived before this calibration.
   for (auto& [seq, p] : pending_) {
@@ -19,7 +29,10 @@ void FramesetAssembler::SetCamera(const Camera& camera) {
 
 void FramesetAssembler::Evict(std::map<uint64_t, Pending>::iterator it) {
   for (const auto& [id, map] : it->second.maps)
-    if (!cameras_.count(id)) ++rejected_;  // never got a CameraInfo
+    if (!cameras_.count(id)) {
+      ++rejected_;  // no CameraInfo (yet): rejected unless one comes later
+      ++evicted_uncalibrated_[id];
+    }
   pending_.erase(it);
 }
 

@@ -47,7 +47,8 @@ class FramesetAssembler {
   /// sender's frameset has. A map of a camera with no calibration yet is parked
   /// with its frame (DDS does not order samples across topics, so CameraInfo may
   /// come second) and checked when the calibration arrives; if its frame is evicted
-  /// first, it counts as rejected. Returns false (and counts a rejection, *why
+  /// first, it counts as rejected — and moves to dropped if the camera's CameraInfo
+  /// comes later (a start-up race, not bad input). Returns false (and counts a rejection, *why
   /// says why) if the map's size differs from the calibration or camera_count is
   /// out of range; false (counted as dropped) if the frame is older than the newest
   /// frameset already taken.
@@ -91,6 +92,7 @@ class FramesetAssembler {
   std::map<uint64_t, Pending> pending_;
   uint64_t taken_up_to_ = 0;
   uint64_t dropped_ = 0, rejected_ = 0;
+  std::map<int, uint64_t> evicted_uncalibrated_;  ///< Per camera id, maps evicted before its CameraInfo.
 };
 
 }  // namespace hullpipe
