@@ -484,8 +484,9 @@ TEST(Synthetic, EveryNamedSceneIsInsideItsExactHull) {
 
 TEST(Texture, VisibilityTestKeepsAnOccludedCamerasColourOff) {
   // A red sphere behind a blue one as camera A sees it; the eye, beside A, sees
-  // the red sphere. With one camera blended (the best aligned, A), the red
-  // sphere takes A's blue unless the visibility test rejects A there.
+  // the red sphere, which camera E also sees. With one camera blended (the best
+  // aligned, A), the red sphere takes A's blue unless the visibility test rejects
+  // A there (and E, next best, colours it).
   const Eigen::Vector3d C1(0, 0, -1), C2 = C1 + Eigen::Vector3d(0, -0.6, 0);
   SyntheticScene scene;
   scene.shapes.push_back(Shape::Sphere(C1, 0.2));
@@ -503,7 +504,10 @@ TEST(Texture, VisibilityTestKeepsAnOccludedCamerasColourOff) {
   const Eigen::Vector3d up(0, 0, -1);
   std::vector<Camera> cams = {make(C1 + Eigen::Vector3d(0, -3, 0), C1, up), make(C1 + Eigen::Vector3d(3, 0, 0), C1, up),
                               make(C1 + Eigen::Vector3d(0, 0, -3), C1, {1, 0, 0}),
-                              make(C1 + Eigen::Vector3d(-2, 2, -1), C1, up)};
+                              make(C1 + Eigen::Vector3d(-2, 2, -1), C1, up),
+                              // E: sees the red sphere's eye-facing side past the blue one,
+                              // less aligned with the eye than A.
+                              make(C1 + Eigen::Vector3d(2, -2, -2), C1, up)};
   std::vector<CameraMap> views;
   std::vector<CameraImage> images;
   for (auto& c : cams) {

@@ -84,6 +84,7 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
   struct Candidate {
     double weight;
     cv::Vec3f colour;
+    bool seen;  // passes the visibility test (true without one)
   };
   std::vector<Candidate> cand;
   for (int r = 0; r < depth.rows; ++r) {
@@ -97,12 +98,17 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
         const double cosang = to_eye.dot((centres[k] - X).normalized());
         const auto uv = cams[k].Project(X);
         if (!uv || !cams[k].InImage(*uv)) continue;
-        if (visibility && !Visible(*visibility, k, X, options.visibility_bias_m)) continue;
         // Cameras facing the eye's side dominate; when none does (the Utrecht
         // rig has no camera behind the person) the least oblique one still wins.
         const double w = (cosang > 0 ? std::pow(cosang, options.angle_power) : 0.0) + 1e-9 * (1.0 + cosang);
-        cand.push_back({w, Bilinear(images[k].image, uv->x(), uv->y())});
+        const bool seen = !visibility || Visible(*visibility, k, X, options.visibility_bias_m);
+        cand.push_back({w, Bilinear(images[k].image, uv->x(), uv->y()), seen});
       }
+      // Only cameras that see the point, if any does; where none does (the back
+      // of the person on the Utrecht rig) the best imaging camera still colours
+      // it, as without the test: a guess rather than a grey hole.
+      if (std::any_of(cand.begin(), cand.end(), [](const Candidate& x) { return x.seen; }))
+        cand.erase(std::remove_if(cand.begin(), cand.end(), [](const Candidate& x) { return !x.seen; }), cand.end());
       cv::Vec3b& px = out.at<cv::Vec3b>(r, c);
       if (cand.empty()) {
         px = cv::Vec3b(128, 128, 128);

@@ -52,9 +52,11 @@ HullVisibility ComputeHullVisibility(const VolumeQuery& query, const std::vector
 /// hull. Among the cameras that see a point (in their image and, with
 /// `visibility`, not hidden by the hull: its images[i] must match views[i]) the
 /// max_cameras best aligned with the eye are blended. Where no camera faces the
-/// eye's side of the point, the least oblique visible camera colours it; a point
-/// no camera sees stays mid-grey. Without `visibility`, a camera whose view of the
-/// point is blocked by another part of the hull may still contribute.
+/// eye's side of the point, the least oblique visible camera colours it. Where the
+/// test leaves no camera, the cameras that image the point are used as without
+/// it (a guess, not a grey hole); a point no camera images stays mid-grey. Without
+/// `visibility`, a camera whose view of the point is blocked by another part of
+/// the hull may still contribute.
 cv::Mat TextureHull(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
                     const std::vector<CameraImage>& images, const TextureOptions& options = {},
                     const HullVisibility* visibility = nullptr);
