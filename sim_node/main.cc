@@ -80,7 +80,15 @@ int main(int argc, char** argv) {
           r.triangle_ids._length = r.triangle_ids._maximum = uint32_t(ids.size());
           r.collision_points._buffer = points.data();
           r.collision_points._length = r.collision_points._maximum = uint32_t(points.size());
-          r.has_response = false;
+          r.has_response = b.colliding && b.last_response.has_value();
+          if (r.has_response) {
+            const CollisionResponse& resp = *b.last_response;
+            r.cp_obj = ToMsg(resp.cp_obj);
+            r.cp_hull = ToMsg(resp.cp_hull);
+            r.v_rec = ToMsg(resp.v_rec);
+            r.d_rec = resp.d_rec;
+            r.n_hull = ToMsg(resp.n_hull);
+          }
           report_writer.Write(r);
         }
         reporter.FrameOut(fs->capture_time_ns);

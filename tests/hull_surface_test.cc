@@ -9,6 +9,9 @@
 
 #include <gtest/gtest.h>
 
+#include "hullpipe/collision.h"
+#include "hullpipe/collision_response.h"
+#include "hullpipe/mesh.h"
 #include "test_util.h"
 
 namespace hullpipe {
@@ -89,6 +92,55 @@ TEST(HullSurface, PointAwayFromTheSurfaceHasNoNormal) {
   HullNormalOptions bad;
   bad.border_px = 0;
   EXPECT_THROW(HullSurfaceNormal(q, kCentre, bad), std::invalid_argument);
+}
+
+TEST(CollisionResponse, PaperQuantitiesForABallPushedIntoTheHull) {
+  // A ball (icosphere, r 0.12 m) overlapping the hull of a sphere (r 0.3 m) by
+  // 7 cm; collision points from the triangle query; RP_obj is the ball's centre.
+  const VolumeQuery q(test::SphereViews(4, 640, 480, kCentre, kRadius), test::BigBox());
+  Rigid3d pose;
+  pose.translation = kCentre + Eigen::Vector3d(0.35, 0.05, -0.02);
+  const TriangleMesh ball = TriangleMesh::Icosphere(0.12, 2).Transformed(pose);
+  const CollisionResult hit = DetectCollisions(q, ball);
+  ASSERT_TRUE(hit.colliding());
+  const auto r = ComputeResponse(q, hit.collision_points, pose.translation);
+  ASSERT_TRUE(r.has_value());
+  // CP_obj: the farthest collision point from RP_obj.
+  for (const auto& p : hit.collision_points)
+    EXPECT_LE((p - pose.translation).norm(), (r->cp_obj - pose.translation).norm() + 1e-12);
+  EXPECT_NEAR(r->v_rec.norm(), 1.0, 1e-12);
+  EXPECT_GT(r->v_rec.dot(pose.translation - r->cp_obj), 0);
+  // CP_hull on the line from CP_obj along V_rec, at distance D_rec, where the hull
+  // begins coming from RP_obj's side.
+  EXPECT_NEAR((r->cp_obj + r->d_rec * r->v_rec - r->cp_hull).norm(), 0.0, 1e-9);
+  EXPECT_TRUE(q.Inside(r->cp_hull - 1e-6 * r->v_rec));
+  EXPECT_FALSE(q.Inside(r->cp_hull + 1e-6 * r->v_rec));
+  // The hull contains the true sphere up to a pixel footprint (3 m / 550 px =
+  // 5.5 mm), so CP_hull lies on or just outside the true sphere.
+  const double rad = (r->cp_hull - kCentre).norm();
+  EXPECT_GT(rad, kRadius - 0.006);
+  EXPECT_LT(rad, kRadius + 0.03);
+  EXPECT_FALSE(r->n_hull_fallback);
+  EXPECT_GT(r->n_hull.dot(r->v_rec), 0) << "outward, toward the object";
+  EXPECT_FALSE(r->v_rec_fallback);
+}
+
+TEST(CollisionResponse, GivenRecoveryDirectionAndDegenerateCases) {
+  const VolumeQuery q(test::SphereViews(4, 320, 240, kCentre, kRadius), test::BigBox());
+  const Eigen::Vector3d cp = kCentre + Eigen::Vector3d(0.25, 0, 0);  // inside the hull
+  // A constrained V_rec (a cloth vertex moving along its normal) is honoured.
+  const auto given = ComputeResponse(q, {cp}, cp + Eigen::Vector3d(0, 0, 0.1), Eigen::Vector3d(2, 0, 0));
+  ASSERT_TRUE(given.has_value());
+  EXPECT_NEAR((given->v_rec - Eigen::Vector3d(1, 0, 0)).norm(), 0, 1e-12);
+  // RP_obj at CP_obj: V_rec of zero length falls back to pointing from the hull
+  // box's centre toward RP_obj (out of the hull).
+  const auto zero = ComputeResponse(q, {cp}, cp);
+  ASSERT_TRUE(zero.has_value());
+  EXPECT_TRUE(zero->v_rec_fallback);
+  EXPECT_GT(zero->v_rec.dot(cp - q.hull_box().Center()), 0);
+  // Nothing collided: no response; CP_obj outside the hull: no CP_hull.
+  EXPECT_FALSE(ComputeResponse(q, {}, cp).has_value());
+  EXPECT_FALSE(ComputeResponse(q, {kCentre + Eigen::Vector3d(2, 0, 0)}, kCentre + Eigen::Vector3d(3, 0, 0)).has_value());
 }
 
 }  // namespace

@@ -240,8 +240,16 @@ TEST(BallSimulation, BouncesOffTheHullAndIsDeterministic) {
   for (int i = 0; i < 60; ++i) {
     a.Step(0.02, &q);
     b.Step(0.02, &q);
-    collided |= a.bodies()[0].colliding;
-    ASSERT_EQ(a.bodies()[0].position, b.bodies()[0].position);  // bit-identical
+    const BodyState& s = a.bodies()[0];
+    collided |= s.colliding;
+    ASSERT_EQ(s.position, b.bodies()[0].position);  // bit-identical
+    if (s.colliding) {
+      // The §4 response moved the ball out along V_rec: its deepest collision
+      // point is back on the hull's surface, and N_hull faces the ball.
+      ASSERT_TRUE(s.last_response.has_value());
+      EXPECT_GT(s.last_response->n_hull.dot(s.last_response->v_rec), 0);
+      EXPECT_LT(s.last_response->d_rec, s.radius);
+    }
   }
   EXPECT_TRUE(collided);
   EXPECT_GT(a.bodies()[0].velocity.x(), 0);  // moving away from the sphere again

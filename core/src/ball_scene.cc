@@ -134,18 +134,30 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull) {
       if (!hull) continue;
       CollisionResult c = DetectCollisions(*hull, WorldMesh(i), config_.collision);
       if (!c.colliding()) continue;
-      Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-      for (const auto& p : c.collision_points) centroid += p;
-      centroid /= double(c.collision_points.size());
-      Eigen::Vector3d n = s.position - centroid;
-      n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized())
-                          : (s.velocity.norm() > 1e-9 ? Eigen::Vector3d(-s.velocity.normalized())
-                                                      : Eigen::Vector3d(-g_hat));
+      // Paper §4.2: move the ball by D_rec along V_rec so its deepest collision
+      // point reaches the hull's surface, and reflect its velocity about N_hull.
+      std::optional<CollisionResponse> resp = ComputeResponse(*hull, c.collision_points, s.position);
+      Eigen::Vector3d n;
+      if (resp) {
+        n = resp->n_hull;
+        s.position += (resp->d_rec + 1e-3) * resp->v_rec;  // 1 mm clear of the surface
+      } else {
+        // No CP_hull (a collision point outside the hull by float rounding): back
+        // out to the previous position, pushing away from the points' centroid.
+        Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+        for (const auto& p : c.collision_points) centroid += p;
+        centroid /= double(c.collision_points.size());
+        n = s.position - centroid;
+        n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized())
+                            : (s.velocity.norm() > 1e-9 ? Eigen::Vector3d(-s.velocity.normalized())
+                                                        : Eigen::Vector3d(-g_hat));
+        s.position = previous;
+      }
       const double vn = s.velocity.dot(n);
       if (vn < 0) s.velocity -= (1 + config_.balls[i].restitution) * vn * n;
-      s.position = previous;  // back out of the hull
       s.colliding = true;
       s.last_collision = std::move(c);
+      s.last_response = resp;
     }
   }
 }

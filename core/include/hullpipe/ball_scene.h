@@ -19,12 +19,14 @@
 //       subdivisions: 2             # icosphere level: 320 triangles
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "hullpipe/collision.h"
+#include "hullpipe/collision_response.h"
 #include "hullpipe/mesh.h"
 
 namespace hullpipe {
@@ -64,6 +66,8 @@ struct BodyState {
   double radius = 0;
   bool colliding = false;  ///< Touched the hull during the last step.
   CollisionResult last_collision;  ///< Of the last substep that collided.
+  /// The §4 response of that substep (paper §4.2; collision_response.h), if found.
+  std::optional<CollisionResponse> last_response;
 };
 
 /// Deterministic simulation: the same steps with the same hulls give the same states.

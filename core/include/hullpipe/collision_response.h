@@ -1,0 +1,57 @@
+// The collision response quantities of paper §4 (Lok et al. 2003, §4.2) for one
+// virtual object that collided with the visual hull, by exact means: CP_hull from
+// the exact ray–hull intervals, N_hull from the silhouette edge that forms the hull
+// (hull_surface.h). Frames: world metres throughout.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hullpipe/hull_surface.h"
+#include "hullpipe/volume_query.h"
+
+namespace hullpipe {
+
+/// Settings of ComputeResponse.
+struct ResponseOptions {
+  HullNormalOptions normal;  ///< How N_hull is found.
+  /// Throws std::invalid_argument naming the bad field.
+  void Check() const { normal.Check(); }
+};
+
+/// The §4 response of one object (FCL-style result struct).
+struct CollisionResponse {
+  Eigen::Vector3d cp_obj = Eigen::Vector3d::Zero();   ///< Collision point farthest from RP_obj.
+  Eigen::Vector3d v_rec = Eigen::Vector3d::Zero();    ///< Unit recovery direction.
+  Eigen::Vector3d cp_hull = Eigen::Vector3d::Zero();  ///< First hull point from RP_obj's side toward CP_obj.
+  double d_rec = 0;                                   ///< |CP_hull - CP_obj|, metres.
+  Eigen::Vector3d n_hull = Eigen::Vector3d::Zero();   ///< Outward unit hull normal at CP_hull.
+  /// V_rec had zero length (CP_obj == RP_obj): it was taken from the hull box's
+  /// centre toward RP_obj instead (or world -z, up in the rigs' z-down frames, if
+  /// those coincide too).
+  bool v_rec_fallback = false;
+  /// No silhouette border near CP_hull (e.g. RP_obj itself inside the hull, so
+  /// CP_hull is RP_obj): n_hull is V_rec.
+  bool n_hull_fallback = false;
+  /// CP_hull on a hull edge or corner: n_hull is the documented blend
+  /// (HullNormal::edge).
+  bool n_hull_edge = false;
+};
+
+/// §4.2: CP_obj is the collision point farthest from the object's reference point
+/// RP_obj; V_rec points from CP_obj toward RP_obj unless the simulation gives it
+/// (`v_rec_given`, e.g. a cloth vertex's normal; normalized here); CP_hull is the
+/// first point inside the hull met searching from CP_obj + |RP_obj - CP_obj| V_rec
+/// (RP_obj itself when V_rec is not given) back toward CP_obj (exact intervals);
+/// D_rec = |CP_hull - CP_obj|: translating the object by D_rec V_rec puts CP_obj on
+/// the hull's surface; N_hull is the hull's normal there. nullopt if there are no
+/// collision points, or CP_hull cannot be found (CP_obj not inside the hull).
+std::optional<CollisionResponse> ComputeResponse(const VolumeQuery& query,
+                                                 const std::vector<Eigen::Vector3d>& collision_points,
+                                                 const Eigen::Vector3d& rp_obj,
+                                                 const std::optional<Eigen::Vector3d>& v_rec_given = std::nullopt,
+                                                 const ResponseOptions& options = {});
+
+}  // namespace hullpipe
