@@ -11,6 +11,7 @@
 #include "hullpipe/collision.h"
 #include "hullpipe/conventions.h"
 #include "hullpipe/plane_sweep.h"
+#include "hullpipe/synthetic.h"
 #include "hullpipe/triangle_query.h"
 #include "test_util.h"
 
@@ -254,6 +255,33 @@ TEST(BallSimulation, BouncesOffTheHullAndIsDeterministic) {
   EXPECT_TRUE(collided);
   EXPECT_GT(a.bodies()[0].velocity.x(), 0);  // moving away from the sphere again
   EXPECT_GT(a.bodies()[0].position.x(), kCentre.x() + kRadius);
+}
+
+TEST(BallSimulation, AFastBallDoesNotTunnelThroughAThinHull) {
+  // A 1 cm plate; a ball of radius 5 cm at 20 m/s moves 80 cm per 40 ms frame,
+  // 20 cm per 10 ms time substep: without spatial substeps it would pass through.
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Box(kCentre, {0.005, 0.3, 0.3}));
+  std::vector<CameraMap> views;
+  for (const auto& c : RingCameras(4, 3.0, 1.8, kCentre, 640, 480, 1.0)) views.push_back({c, RenderExactMap(c, scene)});
+  const VolumeQuery q(views, test::BigBox());
+  SceneConfig cfg;
+  cfg.has_floor = false;
+  cfg.gravity.setZero();
+  cfg.balls[0].radius = 0.05;
+  cfg.balls[0].start = kCentre + Eigen::Vector3d(1.2, 0, 0);
+  cfg.balls[0].target = kCentre - Eigen::Vector3d(1.8, 0, 0);
+  cfg.balls[0].flight_time = 0.15;  // 3 m in 0.15 s: 20 m/s
+  cfg.balls[0].rethrow_period = 0;
+  BallSimulation sim(cfg);
+  bool collided = false;
+  for (int i = 0; i < 10; ++i) {
+    sim.Step(0.04, &q);
+    collided |= sim.bodies()[0].colliding;
+    ASSERT_GT(sim.bodies()[0].position.x(), kCentre.x()) << "frame " << i << ": the ball got through";
+  }
+  EXPECT_TRUE(collided);
+  EXPECT_GT(sim.bodies()[0].velocity.x(), 0) << "bounced back";
 }
 
 }  // namespace

@@ -112,7 +112,16 @@ TriangleMesh BallSimulation::WorldMesh(size_t i) const {
 void BallSimulation::Step(double dt, const VolumeQuery* hull) {
   dt = std::clamp(dt, 0.0, 0.25);
   for (auto& s : bodies_) s.colliding = false;
-  const int substeps = std::max(1, int(std::ceil(dt / config_.max_substep)));
+  // Substeps short in time, and short in space: no ball moves more than its own
+  // radius in one (speed bounded by the current speed plus what gravity adds), so
+  // consecutive positions overlap and a thin part of the hull across the path
+  // cannot be skipped (no tunnelling). Capped at 2000 substeps per step.
+  int substeps = std::max(1, int(std::ceil(dt / config_.max_substep)));
+  for (const auto& b : bodies_) {
+    if (!(b.radius > 0)) continue;
+    const double reach = (b.velocity.norm() + config_.gravity.norm() * dt) * dt;
+    substeps = std::max(substeps, int(std::min(2000.0, std::ceil(reach / b.radius))));
+  }
   const double h = dt / substeps;
   const double g_norm = config_.gravity.norm();
   const Eigen::Vector3d g_hat = g_norm > 0 ? Eigen::Vector3d(config_.gravity / g_norm)

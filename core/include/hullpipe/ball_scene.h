@@ -75,7 +75,9 @@ class BallSimulation {
  public:
   explicit BallSimulation(SceneConfig config);
   /// Advances by dt seconds (clamped to [0, 0.25]) in substeps of at most
-  /// max_substep, each checked against `hull` (nullptr: no hull this step).
+  /// max_substep and short enough that no ball moves more than its radius in one
+  /// (so it cannot tunnel through a thin part of the hull), each checked against
+  /// `hull` (nullptr: no hull this step).
   void Step(double dt, const VolumeQuery* hull);
   const std::vector<BodyState>& bodies() const { return bodies_; }
   /// The world-frame mesh of body i at its current position.
