@@ -54,4 +54,30 @@ std::optional<CollisionResponse> ComputeResponse(const VolumeQuery& query,
                                                  const std::optional<Eigen::Vector3d>& v_rec_given = std::nullopt,
                                                  const ResponseOptions& options = {});
 
+/// Settings of the paper's triangle scan (§4.2), kept to compare with the exact
+/// method.
+struct PaperResponseOptions {
+  double apex_deg = 10.0;  ///< Apex angle of the isosceles search triangles.
+  double length = 0.05;    ///< Their height along V_rec, metres (5 cm).
+  double pixel = 0.001;    ///< Sample spacing in the triangles' planes, metres.
+  /// Throws std::invalid_argument naming the bad field.
+  void Check() const;
+};
+
+/// The same quantities found as the paper does, by volume-querying two
+/// perpendicular isosceles triangles with their apex at CP_obj and their axis
+/// along V_rec: scanning each from its base (RP_obj's side) toward the apex, the
+/// first inside sample on the axis gives CP_hull (to within `pixel`), and a line
+/// fitted to the first inside sample of every column gives a tangent of the hull
+/// in each triangle's plane; N_hull is their cross product, turned outward (toward
+/// V_rec). Where a triangle has fewer than two columns with a boundary, N_hull is
+/// V_rec and n_hull_fallback is set. Same nullopt cases as ComputeResponse, and
+/// also when the hull's surface along the axis is not within the triangles (the
+/// base is already inside: CP_hull is farther than `length` from CP_obj).
+std::optional<CollisionResponse> ComputeResponsePaper(const VolumeQuery& query,
+                                                      const std::vector<Eigen::Vector3d>& collision_points,
+                                                      const Eigen::Vector3d& rp_obj,
+                                                      const std::optional<Eigen::Vector3d>& v_rec_given = std::nullopt,
+                                                      const PaperResponseOptions& options = {});
+
 }  // namespace hullpipe
