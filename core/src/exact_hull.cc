@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <thread>
 
 #include "hullpipe/conventions.h"
+#include "hullpipe/parallel.h"
 #include "hullpipe/plane_sweep.h"
 
 namespace hullpipe {
@@ -171,7 +171,7 @@ Intervals RayHullIntervals(const VolumeQuery& q, const Eigen::Vector3d& o, const
 cv::Mat ExactHullDepth(const VolumeQuery& q, const NovelView& view, const cv::Rect& tile, int threads) {
   cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
   const Eigen::Vector3d O = view.world_from_eye.translation;
-  auto rows = [&](int r0, int r1) {
+  ForEachRowBand(tile.height, threads, [&](int r0, int r1, int) {
     for (int r = r0; r < r1; ++r)
       for (int c = 0; c < tile.width; ++c) {
         const Eigen::Vector3d D = view.world_from_eye.rotation * view.EyeRay(tile.x + c + 0.5, tile.y + r + 0.5);
@@ -180,12 +180,7 @@ cv::Mat ExactHullDepth(const VolumeQuery& q, const NovelView& view, const cv::Re
         const Intervals iv = RayHullIntervals(q, O, D, s0, s1);
         if (!iv.empty()) out.at<float>(r, c) = float(iv.front().first);  // eye z: D has z = 1
       }
-  };
-  threads = std::clamp(threads, 1, std::max(1, tile.height));
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(rows, tile.height * t / threads, tile.height * (t + 1) / threads);
-  rows(0, tile.height / threads);
-  for (auto& th : pool) th.join();
+  });
   return out;
 }
 

@@ -5,9 +5,9 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 #include "hullpipe/conventions.h"
+#include "hullpipe/parallel.h"
 
 namespace hullpipe {
 
@@ -211,16 +211,12 @@ void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vecto
   }
 }
 
-// Runs rows(r0, r1, stats) over `threads` bands of [0, height).
+// Runs rows(r0, r1, stats) over `threads` bands of [0, height), summing each
+// band's counters into *stats.
 template <class Rows>
 void ForRowBands(int height, int threads, SweepStats* stats, Rows rows) {
-  threads = std::clamp(threads, 1, std::max(1, height));
-  std::vector<SweepStats> per(static_cast<size_t>(threads));
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t)
-    pool.emplace_back([&, t] { rows(height * t / threads, height * (t + 1) / threads, &per[size_t(t)]); });
-  rows(0, height / threads, &per[0]);
-  for (auto& th : pool) th.join();
+  std::vector<SweepStats> per(size_t(std::clamp(threads, 1, std::max(1, height))));
+  ForEachRowBand(height, threads, [&](int r0, int r1, int band) { rows(r0, r1, &per[size_t(band)]); });
   if (stats)
     for (const auto& st : per) {
       stats->rays += st.rays;

@@ -1,10 +1,11 @@
 #include "hullpipe/reprojection.h"
 
 #include <cmath>
-#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
+
+#include "hullpipe/parallel.h"
 
 namespace hullpipe {
 
@@ -58,11 +59,7 @@ cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, i
       }
     }
   };
-  threads = std::max(1, threads);
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t)
-    pool.emplace_back(rows, camera.height * t / threads, camera.height * (t + 1) / threads);
-  for (auto& th : pool) th.join();
+  ForEachRowBand(camera.height, threads, [&](int r0, int r1, int) { rows(r0, r1); });
   return out;
 }
 

@@ -1,0 +1,25 @@
+// Splitting image rows across threads, for the per-pixel loops of the sweep, the
+// exact reference and the reprojection.
+#pragma once
+
+#include <algorithm>
+#include <thread>
+#include <vector>
+
+namespace hullpipe {
+
+/// Calls rows(r0, r1, band) for `threads` contiguous bands [r0, r1) covering
+/// [0, height), band 0 on the calling thread and the others on new threads, and
+/// returns when all are done. threads is clamped to [1, max(1, height)]; band
+/// indices are 0..threads-1. rows must be safe to run concurrently on disjoint rows.
+template <class Rows>
+void ForEachRowBand(int height, int threads, Rows&& rows) {
+  threads = std::clamp(threads, 1, std::max(1, height));
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t)
+    pool.emplace_back([&, t] { rows(height * t / threads, height * (t + 1) / threads, t); });
+  rows(0, height / threads, 0);
+  for (auto& th : pool) th.join();
+}
+
+}  // namespace hullpipe
