@@ -49,9 +49,11 @@ HullVisibility ComputeHullVisibility(const VolumeQuery& query, const std::vector
 
 namespace {
 // Does camera k's hull depth map let it see world point X?
-bool Visible(const HullVisibility& vis, size_t k, const Eigen::Vector3d& X, double bias) {
+// eye_from_world: the inverse of vis.views[k].world_from_eye, computed once.
+bool Visible(const HullVisibility& vis, size_t k, const Rigid3d& eye_from_world, const Eigen::Vector3d& X,
+             double bias) {
   const NovelView& v = vis.views[k];
-  const Eigen::Vector3d p = v.world_from_eye.Inverse() * X;
+  const Eigen::Vector3d p = eye_from_world * X;
   if (!(p.z() > 0)) return false;
   const double u = v.fx * p.x() / p.z() + v.cx, w = v.fy * p.y() / p.z() + v.cy;
   if (!(u >= 0 && w >= 0 && u < v.width && w < v.height)) return false;
@@ -79,6 +81,9 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
     cams.push_back(ScaledCamera(ci.camera, ci.image.cols, ci.image.rows));
     centres.push_back(cams.back().Center());
   }
+  std::vector<Rigid3d> eye_from_world;
+  if (visibility)
+    for (const auto& v : visibility->views) eye_from_world.push_back(v.world_from_eye.Inverse());
   const Eigen::Vector3d O = view.world_from_eye.translation;
   const Eigen::Matrix3d& R = view.world_from_eye.rotation;
   struct Candidate {
@@ -101,7 +106,7 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
         // Cameras facing the eye's side dominate; when none does (the Utrecht
         // rig has no camera behind the person) the least oblique one still wins.
         const double w = (cosang > 0 ? std::pow(cosang, options.angle_power) : 0.0) + 1e-9 * (1.0 + cosang);
-        const bool seen = !visibility || Visible(*visibility, k, X, options.visibility_bias_m);
+        const bool seen = !visibility || Visible(*visibility, k, eye_from_world[k], X, options.visibility_bias_m);
         cand.push_back({w, Bilinear(images[k].image, uv->x(), uv->y()), seen});
       }
       // Only cameras that see the point, if any does; where none does (the back
