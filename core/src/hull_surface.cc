@@ -1,5 +1,6 @@
 #include "hullpipe/hull_surface.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -103,12 +104,14 @@ std::optional<HullNormal> HullSurfaceNormal(const VolumeQuery& query, const Eige
     const CameraMap& cm = query.views()[i];
     const auto uv = cm.camera.Project(X);
     if (!uv || !cm.camera.InImage(*uv)) continue;
-    const auto edges = BorderEdgesNear(cm.map, *uv, search);
+    // One scan of the window both tests need: the nearest border edge decides
+    // whether this camera forms the surface, the edges within fit_radius_px fit it.
+    const auto edges = BorderEdgesNear(cm.map, *uv, std::max(search, options.fit_radius_px));
     double d = std::numeric_limits<double>::infinity();
     for (const auto& e : edges) d = std::min(d, DistanceToEdge(*uv, e));
     if (!(d <= options.border_px)) continue;
     std::vector<BorderEdge> fit;
-    for (const auto& e : BorderEdgesNear(cm.map, *uv, options.fit_radius_px))
+    for (const auto& e : edges)
       if ((e.mid - *uv).norm() <= options.fit_radius_px + 0.5) fit.push_back(e);
     const auto n = ConeNormal(cm.camera, *uv, fit, X);
     if (!n) continue;
