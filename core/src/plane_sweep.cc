@@ -225,10 +225,6 @@ void ForRowBands(int height, int threads, SweepStats* stats, Rows rows) {
     }
 }
 
-}  // namespace
-
-namespace {
-
 // Spacing of the planes around eye depth d (the gap below the plane at or after d).
 double SpacingAt(const std::vector<double>& depths, double d) {
   if (depths.size() < 2) return 0;
@@ -244,13 +240,13 @@ double SpacingAt(const std::vector<double>& depths, double d) {
 // the hull is most likely near its neighbour's depth, so the ray is scanned there
 // at an eighth of the plane spacing and a hit is bisected. Reads `swept`, writes
 // `out` (both the region's size); updates pixels of `inner` (region coordinates).
-// `changed` (CV_8UC1, region size, or empty for the first pass) marks pixels the
-// previous pass moved; only their neighbours are looked at again. `moved` gets
-// this pass's marks.
+// One pass: a pixel depends on the sweep within one pixel of it, so a tile swept
+// with a one-pixel margin refines exactly as in a whole-view render. (Passes
+// repeated over the pixels next to moved ones changed nothing on the synthetic
+// scenes of `vh_eval sweep`.)
 void RefineEdges(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
                  const cv::Rect& region, const cv::Rect& inner, int iterations, const cv::Mat& swept, cv::Mat& out,
-                 const cv::Mat& changed, cv::Mat& moved, int threads) {
-  moved = cv::Mat::zeros(swept.size(), CV_8UC1);
+                 int threads) {
   ForRowBands(inner.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
     RayQuery ray(query, view);
     std::vector<std::pair<double, double>> windows;
@@ -263,7 +259,6 @@ void RefineEdges(const VolumeQuery& query, const NovelView& view, const std::vec
         for (const auto& o : nb) {
           const int y = r + o[0], x = c + o[1];
           if (y < 0 || x < 0 || y >= swept.rows || x >= swept.cols) continue;
-          if (!changed.empty() && !changed.at<uint8_t>(y, x)) continue;
           const float dq = swept.at<float>(y, x);
           if (!std::isfinite(dq)) continue;
           const double sp = SpacingAt(depths, dq);
@@ -300,30 +295,10 @@ void RefineEdges(const VolumeQuery& query, const NovelView& view, const std::vec
             prev = t;
           }
         }
-        if (best < double(dp) || (!std::isfinite(dp) && std::isfinite(best))) {
-          out.at<float>(r, c) = float(best);
-          moved.at<uint8_t>(r, c) = 1;
-        }
+        if (best < double(dp) || (!std::isfinite(dp) && std::isfinite(best))) out.at<float>(r, c) = float(best);
       }
     }
   });
-}
-
-// Silhouette passes: each reads the previous pass's depths, so after P passes a
-// pixel depends only on sweep results within P pixels of it (tiles need a margin
-// of P to match a whole-view render exactly). On the synthetic scenes of
-// `vh_eval sweep` passes after the first changed nothing, so there is one.
-constexpr int kEdgePasses = 1;
-
-void RefineEdgesPasses(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
-                       const cv::Rect& region, const cv::Rect& inner, int iterations, cv::Mat& depth, int threads) {
-  cv::Mat changed, moved;
-  for (int pass = 0; pass < kEdgePasses; ++pass) {
-    const cv::Mat before = depth.clone();
-    RefineEdges(query, view, depths, region, inner, iterations, before, depth, changed, moved, threads);
-    if (cv::countNonZero(moved) == 0) break;
-    changed = moved;
-  }
 }
 
 }  // namespace
@@ -353,7 +328,8 @@ void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std
   });
   // The silhouette pass sees only this tile's pixels: at a tile's border it has
   // fewer neighbours than in a whole-view render (PlaneSweepCpu has no such seam).
-  RefineEdgesPasses(query, view, depths, tile, {0, 0, tile.width, tile.height}, iterations, *depth, threads);
+  const cv::Mat swept = depth->clone();
+  RefineEdges(query, view, depths, tile, {0, 0, tile.width, tile.height}, iterations, swept, *depth, threads);
 }
 
 cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
@@ -368,22 +344,19 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
     });
     return out;
   }
-  // Refinement: sweep with a margin of kEdgePasses pixels inside the view, so the
-  // silhouette passes see the same neighbours as a whole-view render and tiles
-  // meet without seams, then refine and crop.
-  const int m = kEdgePasses;
-  const cv::Rect region = cv::Rect(tile.x - m, tile.y - m, tile.width + 2 * m, tile.height + 2 * m) &
+  // Refinement: sweep with a one-pixel margin inside the view, so the silhouette
+  // pass sees the same neighbours as a whole-view render and tiles meet without
+  // seams; refine only the tile's own pixels.
+  const cv::Rect region = cv::Rect(tile.x - 1, tile.y - 1, tile.width + 2, tile.height + 2) &
                           cv::Rect(0, 0, view.width, view.height);
   cv::Mat swept(region.height, region.width, CV_32FC1, cv::Scalar(kNoDepth));
   ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
     SweepRows(query, view, depths, region, r0, r1, swept, st, refine_iterations);
   });
-  // Every pass refines the whole region (pixels near its border see fewer
-  // neighbours, but they are at least P - pass pixels from the tile).
-  RefineEdgesPasses(query, view, depths, region, {0, 0, region.width, region.height}, refine_iterations, swept,
-                    threads);
   const cv::Rect inner(tile.x - region.x, tile.y - region.y, tile.width, tile.height);
-  swept(inner).copyTo(out);
+  cv::Mat refined = swept.clone();
+  RefineEdges(query, view, depths, region, inner, refine_iterations, swept, refined, threads);
+  refined(inner).copyTo(out);
   return out;
 }
 
