@@ -23,7 +23,7 @@ struct CameraMap {
 };
 
 namespace detail {
-/// A camera's projection reduced to floats for hot loops (see VolumeQuery::Hits).
+/// A camera's projection reduced to floats for hot loops (see VolumeQuery::VoteFast).
 struct FastCamera {
   float r[9], t[3];
   float fx, fy, cx, cy;
@@ -108,13 +108,8 @@ class VolumeQuery {
   /// Float camera parameters for hot loops, in views() order.
   const std::vector<detail::FastCamera>& fast() const { return fast_; }
 
-  /// True iff camera-frame point (x, y, z) of camera `c` projects onto an object
-  /// pixel of its map. Inline for the sweep's inner loop.
-  static bool Hits(const detail::FastCamera& c, float x, float y, float z) {
-    return VoteFast(c, x, y, z) == Vote::kObject;
-  }
-
-  /// Camera `c`'s verdict on camera-frame point (x, y, z), in floats.
+  /// Camera `c`'s verdict on camera-frame point (x, y, z), in floats. Inline for
+  /// the hot loops (sweep, reprojection).
   static Vote VoteFast(const detail::FastCamera& c, float x, float y, float z) {
     if (!(z > 1e-6f)) return Vote::kUnseen;
     const float iz = 1.0f / z;
