@@ -71,8 +71,7 @@ namespace {
 class RayQuery {
  public:
   RayQuery(const VolumeQuery& q, const NovelView& view)
-      : q_(q), cams_(q.fast()), n_(cams_.size()), unknown_(q.options().out_of_view == OutOfView::kUnknown),
-        view_(view), A_(n_), B_(n_), order_(n_) {
+      : q_(q), cams_(q.fast()), n_(cams_.size()), view_(view), A_(n_), B_(n_), order_(n_) {
     const Eigen::Vector3d O = view.world_from_eye.translation;
     for (size_t c = 0; c < n_; ++c) {
       A_[c] = (q.views()[c].camera.cam_from_world * O).cast<float>();
@@ -100,7 +99,7 @@ class RayQuery {
       const Vote vote = VolumeQuery::VoteFast(cams_[c], X.x(), X.y(), X.z());
       if (vote == Vote::kObject) {
         ++object;
-      } else if (vote == Vote::kBackground || !unknown_) {
+      } else if (q_.Vetoes(vote)) {
         // The camera that rejected goes first next time: neighbouring points are
         // usually rejected by the same camera.
         if (near_miss) *near_miss = j + 1 == n_;
@@ -127,7 +126,6 @@ class RayQuery {
   const VolumeQuery& q_;
   const std::vector<detail::FastCamera>& cams_;
   size_t n_;
-  bool unknown_;
   const NovelView& view_;
   std::vector<Eigen::Vector3f> A_, B_;
   std::vector<size_t> order_;

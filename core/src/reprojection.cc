@@ -15,7 +15,6 @@ cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, i
   if (box.empty()) return out;
   const auto& cams = q.fast();
   const size_t n = cams.size();
-  const bool unknown = q.options().out_of_view == OutOfView::kUnknown;
   const Eigen::Vector3d O = camera.Center();
   std::vector<Eigen::Vector3f> A(n);
   for (size_t c = 0; c < n; ++c) A[c] = (q.views()[c].camera.cam_from_world * O).cast<float>();
@@ -37,7 +36,7 @@ cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, i
         for (size_t c : same_centre) {
           const Eigen::Vector3f X = A[c] + float(0.5 * (s0 + s1)) * B[c];
           const Vote v = VolumeQuery::VoteFast(cams[c], X.x(), X.y(), X.z());
-          possible = possible && (v == Vote::kObject || (v == Vote::kUnseen && unknown));
+          possible = possible && !q.Vetoes(v);
         }
         if (!possible) continue;
         for (double s = s0; s <= s1; s += step) {
@@ -46,7 +45,7 @@ cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, i
           for (size_t c = 0; c < n && !rejected; ++c) {
             const Eigen::Vector3f X = A[c] + float(s) * B[c];
             const Vote v = VolumeQuery::VoteFast(cams[c], X.x(), X.y(), X.z());
-            rejected = v == Vote::kBackground || (v == Vote::kUnseen && !unknown);
+            rejected = q.Vetoes(v);
             object += v == Vote::kObject;
             unseen += v == Vote::kUnseen;
           }

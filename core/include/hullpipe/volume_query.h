@@ -129,6 +129,12 @@ class VolumeQuery {
     return c.data[size_t(v) * c.step + size_t(u)] != 0 ? Vote::kObject : Vote::kBackground;
   }
 
+  /// True if this one vote already puts the point outside: background, or unseen
+  /// under kOutside. Hot loops stop at the first such camera.
+  bool Vetoes(Vote v) const {
+    return v == Vote::kBackground || (v == Vote::kUnseen && options_.out_of_view == OutOfView::kOutside);
+  }
+
   /// Whether votes make a point inside: `object` cameras voted object, `unseen`
   /// could not see it, none voted background (the caller stops at the first
   /// background vote).
