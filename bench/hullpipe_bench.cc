@@ -162,7 +162,7 @@ int main(int argc, char** argv) {
   // Triangle query: the paper's curtain case, 720 triangles of ~2 cm at the hull,
   // each in a 10x10 viewport; and our default sizing (4 mm pixels).
   {
-    std::vector<gl::Triangle> tris;
+    std::vector<Triangle> tris;
     const double s = 0.02;
     for (int i = 0; tris.size() < 720; ++i) {
       const Eigen::Vector3d o = centre + Eigen::Vector3d((i % 24) * s - 0.24, 0.0, (i / 24) * s - 0.3);

@@ -48,16 +48,35 @@ TriangleViewport MakeTriangleViewport(const Eigen::Vector3d& a, const Eigen::Vec
 /// as inside). The rule both the CPU and the GL path use.
 bool PixelInTriangle(const TriangleViewport& vp, int i, int j);
 
+/// One triangle for the batched queries (world metres).
+struct Triangle {
+  Eigen::Vector3d a, b, c;
+};
+
 /// Result of querying one triangle.
 struct TriangleQueryResult {
   int pixels_tested = 0;                          ///< Pixel centres in the triangle.
   std::vector<Eigen::Vector3d> collision_points;  ///< Inside points, world metres.
 };
 
-/// CPU triangle-in-viewport volume query. A triangle with no pixel centre inside
-/// (smaller than a pixel) is queried at its centroid, so no triangle goes untested.
+/// CPU triangle-in-viewport volume query (the reference for the GL path). A
+/// triangle with no pixel centre inside (smaller than a pixel) is queried at its
+/// centroid, so no triangle goes untested. Each pixel is exactly
+/// VolumeQuery::Inside of its centre (world metres); the centres' camera-frame
+/// points are stepped affinely across the orthographic viewport, and the camera
+/// that vetoed the previous pixel is asked first.
 TriangleQueryResult QueryTriangleCpu(const VolumeQuery& query, const Eigen::Vector3d& a,
                                      const Eigen::Vector3d& b, const Eigen::Vector3d& c,
                                      const TriangleQueryOptions& options = {});
+
+/// QueryTriangleCpu for many triangles, split across `threads` (>= 1) threads;
+/// results in triangle order. Throws std::invalid_argument if options fail Check().
+std::vector<TriangleQueryResult> QueryTrianglesCpu(const VolumeQuery& query, const std::vector<Triangle>& triangles,
+                                                   const TriangleQueryOptions& options, int threads = 1);
+
+/// Point queries for particles (paper §4.1: a particle is a point, so it needs no
+/// viewport): inside[k] != 0 iff points[k] (world metres) is inside the hull
+/// (VolumeQuery::Inside, after the hull-box test).
+std::vector<char> QueryPoints(const VolumeQuery& query, const std::vector<Eigen::Vector3d>& points);
 
 }  // namespace hullpipe

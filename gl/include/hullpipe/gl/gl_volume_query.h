@@ -47,11 +47,6 @@ class GlPlaneSweep {
   int width_ = 0, height_ = 0;
 };
 
-/// One triangle for the batched query (world metres).
-struct Triangle {
-  Eigen::Vector3d a, b, c;
-};
-
 /// Per-triangle viewport query on the GPU: triangles are packed in cells of an
 /// atlas (the paper packed 10x10 viewports in a 400x400 window), each drawn with
 /// an orthographic view along its normal; every fragment volume-queries its
