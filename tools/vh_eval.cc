@@ -1,4 +1,7 @@
 // vh_eval: evaluation of hullpipe's visual hulls.
+//   vh_eval collision [--json] [--smoke] [--tsv FILE]
+// collision detection and the paper's §4.2 response (exact and paper methods)
+// against exact ground truth, per backend and viewport size (vh_eval_collision.h).
 //   vh_eval sweep [--json] [--full] [--tsv FILE]
 // runs the plane sweep on synthetic scenes with exact maps and reports, per
 // configuration, time per frame and depth error against the exact hull (see
@@ -20,6 +23,7 @@
 #include "hullpipe/conventions.h"
 #include "hullpipe/reprojection.h"
 #include "hullpipe/rig_source.h"
+#include "vh_eval_collision.h"
 #include "vh_eval_sweep.h"
 
 using namespace hullpipe;
@@ -70,6 +74,19 @@ int main(int argc, char** argv) {
   sweep->add_flag("--headline", sw.headline_only, "Only the CPU rows at 320x240 with 4 cameras");
   sweep->add_option("--tsv", sw.tsv, "Also write the rows as TSV (for gnuplot)");
   TextureEvalOptions tx;
+  CollisionEvalOptions co;
+  auto* collision = app.add_subcommand("collision", "Collision detection and response against exact ground truth");
+  collision->add_flag("--json", co.json, "Print one JSON object with a row per method, backend and viewport");
+  collision->add_option("--scenes", co.scenes, "Synthetic scenes (the real objects)")->capture_default_str();
+  collision->add_option("--cases", co.cases_per_scene, "Virtual boxes per scene")->capture_default_str();
+  collision->add_option("--cameras", co.cameras, "Dome cameras")->capture_default_str();
+  collision->add_option("--repeats", co.repeats, "Timed runs of each detection (median)")->capture_default_str();
+  collision->add_option("--reference-spacing", co.reference_spacing, "Exact region line spacing, metres")
+      ->capture_default_str();
+  collision->add_option("--seed", co.seed, "Case generator seed")->capture_default_str();
+  collision->add_flag("!--no-gl", co.gl, "Leave out the GL rows");
+  collision->add_flag("--smoke", co.smoke, "One scene, three cases, CPU only (for tests)");
+  collision->add_option("--tsv", co.tsv, "Also write the rows as TSV (for gnuplot)");
   auto* texture = app.add_subcommand("texture", "Colour error of the textured hull, with and without visibility");
   texture->add_flag("--json", tx.json, "Print one JSON object");
   texture->add_option("--scenes", tx.scenes, "Synthetic scenes")->capture_default_str();
@@ -90,6 +107,14 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+  if (collision->parsed()) {
+    try {
+      return RunCollisionEval(co);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "vh_eval: %s\n", e.what());
+      return 1;
+    }
+  }
   if (sweep->parsed() || texture->parsed()) {
     try {
       if (sw.smoke) sw.camera_width = 320, sw.camera_height = 240, sw.repeats = 1;

@@ -49,6 +49,11 @@ SceneConfig LoadSceneConfig(const std::string& path) {
       if (c["fixed_viewport"]) cfg.collision.fixed_viewport = c["fixed_viewport"].as<int>();
       if (c["max_viewport"]) cfg.collision.max_viewport = c["max_viewport"].as<int>();
     }
+    if (root["response"]) {
+      const std::string r = root["response"].as<std::string>();
+      if (r != "exact" && r != "paper") throw std::runtime_error(path + ": 'response' must be exact or paper, not " + r);
+      cfg.response = r == "exact" ? SceneConfig::Response::kExact : SceneConfig::Response::kPaper;
+    }
     if (root["max_substep"]) cfg.max_substep = root["max_substep"].as<double>();
     if (const YAML::Node balls = root["balls"]) {
       cfg.balls.clear();
@@ -141,11 +146,18 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull) {
         if (vn > 0) s.velocity -= (1 + config_.balls[i].restitution) * vn * g_hat;
       }
       if (!hull) continue;
-      CollisionResult c = DetectCollisions(*hull, WorldMesh(i), config_.collision);
+      const TriangleMesh mesh = WorldMesh(i);
+      CollisionResult c = DetectCollisions(*hull, mesh, config_.collision);
       if (!c.colliding()) continue;
       // Paper §4.2: move the ball by D_rec along V_rec so its deepest collision
       // point reaches the hull's surface, and reflect its velocity about N_hull.
-      std::optional<CollisionResponse> resp = ComputeResponse(*hull, c.collision_points, s.position);
+      std::optional<CollisionResponse> resp;
+      if (config_.response == SceneConfig::Response::kExact) {
+        RefineFarthestCollisionPoint(*hull, mesh, s.position, config_.collision, &c);
+        resp = ComputeResponse(*hull, c.collision_points, s.position);
+      } else {
+        resp = ComputeResponsePaper(*hull, c.collision_points, s.position);
+      }
       Eigen::Vector3d n;
       if (resp) {
         n = resp->n_hull;

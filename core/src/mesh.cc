@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <map>
+#include <stdexcept>
 #include <utility>
 
 namespace hullpipe {
@@ -38,6 +39,41 @@ TriangleMesh TriangleMesh::Icosphere(double radius, int subdivisions) {
     m.triangles = std::move(next);
   }
   for (auto& v : m.vertices) v *= radius;
+  return m;
+}
+
+TriangleMesh TriangleMesh::Box(const Eigen::Vector3d& half, double max_edge) {
+  if (!((half.array() > 0).all() && max_edge > 0)) throw std::invalid_argument("TriangleMesh::Box: sizes must be > 0");
+  TriangleMesh m;
+  // Each face: axis k fixed at +-half[k], a grid over the other two axes.
+  for (int k = 0; k < 3; ++k) {
+    const int i = (k + 1) % 3, j = (k + 2) % 3;
+    const int ni = std::max(1, int(std::ceil(2 * half[i] / max_edge)));
+    const int nj = std::max(1, int(std::ceil(2 * half[j] / max_edge)));
+    for (const double side : {-1.0, 1.0}) {
+      const int base = int(m.vertices.size());
+      for (int b = 0; b <= nj; ++b)
+        for (int a = 0; a <= ni; ++a) {
+          Eigen::Vector3d v;
+          v[k] = side * half[k];
+          v[i] = -half[i] + 2 * half[i] * a / ni;
+          v[j] = -half[j] + 2 * half[j] * b / nj;
+          m.vertices.push_back(v);
+        }
+      for (int b = 0; b < nj; ++b)
+        for (int a = 0; a < ni; ++a) {
+          const int v00 = base + b * (ni + 1) + a, v10 = v00 + 1, v01 = v00 + ni + 1, v11 = v01 + 1;
+          // (i, j, k) is right-handed: counter-clockwise seen from +k.
+          if (side > 0) {
+            m.triangles.push_back({v00, v10, v11});
+            m.triangles.push_back({v00, v11, v01});
+          } else {
+            m.triangles.push_back({v00, v11, v10});
+            m.triangles.push_back({v00, v01, v11});
+          }
+        }
+    }
+  }
   return m;
 }
 

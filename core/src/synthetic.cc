@@ -395,4 +395,53 @@ cv::Mat RenderColour(const Camera& camera, const SyntheticScene& scene) {
   return img;
 }
 
+Eigen::Vector3d SmoothHullNormal(const SyntheticScene& scene, const std::vector<Eigen::Vector3d>& centres,
+                                 const Eigen::Vector3d& X, double edge_tolerance, bool* on_edge) {
+  auto sdf = [&](const Eigen::Vector3d& p) {
+    double d = 1e300;
+    for (const auto& sh : scene.shapes) d = std::min(d, sh.SignedDistance(p));
+    return d;
+  };
+  struct Graze {
+    double dist;
+    Eigen::Vector3d point, dir;
+  };
+  std::vector<Graze> g;
+  for (const Eigen::Vector3d& C : centres) {
+    const Eigen::Vector3d d = (X - C).normalized();
+    const double t_end = (X - C).norm() + 2.0, step = 0.002;
+    double best_t = 0.05, best = sdf(C + best_t * d);
+    for (double t = 0.05; t <= t_end; t += step) {
+      const double v = sdf(C + t * d);
+      if (v < best) best = v, best_t = t;
+    }
+    // Golden section on [best_t - step, best_t + step].
+    double lo = std::max(0.0, best_t - step), hi = best_t + step;
+    const double r = (std::sqrt(5.0) - 1) / 2;
+    double x1 = hi - r * (hi - lo), x2 = lo + r * (hi - lo);
+    double f1 = sdf(C + x1 * d), f2 = sdf(C + x2 * d);
+    while (hi - lo > 1e-7) {
+      if (f1 < f2) {
+        hi = x2, x2 = x1, f2 = f1, x1 = hi - r * (hi - lo), f1 = sdf(C + x1 * d);
+      } else {
+        lo = x1, x1 = x2, f1 = f2, x2 = lo + r * (hi - lo), f2 = sdf(C + x2 * d);
+      }
+    }
+    const double t = 0.5 * (lo + hi);
+    g.push_back({sdf(C + t * d), C + t * d, d});
+  }
+  // The line nearest to grazing; lines through the shape's inside have dist < 0.
+  std::sort(g.begin(), g.end(), [](const Graze& a, const Graze& b) { return std::abs(a.dist) < std::abs(b.dist); });
+  if (on_edge) *on_edge = g.size() > 1 && std::abs(g[1].dist) - std::abs(g[0].dist) < edge_tolerance;
+  const double h = 1e-6;
+  Eigen::Vector3d grad;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d e = Eigen::Vector3d::Zero();
+    e[k] = h;
+    grad[k] = (sdf(g[0].point + e) - sdf(g[0].point - e)) / (2 * h);
+  }
+  grad -= grad.dot(g[0].dir) * g[0].dir;
+  return grad.normalized();
+}
+
 }  // namespace hullpipe

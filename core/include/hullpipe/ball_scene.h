@@ -1,13 +1,17 @@
 // The virtual scene of sim_node: balls thrown under gravity that collide with the
-// visual hull and the floor. Collision detection is the paper's (§4.1); the
-// response is, for now, a simple bounce (reflect about the direction from the
-// collision points' centroid to the ball centre); the paper's §4.2 response with
-// CP_hull and N_hull comes in a later issue.
+// visual hull and the floor. Collision detection is the paper's (§4.1: box test,
+// then each triangle volume-queried in its own viewport); the response is §4.2's:
+// the ball moves by D_rec along V_rec (plus 1 mm) so its deepest collision point
+// CP_obj reaches the hull's surface at CP_hull, and its velocity is reflected about
+// N_hull. `response: exact` (default) refines CP_obj below the viewport pixel and
+// finds CP_hull and N_hull exactly (collision.h, collision_response.h); `paper`
+// uses the paper's isosceles-triangle scans.
 //
 // Scene file (YAML), metres and seconds, world frame of the rig:
 //   gravity: [0, 0, 9.81]         # Utrecht rig: z points down
 //   floor: 0.0                    # floor plane: g_hat . x = floor (omit: no floor)
 //   collision: {max_pixel_size: 0.004, fixed_viewport: 0, max_viewport: 32}
+//   response: exact               # exact | paper
 //   balls:
 //     - id: 1
 //       radius: 0.12
@@ -49,6 +53,9 @@ struct SceneConfig {
   bool has_floor = true;
   double floor = 0.0;
   TriangleQueryOptions collision{0.004, 0, 32};
+  /// How the §4.2 response is found: exact (RefineFarthestCollisionPoint +
+  /// ComputeResponse) or paper (ComputeResponsePaper).
+  enum class Response { kExact, kPaper } response = Response::kExact;
   double max_substep = 0.01;  ///< Longest integration step (s), limits tunnelling.
   std::vector<BallConfig> balls{BallConfig{}};
   /// Throws std::invalid_argument naming the bad field.

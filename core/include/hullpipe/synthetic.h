@@ -61,6 +61,19 @@ struct SyntheticScene {
                                                   const Eigen::Vector3d& dir) const;
 };
 
+/// The outward surface normal of the smooth visual hull of `scene` (the hull of
+/// the exact, continuous silhouettes seen from camera centres `centres`, world
+/// metres) at X, a point on or near it: the ground truth for N_hull (paper §4.2).
+/// Each camera's generator line from its centre through X is searched for its
+/// least signed distance to the scene (sampled every 2 mm, then refined by golden
+/// section to 1e-7 m); the camera whose line comes closest to grazing (least
+/// distance nearest zero) forms the surface there, and the normal is the scene's
+/// normal at that tangent point, made perpendicular to the line. If a second
+/// camera's line grazes within `edge_tolerance` metres of the first, X is on a
+/// hull edge or corner where the normal is undefined: *on_edge is set (if given).
+Eigen::Vector3d SmoothHullNormal(const SyntheticScene& scene, const std::vector<Eigen::Vector3d>& centres,
+                                 const Eigen::Vector3d& X, double edge_tolerance = 5e-4, bool* on_edge = nullptr);
+
 /// The built-in animated scene: a standing figure of capsules and a sphere head
 /// whose right arm waves, at time t seconds (period 4 s). About 1.7 m tall, centred
 /// at the world origin on the floor (z down).
