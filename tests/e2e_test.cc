@@ -2,6 +2,9 @@
 // private domain (loopback), runs 120 frames (2.4 s of video), stops them cleanly; the outputs
 // must show a hull, a collision and every node's stats. Then the hull's accuracy
 // at frame 200 against the rig's own maps (vh_eval reprojection).
+#include <set>
+#include <string>
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -82,6 +85,27 @@ TEST(Tools, VhEvalSweepPrintsOneJsonObjectWithTheIssueFields) {
   // ~11 mm spacing; 8 bisections: < 0.1 mm, plus float rounding).
   EXPECT_GT(unrefined, 2.0);
   EXPECT_LT(refined, 0.5);
+}
+
+TEST(Tools, VhEvalCollisionPrintsOneJsonObjectWithTheIssueFields) {
+  // `vh_eval collision --json --smoke`: three boxes against a sphere's hull, CPU.
+  const auto out = test::TempDir("vh_eval_collision");
+  test::Process eval({test::BinDir() + "/vh_eval", "collision", "--json", "--smoke"},
+                     (out / "collision.json").string());
+  ASSERT_EQ(eval.Wait(120), 0) << test::ReadFile((out / "collision.json").string());
+  const auto j = nlohmann::json::parse(test::ReadFile((out / "collision.json").string()));
+  ASSERT_EQ(j["rows"].size(), 4u);
+  std::set<std::string> methods;
+  for (const auto& r : j["rows"]) {
+    for (const char* f : {"method", "viewport", "tris_per_s", "cp_err_mm_p95", "cp_hull_err_mm_p95", "d_rec_err_mm_p95",
+                          "n_hull_err_deg_p95"})
+      ASSERT_TRUE(r.contains(f)) << f << " missing in " << r.dump();
+    methods.insert(r["method"].get<std::string>());
+    EXPECT_GT(r["tris_per_s"].get<double>(), 0) << r.dump();
+    EXPECT_GT(r["responses"].get<int>(), 0) << r.dump();
+  }
+  EXPECT_EQ(methods, (std::set<std::string>{"exact", "paper"}));
+  EXPECT_EQ(j["reference"]["cases"].get<int>(), 3);
 }
 
 }  // namespace

@@ -46,8 +46,14 @@ std::optional<CollisionResponse> ComputeResponse(const VolumeQuery& query,
   if (collision_points.empty()) return std::nullopt;
   double reach = 0;
   CollisionResponse r = ObjectSide(query, collision_points, rp_obj, v_rec_given, &reach);
-  // Search from RP_obj's side (at least 1 mm out) back toward CP_obj.
-  const double length = std::max(reach, 1e-3);
+  // Search from RP_obj's side (at least 1 mm out) back toward CP_obj. With no
+  // V_rec from the object (CP_obj == RP_obj) the object gives no reach either:
+  // search from where V_rec leaves the hull box.
+  double length = std::max(reach, 1e-3);
+  if (r.v_rec_fallback) {
+    double s0 = 0, s1 = 1e9;
+    if (query.hull_box().ClipRay(r.cp_obj, r.v_rec, &s0, &s1)) length = std::max(length, s1 + 1e-3);
+  }
   const Eigen::Vector3d origin = r.cp_obj + length * r.v_rec;
   const Intervals iv = RayHullIntervals(query, origin, -r.v_rec, 0.0, length);
   if (iv.empty()) return std::nullopt;

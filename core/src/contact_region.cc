@@ -36,6 +36,25 @@ std::vector<ContactSegment> ExactContactSegments(const VolumeQuery& query, const
     if (x0 <= x1) cut(world(x0, 0.5 * (ymin + ymax)), world(x1, 0.5 * (ymin + ymax)));
     return out;
   }
+  // The three edges, clipped to the window: they carry the region's thin parts
+  // (a sliver's ends, sharp corners) that no line across reaches.
+  for (int e = 0; e < 3; ++e) {
+    const Eigen::Vector2d s0 = *p2[e], d = *p2[(e + 1) % 3] - s0;
+    double t0 = 0, t1 = 1;
+    if (window) {
+      const double lo[2] = {window->x0, window->y0}, hi[2] = {window->x1, window->y1};
+      for (int k = 0; k < 2 && t0 <= t1; ++k) {
+        if (d[k] == 0) {
+          if (s0[k] < lo[k] || s0[k] > hi[k]) t1 = -1;
+          continue;
+        }
+        double a = (lo[k] - s0[k]) / d[k], b = (hi[k] - s0[k]) / d[k];
+        if (a > b) std::swap(a, b);
+        t0 = std::max(t0, a), t1 = std::min(t1, b);
+      }
+    }
+    if (t0 <= t1) cut(world(s0.x() + t0 * d.x(), s0.y() + t0 * d.y()), world(s0.x() + t1 * d.x(), s0.y() + t1 * d.y()));
+  }
   double y0 = ymin, y1 = ymax;
   if (window) y0 = std::max(y0, window->y0), y1 = std::min(y1, window->y1);
   if (!(y1 >= y0)) return out;

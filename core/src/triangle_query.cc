@@ -102,6 +102,24 @@ Vote VoteAt(const PixelCamera& pc, const Eigen::Vector3d& xc) {
 
 }  // namespace
 
+bool TriangleChord(const TriangleViewport& vp, int axis, double at, double* lo, double* hi) {
+  const Eigen::Vector2d* p[3] = {&vp.a2, &vp.b2, &vp.c2};
+  const int other = 1 - axis;
+  *lo = 1e300, *hi = -1e300;
+  for (int e = 0; e < 3; ++e) {
+    const Eigen::Vector2d& s = *p[e];
+    const Eigen::Vector2d& t = *p[(e + 1) % 3];
+    if ((s[axis] - at) * (t[axis] - at) > 0) continue;
+    if (s[axis] == t[axis]) {
+      *lo = std::min({*lo, s[other], t[other]}), *hi = std::max({*hi, s[other], t[other]});
+      continue;
+    }
+    const double x = s[other] + (at - s[axis]) / (t[axis] - s[axis]) * (t[other] - s[other]);
+    *lo = std::min(*lo, x), *hi = std::max(*hi, x);
+  }
+  return *lo <= *hi;
+}
+
 bool PixelInTriangle(const TriangleViewport& vp, int i, int j) { return EdgeTest(vp).Inside(i, j); }
 
 TriangleQueryResult QueryTriangleCpu(const VolumeQuery& query, const Eigen::Vector3d& a,
@@ -125,11 +143,20 @@ TriangleQueryResult QueryTriangleCpu(const VolumeQuery& query, const Eigen::Vect
   const Aabb& ws = query.workspace();
   const bool check_workspace = !(ws.Contains(box.min) && ws.Contains(box.max));
   size_t first = 0;  // the camera that vetoed last: neighbouring pixels tend to agree
+  const bool thin = vp.height == 1;
   for (int j = 0; j < vp.height; ++j) {
     for (int i = 0; i < vp.width; ++i) {
-      if (!edges.Inside(i, j)) continue;
+      double fi = i + 0.5, fj = j + 0.5;
+      if (thin) {
+        // Thinner than a pixel: each column's sample is the middle of the
+        // triangle's chord there, so a sliver is sampled along all its length.
+        double lo, hi;
+        if (!TriangleChord(vp, 0, fi, &lo, &hi)) continue;
+        fj = 0.5 * (lo + hi);
+      } else if (!edges.Inside(i, j)) {
+        continue;
+      }
       ++result.pixels_tested;
-      const double fi = i + 0.5, fj = j + 0.5;
       if (check_workspace && !ws.Contains(vp.origin + fi * vp.u_step + fj * vp.v_step)) continue;
       int object = 0, unseen = 0;
       bool vetoed = false;

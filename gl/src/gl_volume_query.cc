@@ -363,6 +363,12 @@ std::vector<TriangleQueryResult> GlTriangleQuery::Query(const VolumeQuery& q, co
       const auto& vp = vps[first + k];
       const int cx = int(k % size_t(per_row)) * cell, cy = int(k / size_t(per_row)) * cell;
       TriangleQueryResult& r = results[first + k];
+      if (vp.height == 1) {
+        // Thinner than a pixel: sampled along its spine on the CPU (QueryTriangleCpu).
+        const Triangle& tr = tris[first + k];
+        r = QueryTriangleCpu(q, tr.a, tr.b, tr.c, options);
+        continue;
+      }
       for (int j = 0; j < vp.height; ++j) {
         const cv::Vec4f* row = readback.ptr<cv::Vec4f>(cy + j) + cx;
         for (int i = 0; i < vp.width; ++i) {

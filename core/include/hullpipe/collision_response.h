@@ -30,7 +30,8 @@ struct CollisionResponse {
   Eigen::Vector3d n_hull = Eigen::Vector3d::Zero();   ///< Outward unit hull normal at CP_hull.
   /// V_rec had zero length (CP_obj == RP_obj): it was taken from the hull box's
   /// centre toward RP_obj instead (or world -z, up in the rigs' z-down frames, if
-  /// those coincide too).
+  /// those coincide too), and ComputeResponse searches for CP_hull from where
+  /// V_rec leaves the hull box (ComputeResponsePaper: its usual 5 cm).
   bool v_rec_fallback = false;
   /// No silhouette border near CP_hull (e.g. RP_obj itself inside the hull, so
   /// CP_hull is RP_obj): n_hull is V_rec.

@@ -2,11 +2,12 @@
 // truth for the collision points of paper §4.1), and the error of a set of
 // collision points against it.
 //
-// The triangle is cut by lines parallel to its longest edge; on each line the part
-// inside the hull is found exactly by the ray–hull intervals (exact_hull.h), so the
-// region is exact along the lines and sampled across them. A part of the true
-// region thinner than the line spacing, lying between two lines, can be missed:
-// that is the reference's own resolution, stated with every figure.
+// The triangle is cut by lines parallel to its longest edge, and along its three
+// edges; on each line the part inside the hull is found exactly by the ray–hull
+// intervals (exact_hull.h), so the region is exact along the lines and sampled
+// across them. A part of the true region thinner than the line spacing, lying
+// between two lines and away from the edges, can be missed: that is the
+// reference's own resolution, stated with every figure.
 #pragma once
 
 #include <vector>
@@ -33,8 +34,9 @@ struct ViewportWindow {
 /// hull of `query` (world metres), on lines across the triangle parallel to the
 /// viewport's u axis (its longest edge) spaced `spacing` metres apart (the first
 /// half a spacing from the triangle's edge, at least one line), within `window`
-/// (nullptr: the whole triangle). A zero-area triangle is one line
-/// along its extent. Exact along each line to 1e-12 (undistorted cameras,
+/// (nullptr: the whole triangle), and on the triangle's three edges (which reach
+/// a sliver's thin ends and sharp corners no line across does). A zero-area
+/// triangle is one line along its extent (and its edges). Exact along each line to 1e-12 (undistorted cameras,
 /// RayHullIntervals). Throws std::invalid_argument if spacing <= 0.
 std::vector<ContactSegment> ExactContactSegments(const VolumeQuery& query, const TriangleViewport& vp, double spacing,
                                                  const ViewportWindow* window = nullptr);

@@ -48,6 +48,11 @@ TriangleViewport MakeTriangleViewport(const Eigen::Vector3d& a, const Eigen::Vec
 /// as inside). The rule both the CPU and the GL path use.
 bool PixelInTriangle(const TriangleViewport& vp, int i, int j);
 
+/// The triangle's chord on the line where viewport coordinate `axis` (0: x, 1: y)
+/// equals `at` (continuous pixel coordinates): [*lo, *hi] in the other coordinate.
+/// False if the line misses the triangle.
+bool TriangleChord(const TriangleViewport& vp, int axis, double at, double* lo, double* hi);
+
 /// One triangle for the batched queries (world metres).
 struct Triangle {
   Eigen::Vector3d a, b, c;
@@ -60,7 +65,10 @@ struct TriangleQueryResult {
 };
 
 /// CPU triangle-in-viewport volume query (the reference for the GL path). A
-/// triangle with no pixel centre inside (smaller than a pixel) is queried at its
+/// triangle thinner than a pixel (viewport height 1: a sliver or a zero-area
+/// triangle) is sampled at the middle of its chord in each pixel column instead of
+/// at pixel centres, so its thin ends are not skipped (the GL path sends these to
+/// this function). A triangle with no sample inside it is queried at its
 /// centroid, so no triangle goes untested. Each pixel is exactly
 /// VolumeQuery::Inside of its centre (world metres); the centres' camera-frame
 /// points are stepped affinely across the orthographic viewport, and the camera
