@@ -85,6 +85,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   collision->add_option("--seed", co.seed, "Case generator seed")->capture_default_str();
   collision->add_flag("!--no-gl", co.gl, "Leave out the GL rows");
+  collision->add_option("--normal-fit-radius", co.normal_fit_radius_px,
+                        "Exact method: radius (px) of border pixels fitted for N_hull (default 3)");
   collision->add_flag("--smoke", co.smoke, "One scene, three cases, CPU only (for tests)");
   collision->add_option("--tsv", co.tsv, "Also write the rows as TSV (for gnuplot)");
   auto* texture = app.add_subcommand("texture", "Colour error of the textured hull, with and without visibility");

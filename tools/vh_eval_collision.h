@@ -10,7 +10,7 @@ namespace hullpipe {
 /// Settings of `vh_eval collision`.
 struct CollisionEvalOptions {
   std::vector<std::string> scenes = {"sphere", "box", "torus"};  ///< NamedScene names (the real objects).
-  int cases_per_scene = 12;       ///< Virtual boxes pushed into each scene's hull.
+  int cases_per_scene = 24;       ///< Virtual boxes pushed into each scene's hull.
   int cameras = 4;                ///< Dome cameras (the paper had 4).
   int camera_width = 640, camera_height = 480;
   double reference_spacing = 5e-5;  ///< Line spacing of the exact contact region (metres).
@@ -20,6 +20,7 @@ struct CollisionEvalOptions {
   bool json = false;              ///< One JSON object instead of a table.
   std::string tsv;                ///< Also write the rows as TSV (for gnuplot).
   unsigned seed = 1;              ///< Case generator seed.
+  int normal_fit_radius_px = -1;  ///< HullNormalOptions::fit_radius_px of the exact method (-1: default).
 };
 
 /// Runs the evaluation, prints JSON or a table; returns the exit code.

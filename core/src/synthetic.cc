@@ -433,15 +433,21 @@ Eigen::Vector3d SmoothHullNormal(const SyntheticScene& scene, const std::vector<
   // The line nearest to grazing; lines through the shape's inside have dist < 0.
   std::sort(g.begin(), g.end(), [](const Graze& a, const Graze& b) { return std::abs(a.dist) < std::abs(b.dist); });
   if (on_edge) *on_edge = g.size() > 1 && std::abs(g[1].dist) - std::abs(g[0].dist) < edge_tolerance;
-  const double h = 1e-6;
-  Eigen::Vector3d grad;
-  for (int k = 0; k < 3; ++k) {
-    Eigen::Vector3d e = Eigen::Vector3d::Zero();
-    e[k] = h;
-    grad[k] = (sdf(g[0].point + e) - sdf(g[0].point - e)) / (2 * h);
-  }
-  grad -= grad.dot(g[0].dir) * g[0].dir;
-  return grad.normalized();
+  auto normal_at = [&](double h) {
+    Eigen::Vector3d grad;
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Vector3d e = Eigen::Vector3d::Zero();
+      e[k] = h;
+      grad[k] = (sdf(g[0].point + e) - sdf(g[0].point - e)) / (2 * h);
+    }
+    grad -= grad.dot(g[0].dir) * g[0].dir;
+    return Eigen::Vector3d(grad.normalized());
+  };
+  const Eigen::Vector3d n = normal_at(1e-6);
+  // A crease of the shape (a box's edge) within ~2 mm of the tangent point: the
+  // silhouette has a corner there and the hull's normal is undefined too.
+  if (on_edge && n.dot(normal_at(2e-3)) < std::cos(5.0 * M_PI / 180.0)) *on_edge = true;
+  return n;
 }
 
 }  // namespace hullpipe

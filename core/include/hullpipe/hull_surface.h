@@ -32,7 +32,7 @@ struct HullNormalOptions {
   /// of its silhouette border (object/background pixel edge).
   double border_px = 1.0;
   /// Radius (pixels) of border pixels used to fit the contour's direction.
-  int fit_radius_px = 3;
+  int fit_radius_px = 6;
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
 };

@@ -70,7 +70,9 @@ struct SyntheticScene {
 /// distance nearest zero) forms the surface there, and the normal is the scene's
 /// normal at that tangent point, made perpendicular to the line. If a second
 /// camera's line grazes within `edge_tolerance` metres of the first, X is on a
-/// hull edge or corner where the normal is undefined: *on_edge is set (if given).
+/// hull edge or corner where the normal is undefined: *on_edge is set (if given);
+/// likewise if the scene's normal turns by more than 5 degrees within 2 mm of the
+/// tangent point (a crease, e.g. a box's edge: the silhouette has a corner).
 Eigen::Vector3d SmoothHullNormal(const SyntheticScene& scene, const std::vector<Eigen::Vector3d>& centres,
                                  const Eigen::Vector3d& X, double edge_tolerance = 5e-4, bool* on_edge = nullptr);
 
