@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <limits>
 #include <fstream>
+#include <algorithm>
 #include <map>
 #include <set>
 
@@ -92,11 +93,13 @@ int main(int argc, char** argv) {
     Reader<hullpipe_msg_VirtualObjectState> state_reader(*participant);
     Reader<hullpipe_msg_CollisionReport> report_reader(*participant);
     Reader<hullpipe_msg_NodeStats> stats_reader(*participant);
+    Reader<hullpipe_msg_VirtualMesh> mesh_reader(*participant);
     Writer<hullpipe_msg_ViewPose> pose_writer(*participant);
     ws.Attach(tile_reader);
     ws.Attach(state_reader);
     ws.Attach(report_reader);
     ws.Attach(stats_reader);
+    ws.Attach(mesh_reader);
     NodeReporter reporter(*participant, "render");
 
     OrbitPath orbit;
@@ -111,6 +114,9 @@ int main(int argc, char** argv) {
 
     std::map<uint64_t, InFlight> in_flight;
     std::map<uint32_t, std::map<uint64_t, hullpipe_msg_VirtualObjectState>> states;  // object -> frame -> state
+    std::map<uint32_t, std::map<uint64_t, VirtualMeshSample>> meshes;  // object -> frame -> mesh
+    std::map<uint32_t, double> min_clearance;     // payload part -> least clearance seen, metres
+    std::map<uint32_t, uint64_t> part_collisions;  // payload part -> frames drawn colliding
     std::map<std::string, hullpipe_msg_NodeStats> node_stats;
     std::map<std::string, nlohmann::json> node_stages;
     uint64_t pose_seq = 0, last_requested = 0, last_composited = 0, rejected = 0, tiles_late = 0;
@@ -171,6 +177,16 @@ int main(int argc, char** argv) {
         auto& per = states[m.object_id];
         per[m.frame_seq] = m;
         while (per.size() > 32) per.erase(per.begin());
+      });
+      mesh_reader.TakeEach([&](const hullpipe_msg_VirtualMesh& m, const dds_sample_info_t&) {
+        try {
+          VirtualMeshSample v = VirtualMeshFromMsg(m);
+          auto& per = meshes[v.object_id];
+          per[v.frame_seq] = std::move(v);
+          while (per.size() > 8) per.erase(per.begin());
+        } catch (const MessageError& e) {
+          reject(e.what());
+        }
       });
       report_reader.TakeEach([&](const hullpipe_msg_CollisionReport& m, const dds_sample_info_t&) {
         if (m.collision_points._length > 0) ++collision_reports;
@@ -245,7 +261,20 @@ int main(int argc, char** argv) {
           spheres.push_back({FromMsg(m.position), m.radius, bool(m.colliding)});
           if (m.colliding) ++collisions_drawn;
         }
-        const cv::Mat frame = Composite(f.view, depth, colour, spheres, comp);
+        std::vector<VirtualMeshDraw> draws;
+        for (const auto& [id, per] : meshes) {
+          auto s = per.upper_bound(f.frame_seq);
+          if (s == per.begin()) continue;
+          --s;
+          draws.push_back(s->second.draw);
+          if (s->second.kind == hullpipe_msg_MESH_KIND_PART && s->second.clearance >= 0) {
+            auto [mc, fresh] = min_clearance.try_emplace(id, s->second.clearance);
+            if (!fresh) mc->second = std::min(mc->second, s->second.clearance);
+            const auto& c = s->second.draw.colliding;
+            if (std::find(c.begin(), c.end(), 1) != c.end()) ++part_collisions[id];
+          }
+        }
+        const cv::Mat frame = Composite(f.view, depth, colour, spheres, comp, nullptr, draws);
         if (!video.isOpened()) {
           video.open(video_path, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), video_fps, frame.size());
           if (!video.isOpened()) spdlog::warn("cannot open {} for writing; no video", video_path);
@@ -324,6 +353,8 @@ int main(int argc, char** argv) {
     j["collision_reports_with_points"] = collision_reports;
     j["hull_pixel_fraction_mean"] = reporter.frames_out() ? hull_fraction_sum / double(reporter.frames_out()) : 0.0;
     j["video"] = video_path;
+    for (const auto& [id, c] : min_clearance)
+      j["payload"][std::to_string(id)] = {{"min_clearance_mm", c * 1e3}, {"frames_colliding", part_collisions[id]}};
     for (const auto& r : rows)
       j["nodes"][r.name] = {{"fps", r.fps},          {"latency_ms_p50", r.p50}, {"latency_ms_p95", r.p95},
                             {"frames_in", r.in},     {"frames_out", r.out},     {"dropped", r.dropped},

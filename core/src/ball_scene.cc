@@ -12,8 +12,14 @@ void SceneConfig::Check() const {
   if (!gravity.allFinite()) throw std::invalid_argument("scene: gravity must be finite");
   if (!(max_substep > 0)) throw std::invalid_argument("scene: max_substep must be > 0");
   collision.Check();
+  if (cloth) cloth->Check();
+  if (particles) particles->Check();
+  if (payload) payload->Check();
+  if (cloth && !(gravity.norm() > 0)) throw std::invalid_argument("scene: a cloth needs non-zero gravity");
   for (const auto& b : balls) {
     if (!(b.radius > 0)) throw std::invalid_argument("scene: ball radius must be > 0");
+    if (!b.start.allFinite() || !b.target.allFinite())
+      throw std::invalid_argument("scene: ball start and target must be finite");
     if (!(b.flight_time > 0)) throw std::invalid_argument("scene: ball flight_time must be > 0");
     if (b.restitution < 0 || b.restitution > 1)
       throw std::invalid_argument("scene: ball restitution must be in [0, 1]");
@@ -30,6 +36,63 @@ Eigen::Vector3d Vec3(const YAML::Node& n, const std::string& path, const char* k
   if (v.size() != 3) throw std::runtime_error(path + ": '" + key + "' must have 3 numbers");
   return {v[0], v[1], v[2]};
 }
+template <typename T>
+void Get(const YAML::Node& n, const char* key, T* out) {
+  if (n[key]) *out = n[key].as<T>();
+}
+
+ClothConfig ParseCloth(const YAML::Node& n, const std::string& path) {
+  ClothConfig c;
+  Get(n, "id", &c.id);
+  c.rod_a = Vec3(n, path, "rod_a", c.rod_a);
+  c.rod_b = Vec3(n, path, "rod_b", c.rod_b);
+  Get(n, "length", &c.length);
+  Get(n, "nx", &c.nx);
+  Get(n, "ny", &c.ny);
+  Get(n, "iterations", &c.iterations);
+  Get(n, "damping", &c.damping);
+  Get(n, "max_substep", &c.max_substep);
+  Get(n, "clearance", &c.clearance);
+  Get(n, "max_search", &c.max_search);
+  Get(n, "max_pixel_size", &c.collision.max_pixel_size);
+  return c;
+}
+
+ParticleConfig ParseParticles(const YAML::Node& n, const std::string& path) {
+  ParticleConfig c;
+  Get(n, "id", &c.id);
+  c.emitter = Vec3(n, path, "emitter", c.emitter);
+  Get(n, "emitter_radius", &c.emitter_radius);
+  c.velocity = Vec3(n, path, "velocity", c.velocity);
+  Get(n, "velocity_jitter", &c.velocity_jitter);
+  Get(n, "rate", &c.rate);
+  Get(n, "max_particles", &c.max_particles);
+  Get(n, "lifetime", &c.lifetime);
+  Get(n, "restitution", &c.restitution);
+  Get(n, "friction", &c.friction);
+  Get(n, "radius", &c.radius);
+  Get(n, "clearance", &c.clearance);
+  Get(n, "max_substep", &c.max_substep);
+  Get(n, "seed", &c.seed);
+  return c;
+}
+
+PayloadConfig ParsePayload(const YAML::Node& n, const std::string& path) {
+  PayloadConfig c;
+  Get(n, "first_id", &c.first_id);
+  c.pmt_centre = Vec3(n, path, "pmt_centre", c.pmt_centre);
+  c.pmt_half = Vec3(n, path, "pmt_half", c.pmt_half);
+  Get(n, "axis", &c.axis);
+  Get(n, "direction", &c.direction);
+  Get(n, "spacing", &c.spacing);
+  c.a_half = Vec3(n, path, "a_half", c.a_half);
+  Get(n, "shaft_radius", &c.shaft_radius);
+  Get(n, "shaft_length", &c.shaft_length);
+  Get(n, "max_clearance", &c.max_clearance);
+  Get(n, "max_pixel_size", &c.collision.max_pixel_size);
+  return c;
+}
+
 }  // namespace
 
 SceneConfig LoadSceneConfig(const std::string& path) {
@@ -72,6 +135,9 @@ SceneConfig LoadSceneConfig(const std::string& path) {
         ++index;
       }
     }
+    if (root["cloth"]) cfg.cloth = ParseCloth(root["cloth"], path);
+    if (root["particles"]) cfg.particles = ParseParticles(root["particles"], path);
+    if (root["payload"]) cfg.payload = ParsePayload(root["payload"], path);
   } catch (const YAML::Exception& e) {
     throw std::runtime_error(path + ": " + e.what());
   }

@@ -9,9 +9,92 @@
 
 namespace hullpipe {
 
+namespace {
+
+// Rasterises the meshes into out/depth (eye z), depth-tested.
+void DrawMeshes(const NovelView& view, const std::vector<VirtualMeshDraw>& meshes, const Eigen::Vector3d& light,
+                const CompositeOptions& o, cv::Mat* out, cv::Mat* depth) {
+  const Rigid3d eye_from_world = view.world_from_eye.Inverse();
+  const Eigen::Vector3d light_eye = eye_from_world.rotation * light;
+  constexpr double kNear = 0.05;
+  for (const auto& m : meshes) {
+    std::vector<Eigen::Vector3d> e(m.vertices.size());  // eye frame
+    for (size_t i = 0; i < e.size(); ++i) e[i] = eye_from_world * m.vertices[i];
+    auto colour_of = [&](size_t k, double shade) {
+      const bool hit = k < m.colliding.size() && m.colliding[k];
+      const cv::Vec3b base = hit ? o.collide_colour : m.colour;
+      cv::Vec3b c;
+      for (int j = 0; j < 3; ++j) c[j] = cv::saturate_cast<uint8_t>(base[j] * shade);
+      return c;
+    };
+    if (m.triangles.empty()) {
+      for (size_t i = 0; i < e.size(); ++i) {
+        const Eigen::Vector3d& p = e[i];
+        if (p.z() < kNear) continue;
+        const double u = view.fx * p.x() / p.z() + view.cx, v = view.fy * p.y() / p.z() + view.cy;
+        const double r = std::max(0.7, view.fx * m.point_radius / p.z());
+        const cv::Vec3b c = colour_of(i, 0.9);
+        for (int y = int(std::floor(v - r)); y <= int(std::ceil(v + r)); ++y)
+          for (int x = int(std::floor(u - r)); x <= int(std::ceil(u + r)); ++x) {
+            if (x < 0 || y < 0 || x >= view.width || y >= view.height) continue;
+            const double dx = x + 0.5 - u, dy = y + 0.5 - v;
+            if (dx * dx + dy * dy > r * r) continue;
+            float& d = depth->at<float>(y, x);
+            if (float(p.z()) >= d) continue;
+            d = float(p.z());
+            out->at<cv::Vec3b>(y, x) = c;
+          }
+      }
+      continue;
+    }
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+      const Eigen::Vector3i& tri = m.triangles[t];
+      if ((tri.array() < 0).any() || (tri.array() >= int(e.size())).any()) continue;
+      const Eigen::Vector3d a = e[size_t(tri[0])], b = e[size_t(tri[1])], c = e[size_t(tri[2])];
+      if (a.z() < kNear || b.z() < kNear || c.z() < kNear) continue;  // no near clipping: skip
+      Eigen::Vector3d n = (b - a).cross(c - a);
+      if (n.norm() < 1e-15) continue;
+      n.normalize();
+      const double shade = 0.35 + 0.65 * std::abs(n.dot(light_eye));  // two-sided
+      const cv::Vec3b col = colour_of(t, shade);
+      Eigen::Vector2d P[3];
+      double iz[3];
+      const Eigen::Vector3d* V[3] = {&a, &b, &c};
+      for (int k = 0; k < 3; ++k) {
+        iz[k] = 1.0 / V[k]->z();
+        P[k] = Eigen::Vector2d(view.fx * V[k]->x() * iz[k] + view.cx, view.fy * V[k]->y() * iz[k] + view.cy);
+      }
+      const double area = (P[1] - P[0]).x() * (P[2] - P[0]).y() - (P[1] - P[0]).y() * (P[2] - P[0]).x();
+      if (std::abs(area) < 1e-12) continue;
+      const int x0 = std::max(0, int(std::floor(std::min({P[0].x(), P[1].x(), P[2].x()}))));
+      const int x1 = std::min(view.width - 1, int(std::ceil(std::max({P[0].x(), P[1].x(), P[2].x()}))));
+      const int y0 = std::max(0, int(std::floor(std::min({P[0].y(), P[1].y(), P[2].y()}))));
+      const int y1 = std::min(view.height - 1, int(std::ceil(std::max({P[0].y(), P[1].y(), P[2].y()}))));
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+          const Eigen::Vector2d q(x + 0.5, y + 0.5);
+          double w[3];
+          for (int k = 0; k < 3; ++k) {
+            const Eigen::Vector2d& p1 = P[(k + 1) % 3];
+            const Eigen::Vector2d& p2 = P[(k + 2) % 3];
+            w[k] = ((p2 - p1).x() * (q - p1).y() - (p2 - p1).y() * (q - p1).x()) / area;
+          }
+          if (w[0] < 0 || w[1] < 0 || w[2] < 0) continue;
+          const double z = 1.0 / (w[0] * iz[0] + w[1] * iz[1] + w[2] * iz[2]);  // perspective-correct
+          float& d = depth->at<float>(y, x);
+          if (float(z) >= d) continue;
+          d = float(z);
+          out->at<cv::Vec3b>(y, x) = col;
+        }
+    }
+  }
+}
+
+}  // namespace
+
 cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Mat& hull_colour,
                   const std::vector<VirtualSphere>& spheres, const CompositeOptions& o,
-                  cv::Mat* depth_out) {
+                  cv::Mat* depth_out, const std::vector<VirtualMeshDraw>& meshes) {
   CV_Assert(hull_depth.type() == CV_32FC1 && hull_colour.type() == CV_8UC3);
   CV_Assert(hull_depth.cols == view.width && hull_depth.rows == view.height);
   CV_Assert(hull_colour.size() == hull_depth.size());
@@ -64,6 +147,7 @@ cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Ma
       depth.at<float>(r, c) = best;
     }
   }
+  if (!meshes.empty()) DrawMeshes(view, meshes, light, o, &out, &depth);
   if (depth_out) *depth_out = depth;
   return out;
 }

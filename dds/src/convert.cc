@@ -247,4 +247,85 @@ HullTile TileFromMsg(const hullpipe_msg_HullView& m) {
   return t;
 }
 
+namespace {
+constexpr size_t kMaxMeshVertices = 200000;
+}  // namespace
+
+OwnedSample<hullpipe_msg_VirtualMesh> MakeVirtualMeshMessage(const VirtualMeshSample& mesh) {
+  const VirtualMeshDraw& d = mesh.draw;
+  const size_t items = d.triangles.empty() ? d.vertices.size() : d.triangles.size();
+  if (d.vertices.size() > kMaxMeshVertices) throw MessageError("VirtualMesh: more than 200000 vertices");
+  if (!d.colliding.empty() && d.colliding.size() != items)
+    throw MessageError("VirtualMesh: colliding must have one flag per triangle (or per point)");
+  OwnedSample<hullpipe_msg_VirtualMesh> s;
+  s.floats.reserve(d.vertices.size() * 3);
+  for (const auto& v : d.vertices)
+    for (int k = 0; k < 3; ++k) s.floats.push_back(float(v[k]));
+  s.words.reserve(d.triangles.size() * 3);
+  for (const auto& t : d.triangles)
+    for (int k = 0; k < 3; ++k) s.words.push_back(uint32_t(t[k]));
+  s.bytes.assign(d.colliding.begin(), d.colliding.end());
+  auto& m = s.msg;
+  m.object_id = mesh.object_id;
+  m.frame_seq = mesh.frame_seq;
+  m.capture_time_ns = mesh.capture_time_ns;
+  m.kind = mesh.kind;
+  m.vertices._buffer = s.floats.data();
+  m.vertices._length = m.vertices._maximum = uint32_t(s.floats.size());
+  m.vertices._release = false;
+  m.triangles._buffer = s.words.data();
+  m.triangles._length = m.triangles._maximum = uint32_t(s.words.size());
+  m.triangles._release = false;
+  m.colliding._buffer = s.bytes.data();
+  m.colliding._length = m.colliding._maximum = uint32_t(s.bytes.size());
+  m.colliding._release = false;
+  m.point_radius = d.point_radius;
+  for (int k = 0; k < 3; ++k) m.colour[k] = d.colour[k];
+  m.clearance = mesh.clearance;
+  return s;
+}
+
+VirtualMeshSample VirtualMeshFromMsg(const hullpipe_msg_VirtualMesh& m) {
+  const std::string who = "VirtualMesh " + std::to_string(m.object_id) + ": ";
+  if (m.kind != hullpipe_msg_MESH_KIND_CLOTH && m.kind != hullpipe_msg_MESH_KIND_PARTICLES &&
+      m.kind != hullpipe_msg_MESH_KIND_PART)
+    throw MessageError(who + "unknown kind " + std::to_string(m.kind));
+  if (m.vertices._length % 3 != 0 || m.vertices._length / 3 > kMaxMeshVertices)
+    throw MessageError(who + "vertex floats " + std::to_string(m.vertices._length) +
+                       " not a multiple of 3 or too many");
+  if (m.triangles._length % 3 != 0) throw MessageError(who + "triangle indices not a multiple of 3");
+  const size_t nv = m.vertices._length / 3, nt = m.triangles._length / 3;
+  const size_t items = nt ? nt : nv;
+  if (m.colliding._length != 0 && m.colliding._length != items)
+    throw MessageError(who + "colliding has " + std::to_string(m.colliding._length) + " flags for " +
+                       std::to_string(items) + " items");
+  if (!std::isfinite(m.point_radius) || m.point_radius < 0 || m.point_radius > 1)
+    throw MessageError(who + "point_radius out of range");
+  VirtualMeshSample out;
+  out.object_id = m.object_id;
+  out.kind = m.kind;
+  out.frame_seq = m.frame_seq;
+  out.capture_time_ns = m.capture_time_ns;
+  out.clearance = std::isfinite(m.clearance) ? m.clearance : -1;
+  auto& d = out.draw;
+  d.vertices.resize(nv);
+  for (size_t i = 0; i < nv; ++i) {
+    const float* v = m.vertices._buffer + 3 * i;
+    if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
+      throw MessageError(who + "vertex " + std::to_string(i) + " not finite");
+    d.vertices[i] = Eigen::Vector3d(v[0], v[1], v[2]);
+  }
+  d.triangles.resize(nt);
+  for (size_t t = 0; t < nt; ++t) {
+    const uint32_t* ix = m.triangles._buffer + 3 * t;
+    if (ix[0] >= nv || ix[1] >= nv || ix[2] >= nv)
+      throw MessageError(who + "triangle " + std::to_string(t) + " indexes past the vertices");
+    d.triangles[t] = Eigen::Vector3i(int(ix[0]), int(ix[1]), int(ix[2]));
+  }
+  d.colliding.assign(m.colliding._buffer, m.colliding._buffer + m.colliding._length);
+  d.point_radius = m.point_radius;
+  d.colour = cv::Vec3b(m.colour[0], m.colour[1], m.colour[2]);
+  return out;
+}
+
 }  // namespace hullpipe::dds

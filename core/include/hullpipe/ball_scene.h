@@ -21,6 +21,18 @@
 //       restitution: 0.7
 //       rethrow_period: 4.0         # rethrown from start every period (0: never)
 //       subdivisions: 2             # icosphere level: 320 triangles
+//   cloth:                          # optional curtain (cloth.h); keys as ClothConfig
+//     {id: 100, rod_a: [..], rod_b: [..], length: 1.2, nx: 21, ny: 19, iterations: 8,
+//      damping: 0.02, clearance: 0.002, max_pixel_size: 0.01}
+//   particles:                      # optional stream (particles.h); keys as ParticleConfig
+//     {id: 200, emitter: [..], emitter_radius: 0.05, velocity: [..], velocity_jitter: 0.1,
+//      rate: 2000, max_particles: 4000, lifetime: 3, restitution: 0.2, friction: 0.3,
+//      radius: 0.006, seed: 7}
+//   payload:                        # optional §5.2 task (payload.h); keys as PayloadConfig
+//     {first_id: 300, pmt_centre: [..], pmt_half: [..], axis: 1, direction: 1,
+//      spacing: 0.14, a_half: [..], shaft_radius: 0.03, shaft_length: 0.25,
+//      max_clearance: 0.15}
+//   balls: []                       # no balls
 #pragma once
 
 #include <optional>
@@ -29,9 +41,12 @@
 
 #include <Eigen/Core>
 
+#include "hullpipe/cloth.h"
 #include "hullpipe/collision.h"
 #include "hullpipe/collision_response.h"
 #include "hullpipe/mesh.h"
+#include "hullpipe/particles.h"
+#include "hullpipe/payload.h"
 
 namespace hullpipe {
 
@@ -58,6 +73,9 @@ struct SceneConfig {
   enum class Response { kExact, kPaper } response = Response::kExact;
   double max_substep = 0.01;  ///< Longest integration step (s), limits tunnelling.
   std::vector<BallConfig> balls{BallConfig{}};
+  std::optional<ClothConfig> cloth;         ///< The curtain, if any.
+  std::optional<ParticleConfig> particles;  ///< The particle stream, if any.
+  std::optional<PayloadConfig> payload;     ///< The payload spacing task, if any.
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
 };

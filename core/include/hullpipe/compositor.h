@@ -19,6 +19,18 @@ struct VirtualSphere {
   bool colliding = false;  ///< Drawn red when true.
 };
 
+/// A virtual triangle mesh or point set to draw (world metres): the cloth, the
+/// payload parts, the particles.
+struct VirtualMeshDraw {
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<Eigen::Vector3i> triangles;  ///< Empty: draw the vertices as points.
+  /// Per triangle (or per point when there are no triangles): drawn red when 1.
+  /// Empty: none colliding.
+  std::vector<uint8_t> colliding;
+  cv::Vec3b colour{200, 200, 200};  ///< BGR when not colliding.
+  double point_radius = 0.005;      ///< Radius of drawn points, metres.
+};
+
 /// Compositing settings.
 struct CompositeOptions {
   bool draw_floor = true;
@@ -29,12 +41,14 @@ struct CompositeOptions {
 };
 
 /// Draws the view: hull_depth (CV_32FC1 eye z, kNoDepth = none) and hull_colour
-/// (CV_8UC3), both of the view's size, with the spheres and floor, depth-tested.
+/// (CV_8UC3), both of the view's size, with the spheres, meshes (rasterised,
+/// two-sided, flat-shaded; points as discs) and floor, depth-tested on eye z.
 /// Returns CV_8UC3 BGR of the view's size. *depth_out (optional) receives the
-/// composited eye-z depth.
+/// composited eye-z depth. A mesh whose triangle indices are out of range is
+/// skipped (callers validate messages first).
 cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Mat& hull_colour,
                   const std::vector<VirtualSphere>& spheres, const CompositeOptions& options = {},
-                  cv::Mat* depth_out = nullptr);
+                  cv::Mat* depth_out = nullptr, const std::vector<VirtualMeshDraw>& meshes = {});
 
 /// The scripted head path: an orbit around `centre` (world metres) of `radius` at
 /// `height` along the up vector, one turn per `period` seconds, looking at centre.

@@ -14,6 +14,7 @@
 #include "hullpipe.h"
 #include "hullpipe/aabb.h"
 #include "hullpipe/camera.h"
+#include "hullpipe/compositor.h"
 #include "hullpipe/plane_sweep.h"
 
 namespace hullpipe::dds {
@@ -77,6 +78,22 @@ struct HullTile {
 OwnedSample<hullpipe_msg_HullView> MakeHullViewMessage(const HullTile& tile, uint32_t planes);
 /// Validated tile (lengths match the rectangle). Throws MessageError.
 HullTile TileFromMsg(const hullpipe_msg_HullView& msg);
+
+/// One virtual mesh (cloth, particles, payload part) as sent by sim_node.
+struct VirtualMeshSample {
+  uint32_t object_id = 0;
+  uint8_t kind = hullpipe_msg_MESH_KIND_PART;
+  uint64_t frame_seq = 0;
+  int64_t capture_time_ns = 0;
+  VirtualMeshDraw draw;    ///< Vertices (world metres), triangles, colliding flags, colour.
+  double clearance = -1;   ///< Least distance from the hull, metres (< 0: not measured).
+};
+/// The message of a mesh (vertices as floats). Throws MessageError if the mesh
+/// breaks the message's limits (too many vertices, colliding of the wrong length).
+OwnedSample<hullpipe_msg_VirtualMesh> MakeVirtualMeshMessage(const VirtualMeshSample& mesh);
+/// Validated mesh: vertex floats a multiple of 3 and finite, triangle indices in
+/// range, colliding of the right length, a known kind. Throws MessageError.
+VirtualMeshSample VirtualMeshFromMsg(const hullpipe_msg_VirtualMesh& msg);
 
 inline hullpipe_msg_Vec3 ToMsg(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 inline Eigen::Vector3d FromMsg(const hullpipe_msg_Vec3& v) { return {v.x, v.y, v.z}; }

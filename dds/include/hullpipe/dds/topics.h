@@ -22,6 +22,8 @@ HULLPIPE_TOPIC(HullView, "hullpipe/hull_view", true, false, 4)
 HULLPIPE_TOPIC(VirtualObjectState, "hullpipe/object_state", true, false, 1)
 HULLPIPE_TOPIC(CollisionReport, "hullpipe/collision_report", true, false, 16)
 HULLPIPE_TOPIC(NodeStats, "hullpipe/node_stats", true, true, 1)
+HULLPIPE_TOPIC(VirtualMesh, "hullpipe/virtual_mesh", true, false, 1)
+HULLPIPE_TOPIC(SceneCommand, "hullpipe/scene_command", true, false, 8)
 
 #undef HULLPIPE_TOPIC
 
