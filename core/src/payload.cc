@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <limits>
 #include <stdexcept>
 
@@ -186,6 +188,118 @@ PayloadFrame EvaluatePayload(const PayloadConfig& config, const VolumeQuery* hul
     f.clearance.push_back(HullClearance(*hull, part, config.max_clearance));
   }
   return f;
+}
+
+std::vector<PipePose> LoadPipeMotion(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::vector<PipePose> out;
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    if (n == 1 || line.empty() || line[0] == '#') continue;  // header
+    std::stringstream ss(line);
+    std::vector<double> v;
+    std::string cell;
+    while (std::getline(ss, cell, ',')) {
+      try {
+        size_t used = 0;
+        v.push_back(std::stod(cell, &used));
+      } catch (const std::exception&) {
+        throw std::runtime_error(path + ":" + std::to_string(n) + ": not a number: '" + cell + "'");
+      }
+    }
+    if (v.size() != 8) throw std::runtime_error(path + ":" + std::to_string(n) + ": expected 8 columns");
+    for (double x : v)
+      if (!std::isfinite(x)) throw std::runtime_error(path + ":" + std::to_string(n) + ": not finite");
+    if (!(v[7] > 0)) throw std::runtime_error(path + ":" + std::to_string(n) + ": radius must be > 0");
+    out.push_back({v[0], {v[1], v[2], v[3]}, {v[4], v[5], v[6]}, v[7]});
+  }
+  return out;
+}
+
+void SavePipeMotion(const std::string& path, const std::vector<PipePose>& motion) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot write");
+  out << "t,px,py,pz,qx,qy,qz,radius\n";
+  out.precision(9);
+  for (const auto& m : motion)
+    out << m.t << ',' << m.p.x() << ',' << m.p.y() << ',' << m.p.z() << ',' << m.q.x() << ',' << m.q.y() << ','
+        << m.q.z() << ',' << m.radius << '\n';
+}
+
+std::vector<PipePose> ExamplePipeMotion(const PayloadConfig& c, double travel, int frames, double* needed) {
+  const int a = c.axis, b = (c.axis + 1) % 3;
+  const double r = 0.02, half_segment = 0.05;  // 14 cm long in all, 4 cm across
+  const double face = c.pmt_centre[a] + c.direction * c.pmt_half[a];
+  std::vector<PipePose> m;
+  for (int f = 0; f < frames; ++f) {
+    const double t = 2.0 * f / std::max(1, frames - 1);
+    const double s = 0.5 * (1 - std::cos(M_PI * t));  // 0 -> 1 -> 0 over 2 s
+    Eigen::Vector3d centre = c.pmt_centre;
+    centre[a] = face + c.direction * (0.01 + r + travel * s);
+    Eigen::Vector3d e = Eigen::Vector3d::Zero();
+    e[b] = half_segment;
+    m.push_back({t, centre - e, centre + e, r});
+  }
+  if (needed) *needed = 0.01 + 2 * r + travel;
+  return m;
+}
+
+namespace {
+bool ACollides(const PayloadConfig& c, const VolumeQuery& q, double* clearance) {
+  PayloadConfig at = c;
+  const auto parts = at.Parts();
+  bool hit = false;
+  for (size_t k = 1; k < parts.size(); ++k) {
+    const ClearanceResult r = HullClearance(q, parts[k], c.max_clearance);
+    *clearance = std::min(*clearance, r.distance);
+    hit = hit || r.colliding;
+  }
+  return hit;
+}
+}  // namespace
+
+SpacingSweepResult SweepSpacing(const PayloadConfig& config, const std::vector<VolumeQuery>& hulls, double from,
+                                double to, double step, double resolution) {
+  if (!(from >= 0 && to >= from && step > 0 && resolution > 0))
+    throw std::invalid_argument("SweepSpacing: need 0 <= from <= to, step > 0, resolution > 0");
+  SpacingSweepResult res;
+  res.smallest_free = std::numeric_limits<double>::quiet_NaN();
+  const auto pmt = config.Parts()[0];
+  for (const auto& q : hulls) res.pmt_frames_colliding += HullClearance(q, pmt, config.max_clearance).colliding;
+  auto collides_at = [&](double s, double* min_clearance, int* frames) {
+    PayloadConfig c = config;
+    c.spacing = s;
+    *min_clearance = c.max_clearance;
+    int n = 0;
+    for (const auto& q : hulls) n += ACollides(c, q, min_clearance);
+    if (frames) *frames = n;
+    return n > 0;
+  };
+  double last_colliding = std::numeric_limits<double>::quiet_NaN();
+  for (int k = 0; from + k * step <= to + 1e-12; ++k) {
+    SpacingSweepResult::Row row;
+    row.spacing = from + k * step;
+    collides_at(row.spacing, &row.min_clearance, &row.frames_colliding);
+    res.rows.push_back(row);
+    if (row.frames_colliding > 0) {
+      last_colliding = row.spacing;
+    } else if (std::isnan(res.smallest_free)) {
+      res.smallest_free = row.spacing;
+    }
+  }
+  if (std::isnan(res.smallest_free) || std::isnan(last_colliding) || last_colliding > res.smallest_free)
+    return res;  // none free, or free from the first row (nothing to bisect)
+  double lo = last_colliding, hi = res.smallest_free;
+  double ignored = 0;
+  while (hi - lo > resolution) {
+    const double mid = 0.5 * (lo + hi);
+    (collides_at(mid, &ignored, nullptr) ? lo : hi) = mid;
+  }
+  res.smallest_free = hi;
+  return res;
 }
 
 }  // namespace hullpipe

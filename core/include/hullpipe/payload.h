@@ -86,4 +86,47 @@ struct PayloadFrame {
 /// Evaluates the task against one frame's hull (nullptr: no hull, nothing collides).
 PayloadFrame EvaluatePayload(const PayloadConfig& config, const VolumeQuery* hull);
 
+/// One sample of a recorded pipe motion: the pipe as a capsule (segment p–q and
+/// radius, world metres) at time t seconds.
+struct PipePose {
+  double t = 0;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero(), q = Eigen::Vector3d::Zero();
+  double radius = 0.02;
+};
+
+/// Reads a motion CSV: a header line, then `t,px,py,pz,qx,qy,qz,radius` per line
+/// (seconds, metres). Throws std::runtime_error naming the file and line.
+std::vector<PipePose> LoadPipeMotion(const std::string& path);
+/// Writes the same format. Throws std::runtime_error if the file cannot be written.
+void SavePipeMotion(const std::string& path, const std::vector<PipePose>& motion);
+
+/// A synthetic motion whose answer is known: the paper's pipe (14 cm long, 4 cm
+/// across: a capsule) held across the gap, parallel to the PMT's face, moving
+/// along the spacing axis from 1 cm off the PMT's face to `travel` beyond that and
+/// back, `frames` samples over 2 s. *needed (optional) receives the smallest
+/// spacing at which the true pipe never touches payload A: 1 cm + 4 cm + travel.
+std::vector<PipePose> ExamplePipeMotion(const PayloadConfig& config, double travel, int frames,
+                                        double* needed = nullptr);
+
+/// Result of SweepSpacing.
+struct SpacingSweepResult {
+  struct Row {
+    double spacing = 0;         ///< Metres.
+    int frames_colliding = 0;   ///< Frames in which any part of payload A collides.
+    double min_clearance = 0;   ///< Least clearance of payload A over the motion, metres.
+  };
+  std::vector<Row> rows;        ///< The spacing table, in increasing spacing.
+  /// The smallest collision-free spacing, bisected to `resolution` between the
+  /// last colliding and the first free table row; NaN if no row is free.
+  double smallest_free = 0;
+  int pmt_frames_colliding = 0; ///< The PMT does not move: its collisions hold at every spacing.
+};
+
+/// Replays one motion (a hull per frame) at spacings from..to step `step`
+/// (metres) and finds the smallest at which payload A (box and shaft) never
+/// collides (HullClearance <= 0), paper §5.2. Throws std::invalid_argument on a
+/// bad range.
+SpacingSweepResult SweepSpacing(const PayloadConfig& config, const std::vector<VolumeQuery>& hulls, double from,
+                                double to, double step, double resolution = 0.001);
+
 }  // namespace hullpipe
