@@ -1,4 +1,6 @@
 // Message conversion and validation, and Cyclone DDS behaviour hullpipe relies on.
+#include <limits>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -100,6 +102,45 @@ TEST(Convert, ViewAndTile) {
   EXPECT_TRUE(std::isinf(tb.depth.at<float>(5, 5)));  // NaN never reaches the compositor
   s.msg.colour._length -= 3;
   EXPECT_THROW(TileFromMsg(s.msg), MessageError);
+}
+
+TEST(Convert, VirtualMeshRoundTripAndMalformed) {
+  VirtualMeshSample m;
+  m.object_id = 100;
+  m.kind = hullpipe_msg_MESH_KIND_CLOTH;
+  m.frame_seq = 9;
+  m.draw.vertices = {{0, 0, -1}, {0.1, 0, -1}, {0, 0.1, -1}, {0.1, 0.1, -1}};
+  m.draw.triangles = {{0, 1, 2}, {1, 3, 2}};
+  m.draw.colliding = {0, 1};
+  m.clearance = 0.05;
+  auto s = MakeVirtualMeshMessage(m);
+  const VirtualMeshSample back = VirtualMeshFromMsg(s.msg);
+  EXPECT_EQ(back.object_id, 100u);
+  EXPECT_EQ(back.frame_seq, 9u);
+  ASSERT_EQ(back.draw.vertices.size(), 4u);
+  EXPECT_TRUE(back.draw.vertices[3].isApprox(m.draw.vertices[3], 1e-6));  // floats on the wire
+  ASSERT_EQ(back.draw.triangles.size(), 2u);
+  EXPECT_EQ(back.draw.triangles[1], Eigen::Vector3i(1, 3, 2));
+  EXPECT_EQ(back.draw.colliding, m.draw.colliding);
+  EXPECT_DOUBLE_EQ(back.clearance, 0.05);
+  // Malformed samples from outside are refused, never drawn.
+  s.words[5] = 7;  // index past the vertices
+  EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
+  s.words[5] = 2;
+  s.msg.colliding._length = 1;  // wrong flag count
+  EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
+  s.msg.colliding._length = 2;
+  s.msg.vertices._length = 11;  // not a multiple of 3
+  EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
+  s.msg.vertices._length = 12;
+  s.floats[4] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
+  s.floats[4] = 0;
+  s.msg.kind = 77;
+  EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
+  s.msg.kind = hullpipe_msg_MESH_KIND_PARTICLES;
+  s.msg.triangles._length = 0;  // points: one flag per vertex
+  EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
 }
 
 TEST(Dds, ErrorsNameTheCall) {

@@ -201,6 +201,59 @@ TEST_F(NodeTest, SimNodeRejectsBadMapsAndKeepsSimulating) {
   EXPECT_EQ(node->Stop(), 0) << test::ReadFile(log_);
 }
 
+TEST_F(NodeTest, SimNodeChangesThePayloadSpacingWhileRunning) {
+  auto node = Start("sim_node", {"--scene", std::string(HULLPIPE_SOURCE_DIR) + "/scenes/payload.yaml"});
+  const std::string sim_log = log_;
+  Writer<hullpipe_msg_CameraInfo> info(*participant_);
+  Writer<hullpipe_msg_ObjectPixelMap> maps(*participant_);
+  Writer<hullpipe_msg_SceneCommand> commands(*participant_);
+  Reader<hullpipe_msg_VirtualMesh> meshes(*participant_);
+  Reader<hullpipe_msg_NodeStats> stats(*participant_);
+  WaitMatched(info, 1);
+  WaitMatched(maps, 1);
+  WaitMatched(commands, 1);
+  WaitMatched(meshes, 1);
+  const auto views = test::SphereViews(2, 64, 48, kCentre, 0.3);
+  for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
+  uint64_t seq = 1;
+  // payload A's (object 301) near face along y, from the newest mesh.
+  auto payload_a_min_y = [&](double wait_s) {
+    double y = std::nan("");
+    const double end = MonotonicSeconds() + wait_s;
+    while (MonotonicSeconds() < end) {
+      ++seq;
+      for (const auto& v : views)
+        maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25, 2, v.map).msg);
+      Drain(meshes, 0.2, [&](const hullpipe_msg_VirtualMesh& m) {
+        if (m.object_id != 301) return;
+        const VirtualMeshSample s = VirtualMeshFromMsg(m);
+        y = 1e9;
+        for (const auto& p : s.draw.vertices) y = std::min(y, p.y());
+      });
+      if (!std::isnan(y)) break;
+    }
+    return y;
+  };
+  const double y14 = payload_a_min_y(10);
+  ASSERT_FALSE(std::isnan(y14)) << test::ReadFile(sim_log);
+  // The command tool, as a user runs it.
+  auto cmd = Start("hullpipe_cmd", {"set-spacing", "0.25"});
+  EXPECT_EQ(cmd->Wait(20), 0) << test::ReadFile(log_);
+  double y25 = y14;
+  for (int k = 0; k < 20 && std::abs(y25 - y14) < 0.05; ++k) y25 = payload_a_min_y(2);
+  EXPECT_NEAR(y25 - y14, 0.11, 1e-5);  // 25 cm instead of 14 (floats on the wire)
+  // A bad command is counted as rejected and changes nothing.
+  hullpipe_msg_SceneCommand bad{};
+  bad.command_seq = 2;
+  bad.command = hullpipe_msg_SCENE_COMMAND_SET_SPACING;
+  bad.value = -3;
+  commands.Write(bad);
+  EXPECT_GE(WaitStats(stats, "sim", 1).rejected, 1u);
+  EXPECT_NEAR(payload_a_min_y(2) - y14, 0.11, 1e-5);
+  log_ = sim_log;
+  EXPECT_EQ(node->Stop(), 0) << test::ReadFile(log_);
+}
+
 TEST_F(NodeTest, RenderNodeRejectsTilesOfTheWrongSize) {
   auto node = Start("render_node", {"--out", (dir_ / "out").string(), "--idle-timeout", "60"});
   Writer<hullpipe_msg_HullView> tiles(*participant_);

@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   double spacing = 0;
   auto* set_spacing = app.add_subcommand("set-spacing", "PMT-to-payload-A spacing, metres (e.g. 0.20)");
   set_spacing->add_option("metres", spacing, "Spacing in metres")->required()->check(CLI::Range(0.0, 10.0));
+  set_spacing->fallthrough();  // --domain etc. may follow the subcommand
   app.require_subcommand(1);
   CLI11_PARSE(app, argc, argv);
   try {
