@@ -99,6 +99,9 @@ int main(int argc, char** argv) {
   app.add_option("--frames", frames, "Frames to process (0: the whole input)");
   app.add_option("--out", out, "Output directory")->capture_default_str();
   app.add_option("--description", description, "Launch description YAML (default: launch/local.yaml)");
+  std::string head_poses;
+  app.add_option("--head-poses", head_poses,
+                 "Tracked head poses CSV for render_node (--view file); default: the scripted orbit");
   app.add_option("--scene", scene, "Scene file for sim_node (default: scenes/ball.yaml)");
   app.add_option("--backend", backend, "recon backend cpu|gl|auto")->capture_default_str();
   app.add_option("--width", width, "Novel view width")->capture_default_str();
@@ -171,6 +174,9 @@ int main(int argc, char** argv) {
       } else {
         args.push_back(Substitute(a, vars));
       }
+    }
+    if (spec.exec == "render_node" && !head_poses.empty()) {
+      args.insert(args.end(), {"--view", "file", "--head-poses", fs::absolute(head_poses).string()});
     }
     args.push_back("--domain");
     args.push_back(std::to_string(domain));

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <algorithm>
 #include <map>
+#include <optional>
 #include <set>
 
 #include <CLI/CLI.hpp>
@@ -23,6 +24,7 @@
 #include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/frameset.h"
+#include "hullpipe/head_pose.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -57,7 +59,7 @@ int main(int argc, char** argv) {
   double hfov_deg = 50, idle_timeout = 5, tile_timeout = 1.0, video_fps = 15;
   double orbit_radius = 3.0, orbit_height = 0.7, orbit_period = 12.0;
   std::vector<double> orbit_centre, up{0, 0, -1};
-  std::string window = "auto";
+  std::string window = "auto", view_source = "orbit", head_poses;
   app.add_option("--out", out_dir, "Output directory (video, PNGs, stats.json)")->capture_default_str();
   app.add_option("--frames", max_frames, "Stop after compositing the frameset with this sequence number");
   app.add_option("--width", width, "Novel view width")->capture_default_str();
@@ -76,12 +78,22 @@ int main(int argc, char** argv) {
   app.add_option("--orbit-radius", orbit_radius, "Orbit radius, metres")->capture_default_str();
   app.add_option("--orbit-height", orbit_height, "Eye height above the centre, metres")->capture_default_str();
   app.add_option("--orbit-period", orbit_period, "Seconds per turn (frame time)")->capture_default_str();
+  app.add_option("--view", view_source,
+                 "Viewpoint: orbit (scripted), file (--head-poses CSV), topic (HeadPose from a tracker; "
+                 "the orbit until the first arrives)")
+      ->check(CLI::IsMember({"orbit", "file", "topic"}))->capture_default_str();
+  app.add_option("--head-poses", head_poses,
+                 "Tracked head poses, CSV t,x,y,z,qw,qx,qy,qz (world_from_eye, OpenCV eye frame; t in seconds "
+                 "from the first frame)");
   app.add_option("--up", up, "World up vector (Utrecht rig: 0,0,-1)")->delimiter(',')->expected(3);
   app.add_option("--window", window, "Show the output in a window: auto (where a display exists), on, off")
       ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
+    if ((view_source == "file") != !head_poses.empty())
+      throw std::runtime_error("--view file goes with --head-poses FILE");
+    const PoseTrack track = head_poses.empty() ? PoseTrack{} : LoadPoseTrack(head_poses);
     auto participant = StartNode("render", common);
     const bool have_display = std::getenv("DISPLAY") || std::getenv("WAYLAND_DISPLAY");
     bool show = window == "on" || (window == "auto" && have_display);
@@ -94,6 +106,8 @@ int main(int argc, char** argv) {
     Reader<hullpipe_msg_CollisionReport> report_reader(*participant);
     Reader<hullpipe_msg_NodeStats> stats_reader(*participant);
     Reader<hullpipe_msg_VirtualMesh> mesh_reader(*participant);
+    Reader<hullpipe_msg_HeadPose> head_reader(*participant);
+    std::optional<Rigid3d> tracked;  // newest HeadPose (--view topic)
     Writer<hullpipe_msg_ViewPose> pose_writer(*participant);
     ws.Attach(tile_reader);
     ws.Attach(state_reader);
@@ -178,6 +192,13 @@ int main(int argc, char** argv) {
         per[m.frame_seq] = m;
         while (per.size() > 32) per.erase(per.begin());
       });
+      head_reader.TakeEach([&](const hullpipe_msg_HeadPose& m, const dds_sample_info_t&) {
+        try {
+          tracked = HeadPoseFromMsg(m);
+        } catch (const MessageError& e) {
+          reject(e.what());
+        }
+      });
       mesh_reader.TakeEach([&](const hullpipe_msg_VirtualMesh& m, const dds_sample_info_t&) {
         try {
           VirtualMeshSample v = VirtualMeshFromMsg(m);
@@ -221,7 +242,10 @@ int main(int argc, char** argv) {
         f.frame_seq = fset->seq;
         f.capture_time_ns = fset->capture_time_ns;
         f.sent_s = MonotonicSeconds();
-        f.view = NovelView::FromFov(width, height, hfov_deg * M_PI / 180.0, orbit.WorldFromEye(t));
+        Rigid3d world_from_eye = orbit.WorldFromEye(t);
+        if (view_source == "file") world_from_eye = track.At(t);
+        if (view_source == "topic" && tracked) world_from_eye = *tracked;
+        f.view = NovelView::FromFov(width, height, hfov_deg * M_PI / 180.0, world_from_eye);
         ++pose_seq;
         pose_writer.Write(ViewToMsg(f.view, pose_seq, fset->seq, NowNs()));
         in_flight[pose_seq] = std::move(f);

@@ -1,6 +1,8 @@
 // Message conversion and validation, and Cyclone DDS behaviour hullpipe relies on.
 #include <limits>
 
+#include <Eigen/Geometry>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -141,6 +143,21 @@ TEST(Convert, VirtualMeshRoundTripAndMalformed) {
   s.msg.kind = hullpipe_msg_MESH_KIND_PARTICLES;
   s.msg.triangles._length = 0;  // points: one flag per vertex
   EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
+}
+
+TEST(Convert, HeadPoseRoundTripAndBadRotation) {
+  Rigid3d X;
+  X.rotation = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  X.translation = Eigen::Vector3d(0.5, -1, -1.6);
+  hullpipe_msg_HeadPose m = HeadPoseToMsg(X, 3, 42);
+  const Rigid3d back = HeadPoseFromMsg(m);
+  EXPECT_TRUE(back.rotation.isApprox(X.rotation, 1e-15));
+  EXPECT_TRUE(back.translation.isApprox(X.translation, 1e-15));
+  m.world_from_eye_rotation[0] = 2;  // not a rotation
+  EXPECT_THROW(HeadPoseFromMsg(m), MessageError);
+  m = HeadPoseToMsg(X, 3, 42);
+  m.world_from_eye_translation[1] = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(HeadPoseFromMsg(m), MessageError);
 }
 
 TEST(Dds, ErrorsNameTheCall) {

@@ -328,4 +328,29 @@ VirtualMeshSample VirtualMeshFromMsg(const hullpipe_msg_VirtualMesh& m) {
   return out;
 }
 
+hullpipe_msg_HeadPose HeadPoseToMsg(const Rigid3d& X, uint32_t tracker_id, int64_t stamp_ns) {
+  hullpipe_msg_HeadPose m{};
+  m.tracker_id = tracker_id;
+  m.stamp_ns = stamp_ns;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) m.world_from_eye_rotation[3 * r + c] = X.rotation(r, c);
+    m.world_from_eye_translation[r] = X.translation[r];
+  }
+  return m;
+}
+
+Rigid3d HeadPoseFromMsg(const hullpipe_msg_HeadPose& m) {
+  Rigid3d X;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) X.rotation(r, c) = m.world_from_eye_rotation[3 * r + c];
+    X.translation[r] = m.world_from_eye_translation[r];
+  }
+  if (!X.rotation.allFinite() || !X.translation.allFinite())
+    throw MessageError("HeadPose from tracker " + std::to_string(m.tracker_id) + ": not finite");
+  if (!((X.rotation.transpose() * X.rotation - Eigen::Matrix3d::Identity()).norm() < 1e-6) ||
+      !(X.rotation.determinant() > 0))
+    throw MessageError("HeadPose from tracker " + std::to_string(m.tracker_id) + ": rotation not orthonormal");
+  return X;
+}
+
 }  // namespace hullpipe::dds

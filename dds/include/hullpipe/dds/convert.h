@@ -95,6 +95,12 @@ OwnedSample<hullpipe_msg_VirtualMesh> MakeVirtualMeshMessage(const VirtualMeshSa
 /// range, colliding of the right length, a known kind. Throws MessageError.
 VirtualMeshSample VirtualMeshFromMsg(const hullpipe_msg_VirtualMesh& msg);
 
+/// A head pose message of world_from_eye (metres, OpenCV eye frame).
+hullpipe_msg_HeadPose HeadPoseToMsg(const Rigid3d& world_from_eye, uint32_t tracker_id, int64_t stamp_ns);
+/// Validated world_from_eye (finite, rotation orthonormal with det +1 to 1e-6).
+/// Throws MessageError.
+Rigid3d HeadPoseFromMsg(const hullpipe_msg_HeadPose& msg);
+
 inline hullpipe_msg_Vec3 ToMsg(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 inline Eigen::Vector3d FromMsg(const hullpipe_msg_Vec3& v) { return {v.x, v.y, v.z}; }
 

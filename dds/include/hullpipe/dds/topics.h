@@ -24,6 +24,7 @@ HULLPIPE_TOPIC(CollisionReport, "hullpipe/collision_report", true, false, 16)
 HULLPIPE_TOPIC(NodeStats, "hullpipe/node_stats", true, true, 1)
 HULLPIPE_TOPIC(VirtualMesh, "hullpipe/virtual_mesh", true, false, 1)
 HULLPIPE_TOPIC(SceneCommand, "hullpipe/scene_command", true, false, 8)
+HULLPIPE_TOPIC(HeadPose, "hullpipe/head_pose", false, false, 1)
 
 #undef HULLPIPE_TOPIC
 

@@ -1,0 +1,86 @@
+#include "hullpipe/head_pose.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace hullpipe {
+
+PoseTrack::PoseTrack(std::vector<TimedPose> poses) : poses_(std::move(poses)) {
+  std::sort(poses_.begin(), poses_.end(), [](const TimedPose& a, const TimedPose& b) { return a.t < b.t; });
+  for (size_t i = 0; i < poses_.size(); ++i) {
+    const Eigen::Matrix3d& R = poses_[i].world_from_eye.rotation;
+    if (!((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() < 1e-6) || !(R.determinant() > 0))
+      throw std::invalid_argument("PoseTrack: pose " + std::to_string(i) + " has no rotation");
+    if (i > 0 && !(poses_[i].t > poses_[i - 1].t))
+      throw std::invalid_argument("PoseTrack: two poses at t = " + std::to_string(poses_[i].t));
+  }
+}
+
+Rigid3d PoseTrack::At(double t) const {
+  if (poses_.empty()) throw std::logic_error("PoseTrack::At on an empty track");
+  if (!(t > poses_.front().t)) return poses_.front().world_from_eye;
+  if (t >= poses_.back().t) return poses_.back().world_from_eye;
+  const auto hi = std::upper_bound(poses_.begin(), poses_.end(), t,
+                                   [](double x, const TimedPose& p) { return x < p.t; });
+  const auto lo = hi - 1;
+  const double a = (t - lo->t) / (hi->t - lo->t);
+  const Eigen::Quaterniond q0(lo->world_from_eye.rotation), q1(hi->world_from_eye.rotation);
+  Rigid3d out;
+  out.rotation = q0.slerp(a, q1).toRotationMatrix();
+  out.translation = (1 - a) * lo->world_from_eye.translation + a * hi->world_from_eye.translation;
+  return out;
+}
+
+PoseTrack LoadPoseTrack(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::vector<TimedPose> poses;
+  std::string line;
+  int n = 0;
+  bool first = true;  // the first line that is not a comment may be a header
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.empty() || line[0] == '#') continue;
+    const bool may_be_header = first;
+    first = false;
+    std::vector<double> v;
+    std::stringstream ss(line);
+    std::string cell;
+    bool numbers = true;
+    while (std::getline(ss, cell, ',')) {
+      try {
+        v.push_back(std::stod(cell));
+      } catch (const std::exception&) {
+        numbers = false;
+        break;
+      }
+    }
+    const std::string where = path + ":" + std::to_string(n) + ": ";
+    if (!numbers) {
+      if (may_be_header) continue;
+      throw std::runtime_error(where + "not a number: '" + cell + "'");
+    }
+    if (v.size() != 8) throw std::runtime_error(where + "expected 8 columns t,x,y,z,qw,qx,qy,qz");
+    for (double x : v)
+      if (!std::isfinite(x)) throw std::runtime_error(where + "not finite");
+    Eigen::Quaterniond q(v[4], v[5], v[6], v[7]);
+    if (!(q.norm() > 1e-9)) throw std::runtime_error(where + "zero quaternion");
+    q.normalize();
+    TimedPose p;
+    p.t = v[0];
+    p.world_from_eye.rotation = q.toRotationMatrix();
+    p.world_from_eye.translation = Eigen::Vector3d(v[1], v[2], v[3]);
+    poses.push_back(p);
+  }
+  if (poses.empty()) throw std::runtime_error(path + ": no poses");
+  try {
+    return PoseTrack(std::move(poses));
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+}
+
+}  // namespace hullpipe
