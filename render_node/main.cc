@@ -8,6 +8,7 @@
 #include <fstream>
 #include <algorithm>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 
@@ -25,6 +26,7 @@
 #include "hullpipe/dds/node.h"
 #include "hullpipe/frameset.h"
 #include "hullpipe/head_pose.h"
+#include "hullpipe/virtual_scene.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -38,6 +40,7 @@ struct InFlight {
   double sent_s = 0;
   NovelView view;
   std::map<uint32_t, HullTile> tiles;  // by tile index
+  std::shared_ptr<const VolumeQuery> hull;  // for the light's shadow map
 };
 
 struct NodeRow {
@@ -59,7 +62,7 @@ int main(int argc, char** argv) {
   double hfov_deg = 50, idle_timeout = 5, tile_timeout = 1.0, video_fps = 15;
   double orbit_radius = 3.0, orbit_height = 0.7, orbit_period = 12.0;
   std::vector<double> orbit_centre, up{0, 0, -1};
-  std::string window = "auto", view_source = "orbit", head_poses;
+  std::string window = "auto", view_source = "orbit", head_poses, scene_path;
   app.add_option("--out", out_dir, "Output directory (video, PNGs, stats.json)")->capture_default_str();
   app.add_option("--frames", max_frames, "Stop after compositing the frameset with this sequence number");
   app.add_option("--width", width, "Novel view width")->capture_default_str();
@@ -85,6 +88,7 @@ int main(int argc, char** argv) {
   app.add_option("--head-poses", head_poses,
                  "Tracked head poses, CSV t,x,y,z,qw,qx,qy,qz (world_from_eye, OpenCV eye frame; t in seconds "
                  "from the first frame)");
+  app.add_option("--scene", scene_path, "Scene file: render_node uses its `light` (shadows); sim_node the rest");
   app.add_option("--up", up, "World up vector (Utrecht rig: 0,0,-1)")->delimiter(',')->expected(3);
   app.add_option("--window", window, "Show the output in a window: auto (where a display exists), on, off")
       ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
@@ -94,6 +98,7 @@ int main(int argc, char** argv) {
     if ((view_source == "file") != !head_poses.empty())
       throw std::runtime_error("--view file goes with --head-poses FILE");
     const PoseTrack track = head_poses.empty() ? PoseTrack{} : LoadPoseTrack(head_poses);
+    const std::optional<LightConfig> light = scene_path.empty() ? std::nullopt : LoadSceneConfig(scene_path).light;
     auto participant = StartNode("render", common);
     const bool have_display = std::getenv("DISPLAY") || std::getenv("WAYLAND_DISPLAY");
     bool show = window == "on" || (window == "auto" && have_display);
@@ -242,6 +247,7 @@ int main(int argc, char** argv) {
         f.frame_seq = fset->seq;
         f.capture_time_ns = fset->capture_time_ns;
         f.sent_s = MonotonicSeconds();
+        if (light) f.hull = std::make_shared<const VolumeQuery>(fset->maps, assembler.workspace());
         Rigid3d world_from_eye = orbit.WorldFromEye(t);
         if (view_source == "file") world_from_eye = track.At(t);
         if (view_source == "topic" && tracked) world_from_eye = *tracked;
@@ -298,7 +304,13 @@ int main(int argc, char** argv) {
             if (std::find(c.begin(), c.end(), 1) != c.end()) ++part_collisions[id];
           }
         }
-        const cv::Mat frame = Composite(f.view, depth, colour, spheres, comp, nullptr, draws);
+        cv::Mat composited_depth;
+        cv::Mat frame = Composite(f.view, depth, colour, spheres, comp, &composited_depth, draws);
+        if (light) {
+          StageTimer lt(reporter, "light");
+          const ShadowMap shadow = RenderShadowMap(*light, orbit.up.normalized(), f.hull.get(), spheres, draws);
+          ApplyLighting(f.view, composited_depth, depth, *light, shadow, &frame);
+        }
         if (!video.isOpened()) {
           video.open(video_path, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), video_fps, frame.size());
           if (!video.isOpened()) spdlog::warn("cannot open {} for writing; no video", video_path);

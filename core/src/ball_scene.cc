@@ -15,6 +15,7 @@ void SceneConfig::Check() const {
   if (cloth) cloth->Check();
   if (particles) particles->Check();
   if (payload) payload->Check();
+  if (light) light->Check();
   if (cloth && !(gravity.norm() > 0)) throw std::invalid_argument("scene: a cloth needs non-zero gravity");
   for (const auto& b : balls) {
     if (!(b.radius > 0)) throw std::invalid_argument("scene: ball radius must be > 0");
@@ -93,6 +94,20 @@ PayloadConfig ParsePayload(const YAML::Node& n, const std::string& path) {
   return c;
 }
 
+LightConfig ParseLight(const YAML::Node& n, const std::string& path) {
+  LightConfig c;
+  c.position = Vec3(n, path, "position", c.position);
+  c.target = Vec3(n, path, "target", c.target);
+  Get(n, "fov_deg", &c.fov_deg);
+  Get(n, "map_size", &c.map_size);
+  Get(n, "planes", &c.planes);
+  Get(n, "refine", &c.refine);
+  Get(n, "bias", &c.bias);
+  Get(n, "ambient", &c.ambient);
+  Get(n, "hull_diffuse", &c.hull_diffuse);
+  return c;
+}
+
 }  // namespace
 
 SceneConfig LoadSceneConfig(const std::string& path) {
@@ -138,6 +153,7 @@ SceneConfig LoadSceneConfig(const std::string& path) {
     if (root["cloth"]) cfg.cloth = ParseCloth(root["cloth"], path);
     if (root["particles"]) cfg.particles = ParseParticles(root["particles"], path);
     if (root["payload"]) cfg.payload = ParsePayload(root["payload"], path);
+    if (root["light"]) cfg.light = ParseLight(root["light"], path);
   } catch (const YAML::Exception& e) {
     throw std::runtime_error(path + ": " + e.what());
   }

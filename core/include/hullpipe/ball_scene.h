@@ -32,6 +32,9 @@
 //     {first_id: 300, pmt_centre: [..], pmt_half: [..], axis: 1, direction: 1,
 //      spacing: 0.14, a_half: [..], shaft_radius: 0.03, shaft_length: 0.25,
 //      max_clearance: 0.15}
+//   light:                          # optional virtual light with shadows (lighting.h),
+//     {position: [..], target: [..], fov_deg: 70, map_size: 192, planes: 48, refine: 6,
+//      bias: 0.02, ambient: 0.45, hull_diffuse: 0.5}   # read by render_node
 //   balls: []                       # no balls
 #pragma once
 
@@ -42,6 +45,7 @@
 #include <Eigen/Core>
 
 #include "hullpipe/cloth.h"
+#include "hullpipe/lighting.h"
 #include "hullpipe/collision.h"
 #include "hullpipe/collision_response.h"
 #include "hullpipe/mesh.h"
@@ -76,6 +80,7 @@ struct SceneConfig {
   std::optional<ClothConfig> cloth;         ///< The curtain, if any.
   std::optional<ParticleConfig> particles;  ///< The particle stream, if any.
   std::optional<PayloadConfig> payload;     ///< The payload spacing task, if any.
+  std::optional<LightConfig> light;         ///< A virtual light casting shadows (render_node).
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
 };
