@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
     std::map<std::string, hullpipe_msg_NodeStats> node_stats;
     std::map<std::string, nlohmann::json> node_stages;
     uint64_t pose_seq = 0, last_requested = 0, last_composited = 0, rejected = 0, tiles_late = 0;
-    uint64_t collisions_drawn = 0, collision_reports = 0;
+    uint64_t collisions_drawn = 0, collision_reports = 0, meshes_drawn = 0, lit_frames = 0;
     double hull_fraction_sum = 0;  // fraction of view pixels showing hull, summed over frames
     double first_source_time = 0;
     double last_new_frame_s = MonotonicSeconds(), last_progress_s = MonotonicSeconds();
@@ -304,12 +304,14 @@ int main(int argc, char** argv) {
             if (std::find(c.begin(), c.end(), 1) != c.end()) ++part_collisions[id];
           }
         }
+        meshes_drawn += draws.size();
         cv::Mat composited_depth;
         cv::Mat frame = Composite(f.view, depth, colour, spheres, comp, &composited_depth, draws);
         if (light) {
           StageTimer lt(reporter, "light");
           const ShadowMap shadow = RenderShadowMap(*light, orbit.up.normalized(), f.hull.get(), spheres, draws);
           ApplyLighting(f.view, composited_depth, depth, *light, shadow, &frame);
+          ++lit_frames;
         }
         if (!video.isOpened()) {
           video.open(video_path, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), video_fps, frame.size());
@@ -387,6 +389,8 @@ int main(int argc, char** argv) {
     j["last_frame_seq"] = last_composited;
     j["collision_frames_drawn"] = collisions_drawn;
     j["collision_reports_with_points"] = collision_reports;
+    j["meshes_drawn"] = meshes_drawn;  // cloth, particle sets and payload parts, summed over frames
+    j["lit_frames"] = lit_frames;      // frames with the scene's light and shadows
     j["hull_pixel_fraction_mean"] = reporter.frames_out() ? hull_fraction_sum / double(reporter.frames_out()) : 0.0;
     j["video"] = video_path;
     for (const auto& [id, c] : min_clearance)
