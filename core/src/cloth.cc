@@ -5,7 +5,6 @@
 #include <stdexcept>
 
 #include "hullpipe/collision.h"
-#include "hullpipe/hull_surface.h"
 
 namespace hullpipe {
 
@@ -25,15 +24,22 @@ void ClothConfig::Check() const {
 
 bool PushOutAlong(const VolumeQuery& hull, const Eigen::Vector3d& dir, double clearance, double max_search,
                   Eigen::Vector3d* p) {
-  for (double s = std::min(0.05, max_search);; s = std::min(2 * s, max_search)) {
-    const Eigen::Vector3d start = *p + s * dir;
-    if (!hull.Inside(start)) {
-      const auto cp_hull = FirstHullPointAlong(hull, start, -dir, s);
-      if (!cp_hull) return false;  // p itself is outside along this line
-      const double back = std::min(clearance, 0.5 * (start - *cp_hull).norm());
-      *p = *cp_hull + back * dir;
+  // March out along dir in 2 mm steps to the first outside point, bisect the
+  // exit to 0.05 mm, then step `clearance` beyond it (if that is outside too).
+  constexpr double kStep = 0.002;
+  double inside_s = 0;
+  for (double s = kStep;; s = std::min(s + kStep, max_search)) {
+    if (!hull.Inside(*p + s * dir)) {
+      double lo = inside_s, hi = s;
+      while (hi - lo > 5e-5) {
+        const double mid = 0.5 * (lo + hi);
+        (hull.Inside(*p + mid * dir) ? lo : hi) = mid;
+      }
+      const Eigen::Vector3d out = *p + (hi + clearance) * dir;
+      *p = hull.Inside(out) ? Eigen::Vector3d(*p + hi * dir) : out;
       return true;
     }
+    inside_s = s;
     if (s >= max_search) return false;
   }
 }

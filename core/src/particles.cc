@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "hullpipe/cloth.h"
@@ -23,6 +24,7 @@ void ParticleConfig::Check() const {
   if (!(radius > 0)) throw std::invalid_argument("particles: radius must be > 0");
   if (!(clearance > 0)) throw std::invalid_argument("particles: clearance must be > 0");
   if (!(max_substep > 0)) throw std::invalid_argument("particles: max_substep must be > 0");
+  if (!(sample_spacing > 0)) throw std::invalid_argument("particles: sample_spacing must be > 0");
 }
 
 ParticleSystem::ParticleSystem(const ParticleConfig& config, const Eigen::Vector3d& gravity, bool has_floor,
@@ -82,27 +84,47 @@ ParticleStepStats ParticleSystem::Step(double dt, const VolumeQuery* hull) {
       if (box) {
         const Eigen::Vector3d d = next - x_[i];
         double s0 = 0, s1 = 1;
-        // The exact first hull point along the segment, where it meets the hull box.
+        // The first hull point along the segment, where it meets the hull box:
+        // point queries every sample_spacing (so no hull part thicker than that
+        // is skipped), then bisection between the last outside and the first
+        // inside sample to 0.1 mm.
+        std::optional<Eigen::Vector3d> entry;
         if (d.squaredNorm() > 0 && box->ClipRay(x_[i], d, &s0, &s1) && s0 <= 1.0) {
-          const auto entry = FirstHullPointAlong(*hull, x_[i], d, 1.0);
-          if (entry) {
-            ++stats.hits;
-            touching_[i] = 1;
-            const double len = d.norm();
-            const Eigen::Vector3d dhat = d / len;
-            const double back = std::min(config_.clearance, (*entry - x_[i]).norm());
-            next = *entry - back * dhat;
-            // Split the velocity about N_hull (or -d where no normal is found).
-            Eigen::Vector3d n = -dhat;
-            if (const auto hn = HullSurfaceNormal(*hull, *entry)) n = hn->normal;
-            if (n.dot(dhat) > 0) n = -n;  // outward, against the motion
-            const double vn = v_[i].dot(n);
-            if (vn < 0) {
-              const Eigen::Vector3d vt = v_[i] - vn * n;
-              v_[i] = (1.0 - config_.friction) * vt - config_.restitution * vn * n;
+          const double len = d.norm();
+          const int n = std::max(1, int(std::ceil((s1 - s0) * len / config_.sample_spacing)));
+          double prev = s0;
+          for (int k = 0; k <= n; ++k) {
+            const double sk = s0 + (s1 - s0) * k / n;
+            if (!hull->Inside(x_[i] + sk * d)) {
+              prev = sk;
+              continue;
             }
-            if (hull->Inside(next)) next = x_[i];  // a corner: stay where it was (outside)
+            double lo = prev, hi = sk;
+            while ((hi - lo) * len > 1e-4) {
+              const double mid = 0.5 * (lo + hi);
+              (hull->Inside(x_[i] + mid * d) ? hi : lo) = mid;
+            }
+            entry = x_[i] + hi * d;
+            break;
           }
+        }
+        if (entry) {
+          ++stats.hits;
+          touching_[i] = 1;
+          const double len = d.norm();
+          const Eigen::Vector3d dhat = d / len;
+          const double back = std::min(config_.clearance, (*entry - x_[i]).norm());
+          next = *entry - back * dhat;
+          // Split the velocity about N_hull (or -d where no normal is found).
+          Eigen::Vector3d n = -dhat;
+          if (const auto hn = HullSurfaceNormal(*hull, *entry)) n = hn->normal;
+          if (n.dot(dhat) > 0) n = -n;  // outward, against the motion
+          const double vn = v_[i].dot(n);
+          if (vn < 0) {
+            const Eigen::Vector3d vt = v_[i] - vn * n;
+            v_[i] = (1.0 - config_.friction) * vt - config_.restitution * vn * n;
+          }
+          if (hull->Inside(next)) next = x_[i];  // a corner: stay where it was (outside)
         }
       }
       x_[i] = next;

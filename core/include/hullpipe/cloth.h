@@ -14,8 +14,8 @@
 // response with the *constrained* recovery vector the paper gives for cloth: a
 // vertex moves along its own normal (V_rec, toward whichever side of the cloth
 // reaches the hull's surface sooner; on a tie, the side it came from),
-// to the first hull point along that line (CP_hull, exact ray–hull intervals)
-// plus `clearance`. Constraints are projected before the response, so a step ends
+// to where that line leaves the hull (CP_hull, PushOutAlong) plus `clearance`.
+// Constraints are projected before the response, so a step ends
 // with every movable vertex outside the hull (pinned rod vertices excepted).
 #pragma once
 
@@ -90,12 +90,13 @@ class ClothSimulation {
   std::vector<uint8_t> colliding_;
 };
 
-/// Moves point p out of the hull along the line through it with direction `dir`
-/// (unit; the side to leave toward): the first hull point met searching from
-/// p + s dir back toward p, s doubling from 5 cm up to max_search until the start
-/// is outside, then `clearance` beyond it. Returns false (p unchanged) if no start
-/// within max_search is outside. The constrained response of paper §4.2 for a
-/// point (a cloth vertex or a particle).
+/// Moves point p out of the hull along the ray p + s dir (dir unit; the side to
+/// leave toward): to the first point outside (marching 2 mm steps, then bisected
+/// to 0.05 mm: the nearest exit, CP_hull of the constrained V_rec), then
+/// `clearance` beyond it where that is outside too. Returns false (p unchanged)
+/// if the ray does not leave the hull within max_search. A hull gap thinner than
+/// 2 mm along the ray may be stepped over. The constrained response of paper
+/// §4.2 for a point (a cloth vertex or a particle).
 bool PushOutAlong(const VolumeQuery& hull, const Eigen::Vector3d& dir, double clearance, double max_search,
                   Eigen::Vector3d* p);
 

@@ -2,10 +2,10 @@
 // issue 6). A particle is a point, so it is volume-queried as a point (§4.1:
 // QueryPoints), not as triangles. World metres and seconds, frame of the rig.
 //
-// Each substep a particle moves from x to x + v h. The segment is tested against
-// the hull: its end point by a point query, and, where the segment meets the hull
-// box, the exact first hull point along it (ray–hull intervals), so a particle
-// cannot pass through a thin part of the hull within a step. A particle that
+// Each substep a particle moves from x to x + v h. Where the segment meets the
+// hull box it is point-queried every `sample_spacing` (4 mm), and the first inside
+// sample's entry found by bisection to 0.1 mm, so a particle cannot pass through
+// a part of the hull thicker than the spacing within a step. A particle that
 // enters the hull stops `clearance` before the entry point CP_hull, and its
 // velocity is split about the hull's normal there (N_hull, hull_surface.h):
 // the normal part is reflected with `restitution`, the tangential part kept
@@ -40,6 +40,7 @@ struct ParticleConfig {
   double radius = 0.006;                        ///< Drawn radius, metres (collision treats points).
   double clearance = 0.001;                     ///< Stop this far before the hull's surface, metres.
   double max_substep = 1.0 / 60.0;              ///< Longest substep, seconds.
+  double sample_spacing = 0.004;                ///< Segment point-query spacing, metres (thinner hull may be skipped).
   uint32_t seed = 7;                            ///< Emission is deterministic given the seed.
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
