@@ -1,0 +1,73 @@
+// Serialized samples (CDR, untouched) for recording and replaying DDS traffic
+// (issue 7), through the same wrapper and error policy as dds.h.
+//
+// The recorder discovers topics from Cyclone's built-in DCPSPublication topic and
+// records those whose type is one of hullpipe's (KnownTypes()); the replayer
+// publishes recorded bytes with dds_writecdr. Cyclone 0.10 has no public call
+// that gives a topic's sertype (needed to turn bytes back into a serdata), so a
+// CdrWriter learns it once by a probe: a zeroed sample written and taken back on
+// a private partition of its own participant, where no other endpoint can see it.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "hullpipe/dds/dds.h"
+
+struct ddsi_sertype;
+
+namespace hullpipe::dds {
+
+/// A hullpipe message type and its topic.
+struct KnownType {
+  std::string topic_name;               ///< e.g. "hullpipe/camera_info".
+  std::string type_name;                ///< e.g. "hullpipe::msg::CameraInfo".
+  const dds_topic_descriptor_t* descriptor = nullptr;
+  QosSpec qos;                          ///< The topic's QoS in hullpipe.
+  bool keyed = false;
+  /// Writes one zeroed (valid) sample with `writer` (used by the sertype probe).
+  std::function<void(dds_entity_t writer)> write_probe;
+};
+
+/// Every topic of idl/hullpipe.idl.
+const std::vector<KnownType>& KnownTypes();
+/// The known type of that type name, or nullptr.
+const KnownType* FindKnownType(const std::string& type_name);
+
+/// A reader of serialized samples of a known type, with the given QoS (depth is
+/// the keep-last depth per instance).
+class CdrReader : public Entity {
+ public:
+  CdrReader(const Participant& p, const KnownType& type, const QosSpec& qos);
+  /// Takes every available sample; f(bytes, source_timestamp_ns) per valid one.
+  /// Returns how many.
+  size_t TakeEach(const std::function<void(const std::vector<uint8_t>&, int64_t)>& f) const;
+  dds_entity_t condition() const { return condition_.handle(); }
+  /// Samples lost before reaching this reader and samples it rejected (history
+  /// or resource limits), since creation.
+  uint64_t Lost() const;
+
+ private:
+  Entity topic_;
+  Entity condition_;
+};
+
+/// A writer of serialized samples of a known type with the given QoS.
+class CdrWriter : public Entity {
+ public:
+  CdrWriter(const Participant& p, const KnownType& type, const QosSpec& qos);
+  ~CdrWriter();
+  /// Publishes one serialized sample (CDR with its 4-byte header, as recorded).
+  /// Throws DdsError if Cyclone refuses it, std::invalid_argument if it does not
+  /// deserialize as this type.
+  void Write(const std::vector<uint8_t>& cdr) const;
+  uint32_t MatchedReaders() const;
+
+ private:
+  Entity topic_;
+  struct ddsi_sertype* sertype_ = nullptr;
+};
+
+}  // namespace hullpipe::dds

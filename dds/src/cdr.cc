@@ -1,0 +1,146 @@
+#include "hullpipe/dds/cdr.h"
+
+#include <dds/ddsi/ddsi_serdata.h>
+#include <dds/ddsi/ddsi_sertype.h>
+#include <unistd.h>
+
+#include <stdexcept>
+#include <thread>
+
+#include "hullpipe/dds/topics.h"
+
+namespace hullpipe::dds {
+namespace {
+
+template <typename T>
+void ZeroStrings(T&) {}
+// Top-level strings must not be null on the wire.
+void ZeroStrings(hullpipe_msg_NodeStats& s) { s.node_name = const_cast<char*>(""); }
+
+template <typename T>
+KnownType Make() {
+  KnownType k;
+  k.topic_name = TopicTraits<T>::kName;
+  k.descriptor = TopicTraits<T>::Descriptor();
+  k.type_name = k.descriptor->m_typename;
+  k.qos = TopicTraits<T>::kQos;
+  k.keyed = k.descriptor->m_nkeys > 0;
+  k.write_probe = [](dds_entity_t writer) {
+    T sample{};
+    ZeroStrings(sample);
+    Check(dds_write(writer, &sample), "dds_write (sertype probe)");
+  };
+  return k;
+}
+
+}  // namespace
+
+const std::vector<KnownType>& KnownTypes() {
+  static const std::vector<KnownType> types = {
+      Make<hullpipe_msg_CameraInfo>(),   Make<hullpipe_msg_ObjectPixelMap>(),     Make<hullpipe_msg_CameraImage>(),
+      Make<hullpipe_msg_ViewPose>(),     Make<hullpipe_msg_HullView>(),           Make<hullpipe_msg_VirtualObjectState>(),
+      Make<hullpipe_msg_CollisionReport>(), Make<hullpipe_msg_NodeStats>(),       Make<hullpipe_msg_VirtualMesh>(),
+      Make<hullpipe_msg_SceneCommand>(), Make<hullpipe_msg_HeadPose>()};
+  return types;
+}
+
+const KnownType* FindKnownType(const std::string& type_name) {
+  for (const auto& k : KnownTypes())
+    if (k.type_name == type_name) return &k;
+  return nullptr;
+}
+
+CdrReader::CdrReader(const Participant& p, const KnownType& type, const QosSpec& qos)
+    : topic_(Check(dds_create_topic(p.handle(), type.descriptor, type.topic_name.c_str(), nullptr, nullptr),
+                   "dds_create_topic")) {
+  Entity reader(Check(dds_create_reader(p.handle(), topic_.handle(), Qos(qos).get(), nullptr), "dds_create_reader"));
+  static_cast<Entity&>(*this) = std::move(reader);
+  condition_ = Entity(Check(dds_create_readcondition(handle(), DDS_ANY_STATE), "dds_create_readcondition"));
+}
+
+size_t CdrReader::TakeEach(const std::function<void(const std::vector<uint8_t>&, int64_t)>& f) const {
+  size_t taken = 0;
+  std::vector<uint8_t> bytes;
+  for (;;) {
+    struct ddsi_serdata* buf[32] = {nullptr};
+    dds_sample_info_t si[32];
+    const int32_t n = Check(dds_takecdr(handle(), buf, 32, si, DDS_ANY_STATE), "dds_takecdr");
+    struct Unref {  // releases the serdata even if f throws
+      struct ddsi_serdata** b;
+      int32_t n;
+      ~Unref() {
+        for (int32_t i = 0; i < n; ++i) ddsi_serdata_unref(b[i]);
+      }
+    } unref{buf, n};
+    for (int32_t i = 0; i < n; ++i) {
+      if (!si[i].valid_data) continue;
+      const uint32_t size = ddsi_serdata_size(buf[i]);
+      bytes.resize(size);
+      ddsi_serdata_to_ser(buf[i], 0, size, bytes.data());
+      f(bytes, si[i].source_timestamp);
+      ++taken;
+    }
+    if (n < 32) break;
+  }
+  return taken;
+}
+
+uint64_t CdrReader::Lost() const {
+  dds_sample_lost_status_t lost;
+  dds_sample_rejected_status_t rejected;
+  Check(dds_get_sample_lost_status(handle(), &lost), "dds_get_sample_lost_status");
+  Check(dds_get_sample_rejected_status(handle(), &rejected), "dds_get_sample_rejected_status");
+  return uint64_t(lost.total_count) + uint64_t(rejected.total_count);
+}
+
+CdrWriter::CdrWriter(const Participant& p, const KnownType& type, const QosSpec& qos)
+    : topic_(Check(dds_create_topic(p.handle(), type.descriptor, type.topic_name.c_str(), nullptr, nullptr),
+                   "dds_create_topic")) {
+  Entity writer(Check(dds_create_writer(p.handle(), topic_.handle(), Qos(qos).get(), nullptr), "dds_create_writer"));
+  static_cast<Entity&>(*this) = std::move(writer);
+  // The sertype probe, on a partition no one else uses.
+  const std::string partition = "hullpipe-sertype-probe-" + std::to_string(getpid());
+  const char* parts[] = {partition.c_str()};
+  dds_qos_t* pq = dds_create_qos();
+  dds_qset_partition(pq, 1, parts);
+  Entity pub(Check(dds_create_publisher(p.handle(), pq, nullptr), "dds_create_publisher"));
+  Entity sub(Check(dds_create_subscriber(p.handle(), pq, nullptr), "dds_create_subscriber"));
+  dds_delete_qos(pq);
+  Qos probe_qos(QosSpec{true, false, 1});
+  Entity pr(Check(dds_create_reader(sub.handle(), topic_.handle(), probe_qos.get(), nullptr), "dds_create_reader"));
+  Entity pw(Check(dds_create_writer(pub.handle(), topic_.handle(), probe_qos.get(), nullptr), "dds_create_writer"));
+  type.write_probe(pw.handle());
+  for (int tries = 0; tries < 200 && !sertype_; ++tries) {
+    struct ddsi_serdata* d = nullptr;
+    dds_sample_info_t si;
+    if (Check(dds_takecdr(pr.handle(), &d, 1, &si, DDS_ANY_STATE), "dds_takecdr") == 1) {
+      sertype_ = ddsi_sertype_ref(d->type);
+      ddsi_serdata_unref(d);
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+  if (!sertype_) throw DdsError("sertype probe for " + type.topic_name, DDS_RETCODE_TIMEOUT);
+}
+
+CdrWriter::~CdrWriter() {
+  if (sertype_) ddsi_sertype_unref(sertype_);
+}
+
+void CdrWriter::Write(const std::vector<uint8_t>& cdr) const {
+  if (cdr.size() < 4) throw std::invalid_argument("CDR sample shorter than its header");
+  ddsrt_iovec_t iov;
+  iov.iov_base = const_cast<uint8_t*>(cdr.data());
+  iov.iov_len = static_cast<ddsrt_iov_len_t>(cdr.size());
+  struct ddsi_serdata* d = ddsi_serdata_from_ser_iov(sertype_, SDK_DATA, 1, &iov, cdr.size());
+  if (!d) throw std::invalid_argument("CDR sample does not deserialize as its topic's type");
+  Check(dds_writecdr(handle(), d), "dds_writecdr");  // takes the serdata's reference
+}
+
+uint32_t CdrWriter::MatchedReaders() const {
+  dds_publication_matched_status_t st;
+  Check(dds_get_publication_matched_status(handle(), &st), "dds_get_publication_matched_status");
+  return st.current_count;
+}
+
+}  // namespace hullpipe::dds

@@ -1,0 +1,60 @@
+// Playing a recording (issue 7): which samples, when, how often — without any
+// transport. `hullpipe_replay` hands each sample to a DDS writer; tests hand them
+// to a vector (like rosbag2's player, which takes a reader object).
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "hullpipe/record/recording.h"
+
+namespace hullpipe::record {
+
+/// Settings of Play.
+struct PlayerOptions {
+  /// Speed: 1 the original timing, 2 twice as fast; 0 as fast as the sink takes
+  /// the samples (no waiting between them).
+  double rate = 1.0;
+  bool loop = false;            ///< Start over at the end (until stopped).
+  int max_loops = 0;            ///< With loop: stop after this many passes (0: no limit).
+  /// Skip the first seconds of the recording. Samples of transient-local topics
+  /// (e.g. CameraInfo) before the offset are still played, at once, so late
+  /// joiners downstream get them as in the original run.
+  double start_offset_s = 0;
+  std::vector<std::string> include, exclude;  ///< Topic name globs (TopicSelected).
+  /// Throws std::invalid_argument naming the bad field.
+  void Check() const;
+};
+
+/// Keyboard (or test) control of a running Play; thread-safe.
+struct PlayerControl {
+  std::atomic<bool> paused{false};
+  std::atomic<int> steps{0};    ///< While paused: samples to release one by one.
+  std::atomic<bool> stop{false};
+};
+
+/// Where the player's time comes from (monotonic seconds); tests pass a fake.
+struct PlayerClock {
+  virtual ~PlayerClock() = default;
+  virtual double Now() = 0;
+  virtual void SleepFor(double seconds) = 0;
+};
+
+/// What Play did.
+struct PlayStats {
+  int64_t samples = 0;       ///< Handed to the sink.
+  int loops = 0;             ///< Complete passes.
+  double max_lateness_s = 0; ///< Largest delay of a sample behind its due time.
+};
+
+/// Plays the recording's selected samples into `sink` in arrival order, each at
+/// its original arrival time (relative to the first played sample) divided by
+/// rate. Honours `control` (pause, step, stop) between samples. clock: nullptr
+/// uses the steady clock. Throws std::invalid_argument if options fail Check().
+PlayStats Play(const RecordingReader& recording, const PlayerOptions& options,
+               const std::function<void(const TopicInfo&, const Sample&)>& sink, PlayerControl* control = nullptr,
+               PlayerClock* clock = nullptr);
+
+}  // namespace hullpipe::record

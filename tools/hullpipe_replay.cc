@@ -1,0 +1,177 @@
+// hullpipe_replay: publishes a recording (hullpipe_record) back onto a domain
+// (issue 7), each topic with its original QoS, so a late-joining node still gets
+// the transient-local CameraInfo.
+//   hullpipe_replay run.hprec --domain 8 [--rate 0.5] [--loop] [--start-offset 2.0]
+//                   [--include 'hullpipe/object_pixel_map'] [--wait-readers 2]
+// Timing: the original arrival times divided by --rate; --rate 0 publishes as
+// fast as the readers take it (each sample waits for its readers' acknowledgement).
+// Keys on a terminal: space pauses and resumes, s steps one sample while paused,
+// q quits. Samples are written byte for byte as recorded (dds_writecdr).
+#include <termios.h>
+#include <unistd.h>
+
+#include <map>
+#include <memory>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "hullpipe/conventions.h"
+#include "hullpipe/dds/cdr.h"
+#include "hullpipe/dds/node.h"
+#include "hullpipe/record/player.h"
+
+using namespace hullpipe;
+using namespace hullpipe::dds;
+using namespace hullpipe::record;
+
+namespace {
+
+// Raw keyboard input for pause/step/quit while stdin is a terminal; restores
+// the terminal on destruction.
+class Keyboard {
+ public:
+  explicit Keyboard(PlayerControl* control) : control_(control) {
+    if (!isatty(STDIN_FILENO)) return;
+    tcgetattr(STDIN_FILENO, &saved_);
+    termios raw = saved_;
+    raw.c_lflag &= tcflag_t(~(ICANON | ECHO));
+    raw.c_cc[VMIN] = 0;
+    raw.c_cc[VTIME] = 1;  // reads return after 0.1 s
+    tcsetattr(STDIN_FILENO, TCSANOW, &raw);
+    active_ = true;
+    thread_ = std::thread([this] {
+      while (!control_->stop.load() && !done_.load()) {
+        char c = 0;
+        if (read(STDIN_FILENO, &c, 1) != 1) continue;
+        if (c == ' ') {
+          control_->paused = !control_->paused.load();
+          std::fprintf(stderr, control_->paused ? "[paused: space resumes, s steps]\n" : "[playing]\n");
+        } else if (c == 's') {
+          ++control_->steps;
+        } else if (c == 'q') {
+          control_->stop = true;
+        }
+      }
+    });
+  }
+  ~Keyboard() {
+    done_ = true;
+    if (thread_.joinable()) thread_.join();
+    if (active_) tcsetattr(STDIN_FILENO, TCSANOW, &saved_);
+  }
+
+ private:
+  PlayerControl* control_;
+  termios saved_{};
+  bool active_ = false;
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"hullpipe_replay: publish a recording with its original QoS and timing"};
+  CommonOptions common;
+  AddCommonOptions(app, common);
+  std::string path;
+  PlayerOptions po;
+  int wait_readers = 0;
+  std::string wait_topic = "hullpipe/object_pixel_map";
+  double wait_timeout = 20, linger = 1.0, settle = 0.5;
+  bool keyboard = true;
+  app.add_option("recording", path, "Recording file (hullpipe_record -o)")->required();
+  app.add_option("--rate", po.rate, "Speed factor; 0: as fast as the readers take it")->capture_default_str();
+  app.add_flag("--loop", po.loop, "Start over at the end");
+  app.add_option("--max-loops", po.max_loops, "With --loop: stop after this many passes");
+  app.add_option("--start-offset", po.start_offset_s, "Skip this many seconds (transient-local state still sent)");
+  app.add_option("--include", po.include, "Replay only topics matching these globs");
+  app.add_option("--exclude", po.exclude, "Do not replay topics matching these globs");
+  app.add_option("--wait-readers", wait_readers, "Before playing, wait until --wait-topic has this many readers");
+  app.add_option("--wait-topic", wait_topic, "The topic --wait-readers counts on")->capture_default_str();
+  app.add_option("--wait-timeout", wait_timeout, "Give up waiting for readers after this many s")->capture_default_str();
+  app.add_option("--settle", settle, "After --wait-readers matched: wait this long, so the readers' side has "
+                 "matched too (else a volatile reader misses the first samples)")->capture_default_str();
+  app.add_option("--linger", linger, "Stay this many s after the end (transient-local data stays available)")
+      ->capture_default_str();
+  app.add_flag("!--no-keyboard", keyboard, "Ignore the terminal (no pause/step keys)");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    po.Check();
+    const RecordingReader rec(path);
+    auto participant = StartNode("replay", common);
+    std::map<int64_t, std::unique_ptr<CdrWriter>> writers;
+    for (const auto& t : rec.topics()) {
+      if (!TopicSelected(po.include, po.exclude, t.name)) continue;
+      const KnownType* kt = FindKnownType(t.type);
+      if (!kt || kt->topic_name != t.name) {
+        spdlog::warn("topic {} of type {} is not a hullpipe type of this build; skipped", t.name, t.type);
+        continue;
+      }
+      writers[t.id] = std::make_unique<CdrWriter>(*participant, *kt, QosSpec{t.reliable, t.transient_local, t.depth});
+    }
+    if (writers.empty()) throw std::runtime_error(path + ": no topic to replay");
+    std::vector<std::string> kept;
+    for (const auto& t : rec.topics())
+      if (writers.count(t.id)) kept.push_back(t.name);
+    po.include = kept;  // the player plays exactly the topics that have a writer
+    if (wait_readers > 0) {
+      const double until = MonotonicSeconds() + wait_timeout;
+      for (;;) {
+        bool enough = false;
+        for (const auto& t : rec.topics())
+          if (t.name == wait_topic && writers.count(t.id))
+            enough = int(writers.at(t.id)->MatchedReaders()) >= wait_readers;
+        if (enough) break;
+        if (MonotonicSeconds() > until) {
+          spdlog::warn("{} has fewer than {} readers after {} s; playing anyway", wait_topic, wait_readers,
+                       wait_timeout);
+          break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+      std::this_thread::sleep_for(std::chrono::duration<double>(settle));
+    }
+    PlayerControl control;
+    std::thread stopper([&] {
+      while (!control.stop.load()) {
+        if (StopRequested()) control.stop = true;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    });
+    std::unique_ptr<Keyboard> keys;
+    if (keyboard) keys = std::make_unique<Keyboard>(&control);
+    uint64_t refused = 0;
+    const PlayStats st = Play(rec, po, [&](const TopicInfo& t, const Sample& s) {
+      const CdrWriter& w = *writers.at(t.id);
+      try {
+        w.Write(s.data);
+      } catch (const std::invalid_argument& e) {
+        ++refused;  // a corrupt sample in the file: skip it, keep playing
+        spdlog::warn("{}: sample at {} ns: {}", t.name, s.arrival_ns, e.what());
+        return;
+      }
+      if (po.rate == 0) {
+        const dds_return_t rc = dds_wait_for_acks(w.handle(), DDS_SECS(5));
+        if (rc != DDS_RETCODE_TIMEOUT) Check(rc, "dds_wait_for_acks");
+      }
+    }, &control);
+    for (const auto& [id, w] : writers) {
+      const dds_return_t rc = dds_wait_for_acks(w->handle(), DDS_SECS(2));
+      if (rc != DDS_RETCODE_TIMEOUT) Check(rc, "dds_wait_for_acks");
+    }
+    const double until = MonotonicSeconds() + linger;
+    while (!StopRequested() && MonotonicSeconds() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    control.stop = true;
+    stopper.join();
+    keys.reset();
+    spdlog::info("replayed {} samples in {} pass(es), {} refused, latest {:.1f} ms behind", st.samples, st.loops,
+                 refused, st.max_lateness_s * 1e3);
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}
