@@ -310,6 +310,18 @@ TEST_F(RecordTools, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
   };
   const auto a = run();
   const auto b = run();
+  // The per-node benchmark runs sim_node alone on the same recording.
+  {
+    const std::string log = (dir_ / "node_bench.log").string();
+    test::Process bench({test::BinDir() + "/node_bench", "--node", "sim", "--recording", path, "--frames", "20",
+                         "--json"},
+                        log);
+    ASSERT_EQ(bench.Wait(120), 0) << test::ReadFile(log);
+    const std::string out = test::ReadFile(log);
+    EXPECT_NE(out.find("\"frames\":20"), std::string::npos) << out;
+    EXPECT_NE(out.find("\"timeouts\":0"), std::string::npos) << out;
+    EXPECT_NE(out.find("latency_ms_p99"), std::string::npos) << out;
+  }
   ASSERT_EQ(a.size(), 50u);
   int colliding = 0;
   for (const auto& [f, pts] : a) colliding += !pts.empty();

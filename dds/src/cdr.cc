@@ -137,6 +137,18 @@ void CdrWriter::Write(const std::vector<uint8_t>& cdr) const {
   Check(dds_writecdr(handle(), d), "dds_writecdr");  // takes the serdata's reference
 }
 
+bool CdrWriter::Decode(const std::vector<uint8_t>& cdr, void* sample) const {
+  if (cdr.size() < 4) return false;
+  ddsrt_iovec_t iov;
+  iov.iov_base = const_cast<uint8_t*>(cdr.data());
+  iov.iov_len = static_cast<ddsrt_iov_len_t>(cdr.size());
+  struct ddsi_serdata* d = ddsi_serdata_from_ser_iov(sertype_, SDK_DATA, 1, &iov, cdr.size());
+  if (!d) return false;
+  const bool ok = ddsi_serdata_to_sample(d, sample, nullptr, nullptr);
+  ddsi_serdata_unref(d);
+  return ok;
+}
+
 uint32_t CdrWriter::MatchedReaders() const {
   dds_publication_matched_status_t st;
   Check(dds_get_publication_matched_status(handle(), &st), "dds_get_publication_matched_status");

@@ -64,6 +64,11 @@ class CdrWriter : public Entity {
   /// deserialize as this type.
   void Write(const std::vector<uint8_t>& cdr) const;
   uint32_t MatchedReaders() const;
+  /// Deserializes a recorded sample of this writer's type into *sample (a
+  /// zeroed struct of the type; its sequences/strings are allocated by Cyclone:
+  /// free them with dds_sample_free(sample, descriptor, DDS_FREE_CONTENTS)).
+  /// Returns false if the bytes are not a valid sample.
+  bool Decode(const std::vector<uint8_t>& cdr, void* sample) const;
 
  private:
   Entity topic_;

@@ -1,0 +1,295 @@
+// node_bench: one node alone, fed as fast as it takes its input (issue 7).
+//   node_bench --node sim   --recording run.hprec [--frames 200]
+//   node_bench --node recon --recording run.hprec
+//   node_bench --node capture --rig ../shared/data/utrecht-4cam
+// sim and recon run closed-loop on a replayed recording (hullpipe_record): the
+// bench publishes frameset f byte for byte (plus, for recon, the recorded
+// ViewPose naming f), waits for the node's output for f (CollisionReport or
+// VirtualMesh / HullView), then sends f+1 (a frameset with no output in 3 s
+// counts as a timeout). Throughput is framesets per second of that loop;
+// latency is, per frameset, the output's arrival minus the moment its last input
+// was written (both on this machine's clock). capture runs on its own input
+// (--fast) and its latency is a map's arrival minus its capture_time_ns. CPU is
+// the node's user+system time over the run's wall time (/proc), memory its peak
+// resident set (VmHWM). Each run uses its own DDS domain on loopback.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "hullpipe/conventions.h"
+#include "hullpipe/dds/cdr.h"
+#include "hullpipe/dds/topics.h"
+#include "hullpipe/record/recording.h"
+
+using namespace hullpipe;
+using namespace hullpipe::dds;
+using namespace hullpipe::record;
+namespace fs = std::filesystem;
+
+namespace {
+
+double Pct(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, size_t(p / 100.0 * double(v.size())))];
+}
+
+// CPU seconds (user + system) of a process.
+double CpuSeconds(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  std::string s((std::istreambuf_iterator<char>(f)), {});
+  const auto close = s.rfind(')');
+  if (close == std::string::npos) return 0;
+  std::istringstream in(s.substr(close + 2));
+  std::string field;
+  double ut = 0, st = 0;
+  for (int k = 3; k <= 15 && in >> field; ++k) {
+    if (k == 14) ut = std::stod(field);
+    if (k == 15) st = std::stod(field);
+  }
+  return (ut + st) / double(sysconf(_SC_CLK_TCK));
+}
+
+double PeakRssMiB(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return 0;
+}
+
+pid_t Spawn(const std::vector<std::string>& argv, const std::string& log) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    FILE* f = std::fopen(log.c_str(), "w");
+    if (f) dup2(fileno(f), 1), dup2(fileno(f), 2);
+    std::vector<char*> a;
+    for (const auto& s : argv) a.push_back(const_cast<char*>(s.c_str()));
+    a.push_back(nullptr);
+    execv(a[0], a.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+struct Result {
+  std::string node;
+  int frames = 0, timeouts = 0;
+  double seconds = 0, cpu_s = 0, rss_mib = 0;
+  std::vector<double> latency_ms;
+};
+
+// Recorded samples of a topic, by name.
+struct Recorded {
+  TopicInfo topic;
+  std::vector<Sample> samples;
+};
+
+std::map<std::string, Recorded> Load(const std::string& path, const std::vector<std::string>& names) {
+  const RecordingReader rec(path);
+  std::map<std::string, Recorded> out;
+  std::map<int64_t, std::string> by_id;
+  for (const auto& t : rec.topics())
+    if (std::find(names.begin(), names.end(), t.name) != names.end()) {
+      by_id[t.id] = t.name;
+      out[t.name].topic = t;
+    }
+  rec.ForEach([&](const Sample& s) {
+    out[by_id.at(s.topic_id)].samples.push_back(s);
+    return true;
+  }, [&] {
+    std::vector<int64_t> ids;
+    for (const auto& [id, n] : by_id) ids.push_back(id);
+    return ids;
+  }());
+  return out;
+}
+
+template <typename T>
+QosSpec QosOf(const Recorded& r) {
+  return r.topic.id ? QosSpec{r.topic.reliable, r.topic.transient_local, r.topic.depth} : TopicTraits<T>::kQos;
+}
+
+// The frame_seq of each recorded sample of type T (decoded with the writer's type).
+template <typename T>
+uint64_t FrameOf(const CdrWriter& w, const Sample& s) {
+  T m{};
+  if (!w.Decode(s.data, &m)) return 0;
+  const uint64_t f = m.frame_seq;
+  dds_sample_free(&m, TopicTraits<T>::Descriptor(), DDS_FREE_CONTENTS);
+  return f;
+}
+
+Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, const std::string& recording,
+                     int max_frames) {
+  Result r;
+  r.node = node;
+  const bool recon = node == "recon";
+  std::vector<std::string> names = {"hullpipe/camera_info", "hullpipe/object_pixel_map"};
+  if (recon) names.insert(names.end(), {"hullpipe/camera_image", "hullpipe/view_pose"});
+  auto rec = Load(recording, names);
+  for (const auto& n : names)
+    if (rec[n].samples.empty()) throw std::runtime_error(recording + ": no " + n + " samples");
+  auto writer_for = [&](const std::string& topic_name) {
+    const Recorded& r0 = rec.at(topic_name);
+    const KnownType* kt = FindKnownType(r0.topic.type);
+    if (!kt) throw std::runtime_error("unknown type " + r0.topic.type);
+    return std::make_unique<CdrWriter>(p, *kt, QosSpec{r0.topic.reliable, r0.topic.transient_local, r0.topic.depth});
+  };
+  auto info_w = writer_for("hullpipe/camera_info");
+  auto map_w = writer_for("hullpipe/object_pixel_map");
+  std::unique_ptr<CdrWriter> img_w, pose_w;
+  if (recon) img_w = writer_for("hullpipe/camera_image"), pose_w = writer_for("hullpipe/view_pose");
+  // Inputs grouped by frameset.
+  std::map<uint64_t, std::vector<const Sample*>> maps, images;
+  std::map<uint64_t, const Sample*> poses;
+  for (const auto& s : rec["hullpipe/object_pixel_map"].samples) maps[FrameOf<hullpipe_msg_ObjectPixelMap>(*map_w, s)].push_back(&s);
+  if (recon) {
+    for (const auto& s : rec["hullpipe/camera_image"].samples) images[FrameOf<hullpipe_msg_CameraImage>(*img_w, s)].push_back(&s);
+    for (const auto& s : rec["hullpipe/view_pose"].samples) {
+      const uint64_t f = FrameOf<hullpipe_msg_ViewPose>(*pose_w, s);
+      if (f && !poses.count(f)) poses[f] = &s;
+    }
+  }
+  Reader<hullpipe_msg_CollisionReport> reports(p);  // sim: per ball...
+  Reader<hullpipe_msg_VirtualMesh> meshes(p);       // ...or per cloth, particle set, payload part
+  Reader<hullpipe_msg_HullView> tiles(p);
+  // Wait until the node is there, then send the calibration.
+  const double until = MonotonicSeconds() + 20;
+  while (map_w->MatchedReaders() == 0 && MonotonicSeconds() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  if (map_w->MatchedReaders() == 0) throw std::runtime_error(node + "_node did not appear on the domain");
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // its side matches too
+  for (const auto& s : rec["hullpipe/camera_info"].samples) info_w->Write(s.data);
+  const double cpu0 = CpuSeconds(pid), t0 = MonotonicSeconds();
+  for (const auto& [f, ms] : maps) {
+    if (max_frames > 0 && r.frames + r.timeouts >= max_frames) break;
+    if (recon && !poses.count(f)) continue;
+    if (recon)
+      for (const Sample* s : images[f]) img_w->Write(s->data);
+    for (const Sample* s : ms) map_w->Write(s->data);
+    if (recon) pose_w->Write(poses[f]->data);
+    const double sent = MonotonicSeconds();
+    bool got = false;
+    while (!got && MonotonicSeconds() - sent < 3.0) {
+      if (recon) {
+        tiles.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
+      } else {
+        reports.TakeEach([&](const hullpipe_msg_CollisionReport& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
+        meshes.TakeEach([&](const hullpipe_msg_VirtualMesh& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
+      }
+      if (!got) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    if (got) {
+      r.latency_ms.push_back((MonotonicSeconds() - sent) * 1e3);
+      ++r.frames;
+    } else {
+      ++r.timeouts;
+    }
+  }
+  r.seconds = MonotonicSeconds() - t0;
+  r.cpu_s = CpuSeconds(pid) - cpu0;
+  r.rss_mib = PeakRssMiB(pid);
+  return r;
+}
+
+Result BenchCapture(const Participant& p, pid_t pid, int max_frames) {
+  Result r;
+  r.node = "capture";
+  Reader<hullpipe_msg_ObjectPixelMap> maps(p);
+  std::map<uint64_t, int> per_frame;
+  const double cpu0 = CpuSeconds(pid), t0 = MonotonicSeconds();
+  double last = t0;
+  int status = 0;
+  while (waitpid(pid, &status, WNOHANG) == 0 || maps.TakeEach([](auto&, auto&) {}) > 0) {
+    maps.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
+      if (++per_frame[m.frame_seq] == int(m.camera_count)) {
+        r.latency_ms.push_back(double(NowNs() - m.capture_time_ns) * 1e-6);
+        ++r.frames;
+        last = MonotonicSeconds();
+        r.cpu_s = CpuSeconds(pid) - cpu0;
+        r.rss_mib = std::max(r.rss_mib, PeakRssMiB(pid));
+      }
+    });
+    if (max_frames > 0 && r.frames >= max_frames) break;
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+    if (MonotonicSeconds() - last > 10) break;
+  }
+  r.seconds = last - t0;
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"node_bench: one hullpipe node alone, fed as fast as it takes input"};
+  std::string node, recording, rig, bin_dir = fs::path(argv[0]).parent_path().string(), scene;
+  int frames = 0;
+  bool json = false;
+  app.add_option("--node", node, "capture | recon | sim")->required()->check(CLI::IsMember({"capture", "recon", "sim"}));
+  app.add_option("--recording", recording, "Recording to feed recon or sim (hullpipe_record)");
+  app.add_option("--rig", rig, "Rig directory for capture");
+  app.add_option("--frames", frames, "Stop after this many framesets (0: all)");
+  app.add_option("--scene", scene, "sim_node's scene file");
+  app.add_option("--bin-dir", bin_dir, "Where the node executables are")->capture_default_str();
+  app.add_flag("--json", json, "One JSON object");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    const fs::path dir = fs::temp_directory_path() / ("node_bench_" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    const std::string config = (dir / "cyclonedds.xml").string();
+    std::ofstream(config) << "<?xml version=\"1.0\"?>\n<CycloneDDS xmlns=\"https://cdds.io/config\"><Domain id=\"any\">"
+                             "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
+                             "<AllowMulticast>false</AllowMulticast><MaxMessageSize>65500B</MaxMessageSize></General>"
+                             "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60"
+                             "</MaxAutoParticipantIndex><Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery>"
+                             "</Domain></CycloneDDS>\n";
+    setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
+    const uint32_t domain = 150 + uint32_t(getpid() % 80);
+    std::vector<std::string> args = {bin_dir + "/" + node + "_node", "--domain", std::to_string(domain)};
+    if (node == "recon") args.insert(args.end(), {"--tile", "0/1"});
+    if (node == "sim" && !scene.empty()) args.insert(args.end(), {"--scene", fs::absolute(scene).string()});
+    if (node == "capture") {
+      if (rig.empty()) throw std::runtime_error("--node capture needs --rig DIR");
+      args.insert(args.end(), {"--rig", rig, "--fast", "--wait-readers", "1"});
+      if (frames > 0) args.insert(args.end(), {"--frames", std::to_string(frames)});
+    } else if (recording.empty()) {
+      throw std::runtime_error("--node " + node + " needs --recording FILE");
+    }
+    const std::string log = (dir / (node + ".log")).string();
+    Participant p(domain);
+    const pid_t pid = Spawn(args, log);
+    Result r = node == "capture" ? BenchCapture(p, pid, frames) : BenchReplayed(node, p, pid, recording, frames);
+    kill(pid, SIGINT);
+    waitpid(pid, nullptr, 0);
+    const double fps = r.seconds > 0 ? r.frames / r.seconds : 0;
+    if (json) {
+      nlohmann::json j = {{"node", r.node}, {"frames", r.frames}, {"timeouts", r.timeouts}, {"fps", fps},
+                          {"latency_ms_p50", Pct(r.latency_ms, 50)}, {"latency_ms_p95", Pct(r.latency_ms, 95)},
+                          {"latency_ms_p99", Pct(r.latency_ms, 99)}, {"cpu_percent", r.seconds > 0 ? 100 * r.cpu_s / r.seconds : 0},
+                          {"peak_rss_mib", r.rss_mib}};
+      std::printf("%s\n", j.dump().c_str());
+    } else {
+      const std::string name = r.node + (scene.empty() ? "" : " (" + fs::path(scene).stem().string() + ")");
+      std::printf("| %-8s | %6d | %8.1f | %8.1f | %8.1f | %8.1f | %6.0f | %8.0f | %8d |\n", name.c_str(), r.frames, fps,
+                  Pct(r.latency_ms, 50), Pct(r.latency_ms, 95), Pct(r.latency_ms, 99),
+                  r.seconds > 0 ? 100 * r.cpu_s / r.seconds : 0.0, r.rss_mib, r.timeouts);
+    }
+    fs::remove_all(dir);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "node_bench: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
