@@ -2,7 +2,9 @@
 // When render_node's ViewPose names a frameset and all n cameras' maps of it are in,
 // it plane-sweeps its tile (CPU or GL backend), textures it from the camera images
 // and publishes a HullView. Latest wins: framesets older than the one asked for are
-// dropped and counted; nothing queues without bound.
+// dropped and counted; nothing queues without bound. Fail-over: when a peer recon
+// node falls silent (no NodeStats for --failover s), the lowest live tile's node
+// renders the orphaned tile too, until the peer is heard again.
 #include <deque>
 #include <optional>
 
@@ -32,7 +34,7 @@ int main(int argc, char** argv) {
   int refine = 6;
   int visibility_width = 80;
   std::string out_of_view = "unknown";
-  double pose_timeout = 1.0;
+  double pose_timeout = 1.0, failover = 1.2;
   app.add_option("--tile", tile_spec, "This node's tile i/N of the view (horizontal bands)")->capture_default_str();
   app.add_option("--backend", backend_name, "Sweep backend: cpu|gl|auto")
       ->check(CLI::IsMember({"cpu", "gl", "auto"}))->capture_default_str();
@@ -46,6 +48,9 @@ int main(int argc, char** argv) {
   app.add_option("--out-of-view", out_of_view,
                  "A camera that cannot see a point: unknown (does not vote) or outside (vetoes, as the paper)")
       ->check(CLI::IsMember({"unknown", "outside"}))->capture_default_str();
+  app.add_option("--failover", failover,
+                 "A peer recon node silent (no NodeStats) this many s: the lowest live tile renders its tile too")
+      ->capture_default_str();
   app.add_option("--pose-timeout", pose_timeout, "Drop a pose whose frameset has not arrived after this many s")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -72,6 +77,35 @@ int main(int argc, char** argv) {
     ws.Attach(pose_reader);
     Writer<hullpipe_msg_HullView> tile_writer(*participant);
     NodeReporter reporter(*participant, name);
+    // Fail-over: every recon node publishes NodeStats twice a second; a peer
+    // silent for `failover` s (or that reported its end) has its tile rendered by
+    // the lowest live tile's node until it is heard again.
+    Reader<hullpipe_msg_NodeStats> peer_stats(*participant);
+    const double started_s = MonotonicSeconds();
+    std::vector<double> peer_seen(size_t(tile_n), started_s);
+    std::vector<bool> adopted(size_t(tile_n), false);
+    auto my_tiles = [&] {
+      const double now = MonotonicSeconds();
+      std::vector<bool> alive(static_cast<size_t>(tile_n));
+      for (int k = 0; k < tile_n; ++k) alive[size_t(k)] = k == tile_i || now - peer_seen[size_t(k)] < failover;
+      int lowest = tile_i;
+      for (int k = 0; k < tile_n; ++k)
+        if (alive[size_t(k)]) {
+          lowest = k;
+          break;
+        }
+      std::vector<int> tiles = {tile_i};
+      for (int k = 0; k < tile_n; ++k) {
+        const bool adopt = !alive[size_t(k)] && lowest == tile_i;
+        if (adopt != adopted[size_t(k)]) {
+          adopted[size_t(k)] = adopt;
+          if (adopt) spdlog::warn("recon{} silent for {:.1f} s: rendering tile {} too", k, failover, k);
+          else spdlog::info("tile {} back with recon{} (or adopted by another)", k, k);
+        }
+        if (adopt) tiles.push_back(k);
+      }
+      return tiles;
+    };
 
     struct PendingPose {
       hullpipe_msg_ViewPose msg;
@@ -88,6 +122,11 @@ int main(int argc, char** argv) {
     while (!StopRequested()) {
       ws.Wait(0.1);
       input.Poll();
+      peer_stats.TakeEach([&](const hullpipe_msg_NodeStats& m, const dds_sample_info_t&) {
+        int k = -1;
+        if (!m.node_name || std::sscanf(m.node_name, "recon%d", &k) != 1 || k < 0 || k >= tile_n || k == tile_i) return;
+        peer_seen[size_t(k)] = m.final_report ? -1e9 : MonotonicSeconds();
+      });
       pose_reader.TakeEach([&](const hullpipe_msg_ViewPose& m, const dds_sample_info_t&) {
         try {
           poses.push_back({m, ViewFromMsg(m), MonotonicSeconds()});
@@ -125,36 +164,40 @@ int main(int argc, char** argv) {
         if (!fs) continue;
         reporter.FrameIn();
         const double t0 = MonotonicSeconds();
-        const cv::Rect rect = TileRect(tile_i, tile_n, pose.view.width, pose.view.height);
-        HullTile tile;
         const VolumeQuery vq(fs->maps, assembler.workspace(), query_options);  // includes the hull box
         const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, sweep);
         reporter.Stage("hull_box", (MonotonicSeconds() - t0) * 1e3);
-        {
-          StageTimer st(reporter, "sweep");
-          tile.depth = backend->Sweep(vq, pose.view, depths, rect);
+        std::optional<HullVisibility> vis;
+        if (visibility_width > 0) {
+          StageTimer st(reporter, "visibility");
+          std::vector<Camera> cams;
+          for (const auto& im : fs->images) cams.push_back(im.camera);
+          PlaneSweepOptions vis_sweep = sweep;
+          vis_sweep.num_planes = std::min(sweep.num_planes, 48);
+          vis = ComputeHullVisibility(vq, cams, visibility_width, vis_sweep, refine, threads);
         }
-        {
-          StageTimer st(reporter, "texture");
-          std::optional<HullVisibility> vis;
-          if (visibility_width > 0) {
-            std::vector<Camera> cams;
-            for (const auto& im : fs->images) cams.push_back(im.camera);
-            PlaneSweepOptions vis_sweep = sweep;
-            vis_sweep.num_planes = std::min(sweep.num_planes, 48);
-            vis = ComputeHullVisibility(vq, cams, visibility_width, vis_sweep, refine, threads);
+        for (const int t : my_tiles()) {
+          const double tt0 = MonotonicSeconds();
+          const cv::Rect rect = TileRect(t, tile_n, pose.view.width, pose.view.height);
+          HullTile tile;
+          {
+            StageTimer st(reporter, "sweep");
+            tile.depth = backend->Sweep(vq, pose.view, depths, rect);
           }
-          tile.colour = TextureHull(tile.depth, rect, pose.view, fs->images, {}, vis ? &*vis : nullptr);
+          {
+            StageTimer st(reporter, "texture");
+            tile.colour = TextureHull(tile.depth, rect, pose.view, fs->images, {}, vis ? &*vis : nullptr);
+          }
+          tile.rect = rect;
+          tile.node_id = uint32_t(tile_i);
+          tile.tile_index = uint32_t(t);
+          tile.tile_count = uint32_t(tile_n);
+          tile.pose_seq = pose.msg.pose_seq;
+          tile.frame_seq = fs->seq;
+          tile.capture_time_ns = fs->capture_time_ns;
+          tile.render_ms = (MonotonicSeconds() - (t == tile_i ? t0 : tt0)) * 1e3;
+          tile_writer.Write(MakeHullViewMessage(tile, uint32_t(depths.size())).msg);
         }
-        tile.rect = rect;
-        tile.node_id = uint32_t(tile_i);
-        tile.tile_index = uint32_t(tile_i);
-        tile.tile_count = uint32_t(tile_n);
-        tile.pose_seq = pose.msg.pose_seq;
-        tile.frame_seq = fs->seq;
-        tile.capture_time_ns = fs->capture_time_ns;
-        tile.render_ms = (MonotonicSeconds() - t0) * 1e3;
-        tile_writer.Write(MakeHullViewMessage(tile, uint32_t(depths.size())).msg);
         reporter.FrameOut(fs->capture_time_ns);
       }
       reporter.SetDropped(input.dropped() + poses_dropped);

@@ -138,6 +138,9 @@ int main(int argc, char** argv) {
     std::map<uint32_t, uint64_t> part_collisions;  // payload part -> frames drawn colliding
     std::map<std::string, hullpipe_msg_NodeStats> node_stats;
     std::map<std::string, nlohmann::json> node_stages;
+    std::map<std::string, double> recon_heard;     // recon node -> when its NodeStats last came
+    std::map<std::string, bool> recon_silent;
+    std::map<std::string, int> recon_outages;
     uint64_t pose_seq = 0, last_requested = 0, last_composited = 0, rejected = 0, tiles_late = 0;
     uint64_t collisions_drawn = 0, collision_reports = 0, meshes_drawn = 0, lit_frames = 0;
     double hull_fraction_sum = 0;  // fraction of view pixels showing hull, summed over frames
@@ -162,6 +165,7 @@ int main(int argc, char** argv) {
           st[stage.name ? stage.name : "?"] = {{"ms_mean", stage.ms_mean}, {"ms_p95", stage.ms_p95}};
         }
         node_stages[name] = st;
+        if (name.rfind("recon", 0) == 0) recon_heard[name] = m.final_report ? -1e9 : MonotonicSeconds();
         hullpipe_msg_NodeStats copy = m;
         copy.node_name = nullptr;
         copy.stages = {};
@@ -343,6 +347,20 @@ int main(int argc, char** argv) {
       }
 
       const double now = MonotonicSeconds();
+      // A recon node that stops reporting (NodeStats every 0.5 s) is noticed
+      // within a second; its tile comes from the lowest live recon node meanwhile.
+      for (const auto& [rn, heard] : recon_heard) {
+        const bool silent = now - heard > 1.0;
+        if (silent != recon_silent[rn]) {
+          recon_silent[rn] = silent;
+          if (silent) {
+            ++recon_outages[rn];
+            spdlog::warn("{} silent for 1.0 s: its tile now comes from another recon node", rn);
+          } else {
+            spdlog::info("{} is back", rn);
+          }
+        }
+      }
       // The input ended: capture said so and everything it sent is composited
       // (0.5 s for the last samples to land), or nothing came for idle_timeout.
       if (capture_done && in_flight.empty() && !assembler.NewestComplete() && now - capture_done_s > 0.5) {
@@ -390,7 +408,8 @@ int main(int argc, char** argv) {
     j["collision_frames_drawn"] = collisions_drawn;
     j["collision_reports_with_points"] = collision_reports;
     j["meshes_drawn"] = meshes_drawn;  // cloth, particle sets and payload parts, summed over frames
-    j["lit_frames"] = lit_frames;      // frames with the scene's light and shadows
+    j["lit_frames"] = lit_frames;
+    j["recon_outages"] = recon_outages;  // times each recon node fell silent      // frames with the scene's light and shadows
     j["hull_pixel_fraction_mean"] = reporter.frames_out() ? hull_fraction_sum / double(reporter.frames_out()) : 0.0;
     j["video"] = video_path;
     for (const auto& [id, c] : min_clearance)

@@ -4,10 +4,14 @@
 // at frame 200 against the rig's own maps (vh_eval reprojection).
 #include <set>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "hullpipe/conventions.h"
+#include "hullpipe/dds/dds.h"
+#include "hullpipe/dds/topics.h"
 #include "test_util.h"
 
 namespace hullpipe {
@@ -91,6 +95,69 @@ INSTANTIATE_TEST_SUITE_P(Scenes, SceneRun,
 TEST(EndToEnd, CurtainOnTheRealRig) {
   if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
   RunScene("curtain", true, 60);
+}
+
+// Faults (issue 7): kill one recon node mid-run with SIGKILL. render_node
+// notices within a second, the other recon node renders the orphaned tile too,
+// so compositing goes on; when the killed node is restarted the split resumes.
+TEST(Faults, AKilledReconNodeIsCoveredAndTheSplitResumes) {
+  const auto dir = test::TempDir("fault_recon");
+  const std::string config = test::WriteLoopbackConfig(dir);
+  setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  const std::vector<std::pair<std::string, std::string>> env = {{"CYCLONEDDS_URI", "file://" + config}};
+  int n = 0;
+  auto start = [&](const std::string& exe, std::vector<std::string> args) {
+    args.insert(args.begin(), test::BinDir() + "/" + exe);
+    args.insert(args.end(), {"--domain", std::to_string(domain)});
+    return std::make_unique<test::Process>(args, (dir / (exe + std::to_string(++n) + ".log")).string(), env);
+  };
+  auto render = start("render_node", {"--out", (dir / "out").string(), "--tiles", "2", "--idle-timeout", "30",
+                                      "--window", "off"});
+  auto recon0 = start("recon_node", {"--tile", "0/2"});
+  auto recon1 = start("recon_node", {"--tile", "1/2"});
+  auto sim = start("sim_node", {});
+  auto capture = start("capture_node", {"--synthetic", "--frames", "100000", "--fps", "12", "--wait-readers", "4",
+                                        "--wait-timeout", "30"});
+  dds::Participant p(domain);
+  dds::Reader<hullpipe_msg_HullView> tiles(p);
+  dds::Reader<hullpipe_msg_NodeStats> stats(p);
+  uint64_t composited = 0;
+  std::set<std::pair<uint32_t, uint32_t>> seen;  // (node_id, tile_index) since the last clear
+  auto watch = [&](double seconds) {
+    const double end = MonotonicSeconds() + seconds;
+    while (MonotonicSeconds() < end) {
+      tiles.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) { seen.insert({m.node_id, m.tile_index}); });
+      stats.TakeEach([&](const hullpipe_msg_NodeStats& m, const dds_sample_info_t&) {
+        if (m.node_name && std::string(m.node_name) == "render") composited = m.frames_out;
+      });
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  };
+  watch(8);  // start-up and steady state
+  ASSERT_GT(composited, 5u) << test::ReadFile((dir / "render_node1.log").string());
+  EXPECT_TRUE(seen.count({0, 0}) && seen.count({1, 1}));
+  recon1.reset();  // SIGKILL
+  watch(2);        // fail-over: noticed within ~1.2 s
+  const uint64_t before = composited;
+  seen.clear();
+  watch(4);
+  EXPECT_GE(composited, before + 8) << "compositing stalled without recon1";
+  EXPECT_TRUE(seen.count({0, 1})) << "recon0 did not take tile 1";
+  recon1 = start("recon_node", {"--tile", "1/2"});
+  watch(6);  // back: heard again, tile 1 from recon1
+  seen.clear();
+  watch(3);
+  EXPECT_TRUE(seen.count({1, 1})) << "recon1 did not resume its tile";
+  EXPECT_FALSE(seen.count({0, 1})) << "recon0 still renders tile 1";
+  EXPECT_EQ(capture->Stop(), 0);
+  EXPECT_EQ(render->Stop(), 0);
+  const std::string render_log = test::ReadFile((dir / "render_node1.log").string());
+  EXPECT_NE(render_log.find("recon1 silent"), std::string::npos) << render_log;
+  EXPECT_NE(render_log.find("recon1 is back"), std::string::npos) << render_log;
+  EXPECT_EQ(recon0->Stop(), 0);
+  EXPECT_EQ(recon1->Stop(), 0);
+  EXPECT_EQ(sim->Stop(), 0);
 }
 
 TEST(EndToEnd, ReprojectionIoUAtFrame200) {
