@@ -141,6 +141,7 @@ int main(int argc, char** argv) {
     std::map<std::string, double> recon_heard;     // recon node -> when its NodeStats last came
     std::map<std::string, bool> recon_silent;
     std::map<std::string, int> recon_outages;
+    uint64_t seen_restarts = 0;
     uint64_t pose_seq = 0, last_requested = 0, last_composited = 0, rejected = 0, tiles_late = 0;
     uint64_t collisions_drawn = 0, collision_reports = 0, meshes_drawn = 0, lit_frames = 0;
     double hull_fraction_sum = 0;  // fraction of view pixels showing hull, summed over frames
@@ -223,6 +224,12 @@ int main(int argc, char** argv) {
       });
       take_stats();
 
+      // A restarted capture numbers its frames from 1 again.
+      if (assembler.restarts() != seen_restarts) {
+        seen_restarts = assembler.restarts();
+        last_requested = 0;
+        spdlog::info("capture restarted: following its new frame numbers");
+      }
       // Issue new poses for new complete framesets.
       while (int(in_flight.size()) < max_in_flight) {
         const auto newest = assembler.NewestComplete();

@@ -100,7 +100,8 @@ TEST(EndToEnd, CurtainOnTheRealRig) {
 // Faults (issue 7): kill one recon node mid-run with SIGKILL. render_node
 // notices within a second, the other recon node renders the orphaned tile too,
 // so compositing goes on; when the killed node is restarted the split resumes.
-TEST(Faults, AKilledReconNodeIsCoveredAndTheSplitResumes) {
+// Then capture_node is killed and restarted: the others resynchronise.
+TEST(Faults, AKilledReconIsCoveredAndARestartedCaptureIsFollowed) {
   const auto dir = test::TempDir("fault_recon");
   const std::string config = test::WriteLoopbackConfig(dir);
   setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
@@ -150,6 +151,16 @@ TEST(Faults, AKilledReconNodeIsCoveredAndTheSplitResumes) {
   watch(3);
   EXPECT_TRUE(seen.count({1, 1})) << "recon1 did not resume its tile";
   EXPECT_FALSE(seen.count({0, 1})) << "recon0 still renders tile 1";
+  // capture_node crashes and is restarted: its frame numbers start over at 1,
+  // and the others follow the new run.
+  capture.reset();  // SIGKILL
+  watch(1);
+  capture = start("capture_node", {"--synthetic", "--frames", "100000", "--fps", "12", "--wait-readers", "4",
+                                   "--wait-timeout", "30"});
+  watch(4);
+  const uint64_t after_restart = composited;
+  watch(4);
+  EXPECT_GE(composited, after_restart + 8) << "no compositing after capture_node restarted";
   EXPECT_EQ(capture->Stop(), 0);
   EXPECT_EQ(render->Stop(), 0);
   const std::string render_log = test::ReadFile((dir / "render_node1.log").string());

@@ -32,6 +32,19 @@ TEST_F(Assembler, CompletesWhenAllCamerasArrived) {
   EXPECT_EQ(a.dropped(), 1u);
 }
 
+TEST_F(Assembler, ARestartedCaptureIsTakenNotDropped) {
+  FramesetAssembler a(4);
+  for (const auto& c : cams_) a.SetCamera(c);
+  for (int c = 1; c <= 3; ++c) a.AddMap(c, 500, 100, 3, Map());
+  ASSERT_TRUE(a.Take(500));
+  EXPECT_FALSE(a.AddMap(1, 490, 90, 3, Map()));  // merely late: dropped
+  EXPECT_EQ(a.restarts(), 0u);
+  for (int c = 1; c <= 3; ++c) EXPECT_TRUE(a.AddMap(c, 1, 200, 3, Map()));  // frame numbers start over
+  EXPECT_EQ(a.restarts(), 1u);
+  EXPECT_TRUE(a.IsComplete(1));
+  EXPECT_TRUE(a.TakeNewest());
+}
+
 TEST_F(Assembler, LatestWinsWithBoundedMemory) {
   FramesetAssembler a(2);
   for (const auto& c : cams_) a.SetCamera(c);

@@ -61,6 +61,14 @@ FramesetAssembler::Pending* FramesetAssembler::Slot(uint64_t seq, int64_t t, int
   return &it->second;
 }
 
+void FramesetAssembler::CheckRestart(uint64_t seq) {
+  if (taken_up_to_ > kRestartGap && seq + kRestartGap < taken_up_to_) {
+    pending_.clear();
+    taken_up_to_ = 0;
+    ++restarts_;
+  }
+}
+
 bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camera_count, cv::Mat map,
                                std::string* why, double source_time_s) {
   const auto cam = cameras_.find(camera_id);
@@ -73,6 +81,7 @@ bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camer
   if (camera_count < 1 || camera_count > 64)
     return Reject(why, "map of camera " + std::to_string(camera_id) + " states " +
                            std::to_string(camera_count) + " cameras");
+  CheckRestart(seq);
   if (IsGone(seq)) {
     ++dropped_;
     if (why) *why = "frame " + std::to_string(seq) + " arrived after a newer frame was used";
@@ -89,6 +98,7 @@ bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camer
 bool FramesetAssembler::AddImage(int camera_id, uint64_t seq, int64_t t, cv::Mat image, std::string* why) {
   if (image.empty() || image.type() != CV_8UC3)
     return Reject(why, "image of camera " + std::to_string(camera_id) + " is not BGR8");
+  CheckRestart(seq);
   if (IsGone(seq)) {
     ++dropped_;
     return false;

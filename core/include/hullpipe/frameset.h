@@ -70,6 +70,13 @@ class FramesetAssembler {
   /// True if frame seq can no longer arrive (older than what was taken or evicted).
   bool IsGone(uint64_t seq) const { return seq <= taken_up_to_; }
 
+  /// A map or image more than kRestartGap frames older than the newest taken
+  /// frameset means its capture source restarted (frame numbers start over): the
+  /// assembler forgets what it had and takes the new run (counted in restarts()).
+  /// A frame that is merely late is never that far behind (history depth 4).
+  static constexpr uint64_t kRestartGap = 64;
+  uint64_t restarts() const { return restarts_; }
+
   uint64_t dropped() const { return dropped_; }
   uint64_t rejected() const { return rejected_; }
 
@@ -91,7 +98,8 @@ class FramesetAssembler {
   Aabb workspace_;
   std::map<uint64_t, Pending> pending_;
   uint64_t taken_up_to_ = 0;
-  uint64_t dropped_ = 0, rejected_ = 0;
+  uint64_t dropped_ = 0, rejected_ = 0, restarts_ = 0;
+  void CheckRestart(uint64_t seq);
   std::map<int, uint64_t> evicted_uncalibrated_;  ///< Per camera id, maps evicted before its CameraInfo.
 };
 
