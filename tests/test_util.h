@@ -41,15 +41,24 @@ inline uint32_t UniqueDomain() {
 }
 
 /// Writes a Cyclone config that keeps all traffic on loopback; returns its path.
-inline std::string WriteLoopbackConfig(const std::filesystem::path& dir) {
-  const auto path = dir / "cyclonedds.xml";
+/// loss_per_mille > 0 makes every participant drop that fraction of its outgoing
+/// data packets (Cyclone's Internal/Test/XmitLossiness), for packet-loss tests
+/// where the kernel has no netem. Lost fragments are repaired quickly, as in the
+/// launcher's own config (heartbeats every 10 ms, NACKs after 2 ms).
+inline std::string WriteLoopbackConfig(const std::filesystem::path& dir, int loss_per_mille = 0) {
+  const auto path = dir / (loss_per_mille ? "cyclonedds-lossy.xml" : "cyclonedds.xml");
   std::ofstream(path) << R"(<?xml version="1.0" encoding="UTF-8"?>
 <CycloneDDS xmlns="https://cdds.io/config"><Domain id="any">
 <General><Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast>
 <MaxMessageSize>65500B</MaxMessageSize></General>
 <Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>
-<Peers><Peer address="127.0.0.1"/></Peers></Discovery></Domain></CycloneDDS>
-)";
+<Peers><Peer address="127.0.0.1"/></Peers></Discovery>
+<Internal><HeartbeatInterval min="2ms" minsched="5ms">10ms</HeartbeatInterval><NackDelay>2ms</NackDelay>
+<AutoReschedNackDelay>20ms</AutoReschedNackDelay>)"
+                      << (loss_per_mille ? "<Test><XmitLossiness>" + std::to_string(loss_per_mille) +
+                                               "</XmitLossiness></Test>"
+                                         : std::string())
+                      << "</Internal></Domain></CycloneDDS>\n";
   return path.string();
 }
 
