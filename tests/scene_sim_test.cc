@@ -23,15 +23,7 @@ namespace hullpipe {
 namespace {
 
 Camera LookAtCamera(int id, const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int w, int h, double hfov) {
-  Camera c;
-  c.id = id;
-  c.width = w;
-  c.height = h;
-  c.fx = c.fy = 0.5 * w / std::tan(0.5 * hfov);
-  c.cx = 0.5 * w;
-  c.cy = 0.5 * h;
-  c.cam_from_world = LookAt(eye, target, Eigen::Vector3d(0, 0, -1)).Inverse();
-  return c;
+  return LookingCamera(id, eye, target, Eigen::Vector3d(0, 0, -1), w, h, hfov);
 }
 
 VolumeQuery HullOf(const SyntheticScene& scene, const std::vector<Camera>& cams) {

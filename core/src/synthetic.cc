@@ -314,8 +314,6 @@ SyntheticScene NamedScene(const std::string& name, double t) {
   return s;
 }
 
-namespace {
-// A camera at `eye` looking at `target`, principal point at the image centre.
 Camera LookingCamera(int id, const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up,
                      int width, int height_px, double hfov, const Distortion& distortion) {
   Camera c;
@@ -329,7 +327,6 @@ Camera LookingCamera(int id, const Eigen::Vector3d& eye, const Eigen::Vector3d& 
   c.cam_from_world = LookAt(eye, target, up).Inverse();
   return c;
 }
-}  // namespace
 
 std::vector<Camera> DomeCameras(int n, double radius, const Eigen::Vector3d& target, int width, int height_px,
                                 double hfov, const Distortion& distortion) {

@@ -93,6 +93,11 @@ SyntheticScene HandAndForearm(double t_seconds, const Eigen::Vector3d& wrist = E
 /// Throws std::invalid_argument for another name.
 SyntheticScene NamedScene(const std::string& name, double t_seconds);
 
+/// A pinhole camera (id, w x h pixels, horizontal field of view hfov radians,
+/// principal point at the image centre) at `eye` looking at `target` (world
+/// metres), image up as close as possible to `up`.
+Camera LookingCamera(int id, const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up,
+                     int width, int height_px, double hfov, const Distortion& distortion = {});
 /// n cameras spread over a dome (a hemisphere above `target`, elevations 15-70
 /// degrees, golden-angle azimuths) of `radius`, all looking at target. Ids 1..n.
 std::vector<Camera> DomeCameras(int n, double radius, const Eigen::Vector3d& target, int width, int height_px,
