@@ -91,6 +91,7 @@ for n in "${NAMES[@]}"; do
       <ParticipantIndex>auto</ParticipantIndex>
       <MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>
       <Peers><Peer address="127.0.0.1"/></Peers>
+      <SPDPInterval>1s</SPDPInterval>
     </Discovery>
     <Security>
       <Authentication>

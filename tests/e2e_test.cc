@@ -172,14 +172,16 @@ TEST(Faults, AKilledReconIsCoveredAndARestartedCaptureIsFollowed) {
 }
 
 // A link that drops 5% of the packets (Cyclone's transmit-loss test setting;
-// these kernels have no netem): the pipeline keeps its frame rate. Maps, images
+// these kernels have no netem): the pipeline keeps its frame rate. (A lost
+// participant announcement once left one recon node undiscovered by render for
+// the whole run: the configs now announce every second, not every 30 s.) Maps, images
 // and tiles are reliable (lost fragments are resent), frames superseded while
 // waiting are dropped latest-wins and counted.
 TEST(Faults, FivePercentPacketLossKeepsTheFrameRate) {
   auto run = [](int loss) {
     const auto out = test::TempDir(loss ? "lossy" : "lossless");
     const std::string config = test::WriteLoopbackConfig(out, loss);
-    test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "60", "--out",
+    test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "100", "--out",
                           (out / "run").string(), "--dds-config", config, "--domain",
                           std::to_string(test::UniqueDomain())},
                          (out / "launch.log").string());
@@ -196,7 +198,7 @@ TEST(Faults, FivePercentPacketLossKeepsTheFrameRate) {
   // Retransmissions cost time on a loaded 2-core machine; 70% of the lossless
   // rate is the bar (runs vary +-30% here, see docs/benchmarks.md).
   EXPECT_GT(fps_lossy, 0.7 * fps_clean);
-  EXPECT_GE(lossy["frames_composited"].get<int>(), 20);
+  EXPECT_GE(lossy["frames_composited"].get<int>(), 50);
   for (const char* node : {"capture", "recon0", "recon1", "sim", "render"})
     EXPECT_EQ(lossy["nodes"][node]["rejected"].get<int>(), 0) << node;
 }

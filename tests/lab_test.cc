@@ -63,7 +63,7 @@ struct Lab {
 <MaxMessageSize>65500B</MaxMessageSize></General>
 <Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60</MaxAutoParticipantIndex><Peers>)";
     for (const auto& a : addr) f << "<Peer address=\"" << a << "\"/>";
-    f << R"(</Peers></Discovery>
+    f << R"(</Peers><SPDPInterval>1s</SPDPInterval></Discovery>
 <Internal><HeartbeatInterval min="2ms" minsched="5ms">10ms</HeartbeatInterval><NackDelay>2ms</NackDelay></Internal>
 </Domain></CycloneDDS>
 )";

@@ -52,7 +52,7 @@ inline std::string WriteLoopbackConfig(const std::filesystem::path& dir, int los
 <General><Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast>
 <MaxMessageSize>65500B</MaxMessageSize></General>
 <Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>
-<Peers><Peer address="127.0.0.1"/></Peers></Discovery>
+<Peers><Peer address="127.0.0.1"/></Peers><SPDPInterval>1s</SPDPInterval></Discovery>
 <Internal><HeartbeatInterval min="2ms" minsched="5ms">10ms</HeartbeatInterval><NackDelay>2ms</NackDelay>
 <AutoReschedNackDelay>20ms</AutoReschedNackDelay>)"
                       << (loss_per_mille ? "<Test><XmitLossiness>" + std::to_string(loss_per_mille) +
