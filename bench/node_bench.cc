@@ -1,6 +1,7 @@
 // node_bench: one node alone, fed as fast as it takes its input (issue 7).
 //   node_bench --node sim   --recording run.hprec [--frames 200]
 //   node_bench --node recon --recording run.hprec
+//   node_bench --node render --recording run.hprec   (needs hull_view in it)
 //   node_bench --node capture --rig ../shared/data/utrecht-4cam
 // sim and recon run closed-loop on a replayed recording (hullpipe_record): the
 // bench publishes frameset f byte for byte (plus, for recon, the recorded
@@ -204,6 +205,98 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
   return r;
 }
 
+// render: the bench plays capture (recorded maps) and the recon nodes (the
+// recorded tiles of the frameset, relabelled with render's new pose_seq). With
+// --max-in-flight 1 render asks for frameset f+1 only once f is composited, so
+// the loop is: maps of f -> ViewPose(f) -> tiles of f, maps of f+1 ->
+// ViewPose(f+1) = f composited. Latency: tiles of f written -> ViewPose(f+1).
+Result BenchRender(const Participant& p, pid_t pid, const std::string& recording, int max_frames) {
+  Result r;
+  r.node = "render";
+  const std::vector<std::string> names = {"hullpipe/camera_info", "hullpipe/object_pixel_map", "hullpipe/hull_view",
+                                          "hullpipe/object_state"};
+  auto rec = Load(recording, names);
+  for (const char* n : {"hullpipe/camera_info", "hullpipe/object_pixel_map", "hullpipe/hull_view"})
+    if (rec[n].samples.empty()) throw std::runtime_error(recording + ": no " + std::string(n) + " samples");
+  auto writer_for = [&](const std::string& topic_name) {
+    const Recorded& r0 = rec.at(topic_name);
+    const KnownType* kt = FindKnownType(r0.topic.type);
+    if (!kt) throw std::runtime_error("unknown type " + r0.topic.type);
+    return std::make_unique<CdrWriter>(p, *kt, QosSpec{r0.topic.reliable, r0.topic.transient_local, r0.topic.depth});
+  };
+  auto info_w = writer_for("hullpipe/camera_info");
+  auto map_w = writer_for("hullpipe/object_pixel_map");
+  auto tile_decoder = writer_for("hullpipe/hull_view");
+  std::unique_ptr<CdrWriter> state_w;
+  if (!rec["hullpipe/object_state"].samples.empty()) state_w = writer_for("hullpipe/object_state");
+  Writer<hullpipe_msg_HullView> tiles(p);
+  Reader<hullpipe_msg_ViewPose> poses(p);
+  std::map<uint64_t, std::vector<const Sample*>> maps, states;
+  std::map<uint64_t, std::map<uint32_t, const Sample*>> frame_tiles;  // frame -> tile index -> sample
+  for (const auto& s : rec["hullpipe/object_pixel_map"].samples) maps[FrameOf<hullpipe_msg_ObjectPixelMap>(*map_w, s)].push_back(&s);
+  if (state_w)
+    for (const auto& s : rec["hullpipe/object_state"].samples) states[FrameOf<hullpipe_msg_VirtualObjectState>(*state_w, s)].push_back(&s);
+  for (const auto& s : rec["hullpipe/hull_view"].samples) {
+    hullpipe_msg_HullView m{};
+    if (!tile_decoder->Decode(s.data, &m)) continue;
+    frame_tiles[m.frame_seq][m.tile_index] = &s;
+    dds_sample_free(&m, TopicTraits<hullpipe_msg_HullView>::Descriptor(), DDS_FREE_CONTENTS);
+  }
+  std::vector<uint64_t> frames;
+  for (const auto& [f, t] : frame_tiles)
+    if (t.size() == 2 && maps.count(f)) frames.push_back(f);
+  const double until = MonotonicSeconds() + 20;
+  while ((map_w->MatchedReaders() == 0 || tiles.MatchedReaders() == 0) && MonotonicSeconds() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  if (map_w->MatchedReaders() == 0) throw std::runtime_error("render_node did not appear on the domain");
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  for (const auto& s : rec["hullpipe/camera_info"].samples) info_w->Write(s.data);
+  auto wait_pose = [&](uint64_t f, hullpipe_msg_ViewPose* out) {
+    const double t0 = MonotonicSeconds();
+    bool got = false;
+    while (!got && MonotonicSeconds() - t0 < 3.0) {
+      poses.TakeEach([&](const hullpipe_msg_ViewPose& m, const dds_sample_info_t&) {
+        if (m.frame_seq == f) got = true, *out = m;
+      });
+      if (!got) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    return got;
+  };
+  auto send_maps = [&](uint64_t f) {
+    for (const Sample* s : states[f]) state_w->Write(s->data);
+    for (const Sample* s : maps[f]) map_w->Write(s->data);
+  };
+  const double cpu0 = CpuSeconds(pid), t0 = MonotonicSeconds();
+  if (frames.empty()) throw std::runtime_error(recording + ": no frameset with both tiles and maps");
+  send_maps(frames[0]);
+  hullpipe_msg_ViewPose pose{};
+  bool have = wait_pose(frames[0], &pose);
+  for (size_t k = 0; k < frames.size() && have; ++k) {
+    if (max_frames > 0 && r.frames >= max_frames) break;
+    for (const auto& [idx, s] : frame_tiles[frames[k]]) {
+      hullpipe_msg_HullView m{};
+      tile_decoder->Decode(s->data, &m);
+      m.pose_seq = pose.pose_seq;
+      tiles.Write(m);
+      dds_sample_free(&m, TopicTraits<hullpipe_msg_HullView>::Descriptor(), DDS_FREE_CONTENTS);
+    }
+    const double sent = MonotonicSeconds();
+    if (k + 1 == frames.size()) break;
+    send_maps(frames[k + 1]);
+    have = wait_pose(frames[k + 1], &pose);
+    if (have) {
+      r.latency_ms.push_back((MonotonicSeconds() - sent) * 1e3);
+      ++r.frames;
+    } else {
+      ++r.timeouts;
+    }
+  }
+  r.seconds = MonotonicSeconds() - t0;
+  r.cpu_s = CpuSeconds(pid) - cpu0;
+  r.rss_mib = PeakRssMiB(pid);
+  return r;
+}
+
 Result BenchCapture(const Participant& p, pid_t pid, int max_frames) {
   Result r;
   r.node = "capture";
@@ -237,7 +330,7 @@ int main(int argc, char** argv) {
   std::string node, recording, rig, bin_dir = fs::path(argv[0]).parent_path().string(), scene;
   int frames = 0;
   bool json = false;
-  app.add_option("--node", node, "capture | recon | sim")->required()->check(CLI::IsMember({"capture", "recon", "sim"}));
+  app.add_option("--node", node, "capture | recon | sim | render")->required()->check(CLI::IsMember({"capture", "recon", "sim", "render"}));
   app.add_option("--recording", recording, "Recording to feed recon or sim (hullpipe_record)");
   app.add_option("--rig", rig, "Rig directory for capture");
   app.add_option("--frames", frames, "Stop after this many framesets (0: all)");
@@ -259,6 +352,9 @@ int main(int argc, char** argv) {
     const uint32_t domain = 150 + uint32_t(getpid() % 80);
     std::vector<std::string> args = {bin_dir + "/" + node + "_node", "--domain", std::to_string(domain)};
     if (node == "recon") args.insert(args.end(), {"--tile", "0/1"});
+    if (node == "render")
+      args.insert(args.end(), {"--out", (dir / "out").string(), "--tiles", "2", "--max-in-flight", "1", "--window", "off",
+                               "--idle-timeout", "30", "--tile-timeout", "5"});
     if (node == "sim" && !scene.empty()) args.insert(args.end(), {"--scene", fs::absolute(scene).string()});
     if (node == "capture") {
       if (rig.empty()) throw std::runtime_error("--node capture needs --rig DIR");
@@ -270,7 +366,9 @@ int main(int argc, char** argv) {
     const std::string log = (dir / (node + ".log")).string();
     Participant p(domain);
     const pid_t pid = Spawn(args, log);
-    Result r = node == "capture" ? BenchCapture(p, pid, frames) : BenchReplayed(node, p, pid, recording, frames);
+    Result r = node == "capture" ? BenchCapture(p, pid, frames)
+               : node == "render" ? BenchRender(p, pid, recording, frames)
+                                  : BenchReplayed(node, p, pid, recording, frames);
     kill(pid, SIGINT);
     waitpid(pid, nullptr, 0);
     const double fps = r.seconds > 0 ? r.frames / r.seconds : 0;

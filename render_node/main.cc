@@ -179,8 +179,11 @@ int main(int argc, char** argv) {
       });
     };
 
+    bool composited_last_round = false;
     while (!StopRequested() && !done) {
-      ws.Wait(0.05);
+      // Right after compositing, loop at once: a new pose may be issued now.
+      if (!composited_last_round) ws.Wait(0.05);
+      composited_last_round = false;
       input.Poll();
       tile_reader.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) {
         try {
@@ -343,6 +346,7 @@ int main(int argc, char** argv) {
           }
         }
         reporter.FrameOut(f.capture_time_ns);
+        composited_last_round = true;
         last_composited = std::max(last_composited, f.frame_seq);
         // Older poses still waiting are superseded by this one.
         for (auto older = in_flight.begin(); older != it;) {

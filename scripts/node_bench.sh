@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Per-node benchmark (issue 7): records the real rig's demo traffic once
-# (hullpipe_record: calibration, maps, images, view poses), then runs each node
+# (hullpipe_record: calibration, maps, images, view poses, tiles, object states), then runs each node
 # alone with bench/node_bench, fed as fast as it takes input, and prints the
 # table of docs/benchmarks.md. Usage: scripts/node_bench.sh [BUILD_DIR]
 set -euo pipefail
@@ -15,6 +15,7 @@ DOMAIN=$((200 + $$ % 30))
 export CYCLONEDDS_URI="file://$PWD/$OUT/probe/cyclonedds.xml"
 "$BUILD/bin/hullpipe_record" --domain "$DOMAIN" -o "$OUT/rig.hprec" --include 'hullpipe/camera_info' \
   --include 'hullpipe/object_pixel_map' --include 'hullpipe/camera_image' --include 'hullpipe/view_pose' \
+  --include 'hullpipe/hull_view' --include 'hullpipe/object_state' \
   > "$OUT/record.log" 2>&1 &
 REC=$!
 sleep 1
@@ -28,6 +29,7 @@ echo "| node     | frames |      fps |  p50 ms  |  p95 ms  |  p99 ms  |  CPU % |
 echo "|----------|--------|----------|----------|----------|----------|--------|----------|----------|"
 "$BUILD/bin/node_bench" --node capture --rig "$RIG"
 "$BUILD/bin/node_bench" --node recon --recording "$OUT/rig.hprec"
+"$BUILD/bin/node_bench" --node render --recording "$OUT/rig.hprec"
 "$BUILD/bin/node_bench" --node sim --recording "$OUT/rig.hprec"
 "$BUILD/bin/node_bench" --node sim --recording "$OUT/rig.hprec" --scene scenes/particles.yaml
 "$BUILD/bin/node_bench" --node sim --recording "$OUT/rig.hprec" --scene scenes/curtain.yaml
