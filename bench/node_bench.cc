@@ -90,6 +90,21 @@ struct Result {
   int frames = 0, timeouts = 0;
   double seconds = 0, cpu_s = 0, rss_mib = 0;
   std::vector<double> latency_ms;
+  /// One frameset's outcome: its output came `since` (monotonic s) ago, or not.
+  void Count(bool got, double since) {
+    if (got) {
+      latency_ms.push_back((MonotonicSeconds() - since) * 1e3);
+      ++frames;
+    } else {
+      ++timeouts;
+    }
+  }
+  /// The run's wall time, the node's CPU time since cpu0 and its peak memory.
+  void Finish(pid_t pid, double t0, double cpu0) {
+    seconds = MonotonicSeconds() - t0;
+    cpu_s = CpuSeconds(pid) - cpu0;
+    rss_mib = PeakRssMiB(pid);
+  }
 };
 
 // Recorded samples of a topic, by name.
@@ -118,9 +133,11 @@ std::map<std::string, Recorded> Load(const std::string& path, const std::vector<
   return out;
 }
 
-template <typename T>
-QosSpec QosOf(const Recorded& r) {
-  return r.topic.id ? QosSpec{r.topic.reliable, r.topic.transient_local, r.topic.depth} : TopicTraits<T>::kQos;
+// A serialized writer for a recorded topic, with its recorded QoS.
+std::unique_ptr<CdrWriter> WriterFor(const Participant& p, const Recorded& r0) {
+  const KnownType* kt = FindKnownType(r0.topic.type);
+  if (!kt) throw std::runtime_error("unknown type " + r0.topic.type);
+  return std::make_unique<CdrWriter>(p, *kt, QosSpec{r0.topic.reliable, r0.topic.transient_local, r0.topic.depth});
 }
 
 // The frame_seq of each recorded sample of type T (decoded with the writer's type).
@@ -143,12 +160,7 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
   auto rec = Load(recording, names);
   for (const auto& n : names)
     if (rec[n].samples.empty()) throw std::runtime_error(recording + ": no " + n + " samples");
-  auto writer_for = [&](const std::string& topic_name) {
-    const Recorded& r0 = rec.at(topic_name);
-    const KnownType* kt = FindKnownType(r0.topic.type);
-    if (!kt) throw std::runtime_error("unknown type " + r0.topic.type);
-    return std::make_unique<CdrWriter>(p, *kt, QosSpec{r0.topic.reliable, r0.topic.transient_local, r0.topic.depth});
-  };
+  auto writer_for = [&](const std::string& topic_name) { return WriterFor(p, rec.at(topic_name)); };
   auto info_w = writer_for("hullpipe/camera_info");
   auto map_w = writer_for("hullpipe/object_pixel_map");
   std::unique_ptr<CdrWriter> img_w, pose_w;
@@ -192,16 +204,9 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
       }
       if (!got) std::this_thread::sleep_for(std::chrono::microseconds(200));
     }
-    if (got) {
-      r.latency_ms.push_back((MonotonicSeconds() - sent) * 1e3);
-      ++r.frames;
-    } else {
-      ++r.timeouts;
-    }
+    r.Count(got, sent);
   }
-  r.seconds = MonotonicSeconds() - t0;
-  r.cpu_s = CpuSeconds(pid) - cpu0;
-  r.rss_mib = PeakRssMiB(pid);
+  r.Finish(pid, t0, cpu0);
   return r;
 }
 
@@ -218,12 +223,7 @@ Result BenchRender(const Participant& p, pid_t pid, const std::string& recording
   auto rec = Load(recording, names);
   for (const char* n : {"hullpipe/camera_info", "hullpipe/object_pixel_map", "hullpipe/hull_view"})
     if (rec[n].samples.empty()) throw std::runtime_error(recording + ": no " + std::string(n) + " samples");
-  auto writer_for = [&](const std::string& topic_name) {
-    const Recorded& r0 = rec.at(topic_name);
-    const KnownType* kt = FindKnownType(r0.topic.type);
-    if (!kt) throw std::runtime_error("unknown type " + r0.topic.type);
-    return std::make_unique<CdrWriter>(p, *kt, QosSpec{r0.topic.reliable, r0.topic.transient_local, r0.topic.depth});
-  };
+  auto writer_for = [&](const std::string& topic_name) { return WriterFor(p, rec.at(topic_name)); };
   auto info_w = writer_for("hullpipe/camera_info");
   auto map_w = writer_for("hullpipe/object_pixel_map");
   auto tile_decoder = writer_for("hullpipe/hull_view");
@@ -284,16 +284,9 @@ Result BenchRender(const Participant& p, pid_t pid, const std::string& recording
     if (k + 1 == frames.size()) break;
     send_maps(frames[k + 1]);
     have = wait_pose(frames[k + 1], &pose);
-    if (have) {
-      r.latency_ms.push_back((MonotonicSeconds() - sent) * 1e3);
-      ++r.frames;
-    } else {
-      ++r.timeouts;
-    }
+    r.Count(have, sent);
   }
-  r.seconds = MonotonicSeconds() - t0;
-  r.cpu_s = CpuSeconds(pid) - cpu0;
-  r.rss_mib = PeakRssMiB(pid);
+  r.Finish(pid, t0, cpu0);
   return r;
 }
 
