@@ -54,6 +54,31 @@ TEST(HullSurface, FirstHullPointIsWhereStepsFirstEnterTheHull) {
   EXPECT_FALSE(FirstHullPointAlong(q, kCentre + Eigen::Vector3d(5, 0, 0), {1, 0, 0}, 3.0).has_value());
 }
 
+TEST(HullSurface, SampledCrossingsAgreeWithTheExactIntervals) {
+  const VolumeQuery q(test::SphereViews(4, 320, 240, kCentre, kRadius), test::BigBox());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int k = 0; k < 30; ++k) {
+    const Eigen::Vector3d o = kCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * 1.0;
+    const Eigen::Vector3d d = kCentre - o;  // not unit: s in its units
+    const auto exact = FirstHullPointAlong(q, o, d, 1.0);
+    const auto in = FirstSampledCrossing(q, o, d, 0.0, 1.0, /*inside=*/true, 0.002, 1e-5);
+    ASSERT_EQ(exact.has_value(), in.has_value());
+    if (!exact) continue;
+    // The entry: within the bisection tolerance (the hull is thicker than a step).
+    EXPECT_LT((o + *in * d - *exact).norm(), 1e-5 + 1e-9);
+    EXPECT_TRUE(q.Inside(o + *in * d));
+    // And leaving from the centre along the reverse direction reaches the same
+    // surface point (a sphere's hull is convex).
+    const auto out = FirstSampledCrossing(q, kCentre, -d, 0.0, 1.0, /*inside=*/false, 0.002, 1e-5);
+    ASSERT_TRUE(out.has_value());
+    EXPECT_FALSE(q.Inside(kCentre - *out * d));
+  }
+  // Already of the wanted kind at s_begin; never of it.
+  EXPECT_EQ(FirstSampledCrossing(q, kCentre, {1, 0, 0}, 0.0, 1.0, true, 0.002, 1e-5).value(), 0.0);
+  EXPECT_FALSE(FirstSampledCrossing(q, kCentre + Eigen::Vector3d(5, 0, 0), {1, 0, 0}, 0.0, 1.0, true, 0.002, 1e-5));
+}
+
 TEST(HullSurface, NormalFromTheSilhouetteEdgeMatchesTheAnalyticCone) {
   // 640x480 cameras 3 m away: the sphere's silhouette is ~90 px across. The
   // normal comes from a line fitted to the border pixels within 3 px, so its

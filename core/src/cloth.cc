@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "hullpipe/collision.h"
+#include "hullpipe/hull_surface.h"
 
 namespace hullpipe {
 
@@ -24,24 +25,13 @@ void ClothConfig::Check() const {
 
 bool PushOutAlong(const VolumeQuery& hull, const Eigen::Vector3d& dir, double clearance, double max_search,
                   Eigen::Vector3d* p) {
-  // March out along dir in 2 mm steps to the first outside point, bisect the
-  // exit to 0.05 mm, then step `clearance` beyond it (if that is outside too).
-  constexpr double kStep = 0.002;
-  double inside_s = 0;
-  for (double s = kStep;; s = std::min(s + kStep, max_search)) {
-    if (!hull.Inside(*p + s * dir)) {
-      double lo = inside_s, hi = s;
-      while (hi - lo > 5e-5) {
-        const double mid = 0.5 * (lo + hi);
-        (hull.Inside(*p + mid * dir) ? lo : hi) = mid;
-      }
-      const Eigen::Vector3d out = *p + (hi + clearance) * dir;
-      *p = hull.Inside(out) ? Eigen::Vector3d(*p + hi * dir) : out;
-      return true;
-    }
-    inside_s = s;
-    if (s >= max_search) return false;
-  }
+  // The exit: 2 mm samples, bisected to 0.05 mm; then `clearance` beyond it if
+  // that is outside too.
+  const auto exit = FirstSampledCrossing(hull, *p, dir, 0.0, max_search, /*inside=*/false, 0.002, 5e-5);
+  if (!exit) return false;
+  const Eigen::Vector3d out = *p + (*exit + clearance) * dir;
+  *p = hull.Inside(out) ? Eigen::Vector3d(*p + *exit * dir) : out;
+  return true;
 }
 
 ClothSimulation::ClothSimulation(const ClothConfig& config, const Eigen::Vector3d& gravity)

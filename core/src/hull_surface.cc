@@ -20,6 +20,31 @@ std::optional<Eigen::Vector3d> FirstHullPointAlong(const VolumeQuery& query, con
   return Eigen::Vector3d(origin + iv.front().first * dir);
 }
 
+std::optional<double> FirstSampledCrossing(const VolumeQuery& query, const Eigen::Vector3d& origin,
+                                           const Eigen::Vector3d& dir, double s_begin, double s_end, bool inside,
+                                           double step, double tolerance) {
+  const double len = dir.norm();
+  if (!(len > 0) || !(s_end >= s_begin) || !(step > 0) || !(tolerance > 0)) return std::nullopt;
+  auto is = [&](double s) { return query.Inside(origin + s * dir) == inside; };
+  if (is(s_begin)) return s_begin;
+  const int n = std::max(1, int(std::ceil((s_end - s_begin) * len / step)));
+  double prev = s_begin;  // the last sample of the other kind
+  for (int k = 1; k <= n; ++k) {
+    const double sk = s_begin + (s_end - s_begin) * k / n;
+    if (!is(sk)) {
+      prev = sk;
+      continue;
+    }
+    double lo = prev, hi = sk;
+    while ((hi - lo) * len > tolerance) {
+      const double mid = 0.5 * (lo + hi);
+      (is(mid) ? hi : lo) = mid;
+    }
+    return hi;
+  }
+  return std::nullopt;
+}
+
 void HullNormalOptions::Check() const {
   if (!(border_px > 0)) throw std::invalid_argument("HullNormalOptions.border_px must be > 0");
   if (fit_radius_px < 1) throw std::invalid_argument("HullNormalOptions.fit_radius_px must be >= 1");

@@ -90,23 +90,8 @@ ParticleStepStats ParticleSystem::Step(double dt, const VolumeQuery* hull) {
         // inside sample to 0.1 mm.
         std::optional<Eigen::Vector3d> entry;
         if (d.squaredNorm() > 0 && box->ClipRay(x_[i], d, &s0, &s1) && s0 <= 1.0) {
-          const double len = d.norm();
-          const int n = std::max(1, int(std::ceil((s1 - s0) * len / config_.sample_spacing)));
-          double prev = s0;
-          for (int k = 0; k <= n; ++k) {
-            const double sk = s0 + (s1 - s0) * k / n;
-            if (!hull->Inside(x_[i] + sk * d)) {
-              prev = sk;
-              continue;
-            }
-            double lo = prev, hi = sk;
-            while ((hi - lo) * len > 1e-4) {
-              const double mid = 0.5 * (lo + hi);
-              (hull->Inside(x_[i] + mid * d) ? hi : lo) = mid;
-            }
-            entry = x_[i] + hi * d;
-            break;
-          }
+          const auto at = FirstSampledCrossing(*hull, x_[i], d, s0, s1, /*inside=*/true, config_.sample_spacing, 1e-4);
+          if (at) entry = x_[i] + *at * d;
         }
         if (entry) {
           ++stats.hits;

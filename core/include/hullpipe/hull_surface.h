@@ -26,6 +26,20 @@ namespace hullpipe {
 std::optional<Eigen::Vector3d> FirstHullPointAlong(const VolumeQuery& query, const Eigen::Vector3d& origin,
                                                    const Eigen::Vector3d& dir, double s_max);
 
+/// The first point along origin + s * dir (world metres; dir need not be unit,
+/// s in its units) for s in [s_begin, s_end] whose point query
+/// (VolumeQuery::Inside) is `inside`: origin + s_begin * dir first, then samples
+/// at most `step` metres apart, then bisection between the last sample of the
+/// other kind and the first of this kind until they are `tolerance` metres apart.
+/// Returns that s (on the `inside` side), or nullopt if no sample is of this
+/// kind. A stretch of this kind shorter than `step` may lie between samples and
+/// be missed. By point queries: cheaper than FirstHullPointAlong's exact
+/// intervals, above all with lens distortion. Used for entering the hull
+/// (particles) and leaving it (PushOutAlong).
+std::optional<double> FirstSampledCrossing(const VolumeQuery& query, const Eigen::Vector3d& origin,
+                                           const Eigen::Vector3d& dir, double s_begin, double s_end, bool inside,
+                                           double step, double tolerance);
+
 /// Settings of HullSurfaceNormal.
 struct HullNormalOptions {
   /// A camera forms the surface at X if X's projection is within this many pixels
