@@ -184,8 +184,15 @@ TEST(PayloadTask, SpacingSweepFindsTheKnownAnswerOfASyntheticMotion) {
   // + 6 = 11 cm from the PMT's face: the true pipe needs 11 cm.
   PayloadConfig cfg;
   double needed = 0;
-  const auto motion = ExamplePipeMotion(cfg, 0.06, 15, &needed);
+  auto motion = ExamplePipeMotion(cfg, 0.06, 15, &needed);
   ASSERT_NEAR(needed, 0.11, 1e-12);
+  // The motion goes through its CSV file format unchanged (9 significant digits).
+  const std::string csv = (test::TempDir("motion") / "pipe.csv").string();
+  SavePipeMotion(csv, motion);
+  const auto loaded = LoadPipeMotion(csv);
+  ASSERT_EQ(loaded.size(), motion.size());
+  for (size_t k = 0; k < motion.size(); ++k) EXPECT_TRUE(loaded[k].q.isApprox(motion[k].q, 1e-8)) << k;
+  motion = loaded;
   Eigen::Vector3d target = cfg.pmt_centre;
   target.y() += cfg.pmt_half.y() + 0.1;
   const auto cams = DomeCameras(8, 2.5, target, 320, 240, 0.9);

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
+
+#include "hullpipe/csv.h"
 
 namespace hullpipe {
 
@@ -35,39 +35,11 @@ Rigid3d PoseTrack::At(double t) const {
 }
 
 PoseTrack LoadPoseTrack(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open");
   std::vector<TimedPose> poses;
-  std::string line;
-  int n = 0;
-  bool first = true;  // the first line that is not a comment may be a header
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.empty() || line[0] == '#') continue;
-    const bool may_be_header = first;
-    first = false;
-    std::vector<double> v;
-    std::stringstream ss(line);
-    std::string cell;
-    bool numbers = true;
-    while (std::getline(ss, cell, ',')) {
-      try {
-        v.push_back(std::stod(cell));
-      } catch (const std::exception&) {
-        numbers = false;
-        break;
-      }
-    }
-    const std::string where = path + ":" + std::to_string(n) + ": ";
-    if (!numbers) {
-      if (may_be_header) continue;
-      throw std::runtime_error(where + "not a number: '" + cell + "'");
-    }
-    if (v.size() != 8) throw std::runtime_error(where + "expected 8 columns t,x,y,z,qw,qx,qy,qz");
-    for (double x : v)
-      if (!std::isfinite(x)) throw std::runtime_error(where + "not finite");
+  for (const CsvRow& row : ReadNumericCsv(path, 8, "t,x,y,z,qw,qx,qy,qz")) {
+    const auto& v = row.values;
     Eigen::Quaterniond q(v[4], v[5], v[6], v[7]);
-    if (!(q.norm() > 1e-9)) throw std::runtime_error(where + "zero quaternion");
+    if (!(q.norm() > 1e-9)) throw std::runtime_error(CsvWhere(path, row.line) + "zero quaternion");
     q.normalize();
     TimedPose p;
     p.t = v[0];
@@ -75,7 +47,6 @@ PoseTrack LoadPoseTrack(const std::string& path) {
     p.world_from_eye.translation = Eigen::Vector3d(v[1], v[2], v[3]);
     poses.push_back(p);
   }
-  if (poses.empty()) throw std::runtime_error(path + ": no poses");
   try {
     return PoseTrack(std::move(poses));
   } catch (const std::invalid_argument& e) {

@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <sstream>
 #include <limits>
 #include <stdexcept>
+
+#include "hullpipe/csv.h"
 
 namespace hullpipe {
 
@@ -191,29 +192,10 @@ PayloadFrame EvaluatePayload(const PayloadConfig& config, const VolumeQuery* hul
 }
 
 std::vector<PipePose> LoadPipeMotion(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot open");
   std::vector<PipePose> out;
-  std::string line;
-  int n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    if (n == 1 || line.empty() || line[0] == '#') continue;  // header
-    std::stringstream ss(line);
-    std::vector<double> v;
-    std::string cell;
-    while (std::getline(ss, cell, ',')) {
-      try {
-        size_t used = 0;
-        v.push_back(std::stod(cell, &used));
-      } catch (const std::exception&) {
-        throw std::runtime_error(path + ":" + std::to_string(n) + ": not a number: '" + cell + "'");
-      }
-    }
-    if (v.size() != 8) throw std::runtime_error(path + ":" + std::to_string(n) + ": expected 8 columns");
-    for (double x : v)
-      if (!std::isfinite(x)) throw std::runtime_error(path + ":" + std::to_string(n) + ": not finite");
-    if (!(v[7] > 0)) throw std::runtime_error(path + ":" + std::to_string(n) + ": radius must be > 0");
+  for (const CsvRow& row : ReadNumericCsv(path, 8, "t,px,py,pz,qx,qy,qz,radius")) {
+    const auto& v = row.values;
+    if (!(v[7] > 0)) throw std::runtime_error(CsvWhere(path, row.line) + "radius must be > 0");
     out.push_back({v[0], {v[1], v[2], v[3]}, {v[4], v[5], v[6]}, v[7]});
   }
   return out;

@@ -94,8 +94,10 @@ struct PipePose {
   double radius = 0.02;
 };
 
-/// Reads a motion CSV: a header line, then `t,px,py,pz,qx,qy,qz,radius` per line
-/// (seconds, metres). Throws std::runtime_error naming the file and line.
+/// Reads a motion CSV: `t,px,py,pz,qx,qy,qz,radius` per line (seconds, metres),
+/// an optional header line, '#' comments (ReadNumericCsv's rules). Throws
+/// std::runtime_error naming the file and line, also for a radius <= 0 or a
+/// file with no rows.
 std::vector<PipePose> LoadPipeMotion(const std::string& path);
 /// Writes the same format. Throws std::runtime_error if the file cannot be written.
 void SavePipeMotion(const std::string& path, const std::vector<PipePose>& motion);
