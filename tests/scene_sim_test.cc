@@ -242,6 +242,7 @@ TEST(PayloadTask, SpacingChangesWhileRunningAndBadValuesAreRefused) {
   VirtualScene scene(cfg);
   scene.SetSpacing(0.2);
   EXPECT_DOUBLE_EQ(scene.payload()->spacing, 0.2);
+  EXPECT_DOUBLE_EQ(scene.config().payload->spacing, 0.2);  // one copy of the settings
   EXPECT_THROW(scene.SetSpacing(-1), std::invalid_argument);
   EXPECT_THROW(scene.SetSpacing(std::nan("")), std::invalid_argument);
   EXPECT_DOUBLE_EQ(scene.payload()->spacing, 0.2);  // unchanged

@@ -166,14 +166,6 @@ ClearanceResult HullClearance(const VolumeQuery& q, const PayloadPart& part, dou
   return r;
 }
 
-bool PayloadFrame::any_collision() const {
-  for (const auto& c : clearance)
-    if (c.colliding) return true;
-  for (const auto& c : collisions)
-    if (c.colliding()) return true;
-  return false;
-}
-
 PayloadFrame EvaluatePayload(const PayloadConfig& config, const VolumeQuery* hull) {
   PayloadFrame f;
   f.parts = config.Parts();
@@ -231,8 +223,7 @@ std::vector<PipePose> ExamplePipeMotion(const PayloadConfig& c, double travel, i
 
 namespace {
 bool ACollides(const PayloadConfig& c, const VolumeQuery& q, double* clearance) {
-  PayloadConfig at = c;
-  const auto parts = at.Parts();
+  const auto parts = c.Parts();
   bool hit = false;
   for (size_t k = 1; k < parts.size(); ++k) {
     const ClearanceResult r = HullClearance(q, parts[k], c.max_clearance);

@@ -4,7 +4,7 @@
 
 namespace hullpipe {
 
-VirtualScene::VirtualScene(const SceneConfig& config) : config_(config), balls_(config), payload_(config.payload) {
+VirtualScene::VirtualScene(const SceneConfig& config) : config_(config), balls_(config) {
   if (config_.cloth) cloth_.emplace(*config_.cloth, config_.gravity);
   if (config_.particles) particles_.emplace(*config_.particles, config_.gravity, config_.has_floor, config_.floor);
 }
@@ -14,16 +14,16 @@ SceneStepStats VirtualScene::Step(double dt, const VolumeQuery* hull) {
   balls_.Step(dt, hull);
   if (cloth_) st.cloth = cloth_->Step(dt, hull);
   if (particles_) st.particles = particles_->Step(dt, hull);
-  if (payload_) st.payload = EvaluatePayload(*payload_, hull);
+  if (config_.payload) st.payload = EvaluatePayload(*config_.payload, hull);
   return st;
 }
 
 void VirtualScene::SetSpacing(double spacing_m) {
-  if (!payload_) throw std::invalid_argument("this scene has no payload task");
-  PayloadConfig c = *payload_;
+  if (!config_.payload) throw std::invalid_argument("this scene has no payload task");
+  PayloadConfig c = *config_.payload;
   c.spacing = spacing_m;
   c.Check();
-  payload_ = c;
+  config_.payload = c;
 }
 
 }  // namespace hullpipe

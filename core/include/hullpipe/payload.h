@@ -80,7 +80,6 @@ struct PayloadFrame {
   std::vector<PayloadPart> parts;
   std::vector<CollisionResult> collisions;  ///< Per part.
   std::vector<ClearanceResult> clearance;   ///< Per part.
-  bool any_collision() const;
 };
 
 /// Evaluates the task against one frame's hull (nullptr: no hull, nothing collides).

@@ -26,8 +26,8 @@ class VirtualScene {
   const BallSimulation& balls() const { return balls_; }
   const ClothSimulation* cloth() const { return cloth_ ? &*cloth_ : nullptr; }
   const ParticleSystem* particles() const { return particles_ ? &*particles_ : nullptr; }
-  /// The payload task's settings, if any (spacing as last set).
-  const std::optional<PayloadConfig>& payload() const { return payload_; }
+  /// The payload task's settings, if any (spacing as last set; config() agrees).
+  const std::optional<PayloadConfig>& payload() const { return config_.payload; }
   /// Changes the PMT-to-payload-A spacing while running (paper §5.2). Throws
   /// std::invalid_argument (nothing changes) if there is no payload task or the
   /// spacing fails PayloadConfig::Check().
@@ -39,7 +39,6 @@ class VirtualScene {
   BallSimulation balls_;
   std::optional<ClothSimulation> cloth_;
   std::optional<ParticleSystem> particles_;
-  std::optional<PayloadConfig> payload_;
 };
 
 }  // namespace hullpipe
