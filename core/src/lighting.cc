@@ -26,7 +26,7 @@ NovelView LightView(const LightConfig& light, const Eigen::Vector3d& up) {
 }
 
 bool ShadowMap::Shadowed(const Eigen::Vector3d& X, double bias) const {
-  const Eigen::Vector3d e = view.world_from_eye.Inverse() * X;
+  const Eigen::Vector3d e = eye_from_world * X;
   if (!(e.z() > 1e-6)) return false;
   const double u = view.fx * e.x() / e.z() + view.cx, v = view.fy * e.y() / e.z() + view.cy;
   if (!(u >= 0 && v >= 0 && u < view.width && v < view.height)) return false;
@@ -39,6 +39,7 @@ ShadowMap RenderShadowMap(const LightConfig& light, const Eigen::Vector3d& up, c
   light.Check();
   ShadowMap s;
   s.view = LightView(light, up);
+  s.eye_from_world = s.view.world_from_eye.Inverse();  // once, not per shadow test
   cv::Mat hull_depth(s.view.height, s.view.width, CV_32FC1, cv::Scalar(kNoDepth));
   if (hull) {
     PlaneSweepOptions o;

@@ -41,6 +41,7 @@ NovelView LightView(const LightConfig& light, const Eigen::Vector3d& up);
 /// kNoDepth (+inf) where none.
 struct ShadowMap {
   NovelView view;
+  Rigid3d eye_from_world;  ///< view.world_from_eye inverted (RenderShadowMap sets both).
   cv::Mat depth;  ///< CV_32FC1, view size.
   /// True if the world point X is farther from the light than the occluder on its
   /// line of sight by more than `bias` (inside the map's frustum; outside it:
