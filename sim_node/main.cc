@@ -149,10 +149,8 @@ int main(int argc, char** argv) {
           r.object_id = uint32_t(b.id);
           r.frame_seq = fs->seq;
           r.capture_time_ns = fs->capture_time_ns;
-          r.triangle_ids._buffer = ids.data();
-          r.triangle_ids._length = r.triangle_ids._maximum = uint32_t(ids.size());
-          r.collision_points._buffer = points.data();
-          r.collision_points._length = r.collision_points._maximum = uint32_t(points.size());
+          Borrow(&r.triangle_ids, ids);
+          Borrow(&r.collision_points, points);
           r.has_response = b.colliding && b.last_response.has_value();
           if (r.has_response) {
             const CollisionResponse& resp = *b.last_response;

@@ -82,9 +82,7 @@ OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint
   m.height = uint32_t(map.rows);
   m.camera_count = camera_count;
   m.encoding = hullpipe_msg_MAP_ENCODING_RLE;
-  m.runs._buffer = s.words.data();
-  m.runs._length = m.runs._maximum = uint32_t(s.words.size());
-  m.runs._release = false;
+  Borrow(&m.runs, s.words);
   return s;
 }
 
@@ -118,9 +116,7 @@ OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint6
     const cv::Mat cont = bgr.isContinuous() ? bgr : bgr.clone();
     s.bytes.assign(cont.datastart, cont.dataend);
   }
-  m.data._buffer = s.bytes.data();
-  m.data._length = m.data._maximum = uint32_t(s.bytes.size());
-  m.data._release = false;
+  Borrow(&m.data, s.bytes);
   return s;
 }
 
@@ -205,12 +201,8 @@ OwnedSample<hullpipe_msg_HullView> MakeHullViewMessage(const HullTile& t, uint32
   m.pose_seq = t.pose_seq;
   m.frame_seq = t.frame_seq;
   m.capture_time_ns = t.capture_time_ns;
-  m.depth._buffer = s.floats.data();
-  m.depth._length = m.depth._maximum = uint32_t(s.floats.size());
-  m.depth._release = false;
-  m.colour._buffer = s.bytes.data();
-  m.colour._length = m.colour._maximum = uint32_t(s.bytes.size());
-  m.colour._release = false;
+  Borrow(&m.depth, s.floats);
+  Borrow(&m.colour, s.bytes);
   m.planes = planes;
   m.render_ms = t.render_ms;
   return s;
@@ -270,15 +262,9 @@ OwnedSample<hullpipe_msg_VirtualMesh> MakeVirtualMeshMessage(const VirtualMeshSa
   m.frame_seq = mesh.frame_seq;
   m.capture_time_ns = mesh.capture_time_ns;
   m.kind = mesh.kind;
-  m.vertices._buffer = s.floats.data();
-  m.vertices._length = m.vertices._maximum = uint32_t(s.floats.size());
-  m.vertices._release = false;
-  m.triangles._buffer = s.words.data();
-  m.triangles._length = m.triangles._maximum = uint32_t(s.words.size());
-  m.triangles._release = false;
-  m.colliding._buffer = s.bytes.data();
-  m.colliding._length = m.colliding._maximum = uint32_t(s.bytes.size());
-  m.colliding._release = false;
+  Borrow(&m.vertices, s.floats);
+  Borrow(&m.triangles, s.words);
+  Borrow(&m.colliding, s.bytes);
   m.point_radius = d.point_radius;
   for (int k = 0; k < 3; ++k) m.colour[k] = d.colour[k];
   m.clearance = mesh.clearance;

@@ -45,6 +45,16 @@ struct OwnedSample {
   OwnedSample& operator=(OwnedSample&&) = default;
 };
 
+/// Points an outgoing message's sequence (idlc's _maximum/_length/_buffer/
+/// _release) at a vector's elements, without copying and without handing
+/// Cyclone ownership: the vector must outlive the write.
+template <typename Seq, typename T>
+void Borrow(Seq* seq, std::vector<T>& v) {
+  seq->_buffer = v.data();
+  seq->_length = seq->_maximum = uint32_t(v.size());
+  seq->_release = false;
+}
+
 /// ObjectPixelMap of one camera's map (CV_8UC1), run-length encoded.
 OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint64_t frame_seq,
                                                         int64_t capture_time_ns, double source_time_s,
