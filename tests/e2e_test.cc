@@ -106,12 +106,9 @@ TEST(Faults, AKilledReconIsCoveredAndARestartedCaptureIsFollowed) {
   const std::string config = test::WriteLoopbackConfig(dir);
   setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
   const uint32_t domain = test::UniqueDomain();
-  const std::vector<std::pair<std::string, std::string>> env = {{"CYCLONEDDS_URI", "file://" + config}};
   int n = 0;
   auto start = [&](const std::string& exe, std::vector<std::string> args) {
-    args.insert(args.begin(), test::BinDir() + "/" + exe);
-    args.insert(args.end(), {"--domain", std::to_string(domain)});
-    return std::make_unique<test::Process>(args, (dir / (exe + std::to_string(++n) + ".log")).string(), env);
+    return test::StartExe(exe, args, domain, config, (dir / (exe + std::to_string(++n) + ".log")).string());
   };
   auto render = start("render_node", {"--out", (dir / "out").string(), "--tiles", "2", "--idle-timeout", "30",
                                       "--window", "off"});

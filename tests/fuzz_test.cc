@@ -46,11 +46,8 @@ TEST(Fuzz, MalformedSamplesOnEveryTopicCrashNoNode) {
   const std::string config = test::WriteLoopbackConfig(dir);
   setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
   const uint32_t domain = test::UniqueDomain();
-  const std::vector<std::pair<std::string, std::string>> env = {{"CYCLONEDDS_URI", "file://" + config}};
   auto start = [&](const std::string& exe, std::vector<std::string> args) {
-    args.insert(args.begin(), test::BinDir() + "/" + exe);
-    args.insert(args.end(), {"--domain", std::to_string(domain)});
-    return std::make_unique<test::Process>(args, (dir / (exe + ".log")).string(), env);
+    return test::StartExe(exe, args, domain, config, (dir / (exe + ".log")).string());
   };
   auto recon = start("recon_node", {"--tile", "0/1"});
   auto sim = start("sim_node", {"--scene", std::string(HULLPIPE_SOURCE_DIR) + "/scenes/payload.yaml"});

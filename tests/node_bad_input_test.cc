@@ -25,13 +25,8 @@ class NodeTest : public ::testing::Test {
     participant_ = std::make_unique<Participant>(domain_);
   }
   std::unique_ptr<test::Process> Start(const std::string& exe, std::vector<std::string> args) {
-    args.insert(args.begin(), test::BinDir() + "/" + exe);
-    args.push_back("--domain");
-    args.push_back(std::to_string(domain_));
     log_ = (dir_ / (exe + ".log")).string();
-    return std::make_unique<test::Process>(args, log_,
-                                           std::vector<std::pair<std::string, std::string>>{
-                                               {"CYCLONEDDS_URI", "file://" + config_}});
+    return test::StartExe(exe, std::move(args), domain_, config_, log_);
   }
   /// Waits until an endpoint of ours has matched n of the node's (MatchedReaders
   /// for our writers, MatchedWriters for our readers).

@@ -170,14 +170,9 @@ class RecordTools : public ::testing::Test {
     domain_ = test::UniqueDomain();
   }
   std::unique_ptr<test::Process> Start(const std::string& exe, std::vector<std::string> args, uint32_t domain = 0) {
-    args.insert(args.begin(), test::BinDir() + "/" + exe);
-    args.push_back("--domain");
-    args.push_back(std::to_string(domain ? domain : domain_));
     const std::string log = (dir_ / (exe + std::to_string(++n_) + ".log")).string();
     logs_[exe] = log;
-    return std::make_unique<test::Process>(args, log,
-                                           std::vector<std::pair<std::string, std::string>>{
-                                               {"CYCLONEDDS_URI", "file://" + config_}});
+    return test::StartExe(exe, args, domain ? domain : domain_, config_, log);
   }
   std::string Log(const std::string& exe) { return test::ReadFile(logs_[exe]); }
   static void WaitFor(const std::function<bool()>& done, double timeout_s) {

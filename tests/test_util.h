@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -149,6 +150,16 @@ class Process {
   bool exited_ = false;
   int status_ = 0;
 };
+
+/// Starts one of hullpipe's executables (`exe` in BinDir()) on DDS domain
+/// `domain` with the Cyclone config file `config`, its output to `log`.
+inline std::unique_ptr<Process> StartExe(const std::string& exe, std::vector<std::string> args, uint32_t domain,
+                                         const std::string& config, const std::string& log) {
+  args.insert(args.begin(), BinDir() + "/" + exe);
+  args.insert(args.end(), {"--domain", std::to_string(domain)});
+  return std::make_unique<Process>(args, log,
+                                   std::vector<std::pair<std::string, std::string>>{{"CYCLONEDDS_URI", "file://" + config}});
+}
 
 inline std::string ReadFile(const std::string& path) {
   std::ifstream f(path);
