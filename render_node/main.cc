@@ -245,10 +245,13 @@ int main(int argc, char** argv) {
           any_frame = true;
           first_source_time = fset->source_time_s;
         }
+        // The frameset's hull: for the orbit centre until it is known, and for
+        // the light's shadow map (one VolumeQuery, one hull box, for both).
+        std::shared_ptr<const VolumeQuery> hull;
+        if (light || !centre_known) hull = std::make_shared<const VolumeQuery>(fset->maps, assembler.workspace());
         if (!centre_known) {
-          const VolumeQuery vq(fset->maps, assembler.workspace());
-          if (!vq.hull_box().empty()) {
-            orbit.centre = vq.hull_box().Center();
+          if (!hull->hull_box().empty()) {
+            orbit.centre = hull->hull_box().Center();
             centre_known = true;
             spdlog::info("orbit centre from the hull box: [{:.2f}, {:.2f}, {:.2f}] m", orbit.centre.x(),
                          orbit.centre.y(), orbit.centre.z());
@@ -261,7 +264,7 @@ int main(int argc, char** argv) {
         f.frame_seq = fset->seq;
         f.capture_time_ns = fset->capture_time_ns;
         f.sent_s = MonotonicSeconds();
-        if (light) f.hull = std::make_shared<const VolumeQuery>(fset->maps, assembler.workspace());
+        if (light) f.hull = hull;
         Rigid3d world_from_eye = orbit.WorldFromEye(t);
         if (view_source == "file") world_from_eye = track.At(t);
         if (view_source == "topic" && tracked) world_from_eye = *tracked;
@@ -419,8 +422,8 @@ int main(int argc, char** argv) {
     j["collision_frames_drawn"] = collisions_drawn;
     j["collision_reports_with_points"] = collision_reports;
     j["meshes_drawn"] = meshes_drawn;  // cloth, particle sets and payload parts, summed over frames
-    j["lit_frames"] = lit_frames;
-    j["recon_outages"] = recon_outages;  // times each recon node fell silent      // frames with the scene's light and shadows
+    j["lit_frames"] = lit_frames;      // frames with the scene's light and shadows
+    j["recon_outages"] = recon_outages;  // times each recon node fell silent
     j["hull_pixel_fraction_mean"] = reporter.frames_out() ? hull_fraction_sum / double(reporter.frames_out()) : 0.0;
     j["video"] = video_path;
     for (const auto& [id, c] : min_clearance)
