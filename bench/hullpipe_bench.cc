@@ -12,17 +12,18 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
-#include "hullpipe/calibration.h"
-#include "hullpipe/collision.h"
-#include "hullpipe/compositor.h"
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/calibration.h"
+#include "hullpipe/collision/collision.h"
+#include "hullpipe/reconstruction/compositor.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/gl/egl_context.h"
-#include "hullpipe/gl/gl_volume_query.h"
-#include "hullpipe/mesh.h"
-#include "hullpipe/plane_sweep.h"
-#include "hullpipe/rig_source.h"
-#include "hullpipe/segmentation.h"
-#include "hullpipe/texture.h"
+#include "hullpipe/gl/gl_plane_sweep.h"
+#include "hullpipe/gl/gl_triangle_query.h"
+#include "hullpipe/geometry/mesh.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/segmentation/rig_source.h"
+#include "hullpipe/segmentation/segmentation.h"
+#include "hullpipe/reconstruction/texture.h"
 
 using namespace hullpipe;
 

@@ -1,4 +1,4 @@
-// node_bench: one node alone, fed as fast as it takes its input (issue 7).
+// node_bench: one node alone, fed as fast as it takes its input (docs/architecture.md).
 //   node_bench --node sim   --recording run.hprec [--frames 200]
 //   node_bench --node recon --recording run.hprec
 //   node_bench --node render --recording run.hprec   (needs hull_view in it)
@@ -29,7 +29,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/record/recording.h"

@@ -9,11 +9,11 @@
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/calibration.h"
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/calibration.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/node.h"
-#include "hullpipe/rig_source.h"
+#include "hullpipe/segmentation/rig_source.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;

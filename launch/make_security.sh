@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# DDS Security for a hullpipe lab (issue 7): makes a lab CA, one identity per
+# DDS Security for a hullpipe lab (docs/architecture.md): makes a lab CA, one identity per
 # name given, the signed governance and permissions documents, and a Cyclone
 # configuration per identity that only lets the lab's nodes join (Cyclone's
 # authentication, access control and cryptography plugins, Debian package

@@ -11,14 +11,14 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
-#include "hullpipe/frameset.h"
+#include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/gl/backend.h"
-#include "hullpipe/plane_sweep.h"
-#include "hullpipe/texture.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/texture.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;

@@ -19,14 +19,14 @@
 #include <opencv2/videoio.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/compositor.h"
-#include "hullpipe/conventions.h"
+#include "hullpipe/reconstruction/compositor.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
-#include "hullpipe/frameset.h"
-#include "hullpipe/head_pose.h"
-#include "hullpipe/virtual_scene.h"
+#include "hullpipe/reconstruction/frameset.h"
+#include "hullpipe/geometry/head_pose.h"
+#include "hullpipe/scenes/virtual_scene.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;

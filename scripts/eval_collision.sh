@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Collision detection and response against exact ground truth (issue 5): runs
+# Collision detection and response against exact ground truth (paper §4; docs/benchmarks.md): runs
 # `vh_eval collision` on the synthetic scenes, writes docs/collision.json,
 # docs/collision.tsv and the plot docs/images/collision_speed_error.png.
 # Takes about a minute on two cores.

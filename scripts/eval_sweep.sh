@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Speed against error of the plane sweep (issue 4): runs `vh_eval sweep` on the
+# Speed against error of the plane sweep (paper §3.3; docs/benchmarks.md): runs `vh_eval sweep` on the
 # synthetic scene, writes docs/sweep.json, docs/sweep.tsv and the plot
 # docs/images/sweep_pareto.png. Takes about ten minutes on two cores.
 # Usage: scripts/eval_sweep.sh [BUILD_DIR] [extra vh_eval sweep flags]

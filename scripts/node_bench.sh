@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Per-node benchmark (issue 7): records the real rig's demo traffic once
+# Per-node benchmark (docs/architecture.md): records the real rig's demo traffic once
 # (hullpipe_record: calibration, maps, images, view poses, tiles, object states), then runs each node
 # alone with bench/node_bench, fed as fast as it takes input, and prints the
 # table of docs/benchmarks.md. Usage: scripts/node_bench.sh [BUILD_DIR]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs every hybrid scene of issue 6 (scenes/*.yaml but the plain ball demo) on the
+# Runs every hybrid scene (scenes/*.yaml but the plain ball demo) on the
 # real rig and on the synthetic source, each from one launch command, and writes
 # their videos under out/scenes/<scene>_<source>/ and one frame of each into
 # docs/images/scenes.png (top row: the real rig; bottom: synthetic).

@@ -9,12 +9,12 @@
 #include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/virtual_scene.h"
-#include "hullpipe/conventions.h"
+#include "hullpipe/scenes/virtual_scene.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
-#include "hullpipe/frameset.h"
+#include "hullpipe/reconstruction/frameset.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;

@@ -6,11 +6,11 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
-#include "hullpipe/synthetic.h"
+#include "hullpipe/evaluation/synthetic.h"
 #include "test_util.h"
 
 namespace hullpipe::dds {

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
 #include "test_util.h"
@@ -52,7 +52,7 @@ TEST(EndToEnd, FiveProcessesOnTheSyntheticSource) {
   EXPECT_GT(j["hull_pixel_fraction_mean"].get<double>(), 0.01);
 }
 
-// Every shipped scene of issue 6 runs from one launch command; the synthetic
+// Every shipped scene runs from one launch command; the synthetic
 // source needs no files, so each scene runs on it here (the real rig: below).
 class SceneRun : public ::testing::TestWithParam<std::string> {};
 
@@ -97,7 +97,7 @@ TEST(EndToEnd, CurtainOnTheRealRig) {
   RunScene("curtain", true, 60);
 }
 
-// Faults (issue 7): kill one recon node mid-run with SIGKILL. render_node
+// Faults (docs/architecture.md): kill one recon node mid-run with SIGKILL. render_node
 // notices within a second, the other recon node renders the orphaned tile too,
 // so compositing goes on; when the killed node is restarted the split resumes.
 // Then capture_node is killed and restarted: the others resynchronise.
@@ -217,7 +217,7 @@ TEST(EndToEnd, ReprojectionIoUAtFrame200) {
   }
 }
 
-TEST(Tools, VhEvalSweepPrintsOneJsonObjectWithTheIssueFields) {
+TEST(Tools, VhEvalSweepPrintsOneJsonObjectWithTheDocumentedFields) {
   // The smoke grid of `vh_eval sweep --json`: synthetic, so it runs anywhere.
   const auto out = test::TempDir("vh_eval_sweep");
   test::Process eval({test::BinDir() + "/vh_eval", "sweep", "--json", "--smoke"}, (out / "sweep.json").string());
@@ -239,7 +239,7 @@ TEST(Tools, VhEvalSweepPrintsOneJsonObjectWithTheIssueFields) {
   EXPECT_LT(refined, 0.5);
 }
 
-TEST(Tools, VhEvalCollisionPrintsOneJsonObjectWithTheIssueFields) {
+TEST(Tools, VhEvalCollisionPrintsOneJsonObjectWithTheDocumentedFields) {
   // `vh_eval collision --json --smoke`: three boxes against a sphere's hull, CPU.
   const auto out = test::TempDir("vh_eval_collision");
   test::Process eval({test::BinDir() + "/vh_eval", "collision", "--json", "--smoke"},

@@ -1,4 +1,4 @@
-// Bad input on the wire (issue 7): recon, sim and render nodes run on their own
+// Bad input on the wire (docs/architecture.md): recon, sim and render nodes run on their own
 // domain (loopback) while the test publishes, on every topic they read, valid
 // samples mutated at random at the CDR level (bytes of values, lengths and
 // counts flipped; whatever Cyclone still accepts as a well-formed sample of the
@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/topics.h"

@@ -4,11 +4,12 @@
 
 #include "hullpipe/gl/backend.h"
 #include "hullpipe/gl/egl_context.h"
-#include "hullpipe/gl/gl_volume_query.h"
-#include "hullpipe/mesh.h"
-#include "hullpipe/plane_sweep.h"
-#include "hullpipe/synthetic.h"
-#include "hullpipe/triangle_query.h"
+#include "hullpipe/gl/gl_plane_sweep.h"
+#include "hullpipe/gl/gl_triangle_query.h"
+#include "hullpipe/geometry/mesh.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/collision/triangle_query.h"
 #include "test_util.h"
 
 namespace hullpipe::gl {

@@ -1,4 +1,4 @@
-// A small lab on this machine (issue 7): three hosts in network namespaces
+// A small lab on this machine (docs/architecture.md): three hosts in network namespaces
 // joined by a bridge (veth pairs; addresses exist only inside the namespaces),
 // capture_node on one, the two recon nodes on another, sim and render on a third,
 // each with a Cyclone config naming its own interface and the others as unicast

@@ -4,7 +4,7 @@
 // input, and that it stops cleanly on SIGINT.
 #include <gtest/gtest.h>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"

@@ -1,4 +1,4 @@
-// DDS Security (issue 7): launch/make_security.sh makes a lab CA, identities,
+// DDS Security (docs/architecture.md): launch/make_security.sh makes a lab CA, identities,
 // signed governance and permissions, and Cyclone configs. A sim_node with a lab
 // identity takes a SceneCommand from hullpipe_cmd with a lab identity; the same
 // command from a participant without security, or with a certificate from
@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
 #include "test_util.h"

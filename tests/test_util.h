@@ -1,4 +1,5 @@
-// Helpers shared by hullpipe's tests.
+// Helpers of hullpipe's multi-process tests (the core's fixtures are
+// hullpipe/testing/fixtures.h).
 #pragma once
 
 #include <unistd.h>
@@ -13,27 +14,12 @@
 
 #include <Eigen/Core>
 
-#include "hullpipe/synthetic.h"
-#include "hullpipe/volume_query.h"
+#include "hullpipe/testing/fixtures.h"
 
 namespace hullpipe::test {
 
-/// The Utrecht rig beside the repository (../shared/data/utrecht-4cam).
-inline std::string RigDir() { return HULLPIPE_RIG_DIR; }
-inline bool HaveRig() { return std::filesystem::exists(RigDir() + "/cam1/config.xml"); }
-
 /// Directory of the built executables.
 inline std::string BinDir() { return HULLPIPE_BIN_DIR; }
-
-/// A fresh temporary directory, removed by the caller if wanted.
-inline std::filesystem::path TempDir(const std::string& tag) {
-  static std::atomic<int> counter{0};
-  const auto p = std::filesystem::temp_directory_path() /
-                 ("hullpipe_test_" + tag + "_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-  std::filesystem::remove_all(p);
-  std::filesystem::create_directories(p);
-  return p;
-}
 
 /// A DDS domain id unique to this test process (tests run in parallel), 100..229.
 inline uint32_t UniqueDomain() {
@@ -61,24 +47,6 @@ inline std::string WriteLoopbackConfig(const std::filesystem::path& dir, int los
                                          : std::string())
                       << "</Internal></Domain></CycloneDDS>\n";
   return path.string();
-}
-
-/// n ring cameras (w x h, 60 degree fov) around a sphere of radius r at
-/// `centre`, with exact object-pixel maps.
-inline std::vector<CameraMap> SphereViews(int n, int w, int h, const Eigen::Vector3d& centre, double r,
-                                          const Distortion& d = {}) {
-  SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(centre, r));
-  std::vector<CameraMap> views;
-  for (const auto& c : RingCameras(n, 3.0, 1.8, centre, w, h, 1.0, d)) views.push_back({c, RenderExactMap(c, scene)});
-  return views;
-}
-
-inline Aabb BigBox() {
-  Aabb b;
-  b.min = Eigen::Vector3d::Constant(-10);
-  b.max = Eigen::Vector3d::Constant(10);
-  return b;
 }
 
 }  // namespace hullpipe::test

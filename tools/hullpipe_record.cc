@@ -1,4 +1,4 @@
-// hullpipe_record: records a domain's DDS traffic into one SQLite file (issue 7).
+// hullpipe_record: records a domain's DDS traffic into one SQLite file (docs/architecture.md).
 //   hullpipe_record --domain 7 -o run.hprec [--include 'hullpipe/*'] [--exclude '*/camera_image']
 //   hullpipe_record info run.hprec [--json]
 // Topics are discovered from the built-in DCPSPublication topic (name, type,
@@ -19,7 +19,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/record/recording.h"

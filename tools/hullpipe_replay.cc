@@ -1,5 +1,5 @@
 // hullpipe_replay: publishes a recording (hullpipe_record) back onto a domain
-// (issue 7), each topic with its original QoS, so a late-joining node still gets
+// (docs/architecture.md), each topic with its original QoS, so a late-joining node still gets
 // the transient-local CameraInfo.
 //   hullpipe_replay run.hprec --domain 8 [--rate 0.5] [--loop] [--start-offset 2.0]
 //                   [--include 'hullpipe/object_pixel_map'] [--wait-readers 2]
@@ -17,7 +17,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/record/player.h"

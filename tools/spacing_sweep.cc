@@ -15,9 +15,10 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "hullpipe/ball_scene.h"
-#include "hullpipe/payload.h"
-#include "hullpipe/synthetic.h"
+#include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/scenes/ball.h"
+#include "hullpipe/scenes/payload.h"
+#include "hullpipe/evaluation/synthetic.h"
 
 using namespace hullpipe;
 

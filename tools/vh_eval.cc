@@ -20,9 +20,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/conventions.h"
-#include "hullpipe/reprojection.h"
-#include "hullpipe/rig_source.h"
+#include "hullpipe/geometry/conventions.h"
+#include "hullpipe/evaluation/reprojection.h"
+#include "hullpipe/segmentation/rig_source.h"
 #include "vh_eval_collision.h"
 #include "vh_eval_sweep.h"
 

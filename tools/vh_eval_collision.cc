@@ -1,5 +1,5 @@
 // vh_eval collision: collision detection and the §4.2 response against exact
-// ground truth (issue 5). Real objects: synthetic shapes seen by exact maps.
+// ground truth (paper §4; docs/benchmarks.md). Real objects: synthetic shapes seen by exact maps.
 // Virtual objects: boxes tessellated into ~2 cm triangles (the paper's size),
 // randomly turned, pushed 0.5-3 cm into the hull at random places.
 //
@@ -27,13 +27,14 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
-#include "hullpipe/collision.h"
-#include "hullpipe/collision_response.h"
-#include "hullpipe/contact_region.h"
+#include "hullpipe/collision/collision.h"
+#include "hullpipe/collision/collision_response.h"
+#include "hullpipe/collision/contact_region.h"
 #include "hullpipe/gl/egl_context.h"
-#include "hullpipe/gl/gl_volume_query.h"
-#include "hullpipe/hull_surface.h"
-#include "hullpipe/synthetic.h"
+#include "hullpipe/gl/gl_plane_sweep.h"
+#include "hullpipe/gl/gl_triangle_query.h"
+#include "hullpipe/collision/hull_surface.h"
+#include "hullpipe/evaluation/synthetic.h"
 
 namespace hullpipe {
 namespace {

@@ -1,5 +1,5 @@
 // vh_eval collision: speed against error of collision detection and response
-// (paper §4, issue 5), on synthetic scenes with exact object-pixel maps.
+// (paper §4), on synthetic scenes with exact object-pixel maps.
 #pragma once
 
 #include <string>

@@ -1,5 +1,5 @@
 // vh_eval sweep: the plane sweep's speed against its error, on synthetic scenes
-// with exact object-pixel maps, against the exact visual hull (issue 4).
+// with exact object-pixel maps, against the exact visual hull (paper §3.3; docs/benchmarks.md).
 #include "vh_eval_sweep.h"
 
 #include <algorithm>
@@ -14,14 +14,15 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/calibration.h"
-#include "hullpipe/depth_eval.h"
-#include "hullpipe/exact_hull.h"
+#include "hullpipe/geometry/calibration.h"
+#include "hullpipe/evaluation/depth_eval.h"
+#include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/gl/egl_context.h"
-#include "hullpipe/gl/gl_volume_query.h"
-#include "hullpipe/plane_sweep.h"
-#include "hullpipe/synthetic.h"
-#include "hullpipe/texture.h"
+#include "hullpipe/gl/gl_plane_sweep.h"
+#include "hullpipe/gl/gl_triangle_query.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/reconstruction/texture.h"
 
 namespace hullpipe {
 namespace {
@@ -283,7 +284,7 @@ int RunSweepEval(const SweepEvalOptions& o) {
     }
     r["pareto"] = !dominated;
   }
-  // The refinement goal (issue 4): median < 1 mm, p95 < 5 mm at 320x240 with 4
+  // The refinement goal (paper §3.3; docs/benchmarks.md): median < 1 mm, p95 < 5 mm at 320x240 with 4
   // cameras in under 20 ms; the fastest CPU row meeting the error part.
   nlohmann::json goal = nullptr;
   for (const auto& r : rows) {

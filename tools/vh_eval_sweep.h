@@ -1,4 +1,4 @@
-// vh_eval sweep: speed against error of the plane sweep (issue 4).
+// vh_eval sweep: speed against error of the plane sweep (paper §3.3; docs/benchmarks.md).
 #pragma once
 
 #include <string>

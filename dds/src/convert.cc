@@ -4,7 +4,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "hullpipe/object_pixel_map.h"
+#include "hullpipe/segmentation/object_pixel_map.h"
 
 namespace hullpipe::dds {
 namespace {

@@ -7,7 +7,7 @@
 #include <opencv2/core/utils/logger.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/conventions.h"
+#include "hullpipe/geometry/conventions.h"
 
 namespace hullpipe::dds {
 

@@ -5,7 +5,8 @@
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/gl/egl_context.h"
-#include "hullpipe/gl/gl_volume_query.h"
+#include "hullpipe/gl/gl_plane_sweep.h"
+#include "hullpipe/gl/gl_triangle_query.h"
 
 namespace hullpipe::gl {
 namespace {

@@ -1,5 +1,5 @@
 // Serialized samples (CDR, untouched) for recording and replaying DDS traffic
-// (issue 7), through the same wrapper and error policy as dds.h.
+// (docs/architecture.md), through the same wrapper and error policy as dds.h.
 //
 // The recorder discovers topics from Cyclone's built-in DCPSPublication topic and
 // records those whose type is one of hullpipe's (KnownTypes()); the replayer

@@ -12,10 +12,10 @@
 #include <opencv2/core.hpp>
 
 #include "hullpipe.h"
-#include "hullpipe/aabb.h"
-#include "hullpipe/camera.h"
-#include "hullpipe/compositor.h"
-#include "hullpipe/plane_sweep.h"
+#include "hullpipe/geometry/aabb.h"
+#include "hullpipe/geometry/camera.h"
+#include "hullpipe/reconstruction/compositor.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
 
 namespace hullpipe::dds {
 

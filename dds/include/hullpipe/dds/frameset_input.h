@@ -8,7 +8,7 @@
 
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
-#include "hullpipe/frameset.h"
+#include "hullpipe/reconstruction/frameset.h"
 
 namespace hullpipe::dds {
 

@@ -10,7 +10,7 @@
 
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
-#include "hullpipe/latency_stats.h"
+#include "hullpipe/util/latency_stats.h"
 
 namespace hullpipe::dds {
 

@@ -1,5 +1,5 @@
 // Choice of plane-sweep backend for recon_node and the benchmarks: the CPU
-// reference (plane_sweep.h) or the GL sweep (gl_volume_query.h).
+// reference (plane_sweep.h) or the GL sweep (gl_plane_sweep.h).
 #pragma once
 
 #include <memory>
@@ -8,7 +8,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "hullpipe/plane_sweep.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
 
 namespace hullpipe::gl {
 

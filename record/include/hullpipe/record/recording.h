@@ -1,4 +1,4 @@
-// Recordings of DDS traffic (issue 7): serialized samples (CDR, untouched, with
+// Recordings of DDS traffic (docs/architecture.md): serialized samples (CDR, untouched, with
 // their encapsulation header) of every recorded topic, with source and arrival
 // timestamps, in one SQLite file. DDS-free: the recorder and the player tools put
 // DDS on either side; tests use this library alone.

@@ -1,0 +1,59 @@
+// Axis-aligned boxes in world metres, and the visual hull's bounding box from the
+// object-pixel maps (paper §4.1: "bounding box test first").
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "hullpipe/geometry/camera.h"
+
+namespace hullpipe {
+
+/// Closed axis-aligned box [min, max] in world metres. Empty when any min > max.
+struct Aabb {
+  Eigen::Vector3d min = Eigen::Vector3d::Constant(1.0);
+  Eigen::Vector3d max = Eigen::Vector3d::Constant(-1.0);
+
+  bool empty() const { return (min.array() > max.array()).any(); }
+  bool Contains(const Eigen::Vector3d& p) const {
+    return !empty() && (p.array() >= min.array()).all() && (p.array() <= max.array()).all();
+  }
+  bool Intersects(const Aabb& o) const {
+    return !empty() && !o.empty() && (min.array() <= o.max.array()).all() &&
+           (o.min.array() <= max.array()).all();
+  }
+  void Extend(const Eigen::Vector3d& p) {
+    if (empty()) {
+      min = max = p;
+    } else {
+      min = min.cwiseMin(p);
+      max = max.cwiseMax(p);
+    }
+  }
+  Eigen::Vector3d Center() const { return 0.5 * (min + max); }
+  /// The 8 corners (empty box: unspecified).
+  std::vector<Eigen::Vector3d> Corners() const;
+  /// Ray–box slab test for points origin + s*dir with s in [s_min, s_max]. On a hit
+  /// narrows [*s0, *s1] to the part inside the box and returns true.
+  bool ClipRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double* s0,
+               double* s1) const;
+};
+
+/// A workspace that surely contains what the cameras watch when nothing else is
+/// known: the box of the camera centres grown by half its largest side on every side.
+Aabb DefaultWorkspace(const std::vector<Camera>& cameras);
+
+/// Bounding box of the visual hull inside `workspace`: each camera's silhouette
+/// bounding rectangle is back-projected to a pyramid (4 planes through the camera
+/// centre, plus z > 0), the pyramids are intersected with the workspace as a convex
+/// polytope, and the polytope's box is returned. Conservative: every point inside
+/// the hull (and the workspace) is inside the box. Lens distortion is handled by
+/// undistorting the rectangle's border (sampled every 4 px) and keeping its
+/// extremes. An empty map in any camera gives an empty box.
+/// maps[i] belongs to cameras[i] (CV_8UC1, size of the camera).
+Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& maps,
+                     const Aabb& workspace);
+
+}  // namespace hullpipe

@@ -1,0 +1,254 @@
+#include "hullpipe/geometry/calibration.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include "hullpipe/geometry/conventions.h"
+
+namespace fs = std::filesystem;
+
+namespace hullpipe {
+namespace {
+
+cv::Mat ReadMatrix(const cv::FileStorage& fs_in, const std::string& path, const char* key,
+                   int expected_elements) {
+  const cv::FileNode node = fs_in[key];
+  if (node.empty()) throw CalibrationError(path + ": missing key '" + key + "'");
+  cv::Mat m;
+  try {
+    node >> m;
+  } catch (const cv::Exception& e) {
+    throw CalibrationError(path + ": key '" + key + "' is not a matrix");
+  }
+  if (m.empty() || static_cast<int>(m.total()) != expected_elements)
+    throw CalibrationError(path + ": key '" + key + "' must have " +
+                           std::to_string(expected_elements) + " elements, has " +
+                           std::to_string(m.total()));
+  m.convertTo(m, CV_64F);
+  return m.reshape(1, 1);
+}
+
+// Image size of a video or image file; {0,0} if it cannot be read.
+cv::Size ProbeSize(const std::string& path) {
+  if (path.empty() || !fs::exists(path)) return {0, 0};
+  cv::Mat img = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (!img.empty()) return img.size();
+  cv::VideoCapture cap(path);
+  if (!cap.isOpened()) return {0, 0};
+  return {static_cast<int>(cap.get(cv::CAP_PROP_FRAME_WIDTH)),
+          static_cast<int>(cap.get(cv::CAP_PROP_FRAME_HEIGHT))};
+}
+
+Rig LoadUtrechtDir(const fs::path& dir) {
+  Rig rig;
+  rig.source = dir.string();
+  std::vector<std::pair<int, fs::path>> cams;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.is_directory() && name.rfind("cam", 0) == 0 && name.size() > 3 &&
+        std::all_of(name.begin() + 3, name.end(), ::isdigit))
+      cams.emplace_back(std::stoi(name.substr(3)), entry.path());
+  }
+  std::sort(cams.begin(), cams.end());
+  if (cams.empty()) throw CalibrationError(dir.string() + ": no cam<N>/ directories");
+  for (const auto& [id, cam_dir] : cams) {
+    RigCamera rc;
+    rc.background = (cam_dir / "background.avi").string();
+    rc.frames = (cam_dir / "video.avi").string();
+    cv::Size size = ProbeSize(rc.frames);
+    if (size.area() == 0) size = ProbeSize(rc.background);
+    if (size.area() == 0)
+      throw CalibrationError(cam_dir.string() + ": cannot read the image size from " +
+                             rc.frames + " or " + rc.background);
+    rc.camera = ReadOpenCvCameraConfig((cam_dir / "config.xml").string(), id, size.width,
+                                       size.height);
+    rig.cameras.push_back(std::move(rc));
+  }
+  rig.workspace = DefaultWorkspace(rig.Cameras());
+  rig.workspace.max.z() = std::min(rig.workspace.max.z(), 0.02);
+  return rig;
+}
+
+std::vector<double> ReadList(const YAML::Node& cam, const std::string& path,
+                             const char* key, size_t n, bool required) {
+  const YAML::Node node = cam[key];
+  if (!node) {
+    if (required) throw CalibrationError(path + ": missing key '" + key + "'");
+    return std::vector<double>(n, 0.0);
+  }
+  std::vector<double> v;
+  try {
+    v = node.as<std::vector<double>>();
+  } catch (const YAML::Exception&) {
+    throw CalibrationError(path + ": key '" + key + "' must be a list of numbers");
+  }
+  if (v.size() != n)
+    throw CalibrationError(path + ": key '" + key + "' must have " + std::to_string(n) +
+                           " numbers, has " + std::to_string(v.size()));
+  return v;
+}
+
+Rig LoadYamlRig(const fs::path& file) {
+  const std::string path = file.string();
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw CalibrationError(path + ": " + e.what());
+  }
+  if (!root["cameras"] || !root["cameras"].IsSequence())
+    throw CalibrationError(path + ": missing key 'cameras' (a list)");
+  Rig rig;
+  rig.source = path;
+  const fs::path base = file.parent_path();
+  auto resolve = [&](const YAML::Node& n) -> std::string {
+    if (!n) return {};
+    const fs::path p = n.as<std::string>();
+    return p.is_absolute() ? p.string() : (base / p).string();
+  };
+  int index = 0;
+  for (const auto& cam : root["cameras"]) {
+    RigCamera rc;
+    Camera& c = rc.camera;
+    try {
+      c.id = cam["id"] ? cam["id"].as<int>() : index + 1;
+      if (!cam["width"] || !cam["height"])
+        throw CalibrationError(path + ": missing key 'width' or 'height'");
+      c.width = cam["width"].as<int>();
+      c.height = cam["height"].as<int>();
+    } catch (const YAML::Exception& e) {
+      throw CalibrationError(path + ": bad id/width/height: " + e.what());
+    }
+    const auto k = ReadList(cam, path, "K", 9, true);
+    c.fx = k[0];
+    c.fy = k[4];
+    c.cx = k[2] + kOpenCvToHullpipePixelOffset;
+    c.cy = k[5] + kOpenCvToHullpipePixelOffset;
+    const auto d = ReadList(cam, path, "distortion", 5, false);
+    std::copy(d.begin(), d.end(), c.distortion.begin());
+    const auto r = ReadList(cam, path, "R", 9, true);
+    const auto t = ReadList(cam, path, "t", 3, true);
+    for (int i = 0; i < 9; ++i) c.cam_from_world.rotation(i / 3, i % 3) = r[i];
+    c.cam_from_world.translation = Eigen::Vector3d(t[0], t[1], t[2]);
+    try {
+      c.Check();
+    } catch (const std::invalid_argument& e) {
+      throw CalibrationError(path + ": " + e.what());
+    }
+    rc.background = resolve(cam["background"]);
+    rc.frames = resolve(cam["frames"]);
+    rc.masks = resolve(cam["masks"]);
+    rig.cameras.push_back(std::move(rc));
+    ++index;
+  }
+  rig.workspace = DefaultWorkspace(rig.Cameras());
+  if (const YAML::Node ws = root["workspace"]) {
+    const auto lo = ReadList(ws, path, "min", 3, true), hi = ReadList(ws, path, "max", 3, true);
+    rig.workspace.min = Eigen::Vector3d(lo[0], lo[1], lo[2]);
+    rig.workspace.max = Eigen::Vector3d(hi[0], hi[1], hi[2]);
+    if (rig.workspace.empty()) throw CalibrationError(path + ": workspace min must be <= max");
+  }
+  return rig;
+}
+
+}  // namespace
+
+Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width, int height) {
+  cv::FileStorage fs_in;
+  try {
+    if (!fs_in.open(path, cv::FileStorage::READ))
+      throw CalibrationError(path + ": cannot open calibration file");
+  } catch (const cv::Exception& e) {
+    throw CalibrationError(path + ": not a readable OpenCV FileStorage file");
+  }
+  const cv::Mat k = ReadMatrix(fs_in, path, "CameraMatrix", 9);
+  const cv::Mat d = ReadMatrix(fs_in, path, "DistortionCoeffs", 5);
+  const cv::Mat rvec = ReadMatrix(fs_in, path, "Rotation", 3);
+  const cv::Mat tvec = ReadMatrix(fs_in, path, "Translation", 3);
+  Camera c;
+  c.id = camera_id;
+  c.width = width;
+  c.height = height;
+  c.fx = k.at<double>(0);
+  c.fy = k.at<double>(4);
+  c.cx = k.at<double>(2) + kOpenCvToHullpipePixelOffset;
+  c.cy = k.at<double>(5) + kOpenCvToHullpipePixelOffset;
+  for (int i = 0; i < 5; ++i) c.distortion[i] = d.at<double>(i);
+  cv::Mat rmat;
+  cv::Rodrigues(rvec.reshape(1, 3), rmat);
+  for (int r = 0; r < 3; ++r)
+    for (int col = 0; col < 3; ++col) c.cam_from_world.rotation(r, col) = rmat.at<double>(r, col);
+  c.cam_from_world.translation =
+      Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)) *
+      kMetresPerMillimetre;
+  try {
+    c.Check();
+  } catch (const std::invalid_argument& e) {
+    throw CalibrationError(path + ": " + e.what());
+  }
+  return c;
+}
+
+std::vector<Camera> Rig::Cameras() const {
+  std::vector<Camera> out;
+  for (const auto& rc : cameras) out.push_back(rc.camera);
+  return out;
+}
+
+Rig LoadRig(const std::string& path) {
+  const fs::path p(path);
+  if (!fs::exists(p)) throw CalibrationError(path + ": no such file or directory");
+  if (fs::is_directory(p)) {
+    if (fs::exists(p / "rig.yaml")) return LoadYamlRig(p / "rig.yaml");
+    return LoadUtrechtDir(p);
+  }
+  return LoadYamlRig(p);
+}
+
+void WriteRigYaml(const Rig& rig, const std::string& path) {
+  YAML::Emitter out;
+  out << YAML::BeginMap << YAML::Key << "cameras" << YAML::Value << YAML::BeginSeq;
+  for (const auto& rc : rig.cameras) {
+    const Camera& c = rc.camera;
+    out << YAML::BeginMap;
+    out << YAML::Key << "id" << YAML::Value << c.id;
+    out << YAML::Key << "width" << YAML::Value << c.width;
+    out << YAML::Key << "height" << YAML::Value << c.height;
+    out << YAML::Key << "K" << YAML::Value << YAML::Flow
+        << std::vector<double>{c.fx, 0, c.cx - kOpenCvToHullpipePixelOffset, 0, c.fy,
+                               c.cy - kOpenCvToHullpipePixelOffset, 0, 0, 1};
+    out << YAML::Key << "distortion" << YAML::Value << YAML::Flow
+        << std::vector<double>(c.distortion.begin(), c.distortion.end());
+    std::vector<double> r(9);
+    for (int i = 0; i < 9; ++i) r[i] = c.cam_from_world.rotation(i / 3, i % 3);
+    out << YAML::Key << "R" << YAML::Value << YAML::Flow << r;
+    const auto& t = c.cam_from_world.translation;
+    out << YAML::Key << "t" << YAML::Value << YAML::Flow << std::vector<double>{t.x(), t.y(), t.z()};
+    if (!rc.background.empty()) out << YAML::Key << "background" << YAML::Value << rc.background;
+    if (!rc.frames.empty()) out << YAML::Key << "frames" << YAML::Value << rc.frames;
+    if (!rc.masks.empty()) out << YAML::Key << "masks" << YAML::Value << rc.masks;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  if (!rig.workspace.empty()) {
+    const auto& a = rig.workspace.min;
+    const auto& b = rig.workspace.max;
+    out << YAML::Key << "workspace" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "min" << YAML::Value << YAML::Flow << std::vector<double>{a.x(), a.y(), a.z()};
+    out << YAML::Key << "max" << YAML::Value << YAML::Flow << std::vector<double>{b.x(), b.y(), b.z()};
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
+  std::ofstream f(path);
+  if (!f) throw CalibrationError(path + ": cannot write");
+  f << out.c_str() << "\n";
+}
+
+}  // namespace hullpipe

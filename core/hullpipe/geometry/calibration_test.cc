@@ -1,0 +1,117 @@
+#include "hullpipe/geometry/calibration.h"
+
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "hullpipe/testing/fixtures.h"
+
+namespace hullpipe {
+namespace {
+
+const char* kConfig = R"(<?xml version="1.0"?>
+<opencv_storage>
+<CameraMatrix type_id="opencv-matrix"><rows>3</rows><cols>3</cols><dt>f</dt>
+<data>500. 0. 320. 0. 510. 240. 0. 0. 1.</data></CameraMatrix>
+<DistortionCoeffs type_id="opencv-matrix"><rows>1</rows><cols>5</cols><dt>f</dt>
+<data>-0.1 0.01 0. 0. 0.</data></DistortionCoeffs>
+<Rotation type_id="opencv-matrix"><rows>3</rows><cols>1</cols><dt>d</dt>
+<data>0. 0. 0.</data></Rotation>
+<Translation type_id="opencv-matrix"><rows>3</rows><cols>1</cols><dt>d</dt>
+<data>100. -2000. 5000.</data></Translation>
+</opencv_storage>
+)";
+
+TEST(Calibration, ReadsOpenCvConfigConvertingUnits) {
+  const auto dir = test::TempDir("calib");
+  std::ofstream(dir / "config.xml") << kConfig;
+  const Camera c = ReadOpenCvCameraConfig((dir / "config.xml").string(), 3, 640, 480);
+  EXPECT_EQ(c.id, 3);
+  EXPECT_DOUBLE_EQ(c.fx, 500);
+  EXPECT_DOUBLE_EQ(c.fy, 510);
+  EXPECT_DOUBLE_EQ(c.cx, 320.5);  // OpenCV centres at integers -> hullpipe +0.5
+  EXPECT_DOUBLE_EQ(c.cy, 240.5);
+  EXPECT_DOUBLE_EQ(c.distortion[0], -0.1f);  // stored as float in the file
+  // Translation in mm -> m.
+  EXPECT_NEAR((c.cam_from_world.translation - Eigen::Vector3d(0.1, -2.0, 5.0)).norm(), 0, 1e-12);
+}
+
+TEST(Calibration, MissingKeyIsNamed) {
+  const auto dir = test::TempDir("calib_missing");
+  std::string text = kConfig;
+  const auto a = text.find("<Rotation"), b = text.find("</Rotation>") + 11;
+  text.erase(a, b - a);
+  std::ofstream(dir / "config.xml") << text;
+  try {
+    ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 640, 480);
+    FAIL() << "expected CalibrationError";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("Rotation"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Calibration, WrongShapeAndMissingFileAreErrors) {
+  const auto dir = test::TempDir("calib_shape");
+  std::string text = kConfig;
+  text.replace(text.find("100. -2000. 5000."), 17, "100. -2000.");
+  std::ofstream(dir / "config.xml") << text;
+  EXPECT_THROW(ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 640, 480), CalibrationError);
+  EXPECT_THROW(ReadOpenCvCameraConfig((dir / "nope.xml").string(), 1, 640, 480), CalibrationError);
+  std::ofstream(dir / "garbage.xml") << "this is not xml <<<";
+  EXPECT_THROW(ReadOpenCvCameraConfig((dir / "garbage.xml").string(), 1, 640, 480), CalibrationError);
+}
+
+TEST(Calibration, YamlRigRoundTrip) {
+  const auto dir = test::TempDir("rig_yaml");
+  Rig rig;
+  for (const auto& c : RingCameras(3, 3.0, 2.0, Eigen::Vector3d(0, 0, -1), 320, 240, 1.0,
+                                   Distortion{-0.2, 0.05, 0.001, -0.001, 0}))
+    rig.cameras.push_back({c, "bg.png", "frames_%03d.png", ""});
+  rig.workspace.min = Eigen::Vector3d(-1, -1, -2);
+  rig.workspace.max = Eigen::Vector3d(1, 1, 0);
+  WriteRigYaml(rig, (dir / "rig.yaml").string());
+  const Rig back = LoadRig((dir / "rig.yaml").string());
+  ASSERT_EQ(back.cameras.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    const Camera& a = rig.cameras[i].camera;
+    const Camera& b = back.cameras[i].camera;
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_NEAR(a.cx, b.cx, 1e-9);
+    EXPECT_NEAR((a.cam_from_world.rotation - b.cam_from_world.rotation).norm(), 0, 1e-9);
+    EXPECT_NEAR((a.cam_from_world.translation - b.cam_from_world.translation).norm(), 0, 1e-9);
+    EXPECT_NEAR(a.distortion[2], b.distortion[2], 1e-12);
+    EXPECT_EQ(back.cameras[i].background, (dir / "bg.png").string());  // relative to the file
+  }
+  EXPECT_NEAR((back.workspace.max - rig.workspace.max).norm(), 0, 1e-12);
+}
+
+TEST(Calibration, YamlMissingKeyIsNamed) {
+  const auto dir = test::TempDir("rig_yaml_bad");
+  std::ofstream(dir / "rig.yaml") << "cameras:\n  - id: 1\n    width: 10\n    height: 10\n    K: [1,0,5,0,1,5,0,0,1]\n    t: [0,0,0]\n";
+  try {
+    LoadRig((dir / "rig.yaml").string());
+    FAIL();
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("'R'"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Calibration, LoadsTheUtrechtRig) {
+  if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
+  const Rig rig = LoadRig(test::RigDir());
+  ASSERT_EQ(rig.cameras.size(), 4u);
+  for (const auto& rc : rig.cameras) {
+    EXPECT_EQ(rc.camera.width, 644);
+    EXPECT_EQ(rc.camera.height, 486);
+    // Cameras hang 1.6-2.2 m above the floor (z points down) and 3-6 m from the origin.
+    const Eigen::Vector3d c = rc.camera.Center();
+    EXPECT_LT(c.z(), -1.5);
+    EXPECT_GT(c.z(), -2.3);
+    EXPECT_GT(c.head<2>().norm(), 3.0);
+    EXPECT_LT(c.head<2>().norm(), 6.5);
+  }
+  EXPECT_LE(rig.workspace.max.z(), 0.02 + 1e-12);  // bounded by the floor
+}
+
+}  // namespace
+}  // namespace hullpipe

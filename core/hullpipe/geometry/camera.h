@@ -1,0 +1,74 @@
+// Pinhole camera with OpenCV's 5-parameter lens distortion (Brown–Conrady:
+// k1, k2, p1, p2, k3). Frames and pixel conventions: conventions.h.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "hullpipe/geometry/rigid3.h"
+
+namespace hullpipe {
+
+/// Distortion coefficients in OpenCV order (k1, k2, p1, p2, k3); all zero = none.
+using Distortion = std::array<double, 5>;
+
+/// One calibrated camera. Intrinsics K are in hullpipe pixels (centres at +0.5).
+struct Camera {
+  int id = 0;                     ///< Camera id as on the wire (CameraInfo.camera_id).
+  int width = 0, height = 0;      ///< Image size in pixels.
+  double fx = 0, fy = 0;          ///< Focal lengths in pixels.
+  double cx = 0, cy = 0;          ///< Principal point, hullpipe convention (+0.5).
+  Distortion distortion{};        ///< OpenCV k1 k2 p1 p2 k3 (unitless, normalized coords).
+  Rigid3d cam_from_world;         ///< Extrinsics: world metres -> camera-frame metres.
+
+  /// Throws std::invalid_argument naming the bad field if the camera is unusable
+  /// (non-positive size or focal length, non-finite values, non-orthonormal R).
+  void Check() const;
+
+  /// 3x3 intrinsic matrix K (hullpipe pixel convention).
+  Eigen::Matrix3d K() const;
+
+  /// Camera centre in world metres (-R^T t).
+  Eigen::Vector3d Center() const;
+
+  /// Applies lens distortion to normalized coordinates (x/z, y/z). OpenCV's model.
+  Eigen::Vector2d Distort(const Eigen::Vector2d& xn) const;
+
+  /// Inverts Distort by Newton's method with the analytic Jacobian (converges to
+  /// ~1e-15 inside the valid radius; cv::undistortPoints' fixed-point iteration
+  /// leaves up to 1e-5 px there). At or beyond the fold of the radial polynomial
+  /// there is no unique inverse: the last iterate is returned.
+  Eigen::Vector2d Undistort(const Eigen::Vector2d& xd) const;
+
+  /// Squared normalized radius beyond which the radial polynomial stops being
+  /// monotonic: points farther out would fold back into the image, so they are
+  /// reported as not projectable. +infinity where the polynomial never folds.
+  double MaxValidRadius2() const;
+
+  /// Projects a world point (metres) to continuous pixel coordinates. Returns
+  /// nullopt if the point is not in front of the camera (z <= 1e-9 m) or is beyond
+  /// the distortion's valid radius. The result may lie outside the image; test
+  /// with InImage. Paper §3: the projection used by every volume query.
+  std::optional<Eigen::Vector2d> Project(const Eigen::Vector3d& X_world) const;
+
+  /// True if continuous pixel coordinates fall on a pixel of the image.
+  bool InImage(const Eigen::Vector2d& uv) const {
+    return uv.x() >= 0 && uv.y() >= 0 && uv.x() < width && uv.y() < height;
+  }
+
+  /// World-frame unit direction of the ray through continuous pixel (u, v), undoing
+  /// distortion. The ray starts at Center().
+  Eigen::Vector3d PixelRayWorld(const Eigen::Vector2d& uv) const;
+
+ private:
+  mutable double max_valid_radius2_ = -1;  // cache; -1 = not computed
+};
+
+/// Returns the Camera scaled to a new image size (intrinsics scaled, distortion and
+/// extrinsics kept): used when maps are published at reduced resolution.
+Camera ScaledCamera(const Camera& camera, int new_width, int new_height);
+
+}  // namespace hullpipe

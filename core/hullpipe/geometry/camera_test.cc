@@ -1,0 +1,75 @@
+#include "hullpipe/geometry/camera.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "hullpipe/geometry/calibration.h"
+#include "hullpipe/evaluation/synthetic.h"
+
+namespace hullpipe {
+namespace {
+
+Camera DistortedCamera() {
+  // The Utrecht rig's cam1 distortion: strong barrel (k1 = -0.37).
+  auto cams = RingCameras(1, 4.0, 2.0, Eigen::Vector3d(0, 0, -1), 644, 486, 1.2,
+                          Distortion{-0.3687, 0.2032, 3.3e-4, 1.8e-5, -0.0712});
+  return cams[0];
+}
+
+TEST(Camera, ProjectUnprojectRoundTripWithDistortion) {
+  const Camera cam = DistortedCamera();
+  cam.Check();
+  // A grid over the central 90% of the image: its ray, a point on it, projected
+  // back, lands on it. (With this distortion the image corners lie at the fold of
+  // the radial polynomial, as the real cam1's do: there is no unique ray there.)
+  // Tolerance 1e-6 px: Undistort iterates to ~1e-9 in normalized units (f ~ 300 px).
+  for (double v = 0.05 * cam.height; v <= 0.95 * cam.height; v += 23.7)
+    for (double u = 0.05 * cam.width; u <= 0.95 * cam.width; u += 21.3) {
+      const Eigen::Vector2d uv(u, v);
+      const Eigen::Vector3d X = cam.Center() + 3.7 * cam.PixelRayWorld(uv);
+      const auto back = cam.Project(X);
+      ASSERT_TRUE(back.has_value());
+      EXPECT_NEAR((*back - uv).norm(), 0.0, 1e-6) << "pixel " << u << "," << v;
+    }
+}
+
+TEST(Camera, PointBehindCameraIsNotProjected) {
+  const Camera cam = DistortedCamera();
+  const Eigen::Vector3d forward = cam.cam_from_world.rotation.row(2).transpose();
+  EXPECT_TRUE(cam.Project(cam.Center() + forward).has_value());
+  EXPECT_FALSE(cam.Project(cam.Center() - forward).has_value());  // never mirrored
+  EXPECT_FALSE(cam.Project(cam.Center()).has_value());            // at the centre
+}
+
+TEST(Camera, DistortionFoldBackIsRejected) {
+  const Camera cam = DistortedCamera();
+  const double r2 = cam.MaxValidRadius2();
+  ASSERT_TRUE(std::isfinite(r2));
+  // Beyond the valid radius the polynomial folds back into the image: such a
+  // point must not be reported as projecting anywhere.
+  const Eigen::Vector3d X_cam(std::sqrt(r2) * 1.2, 0, 1);
+  const Eigen::Vector3d X = cam.cam_from_world.Inverse() * X_cam;
+  EXPECT_FALSE(cam.Project(X).has_value());
+  const Eigen::Vector3d inside_cam(std::sqrt(r2) * 0.9, 0, 1);
+  EXPECT_TRUE(cam.Project(cam.cam_from_world.Inverse() * inside_cam).has_value());
+}
+
+TEST(Camera, CheckNamesTheProblem) {
+  Camera cam = DistortedCamera();
+  cam.fx = -1;
+  EXPECT_THROW(cam.Check(), std::invalid_argument);
+  cam = DistortedCamera();
+  cam.cam_from_world.rotation(0, 0) = 2;
+  EXPECT_THROW(cam.Check(), std::invalid_argument);
+}
+
+TEST(Camera, ScaledCameraProjectsProportionally) {
+  const Camera cam = DistortedCamera();
+  const Camera half = ScaledCamera(cam, cam.width / 2, cam.height / 2);
+  const Eigen::Vector3d X = cam.Center() + 4.0 * cam.PixelRayWorld({100.5, 200.5});
+  EXPECT_NEAR((*half.Project(X) - *cam.Project(X) / 2).norm(), 0, 1e-9);
+}
+
+}  // namespace
+}  // namespace hullpipe

@@ -1,0 +1,163 @@
+#include "hullpipe/reconstruction/compositor.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "hullpipe/geometry/conventions.h"
+
+namespace hullpipe {
+
+namespace {
+
+// Rasterises the meshes into out/depth (eye z), depth-tested.
+void DrawMeshes(const NovelView& view, const std::vector<VirtualMeshDraw>& meshes, const Eigen::Vector3d& light,
+                const CompositeOptions& o, cv::Mat* out, cv::Mat* depth) {
+  const Rigid3d eye_from_world = view.world_from_eye.Inverse();
+  const Eigen::Vector3d light_eye = eye_from_world.rotation * light;
+  constexpr double kNear = 0.05;
+  for (const auto& m : meshes) {
+    std::vector<Eigen::Vector3d> e(m.vertices.size());  // eye frame
+    for (size_t i = 0; i < e.size(); ++i) e[i] = eye_from_world * m.vertices[i];
+    auto colour_of = [&](size_t k, double shade) {
+      const bool hit = k < m.colliding.size() && m.colliding[k];
+      const cv::Vec3b base = hit ? o.collide_colour : m.colour;
+      cv::Vec3b c;
+      for (int j = 0; j < 3; ++j) c[j] = cv::saturate_cast<uint8_t>(base[j] * shade);
+      return c;
+    };
+    if (m.triangles.empty()) {
+      for (size_t i = 0; i < e.size(); ++i) {
+        const Eigen::Vector3d& p = e[i];
+        if (p.z() < kNear) continue;
+        const double u = view.fx * p.x() / p.z() + view.cx, v = view.fy * p.y() / p.z() + view.cy;
+        const double r = std::max(0.7, view.fx * m.point_radius / p.z());
+        const cv::Vec3b c = colour_of(i, 0.9);
+        for (int y = int(std::floor(v - r)); y <= int(std::ceil(v + r)); ++y)
+          for (int x = int(std::floor(u - r)); x <= int(std::ceil(u + r)); ++x) {
+            if (x < 0 || y < 0 || x >= view.width || y >= view.height) continue;
+            const double dx = x + 0.5 - u, dy = y + 0.5 - v;
+            if (dx * dx + dy * dy > r * r) continue;
+            float& d = depth->at<float>(y, x);
+            if (float(p.z()) >= d) continue;
+            d = float(p.z());
+            out->at<cv::Vec3b>(y, x) = c;
+          }
+      }
+      continue;
+    }
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+      const Eigen::Vector3i& tri = m.triangles[t];
+      if ((tri.array() < 0).any() || (tri.array() >= int(e.size())).any()) continue;
+      const Eigen::Vector3d a = e[size_t(tri[0])], b = e[size_t(tri[1])], c = e[size_t(tri[2])];
+      if (a.z() < kNear || b.z() < kNear || c.z() < kNear) continue;  // no near clipping: skip
+      Eigen::Vector3d n = (b - a).cross(c - a);
+      if (n.norm() < 1e-15) continue;
+      n.normalize();
+      const double shade = 0.35 + 0.65 * std::abs(n.dot(light_eye));  // two-sided
+      const cv::Vec3b col = colour_of(t, shade);
+      Eigen::Vector2d P[3];
+      double iz[3];
+      const Eigen::Vector3d* V[3] = {&a, &b, &c};
+      for (int k = 0; k < 3; ++k) {
+        iz[k] = 1.0 / V[k]->z();
+        P[k] = Eigen::Vector2d(view.fx * V[k]->x() * iz[k] + view.cx, view.fy * V[k]->y() * iz[k] + view.cy);
+      }
+      const double area = (P[1] - P[0]).x() * (P[2] - P[0]).y() - (P[1] - P[0]).y() * (P[2] - P[0]).x();
+      if (std::abs(area) < 1e-12) continue;
+      const int x0 = std::max(0, int(std::floor(std::min({P[0].x(), P[1].x(), P[2].x()}))));
+      const int x1 = std::min(view.width - 1, int(std::ceil(std::max({P[0].x(), P[1].x(), P[2].x()}))));
+      const int y0 = std::max(0, int(std::floor(std::min({P[0].y(), P[1].y(), P[2].y()}))));
+      const int y1 = std::min(view.height - 1, int(std::ceil(std::max({P[0].y(), P[1].y(), P[2].y()}))));
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+          const Eigen::Vector2d q(x + 0.5, y + 0.5);
+          double w[3];
+          for (int k = 0; k < 3; ++k) {
+            const Eigen::Vector2d& p1 = P[(k + 1) % 3];
+            const Eigen::Vector2d& p2 = P[(k + 2) % 3];
+            w[k] = ((p2 - p1).x() * (q - p1).y() - (p2 - p1).y() * (q - p1).x()) / area;
+          }
+          if (w[0] < 0 || w[1] < 0 || w[2] < 0) continue;
+          const double z = 1.0 / (w[0] * iz[0] + w[1] * iz[1] + w[2] * iz[2]);  // perspective-correct
+          float& d = depth->at<float>(y, x);
+          if (float(z) >= d) continue;
+          d = float(z);
+          out->at<cv::Vec3b>(y, x) = col;
+        }
+    }
+  }
+}
+
+}  // namespace
+
+cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Mat& hull_colour,
+                  const std::vector<VirtualSphere>& spheres, const CompositeOptions& o,
+                  cv::Mat* depth_out, const std::vector<VirtualMeshDraw>& meshes) {
+  CV_Assert(hull_depth.type() == CV_32FC1 && hull_colour.type() == CV_8UC3);
+  CV_Assert(hull_depth.cols == view.width && hull_depth.rows == view.height);
+  CV_Assert(hull_colour.size() == hull_depth.size());
+  cv::Mat out(view.height, view.width, CV_8UC3);
+  cv::Mat depth(view.height, view.width, CV_32FC1);
+  const Eigen::Matrix3d& R = view.world_from_eye.rotation;
+  const Eigen::Vector3d O = view.world_from_eye.translation;
+  const Eigen::Vector3d light = (-o.floor_normal + Eigen::Vector3d(0.3, 0.2, 0)).normalized() * -1.0;
+  for (int r = 0; r < view.height; ++r) {
+    for (int c = 0; c < view.width; ++c) {
+      const Eigen::Vector3d D = R * view.EyeRay(c + 0.5, r + 0.5);  // eye z of D is 1
+      float best = hull_depth.at<float>(r, c);
+      cv::Vec3b colour = std::isfinite(best) ? hull_colour.at<cv::Vec3b>(r, c) : cv::Vec3b(0, 0, 0);
+      if (!std::isfinite(best)) {
+        // Sky: a vertical gradient.
+        const double up = std::clamp(-D.normalized().dot(-o.floor_normal) * 0.5 + 0.5, 0.0, 1.0);
+        colour = cv::Vec3b(cv::saturate_cast<uint8_t>(120 + 100 * up),
+                           cv::saturate_cast<uint8_t>(90 + 60 * up), cv::saturate_cast<uint8_t>(60 + 30 * up));
+      }
+      if (o.draw_floor) {
+        const double denom = o.floor_normal.dot(D);
+        if (std::abs(denom) > 1e-12) {
+          const double s = (o.floor_offset - o.floor_normal.dot(O)) / denom;
+          if (s > 0 && s < best) {
+            best = float(s);
+            const Eigen::Vector3d f = O + s * D;
+            // Checkers of 0.5 m in the floor plane's two world axes most in it.
+            const Eigen::Vector3d a = o.floor_normal.unitOrthogonal(), b = o.floor_normal.cross(a);
+            const bool odd = (int(std::floor(f.dot(a) * 2)) + int(std::floor(f.dot(b) * 2))) & 1;
+            const double fade = std::exp(-0.08 * s);
+            const cv::Vec3b base = odd ? cv::Vec3b(180, 180, 170) : cv::Vec3b(110, 110, 100);
+            for (int k = 0; k < 3; ++k) colour[k] = cv::saturate_cast<uint8_t>(base[k] * (0.4 + 0.6 * fade));
+          }
+        }
+      }
+      for (const auto& sp : spheres) {
+        const Eigen::Vector3d oc = O - sp.centre;
+        const double A = D.squaredNorm(), B = oc.dot(D), C = oc.squaredNorm() - sp.radius * sp.radius;
+        const double disc = B * B - A * C;
+        if (disc < 0) continue;
+        const double s = (-B - std::sqrt(disc)) / A;
+        if (s <= 0 || s >= best) continue;
+        best = float(s);
+        const Eigen::Vector3d n = (O + s * D - sp.centre).normalized();
+        const double shade = 0.3 + 0.7 * std::max(0.0, n.dot(light));
+        const cv::Vec3b base = sp.colliding ? o.collide_colour : o.ball_colour;
+        for (int k = 0; k < 3; ++k) colour[k] = cv::saturate_cast<uint8_t>(base[k] * shade);
+      }
+      out.at<cv::Vec3b>(r, c) = colour;
+      depth.at<float>(r, c) = best;
+    }
+  }
+  if (!meshes.empty()) DrawMeshes(view, meshes, light, o, &out, &depth);
+  if (depth_out) *depth_out = depth;
+  return out;
+}
+
+Rigid3d OrbitPath::WorldFromEye(double t) const {
+  const Eigen::Vector3d u = up.normalized();
+  const Eigen::Vector3d a = u.unitOrthogonal(), b = u.cross(a);
+  const double ang = phase + 2 * M_PI * t / period;
+  const Eigen::Vector3d eye = centre + radius * (std::cos(ang) * a + std::sin(ang) * b) + height * u;
+  return LookAt(eye, centre, u);
+}
+
+}  // namespace hullpipe

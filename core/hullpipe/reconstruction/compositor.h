@@ -1,0 +1,66 @@
+// Compositing the hull with the virtual scene for the novel view (paper §3.3,
+// §4: "colliding objects are drawn red"): per pixel, the nearest of the hull, the
+// virtual objects and the floor wins (a depth test on eye z).
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "hullpipe/reconstruction/plane_sweep.h"
+
+namespace hullpipe {
+
+/// A virtual sphere to draw (world metres).
+struct VirtualSphere {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double radius = 0.1;
+  bool colliding = false;  ///< Drawn red when true.
+};
+
+/// A virtual triangle mesh or point set to draw (world metres): the cloth, the
+/// payload parts, the particles.
+struct VirtualMeshDraw {
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<Eigen::Vector3i> triangles;  ///< Empty: draw the vertices as points.
+  /// Per triangle (or per point when there are no triangles): drawn red when 1.
+  /// Empty: none colliding.
+  std::vector<uint8_t> colliding;
+  cv::Vec3b colour{200, 200, 200};  ///< BGR when not colliding.
+  double point_radius = 0.005;      ///< Radius of drawn points, metres.
+};
+
+/// Compositing settings.
+struct CompositeOptions {
+  bool draw_floor = true;
+  Eigen::Vector3d floor_normal{0, 0, -1};  ///< Unit normal pointing up (Utrecht: -z).
+  double floor_offset = 0.0;               ///< Floor plane: floor_normal . x = offset.
+  cv::Vec3b ball_colour{220, 180, 40};     ///< BGR when not colliding.
+  cv::Vec3b collide_colour{30, 30, 230};   ///< BGR when colliding (red).
+};
+
+/// Draws the view: hull_depth (CV_32FC1 eye z, kNoDepth = none) and hull_colour
+/// (CV_8UC3), both of the view's size, with the spheres, meshes (rasterised,
+/// two-sided, flat-shaded; points as discs) and floor, depth-tested on eye z.
+/// Returns CV_8UC3 BGR of the view's size. *depth_out (optional) receives the
+/// composited eye-z depth. A mesh whose triangle indices are out of range is
+/// skipped (callers validate messages first).
+cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Mat& hull_colour,
+                  const std::vector<VirtualSphere>& spheres, const CompositeOptions& options = {},
+                  cv::Mat* depth_out = nullptr, const std::vector<VirtualMeshDraw>& meshes = {});
+
+/// The scripted head path: an orbit around `centre` (world metres) of `radius` at
+/// `height` along the up vector, one turn per `period` seconds, looking at centre.
+struct OrbitPath {
+  Eigen::Vector3d centre{0.35, 0.05, -0.9};
+  Eigen::Vector3d up{0, 0, -1};
+  double radius = 3.0;
+  double height = 0.6;  ///< Eye height above the centre, metres.
+  double period = 12.0;
+  double phase = 0.0;   ///< Start angle, radians.
+  /// world_from_eye at time t seconds.
+  Rigid3d WorldFromEye(double t) const;
+};
+
+}  // namespace hullpipe

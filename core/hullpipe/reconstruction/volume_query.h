@@ -1,0 +1,154 @@
+// Volume querying (paper §3.2): a 3D point is inside the visual hull iff it
+// projects onto an object pixel in every one of the n cameras' object-pixel maps.
+// This is the CPU reference that every other path (GL sweep, GL triangle query)
+// is tested against.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "hullpipe/geometry/aabb.h"
+#include "hullpipe/geometry/camera.h"
+
+namespace hullpipe {
+
+/// One camera's calibration with its object-pixel map for one frame
+/// (CV_8UC1, camera.width x camera.height, non-zero = object).
+struct CameraMap {
+  Camera camera;
+  cv::Mat map;
+};
+
+namespace detail {
+/// A camera's projection reduced to floats for hot loops (see VolumeQuery::VoteFast).
+struct FastCamera {
+  float r[9], t[3];
+  float fx, fy, cx, cy;
+  float k1, k2, p1, p2, k3;
+  float r2max;
+  bool distorted;
+  int width, height;
+  const uint8_t* data;
+  size_t step;
+};
+}  // namespace detail
+
+/// What a camera says of a point it cannot see: behind it (z <= 0), outside its
+/// image, or beyond its distortion model's valid radius.
+enum class OutOfView {
+  /// The camera vetoes the point: it is outside the hull (the paper's rule; the
+  /// hull is clipped to the intersection of all views).
+  kOutside,
+  /// The camera does not vote: the hull is not clipped where a camera cannot see.
+  /// The point is inside iff every camera that sees it puts it on object pixels and
+  /// at least min_seen cameras see it (so a region one camera alone sees is not a
+  /// silhouette cone running to the workspace's edge).
+  kUnknown,
+};
+
+/// One camera's verdict on a point (VolumeQuery::Vote).
+enum class Vote : uint8_t { kBackground = 0, kObject = 1, kUnseen = 2 };
+
+/// Settings of a volume query.
+struct VolumeQueryOptions {
+  OutOfView out_of_view = OutOfView::kUnknown;  ///< Default: do not clip by views.
+  /// With kUnknown: the fewest cameras that must see a point for it to be inside
+  /// (clamped to n; >= 1).
+  int min_seen = 2;
+  /// Throws std::invalid_argument naming the bad field.
+  void Check() const;
+};
+
+/// The visual hull of one frameset, queryable point by point.
+/// A point outside the workspace box is outside. A camera that cannot see a point
+/// votes as VolumeQueryOptions::out_of_view says (default: it does not vote).
+class VolumeQuery {
+ public:
+  /// views: the n cameras and their maps (n >= 1). workspace: world box (metres)
+  /// outside which nothing is hull (DefaultWorkspace if unsure). Computes the hull's
+  /// bounding box (HullBoundingBox; with kUnknown, see hull_box()). Throws
+  /// std::invalid_argument if a map is not CV_8UC1 of its camera's size, n == 0, or
+  /// the options fail Check(). The maps are shared, not copied.
+  VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, const VolumeQueryOptions& options = {});
+
+  const VolumeQueryOptions& options() const { return options_; }
+  /// The number of cameras that must see a point for it to be inside: n with
+  /// kOutside (all), min(min_seen, n) with kUnknown.
+  int required_seen() const { return required_seen_; }
+
+  /// Number of cameras n.
+  size_t size() const { return views_.size(); }
+  const std::vector<CameraMap>& views() const { return views_; }
+  const Aabb& workspace() const { return workspace_; }
+  /// Conservative box of the hull (every inside point is in it). kOutside: the
+  /// intersection of all cameras' silhouette pyramids (empty if some map is empty).
+  /// kUnknown: the intersection of the pyramids of the cameras that see the whole
+  /// workspace (they always vote), within the union of each camera's own
+  /// pyramid box (an inside point is an object point of at least one camera).
+  const Aabb& hull_box() const { return hull_box_; }
+
+  /// True iff X (world metres) lies in the workspace and the cameras' votes make
+  /// it inside: kOutside, object in all n (§3.2, "inside iff count == n");
+  /// kUnknown, no camera says background and at least required_seen() see it.
+  bool Inside(const Eigen::Vector3d& X_world) const;
+
+  /// Camera i's verdict on X (world metres), in double precision.
+  Vote VoteOf(size_t i, const Eigen::Vector3d& X_world) const;
+
+  /// Number of cameras in which X projects onto an object pixel (0..n); the
+  /// stencil count of the paper's sweep.
+  int Count(const Eigen::Vector3d& X_world) const;
+
+  /// A query over the cameras whose indices are listed (for leave-one-out tests).
+  VolumeQuery Subset(const std::vector<int>& indices) const;
+
+  /// Float camera parameters for hot loops, in views() order.
+  const std::vector<detail::FastCamera>& fast() const { return fast_; }
+
+  /// Camera `c`'s verdict on camera-frame point (x, y, z), in floats. Inline for
+  /// the hot loops (sweep, reprojection).
+  static Vote VoteFast(const detail::FastCamera& c, float x, float y, float z) {
+    if (!(z > 1e-6f)) return Vote::kUnseen;
+    const float iz = 1.0f / z;
+    float xn = x * iz, yn = y * iz;
+    const float r2 = xn * xn + yn * yn;
+    if (!(r2 <= c.r2max)) return Vote::kUnseen;
+    if (c.distorted) {
+      const float radial = 1.0f + r2 * (c.k1 + r2 * (c.k2 + r2 * c.k3));
+      const float xy = xn * yn;
+      const float xd = xn * radial + 2.0f * c.p1 * xy + c.p2 * (r2 + 2.0f * xn * xn);
+      const float yd = yn * radial + c.p1 * (r2 + 2.0f * yn * yn) + 2.0f * c.p2 * xy;
+      xn = xd;
+      yn = yd;
+    }
+    const float u = c.fx * xn + c.cx, v = c.fy * yn + c.cy;
+    if (!(u >= 0.0f && v >= 0.0f && u < float(c.width) && v < float(c.height))) return Vote::kUnseen;
+    return c.data[size_t(v) * c.step + size_t(u)] != 0 ? Vote::kObject : Vote::kBackground;
+  }
+
+  /// True if this one vote already puts the point outside: background, or unseen
+  /// under kOutside. Hot loops stop at the first such camera.
+  bool Vetoes(Vote v) const {
+    return v == Vote::kBackground || (v == Vote::kUnseen && options_.out_of_view == OutOfView::kOutside);
+  }
+
+  /// Whether votes make a point inside: `object` cameras voted object, `unseen`
+  /// could not see it, none voted background (the caller stops at the first
+  /// background vote).
+  bool Accepts(int object, int unseen) const {
+    return (unseen == 0 || options_.out_of_view == OutOfView::kUnknown) && object >= required_seen_;
+  }
+
+ private:
+  std::vector<CameraMap> views_;
+  Aabb workspace_;
+  VolumeQueryOptions options_;
+  int required_seen_ = 1;
+  Aabb hull_box_;
+  std::vector<detail::FastCamera> fast_;
+};
+
+}  // namespace hullpipe

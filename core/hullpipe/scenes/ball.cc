@@ -1,0 +1,108 @@
+#include "hullpipe/scenes/ball.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hullpipe {
+
+BallSimulation::BallSimulation(SceneConfig config) : config_(std::move(config)) {
+  config_.Check();
+  for (size_t i = 0; i < config_.balls.size(); ++i) {
+    const BallConfig& b = config_.balls[i];
+    meshes_.push_back(TriangleMesh::Icosphere(b.radius, b.subdivisions));
+    BodyState s;
+    s.id = b.id;
+    s.radius = b.radius;
+    bodies_.push_back(s);
+    next_throw_.push_back(0.0);
+    Throw(i);
+  }
+}
+
+void BallSimulation::Throw(size_t i) {
+  const BallConfig& b = config_.balls[i];
+  BodyState& s = bodies_[i];
+  s.position = b.start;
+  // Ballistic: start + v T + g T^2 / 2 = target.
+  const double T = b.flight_time;
+  s.velocity = (b.target - b.start) / T - 0.5 * config_.gravity * T;
+  s.colliding = false;
+  next_throw_[i] = b.rethrow_period > 0 ? time_ + b.rethrow_period : 1e300;
+}
+
+TriangleMesh BallSimulation::WorldMesh(size_t i) const {
+  Rigid3d world_from_body;
+  world_from_body.translation = bodies_[i].position;
+  return meshes_[i].Transformed(world_from_body);
+}
+
+void BallSimulation::Step(double dt, const VolumeQuery* hull) {
+  dt = std::clamp(dt, 0.0, 0.25);
+  for (auto& s : bodies_) s.colliding = false;
+  // Substeps short in time, and short in space: no ball moves more than its own
+  // radius in one (speed bounded by the current speed plus what gravity adds), so
+  // consecutive positions overlap and a thin part of the hull across the path
+  // cannot be skipped (no tunnelling). Capped at 2000 substeps per step.
+  int substeps = std::max(1, int(std::ceil(dt / config_.max_substep)));
+  for (const auto& b : bodies_) {
+    if (!(b.radius > 0)) continue;
+    const double reach = (b.velocity.norm() + config_.gravity.norm() * dt) * dt;
+    substeps = std::max(substeps, int(std::min(2000.0, std::ceil(reach / b.radius))));
+  }
+  const double h = dt / substeps;
+  const double g_norm = config_.gravity.norm();
+  const Eigen::Vector3d g_hat = g_norm > 0 ? Eigen::Vector3d(config_.gravity / g_norm)
+                                           : Eigen::Vector3d::UnitZ();
+  for (int k = 0; k < substeps; ++k) {
+    time_ += h;
+    for (size_t i = 0; i < bodies_.size(); ++i) {
+      if (time_ >= next_throw_[i]) Throw(i);
+      BodyState& s = bodies_[i];
+      const Eigen::Vector3d previous = s.position;
+      s.velocity += config_.gravity * h;
+      s.position += s.velocity * h;
+      // Floor: keep the ball above g_hat . x = floor.
+      if (config_.has_floor && g_hat.dot(s.position) + s.radius > config_.floor) {
+        s.position -= (g_hat.dot(s.position) + s.radius - config_.floor) * g_hat;
+        const double vn = s.velocity.dot(g_hat);
+        if (vn > 0) s.velocity -= (1 + config_.balls[i].restitution) * vn * g_hat;
+      }
+      if (!hull) continue;
+      const TriangleMesh mesh = WorldMesh(i);
+      CollisionResult c = DetectCollisions(*hull, mesh, config_.collision);
+      if (!c.colliding()) continue;
+      // Paper §4.2: move the ball by D_rec along V_rec so its deepest collision
+      // point reaches the hull's surface, and reflect its velocity about N_hull.
+      std::optional<CollisionResponse> resp;
+      if (config_.response == SceneConfig::Response::kExact) {
+        RefineFarthestCollisionPoint(*hull, mesh, s.position, config_.collision, &c);
+        resp = ComputeResponse(*hull, c.collision_points, s.position);
+      } else {
+        resp = ComputeResponsePaper(*hull, c.collision_points, s.position);
+      }
+      Eigen::Vector3d n;
+      if (resp) {
+        n = resp->n_hull;
+        s.position += (resp->d_rec + 1e-3) * resp->v_rec;  // 1 mm clear of the surface
+      } else {
+        // No CP_hull (a collision point outside the hull by float rounding): back
+        // out to the previous position, pushing away from the points' centroid.
+        Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+        for (const auto& p : c.collision_points) centroid += p;
+        centroid /= double(c.collision_points.size());
+        n = s.position - centroid;
+        n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized())
+                            : (s.velocity.norm() > 1e-9 ? Eigen::Vector3d(-s.velocity.normalized())
+                                                        : Eigen::Vector3d(-g_hat));
+        s.position = previous;
+      }
+      const double vn = s.velocity.dot(n);
+      if (vn < 0) s.velocity -= (1 + config_.balls[i].restitution) * vn * n;
+      s.colliding = true;
+      s.last_collision = std::move(c);
+      s.last_response = resp;
+    }
+  }
+}
+
+}  // namespace hullpipe

@@ -1,0 +1,55 @@
+// Balls thrown under gravity against the visual hull and the floor (paper §4):
+// detection by §4.1's box test then per-triangle volume queries, response by
+// §4.2 (D_rec along V_rec so CP_obj reaches CP_hull, velocity reflected about
+// N_hull). Settings come from the scene file (scene_config.h).
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hullpipe/collision/collision_response.h"
+#include "hullpipe/collision/collision.h"
+#include "hullpipe/geometry/mesh.h"
+#include "hullpipe/scenes/scene_config.h"
+
+namespace hullpipe {
+
+/// State of one body after a step.
+struct BodyState {
+  int id = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< World metres.
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< World m/s.
+  double radius = 0;
+  bool colliding = false;  ///< Touched the hull during the last step.
+  CollisionResult last_collision;  ///< Of the last substep that collided.
+  /// The §4 response of that substep (paper §4.2; collision_response.h), if found.
+  std::optional<CollisionResponse> last_response;
+};
+
+/// Deterministic simulation: the same steps with the same hulls give the same states.
+class BallSimulation {
+ public:
+  explicit BallSimulation(SceneConfig config);
+  /// Advances by dt seconds (clamped to [0, 0.25]) in substeps of at most
+  /// max_substep and short enough that no ball moves more than its radius in one
+  /// (so it cannot tunnel through a thin part of the hull), each checked against
+  /// `hull` (nullptr: no hull this step).
+  void Step(double dt, const VolumeQuery* hull);
+  const std::vector<BodyState>& bodies() const { return bodies_; }
+  /// The world-frame mesh of body i at its current position.
+  TriangleMesh WorldMesh(size_t i) const;
+  double time() const { return time_; }
+  const SceneConfig& config() const { return config_; }
+
+ private:
+  void Throw(size_t i);
+  SceneConfig config_;
+  std::vector<TriangleMesh> meshes_;  // body frame
+  std::vector<BodyState> bodies_;
+  std::vector<double> next_throw_;
+  double time_ = 0;
+};
+
+}  // namespace hullpipe

@@ -1,0 +1,278 @@
+#include "hullpipe/scenes/payload.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <stdexcept>
+
+#include "hullpipe/util/csv.h"
+
+namespace hullpipe {
+
+double PayloadPart::SignedDistance(const Eigen::Vector3d& p) const {
+  const Eigen::Vector3d d = p - centre;
+  if (type == Type::kBox) {
+    const Eigen::Vector3d q = d.cwiseAbs() - half_extents;
+    return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+  }
+  const double along = std::abs(d[axis]);
+  Eigen::Vector3d radial = d;
+  radial[axis] = 0;
+  const Eigen::Vector2d q(radial.norm() - radius, along - half_length);
+  return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+}
+
+Aabb PayloadPart::Bounds() const {
+  Aabb b;
+  Eigen::Vector3d h = half_extents;
+  if (type == Type::kCylinder) {
+    h = Eigen::Vector3d::Constant(radius);
+    h[axis] = half_length;
+  }
+  b.min = centre - h;
+  b.max = centre + h;
+  return b;
+}
+
+TriangleMesh PayloadPart::Mesh() const {
+  if (type == Type::kBox) {
+    Rigid3d pose;
+    pose.translation = centre;
+    return TriangleMesh::Box(half_extents, 0.02).Transformed(pose);
+  }
+  // A closed cylinder of 24 sides, its axis along world axis `axis`.
+  TriangleMesh m;
+  const int n = 24;
+  const int a = axis, b = (axis + 1) % 3, c = (axis + 2) % 3;
+  auto at = [&](double along, double ang) {
+    Eigen::Vector3d p = centre;
+    p[a] += along;
+    p[b] += radius * std::cos(ang);
+    p[c] += radius * std::sin(ang);
+    return p;
+  };
+  for (int i = 0; i < n; ++i) {
+    const double ang = 2 * M_PI * i / n;
+    m.vertices.push_back(at(-half_length, ang));
+    m.vertices.push_back(at(half_length, ang));
+  }
+  Eigen::Vector3d lo = centre, hi = centre;
+  lo[a] -= half_length;
+  hi[a] += half_length;
+  m.vertices.push_back(lo);
+  m.vertices.push_back(hi);
+  const int ilo = 2 * n, ihi = 2 * n + 1;
+  for (int i = 0; i < n; ++i) {
+    const int j = (i + 1) % n;
+    m.triangles.emplace_back(2 * i, 2 * j, 2 * j + 1);
+    m.triangles.emplace_back(2 * i, 2 * j + 1, 2 * i + 1);
+    m.triangles.emplace_back(ilo, 2 * j, 2 * i);
+    m.triangles.emplace_back(ihi, 2 * i + 1, 2 * j + 1);
+  }
+  return m;
+}
+
+void PayloadConfig::Check() const {
+  if (!pmt_centre.allFinite()) throw std::invalid_argument("payload: pmt_centre must be finite");
+  if (!(pmt_half.minCoeff() > 0) || !(a_half.minCoeff() > 0))
+    throw std::invalid_argument("payload: pmt_half and a_half must be > 0");
+  if (axis < 0 || axis > 2) throw std::invalid_argument("payload: axis must be 0, 1 or 2");
+  if (direction != 1 && direction != -1) throw std::invalid_argument("payload: direction must be 1 or -1");
+  if (!(spacing >= 0 && spacing < 10)) throw std::invalid_argument("payload: spacing must be in [0, 10) m");
+  if (!(shaft_radius > 0) || !(shaft_length > 0))
+    throw std::invalid_argument("payload: shaft_radius and shaft_length must be > 0");
+  if (!(max_clearance > 0 && max_clearance <= 2)) throw std::invalid_argument("payload: max_clearance must be in (0, 2]");
+  collision.Check();
+}
+
+std::vector<PayloadPart> PayloadConfig::Parts() const {
+  PayloadPart pmt;
+  pmt.name = "PMT";
+  pmt.centre = pmt_centre;
+  pmt.half_extents = pmt_half;
+  PayloadPart a;
+  a.name = "payload A";
+  a.centre = pmt_centre;
+  a.centre[axis] += direction * (pmt_half[axis] + spacing + a_half[axis]);
+  a.half_extents = a_half;
+  PayloadPart shaft;
+  shaft.name = "payload A shaft";
+  shaft.type = PayloadPart::Type::kCylinder;
+  shaft.axis = axis;
+  shaft.radius = shaft_radius;
+  shaft.half_length = 0.5 * shaft_length;
+  shaft.centre = a.centre;
+  shaft.centre[axis] += direction * (a_half[axis] + 0.5 * shaft_length);
+  return {pmt, a, shaft};
+}
+
+namespace {
+
+// Inside-hull grid samples of box `b` at spacing h; calls f(point) for each.
+template <typename F>
+void ForEachInsideSample(const VolumeQuery& q, const Aabb& b, double h, F&& f) {
+  const Eigen::Vector3d size = b.max - b.min;
+  const int nx = int(std::floor(size.x() / h)) + 1, ny = int(std::floor(size.y() / h)) + 1,
+            nz = int(std::floor(size.z() / h)) + 1;
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const Eigen::Vector3d p = b.min + Eigen::Vector3d(i * h, j * h, k * h);
+        if (q.Inside(p)) f(p);
+      }
+}
+
+Aabb Intersect(const Aabb& a, const Aabb& b) {
+  Aabb r;
+  r.min = a.min.cwiseMax(b.min);
+  r.max = a.max.cwiseMin(b.max);
+  return r;
+}
+
+}  // namespace
+
+ClearanceResult HullClearance(const VolumeQuery& q, const PayloadPart& part, double max_clearance) {
+  ClearanceResult r;
+  r.distance = max_clearance;
+  Aabb region = part.Bounds();
+  region.min -= Eigen::Vector3d::Constant(max_clearance);
+  region.max += Eigen::Vector3d::Constant(max_clearance);
+  region = Intersect(region, q.hull_box());
+  if (region.empty()) return r;
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::Vector3d best_p = Eigen::Vector3d::Zero();
+  double h = 0.02;
+  ForEachInsideSample(q, region, h, [&](const Eigen::Vector3d& p) {
+    const double d = part.SignedDistance(p);
+    if (d < best) best = d, best_p = p;
+  });
+  if (!std::isfinite(best)) return r;
+  // Refine around the nearest sample on grids five times finer, three times.
+  for (int level = 0; level < 3; ++level) {
+    Aabb window;
+    window.min = best_p - Eigen::Vector3d::Constant(2 * h);
+    window.max = best_p + Eigen::Vector3d::Constant(2 * h);
+    h /= 5;
+    ForEachInsideSample(q, Intersect(window, q.hull_box()), h, [&](const Eigen::Vector3d& p) {
+      const double d = part.SignedDistance(p);
+      if (d < best) best = d, best_p = p;
+    });
+  }
+  r.hull_near = best < max_clearance;
+  r.colliding = best <= 0;
+  r.distance = std::clamp(best, 0.0, max_clearance);
+  r.hull_point = best_p;
+  return r;
+}
+
+PayloadFrame EvaluatePayload(const PayloadConfig& config, const VolumeQuery* hull) {
+  PayloadFrame f;
+  f.parts = config.Parts();
+  for (const auto& part : f.parts) {
+    if (!hull) {
+      f.collisions.emplace_back();
+      ClearanceResult none;
+      none.distance = config.max_clearance;
+      f.clearance.push_back(none);
+      continue;
+    }
+    f.collisions.push_back(DetectCollisions(*hull, part.Mesh(), config.collision));
+    f.clearance.push_back(HullClearance(*hull, part, config.max_clearance));
+  }
+  return f;
+}
+
+std::vector<PipePose> LoadPipeMotion(const std::string& path) {
+  std::vector<PipePose> out;
+  for (const CsvRow& row : ReadNumericCsv(path, 8, "t,px,py,pz,qx,qy,qz,radius")) {
+    const auto& v = row.values;
+    if (!(v[7] > 0)) throw std::runtime_error(CsvWhere(path, row.line) + "radius must be > 0");
+    out.push_back({v[0], {v[1], v[2], v[3]}, {v[4], v[5], v[6]}, v[7]});
+  }
+  return out;
+}
+
+void SavePipeMotion(const std::string& path, const std::vector<PipePose>& motion) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot write");
+  out << "t,px,py,pz,qx,qy,qz,radius\n";
+  out.precision(9);
+  for (const auto& m : motion)
+    out << m.t << ',' << m.p.x() << ',' << m.p.y() << ',' << m.p.z() << ',' << m.q.x() << ',' << m.q.y() << ','
+        << m.q.z() << ',' << m.radius << '\n';
+}
+
+std::vector<PipePose> ExamplePipeMotion(const PayloadConfig& c, double travel, int frames, double* needed) {
+  const int a = c.axis, b = (c.axis + 1) % 3;
+  const double r = 0.02, half_segment = 0.05;  // 14 cm long in all, 4 cm across
+  const double face = c.pmt_centre[a] + c.direction * c.pmt_half[a];
+  std::vector<PipePose> m;
+  for (int f = 0; f < frames; ++f) {
+    const double t = 2.0 * f / std::max(1, frames - 1);
+    const double s = 0.5 * (1 - std::cos(M_PI * t));  // 0 -> 1 -> 0 over 2 s
+    Eigen::Vector3d centre = c.pmt_centre;
+    centre[a] = face + c.direction * (0.01 + r + travel * s);
+    Eigen::Vector3d e = Eigen::Vector3d::Zero();
+    e[b] = half_segment;
+    m.push_back({t, centre - e, centre + e, r});
+  }
+  if (needed) *needed = 0.01 + 2 * r + travel;
+  return m;
+}
+
+namespace {
+bool ACollides(const PayloadConfig& c, const VolumeQuery& q, double* clearance) {
+  const auto parts = c.Parts();
+  bool hit = false;
+  for (size_t k = 1; k < parts.size(); ++k) {
+    const ClearanceResult r = HullClearance(q, parts[k], c.max_clearance);
+    *clearance = std::min(*clearance, r.distance);
+    hit = hit || r.colliding;
+  }
+  return hit;
+}
+}  // namespace
+
+SpacingSweepResult SweepSpacing(const PayloadConfig& config, const std::vector<VolumeQuery>& hulls, double from,
+                                double to, double step, double resolution) {
+  if (!(from >= 0 && to >= from && step > 0 && resolution > 0))
+    throw std::invalid_argument("SweepSpacing: need 0 <= from <= to, step > 0, resolution > 0");
+  SpacingSweepResult res;
+  res.smallest_free = std::numeric_limits<double>::quiet_NaN();
+  const auto pmt = config.Parts()[0];
+  for (const auto& q : hulls) res.pmt_frames_colliding += HullClearance(q, pmt, config.max_clearance).colliding;
+  auto collides_at = [&](double s, double* min_clearance, int* frames) {
+    PayloadConfig c = config;
+    c.spacing = s;
+    *min_clearance = c.max_clearance;
+    int n = 0;
+    for (const auto& q : hulls) n += ACollides(c, q, min_clearance);
+    if (frames) *frames = n;
+    return n > 0;
+  };
+  double last_colliding = std::numeric_limits<double>::quiet_NaN();
+  for (int k = 0; from + k * step <= to + 1e-12; ++k) {
+    SpacingSweepResult::Row row;
+    row.spacing = from + k * step;
+    collides_at(row.spacing, &row.min_clearance, &row.frames_colliding);
+    res.rows.push_back(row);
+    if (row.frames_colliding > 0) {
+      last_colliding = row.spacing;
+    } else if (std::isnan(res.smallest_free)) {
+      res.smallest_free = row.spacing;
+    }
+  }
+  if (std::isnan(res.smallest_free) || std::isnan(last_colliding) || last_colliding > res.smallest_free)
+    return res;  // none free, or free from the first row (nothing to bisect)
+  double lo = last_colliding, hi = res.smallest_free;
+  double ignored = 0;
+  while (hi - lo > resolution) {
+    const double mid = 0.5 * (lo + hi);
+    (collides_at(mid, &ignored, nullptr) ? lo : hi) = mid;
+  }
+  res.smallest_free = hi;
+  return res;
+}
+
+}  // namespace hullpipe

@@ -1,0 +1,168 @@
+#include "hullpipe/scenes/scene_config.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <yaml-cpp/yaml.h>
+
+namespace hullpipe {
+
+void SceneConfig::Check() const {
+  if (!gravity.allFinite()) throw std::invalid_argument("scene: gravity must be finite");
+  if (!(max_substep > 0)) throw std::invalid_argument("scene: max_substep must be > 0");
+  collision.Check();
+  if (cloth) cloth->Check();
+  if (particles) particles->Check();
+  if (payload) payload->Check();
+  if (light) light->Check();
+  if (cloth && !(gravity.norm() > 0)) throw std::invalid_argument("scene: a cloth needs non-zero gravity");
+  for (const auto& b : balls) {
+    if (!(b.radius > 0)) throw std::invalid_argument("scene: ball radius must be > 0");
+    if (!b.start.allFinite() || !b.target.allFinite())
+      throw std::invalid_argument("scene: ball start and target must be finite");
+    if (!(b.flight_time > 0)) throw std::invalid_argument("scene: ball flight_time must be > 0");
+    if (b.restitution < 0 || b.restitution > 1)
+      throw std::invalid_argument("scene: ball restitution must be in [0, 1]");
+    if (b.subdivisions < 0 || b.subdivisions > 5)
+      throw std::invalid_argument("scene: ball subdivisions must be in [0, 5]");
+  }
+}
+
+namespace {
+Eigen::Vector3d Vec3(const YAML::Node& n, const std::string& path, const char* key,
+                     const Eigen::Vector3d& fallback) {
+  if (!n[key]) return fallback;
+  const auto v = n[key].as<std::vector<double>>();
+  if (v.size() != 3) throw std::runtime_error(path + ": '" + key + "' must have 3 numbers");
+  return {v[0], v[1], v[2]};
+}
+template <typename T>
+void Get(const YAML::Node& n, const char* key, T* out) {
+  if (n[key]) *out = n[key].as<T>();
+}
+
+ClothConfig ParseCloth(const YAML::Node& n, const std::string& path) {
+  ClothConfig c;
+  Get(n, "id", &c.id);
+  c.rod_a = Vec3(n, path, "rod_a", c.rod_a);
+  c.rod_b = Vec3(n, path, "rod_b", c.rod_b);
+  Get(n, "length", &c.length);
+  Get(n, "nx", &c.nx);
+  Get(n, "ny", &c.ny);
+  Get(n, "iterations", &c.iterations);
+  Get(n, "damping", &c.damping);
+  Get(n, "max_substep", &c.max_substep);
+  Get(n, "clearance", &c.clearance);
+  Get(n, "max_search", &c.max_search);
+  Get(n, "max_pixel_size", &c.collision.max_pixel_size);
+  return c;
+}
+
+ParticleConfig ParseParticles(const YAML::Node& n, const std::string& path) {
+  ParticleConfig c;
+  Get(n, "id", &c.id);
+  c.emitter = Vec3(n, path, "emitter", c.emitter);
+  Get(n, "emitter_radius", &c.emitter_radius);
+  c.velocity = Vec3(n, path, "velocity", c.velocity);
+  Get(n, "velocity_jitter", &c.velocity_jitter);
+  Get(n, "rate", &c.rate);
+  Get(n, "max_particles", &c.max_particles);
+  Get(n, "lifetime", &c.lifetime);
+  Get(n, "restitution", &c.restitution);
+  Get(n, "friction", &c.friction);
+  Get(n, "radius", &c.radius);
+  Get(n, "clearance", &c.clearance);
+  Get(n, "max_substep", &c.max_substep);
+  Get(n, "seed", &c.seed);
+  return c;
+}
+
+PayloadConfig ParsePayload(const YAML::Node& n, const std::string& path) {
+  PayloadConfig c;
+  Get(n, "first_id", &c.first_id);
+  c.pmt_centre = Vec3(n, path, "pmt_centre", c.pmt_centre);
+  c.pmt_half = Vec3(n, path, "pmt_half", c.pmt_half);
+  Get(n, "axis", &c.axis);
+  Get(n, "direction", &c.direction);
+  Get(n, "spacing", &c.spacing);
+  c.a_half = Vec3(n, path, "a_half", c.a_half);
+  Get(n, "shaft_radius", &c.shaft_radius);
+  Get(n, "shaft_length", &c.shaft_length);
+  Get(n, "max_clearance", &c.max_clearance);
+  Get(n, "max_pixel_size", &c.collision.max_pixel_size);
+  return c;
+}
+
+LightConfig ParseLight(const YAML::Node& n, const std::string& path) {
+  LightConfig c;
+  c.position = Vec3(n, path, "position", c.position);
+  c.target = Vec3(n, path, "target", c.target);
+  Get(n, "fov_deg", &c.fov_deg);
+  Get(n, "map_size", &c.map_size);
+  Get(n, "planes", &c.planes);
+  Get(n, "refine", &c.refine);
+  Get(n, "bias", &c.bias);
+  Get(n, "ambient", &c.ambient);
+  Get(n, "hull_diffuse", &c.hull_diffuse);
+  return c;
+}
+
+}  // namespace
+
+SceneConfig LoadSceneConfig(const std::string& path) {
+  SceneConfig cfg;
+  try {
+    const YAML::Node root = YAML::LoadFile(path);
+    cfg.gravity = Vec3(root, path, "gravity", cfg.gravity);
+    if (root["floor"]) {
+      if (root["floor"].IsNull()) {
+        cfg.has_floor = false;
+      } else {
+        cfg.floor = root["floor"].as<double>();
+      }
+    }
+    if (const YAML::Node c = root["collision"]) {
+      if (c["max_pixel_size"]) cfg.collision.max_pixel_size = c["max_pixel_size"].as<double>();
+      if (c["fixed_viewport"]) cfg.collision.fixed_viewport = c["fixed_viewport"].as<int>();
+      if (c["max_viewport"]) cfg.collision.max_viewport = c["max_viewport"].as<int>();
+    }
+    if (root["response"]) {
+      const std::string r = root["response"].as<std::string>();
+      if (r != "exact" && r != "paper") throw std::runtime_error(path + ": 'response' must be exact or paper, not " + r);
+      cfg.response = r == "exact" ? SceneConfig::Response::kExact : SceneConfig::Response::kPaper;
+    }
+    if (root["max_substep"]) cfg.max_substep = root["max_substep"].as<double>();
+    if (const YAML::Node balls = root["balls"]) {
+      cfg.balls.clear();
+      int index = 0;
+      for (const auto& b : balls) {
+        BallConfig bc;
+        bc.id = b["id"] ? b["id"].as<int>() : index + 1;
+        if (b["radius"]) bc.radius = b["radius"].as<double>();
+        bc.start = Vec3(b, path, "start", bc.start);
+        bc.target = Vec3(b, path, "target", bc.target);
+        if (b["flight_time"]) bc.flight_time = b["flight_time"].as<double>();
+        if (b["restitution"]) bc.restitution = b["restitution"].as<double>();
+        if (b["rethrow_period"]) bc.rethrow_period = b["rethrow_period"].as<double>();
+        if (b["subdivisions"]) bc.subdivisions = b["subdivisions"].as<int>();
+        cfg.balls.push_back(bc);
+        ++index;
+      }
+    }
+    if (root["cloth"]) cfg.cloth = ParseCloth(root["cloth"], path);
+    if (root["particles"]) cfg.particles = ParseParticles(root["particles"], path);
+    if (root["payload"]) cfg.payload = ParsePayload(root["payload"], path);
+    if (root["light"]) cfg.light = ParseLight(root["light"], path);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+  try {
+    cfg.Check();
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+  return cfg;
+}
+
+}  // namespace hullpipe

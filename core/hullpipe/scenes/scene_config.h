@@ -1,0 +1,90 @@
+// Scene files (paper §4–§5): the schema of every hybrid scene sim_node and
+// render_node read. The balls' simulation is ball.h: balls thrown under gravity
+// that collide with the visual hull and the floor. Collision detection is the paper's (§4.1: box test,
+// then each triangle volume-queried in its own viewport); the response is §4.2's:
+// the ball moves by D_rec along V_rec (plus 1 mm) so its deepest collision point
+// CP_obj reaches the hull's surface at CP_hull, and its velocity is reflected about
+// N_hull. `response: exact` (default) refines CP_obj below the viewport pixel and
+// finds CP_hull and N_hull exactly (collision.h, collision_response.h); `paper`
+// uses the paper's isosceles-triangle scans.
+//
+// Scene file (YAML), metres and seconds, world frame of the rig:
+//   gravity: [0, 0, 9.81]         # Utrecht rig: z points down
+//   floor: 0.0                    # floor plane: g_hat . x = floor (omit: no floor)
+//   collision: {max_pixel_size: 0.004, fixed_viewport: 0, max_viewport: 32}
+//   response: exact               # exact | paper
+//   balls:
+//     - id: 1
+//       radius: 0.12
+//       start: [2.0, 0.2, -1.2]
+//       target: [0.35, 0.05, -1.0]  # thrown to pass here after flight_time
+//       flight_time: 0.9
+//       restitution: 0.7
+//       rethrow_period: 4.0         # rethrown from start every period (0: never)
+//       subdivisions: 2             # icosphere level: 320 triangles
+//   cloth:                          # optional curtain (cloth.h); keys as ClothConfig
+//     {id: 100, rod_a: [..], rod_b: [..], length: 1.2, nx: 21, ny: 19, iterations: 8,
+//      damping: 0.02, clearance: 0.002, max_pixel_size: 0.01}
+//   particles:                      # optional stream (particles.h); keys as ParticleConfig
+//     {id: 200, emitter: [..], emitter_radius: 0.05, velocity: [..], velocity_jitter: 0.1,
+//      rate: 2000, max_particles: 4000, lifetime: 3, restitution: 0.2, friction: 0.3,
+//      radius: 0.006, seed: 7}
+//   payload:                        # optional §5.2 task (payload.h); keys as PayloadConfig
+//     {first_id: 300, pmt_centre: [..], pmt_half: [..], axis: 1, direction: 1,
+//      spacing: 0.14, a_half: [..], shaft_radius: 0.03, shaft_length: 0.25,
+//      max_clearance: 0.15}
+//   light:                          # optional virtual light with shadows (lighting.h),
+//     {position: [..], target: [..], fov_deg: 70, map_size: 192, planes: 48, refine: 6,
+//      bias: 0.02, ambient: 0.45, hull_diffuse: 0.5}   # read by render_node
+//   balls: []                       # no balls
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hullpipe/scenes/cloth.h"
+#include "hullpipe/scenes/lighting.h"
+#include "hullpipe/collision/collision.h"
+#include "hullpipe/scenes/particles.h"
+#include "hullpipe/scenes/payload.h"
+
+namespace hullpipe {
+
+/// One thrown ball.
+struct BallConfig {
+  int id = 1;
+  double radius = 0.12;
+  Eigen::Vector3d start{2.0, 0.2, -1.2};
+  Eigen::Vector3d target{0.35, 0.05, -1.0};
+  double flight_time = 0.9;
+  double restitution = 0.7;
+  double rethrow_period = 4.0;
+  int subdivisions = 2;
+};
+
+/// Scene settings; see the file format above.
+struct SceneConfig {
+  Eigen::Vector3d gravity{0, 0, 9.81};
+  bool has_floor = true;
+  double floor = 0.0;
+  TriangleQueryOptions collision{0.004, 0, 32};
+  /// How the §4.2 response is found: exact (RefineFarthestCollisionPoint +
+  /// ComputeResponse) or paper (ComputeResponsePaper).
+  enum class Response { kExact, kPaper } response = Response::kExact;
+  double max_substep = 0.01;  ///< Longest integration step (s), limits tunnelling.
+  std::vector<BallConfig> balls{BallConfig{}};
+  std::optional<ClothConfig> cloth;         ///< The curtain, if any.
+  std::optional<ParticleConfig> particles;  ///< The particle stream, if any.
+  std::optional<PayloadConfig> payload;     ///< The payload spacing task, if any.
+  std::optional<LightConfig> light;         ///< A virtual light casting shadows (render_node).
+  /// Throws std::invalid_argument naming the bad field.
+  void Check() const;
+};
+
+/// Reads a scene file. Throws std::runtime_error naming the file and key.
+SceneConfig LoadSceneConfig(const std::string& path);
+
+}  // namespace hullpipe

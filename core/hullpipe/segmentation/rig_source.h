@@ -1,0 +1,78 @@
+// Sources of frames for capture_node: a rig of videos or image sequences (with
+// background segmentation), live V4L2 cameras, or the built-in synthetic scene with
+// exact masks. Each Next() gives one frame of every selected camera.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "hullpipe/geometry/aabb.h"
+#include "hullpipe/geometry/camera.h"
+#include "hullpipe/segmentation/segmentation.h"
+
+namespace hullpipe {
+
+/// One frame of all selected cameras. A camera whose frame could not be read this
+/// time has an empty image and map, and a line in `errors`.
+struct RigFrame {
+  std::vector<cv::Mat> images;  ///< CV_8UC3 BGR, calibrated size.
+  std::vector<cv::Mat> maps;    ///< CV_8UC1 object-pixel maps.
+  std::vector<std::string> errors;
+  double time_s = 0;            ///< Source time of the frame (frame index / fps).
+};
+
+/// A multi-camera source.
+class RigSource {
+ public:
+  virtual ~RigSource() = default;
+  virtual const std::vector<Camera>& cameras() const = 0;
+  /// Cameras in the whole rig (>= cameras().size() when a subset is selected):
+  /// the size of a complete frameset.
+  virtual int rig_camera_count() const = 0;
+  virtual Aabb workspace() const = 0;
+  /// Nominal frame rate of the source (frames per second).
+  virtual double fps() const = 0;
+  /// Reads the next frame. Returns false at the end of the input (every camera
+  /// ended). Never throws on bad input: bad frames are reported in RigFrame::errors.
+  virtual bool Next(RigFrame* frame) = 0;
+  /// Restarts from the first frame (for --loop). Returns false if not possible.
+  virtual bool Rewind() = 0;
+};
+
+/// Options of the file/live source.
+struct VideoRigOptions {
+  std::vector<int> camera_ids;   ///< Subset of camera ids (empty = all).
+  SegmentationOptions segmentation;
+  int background_frames = 60;    ///< Frames of the background video to learn from.
+};
+
+/// Opens a rig (LoadRig: Utrecht directory or YAML rig file). Each camera's
+/// `frames` may be a video file, a printf pattern of images, or "v4l2:<index>" for
+/// a live camera. The background model is learnt from `background` (video, image,
+/// or "v4l2:<index>": the first frames seen). Cameras with ready-made `masks` use
+/// them instead of segmenting. Throws CalibrationError / std::runtime_error with a
+/// clear message when the rig or a camera cannot be opened.
+std::unique_ptr<RigSource> OpenVideoRig(const std::string& rig_path, const VideoRigOptions& options);
+
+/// Options of the synthetic source.
+struct SyntheticRigOptions {
+  int cameras = 4;
+  int width = 320, height = 240;
+  double fps = 25;
+  double hfov = 1.0;             ///< radians
+  Distortion distortion{};
+  int frames = 250;              ///< Frames before the input ends.
+  std::vector<int> camera_ids;   ///< Subset (empty = all).
+  std::string scene = "figure";  ///< NamedScene: figure, hand, sphere, box, torus, mixed.
+  std::string placement = "ring";  ///< ring (4 m around the scene, 2 m up) or dome (3 m).
+};
+
+/// The built-in synthetic scene (NamedScene, moving, seen by RingCameras or
+/// DomeCameras): exact maps, shaded colour, no files needed. Throws
+/// std::invalid_argument on bad options (naming them).
+std::unique_ptr<RigSource> OpenSyntheticRig(const SyntheticRigOptions& options);
+
+}  // namespace hullpipe

@@ -1,0 +1,135 @@
+#include "hullpipe/segmentation/segmentation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+namespace hullpipe {
+
+void SegmentationOptions::Check() const {
+  auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("SegmentationOptions: ") + what);
+  };
+  require(value_threshold >= 0, "value_threshold must be >= 0");
+  require(value_noise_k >= 0, "value_noise_k must be >= 0");
+  require(hue_threshold >= 0 && hue_threshold <= 90, "hue_threshold must be in [0, 90]");
+  require(saturation_threshold >= 0, "saturation_threshold must be >= 0");
+  require(shadow_min_ratio >= 0 && shadow_min_ratio <= shadow_max_ratio && shadow_max_ratio <= 1,
+          "need 0 <= shadow_min_ratio <= shadow_max_ratio <= 1");
+  require(open_radius >= 0 && close_radius >= 0, "morphology radii must be >= 0");
+  require(min_component_fraction >= 0 && min_component_fraction < 1,
+          "min_component_fraction must be in [0, 1)");
+  require(min_component_ratio >= 0 && min_component_ratio <= 1, "min_component_ratio must be in [0, 1]");
+  require(max_hole_fraction >= 0 && max_hole_fraction < 1, "max_hole_fraction must be in [0, 1)");
+}
+
+BackgroundModel::BackgroundModel(const std::vector<cv::Mat>& frames) {
+  if (frames.empty()) throw std::invalid_argument("BackgroundModel: no background frames");
+  const cv::Size size = frames[0].size();
+  for (const auto& f : frames)
+    if (f.size() != size || f.type() != CV_8UC3)
+      throw std::invalid_argument("BackgroundModel: frames must all be CV_8UC3 of one size");
+  // Per-pixel median over at most 31 evenly spaced frames (robust to passing noise).
+  const size_t n = std::min<size_t>(frames.size(), 31);
+  std::vector<const cv::Mat*> used;
+  for (size_t i = 0; i < n; ++i) used.push_back(&frames[i * frames.size() / n]);
+  background_bgr_.create(size, CV_8UC3);
+  value_spread_.create(size, CV_32F);
+  std::vector<uint8_t> samples(n);
+  std::vector<cv::Mat> hsv(n);
+  for (size_t i = 0; i < n; ++i) cv::cvtColor(*used[i], hsv[i], cv::COLOR_BGR2HSV);
+  for (int r = 0; r < size.height; ++r) {
+    for (int c = 0; c < size.width; ++c) {
+      for (int ch = 0; ch < 3; ++ch) {
+        for (size_t i = 0; i < n; ++i) samples[i] = used[i]->ptr<uint8_t>(r)[3 * c + ch];
+        std::nth_element(samples.begin(), samples.begin() + n / 2, samples.end());
+        background_bgr_.ptr<uint8_t>(r)[3 * c + ch] = samples[n / 2];
+      }
+      for (size_t i = 0; i < n; ++i) samples[i] = hsv[i].ptr<uint8_t>(r)[3 * c + 2];
+      std::nth_element(samples.begin(), samples.begin() + n / 2, samples.end());
+      const int med = samples[n / 2];
+      for (size_t i = 0; i < n; ++i) samples[i] = uint8_t(std::abs(int(samples[i]) - med));
+      std::nth_element(samples.begin(), samples.begin() + n / 2, samples.end());
+      value_spread_.at<float>(r, c) = 1.4826f * samples[n / 2];
+    }
+  }
+  cv::cvtColor(background_bgr_, background_hsv_, cv::COLOR_BGR2HSV);
+}
+
+cv::Mat BackgroundModel::Segment(const cv::Mat& frame_bgr, const SegmentationOptions& o) const {
+  if (empty()) throw std::invalid_argument("BackgroundModel: not learnt");
+  if (frame_bgr.size() != size() || frame_bgr.type() != CV_8UC3)
+    throw std::invalid_argument("BackgroundModel: frame is " + std::to_string(frame_bgr.cols) +
+                                "x" + std::to_string(frame_bgr.rows) + ", model is " +
+                                std::to_string(size().width) + "x" + std::to_string(size().height));
+  cv::Mat hsv;
+  cv::cvtColor(frame_bgr, hsv, cv::COLOR_BGR2HSV);
+  cv::Mat map(size(), CV_8UC1);
+  const float vt = float(o.value_threshold), vk = float(o.value_noise_k);
+  const int ht = int(o.hue_threshold), hs = int(o.hue_min_saturation),
+            st = int(o.saturation_threshold);
+  const float smin = float(o.shadow_min_ratio), smax = float(o.shadow_max_ratio);
+  for (int r = 0; r < hsv.rows; ++r) {
+    const uint8_t* f = hsv.ptr<uint8_t>(r);
+    const uint8_t* b = background_hsv_.ptr<uint8_t>(r);
+    const float* spread = value_spread_.ptr<float>(r);
+    uint8_t* out = map.ptr<uint8_t>(r);
+    for (int c = 0; c < hsv.cols; ++c, f += 3, b += 3) {
+      int dh = std::abs(int(f[0]) - int(b[0]));
+      dh = std::min(dh, 180 - dh);
+      const bool hue_valid = f[1] > hs && b[1] > hs;
+      const bool hue_differs = hue_valid && dh > ht;
+      const bool sat_differs = std::abs(int(f[1]) - int(b[1])) > st;
+      const float dv = float(f[2]) - float(b[2]);
+      const bool value_differs = std::abs(dv) > std::max(vt, vk * spread[c]);
+      bool object = hue_differs || sat_differs || value_differs;
+      if (object && !hue_differs && !sat_differs && dv < 0 && b[2] > 0) {
+        const float ratio = float(f[2]) / float(b[2]);
+        if (ratio >= smin && ratio <= smax) object = false;  // shadow
+      }
+      out[c] = object ? 255 : 0;
+    }
+  }
+  CleanObjectPixelMap(map, o);
+  return map;
+}
+
+void CleanObjectPixelMap(cv::Mat& map, const SegmentationOptions& o) {
+  if (o.open_radius > 0) {
+    const int k = 2 * o.open_radius + 1;
+    cv::morphologyEx(map, map, cv::MORPH_OPEN,
+                     cv::getStructuringElement(cv::MORPH_ELLIPSE, {k, k}));
+  }
+  if (o.close_radius > 0) {
+    const int k = 2 * o.close_radius + 1;
+    cv::morphologyEx(map, map, cv::MORPH_CLOSE,
+                     cv::getStructuringElement(cv::MORPH_ELLIPSE, {k, k}));
+  }
+  std::vector<std::vector<cv::Point>> contours;
+  std::vector<cv::Vec4i> hierarchy;
+  cv::findContours(map, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
+  double largest = 0;
+  for (int i = 0; i >= 0 && !contours.empty(); i = hierarchy[i][0])
+    largest = std::max(largest, cv::contourArea(contours[i]));
+  const double min_area =
+      std::max(o.min_component_fraction * double(map.total()), o.min_component_ratio * largest);
+  const double max_hole = o.max_hole_fraction * double(map.total());
+  map.setTo(0);
+  if (contours.empty()) return;
+  // With RETR_CCOMP, top-level contours are outer boundaries of components and
+  // their children are the boundaries of holes.
+  for (int i = 0; i >= 0; i = hierarchy[i][0]) {
+    if (cv::contourArea(contours[i]) < min_area) continue;
+    cv::drawContours(map, contours, i, 255, cv::FILLED);
+    for (int h = hierarchy[i][2]; h >= 0; h = hierarchy[h][0]) {
+      if (cv::contourArea(contours[h]) < max_hole) continue;
+      cv::drawContours(map, contours, h, 0, cv::FILLED);
+      cv::drawContours(map, contours, h, 255, 1);  // the hole's rim is object
+    }
+  }
+}
+
+}  // namespace hullpipe

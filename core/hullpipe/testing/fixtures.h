@@ -1,0 +1,92 @@
+// The test fixtures every core test shares: synthetic rigs of analytic shapes
+// with exact object-pixel maps (evaluation/synthetic.h), the usual workspace,
+// side views of the test sphere, and the real Utrecht rig beside the repository.
+// Header-only; linked as hullpipe_testing (tests only).
+#pragma once
+
+#include <unistd.h>
+
+#include <atomic>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <gtest/gtest.h>
+
+#include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/geometry/rigid3.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/volume_query.h"
+
+namespace hullpipe::test {
+
+/// The test sphere most core tests look at (world metres, Utrecht-like: z down).
+inline const Eigen::Vector3d kSphereCentre(0.1, -0.2, -1.0);
+inline constexpr double kSphereRadius = 0.3;
+
+/// The Utrecht rig beside the repository (../shared/data/utrecht-4cam).
+inline std::string RigDir() { return HULLPIPE_RIG_DIR; }
+inline bool HaveRig() { return std::filesystem::exists(RigDir() + "/cam1/config.xml"); }
+
+/// A fresh temporary directory, unique to this process and call.
+inline std::filesystem::path TempDir(const std::string& tag) {
+  static std::atomic<int> counter{0};
+  const auto p = std::filesystem::temp_directory_path() /
+                 ("hullpipe_test_" + tag + "_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
+  std::filesystem::remove_all(p);
+  std::filesystem::create_directories(p);
+  return p;
+}
+
+/// A workspace of 20 m on a side around the origin: constrains nothing in tests.
+inline Aabb BigBox() {
+  Aabb b;
+  b.min = Eigen::Vector3d::Constant(-10);
+  b.max = Eigen::Vector3d::Constant(10);
+  return b;
+}
+
+/// Exact object-pixel maps of `scene` in each of `cams`.
+inline std::vector<CameraMap> ExactViews(const std::vector<Camera>& cams, const SyntheticScene& scene) {
+  std::vector<CameraMap> views;
+  for (const auto& c : cams) views.push_back({c, RenderExactMap(c, scene)});
+  return views;
+}
+
+/// n ring cameras (w x h, 60 degree fov, 3 m away, 1.8 m up) around a sphere of
+/// radius r at `centre`, with exact object-pixel maps.
+inline std::vector<CameraMap> SphereViews(int n, int w, int h, const Eigen::Vector3d& centre, double r,
+                                          const Distortion& d = {}) {
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Sphere(centre, r));
+  return ExactViews(RingCameras(n, 3.0, 1.8, centre, w, h, 1.0, d), scene);
+}
+
+/// The visual hull of `scene` seen by `cams` with exact maps, in BigBox().
+inline VolumeQuery HullOf(const SyntheticScene& scene, const std::vector<Camera>& cams,
+                          const VolumeQueryOptions& options = {}) {
+  return VolumeQuery(ExactViews(cams, scene), BigBox(), options);
+}
+
+/// A camera at `eye` looking at `target` with world up (0,0,-1) (z down).
+inline Camera LookAtCamera(int id, const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int w, int h,
+                           double hfov) {
+  return LookingCamera(id, eye, target, Eigen::Vector3d(0, 0, -1), w, h, hfov);
+}
+
+/// A novel view (w x h, 0.8 rad fov) from the side of the test sphere, above it.
+inline NovelView SphereSideView(int w = 160, int h = 120) {
+  return NovelView::FromFov(
+      w, h, 0.8, LookAt(kSphereCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kSphereCentre, Eigen::Vector3d(0, 0, -1)));
+}
+
+/// The visual hull of the test sphere seen by four 320x240 ring cameras with
+/// exact maps: the fixture of the volume query, sweep and triangle query tests.
+class SphereHull : public ::testing::Test {
+ protected:
+  SphereHull() : query_(SphereViews(4, 320, 240, kSphereCentre, kSphereRadius), BigBox()) {}
+  VolumeQuery query_;
+};
+
+}  // namespace hullpipe::test

@@ -1,0 +1,57 @@
+// What the GL plane sweep and the GL triangle query share (private to
+// hullpipe_gl): the GLSL of a camera's projection with OpenCV distortion and its
+// vote on a point (as VolumeQuery::VoteFast), and the upload of the n
+// object-pixel maps and camera uniforms.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hullpipe/gl/gl_objects.h"
+#include "hullpipe/gl/gl_plane_sweep.h"  // kMaxGlCameras
+#include "hullpipe/reconstruction/volume_query.h"
+
+namespace hullpipe::gl {
+
+// Shared GLSL: camera c's projection with OpenCV distortion and map lookup. The
+// point is X_c = u_A[c] + u_M[c] * x, whose meaning each pass sets.
+inline const char* kProjectGlsl = R"(
+const int MAXCAM = 16;
+uniform mat3 u_M[MAXCAM];
+uniform vec3 u_A[MAXCAM];
+uniform vec4 u_intr[MAXCAM];  // fx fy cx cy
+uniform vec4 u_k[MAXCAM];     // k1 k2 k3 r2max
+uniform vec4 u_p[MAXCAM];     // p1 p2 width height
+uniform sampler2D u_maps[MAXCAM];
+// Where camera c sees camera-frame point X: its pixel, or (-1, -1) if unseen.
+vec2 Pixel(int c, vec3 X) {
+  if (!(X.z > 1e-6)) return vec2(-1.0);
+  float iz = 1.0 / X.z;
+  vec2 xn = X.xy * iz;
+  float r2 = dot(xn, xn);
+  if (!(r2 <= u_k[c].w)) return vec2(-1.0);
+  float radial = 1.0 + r2 * (u_k[c].x + r2 * (u_k[c].y + r2 * u_k[c].z));
+  float xy = xn.x * xn.y;
+  vec2 xd = vec2(xn.x * radial + 2.0 * u_p[c].x * xy + u_p[c].y * (r2 + 2.0 * xn.x * xn.x),
+                 xn.y * radial + u_p[c].x * (r2 + 2.0 * xn.y * xn.y) + 2.0 * u_p[c].y * xy);
+  vec2 uv = vec2(u_intr[c].x * xd.x + u_intr[c].z, u_intr[c].y * xd.y + u_intr[c].w);
+  if (!(uv.x >= 0.0 && uv.y >= 0.0 && uv.x < u_p[c].z && uv.y < u_p[c].w)) return vec2(-1.0);
+  return uv;
+}
+// Camera c's vote on X: 0 background, 1 object, 2 unseen (as VolumeQuery::VoteFast).
+int VoteOf(int c, vec3 X) {
+  vec2 uv = Pixel(c, X);
+  if (uv.x < 0.0) return 2;
+  return texelFetch(u_maps[c], ivec2(uv), 0).r > 0.0 ? 1 : 0;
+}
+)";
+
+/// Uploads maps as R8 textures (row 0 of the image = texel row 0) and sets the
+/// per-camera uniforms of `program`; camera c's point is X_c = A[c] + M[c] * x.
+/// Throws std::invalid_argument for more than kMaxGlCameras cameras, GlError on
+/// a GL error.
+void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps,
+                const std::vector<Eigen::Matrix3f>& M, const std::vector<Eigen::Vector3f>& A, bool upload = true);
+
+}  // namespace hullpipe::gl
