@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "hullpipe/util/percentile.h"
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/reconstruction/compositor.h"
@@ -37,8 +38,7 @@ double MedianMs(int repeats, const std::function<void()>& f) {
     f();
     t.push_back((MonotonicSeconds() - t0) * 1e3);
   }
-  std::nth_element(t.begin(), t.begin() + long(t.size() / 2), t.end());
-  return t[t.size() / 2];
+  return Median(std::move(t));
 }
 
 void Row(const std::string& what, const std::string& config, double ms, const std::string& extra = "") {

@@ -29,6 +29,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "hullpipe/util/percentile.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/topics.h"
@@ -40,12 +41,6 @@ using namespace hullpipe::record;
 namespace fs = std::filesystem;
 
 namespace {
-
-double Pct(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, size_t(p / 100.0 * double(v.size())))];
-}
 
 // CPU seconds (user + system) of a process.
 double CpuSeconds(pid_t pid) {
@@ -367,14 +362,14 @@ int main(int argc, char** argv) {
     const double fps = r.seconds > 0 ? r.frames / r.seconds : 0;
     if (json) {
       nlohmann::json j = {{"node", r.node}, {"frames", r.frames}, {"timeouts", r.timeouts}, {"fps", fps},
-                          {"latency_ms_p50", Pct(r.latency_ms, 50)}, {"latency_ms_p95", Pct(r.latency_ms, 95)},
-                          {"latency_ms_p99", Pct(r.latency_ms, 99)}, {"cpu_percent", r.seconds > 0 ? 100 * r.cpu_s / r.seconds : 0},
+                          {"latency_ms_p50", Percentile(r.latency_ms, 50)}, {"latency_ms_p95", Percentile(r.latency_ms, 95)},
+                          {"latency_ms_p99", Percentile(r.latency_ms, 99)}, {"cpu_percent", r.seconds > 0 ? 100 * r.cpu_s / r.seconds : 0},
                           {"peak_rss_mib", r.rss_mib}};
       std::printf("%s\n", j.dump().c_str());
     } else {
       const std::string name = r.node + (scene.empty() ? "" : " (" + fs::path(scene).stem().string() + ")");
       std::printf("| %-8s | %6d | %8.1f | %8.1f | %8.1f | %8.1f | %6.0f | %8.0f | %8d |\n", name.c_str(), r.frames, fps,
-                  Pct(r.latency_ms, 50), Pct(r.latency_ms, 95), Pct(r.latency_ms, 99),
+                  Percentile(r.latency_ms, 50), Percentile(r.latency_ms, 95), Percentile(r.latency_ms, 99),
                   r.seconds > 0 ? 100 * r.cpu_s / r.seconds : 0.0, r.rss_mib, r.timeouts);
     }
     fs::remove_all(dir);

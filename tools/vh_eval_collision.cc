@@ -27,6 +27,7 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
+#include "hullpipe/util/percentile.h"
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/collision/collision_response.h"
 #include "hullpipe/collision/contact_region.h"
@@ -50,9 +51,7 @@ double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 // Nearest-rank percentile; null when empty.
 nlohmann::json Pct(std::vector<double> v, double p, double scale = 1.0) {
   if (v.empty()) return nullptr;
-  std::sort(v.begin(), v.end());
-  const size_t k = std::min(v.size() - 1, size_t(std::ceil(p / 100.0 * double(v.size()))) - (p > 0 ? 1 : 0));
-  const double x = v[k] * scale;
+  const double x = Percentile(std::move(v), p) * scale;
   if (!std::isfinite(x)) return "inf";
   return std::round(x * 1e4) / 1e4;
 }
@@ -251,8 +250,7 @@ int RunCollisionEval(const CollisionEvalOptions& o_in) {
         hit = DetectCollisions(q, c.mesh, cfg.options, batch, cfg.threads);
         times.push_back(Seconds(t0));
       }
-      std::nth_element(times.begin(), times.begin() + long(times.size() / 2), times.end());
-      detect_s += times[times.size() / 2];
+      detect_s += Median(times);
       tris += hit.triangles_queried;
       // Collision-point error per triangle: its own points against its own exact
       // region, and its region against the object's points (a neighbour's point

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "hullpipe/util/percentile.h"
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/evaluation/depth_eval.h"
 #include "hullpipe/reconstruction/exact_hull.h"
@@ -244,7 +245,6 @@ int RunSweepEval(const SweepEvalOptions& o) {
       }
       ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - t0).count());
     }
-    std::nth_element(ms.begin(), ms.begin() + long(ms.size() / 2), ms.end());
     const DepthComparison e = CompareDepth(depth, s.exact);
     const DepthComparison es = CompareDepth(depth, s.shapes);
     rows.push_back({{"scene", o.scene},
@@ -258,7 +258,7 @@ int RunSweepEval(const SweepEvalOptions& o) {
                     {"refine", c.refine},
                     {"distortion", c.distortion},
                     {"threads", c.backend == "gl" ? 0 : o.threads},
-                    {"ms", ms[ms.size() / 2]},
+                    {"ms", Median(ms)},
                     {"depth_err_mm_median", e.err_mm_median},
                     {"depth_err_mm_p95", e.err_mm_p95},
                     {"depth_err_mm_max", e.err_mm_max},

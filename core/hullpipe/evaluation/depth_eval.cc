@@ -6,17 +6,9 @@
 #include <vector>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/percentile.h"
 
 namespace hullpipe {
-
-namespace {
-double Quantile(std::vector<double>& v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, size_t(q * double(v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + long(k), v.end());
-  return v[k];
-}
-}  // namespace
 
 DepthComparison CompareDepth(const cv::Mat& got, const cv::Mat& ref) {
   if (got.type() != CV_32FC1 || ref.type() != CV_32FC1 || got.size() != ref.size())
@@ -39,10 +31,10 @@ DepthComparison CompareDepth(const cv::Mat& got, const cv::Mat& ref) {
       }
     }
   }
-  c.err_mm_median = Quantile(abs_err, 0.5);
-  c.err_mm_p95 = Quantile(abs_err, 0.95);
+  c.err_mm_median = Median(abs_err);
+  c.err_mm_p95 = Percentile(abs_err, 95);
   c.err_mm_max = abs_err.empty() ? 0 : *std::max_element(abs_err.begin(), abs_err.end());
-  c.signed_mm_median = Quantile(signed_err, 0.5);
+  c.signed_mm_median = Median(signed_err);
   const double either = double(c.both + c.only_got + c.only_ref);
   if (either > 0) {
     c.wrong_inside = double(c.only_got) / either;

@@ -1,6 +1,7 @@
 // The CPU plane sweep (paper §3.3) against exact ground truth: brute-force
 // plane-by-plane point queries, the analytic sphere, the exact ray–hull intervals
 // (exact_hull.h), refinement, and the hard cases, each with its exact expectation.
+#include "hullpipe/util/percentile.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 
 #include "hullpipe/reconstruction/exact_hull.h"
@@ -244,12 +245,8 @@ TEST(ExactHull, RefinementRemovesThePlaneSpacingFromTheError) {
       err_refined.push_back(std::abs(b - e));
     }
   ASSERT_GT(err_refined.size(), 1000u);
-  auto median = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  EXPECT_GT(median(err_coarse), 5e-3);
-  EXPECT_LT(median(err_refined), 1e-4);  // 0.1 mm: the bisection's 11 µm plus float rounding
+  EXPECT_GT(Median(err_coarse), 5e-3);
+  EXPECT_LT(Median(err_refined), 1e-4);  // 0.1 mm: the bisection's 11 µm plus float rounding
 }
 
 // ---- Hard cases -----------------------------------------------------------

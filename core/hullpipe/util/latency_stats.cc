@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "hullpipe/util/percentile.h"
+
 namespace hullpipe {
 
 void SampleStats::Add(double v) {
@@ -15,15 +17,7 @@ void SampleStats::Add(double v) {
   ++total_;
 }
 
-double SampleStats::Percentile(double p) const {
-  if (samples_.empty()) return 0;
-  std::vector<double> s = samples_;
-  const double rank = std::clamp(p, 0.0, 100.0) / 100.0 * double(s.size());
-  size_t k = size_t(std::ceil(rank));
-  k = std::clamp<size_t>(k, 1, s.size()) - 1;
-  std::nth_element(s.begin(), s.begin() + long(k), s.end());
-  return s[k];
-}
+double SampleStats::Percentile(double p) const { return hullpipe::Percentile(samples_, p); }
 
 double SampleStats::Mean() const {
   if (samples_.empty()) return 0;
