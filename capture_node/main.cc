@@ -1,22 +1,43 @@
 // capture_node: grabs every selected camera, segments each frame against the
 // reference background into an object-pixel map (paper §3.1), and publishes
 // CameraInfo once (transient-local), then per frame an ObjectPixelMap and a
-// CameraImage per camera under one frame sequence number.
+// CameraImage per camera under one frame sequence number. Parses flags, opens
+// the source and connects DDS to a CaptureController (nodes/capture_controller.h).
 #include <chrono>
 #include <thread>
 
 #include <CLI/CLI.hpp>
-#include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/geometry/calibration.h"
-#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/node.h"
+#include "hullpipe/nodes/capture_controller.h"
 #include "hullpipe/segmentation/rig_source.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
+
+namespace {
+
+class CaptureWriters final : public nodes::CaptureSink {
+ public:
+  CaptureWriters(const Participant& p, int jpeg_quality) : info_(p), maps_(p), images_(p), jpeg_(jpeg_quality) {}
+  void PublishCameraInfo(const Camera& c, const Aabb& workspace) override { info_.Write(CameraToMsg(c, workspace)); }
+  void PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count, const cv::Mat& map,
+                    const cv::Mat& image) override {
+    maps_.Write(MakeMapMessage(id, seq, t_ns, source_time_s, count, map).msg);
+    images_.Write(MakeImageMessage(id, seq, t_ns, image, jpeg_).msg);
+  }
+  uint32_t MatchedMapReaders() const { return maps_.MatchedReaders(); }
+
+ private:
+  Writer<hullpipe_msg_CameraInfo> info_;
+  Writer<hullpipe_msg_ObjectPixelMap> maps_;
+  Writer<hullpipe_msg_CameraImage> images_;
+  int jpeg_;
+};
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"hullpipe capture_node: cameras -> object-pixel maps + colour images over DDS"};
@@ -59,6 +80,13 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
+    nodes::CaptureOptions co;
+    co.frames = frames;
+    co.fps = fps;
+    co.fast = fast;
+    co.loop = loop;
+    co.image_scale = image_scale;
+    co.Check();
     auto participant = StartNode("capture", common);
     std::unique_ptr<RigSource> source;
     if (synthetic) {
@@ -74,73 +102,27 @@ int main(int argc, char** argv) {
       vo.camera_ids = camera_ids;
       source = OpenVideoRig(rig_path, vo);
     }
-    const double rate = fps > 0 ? fps : source->fps();
+    CaptureWriters writers(*participant, jpeg_quality);
+    nodes::SystemClock clock;
+    nodes::CaptureController capture(co, clock, *source, writers);
     spdlog::info("{} camera(s) of {}, {:.1f} fps{}", source->cameras().size(), source->rig_camera_count(),
-                 rate, fast ? " (unpaced)" : "");
-
-    Writer<hullpipe_msg_CameraInfo> info_writer(*participant);
-    Writer<hullpipe_msg_ObjectPixelMap> map_writer(*participant);
-    Writer<hullpipe_msg_CameraImage> image_writer(*participant);
+                 capture.rate(), fast ? " (unpaced)" : "");
     std::string name = "capture";
-    if (!camera_ids.empty()) {
-      for (size_t i = 0; i < camera_ids.size(); ++i) name += (i ? "," : "-") + std::to_string(camera_ids[i]);
-    }
-    NodeReporter reporter(*participant, name);
-    for (const auto& c : source->cameras()) info_writer.Write(CameraToMsg(c, source->workspace()));
-
+    for (size_t i = 0; i < camera_ids.size(); ++i) name += (i ? "," : "-") + std::to_string(camera_ids[i]);
+    NodeReporter reporter(*participant, name, capture.counters());
+    capture.PublishCalibration();
     if (wait_readers > 0) {
       const double deadline = MonotonicSeconds() + wait_timeout;
-      while (map_writer.MatchedReaders() < wait_readers && MonotonicSeconds() < deadline && !StopRequested())
+      while (writers.MatchedMapReaders() < wait_readers && MonotonicSeconds() < deadline && !StopRequested())
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      spdlog::info("{} map reader(s) matched", map_writer.MatchedReaders());
+      spdlog::info("{} map reader(s) matched", writers.MatchedMapReaders());
     }
-
-    const auto start = std::chrono::steady_clock::now();
-    const uint32_t camera_count = uint32_t(source->rig_camera_count());
-    uint64_t seq = 0;
-    int64_t published = 0;
-    RigFrame frame;
-    while (!StopRequested() && (frames <= 0 || published < frames)) {
-      // The frame's capture time is when it is due (paced) and read: latency
-      // downstream includes reading and segmenting it.
-      if (!fast) std::this_thread::sleep_until(start + std::chrono::duration<double>(double(published) / rate));
-      const int64_t t_ns = NowNs();
-      bool ok;
-      {
-        StageTimer t(reporter, "read+segment");
-        ok = source->Next(&frame);
-      }
-      for (const auto& e : frame.errors) {
-        spdlog::warn("{}", e);
-        if (ok) reporter.Rejected();  // a skipped frame; the end of input is no rejection
-      }
-      if (!ok) {
-        if (loop && source->Rewind()) continue;
-        spdlog::info("end of input after {} frames", published);
-        break;
-      }
-      ++seq;
-      reporter.FrameIn();
-      {
-        StageTimer t(reporter, "publish");
-        for (size_t i = 0; i < source->cameras().size(); ++i) {
-          if (frame.maps[i].empty()) continue;
-          const uint32_t id = uint32_t(source->cameras()[i].id);
-          map_writer.Write(MakeMapMessage(id, seq, t_ns, frame.time_s, camera_count, frame.maps[i]).msg);
-          cv::Mat img = frame.images[i];
-          if (image_scale < 1.0)
-            cv::resize(img, img, cv::Size(), image_scale, image_scale, cv::INTER_AREA);
-          image_writer.Write(MakeImageMessage(id, seq, t_ns, img, jpeg_quality).msg);
-        }
-      }
-      ++published;
-      reporter.FrameOut(t_ns);
-      reporter.Publish();
-    }
+    capture.Start();
+    while (!StopRequested() && capture.Step()) reporter.Publish();
     reporter.Publish(true);
     // Give reliable readers a moment to receive the tail before the writers go.
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
-    spdlog::info("published {} frames, {} rejected", published, reporter.rejected());
+    spdlog::info("published {} frames, {} rejected", capture.published(), capture.counters().rejected());
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -339,4 +339,99 @@ Rigid3d HeadPoseFromMsg(const hullpipe_msg_HeadPose& m) {
   return X;
 }
 
+static_assert(kMeshCloth == hullpipe_msg_MESH_KIND_CLOTH && kMeshParticles == hullpipe_msg_MESH_KIND_PARTICLES &&
+              kMeshPart == hullpipe_msg_MESH_KIND_PART);
+
+hullpipe_msg_VirtualObjectState VirtualObjectToMsg(const VirtualObjectSample& v) {
+  hullpipe_msg_VirtualObjectState s{};
+  s.object_id = v.object_id;
+  s.frame_seq = v.frame_seq;
+  s.capture_time_ns = v.capture_time_ns;
+  s.sim_time = v.sim_time;
+  s.shape = hullpipe_msg_SHAPE_SPHERE;
+  s.radius = v.radius;
+  s.position = ToMsg(v.position);
+  s.velocity = ToMsg(v.velocity);
+  s.orientation[0] = 1;
+  s.colliding = v.colliding;
+  return s;
+}
+
+VirtualObjectSample VirtualObjectFromMsg(const hullpipe_msg_VirtualObjectState& m) {
+  VirtualObjectSample v;
+  v.object_id = m.object_id;
+  v.frame_seq = m.frame_seq;
+  v.capture_time_ns = m.capture_time_ns;
+  v.sim_time = m.sim_time;
+  v.radius = m.radius;
+  v.position = FromMsg(m.position);
+  v.velocity = FromMsg(m.velocity);
+  v.colliding = m.colliding;
+  if (!v.position.allFinite() || !v.velocity.allFinite() || !std::isfinite(v.radius) || v.radius < 0)
+    throw MessageError("VirtualObjectState: position, velocity and radius must be finite (radius >= 0)");
+  return v;
+}
+
+OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const CollisionReportSample& r) {
+  OwnedSample<hullpipe_msg_CollisionReport> o;
+  o.words = r.triangle_ids;
+  for (const auto& p : r.collision_points) o.vec3s.push_back(ToMsg(p));
+  auto& m = o.msg;
+  m.object_id = r.object_id;
+  m.frame_seq = r.frame_seq;
+  m.capture_time_ns = r.capture_time_ns;
+  Borrow(&m.triangle_ids, o.words);
+  Borrow(&m.collision_points, o.vec3s);
+  m.has_response = r.has_response;
+  if (r.has_response) {
+    m.cp_obj = ToMsg(r.cp_obj);
+    m.cp_hull = ToMsg(r.cp_hull);
+    m.v_rec = ToMsg(r.v_rec);
+    m.d_rec = r.d_rec;
+    m.n_hull = ToMsg(r.n_hull);
+  }
+  return o;
+}
+
+OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsSample& s, int64_t stamp_ns) {
+  OwnedSample<hullpipe_msg_NodeStats> o;
+  o.strings.reserve(s.stages.size() + 1);
+  o.strings.push_back(s.name);
+  for (const auto& [n, st] : s.stages) {
+    o.strings.push_back(n);
+    o.stages.push_back({const_cast<char*>(o.strings.back().c_str()), st.ms_mean, st.ms_p95});
+  }
+  auto& m = o.msg;
+  m.node_name = const_cast<char*>(o.strings.front().c_str());
+  m.stamp_ns = stamp_ns;
+  m.frames_in = s.frames_in;
+  m.frames_out = s.frames_out;
+  m.dropped = s.dropped;
+  m.rejected = s.rejected;
+  m.fps = s.fps;
+  m.latency_ms_p50 = s.latency_ms_p50;
+  m.latency_ms_p95 = s.latency_ms_p95;
+  Borrow(&m.stages, o.stages);
+  m.final_report = s.final_report;
+  return o;
+}
+
+nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& m) {
+  nodes::NodeStatsSample s;
+  s.name = m.node_name ? m.node_name : "";
+  s.fps = m.fps;
+  s.latency_ms_p50 = m.latency_ms_p50;
+  s.latency_ms_p95 = m.latency_ms_p95;
+  s.frames_in = m.frames_in;
+  s.frames_out = m.frames_out;
+  s.dropped = m.dropped;
+  s.rejected = m.rejected;
+  s.final_report = m.final_report;
+  for (uint32_t i = 0; i < m.stages._length; ++i) {
+    const auto& st = m.stages._buffer[i];
+    s.stages[st.name ? st.name : "?"] = {st.ms_mean, st.ms_p95};
+  }
+  return s;
+}
+
 }  // namespace hullpipe::dds

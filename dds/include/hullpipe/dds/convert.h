@@ -16,6 +16,8 @@
 #include "hullpipe/geometry/camera.h"
 #include "hullpipe/reconstruction/compositor.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/nodes/messages.h"
+#include "hullpipe/nodes/node_counters.h"
 
 namespace hullpipe::dds {
 
@@ -38,6 +40,9 @@ struct OwnedSample {
   std::vector<uint8_t> bytes;
   std::vector<uint32_t> words;
   std::vector<float> floats;
+  std::vector<hullpipe_msg_Vec3> vec3s;
+  std::vector<hullpipe_msg_StageTiming> stages;
+  std::vector<std::string> strings;  ///< Reserved before use: their c_str() stay put.
   OwnedSample() = default;
   OwnedSample(const OwnedSample&) = delete;
   OwnedSample& operator=(const OwnedSample&) = delete;
@@ -75,29 +80,10 @@ hullpipe_msg_ViewPose ViewToMsg(const NovelView& view, uint64_t pose_seq, uint64
 /// Validated NovelView (size 1..8192, finite, orthonormal rotation).
 NovelView ViewFromMsg(const hullpipe_msg_ViewPose& msg);
 
-/// One rendered tile of the novel view.
-struct HullTile {
-  cv::Rect rect;   ///< In view pixels.
-  cv::Mat depth;   ///< CV_32FC1 eye z metres, kNoDepth where no hull.
-  cv::Mat colour;  ///< CV_8UC3 BGR.
-  uint32_t node_id = 0, tile_index = 0, tile_count = 1;
-  uint64_t pose_seq = 0, frame_seq = 0;
-  int64_t capture_time_ns = 0;
-  double render_ms = 0;
-};
 OwnedSample<hullpipe_msg_HullView> MakeHullViewMessage(const HullTile& tile, uint32_t planes);
 /// Validated tile (lengths match the rectangle). Throws MessageError.
 HullTile TileFromMsg(const hullpipe_msg_HullView& msg);
 
-/// One virtual mesh (cloth, particles, payload part) as sent by sim_node.
-struct VirtualMeshSample {
-  uint32_t object_id = 0;
-  uint8_t kind = hullpipe_msg_MESH_KIND_PART;
-  uint64_t frame_seq = 0;
-  int64_t capture_time_ns = 0;
-  VirtualMeshDraw draw;    ///< Vertices (world metres), triangles, colliding flags, colour.
-  double clearance = -1;   ///< Least distance from the hull, metres (< 0: not measured).
-};
 /// The message of a mesh (vertices as floats). Throws MessageError if the mesh
 /// breaks the message's limits (too many vertices, colliding of the wrong length).
 OwnedSample<hullpipe_msg_VirtualMesh> MakeVirtualMeshMessage(const VirtualMeshSample& mesh);
@@ -110,6 +96,18 @@ hullpipe_msg_HeadPose HeadPoseToMsg(const Rigid3d& world_from_eye, uint32_t trac
 /// Validated world_from_eye (finite, rotation orthonormal with det +1 to 1e-6).
 /// Throws MessageError.
 Rigid3d HeadPoseFromMsg(const hullpipe_msg_HeadPose& msg);
+
+/// VirtualObjectState of a sphere's state.
+hullpipe_msg_VirtualObjectState VirtualObjectToMsg(const VirtualObjectSample& s);
+/// Validated state (finite position, velocity and radius >= 0). Throws MessageError.
+VirtualObjectSample VirtualObjectFromMsg(const hullpipe_msg_VirtualObjectState& msg);
+/// CollisionReport of one object's step.
+OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const CollisionReportSample& r);
+/// NodeStats of a node's report.
+OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsSample& s, int64_t stamp_ns);
+/// The report in a NodeStats sample (a missing name becomes "", a missing stage
+/// name "?").
+nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& msg);
 
 inline hullpipe_msg_Vec3 ToMsg(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 inline Eigen::Vector3d FromMsg(const hullpipe_msg_Vec3& v) { return {v.x, v.y, v.z}; }

@@ -10,7 +10,7 @@
 
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
-#include "hullpipe/util/latency_stats.h"
+#include "hullpipe/nodes/node_counters.h"
 
 namespace hullpipe::dds {
 
@@ -29,52 +29,24 @@ void AddCommonOptions(CLI::App& app, CommonOptions& options);
 /// creates the participant.
 std::unique_ptr<Participant> StartNode(const std::string& node_name, const CommonOptions& options);
 
-/// Counts a node's work and publishes NodeStats about twice a second and at exit.
+/// Publishes a node's counters (nodes/node_counters.h) as NodeStats about twice
+/// a second and, once, a final report (at the latest when destroyed).
 class NodeReporter {
  public:
-  NodeReporter(const Participant& participant, std::string node_name);
+  NodeReporter(const Participant& participant, std::string node_name, const nodes::NodeCounters& counters);
   ~NodeReporter();
-  void FrameIn(uint64_t n = 1) { frames_in_ += n; }
-  /// One output published for a frameset captured at capture_time_ns.
-  void FrameOut(int64_t capture_time_ns);
-  void Dropped(uint64_t n = 1) { dropped_ += n; }
-  void SetDropped(uint64_t n) { dropped_ = n; }
-  void Rejected(uint64_t n = 1) { rejected_ += n; }
-  void SetRejected(uint64_t n) { rejected_ = n; }
-  /// Records a stage's duration in milliseconds.
-  void Stage(const std::string& name, double ms);
+  NodeReporter(const NodeReporter&) = delete;
+  NodeReporter& operator=(const NodeReporter&) = delete;
   /// Publishes if 0.5 s passed since the last report (or always when final).
   void Publish(bool final_report = false);
-  uint64_t frames_in() const { return frames_in_; }
-  uint64_t frames_out() const { return frames_out_; }
-  uint64_t dropped() const { return dropped_; }
-  uint64_t rejected() const { return rejected_; }
-  double fps() const;
-  const SampleStats& latency_ms() const { return latency_; }
-  const std::map<std::string, SampleStats>& stages() const { return stages_; }
+  const std::string& name() const { return name_; }
 
  private:
   Writer<hullpipe_msg_NodeStats> writer_;
   std::string name_;
-  uint64_t frames_in_ = 0, frames_out_ = 0, dropped_ = 0, rejected_ = 0;
-  double first_out_s_ = -1, last_out_s_ = -1;
-  double last_publish_s_ = 0;
+  const nodes::NodeCounters& counters_;
+  double last_publish_s_ = -1e9;
   bool final_sent_ = false;
-  SampleStats latency_{20000};
-  std::map<std::string, SampleStats> stages_;
-};
-
-/// RAII timer: adds the elapsed milliseconds to a reporter stage on destruction.
-class StageTimer {
- public:
-  StageTimer(NodeReporter& r, std::string name);
-  ~StageTimer();
-  double ElapsedMs() const;
-
- private:
-  NodeReporter& reporter_;
-  std::string name_;
-  double start_;
 };
 
 }  // namespace hullpipe::dds

@@ -1,0 +1,67 @@
+// The pipeline's samples as the node controllers see them: plain structs of
+// core types, DDS-free. dds/convert.h turns them into messages (idl/hullpipe.idl)
+// and validates what arrives.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "hullpipe/reconstruction/compositor.h"
+
+namespace hullpipe {
+
+/// One rendered tile of the novel view (HullView).
+struct HullTile {
+  cv::Rect rect;   ///< In view pixels.
+  cv::Mat depth;   ///< CV_32FC1 eye z metres, kNoDepth where no hull.
+  cv::Mat colour;  ///< CV_8UC3 BGR.
+  uint32_t node_id = 0, tile_index = 0, tile_count = 1;
+  uint64_t pose_seq = 0, frame_seq = 0;
+  int64_t capture_time_ns = 0;
+  double render_ms = 0;
+};
+
+/// What a VirtualMesh is (values as the IDL's MESH_KIND_*).
+enum MeshKind : uint8_t { kMeshCloth = 1, kMeshParticles = 2, kMeshPart = 3 };
+
+/// One virtual mesh (cloth, particles, payload part) as sent by sim_node.
+struct VirtualMeshSample {
+  uint32_t object_id = 0;
+  uint8_t kind = kMeshPart;
+  uint64_t frame_seq = 0;
+  int64_t capture_time_ns = 0;
+  VirtualMeshDraw draw;    ///< Vertices (world metres), triangles, colliding flags, colour.
+  double clearance = -1;   ///< Least distance from the hull, metres (< 0: not measured).
+};
+
+/// One virtual sphere's state after the step against a frameset
+/// (VirtualObjectState), world metres and m/s.
+struct VirtualObjectSample {
+  uint32_t object_id = 0;
+  uint64_t frame_seq = 0;
+  int64_t capture_time_ns = 0;
+  double sim_time = 0;
+  double radius = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  bool colliding = false;
+};
+
+/// One object's collision with the hull in one step (CollisionReport, paper
+/// §4.1–4.2): the colliding triangles and collision points, and the response.
+struct CollisionReportSample {
+  uint32_t object_id = 0;
+  uint64_t frame_seq = 0;
+  int64_t capture_time_ns = 0;
+  std::vector<uint32_t> triangle_ids;
+  std::vector<Eigen::Vector3d> collision_points;  ///< World metres.
+  bool has_response = false;
+  Eigen::Vector3d cp_obj = Eigen::Vector3d::Zero(), cp_hull = Eigen::Vector3d::Zero();
+  Eigen::Vector3d v_rec = Eigen::Vector3d::Zero(), n_hull = Eigen::Vector3d::Zero();
+  double d_rec = 0;
+};
+
+}  // namespace hullpipe

@@ -1,0 +1,77 @@
+// What a node counts about its own work and reports as NodeStats (twice a
+// second and at exit): frames in and out, drops, rejections, output rate,
+// capture-to-output latency and per-stage times. DDS-free; dds/node.h publishes it.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include "hullpipe/nodes/clock.h"
+#include "hullpipe/util/latency_stats.h"
+
+namespace hullpipe::nodes {
+
+/// One node's report as it travels (NodeStats), DDS-free.
+struct NodeStatsSample {
+  std::string name;
+  double fps = 0;
+  double latency_ms_p50 = 0, latency_ms_p95 = 0;
+  uint64_t frames_in = 0, frames_out = 0, dropped = 0, rejected = 0;
+  bool final_report = false;  ///< The node is stopping.
+  struct Stage {
+    double ms_mean = 0, ms_p95 = 0;
+  };
+  std::map<std::string, Stage> stages;
+};
+
+class NodeCounters {
+ public:
+  explicit NodeCounters(const Clock& clock) : clock_(clock) {}
+  void FrameIn(uint64_t n = 1) { frames_in_ += n; }
+  /// One output for a frameset captured at capture_time_ns (wall clock; <= 0:
+  /// unknown, no latency sample).
+  void FrameOut(int64_t capture_time_ns);
+  void Dropped(uint64_t n = 1) { dropped_ += n; }
+  void SetDropped(uint64_t n) { dropped_ = n; }
+  void Rejected(uint64_t n = 1) { rejected_ += n; }
+  void SetRejected(uint64_t n) { rejected_ = n; }
+  /// Adds one duration (milliseconds) to a stage.
+  void Stage(const std::string& name, double ms) { stages_[name].Add(ms); }
+  uint64_t frames_in() const { return frames_in_; }
+  uint64_t frames_out() const { return frames_out_; }
+  uint64_t dropped() const { return dropped_; }
+  uint64_t rejected() const { return rejected_; }
+  /// Outputs per second between the first and the last output (0 before two).
+  double fps() const;
+  const SampleStats& latency_ms() const { return latency_; }
+  const std::map<std::string, SampleStats>& stages() const { return stages_; }
+  const Clock& clock() const { return clock_; }
+  /// The report of this node under `name`.
+  NodeStatsSample Snapshot(const std::string& name, bool final_report) const;
+
+ private:
+  const Clock& clock_;
+  uint64_t frames_in_ = 0, frames_out_ = 0, dropped_ = 0, rejected_ = 0;
+  double first_out_s_ = -1, last_out_s_ = -1;
+  SampleStats latency_{20000};
+  std::map<std::string, SampleStats> stages_;
+};
+
+/// RAII: adds the elapsed milliseconds (on the counters' clock) to a stage.
+class StageTimer {
+ public:
+  StageTimer(NodeCounters& counters, std::string name)
+      : counters_(counters), name_(std::move(name)), start_(counters.clock().Now()) {}
+  ~StageTimer() { counters_.Stage(name_, ElapsedMs()); }
+  StageTimer(const StageTimer&) = delete;
+  StageTimer& operator=(const StageTimer&) = delete;
+  double ElapsedMs() const { return (counters_.clock().Now() - start_) * 1e3; }
+
+ private:
+  NodeCounters& counters_;
+  std::string name_;
+  double start_;
+};
+
+}  // namespace hullpipe::nodes

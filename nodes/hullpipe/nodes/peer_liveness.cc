@@ -1,0 +1,40 @@
+#include "hullpipe/nodes/peer_liveness.h"
+
+#include <limits>
+#include <stdexcept>
+
+namespace hullpipe::nodes {
+
+PeerLiveness::PeerLiveness(double silence_s) : silence_s_(silence_s) {
+  if (!(silence_s > 0 && silence_s <= 3600)) throw std::invalid_argument("peer silence must be in (0, 3600] s");
+}
+
+void PeerLiveness::Expect(const std::string& peer, double now) {
+  heard_.try_emplace(peer, now);
+  silent_.try_emplace(peer, false);
+}
+
+void PeerLiveness::Heard(const std::string& peer, double now, bool final_report) {
+  heard_[peer] = final_report ? -std::numeric_limits<double>::infinity() : now;
+  silent_.try_emplace(peer, false);
+}
+
+bool PeerLiveness::Alive(const std::string& peer, double now) const {
+  const auto it = heard_.find(peer);
+  return it != heard_.end() && now - it->second <= silence_s_;
+}
+
+std::vector<PeerLiveness::Change> PeerLiveness::Update(double now) {
+  std::vector<Change> changes;
+  for (const auto& [peer, heard] : heard_) {
+    const bool silent = !Alive(peer, now);
+    bool& was = silent_[peer];
+    if (silent == was) continue;
+    was = silent;
+    if (silent) ++outages_[peer];
+    changes.push_back({peer, silent});
+  }
+  return changes;
+}
+
+}  // namespace hullpipe::nodes

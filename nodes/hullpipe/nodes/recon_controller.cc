@@ -1,0 +1,168 @@
+#include "hullpipe/nodes/recon_controller.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <optional>
+#include <stdexcept>
+
+#include <spdlog/spdlog.h>
+
+#include "hullpipe/reconstruction/texture.h"
+
+namespace hullpipe::nodes {
+
+void ReconOptions::ParseTile(const std::string& spec) {
+  int i = 0, n = 0;
+  char tail = 0;
+  if (std::sscanf(spec.c_str(), "%d/%d%c", &i, &n, &tail) != 2 || n < 1 || n > 64 || i < 0 || i >= n)
+    throw std::invalid_argument("--tile must be i/N with 0 <= i < N <= 64");
+  tile = i;
+  tile_count = n;
+}
+
+void ReconOptions::Check() const {
+  auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (tile_count < 1 || tile_count > 64 || tile < 0 || tile >= tile_count)
+    bad("--tile must be i/N with 0 <= i < N <= 64");
+  sweep.Check();
+  if (threads < 1 || threads > 256) bad("--threads must be 1..256");
+  if (refine < 0 || refine > 30) bad("--refine must be 0..30");
+  if (visibility_width < 0 || visibility_width > 4096) bad("--visibility-width must be 0..4096");
+  if (!(pose_timeout > 0 && pose_timeout <= 3600)) bad("--pose-timeout must be in (0, 3600] s");
+  if (!(failover > 0 && failover <= 3600)) bad("--failover must be in (0, 3600] s");
+}
+
+ReconController::ReconController(ReconOptions options, const Clock& clock, FramesetAssembler& assembler,
+                                 gl::SweepBackend& backend, ReconSink& sink)
+    : o_(std::move(options)),
+      clock_(clock),
+      assembler_(assembler),
+      backend_(backend),
+      sink_(sink),
+      counters_(clock),
+      peers_((o_.Check(), o_.failover)),
+      adopted_(size_t(o_.tile_count), false) {
+  query_options_.out_of_view = o_.out_of_view;
+  // Every peer counts as heard at the start: none is adopted before it had
+  // `failover` s to report.
+  for (int k = 0; k < o_.tile_count; ++k)
+    if (k != o_.tile) peers_.Expect("recon" + std::to_string(k), clock_.Now());
+}
+
+void ReconController::OnPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq) {
+  poses_.push_back({view, pose_seq, frame_seq, clock_.Now()});
+}
+
+void ReconController::OnNodeStats(const std::string& name, bool final_report) {
+  int k = -1;
+  char tail = 0;
+  if (std::sscanf(name.c_str(), "recon%d%c", &k, &tail) != 1 || k < 0 || k >= o_.tile_count || k == o_.tile) return;
+  peers_.Heard(name, clock_.Now(), final_report);
+}
+
+void ReconController::Reject(const std::string& why) {
+  ++rejected_;
+  spdlog::warn("rejected: {}", why);
+}
+
+std::vector<int> ReconController::MyTiles() {
+  const double now = clock_.Now();
+  std::vector<bool> alive(size_t(o_.tile_count));
+  for (int k = 0; k < o_.tile_count; ++k)
+    alive[size_t(k)] = k == o_.tile || peers_.Alive("recon" + std::to_string(k), now);
+  const int lowest = int(std::find(alive.begin(), alive.end(), true) - alive.begin());
+  std::vector<int> tiles = {o_.tile};
+  for (int k = 0; k < o_.tile_count; ++k) {
+    const bool adopt = !alive[size_t(k)] && lowest == o_.tile;
+    if (adopt != adopted_[size_t(k)]) {
+      adopted_[size_t(k)] = adopt;
+      if (adopt)
+        spdlog::warn("recon{} silent for {:.1f} s: rendering tile {} too", k, o_.failover, k);
+      else
+        spdlog::info("tile {} back with recon{} (or adopted by another)", k, k);
+    }
+    if (adopt) tiles.push_back(k);
+  }
+  return tiles;
+}
+
+int ReconController::Step() {
+  int published = 0;
+  // Serve the newest pose whose frameset is ready; older poses are superseded.
+  while (!poses_.empty()) {
+    const PendingPose& p = poses_.front();
+    const uint64_t want = p.frame_seq;
+    const bool newer_pose_waiting = poses_.size() > 1;
+    const bool ready = want == 0 ? assembler_.NewestComplete().has_value() : assembler_.IsComplete(want);
+    if (!ready) {
+      const bool gone = want != 0 && assembler_.IsGone(want);
+      if (gone || newer_pose_waiting || clock_.Now() - p.received_s > o_.pose_timeout) {
+        ++poses_dropped_;
+        poses_.pop_front();
+        continue;
+      }
+      break;
+    }
+    if (newer_pose_waiting) {
+      const uint64_t next_want = poses_[1].frame_seq;
+      if (next_want == 0 || assembler_.IsComplete(next_want)) {
+        ++poses_dropped_;
+        poses_.pop_front();
+        continue;
+      }
+    }
+    std::optional<Frameset> fs = want == 0 ? assembler_.TakeNewest() : assembler_.Take(want);
+    const PendingPose pose = p;
+    poses_.pop_front();
+    if (!fs) continue;
+    published += Render(pose, *fs);
+  }
+  counters_.SetDropped(assembler_.dropped() + poses_dropped_);
+  counters_.SetRejected(assembler_.rejected() + rejected_);
+  return published;
+}
+
+int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
+  counters_.FrameIn();
+  const double t0 = clock_.Now();
+  const VolumeQuery vq(fs.maps, assembler_.workspace(), query_options_);  // includes the hull box
+  const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, o_.sweep);
+  counters_.Stage("hull_box", (clock_.Now() - t0) * 1e3);
+  std::optional<HullVisibility> vis;
+  if (o_.visibility_width > 0) {
+    StageTimer st(counters_, "visibility");
+    std::vector<Camera> cams;
+    for (const auto& im : fs.images) cams.push_back(im.camera);
+    PlaneSweepOptions vis_sweep = o_.sweep;
+    vis_sweep.num_planes = std::min(o_.sweep.num_planes, 48);
+    vis = ComputeHullVisibility(vq, cams, o_.visibility_width, vis_sweep, o_.refine, o_.threads);
+  }
+  int published = 0;
+  for (const int t : MyTiles()) {
+    const double tt0 = clock_.Now();
+    const cv::Rect rect = TileRect(t, o_.tile_count, pose.view.width, pose.view.height);
+    HullTile tile;
+    {
+      StageTimer st(counters_, "sweep");
+      tile.depth = backend_.Sweep(vq, pose.view, depths, rect);
+    }
+    {
+      StageTimer st(counters_, "texture");
+      tile.colour = TextureHull(tile.depth, rect, pose.view, fs.images, {}, vis ? &*vis : nullptr);
+    }
+    tile.rect = rect;
+    tile.node_id = uint32_t(o_.tile);
+    tile.tile_index = uint32_t(t);
+    tile.tile_count = uint32_t(o_.tile_count);
+    tile.pose_seq = pose.pose_seq;
+    tile.frame_seq = fs.seq;
+    tile.capture_time_ns = fs.capture_time_ns;
+    tile.render_ms = (clock_.Now() - (t == o_.tile ? t0 : tt0)) * 1e3;
+    sink_.PublishTile(tile, uint32_t(depths.size()));
+    ++published;
+  }
+  counters_.FrameOut(fs.capture_time_ns);
+  return published;
+}
+
+}  // namespace hullpipe::nodes

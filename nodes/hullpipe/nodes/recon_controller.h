@@ -1,0 +1,93 @@
+// recon_node's run-time logic (paper §3.3): render_node's ViewPose names a
+// frameset; when all n cameras' maps of it are in, the node plane-sweeps its tile
+// of the view (CPU or GL backend), textures it from the camera images (with the
+// visibility test) and publishes a HullView. Latest wins: a pose is superseded by
+// a newer one whose frameset is ready, and dropped when its frameset is gone or
+// does not come within pose_timeout; nothing queues without bound. Fail-over: a
+// peer recon node silent for `failover` s (PeerLiveness) has its tile rendered by
+// the lowest live tile's node until it is heard again. DDS-free; tests drive it
+// with a FakeClock and the CPU backend.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "hullpipe/gl/backend.h"
+#include "hullpipe/nodes/clock.h"
+#include "hullpipe/nodes/messages.h"
+#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/nodes/peer_liveness.h"
+#include "hullpipe/reconstruction/frameset.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/volume_query.h"
+
+namespace hullpipe::nodes {
+
+/// recon_node's settings (its flags).
+struct ReconOptions {
+  int tile = 0, tile_count = 1;  ///< This node's tile i of N horizontal bands.
+  PlaneSweepOptions sweep;       ///< Planes and their placement (§3.3).
+  int threads = 1;               ///< CPU sweep threads (1..256).
+  int refine = 6;                ///< Depth refinement bisections (0..30; 0: the paper's plane depth).
+  int visibility_width = 80;     ///< Width of each camera's hull depth map for the visibility test (0: none).
+  OutOfView out_of_view = OutOfView::kUnknown;
+  double pose_timeout = 1.0;     ///< Drop a pose whose frameset did not come within this many s.
+  double failover = 1.2;         ///< A peer silent this many s has its tile adopted.
+  /// Parses "i/N" (0 <= i < N <= 64) into tile, tile_count; std::invalid_argument otherwise.
+  void ParseTile(const std::string& spec);
+  /// Throws std::invalid_argument naming the flag out of range.
+  void Check() const;
+  /// "recon<i>", the name in NodeStats.
+  std::string NodeName() const { return "recon" + std::to_string(tile); }
+};
+
+/// Where recon's tiles go (HullView messages).
+class ReconSink {
+ public:
+  virtual ~ReconSink() = default;
+  virtual void PublishTile(const HullTile& tile, uint32_t planes) = 0;
+};
+
+class ReconController {
+ public:
+  ReconController(ReconOptions options, const Clock& clock, FramesetAssembler& assembler,
+                  gl::SweepBackend& backend, ReconSink& sink);
+  /// A ViewPose: render frameset frame_seq (0: the newest complete) from `view`.
+  void OnPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq);
+  /// A NodeStats sample of node `name` (peers are "recon<k>"; others ignored).
+  void OnNodeStats(const std::string& name, bool final_report);
+  void Reject(const std::string& why);
+  /// Serves every pose that can be served now; returns the tiles published.
+  int Step();
+  /// The tiles this node renders now: its own, plus any it adopts.
+  std::vector<int> MyTiles();
+
+  NodeCounters& counters() { return counters_; }
+  const NodeCounters& counters() const { return counters_; }
+  uint64_t poses_dropped() const { return poses_dropped_; }
+  uint64_t rejected() const { return rejected_; }
+
+ private:
+  struct PendingPose {
+    NovelView view;
+    uint64_t pose_seq = 0, frame_seq = 0;
+    double received_s = 0;
+  };
+  int Render(const PendingPose& pose, const Frameset& fs);
+
+  ReconOptions o_;
+  const Clock& clock_;
+  FramesetAssembler& assembler_;
+  gl::SweepBackend& backend_;
+  ReconSink& sink_;
+  NodeCounters counters_;
+  PeerLiveness peers_;
+  VolumeQueryOptions query_options_;
+  std::vector<bool> adopted_;
+  std::deque<PendingPose> poses_;
+  uint64_t poses_dropped_ = 0, rejected_ = 0;
+};
+
+}  // namespace hullpipe::nodes

@@ -1,0 +1,118 @@
+#include "hullpipe/nodes/recon_controller.h"
+
+#include <gtest/gtest.h>
+
+#include "hullpipe/nodes/test_rig.h"
+
+namespace hullpipe::nodes {
+namespace {
+
+struct TileRecorder final : ReconSink {
+  std::vector<HullTile> tiles;
+  void PublishTile(const HullTile& t, uint32_t) override { tiles.push_back(t); }
+};
+
+class Recon : public ::testing::Test {
+ protected:
+  Recon() { rig_.Calibrate(assembler_); }
+  ReconOptions Options(const std::string& tile) const {
+    ReconOptions o;
+    o.ParseTile(tile);
+    o.sweep.num_planes = 24;
+    o.refine = 0;
+    o.visibility_width = 0;
+    return o;
+  }
+  NovelView View() const { return hullpipe::test::SphereSideView(48, 36); }
+  FakeClock clock_;
+  FramesetAssembler assembler_{8, true};
+  test::TinyRig rig_;
+  std::unique_ptr<gl::SweepBackend> cpu_ = gl::MakeSweepBackend("cpu", 1, 0);
+  TileRecorder sink_;
+};
+
+TEST_F(Recon, TileSpecAndOptionsAreChecked) {
+  ReconOptions o;
+  EXPECT_THROW(o.ParseTile("2/2"), std::invalid_argument);
+  EXPECT_THROW(o.ParseTile("1/0"), std::invalid_argument);
+  EXPECT_THROW(o.ParseTile("x"), std::invalid_argument);
+  EXPECT_THROW(o.ParseTile("0/2junk"), std::invalid_argument);
+  EXPECT_NO_THROW(o.ParseTile("1/2"));
+  EXPECT_EQ(o.NodeName(), "recon1");
+  o.failover = 0;
+  EXPECT_THROW(o.Check(), std::invalid_argument);
+}
+
+TEST_F(Recon, ServesAPoseWhenItsFramesetIsCompleteWithTheCpuSweepsDepth) {
+  ReconController r(Options("0/1"), clock_, assembler_, *cpu_, sink_);
+  r.OnPose(View(), 1, 5);
+  EXPECT_EQ(r.Step(), 0);  // frameset 5 not here yet: the pose waits
+  rig_.AddFrame(assembler_, 5, clock_.WallNs(), /*images=*/true);
+  ASSERT_EQ(r.Step(), 1);
+  const HullTile& t = sink_.tiles[0];
+  EXPECT_EQ(t.pose_seq, 1u);
+  EXPECT_EQ(t.frame_seq, 5u);
+  EXPECT_EQ(t.rect, cv::Rect(0, 0, 48, 36));
+  // The same sweep run directly gives the same depths, pixel for pixel.
+  const VolumeQuery q(rig_.views, hullpipe::test::BigBox());
+  PlaneSweepOptions so;
+  so.num_planes = 24;
+  const cv::Mat ref = PlaneSweepCpu(q, View(), SweepPlaneDepths(q, View(), so), t.rect);
+  EXPECT_EQ(cv::norm(t.depth, ref, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::countNonZero(ref < 1e6), 0) << "the sphere is in view";
+}
+
+TEST_F(Recon, ANewerReadyPoseSupersedesAndAMissingFramesetTimesOut) {
+  ReconController r(Options("0/1"), clock_, assembler_, *cpu_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs(), true);
+  rig_.AddFrame(assembler_, 2, clock_.WallNs(), true);
+  r.OnPose(View(), 1, 1);
+  r.OnPose(View(), 2, 2);
+  EXPECT_EQ(r.Step(), 1);
+  ASSERT_EQ(sink_.tiles.size(), 1u);
+  EXPECT_EQ(sink_.tiles[0].frame_seq, 2u);
+  EXPECT_EQ(r.poses_dropped(), 1u);
+  r.OnPose(View(), 3, 9);  // never arrives
+  r.Step();
+  clock_.Advance(1.1);
+  EXPECT_EQ(r.Step(), 0);
+  EXPECT_EQ(r.poses_dropped(), 2u);
+  // A pose for a frameset already gone is dropped at once.
+  r.OnPose(View(), 4, 1);
+  r.Step();
+  EXPECT_EQ(r.poses_dropped(), 3u);
+}
+
+TEST_F(Recon, TheLowestLiveNodeAdoptsASilentPeersTileUntilItIsHeardAgain) {
+  ReconController r0(Options("0/2"), clock_, assembler_, *cpu_, sink_);
+  TileRecorder sink1;
+  ReconController r1(Options("1/2"), clock_, assembler_, *cpu_, sink1);
+  EXPECT_EQ(r0.MyTiles(), std::vector<int>({0}));
+  clock_.Advance(1.0);
+  EXPECT_EQ(r0.MyTiles(), std::vector<int>({0})) << "peers count as heard at the start";
+  clock_.Advance(0.3);  // recon1 silent 1.3 s > failover 1.2 s
+  EXPECT_EQ(r0.MyTiles(), std::vector<int>({0, 1}));
+  // recon1's view: recon0 is also silent (never heard), so recon1 is the lowest live and adopts tile 0.
+  EXPECT_EQ(r1.MyTiles(), std::vector<int>({1, 0}));
+  r1.OnNodeStats("recon0", false);
+  EXPECT_EQ(r1.MyTiles(), std::vector<int>({1})) << "recon0 is alive and lower: it adopts, not recon1";
+  r0.OnNodeStats("recon1", false);
+  EXPECT_EQ(r0.MyTiles(), std::vector<int>({0}));
+  r0.OnNodeStats("recon1", /*final_report=*/true);  // stopping: adopted at once
+  EXPECT_EQ(r0.MyTiles(), std::vector<int>({0, 1}));
+  // With the adopted tile, one frameset gives both tiles.
+  rig_.AddFrame(assembler_, 1, clock_.WallNs(), true);
+  r0.OnPose(View(), 1, 1);
+  EXPECT_EQ(r0.Step(), 2);
+  EXPECT_EQ(sink_.tiles[0].tile_index, 0u);
+  EXPECT_EQ(sink_.tiles[1].tile_index, 1u);
+  EXPECT_EQ(sink_.tiles[0].rect.height + sink_.tiles[1].rect.height, 36);
+  // Names that are not recon peers are ignored.
+  r0.OnNodeStats("render", false);
+  r0.OnNodeStats("recon7", false);
+  r0.OnNodeStats("recon1x", false);
+  EXPECT_EQ(r0.MyTiles(), std::vector<int>({0, 1}));
+}
+
+}  // namespace
+}  // namespace hullpipe::nodes

@@ -1,0 +1,295 @@
+#include "hullpipe/nodes/render_controller.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <spdlog/spdlog.h>
+
+namespace hullpipe::nodes {
+
+void RenderOptions::Check() const {
+  auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (width < 1 || width > 8192) bad("--width must be 1..8192 pixels");
+  if (height < 1 || height > 8192) bad("--height must be 1..8192 pixels");
+  if (!(hfov_deg > 0 && hfov_deg <= 179)) bad("--hfov must be in (0, 179] degrees");
+  if (tiles < 1 || tiles > 64) bad("--tiles must be 1..64");
+  if (max_in_flight < 1 || max_in_flight > 64) bad("--max-in-flight must be 1..64");
+  if (max_frames < 0) bad("--frames must be >= 0");
+  if (!(idle_timeout > 0 && idle_timeout <= 3600)) bad("--idle-timeout must be in (0, 3600] s");
+  if (!(tile_timeout > 0 && tile_timeout <= 3600)) bad("--tile-timeout must be in (0, 3600] s");
+  if (!(recon_silence > 0 && recon_silence <= 3600)) bad("recon silence must be in (0, 3600] s");
+  if (!(end_grace >= 0 && end_grace <= 60)) bad("end grace must be in [0, 60] s");
+  if (!(std::isfinite(orbit_radius) && orbit_radius > 0)) bad("--orbit-radius must be > 0 m");
+  if (!std::isfinite(orbit_height)) bad("--orbit-height must be finite");
+  if (!(std::isfinite(orbit_period) && orbit_period > 0)) bad("--orbit-period must be > 0 s");
+  if (orbit_centre && !orbit_centre->allFinite()) bad("--orbit-centre must be finite");
+  if (!up.allFinite() || up.norm() < 1e-9) bad("--up must be a finite non-zero vector");
+  if (view == View::kFile && track.empty()) bad("--view file goes with --head-poses FILE");
+}
+
+RenderController::RenderController(RenderOptions options, const Clock& clock, FramesetAssembler& assembler,
+                                   RenderSink& sink)
+    : o_(std::move(options)),
+      clock_(clock),
+      assembler_(assembler),
+      sink_(sink),
+      counters_(clock),
+      recon_liveness_((o_.Check(), o_.recon_silence)) {
+  orbit_.up = o_.up.normalized();
+  orbit_.radius = o_.orbit_radius;
+  orbit_.height = o_.orbit_height;
+  orbit_.period = o_.orbit_period;
+  if (o_.orbit_centre) {
+    orbit_.centre = *o_.orbit_centre;
+    centre_known_ = true;
+  }
+  comp_.floor_normal = orbit_.up;
+  last_new_frame_s_ = clock_.Now();
+}
+
+void RenderController::Reject(const std::string& why) {
+  ++rejected_;
+  spdlog::warn("rejected: {}", why);
+}
+
+void RenderController::OnTile(HullTile t) {
+  auto it = in_flight_.find(t.pose_seq);
+  if (it == in_flight_.end()) {
+    ++tiles_late_;
+    return;
+  }
+  if (t.rect.x < 0 || t.rect.y < 0 || t.rect.x + t.rect.width > it->second.view.width ||
+      t.rect.y + t.rect.height > it->second.view.height) {
+    Reject("HullView tile rectangle lies outside the view");
+    return;
+  }
+  it->second.tiles[t.tile_index] = std::move(t);
+}
+
+void RenderController::OnObjectState(const VirtualObjectSample& s) {
+  auto& per = states_[s.object_id];
+  per[s.frame_seq] = s;
+  while (per.size() > 32) per.erase(per.begin());
+}
+
+void RenderController::OnMesh(VirtualMeshSample m) {
+  auto& per = meshes_[m.object_id];
+  per[m.frame_seq] = std::move(m);
+  while (per.size() > 8) per.erase(per.begin());
+}
+
+void RenderController::OnHeadPose(const Rigid3d& world_from_eye) { tracked_ = world_from_eye; }
+
+void RenderController::OnCollisionReport(bool has_points) {
+  if (has_points) ++collision_reports_;
+}
+
+void RenderController::OnNodeStats(const NodeStatsSample& m) {
+  node_stats_[m.name] = m;
+  if (m.name.rfind("recon", 0) == 0) recon_liveness_.Heard(m.name, clock_.Now(), m.final_report);
+  if (m.final_report && m.name.rfind("capture", 0) == 0 && !capture_done_) {
+    capture_done_ = true;
+    capture_done_s_ = clock_.Now();
+    spdlog::info("{} reports the end of its input", m.name);
+  }
+}
+
+void RenderController::IssuePoses() {
+  // A restarted capture numbers its frames from 1 again.
+  if (assembler_.restarts() != seen_restarts_) {
+    seen_restarts_ = assembler_.restarts();
+    last_requested_ = 0;
+    spdlog::info("capture restarted: following its new frame numbers");
+  }
+  while (int(in_flight_.size()) < o_.max_in_flight) {
+    const auto newest = assembler_.NewestComplete();
+    if (!newest || *newest <= last_requested_) break;
+    auto fset = assembler_.Take(*newest);
+    if (!fset) break;
+    counters_.FrameIn();
+    last_new_frame_s_ = clock_.Now();
+    if (!any_frame_) {
+      any_frame_ = true;
+      first_source_time_ = fset->source_time_s;
+    }
+    // The frameset's hull: for the orbit centre until it is known, and for the
+    // light's shadow map (one VolumeQuery, one hull box, for both).
+    std::shared_ptr<const VolumeQuery> hull;
+    if (o_.light || !centre_known_) hull = std::make_shared<const VolumeQuery>(fset->maps, assembler_.workspace());
+    if (!centre_known_ && !hull->hull_box().empty()) {
+      orbit_.centre = hull->hull_box().Center();
+      centre_known_ = true;
+      spdlog::info("orbit centre from the hull box: [{:.2f}, {:.2f}, {:.2f}] m", orbit_.centre.x(), orbit_.centre.y(),
+                   orbit_.centre.z());
+    }
+    // The path is driven by the frames' source time, not the wall clock, so the
+    // same frame is seen from the same place in every run and replay.
+    const double t = fset->source_time_s - first_source_time_;
+    InFlight f;
+    f.frame_seq = fset->seq;
+    f.capture_time_ns = fset->capture_time_ns;
+    f.sent_s = clock_.Now();
+    if (o_.light) f.hull = hull;
+    Rigid3d world_from_eye = orbit_.WorldFromEye(t);
+    if (o_.view == RenderOptions::View::kFile) world_from_eye = o_.track.At(t);
+    if (o_.view == RenderOptions::View::kTopic && tracked_) world_from_eye = *tracked_;
+    f.view = NovelView::FromFov(o_.width, o_.height, o_.hfov_deg * M_PI / 180.0, world_from_eye);
+    ++pose_seq_;
+    sink_.PublishPose(f.view, pose_seq_, fset->seq);
+    in_flight_[pose_seq_] = std::move(f);
+    last_requested_ = fset->seq;
+  }
+}
+
+void RenderController::Composite(InFlight& f) {
+  StageTimer st(counters_, "composite");
+  cv::Mat depth(o_.height, o_.width, CV_32FC1, cv::Scalar(kNoDepth));
+  cv::Mat colour(o_.height, o_.width, CV_8UC3, cv::Scalar(0, 0, 0));
+  for (const auto& [idx, t] : f.tiles) {
+    t.depth.copyTo(depth(t.rect));
+    t.colour.copyTo(colour(t.rect));
+  }
+  hull_fraction_sum_ +=
+      double(cv::countNonZero(depth < std::numeric_limits<float>::infinity())) / double(depth.total());
+  std::vector<VirtualSphere> spheres;
+  for (const auto& [id, per] : states_) {
+    // The state stepped against this frameset, else the newest before it.
+    auto s = per.upper_bound(f.frame_seq);
+    if (s == per.begin()) continue;
+    --s;
+    spheres.push_back({s->second.position, s->second.radius, s->second.colliding});
+    if (s->second.colliding) ++collisions_drawn_;
+  }
+  std::vector<VirtualMeshDraw> draws;
+  for (const auto& [id, per] : meshes_) {
+    auto s = per.upper_bound(f.frame_seq);
+    if (s == per.begin()) continue;
+    --s;
+    draws.push_back(s->second.draw);
+    if (s->second.kind == kMeshPart && s->second.clearance >= 0) {
+      auto [mc, fresh] = min_clearance_.try_emplace(id, s->second.clearance);
+      if (!fresh) mc->second = std::min(mc->second, s->second.clearance);
+      const auto& c = s->second.draw.colliding;
+      if (std::find(c.begin(), c.end(), 1) != c.end()) ++part_collisions_[id];
+    }
+  }
+  meshes_drawn_ += draws.size();
+  cv::Mat composited_depth;
+  cv::Mat frame = hullpipe::Composite(f.view, depth, colour, spheres, comp_, &composited_depth, draws);
+  if (o_.light) {
+    StageTimer lt(counters_, "light");
+    const ShadowMap shadow = RenderShadowMap(*o_.light, orbit_.up, f.hull.get(), spheres, draws);
+    ApplyLighting(f.view, composited_depth, depth, *o_.light, shadow, &frame);
+    ++lit_frames_;
+  }
+  sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1);
+  counters_.FrameOut(f.capture_time_ns);
+  last_composited_ = std::max(last_composited_, f.frame_seq);
+}
+
+int RenderController::Step() {
+  IssuePoses();
+  int composited = 0;
+  // Composite every pose whose tiles are all in; give up on stale ones.
+  for (auto it = in_flight_.begin(); it != in_flight_.end();) {
+    InFlight& f = it->second;
+    if (int(f.tiles.size()) < o_.tiles) {
+      if (clock_.Now() - f.sent_s > o_.tile_timeout) {
+        spdlog::warn("pose {} (frame {}): {} of {} tiles after {:.1f} s; dropped", it->first, f.frame_seq,
+                     f.tiles.size(), o_.tiles, o_.tile_timeout);
+        counters_.Dropped();
+        it = in_flight_.erase(it);
+      } else {
+        ++it;
+      }
+      continue;
+    }
+    Composite(f);
+    ++composited;
+    // Older poses still waiting are superseded by this one.
+    for (auto older = in_flight_.begin(); older != it;) {
+      counters_.Dropped();
+      older = in_flight_.erase(older);
+    }
+    it = in_flight_.erase(it);
+    if (o_.max_frames > 0 && int64_t(last_composited_) >= o_.max_frames) done_ = true;
+  }
+
+  const double now = clock_.Now();
+  // A recon node that stops reporting (NodeStats every 0.5 s) is noticed within
+  // recon_silence; its tile comes from the lowest live recon node meanwhile.
+  for (const auto& c : recon_liveness_.Update(now)) {
+    if (c.silent)
+      spdlog::warn("{} silent for {:.1f} s: its tile now comes from another recon node", c.peer, o_.recon_silence);
+    else
+      spdlog::info("{} is back", c.peer);
+  }
+  // The input ended: capture said so and everything it sent is composited
+  // (end_grace for the last samples to land), or nothing came for idle_timeout.
+  if (capture_done_ && in_flight_.empty() && !assembler_.NewestComplete() && now - capture_done_s_ > o_.end_grace) {
+    spdlog::info("input ended; all framesets handled");
+    done_ = true;
+  }
+  if (any_frame_ && now - last_new_frame_s_ > o_.idle_timeout && in_flight_.empty()) {
+    spdlog::info("no new frameset for {:.1f} s: input ended", o_.idle_timeout);
+    done_ = true;
+  }
+  counters_.SetRejected(rejected_ + assembler_.rejected());
+  return composited;
+}
+
+nlohmann::json RenderController::StatsJson() const {
+  nlohmann::json j;
+  j["view"] = {{"width", o_.width}, {"height", o_.height}, {"tiles", o_.tiles}};
+  j["frames_composited"] = counters_.frames_out();
+  j["last_frame_seq"] = last_composited_;
+  j["collision_frames_drawn"] = collisions_drawn_;
+  j["collision_reports_with_points"] = collision_reports_;
+  j["meshes_drawn"] = meshes_drawn_;  // cloth, particle sets and payload parts, summed over frames
+  j["lit_frames"] = lit_frames_;      // frames with the scene's light and shadows
+  j["recon_outages"] = recon_liveness_.outages();  // times each recon node fell silent
+  j["hull_pixel_fraction_mean"] =
+      counters_.frames_out() ? hull_fraction_sum_ / double(counters_.frames_out()) : 0.0;
+  for (const auto& [id, c] : min_clearance_) {
+    const auto pc = part_collisions_.find(id);
+    j["payload"][std::to_string(id)] = {{"min_clearance_mm", c * 1e3},
+                                        {"frames_colliding", pc == part_collisions_.end() ? 0 : pc->second}};
+  }
+  auto row = [](const NodeStatsSample& r) {
+    nlohmann::json stages = nlohmann::json::object();
+    for (const auto& [n, s] : r.stages) stages[n] = {{"ms_mean", s.ms_mean}, {"ms_p95", s.ms_p95}};
+    return nlohmann::json{{"fps", r.fps},           {"latency_ms_p50", r.latency_ms_p50},
+                          {"latency_ms_p95", r.latency_ms_p95}, {"frames_in", r.frames_in},
+                          {"frames_out", r.frames_out}, {"dropped", r.dropped},
+                          {"rejected", r.rejected}, {"stages_ms", stages}};
+  };
+  j["nodes"] = nlohmann::json::object();
+  for (const auto& [name, r] : node_stats_)
+    if (name != "render") j["nodes"][name] = row(r);
+  j["nodes"]["render"] = row(counters_.Snapshot("render", true));
+  return j;
+}
+
+std::string RenderController::Table() const {
+  std::string out;
+  auto line = [&out](const char* fmt, auto... args) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf, fmt, args...);
+    out += buf;
+  };
+  line("%-10s %8s %14s %14s %10s %10s %8s %8s\n", "node", "fps", "latency p50 ms", "latency p95 ms", "frames in",
+       "frames out", "dropped", "rejected");
+  auto row = [&](const NodeStatsSample& r) {
+    line("%-10s %8.1f %14.1f %14.1f %10llu %10llu %8llu %8llu\n", r.name.c_str(), r.fps, r.latency_ms_p50,
+         r.latency_ms_p95, (unsigned long long)r.frames_in, (unsigned long long)r.frames_out,
+         (unsigned long long)r.dropped, (unsigned long long)r.rejected);
+  };
+  for (const auto& [name, r] : node_stats_)
+    if (name != "render") row(r);
+  row(counters_.Snapshot("render", true));
+  return out;
+}
+
+}  // namespace hullpipe::nodes

@@ -1,0 +1,141 @@
+// render_node's run-time logic (paper §3–§4, the parent pipe): it owns the
+// user's viewpoint, requests each new complete frameset's tiles with a ViewPose
+// (at most max_in_flight at once), assembles the recon nodes' tiles, gives up on
+// a pose whose tiles do not come within tile_timeout, lets a composited pose
+// supersede older ones, composites hull and virtual objects with the depth test
+// (colliding objects red), notices recon nodes that fall silent, detects the end
+// of input and writes the stats.json schema. DDS-free and GL-free: the main feeds
+// it samples and gives it a RenderSink; tests drive it with a FakeClock.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "hullpipe/geometry/head_pose.h"
+#include "hullpipe/nodes/clock.h"
+#include "hullpipe/nodes/messages.h"
+#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/nodes/peer_liveness.h"
+#include "hullpipe/reconstruction/frameset.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/scenes/lighting.h"
+
+namespace hullpipe::nodes {
+
+/// render_node's settings (its flags). Lengths in metres, times in seconds.
+struct RenderOptions {
+  int width = 320, height = 240;  ///< Novel view, pixels (1..8192).
+  double hfov_deg = 50;           ///< Horizontal field of view, degrees (0, 179].
+  int tiles = 2;                  ///< Tiles per frame = recon nodes (1..64).
+  int max_in_flight = 2;          ///< Poses rendered at once (1..64).
+  int64_t max_frames = 0;         ///< Stop after compositing this frame_seq (0: never).
+  double idle_timeout = 5;        ///< End when no new frameset came for this long.
+  double tile_timeout = 1.0;      ///< Give up on a pose's missing tiles after this long.
+  double recon_silence = 1.0;     ///< A recon node without NodeStats this long is silent.
+  double end_grace = 0.5;         ///< After capture's final report, time for its last samples.
+  /// The scripted orbit (used until a tracked pose exists).
+  double orbit_radius = 3.0, orbit_height = 0.7, orbit_period = 12.0;
+  std::optional<Eigen::Vector3d> orbit_centre;  ///< Default: the first hull box's centre.
+  Eigen::Vector3d up{0, 0, -1};                 ///< World up (Utrecht rig: z down).
+  enum class View { kOrbit, kFile, kTopic } view = View::kOrbit;
+  PoseTrack track;                   ///< For View::kFile.
+  std::optional<LightConfig> light;  ///< The scene's light (shadows), if any.
+  /// Throws std::invalid_argument naming the flag that is out of range.
+  void Check() const;
+};
+
+/// Where render's outputs go (ViewPose messages; the video, PNGs and window).
+class RenderSink {
+ public:
+  virtual ~RenderSink() = default;
+  /// Ask the recon nodes for frameset frame_seq seen from `view`.
+  virtual void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq) = 0;
+  /// One composited frame (CV_8UC3), the `count`-th, of frameset frame_seq.
+  virtual void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count) = 0;
+};
+
+class RenderController {
+ public:
+  /// `assembler` is fed by the caller (maps and camera info); `options` are
+  /// checked (std::invalid_argument).
+  RenderController(RenderOptions options, const Clock& clock, FramesetAssembler& assembler, RenderSink& sink);
+
+  // Inputs, as they arrive. A tile for an unknown pose is counted late; one that
+  // does not fit the view is rejected (std::invalid_argument, nothing kept).
+  void OnTile(HullTile tile);
+  void OnObjectState(const VirtualObjectSample& state);
+  void OnMesh(VirtualMeshSample mesh);
+  void OnHeadPose(const Rigid3d& world_from_eye);
+  void OnCollisionReport(bool has_points);
+  void OnNodeStats(const NodeStatsSample& stats);
+  /// A malformed sample the caller could not convert.
+  void Reject(const std::string& why);
+
+  /// One round: new poses for new complete framesets, composites every pose
+  /// whose tiles are in, drops timed-out poses, recon liveness, end of input.
+  /// Returns the number of frames composited this round.
+  int Step();
+  /// The run is over (max_frames reached, input ended or idle).
+  bool done() const { return done_; }
+
+  /// stats.json: the view, counts, outages, payload clearances and every node's
+  /// newest report (this node's own under "render").
+  nlohmann::json StatsJson() const;
+  /// The end-of-run table, one row per node.
+  std::string Table() const;
+
+  const NodeCounters& counters() const { return counters_; }
+  NodeCounters& counters() { return counters_; }
+  uint64_t rejected() const { return rejected_; }
+  uint64_t tiles_late() const { return tiles_late_; }
+  uint64_t last_composited() const { return last_composited_; }
+  size_t in_flight() const { return in_flight_.size(); }
+  const PeerLiveness& recon_liveness() const { return recon_liveness_; }
+  const OrbitPath& orbit() const { return orbit_; }
+
+ private:
+  struct InFlight {
+    uint64_t frame_seq = 0;
+    int64_t capture_time_ns = 0;
+    double sent_s = 0;
+    NovelView view;
+    std::map<uint32_t, HullTile> tiles;        // by tile index
+    std::shared_ptr<const VolumeQuery> hull;   // for the light's shadow map
+  };
+  void IssuePoses();
+  void Composite(InFlight& f);
+
+  RenderOptions o_;
+  const Clock& clock_;
+  FramesetAssembler& assembler_;
+  RenderSink& sink_;
+  NodeCounters counters_;
+  PeerLiveness recon_liveness_;
+  OrbitPath orbit_;
+  bool centre_known_ = false;
+  CompositeOptions comp_;
+  std::optional<Rigid3d> tracked_;
+  std::map<uint64_t, InFlight> in_flight_;  // by pose_seq
+  std::map<uint32_t, std::map<uint64_t, VirtualObjectSample>> states_;  // object -> frame -> state
+  std::map<uint32_t, std::map<uint64_t, VirtualMeshSample>> meshes_;    // object -> frame -> mesh
+  std::map<uint32_t, double> min_clearance_;     // payload part -> least clearance, metres
+  std::map<uint32_t, uint64_t> part_collisions_;  // payload part -> frames drawn colliding
+  std::map<std::string, NodeStatsSample> node_stats_;
+  uint64_t seen_restarts_ = 0;
+  uint64_t pose_seq_ = 0, last_requested_ = 0, last_composited_ = 0, rejected_ = 0, tiles_late_ = 0;
+  uint64_t collisions_drawn_ = 0, collision_reports_ = 0, meshes_drawn_ = 0, lit_frames_ = 0;
+  double hull_fraction_sum_ = 0;
+  double first_source_time_ = 0;
+  double last_new_frame_s_ = 0;
+  bool any_frame_ = false, done_ = false, capture_done_ = false;
+  double capture_done_s_ = 0;
+};
+
+}  // namespace hullpipe::nodes

@@ -1,0 +1,289 @@
+#include "hullpipe/nodes/render_controller.h"
+
+#include <gtest/gtest.h>
+
+#include "hullpipe/nodes/test_rig.h"
+
+namespace hullpipe::nodes {
+namespace {
+
+struct Recorder final : RenderSink {
+  struct Pose {
+    NovelView view;
+    uint64_t pose_seq, frame_seq;
+  };
+  std::vector<Pose> poses;
+  std::vector<std::pair<uint64_t, cv::Mat>> frames;  // frame_seq, image
+  void PublishPose(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq) override {
+    poses.push_back({v, pose_seq, frame_seq});
+  }
+  void WriteFrame(const cv::Mat& f, uint64_t frame_seq, uint64_t) override { frames.push_back({frame_seq, f.clone()}); }
+};
+
+// A whole-view tile for a pose: depth `depth_m` everywhere (kNoDepth: no hull), colour `bgr`.
+HullTile WholeTile(const Recorder::Pose& p, float depth_m, cv::Scalar bgr) {
+  HullTile t;
+  t.rect = cv::Rect(0, 0, p.view.width, p.view.height);
+  t.depth = cv::Mat(t.rect.size(), CV_32FC1, cv::Scalar(depth_m));
+  t.colour = cv::Mat(t.rect.size(), CV_8UC3, bgr);
+  t.pose_seq = p.pose_seq;
+  t.frame_seq = p.frame_seq;
+  return t;
+}
+
+// Red dominates (the compositor shades colliding objects' red by the light).
+bool Red(const cv::Vec3b& bgr) { return bgr[2] > 40 && bgr[2] > 3 * bgr[1] && bgr[2] > 3 * bgr[0]; }
+
+class Render : public ::testing::Test {
+ protected:
+  Render() { rig_.Calibrate(assembler_); }
+  RenderOptions Options() const {
+    RenderOptions o;
+    o.width = 64;
+    o.height = 48;
+    o.tiles = 1;
+    o.orbit_centre = hullpipe::test::kSphereCentre;
+    return o;
+  }
+  FakeClock clock_;
+  FramesetAssembler assembler_{8, false};
+  test::TinyRig rig_;
+  Recorder sink_;
+};
+
+TEST_F(Render, OptionsCheckNamesTheFlag) {
+  RenderOptions o;
+  o.width = 0;
+  EXPECT_THROW(o.Check(), std::invalid_argument);
+  o = {};
+  o.tiles = 0;
+  try {
+    o.Check();
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--tiles"), std::string::npos);
+  }
+  o = {};
+  o.up = Eigen::Vector3d::Zero();
+  EXPECT_THROW(o.Check(), std::invalid_argument);
+  o = {};
+  o.view = RenderOptions::View::kFile;  // without a track
+  EXPECT_THROW(o.Check(), std::invalid_argument);
+}
+
+TEST_F(Render, PosesFollowNewFramesetsUpToMaxInFlight) {
+  RenderOptions o = Options();
+  o.max_in_flight = 2;
+  RenderController r(o, clock_, assembler_, sink_);
+  EXPECT_EQ(r.Step(), 0);
+  EXPECT_TRUE(sink_.poses.empty());  // no frameset yet
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  rig_.AddFrame(assembler_, 2, clock_.WallNs());
+  r.Step();
+  rig_.AddFrame(assembler_, 3, clock_.WallNs());
+  r.Step();
+  ASSERT_EQ(sink_.poses.size(), 2u);  // frame 3 waits: two poses in flight
+  EXPECT_EQ(sink_.poses[0].frame_seq, 1u);
+  EXPECT_EQ(sink_.poses[1].frame_seq, 2u);
+  EXPECT_EQ(r.in_flight(), 2u);
+  // Pose 2's tile composites it and supersedes pose 1 (dropped); frame 3 is next.
+  r.OnTile(WholeTile(sink_.poses[1], kNoDepth, {0, 0, 0}));
+  EXPECT_EQ(r.Step(), 1);
+  ASSERT_EQ(sink_.frames.size(), 1u);
+  EXPECT_EQ(sink_.frames[0].first, 2u);
+  EXPECT_EQ(r.counters().dropped(), 1u);
+  r.Step();
+  ASSERT_EQ(sink_.poses.size(), 3u);
+  EXPECT_EQ(sink_.poses[2].frame_seq, 3u);
+  // A tile for a pose that is gone is late, not an error.
+  r.OnTile(WholeTile(sink_.poses[0], kNoDepth, {0, 0, 0}));
+  EXPECT_EQ(r.tiles_late(), 1u);
+  EXPECT_EQ(r.rejected(), 0u);
+}
+
+TEST_F(Render, APoseWhoseTilesDoNotComeIsDroppedAfterTheTileTimeout) {
+  RenderOptions o = Options();
+  o.tiles = 2;
+  o.tile_timeout = 1.0;
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  ASSERT_EQ(sink_.poses.size(), 1u);
+  HullTile half = WholeTile(sink_.poses[0], kNoDepth, {0, 0, 0});
+  half.rect.height = 24;
+  half.depth = half.depth(cv::Rect(0, 0, 64, 24)).clone();
+  half.colour = half.colour(cv::Rect(0, 0, 64, 24)).clone();
+  r.OnTile(half);  // one of two tiles
+  clock_.Advance(0.9);
+  r.Step();
+  EXPECT_EQ(r.in_flight(), 1u);
+  clock_.Advance(0.2);
+  r.Step();
+  EXPECT_EQ(r.in_flight(), 0u);
+  EXPECT_EQ(r.counters().dropped(), 1u);
+  EXPECT_TRUE(sink_.frames.empty());
+}
+
+TEST_F(Render, ATileOutsideTheViewIsRejectedAndNotComposited) {
+  RenderController r(Options(), clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  HullTile t = WholeTile(sink_.poses[0], kNoDepth, {0, 0, 0});
+  t.rect.x = 10;  // 10 + 64 > 64
+  r.OnTile(t);
+  EXPECT_EQ(r.rejected(), 1u);
+  EXPECT_EQ(r.Step(), 0);
+}
+
+TEST_F(Render, CompositesWithTheDepthTestAndDrawsCollidingObjectsRed) {
+  RenderOptions o = Options();
+  o.max_in_flight = 1;
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  const Recorder::Pose& p = sink_.poses[0];
+  // A colliding ball 2 m in front of the eye, on its optical axis.
+  const Eigen::Vector3d ahead = p.view.world_from_eye * Eigen::Vector3d(0, 0, 2.0);
+  r.OnObjectState({7, 1, 0, 0, 0.2, ahead, Eigen::Vector3d::Zero(), true});
+  // No hull in the view: the ball shows, red.
+  r.OnTile(WholeTile(p, kNoDepth, {0, 0, 0}));
+  ASSERT_EQ(r.Step(), 1);
+  const cv::Vec3b ball = sink_.frames[0].second.at<cv::Vec3b>(24, 32);
+  EXPECT_TRUE(Red(ball)) << ball;
+  // Next frame: a green hull 1 m in front hides the ball; at 3 m it is behind it.
+  for (float hull_m : {1.0f, 3.0f}) {
+    const uint64_t seq = hull_m < 2 ? 2 : 3;
+    rig_.AddFrame(assembler_, seq, clock_.WallNs());
+    r.Step();
+    r.OnTile(WholeTile(sink_.poses.back(), hull_m, {0, 200, 0}));
+    ASSERT_EQ(r.Step(), 1);
+    const cv::Vec3b c = sink_.frames.back().second.at<cv::Vec3b>(24, 32);
+    if (hull_m < 2)
+      EXPECT_EQ(c, cv::Vec3b(0, 200, 0)) << "the hull in front of the ball";
+    else
+      EXPECT_TRUE(Red(c)) << "the ball in front of the hull: " << c;
+  }
+  // The same ball not colliding is not drawn red.
+  rig_.AddFrame(assembler_, 4, clock_.WallNs());
+  r.Step();
+  r.OnObjectState({7, 4, 0, 0, 0.2, ahead, Eigen::Vector3d::Zero(), false});
+  r.OnTile(WholeTile(sink_.poses.back(), kNoDepth, {0, 0, 0}));
+  ASSERT_EQ(r.Step(), 1);
+  const cv::Vec3b calm = sink_.frames.back().second.at<cv::Vec3b>(24, 32);
+  EXPECT_FALSE(Red(calm)) << calm;
+  EXPECT_NE(calm, cv::Vec3b(0, 0, 0)) << "the ball is drawn";
+}
+
+TEST_F(Render, ASilentReconIsNoticedAndItsReturnLogged) {
+  RenderController r(Options(), clock_, assembler_, sink_);
+  NodeStatsSample s;
+  s.name = "recon1";
+  r.OnNodeStats(s);
+  r.Step();
+  clock_.Advance(0.9);
+  r.Step();
+  EXPECT_TRUE(r.recon_liveness().outages().empty());
+  clock_.Advance(0.2);  // 1.1 s silent
+  r.Step();
+  EXPECT_EQ(r.recon_liveness().outages().at("recon1"), 1);
+  r.OnNodeStats(s);
+  r.Step();
+  clock_.Advance(0.5);
+  r.Step();
+  EXPECT_EQ(r.recon_liveness().outages().at("recon1"), 1);
+  EXPECT_EQ(r.StatsJson()["recon_outages"]["recon1"], 1);
+}
+
+TEST_F(Render, EndsWhenCaptureReportsItsEndAndEverythingIsComposited) {
+  RenderOptions o = Options();
+  o.tile_timeout = 10;  // the pose stays in flight while the clock moves
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  NodeStatsSample cap;
+  cap.name = "capture";
+  cap.final_report = true;
+  clock_.Advance(1.0);
+  r.Step();
+  EXPECT_FALSE(r.done()) << "capture has not said it ended";
+  r.OnNodeStats(cap);
+  clock_.Advance(1.0);
+  r.Step();
+  EXPECT_FALSE(r.done()) << "a pose is still in flight";
+  r.OnTile(WholeTile(sink_.poses[0], kNoDepth, {0, 0, 0}));
+  r.Step();
+  EXPECT_TRUE(r.done()) << "capture ended 1 s ago and its last frameset is composited";
+}
+
+TEST_F(Render, EndsWhenNoFramesetCameForTheIdleTimeout) {
+  RenderOptions o = Options();
+  o.idle_timeout = 2.0;
+  RenderController r(o, clock_, assembler_, sink_);
+  clock_.Advance(10);
+  r.Step();
+  EXPECT_FALSE(r.done()) << "never idle before the first frameset";
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  r.OnTile(WholeTile(sink_.poses[0], kNoDepth, {0, 0, 0}));
+  r.Step();
+  clock_.Advance(1.9);
+  r.Step();
+  EXPECT_FALSE(r.done());
+  clock_.Advance(0.2);
+  r.Step();
+  EXPECT_TRUE(r.done());
+}
+
+TEST_F(Render, StopsAfterTheRequestedFrame) {
+  RenderOptions o = Options();
+  o.max_frames = 2;
+  RenderController r(o, clock_, assembler_, sink_);
+  for (uint64_t seq : {1, 2}) {
+    rig_.AddFrame(assembler_, seq, clock_.WallNs());
+    r.Step();
+    r.OnTile(WholeTile(sink_.poses.back(), kNoDepth, {0, 0, 0}));
+    r.Step();
+    EXPECT_EQ(r.done(), seq == 2);
+  }
+}
+
+TEST_F(Render, StatsJsonSchema) {
+  RenderController r(Options(), clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs() - 40'000'000);  // captured 40 ms ago
+  r.Step();
+  r.OnTile(WholeTile(sink_.poses[0], 2.0f, {10, 20, 30}));
+  clock_.Advance(0.01);
+  r.Step();
+  NodeStatsSample recon;
+  recon.name = "recon0";
+  recon.fps = 30;
+  recon.frames_out = 5;
+  recon.stages["sweep"] = {12.5, 20.0};
+  r.OnNodeStats(recon);
+  VirtualMeshSample part;
+  part.object_id = 301;
+  part.frame_seq = 1;
+  part.clearance = 0.05;
+  r.OnMesh(part);
+  const nlohmann::json j = r.StatsJson();
+  for (const char* key : {"view", "frames_composited", "last_frame_seq", "collision_frames_drawn",
+                          "collision_reports_with_points", "meshes_drawn", "lit_frames", "recon_outages",
+                          "hull_pixel_fraction_mean", "nodes"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["view"]["width"], 64);
+  EXPECT_EQ(j["frames_composited"], 1);
+  EXPECT_DOUBLE_EQ(j["hull_pixel_fraction_mean"].get<double>(), 1.0);
+  EXPECT_EQ(j["nodes"]["recon0"]["fps"], 30.0);
+  EXPECT_EQ(j["nodes"]["recon0"]["stages_ms"]["sweep"]["ms_p95"], 20.0);
+  const auto& me = j["nodes"]["render"];
+  for (const char* key : {"fps", "latency_ms_p50", "latency_ms_p95", "frames_in", "frames_out", "dropped",
+                          "rejected", "stages_ms"})
+    EXPECT_TRUE(me.contains(key)) << key;
+  EXPECT_NEAR(me["latency_ms_p50"].get<double>(), 50.0, 1e-3);  // 40 ms before + 10 ms of fake time
+  EXPECT_TRUE(me["stages_ms"].contains("composite"));
+  EXPECT_NE(r.Table().find("recon0"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hullpipe::nodes

@@ -1,0 +1,74 @@
+// sim_node's run-time logic (paper §4–§5): each new frameset's visual hull steps
+// the virtual scene (balls, cloth, particles, payload task) by the frames' source
+// time, so a run or a replay is deterministic given its inputs; it publishes each
+// body's state and collision report (§4.1 points, §4.2 response), the cloth,
+// particle and payload meshes, and logs each payload part's collisions as they
+// start and end. Scene commands change the payload spacing while it runs.
+// DDS-free; tests drive it with a FakeClock.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "hullpipe/nodes/clock.h"
+#include "hullpipe/nodes/messages.h"
+#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/reconstruction/frameset.h"
+#include "hullpipe/scenes/virtual_scene.h"
+
+namespace hullpipe::nodes {
+
+/// Where sim's outputs go (VirtualObjectState, CollisionReport, VirtualMesh).
+class SimSink {
+ public:
+  virtual ~SimSink() = default;
+  virtual void PublishState(const VirtualObjectSample& state) = 0;
+  virtual void PublishReport(const CollisionReportSample& report) = 0;
+  virtual void PublishMesh(const VirtualMeshSample& mesh) = 0;
+};
+
+/// A payload part's collision starting or ending (the §5.2 task's log).
+struct PartCollisionEvent {
+  double source_time_s = 0;
+  uint64_t frame_seq = 0;
+  std::string part;
+  bool starts = false;
+  double spacing_m = 0;
+};
+
+class SimController {
+ public:
+  /// `scene` is checked (std::invalid_argument naming the key).
+  SimController(SceneConfig scene, const Clock& clock, FramesetAssembler& assembler, SimSink& sink);
+  /// SceneCommand SET_SPACING: the payload spacing in metres. A value the task
+  /// refuses (non-finite, out of range, no payload) is counted as rejected and
+  /// logged; returns whether it was taken.
+  bool SetSpacing(double spacing_m, uint64_t command_seq);
+  /// A command the node does not know, or a malformed one.
+  void RejectCommand(uint64_t command_seq, const std::string& why);
+  /// Steps the scene on every new frameset (newest first wins); returns the
+  /// framesets stepped.
+  int Step();
+
+  const VirtualScene& scene() const { return scene_; }
+  NodeCounters& counters() { return counters_; }
+  const NodeCounters& counters() const { return counters_; }
+  uint64_t collisions() const { return collisions_; }  ///< Colliding body-steps.
+  uint64_t commands_rejected() const { return commands_rejected_; }
+  const std::vector<PartCollisionEvent>& part_events() const { return part_events_; }
+
+ private:
+  void StepOne(const Frameset& fs);
+  const Clock& clock_;
+  FramesetAssembler& assembler_;
+  SimSink& sink_;
+  VirtualScene scene_;
+  NodeCounters counters_;
+  std::vector<bool> part_colliding_;  // payload parts colliding in the last frame
+  std::vector<PartCollisionEvent> part_events_;
+  uint64_t collisions_ = 0, commands_rejected_ = 0;
+  double last_source_time_ = -1;
+};
+
+}  // namespace hullpipe::nodes
