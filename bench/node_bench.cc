@@ -27,6 +27,10 @@
 #include <thread>
 
 #include <CLI/CLI.hpp>
+
+#include "hullpipe/launch/cyclone_config.h"
+#include "hullpipe/launch/domain.h"
+#include "hullpipe/launch/process.h"
 #include <nlohmann/json.hpp>
 
 #include "hullpipe/util/percentile.h"
@@ -39,6 +43,7 @@ using namespace hullpipe;
 using namespace hullpipe::dds;
 using namespace hullpipe::record;
 namespace fs = std::filesystem;
+namespace launch = hullpipe::launch;
 
 namespace {
 
@@ -64,20 +69,6 @@ double PeakRssMiB(pid_t pid) {
   while (std::getline(f, line))
     if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
   return 0;
-}
-
-pid_t Spawn(const std::vector<std::string>& argv, const std::string& log) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    FILE* f = std::fopen(log.c_str(), "w");
-    if (f) dup2(fileno(f), 1), dup2(fileno(f), 2);
-    std::vector<char*> a;
-    for (const auto& s : argv) a.push_back(const_cast<char*>(s.c_str()));
-    a.push_back(nullptr);
-    execv(a[0], a.data());
-    _exit(127);
-  }
-  return pid;
 }
 
 struct Result {
@@ -285,15 +276,15 @@ Result BenchRender(const Participant& p, pid_t pid, const std::string& recording
   return r;
 }
 
-Result BenchCapture(const Participant& p, pid_t pid, int max_frames) {
+Result BenchCapture(const Participant& p, launch::Process& proc, int max_frames) {
+  const pid_t pid = proc.pid();
   Result r;
   r.node = "capture";
   Reader<hullpipe_msg_ObjectPixelMap> maps(p);
   std::map<uint64_t, int> per_frame;
   const double cpu0 = CpuSeconds(pid), t0 = MonotonicSeconds();
   double last = t0;
-  int status = 0;
-  while (waitpid(pid, &status, WNOHANG) == 0 || maps.TakeEach([](auto&, auto&) {}) > 0) {
+  while (proc.Running() || maps.TakeEach([](auto&, auto&) {}) > 0) {
     maps.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
       if (++per_frame[m.frame_seq] == int(m.camera_count)) {
         r.latency_ms.push_back(double(NowNs() - m.capture_time_ns) * 1e-6);
@@ -330,14 +321,12 @@ int main(int argc, char** argv) {
     const fs::path dir = fs::temp_directory_path() / ("node_bench_" + std::to_string(getpid()));
     fs::create_directories(dir);
     const std::string config = (dir / "cyclonedds.xml").string();
-    std::ofstream(config) << "<?xml version=\"1.0\"?>\n<CycloneDDS xmlns=\"https://cdds.io/config\"><Domain id=\"any\">"
-                             "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
-                             "<AllowMulticast>false</AllowMulticast><MaxMessageSize>65500B</MaxMessageSize></General>"
-                             "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60"
-                             "</MaxAutoParticipantIndex><Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery>"
-                             "</Domain></CycloneDDS>\n";
+    launch::CycloneConfigOptions cfg;
+    cfg.comment = "Written by node_bench: loopback, as hullpipe_launch's";
+    launch::WriteCycloneConfig(config, cfg);
     setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
-    const uint32_t domain = 150 + uint32_t(getpid() % 80);
+    const launch::DomainLease lease;  // no other live run on this machine holds it
+    const uint32_t domain = lease.id();
     std::vector<std::string> args = {bin_dir + "/" + node + "_node", "--domain", std::to_string(domain)};
     if (node == "recon") args.insert(args.end(), {"--tile", "0/1"});
     if (node == "render")
@@ -353,12 +342,12 @@ int main(int argc, char** argv) {
     }
     const std::string log = (dir / (node + ".log")).string();
     Participant p(domain);
-    const pid_t pid = Spawn(args, log);
-    Result r = node == "capture" ? BenchCapture(p, pid, frames)
+    launch::Process proc(args, log);
+    const pid_t pid = proc.pid();
+    Result r = node == "capture" ? BenchCapture(p, proc, frames)
                : node == "render" ? BenchRender(p, pid, recording, frames)
                                   : BenchReplayed(node, p, pid, recording, frames);
-    kill(pid, SIGINT);
-    waitpid(pid, nullptr, 0);
+    proc.Stop(10);
     const double fps = r.seconds > 0 ? r.frames / r.seconds : 0;
     if (json) {
       nlohmann::json j = {{"node", r.node}, {"frames", r.frames}, {"timeouts", r.timeouts}, {"fps", fps},

@@ -13,12 +13,18 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 #include <yaml-cpp/yaml.h>
+
+#include "hullpipe/launch/cyclone_config.h"
+#include "hullpipe/launch/domain.h"
+#include "hullpipe/launch/process.h"
 
 namespace fs = std::filesystem;
 
@@ -34,9 +40,7 @@ struct NodeSpec {
 
 struct Child {
   NodeSpec spec;
-  pid_t pid = -1;
-  int status = 0;
-  bool exited = false;
+  std::unique_ptr<hullpipe::launch::Process> process;
   std::string log;
 };
 
@@ -46,54 +50,6 @@ std::string Substitute(std::string s, const std::map<std::string, std::string>& 
     for (size_t p = s.find(key); p != std::string::npos; p = s.find(key, p + v.size())) s.replace(p, key.size(), v);
   }
   return s;
-}
-
-std::string LoopbackConfig() {
-  return R"(<?xml version="1.0" encoding="UTF-8"?>
-<!-- Written by hullpipe_launch: all traffic stays on loopback (unicast discovery
-     to 127.0.0.1, as lo has no multicast). -->
-<CycloneDDS xmlns="https://cdds.io/config">
-  <Domain id="any">
-    <General>
-      <Interfaces><NetworkInterface name="lo"/></Interfaces>
-      <AllowMulticast>false</AllowMulticast>
-      <MaxMessageSize>65500B</MaxMessageSize>
-    </General>
-    <Discovery>
-      <ParticipantIndex>auto</ParticipantIndex>
-      <MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>
-      <Peers><Peer address="127.0.0.1"/></Peers>
-      <!-- Participant announcements every second (default 30 s): a lost one
-           (lossy link) delays discovery by a second, not half a minute. -->
-      <SPDPInterval>1s</SPDPInterval>
-    </Discovery>
-    <!-- Quick repair of lost fragments of large reliable samples (maps, images,
-         tiles): a 5% packet loss then costs no frame rate (tests/e2e_test.cc). -->
-    <Internal>
-      <HeartbeatInterval min="2ms" minsched="5ms">10ms</HeartbeatInterval>
-      <NackDelay>2ms</NackDelay>
-      <AutoReschedNackDelay>20ms</AutoReschedNackDelay>
-    </Internal>
-  </Domain>
-</CycloneDDS>
-)";
-}
-
-bool Reap(Child& c, bool block) {
-  if (c.exited || c.pid <= 0) return true;
-  int st = 0;
-  const pid_t r = waitpid(c.pid, &st, block ? 0 : WNOHANG);
-  if (r == c.pid) {
-    c.exited = true;
-    c.status = st;
-  }
-  return c.exited;
-}
-
-std::string Describe(const Child& c) {
-  if (WIFEXITED(c.status)) return "exit " + std::to_string(WEXITSTATUS(c.status));
-  if (WIFSIGNALED(c.status)) return std::string("killed by signal ") + strsignal(WTERMSIG(c.status));
-  return "?";
 }
 
 }  // namespace
@@ -130,12 +86,20 @@ int main(int argc, char** argv) {
   if (bin_dir.empty()) bin_dir = self_dir.string();
   if (description.empty()) description = HULLPIPE_SOURCE_DIR "/launch/local.yaml";
   if (scene.empty()) scene = HULLPIPE_SOURCE_DIR "/scenes/ball.yaml";
-  if (domain < 0) domain = 1 + int(getpid() % 200);
+  // A domain no other live run on this machine holds (tests lease 100..229).
+  std::optional<hullpipe::launch::DomainLease> lease;
+  if (domain < 0) {
+    lease.emplace(1, 99);
+    domain = int(lease->id());
+  }
   fs::create_directories(fs::path(out) / "logs");
   out = fs::absolute(out).string();
   if (dds_config.empty()) {
     dds_config = (fs::path(out) / "cyclonedds.xml").string();
-    std::ofstream(dds_config) << LoopbackConfig();
+    hullpipe::launch::CycloneConfigOptions cfg;
+    cfg.comment = "Written by hullpipe_launch: all traffic stays on loopback (unicast discovery to 127.0.0.1, "
+                  "as lo has no multicast); quick repair of lost fragments and announcements every second";
+    hullpipe::launch::WriteCycloneConfig(dds_config, cfg);
   }
   dds_config = fs::absolute(dds_config).string();
 
@@ -202,24 +166,15 @@ int main(int argc, char** argv) {
     c.spec = spec;
     c.log = (fs::path(out) / "logs" / (spec.name + ".log")).string();
     const bool to_terminal = spec.exec == "render_node";
-    c.pid = fork();
-    if (c.pid == 0) {
-      setenv("CYCLONEDDS_URI", ("file://" + dds_config).c_str(), 1);
-      if (!to_terminal) {
-        FILE* f = std::fopen(c.log.c_str(), "w");
-        if (f) {
-          dup2(fileno(f), STDOUT_FILENO);
-          dup2(fileno(f), STDERR_FILENO);
-        }
-      }
-      std::vector<char*> cargv;
-      for (auto& s : argv_s) cargv.push_back(s.data());
-      cargv.push_back(nullptr);
-      execvp(cargv[0], cargv.data());
-      std::fprintf(stderr, "cannot start %s: %s\n", cargv[0], strerror(errno));
-      _exit(127);
+    try {
+      c.process = std::make_unique<hullpipe::launch::Process>(
+          argv_s, to_terminal ? std::string() : c.log,
+          std::vector<std::pair<std::string, std::string>>{{"CYCLONEDDS_URI", "file://" + dds_config}});
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s\n", e.what());
+      return 1;  // the children started so far are killed and reaped by their destructors
     }
-    std::printf("  started %-8s pid %d on %s\n", spec.name.c_str(), c.pid, spec.host.c_str());
+    std::printf("  started %-8s pid %d on %s\n", spec.name.c_str(), c.process->pid(), spec.host.c_str());
     children.push_back(std::move(c));
   }
   std::fflush(stdout);
@@ -232,12 +187,12 @@ int main(int argc, char** argv) {
       reason = "interrupted";
       break;
     }
-    if (Reap(render, false)) break;
+    if (!render.process->Running()) break;
     bool failed = false;
     for (auto& c : children) {
       if (&c == &render) continue;
-      if (Reap(c, false) && !(WIFEXITED(c.status) && WEXITSTATUS(c.status) == 0)) {
-        reason = c.spec.name + " failed (" + Describe(c) + "), see " + c.log;
+      if (!c.process->Running() && !(WIFEXITED(c.process->status()) && WEXITSTATUS(c.process->status()) == 0)) {
+        reason = c.spec.name + " failed (" + hullpipe::launch::DescribeStatus(c.process->status()) + "), see " + c.log;
         failed = true;
       }
     }
@@ -245,26 +200,26 @@ int main(int argc, char** argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   // Stop the rest: SIGINT, then SIGKILL after the grace period; reap all.
-  for (auto& c : children)
-    if (!Reap(c, false)) kill(c.pid, SIGINT);
+  for (auto& c : children) c.process->Signal(SIGINT);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(grace);
   while (std::chrono::steady_clock::now() < deadline) {
     bool all = true;
-    for (auto& c : children) all &= Reap(c, false);
+    for (auto& c : children) all &= !c.process->Running();
     if (all) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   for (auto& c : children)
-    if (!Reap(c, false)) {
+    if (c.process->Running()) {
       std::fprintf(stderr, "  %s did not stop within %.1f s: SIGKILL\n", c.spec.name.c_str(), grace);
-      kill(c.pid, SIGKILL);
-      Reap(c, true);
+      c.process->Signal(SIGKILL);
+      c.process->Wait(10);
     }
   std::printf("hullpipe_launch: %s\n", reason.c_str());
   int rc = 0;
   for (const auto& c : children) {
-    const bool ok = WIFEXITED(c.status) && WEXITSTATUS(c.status) == 0;
-    std::printf("  %-8s %s\n", c.spec.name.c_str(), Describe(c).c_str());
+    const int st = c.process->status();
+    const bool ok = WIFEXITED(st) && WEXITSTATUS(st) == 0;
+    std::printf("  %-8s %s\n", c.spec.name.c_str(), hullpipe::launch::DescribeStatus(st).c_str());
     if (!ok) rc = 1;
   }
   return g_stop ? 130 : rc;

@@ -56,17 +56,10 @@ struct Lab {
   std::string Ns(const std::string& h) const { return tag + "_" + h; }
   std::string Config(const std::filesystem::path& dir, const std::string& h) const {
     const auto path = dir / ("cyclonedds-" + h + ".xml");
-    std::ofstream f(path);
-    f << R"(<?xml version="1.0" encoding="UTF-8"?>
-<CycloneDDS xmlns="https://cdds.io/config"><Domain id="any">
-<General><Interfaces><NetworkInterface name="eth0"/></Interfaces><AllowMulticast>false</AllowMulticast>
-<MaxMessageSize>65500B</MaxMessageSize></General>
-<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60</MaxAutoParticipantIndex><Peers>)";
-    for (const auto& a : addr) f << "<Peer address=\"" << a << "\"/>";
-    f << R"(</Peers><SPDPInterval>1s</SPDPInterval></Discovery>
-<Internal><HeartbeatInterval min="2ms" minsched="5ms">10ms</HeartbeatInterval><NackDelay>2ms</NackDelay></Internal>
-</Domain></CycloneDDS>
-)";
+    launch::CycloneConfigOptions o;
+    o.interface = "eth0";
+    o.peers = addr;
+    launch::WriteCycloneConfig(path.string(), o);
     return path.string();
   }
 };
