@@ -42,9 +42,10 @@ class NodeTest : public ::testing::Test {
     const double end = MonotonicSeconds() + 20;
     while (matched() < n && MonotonicSeconds() < end) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     ASSERT_GE(matched(), n) << "node did not appear on the domain; log:\n" << test::ReadFile(log_);
-    // Matching is seen on each side at its own moment: give the node's readers
-    // time to match our writers too, or the first volatile samples are lost.
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    // Matching is seen on each side at its own moment: the node's reader may
+    // not have matched our writer yet, so a volatile sample written now can be
+    // lost. Each test therefore repeats its first samples until the node
+    // answers (a handshake), and commands are transient-local.
   }
   /// Takes samples of `r` for wait_s seconds, calling f on each; returns how many.
   template <typename T, typename F>
@@ -58,9 +59,10 @@ class NodeTest : public ::testing::Test {
     return n;
   }
   /// Newest NodeStats of `name` once its rejected count reaches `min_rejected` (or timeout).
-  hullpipe_msg_NodeStats WaitStats(Reader<hullpipe_msg_NodeStats>& r, const std::string& name, uint64_t min_rejected) {
+  hullpipe_msg_NodeStats WaitStats(Reader<hullpipe_msg_NodeStats>& r, const std::string& name, uint64_t min_rejected,
+                                    double timeout_s = 10) {
     hullpipe_msg_NodeStats last{};
-    const double end = MonotonicSeconds() + 10;
+    const double end = MonotonicSeconds() + timeout_s;
     while (MonotonicSeconds() < end) {
       r.TakeEach([&](const hullpipe_msg_NodeStats& m, const dds_sample_info_t&) {
         if (m.node_name && name == m.node_name) {
@@ -261,8 +263,13 @@ TEST_F(NodeTest, RenderNodeRejectsTilesOfTheWrongSize) {
   t.colour = cv::Mat(8, 8, CV_8UC3);
   auto s = MakeHullViewMessage(t, 1);
   s.msg.depth._length = 10;
-  tiles.Write(s.msg);
-  EXPECT_GE(WaitStats(stats, "render", 1).rejected, 1u) << test::ReadFile(log_);
+  // Repeated until render counts it (its reader may match our writer late).
+  uint64_t rejected = 0;
+  for (const double end = MonotonicSeconds() + 20; rejected == 0 && MonotonicSeconds() < end;) {
+    tiles.Write(s.msg);
+    rejected = WaitStats(stats, "render", 1, 0.6).rejected;
+  }
+  EXPECT_GE(rejected, 1u) << test::ReadFile(log_);
   EXPECT_TRUE(node->Running());
   EXPECT_EQ(node->Stop(), 0) << test::ReadFile(log_);
 }

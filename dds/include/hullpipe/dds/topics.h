@@ -23,7 +23,10 @@ HULLPIPE_TOPIC(VirtualObjectState, "hullpipe/object_state", true, false, 1)
 HULLPIPE_TOPIC(CollisionReport, "hullpipe/collision_report", true, false, 16)
 HULLPIPE_TOPIC(NodeStats, "hullpipe/node_stats", true, true, 1)
 HULLPIPE_TOPIC(VirtualMesh, "hullpipe/virtual_mesh", true, false, 1)
-HULLPIPE_TOPIC(SceneCommand, "hullpipe/scene_command", true, false, 8)
+// Commands are transient-local: a sim_node whose reader matches the commander a
+// moment after the commander matched it still gets the command (hullpipe_cmd then
+// waits for its acknowledgement before it leaves).
+HULLPIPE_TOPIC(SceneCommand, "hullpipe/scene_command", true, true, 8)
 HULLPIPE_TOPIC(HeadPose, "hullpipe/head_pose", false, false, 1)
 
 #undef HULLPIPE_TOPIC
