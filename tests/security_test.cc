@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <thread>
 
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 #include "hullpipe/geometry/conventions.h"
@@ -44,20 +46,27 @@ TEST(Security, OnlyTheLabsIdentitiesJoin) {
   EXPECT_EQ(command(plain, "0.3", "cmd_plain.log"), 1) << test::ReadFile((dir / "cmd_plain.log").string());
   EXPECT_EQ(command((dir / "rogue" / "cyclonedds-secure-cmd.xml").string(), "0.4", "cmd_rogue.log"), 1)
       << test::ReadFile((dir / "cmd_rogue.log").string());
-  // A participant without security sees nothing of sim_node (its NodeStats are
-  // published twice a second, transient-local).
-  setenv("CYCLONEDDS_URI", ("file://" + plain).c_str(), 1);
-  {
+  // Positive control: a participant with a lab identity sees sim_node's NodeStats
+  // (published twice a second, transient-local); how long that took sets the
+  // window in which a participant without security must see nothing.
+  auto watch = [&](const std::string& config, double seconds, bool stop_at_first) {
+    setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
     dds::Participant p(domain);
     dds::Reader<hullpipe_msg_NodeStats> stats(p);
     int seen = 0;
-    const double end = MonotonicSeconds() + 3;
-    while (MonotonicSeconds() < end) {
+    const double t0 = MonotonicSeconds();
+    double first = -1;
+    while (MonotonicSeconds() < t0 + seconds && !(stop_at_first && seen > 0)) {
       seen += int(stats.TakeEach([](const hullpipe_msg_NodeStats&, const dds_sample_info_t&) {}));
+      if (seen > 0 && first < 0) first = MonotonicSeconds() - t0;
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
-    EXPECT_EQ(seen, 0);
-  }
+    return std::make_pair(seen, first);
+  };
+  const auto [lab_seen, lab_first] = watch((dir / "lab" / "cyclonedds-secure-cmd.xml").string(), 20, true);
+  ASSERT_GT(lab_seen, 0) << "a lab identity saw nothing of sim_node: the absence below would prove nothing";
+  const double window = std::max(3.0, 2 * lab_first);
+  EXPECT_EQ(watch(plain, window, false).first, 0) << "an unsecured participant saw sim_node within " << window << " s";
   EXPECT_EQ(sim.Stop(), 0);
   const std::string log = test::ReadFile((dir / "sim.log").string());
   EXPECT_NE(log.find("payload spacing set to 20.0 cm"), std::string::npos) << log;
