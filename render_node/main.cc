@@ -25,19 +25,45 @@ namespace {
 // ViewPose messages, and the video, PNGs and window.
 class Outputs final : public nodes::RenderSink {
  public:
-  Outputs(const Writer<hullpipe_msg_ViewPose>& poses, std::string out_dir, double video_fps, int png_every, bool show)
-      : poses_(poses), out_dir_(std::move(out_dir)), video_fps_(video_fps), png_every_(png_every), show_(show) {}
+  Outputs(const Writer<hullpipe_msg_ViewPose>& poses, std::string out_dir, double video_fps, int png_every, bool show,
+          bool save_depth)
+      : poses_(poses),
+        out_dir_(std::move(out_dir)),
+        video_fps_(video_fps),
+        png_every_(png_every),
+        show_(show),
+        save_depth_(save_depth) {}
   void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq) override {
     poses_.Write(ViewToMsg(view, pose_seq, frame_seq, NowNs()));
   }
-  void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count) override {
+  void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
+                  const cv::Mat& hull_depth, double path_time_s) override {
     if (!video_.isOpened()) {
       video_.open(video_path(), cv::VideoWriter::fourcc('m', 'p', '4', 'v'), video_fps_, frame.size());
       if (!video_.isOpened()) spdlog::warn("cannot open {} for writing; no video", video_path());
     }
     if (video_.isOpened()) video_.write(frame);
-    if (png_every_ > 0 && count % uint64_t(png_every_) == 1 % uint64_t(png_every_))
-      cv::imwrite((fs::path(out_dir_) / cv::format("frame_%05llu.png", (unsigned long long)frame_seq)).string(), frame);
+    if (png_every_ > 0 && count % uint64_t(png_every_) == 1 % uint64_t(png_every_)) {
+      const std::string stem = (fs::path(out_dir_) / cv::format("frame_%05llu", (unsigned long long)frame_seq)).string();
+      cv::imwrite(stem + ".png", frame);
+      if (save_depth_) {
+        // The hull's eye-z depth (float TIFF, metres, +inf: no hull) and the view
+        // it was seen from, so the frame can be checked against a reference.
+        cv::imwrite(stem + "_depth.tiff", hull_depth);
+        if (!views_.is_open()) {
+          views_.open((fs::path(out_dir_) / "views.csv").string());
+          views_ << "frame_seq,path_time_s,width,height,fx,fy,cx,cy,"
+                    "r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz\n";
+        }
+        const Eigen::Matrix3d& R = view.world_from_eye.rotation;
+        const Eigen::Vector3d& t = view.world_from_eye.translation;
+        views_ << frame_seq << ',' << cv::format("%.9f", path_time_s) << ',' << view.width << ',' << view.height;
+        for (double x : {view.fx, view.fy, view.cx, view.cy, R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2),
+                         R(2, 0), R(2, 1), R(2, 2), t.x(), t.y(), t.z()})
+          views_ << ',' << cv::format("%.17g", x);
+        views_ << '\n' << std::flush;
+      }
+    }
     if (show_) {
       try {
         cv::imshow("hullpipe", frame);
@@ -57,7 +83,9 @@ class Outputs final : public nodes::RenderSink {
   double video_fps_;
   int png_every_;
   bool show_;
+  bool save_depth_;
   cv::VideoWriter video_;
+  std::ofstream views_;
 };
 
 }  // namespace
@@ -69,6 +97,7 @@ int main(int argc, char** argv) {
   nodes::RenderOptions o;
   std::string out_dir = "out", window = "auto", view_source = "orbit", head_poses, scene_path;
   int png_every = 0;
+  bool save_depth = false;
   double video_fps = 15;
   std::vector<double> orbit_centre, up{0, 0, -1};
   app.add_option("--out", out_dir, "Output directory (video, PNGs, stats.json)")->capture_default_str();
@@ -79,6 +108,9 @@ int main(int argc, char** argv) {
   app.add_option("--tiles", o.tiles, "Recon tiles per frame (number of recon nodes)")->capture_default_str();
   app.add_option("--max-in-flight", o.max_in_flight, "Poses rendered concurrently")->capture_default_str();
   app.add_option("--png-every", png_every, "Write every K-th composited frame as PNG (0: none)");
+  app.add_flag("--save-depth", save_depth,
+               "With each PNG, the hull's depth (frame_N_depth.tiff, float eye z in metres) and its view (views.csv: "
+               "K, world_from_eye)");
   app.add_option("--video-fps", video_fps, "Frame rate written into the video")->capture_default_str();
   app.add_option("--idle-timeout", o.idle_timeout, "Stop when no new frameset came for this many s")
       ->capture_default_str();
@@ -130,7 +162,8 @@ int main(int argc, char** argv) {
     ws.Attach(report_reader);
     ws.Attach(stats_reader);
     ws.Attach(mesh_reader);
-    Outputs outputs(pose_writer, out_dir, video_fps, png_every, window == "on" || (window == "auto" && have_display));
+    Outputs outputs(pose_writer, out_dir, video_fps, png_every, window == "on" || (window == "auto" && have_display),
+                    save_depth);
     nodes::SystemClock clock;
     nodes::RenderController render(o, clock, input.assembler(), outputs);
     NodeReporter reporter(*participant, "render", render.counters());

@@ -6,16 +6,24 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <set>
+#include <sstream>
 #include <string>
 #include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
+#include "hullpipe/geometry/head_pose.h"
+#include "hullpipe/reconstruction/exact_hull.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/segmentation/rig_source.h"
+#include "hullpipe/util/percentile.h"
 #include "test_util.h"
 
 namespace hullpipe {
@@ -54,6 +62,105 @@ TEST(EndToEnd, FiveProcessesOnTheSyntheticSource) {
   const auto j = nlohmann::json::parse(test::ReadFile((out / "stats.json").string()));
   EXPECT_GE(j["frames_composited"].get<int>(), 5);
   EXPECT_GT(j["hull_pixel_fraction_mean"].get<double>(), 0.01);
+}
+
+// Content, not only counts: the five processes on the synthetic source (exact
+// maps, known cameras), the viewpoint from a tracker's log. For frames render
+// composited, the hull depth it assembled from the two recon nodes' tiles equals
+// the exact hull of that frame's maps seen from that view (exact ray–hull
+// intervals), and the view is the log's pose at that frame's time.
+TEST(EndToEnd, TheCompositedHullIsTheExactHullFromTheTrackedView) {
+  const auto out = test::TempDir("e2e_exact");
+  std::string description = test::ReadFile(std::string(HULLPIPE_SOURCE_DIR) + "/launch/local.yaml");
+  const std::string pngs = "--png-every, \"50\"";
+  ASSERT_NE(description.find(pngs), std::string::npos);
+  description.replace(description.find(pngs), pngs.size(), "--png-every, \"1\", --save-depth");
+  std::ofstream(out / "save_depth.yaml") << description;
+  const std::string track_csv = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/head_track_example.csv";
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "12", "--out",
+                        (out / "run").string(), "--width", "160", "--height", "120", "--description",
+                        (out / "save_depth.yaml").string(), "--head-poses", track_csv, "--domain",
+                        std::to_string(test::UniqueDomain())},
+                       (out / "launch.log").string());
+  ASSERT_EQ(launch.Wait(180), 0) << test::ReadFile((out / "launch.log").string());
+  const PoseTrack track = LoadPoseTrack(track_csv);
+
+  // The synthetic source as capture_node opens it by default, 12 frames.
+  SyntheticRigOptions so;
+  so.frames = 12;
+  std::vector<RigFrame> frames;
+  {
+    auto source = OpenSyntheticRig(so);
+    RigFrame f;
+    while (source->Next(&f)) frames.push_back(f);
+  }
+  auto source = OpenSyntheticRig(so);
+  std::ifstream views((out / "run" / "views.csv").string());
+  std::string line;
+  std::getline(views, line);  // header
+  int checked = 0;
+  while (std::getline(views, line) && checked < 3) {
+    std::vector<double> v;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
+    ASSERT_EQ(v.size(), 20u) << line;
+    const uint64_t seq = uint64_t(v[0]);
+    ASSERT_GE(seq, 1u);
+    ASSERT_LE(seq, frames.size());
+    NovelView view;
+    view.width = int(v[2]), view.height = int(v[3]);
+    view.fx = v[4], view.fy = v[5], view.cx = v[6], view.cy = v[7];
+    view.world_from_eye.rotation << v[8], v[9], v[10], v[11], v[12], v[13], v[14], v[15], v[16];
+    view.world_from_eye.translation = {v[17], v[18], v[19]};
+    // The view is the tracker log's pose at the frame's time.
+    const Rigid3d logged = track.At(v[1]);
+    EXPECT_LT((logged.rotation - view.world_from_eye.rotation).norm(), 1e-9) << "frame " << seq;
+    EXPECT_LT((logged.translation - view.world_from_eye.translation).norm(), 1e-9) << "frame " << seq;
+    // The hull: frame seq is the source's (seq)-th frame.
+    std::vector<CameraMap> maps;
+    for (size_t c = 0; c < source->cameras().size(); ++c)
+      maps.push_back({source->cameras()[c], frames[seq - 1].maps[c]});
+    const VolumeQuery q(maps, source->workspace());
+    const cv::Mat exact = ExactHullDepth(q, view, cv::Rect(0, 0, view.width, view.height), 2);
+    const cv::Mat got = cv::imread(cv::format("%s/frame_%05llu_depth.tiff", (out / "run").c_str(),
+                                              (unsigned long long)seq),
+                                   cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(got.type(), CV_32FC1);
+    ASSERT_EQ(got.size(), exact.size());
+    // 1. The pipeline computed what the sweep computes: the two recon nodes'
+    // tiles, assembled, equal recon's sweep (50 planes, 6 bisections, the
+    // launcher's settings) of this frame and view run here, pixel for pixel.
+    const cv::Rect all(0, 0, view.width, view.height);
+    const cv::Mat sweep = PlaneSweepCpu(q, view, SweepPlaneDepths(q, view, PlaneSweepOptions{}), all, nullptr, 1, 6);
+    cv::Mat same = (got == sweep) | ((got != got) & (sweep != sweep));  // equal, or both NaN (none here)
+    same |= (got == std::numeric_limits<float>::infinity()) & (sweep == std::numeric_limits<float>::infinity());
+    EXPECT_EQ(cv::countNonZero(same), int(got.total())) << "frame " << seq << ": pipeline and direct sweep differ";
+    // 2. Against the exact hull.
+    int hull = 0, exact_only = 0, sweep_only = 0;
+    std::vector<double> err_mm;
+    for (int r = 0; r < got.rows; ++r)
+      for (int c = 0; c < got.cols; ++c) {
+        const bool a = std::isfinite(got.at<float>(r, c)), b = std::isfinite(exact.at<float>(r, c));
+        hull += b;
+        exact_only += b && !a;
+        sweep_only += a && !b;
+        if (a && b) err_mm.push_back(std::abs(got.at<float>(r, c) - exact.at<float>(r, c)) * 1e3);
+      }
+    ASSERT_GT(hull, 200) << "frame " << seq << ": the figure is in view";
+    std::printf("frame %llu: %d exact hull px, %d only exact, %d only swept; depth error median %.3f mm, p95 %.2f mm\n",
+                (unsigned long long)seq, hull, exact_only, sweep_only, Median(err_mm), Percentile(err_mm, 95));
+    // The sweep samples each ray at 50 planes: a ray that only grazes the hull
+    // (an interval shorter than the plane spacing, ~2 cm here, at the figure's
+    // silhouette and thin limbs) can pass between two planes, so the sweep misses
+    // it (measured ~5% of the hull's pixels at 160x120) or lands on a later part
+    // (the p95). It never finds hull where there is none. Where both see hull,
+    // refinement puts the depth within a millimetre (measured median 0.84 mm).
+    EXPECT_LE(sweep_only, std::max(2, hull / 500)) << "frame " << seq;
+    EXPECT_LT(exact_only, hull / 10) << "frame " << seq;
+    EXPECT_LT(Median(err_mm), 1.5) << "frame " << seq;
+    ++checked;
+  }
+  EXPECT_GE(checked, 3) << "views.csv rows";
 }
 
 // Every shipped scene runs from one launch command; the synthetic

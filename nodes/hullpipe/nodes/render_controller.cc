@@ -130,6 +130,7 @@ void RenderController::IssuePoses() {
     InFlight f;
     f.frame_seq = fset->seq;
     f.capture_time_ns = fset->capture_time_ns;
+    f.path_time_s = t;
     f.sent_s = clock_.Now();
     if (o_.light) f.hull = hull;
     Rigid3d world_from_eye = orbit_.WorldFromEye(t);
@@ -184,7 +185,7 @@ void RenderController::Composite(InFlight& f) {
     ApplyLighting(f.view, composited_depth, depth, *o_.light, shadow, &frame);
     ++lit_frames_;
   }
-  sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1);
+  sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1, f.view, depth, f.path_time_s);
   counters_.FrameOut(f.capture_time_ns);
   last_composited_ = std::max(last_composited_, f.frame_seq);
 }

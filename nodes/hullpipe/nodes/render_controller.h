@@ -57,8 +57,12 @@ class RenderSink {
   virtual ~RenderSink() = default;
   /// Ask the recon nodes for frameset frame_seq seen from `view`.
   virtual void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq) = 0;
-  /// One composited frame (CV_8UC3), the `count`-th, of frameset frame_seq.
-  virtual void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count) = 0;
+  /// One composited frame (CV_8UC3), the `count`-th, of frameset frame_seq, seen
+  /// from `view`; hull_depth: the assembled tiles' eye-z depth (CV_32FC1 metres,
+  /// kNoDepth where no hull), path_time_s: the time along the viewpoint's path
+  /// (orbit or tracker log: the frameset's source time less the first one's).
+  virtual void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
+                          const cv::Mat& hull_depth, double path_time_s) = 0;
 };
 
 class RenderController {
@@ -104,6 +108,7 @@ class RenderController {
   struct InFlight {
     uint64_t frame_seq = 0;
     int64_t capture_time_ns = 0;
+    double path_time_s = 0;
     double sent_s = 0;
     NovelView view;
     std::map<uint32_t, HullTile> tiles;        // by tile index

@@ -17,7 +17,9 @@ struct Recorder final : RenderSink {
   void PublishPose(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq) override {
     poses.push_back({v, pose_seq, frame_seq});
   }
-  void WriteFrame(const cv::Mat& f, uint64_t frame_seq, uint64_t) override { frames.push_back({frame_seq, f.clone()}); }
+  void WriteFrame(const cv::Mat& f, uint64_t frame_seq, uint64_t, const NovelView&, const cv::Mat&, double) override {
+    frames.push_back({frame_seq, f.clone()});
+  }
 };
 
 // A whole-view tile for a pose: depth `depth_m` everywhere (kNoDepth: no hull), colour `bgr`.
