@@ -361,6 +361,22 @@ TEST(Tools, VhEvalSweepPrintsOneJsonObjectWithTheDocumentedFields) {
   EXPECT_LT(refined, 0.5);
 }
 
+TEST(Tools, SpacingSweepFindsTheKnownAnswerOfItsExampleMotion) {
+  // The built-in pipe motion needs 13.0 cm between the PMT and payload A; the
+  // hull of 8 dome cameras of 320 px is larger than the pipe by up to a pixel
+  // footprint (~7 mm at 2.5 m), so the smallest free spacing is within 1 cm above.
+  const auto out = test::TempDir("spacing_sweep");
+  test::Process sweep({test::BinDir() + "/spacing_sweep", "--scene", std::string(HULLPIPE_SOURCE_DIR) + "/scenes/payload.yaml",
+                       "--example-travel", "0.08", "--json"},
+                      (out / "sweep.json").string());
+  ASSERT_EQ(sweep.Wait(120), 0) << test::ReadFile((out / "sweep.json").string());
+  const auto j = nlohmann::json::parse(test::ReadFile((out / "sweep.json").string()));
+  const double known = j["known_answer_m"].get<double>(), found = j["smallest_free_spacing_m"].get<double>();
+  EXPECT_NEAR(known, 0.13, 1e-9);
+  EXPECT_GE(found, known - 0.001) << "a spacing below the true pipe's need came out free";
+  EXPECT_LE(found, known + 0.01);
+}
+
 TEST(Tools, VhEvalCollisionPrintsOneJsonObjectWithTheDocumentedFields) {
   // `vh_eval collision --json --smoke`: three boxes against a sphere's hull, CPU.
   const auto out = test::TempDir("vh_eval_collision");

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/cdr.h"
@@ -202,9 +203,25 @@ TEST_F(RecordTools, ReplayIsByteIdenticalAndLateJoinersGetCameraInfo) {
     for (uint64_t seq = 1; seq <= 20; ++seq)
       for (const auto& v : views)
         maps.Write(dds::MakeMapMessage(uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25, 2, v.map).msg);
-    dds_wait_for_acks(maps.handle(), DDS_SECS(5));
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    // Acknowledged by the recorder's readers: it has every sample; it writes
+    // what it holds when stopped.
+    ASSERT_EQ(dds_wait_for_acks(maps.handle(), DDS_SECS(10)), DDS_RETCODE_OK);
+    ASSERT_EQ(dds_wait_for_acks(info.handle(), DDS_SECS(10)), DDS_RETCODE_OK);
     EXPECT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
+  }
+  // `hullpipe_record info --json` reports what is in the file.
+  {
+    const std::string info_log = (dir_ / "info.json").string();
+    test::Process info({test::BinDir() + "/hullpipe_record", "info", path, "--json"}, info_log);
+    ASSERT_EQ(info.Wait(20), 0) << test::ReadFile(info_log);
+    const auto j = nlohmann::json::parse(test::ReadFile(info_log));
+    EXPECT_EQ(j["samples"].get<int>(), 42);
+    std::map<std::string, int> counts;
+    for (const auto& t : j["topics"]) counts[t["name"].get<std::string>()] = t["count"].get<int>();
+    EXPECT_EQ(counts["hullpipe/object_pixel_map"], 40);
+    EXPECT_EQ(counts["hullpipe/camera_info"], 2);
+    EXPECT_EQ(j["meta"]["lost_total"], "0");
+    EXPECT_GT(j["duration_s"].get<double>(), 0.0);
   }
   // What was recorded, per topic, in order.
   const RecordingReader rec(path);

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "hullpipe/geometry/rigid3.h"
 #include "hullpipe/nodes/test_rig.h"
 
 namespace hullpipe::nodes {
@@ -248,6 +249,32 @@ TEST_F(Render, StopsAfterTheRequestedFrame) {
     r.Step();
     EXPECT_EQ(r.done(), seq == 2);
   }
+}
+
+TEST_F(Render, TheViewFollowsTheOrbitThenTheTrackersNewestPose) {
+  RenderOptions o = Options();
+  o.view = RenderOptions::View::kTopic;
+  o.max_in_flight = 1;
+  RenderController r(o, clock_, assembler_, sink_);
+  auto next_pose = [&](uint64_t seq) {
+    rig_.AddFrame(assembler_, seq, clock_.WallNs());
+    r.Step();
+    const Recorder::Pose p = sink_.poses.back();
+    r.OnTile(WholeTile(p, kNoDepth, {0, 0, 0}));
+    r.Step();
+    return p.view.world_from_eye;
+  };
+  // Before any HeadPose: the orbit at the frame's path time (frame 1: t = 0).
+  const Rigid3d first = next_pose(1);
+  const Rigid3d orbit0 = r.orbit().WorldFromEye(0);
+  EXPECT_LT((first.translation - orbit0.translation).norm(), 1e-12);
+  // Then the tracker's newest pose, whatever the path time.
+  Rigid3d tracked = LookAt(Eigen::Vector3d(1, 2, -3), hullpipe::test::kSphereCentre, Eigen::Vector3d(0, 0, -1));
+  r.OnHeadPose(LookAt(Eigen::Vector3d(5, 5, -5), hullpipe::test::kSphereCentre, Eigen::Vector3d(0, 0, -1)));
+  r.OnHeadPose(tracked);
+  const Rigid3d second = next_pose(2);
+  EXPECT_LT((second.translation - tracked.translation).norm(), 1e-12);
+  EXPECT_LT((second.rotation - tracked.rotation).norm(), 1e-12);
 }
 
 TEST_F(Render, StatsJsonSchema) {
