@@ -24,17 +24,6 @@ const Eigen::Vector3d kCentre(0.1, -0.2, -1.0);
 constexpr double kRadius = 0.3;
 
 
-bool InIntervals(const Intervals& iv, double s) {
-  for (const auto& [a, b] : iv)
-    if (s >= a && s <= b) return true;
-  return false;
-}
-
-double DistanceToBoundary(const Intervals& iv, double s) {
-  double d = std::numeric_limits<double>::infinity();
-  for (const auto& [a, b] : iv) d = std::min({d, std::abs(s - a), std::abs(s - b)});
-  return d;
-}
 
 // Membership from the exact intervals equals VolumeQuery::Inside at every sample,
 // except within 1e-9 m of an interval boundary (where the double-precision
@@ -51,11 +40,11 @@ void ExpectIntervalsMatchInside(const VolumeQuery& q, int rays, uint32_t seed) {
     for (size_t k = 1; k + 1 < iv.size(); ++k) ASSERT_LT(iv[k - 1].second, iv[k].first) << "sorted, disjoint";
     for (int i = 0; i <= 400; ++i) {
       const double s = 2.0 * i / 400.0;
-      if (DistanceToBoundary(iv, s) * dir.norm() < 1e-9) continue;
+      if (test::DistanceToBoundary(iv, s) * dir.norm() < 1e-9) continue;
       const bool inside = q.Inside(o + s * dir);
       inside_samples += inside;
-      ASSERT_EQ(InIntervals(iv, s), inside) << "ray " << r << " s " << s << " boundary at "
-                                            << DistanceToBoundary(iv, s) << " n=" << iv.size();
+      ASSERT_EQ(test::InIntervals(iv, s), inside) << "ray " << r << " s " << s << " boundary at "
+                                            << test::DistanceToBoundary(iv, s) << " n=" << iv.size();
     }
   }
   EXPECT_GT(inside_samples, 100);

@@ -127,17 +127,6 @@ TEST(PlaneSweep, NoNanOrInfiniteDepthOtherThanNoHull) {
 
 
 
-bool InIntervals(const Intervals& iv, double s) {
-  for (const auto& [a, b] : iv)
-    if (s >= a && s <= b) return true;
-  return false;
-}
-
-double DistanceToBoundary(const Intervals& iv, double s) {
-  double d = std::numeric_limits<double>::infinity();
-  for (const auto& [a, b] : iv) d = std::min({d, std::abs(s - a), std::abs(s - b)});
-  return d;
-}
 
 // Membership from the exact intervals equals VolumeQuery::Inside at every sample,
 // except within 1e-9 m of an interval boundary (where the double-precision
@@ -163,7 +152,7 @@ void ExpectSweepMatchesExact(const VolumeQuery& q, const NovelView& view, const 
       if (q.hull_box().ClipRay(O, D, &s0, &s1)) iv = RayHullIntervals(q, O, D, s0, s1);
       float want = kNoDepth;
       for (double d : depths)
-        if (d >= s0 && d <= s1 && InIntervals(iv, d)) {
+        if (d >= s0 && d <= s1 && test::InIntervals(iv, d)) {
           want = float(d);
           break;
         }
@@ -172,7 +161,7 @@ void ExpectSweepMatchesExact(const VolumeQuery& q, const NovelView& view, const 
       // Allowed only if a plane between the two is within 1e-5 m of a boundary.
       bool explained = false;
       for (double d : depths)
-        if (d <= std::max(double(got), double(want)) + 1e-9 && DistanceToBoundary(iv, d) * D.norm() < 1e-5)
+        if (d <= std::max(double(got), double(want)) + 1e-9 && test::DistanceToBoundary(iv, d) * D.norm() < 1e-5)
           explained = true;
       ASSERT_TRUE(explained) << "pixel " << c << "," << r << " sweep " << got << " exact " << want;
       ++near_boundary;

@@ -6,7 +6,10 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
+#include <limits>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -16,6 +19,7 @@
 
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/geometry/rigid3.h"
+#include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/reconstruction/volume_query.h"
 
@@ -79,6 +83,20 @@ inline Camera LookAtCamera(int id, const Eigen::Vector3d& eye, const Eigen::Vect
 inline NovelView SphereSideView(int w = 160, int h = 120) {
   return NovelView::FromFov(
       w, h, 0.8, LookAt(kSphereCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kSphereCentre, Eigen::Vector3d(0, 0, -1)));
+}
+
+/// Whether ray parameter s lies in one of the exact ray–hull intervals.
+inline bool InIntervals(const Intervals& iv, double s) {
+  for (const auto& [a, b] : iv)
+    if (s >= a && s <= b) return true;
+  return false;
+}
+
+/// Distance from s to the nearest interval end (+inf for no intervals).
+inline double DistanceToBoundary(const Intervals& iv, double s) {
+  double d = std::numeric_limits<double>::infinity();
+  for (const auto& [a, b] : iv) d = std::min({d, std::abs(s - a), std::abs(s - b)});
+  return d;
 }
 
 /// The visual hull of the test sphere seen by four 320x240 ring cameras with
