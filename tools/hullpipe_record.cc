@@ -158,12 +158,10 @@ int main(int argc, char** argv) {
         if (n < 16) break;
       }
     };
-    while (!StopRequested() && !(duration > 0 && MonotonicSeconds() - t_start > duration)) {
-      ws.Wait(0.05);
-      discover();
-      // A take returns samples grouped by instance (key), not in arrival order:
-      // what one pass took is put back in the writers' order (source time)
-      // before it is appended.
+    // One pass over every topic's reader. A take returns samples grouped by
+    // instance (key), not in arrival order: what one pass took is put back in the
+    // writers' order (source time) before it is appended.
+    auto take_all = [&] {
       std::vector<Sample> taken;
       for (auto& [name, r] : topics) {
         r.count += int64_t(r.reader->TakeEach([&](const std::vector<uint8_t>& bytes, int64_t source_ns) {
@@ -180,6 +178,11 @@ int main(int argc, char** argv) {
       for (size_t k = 1; k < taken.size(); ++k)  // arrival order = source order within the pass
         taken[k].arrival_ns = std::max(taken[k].arrival_ns, taken[k - 1].arrival_ns);
       for (const Sample& s : taken) rec.Append(s);
+    };
+    while (!StopRequested() && !(duration > 0 && MonotonicSeconds() - t_start > duration)) {
+      ws.Wait(0.05);
+      discover();
+      take_all();
       if ((MonotonicSeconds() - last_commit) * 1e3 >= batch_ms) {
         rec.Commit();
         last_commit = MonotonicSeconds();
@@ -191,6 +194,9 @@ int main(int argc, char** argv) {
         }
       }
     }
+    // What the readers received (and acknowledged) before the stop is recorded
+    // too: one last pass.
+    take_all();
     uint64_t lost = 0;
     for (const auto& [name, r] : topics) {
       lost += r.reader->Lost();
