@@ -89,8 +89,8 @@ int main(int argc, char** argv) {
           recon.Reject(e.what());
         }
       });
+      recon.SetMalformedInput(input.malformed());
       recon.Step();
-      recon.counters().SetRejected(input.rejected() + recon.rejected());
       reporter.Publish();
     }
     reporter.Publish(true);

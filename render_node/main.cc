@@ -193,8 +193,8 @@ int main(int argc, char** argv) {
       take(mesh_reader, [&](const hullpipe_msg_VirtualMesh& m) { render.OnMesh(VirtualMeshFromMsg(m)); });
       take(report_reader, [&](const hullpipe_msg_CollisionReport& m) { render.OnCollisionReport(m.collision_points._length > 0); });
       take_stats();
+      render.SetMalformedInput(input.malformed());
       composited = render.Step();
-      render.counters().SetRejected(render.rejected() + input.rejected());
       if (clock.Now() - last_progress_s >= 1.0) {
         last_progress_s = clock.Now();
         const auto& c = render.counters();

@@ -57,8 +57,8 @@ int main(int argc, char** argv) {
         else
           sim.RejectCommand(c.command_seq, "unknown command " + std::to_string(c.command));
       });
+      sim.SetMalformedInput(input.malformed());
       sim.Step();
-      sim.counters().SetRejected(input.rejected() + sim.commands_rejected());
       reporter.Publish();
     }
     reporter.Publish(true);

@@ -59,6 +59,9 @@ class ReconController {
   /// A NodeStats sample of node `name` (peers are "recon<k>"; others ignored).
   void OnNodeStats(const std::string& name, bool final_report);
   void Reject(const std::string& why);
+  /// Input samples the caller could not decode before they reached the
+  /// assembler (counted into this node's rejected, with the assembler's own).
+  void SetMalformedInput(uint64_t n) { malformed_input_ = n; }
   /// Serves every pose that can be served now; returns the tiles published.
   int Step();
   /// The tiles this node renders now: its own, plus any it adopts.
@@ -87,7 +90,7 @@ class ReconController {
   VolumeQueryOptions query_options_;
   std::vector<bool> adopted_;
   std::deque<PendingPose> poses_;
-  uint64_t poses_dropped_ = 0, rejected_ = 0;
+  uint64_t poses_dropped_ = 0, rejected_ = 0, malformed_input_ = 0;
 };
 
 }  // namespace hullpipe::nodes

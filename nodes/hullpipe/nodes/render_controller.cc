@@ -237,7 +237,7 @@ int RenderController::Step() {
     spdlog::info("no new frameset for {:.1f} s: input ended", o_.idle_timeout);
     done_ = true;
   }
-  counters_.SetRejected(rejected_ + assembler_.rejected());
+  counters_.SetRejected(rejected_ + malformed_input_ + assembler_.rejected());
   return composited;
 }
 

@@ -81,6 +81,9 @@ class RenderController {
   void OnNodeStats(const NodeStatsSample& stats);
   /// A malformed sample the caller could not convert.
   void Reject(const std::string& why);
+  /// Input samples the caller could not decode before they reached the
+  /// assembler (counted into this node's rejected, with the assembler's own).
+  void SetMalformedInput(uint64_t n) { malformed_input_ = n; }
 
   /// One round: new poses for new complete framesets, composites every pose
   /// whose tiles are in, drops timed-out poses, recon liveness, end of input.
@@ -133,7 +136,7 @@ class RenderController {
   std::map<uint32_t, double> min_clearance_;     // payload part -> least clearance, metres
   std::map<uint32_t, uint64_t> part_collisions_;  // payload part -> frames drawn colliding
   std::map<std::string, NodeStatsSample> node_stats_;
-  uint64_t seen_restarts_ = 0;
+  uint64_t seen_restarts_ = 0, malformed_input_ = 0;
   uint64_t pose_seq_ = 0, last_requested_ = 0, last_composited_ = 0, rejected_ = 0, tiles_late_ = 0;
   uint64_t collisions_drawn_ = 0, collision_reports_ = 0, meshes_drawn_ = 0, lit_frames_ = 0;
   double hull_fraction_sum_ = 0;

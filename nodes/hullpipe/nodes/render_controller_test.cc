@@ -137,6 +137,11 @@ TEST_F(Render, ATileOutsideTheViewIsRejectedAndNotComposited) {
   r.OnTile(t);
   EXPECT_EQ(r.rejected(), 1u);
   EXPECT_EQ(r.Step(), 0);
+  // The node's rejected count: its own, the caller's undecodable samples and
+  // the assembler's.
+  r.SetMalformedInput(2);
+  r.Step();
+  EXPECT_EQ(r.counters().rejected(), 3u);
 }
 
 TEST_F(Render, CompositesWithTheDepthTestAndDrawsCollidingObjectsRed) {

@@ -8,7 +8,7 @@
 namespace hullpipe::nodes {
 
 SimController::SimController(SceneConfig scene, const Clock& clock, FramesetAssembler& assembler, SimSink& sink)
-    : clock_(clock), assembler_(assembler), sink_(sink), scene_((scene.Check(), scene)), counters_(clock) {
+    : assembler_(assembler), sink_(sink), scene_((scene.Check(), scene)), counters_(clock) {
   const SceneConfig& c = scene_.config();
   spdlog::info("{} ball(s){}{}{}, gravity [{}, {}, {}]", c.balls.size(), c.cloth ? ", a curtain" : "",
                c.particles ? ", particles" : "", c.payload ? ", the payload task" : "", c.gravity.x(), c.gravity.y(),
@@ -39,7 +39,7 @@ int SimController::Step() {
     ++stepped;
   }
   counters_.SetDropped(assembler_.dropped());
-  counters_.SetRejected(assembler_.rejected() + commands_rejected_);
+  counters_.SetRejected(assembler_.rejected() + commands_rejected_ + malformed_input_);
   return stepped;
 }
 

@@ -47,6 +47,9 @@ class SimController {
   bool SetSpacing(double spacing_m, uint64_t command_seq);
   /// A command the node does not know, or a malformed one.
   void RejectCommand(uint64_t command_seq, const std::string& why);
+  /// Input samples the caller could not decode before they reached the
+  /// assembler (counted into this node's rejected, with the assembler's own).
+  void SetMalformedInput(uint64_t n) { malformed_input_ = n; }
   /// Steps the scene on every new frameset (newest first wins); returns the
   /// framesets stepped.
   int Step();
@@ -60,14 +63,13 @@ class SimController {
 
  private:
   void StepOne(const Frameset& fs);
-  const Clock& clock_;
   FramesetAssembler& assembler_;
   SimSink& sink_;
   VirtualScene scene_;
   NodeCounters counters_;
   std::vector<bool> part_colliding_;  // payload parts colliding in the last frame
   std::vector<PartCollisionEvent> part_events_;
-  uint64_t collisions_ = 0, commands_rejected_ = 0;
+  uint64_t collisions_ = 0, commands_rejected_ = 0, malformed_input_ = 0;
   double last_source_time_ = -1;
 };
 

@@ -24,6 +24,8 @@ class FramesetInput {
   FramesetAssembler& assembler() { return assembler_; }
   /// Malformed samples plus the assembler's rejections.
   uint64_t rejected() const { return malformed_ + assembler_.rejected(); }
+  /// Samples that could not be decoded (they never reached the assembler).
+  uint64_t malformed() const { return malformed_; }
   /// Framesets superseded or evicted before use.
   uint64_t dropped() const { return assembler_.dropped(); }
 
