@@ -18,8 +18,9 @@
 namespace hullpipe {
 namespace {
 
-const Eigen::Vector3d kCentre(0.1, -0.2, -1.0);
-constexpr double kRadius = 0.3;
+// The test sphere of the shared fixtures (SphereViews, SphereHull, SphereSideView).
+const Eigen::Vector3d& kCentre = test::kSphereCentre;
+constexpr double kRadius = test::kSphereRadius;
 
 TEST(CollisionResponse, PaperQuantitiesForABallPushedIntoTheHull) {
   // A ball (icosphere, r 0.12 m) overlapping the hull of a sphere (r 0.3 m) by

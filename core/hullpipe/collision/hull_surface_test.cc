@@ -18,8 +18,9 @@
 namespace hullpipe {
 namespace {
 
-const Eigen::Vector3d kCentre(0.1, -0.2, -1.0);
-constexpr double kRadius = 0.3;
+// The test sphere of the shared fixtures (SphereViews, SphereHull, SphereSideView).
+const Eigen::Vector3d& kCentre = test::kSphereCentre;
+constexpr double kRadius = test::kSphereRadius;
 
 // Outward normal at X of the cone from camera centre C tangent to the sphere.
 Eigen::Vector3d ConeNormalAt(const Eigen::Vector3d& C, const Eigen::Vector3d& X) {

@@ -19,8 +19,9 @@
 namespace hullpipe {
 namespace {
 
-const Eigen::Vector3d kCentre(0.1, -0.2, -1.0);
-constexpr double kRadius = 0.3;
+// The test sphere of the shared fixtures (SphereViews, SphereHull, SphereSideView).
+const Eigen::Vector3d& kCentre = test::kSphereCentre;
+constexpr double kRadius = test::kSphereRadius;
 
 using test::SphereHull;
 
