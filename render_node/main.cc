@@ -132,6 +132,11 @@ int main(int argc, char** argv) {
   app.add_option("--up", up, "World up vector (Utrecht rig: 0,0,-1)")->delimiter(',')->expected(3);
   app.add_option("--window", window, "Show the output in a window: auto (where a display exists), on, off")
       ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
+  double skew_tolerance_ms = 0;
+  app.add_option("--skew-tolerance", skew_tolerance_ms,
+                 "Largest |capture time - reference time| of a frameset's maps, ms (0: half the slowest camera's "
+                 "frame period)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -150,6 +155,9 @@ int main(int argc, char** argv) {
     fs::create_directories(out_dir);
     WaitSet ws(*participant);
     FramesetInput input(*participant, ws, 8, false);
+    if (!(skew_tolerance_ms >= 0 && skew_tolerance_ms <= 1000))
+      throw std::invalid_argument("--skew-tolerance must be in [0, 1000] ms");
+    input.assembler().SetTolerance(skew_tolerance_ms * 1e-3);
     Reader<hullpipe_msg_HullView> tile_reader(*participant);
     Reader<hullpipe_msg_VirtualObjectState> state_reader(*participant);
     Reader<hullpipe_msg_CollisionReport> report_reader(*participant);

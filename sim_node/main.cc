@@ -36,12 +36,20 @@ int main(int argc, char** argv) {
   AddCommonOptions(app, common);
   std::string scene_path;
   app.add_option("--scene", scene_path, "Scene file (YAML); default: one ball");
+  double skew_tolerance_ms = 0;
+  app.add_option("--skew-tolerance", skew_tolerance_ms,
+                 "Largest |capture time - reference time| of a frameset's maps, ms (0: half the slowest camera's "
+                 "frame period)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
     const SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path);
     auto participant = StartNode("sim", common);
     WaitSet ws(*participant);
     FramesetInput input(*participant, ws, 6, false);
+    if (!(skew_tolerance_ms >= 0 && skew_tolerance_ms <= 1000))
+      throw std::invalid_argument("--skew-tolerance must be in [0, 1000] ms");
+    input.assembler().SetTolerance(skew_tolerance_ms * 1e-3);
     Reader<hullpipe_msg_SceneCommand> command_reader(*participant);
     ws.Attach(command_reader);
     SimWriters writers(*participant);

@@ -105,10 +105,11 @@ TEST_F(NodeTest, ReconNodeSurvivesMalformedSamplesAndAStoppedCamera) {
   const NovelView view = NovelView::FromFov(40, 30, 1.0, LookAt(kCentre + Eigen::Vector3d(2, 0, -0.5), kCentre, {0, 0, -1}));
 
   auto send_frame = [&](uint64_t seq, bool both) {
+    const int64_t t = NowNs();  // the cameras' frames of one instant: one capture time
     for (size_t c = 0; c < (both ? 2u : 1u); ++c) {
       const uint32_t id = uint32_t(views[c].camera.id);
-      maps.Write(MakeMapMessage(id, seq, NowNs(), double(seq) / 25, 2, views[c].map).msg);
-      images.Write(MakeImageMessage(id, seq, NowNs(), img, 0).msg);
+      maps.Write(MakeMapMessage(id, seq, t, double(seq) / 25, 2, views[c].map).msg);
+      images.Write(MakeImageMessage(id, seq, t, img, 0).msg);
     }
     poses.Write(ViewToMsg(view, seq, seq, NowNs()));
   };

@@ -413,6 +413,11 @@ OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsS
   m.latency_ms_p95 = s.latency_ms_p95;
   Borrow(&m.stages, o.stages);
   m.final_report = s.final_report;
+  m.dropped_for_skew = s.dropped_for_skew;
+  for (const auto& c : s.cameras)
+    o.cameras.push_back({uint32_t(c.camera_id), c.skew_ms_p50, c.skew_ms_p95, c.skew_ms_max, c.period_ms, c.frames,
+                         c.unpartnered, c.pauses, c.restarts, c.clock_offsets});
+  Borrow(&m.cameras, o.cameras);
   return o;
 }
 
@@ -430,6 +435,22 @@ nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& m) {
   for (uint32_t i = 0; i < m.stages._length; ++i) {
     const auto& st = m.stages._buffer[i];
     s.stages[st.name ? st.name : "?"] = {st.ms_mean, st.ms_p95};
+  }
+  s.dropped_for_skew = m.dropped_for_skew;
+  for (uint32_t i = 0; i < m.cameras._length && i < 64; ++i) {
+    const auto& c = m.cameras._buffer[i];
+    CameraSkewReport r;
+    r.camera_id = int(c.camera_id);
+    r.skew_ms_p50 = c.skew_ms_p50;
+    r.skew_ms_p95 = c.skew_ms_p95;
+    r.skew_ms_max = c.skew_ms_max;
+    r.period_ms = c.period_ms;
+    r.frames = c.frames;
+    r.unpartnered = c.unpartnered;
+    r.pauses = c.pauses;
+    r.restarts = c.restarts;
+    r.clock_offsets = c.clock_offsets;
+    s.cameras.push_back(r);
   }
   return s;
 }

@@ -31,12 +31,14 @@ void FramesetInput::Poll() {
       Reject(e.what());
     }
   });
-  maps_.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
+  maps_.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t& info) {
     try {
       std::string why;
       const uint64_t rejected_before = assembler_.rejected();
+      // The writer's handle tells a restarted capture node from a live one; the
+      // arrival time, on this host's clock, checks the capture host's clock.
       if (!assembler_.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count), MapFromMsg(m),
-                             &why, m.source_time) &&
+                             &why, m.source_time, info.publication_handle, NowNs()) &&
           assembler_.rejected() > rejected_before)
         spdlog::warn("rejected: {}", why);
     } catch (const MessageError& e) {
@@ -46,6 +48,7 @@ void FramesetInput::Poll() {
   if (images_) {
     images_->TakeEach([&](const hullpipe_msg_CameraImage& m, const dds_sample_info_t&) {
       try {
+        // (Images and maps come from different writers: only maps name the sender.)
         assembler_.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m));
       } catch (const MessageError& e) {
         Reject(e.what());

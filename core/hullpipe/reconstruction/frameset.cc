@@ -1,39 +1,32 @@
 #include "hullpipe/reconstruction/frameset.h"
 
+#include <algorithm>
+#include <cmath>
+
+#include <spdlog/spdlog.h>
+
 namespace hullpipe {
 
 FramesetAssembler::FramesetAssembler(size_t max_pending, bool want_images)
     : max_pending_(std::max<size_t>(1, max_pending)), want_images_(want_images) {}
 
 void FramesetAssembler::SetCamera(const Camera& camera) {
-  // Maps of this camera evicted before its first CameraInfo were a start-up race
-  // (DDS does not order samples across topics), not bad input: dropped, not rejected.
-  if (!cameras_.count(camera.id)) {
-    const auto e = evicted_uncalibrated_.find(camera.id);
-    if (e != evicted_uncalibrated_.end()) {
-      rejected_ -= e->second;
-      dropped_ += e->second;
-      evicted_uncalibrated_.erase(e);
-    }
+  Cam& cam = cams_[camera.id];
+  // Samples of this camera that left the history before its first CameraInfo were
+  // a start-up race (DDS does not order samples across topics), not bad input:
+  // dropped, not rejected.
+  if (!cameras_.count(camera.id) && cam.evicted_uncalibrated) {
+    rejected_ -= cam.evicted_uncalibrated;
+    dropped_ += cam.evicted_uncalibrated;
+    cam.evicted_uncalibrated = 0;
   }
   cameras_[camera.id] = camera;
   // Check maps that arrived before this calibration.
-  for (auto& [seq, p] : pending_) {
-    const auto m = p.maps.find(camera.id);
-    if (m != p.maps.end() && (m->second.cols != camera.width || m->second.rows != camera.height)) {
+  for (Sample& s : cam.samples)
+    if (!s.map.empty() && (s.map.cols != camera.width || s.map.rows != camera.height)) {
       ++rejected_;
-      p.maps.erase(m);
+      s.map = cv::Mat();
     }
-  }
-}
-
-void FramesetAssembler::Evict(std::map<uint64_t, Pending>::iterator it) {
-  for (const auto& [id, map] : it->second.maps)
-    if (!cameras_.count(id)) {
-      ++rejected_;  // no CameraInfo (yet): rejected unless one comes later
-      ++evicted_uncalibrated_[id];
-    }
-  pending_.erase(it);
 }
 
 bool FramesetAssembler::Reject(std::string* why, std::string text) {
@@ -42,35 +35,114 @@ bool FramesetAssembler::Reject(std::string* why, std::string text) {
   return false;
 }
 
-FramesetAssembler::Pending* FramesetAssembler::Slot(uint64_t seq, int64_t t, int camera_count) {
-  auto it = pending_.find(seq);
-  if (it == pending_.end()) {
-    it = pending_.emplace(seq, Pending{}).first;
-    it->second.capture_time_ns = t;
-    it->second.expected = camera_count;
-    // Latest wins: evict the oldest frames beyond the bound.
-    while (pending_.size() > max_pending_) {
-      const auto oldest = pending_.begin();
-      ++dropped_;
-      taken_up_to_ = std::max(taken_up_to_, oldest->first);
-      Evict(oldest);
-    }
-    it = pending_.find(seq);
-    if (it == pending_.end()) return nullptr;  // it was the oldest itself
-  }
-  return &it->second;
+double FramesetAssembler::PeriodS(const Cam& cam) const {
+  if (cam.steps_ns.size() < 1) return kDefaultPeriodS;
+  std::vector<int64_t> s(cam.steps_ns.begin(), cam.steps_ns.end());
+  std::nth_element(s.begin(), s.begin() + s.size() / 2, s.end());
+  return double(s[s.size() / 2]) * 1e-9;
 }
 
-void FramesetAssembler::CheckRestart(uint64_t seq) {
-  if (taken_up_to_ > kRestartGap && seq + kRestartGap < taken_up_to_) {
-    pending_.clear();
-    taken_up_to_ = 0;
-    ++restarts_;
+double FramesetAssembler::tolerance_s() const {
+  if (tolerance_s_ > 0) return tolerance_s_;
+  double slowest = 0;
+  for (const auto& [id, cam] : cams_)
+    if (cam.any && cameras_.count(id)) slowest = std::max(slowest, PeriodS(cam));
+  return 0.5 * (slowest > 0 ? slowest : kDefaultPeriodS);
+}
+
+int FramesetAssembler::ReferenceId() const {
+  for (const auto& [id, cam] : cams_)
+    if (cam.any && cameras_.count(id)) return id;
+  return -1;
+}
+
+void FramesetAssembler::RemoveSample(int camera_id, Cam& cam, std::deque<Sample>::iterator it) {
+  if (!cameras_.count(camera_id)) {
+    ++rejected_;  // no CameraInfo (yet): rejected unless one comes later
+    ++cam.evicted_uncalibrated;
+  } else if (!it->partnered && camera_id != ReferenceId()) {
+    ++cam.unpartnered;  // reference samples are classified by PassOver
   }
+  cam.newest_removed_t_ns = std::max(cam.newest_removed_t_ns, it->t_ns);
+  cam.samples.erase(it);
+}
+
+void FramesetAssembler::ForgetCamera(int camera_id, Cam& cam, const std::string& reason) {
+  spdlog::warn("camera {}: {}; its {} pending frame(s) are dropped", camera_id, reason, cam.samples.size());
+  dropped_ += cam.samples.size();
+  cam.samples.clear();
+  cam.steps_ns.clear();
+  cam.any = false;
+  cam.newest_seq = 0;
+  ++cam.restarts;
+}
+
+FramesetAssembler::Sample* FramesetAssembler::Slot(int camera_id, uint64_t seq, int64_t t_ns, uint64_t source_id,
+                                                   std::string* why, bool* ok) {
+  *ok = true;
+  Cam& cam = cams_[camera_id];
+  const bool is_reference = camera_id == ReferenceId();
+  if (source_id != 0 && cam.source_id != 0 && source_id != cam.source_id && cam.any) {
+    ForgetCamera(camera_id, cam, "a new sender (its capture node restarted)");
+    if (is_reference && seq <= taken_up_to_) {
+      ++restarts_;  // frameset ids start over with the reference camera's numbers
+      taken_up_to_ = 0;
+    }
+  }
+  if (source_id != 0) cam.source_id = source_id;
+  if (cam.any && seq <= cam.newest_seq) {
+    for (Sample& s : cam.samples)
+      if (s.seq == seq) return &s;
+    if (seq + kRestartGap < cam.newest_seq) {
+      ForgetCamera(camera_id, cam, "frame numbers started over (its capture source restarted)");
+      if (is_reference) {
+        ++restarts_;
+        taken_up_to_ = 0;
+      }
+    } else {
+      ++dropped_;
+      *ok = false;
+      if (why) *why = "camera " + std::to_string(camera_id) + " frame " + std::to_string(seq) + " arrived late";
+      return nullptr;
+    }
+  }
+  if (is_reference && seq <= taken_up_to_ && camera_id == ReferenceId()) {
+    ++dropped_;
+    *ok = false;
+    if (why) *why = "frame " + std::to_string(seq) + " arrived after a newer frameset was used";
+    return nullptr;
+  }
+  if (cam.any) {
+    const int64_t step = t_ns - cam.newest_t_ns;
+    const double gap_s = double(step) * 1e-9;
+    if (gap_s > std::max(kPausePeriods * PeriodS(cam), kPauseMinS)) {
+      ++cam.pauses;
+      spdlog::warn("camera {}: no frame for {:.2f} s of capture time (frames {}..{}); resumed", camera_id, gap_s,
+                   cam.newest_seq, seq);
+    } else if (step > 0) {
+      cam.steps_ns.push_back(step);
+      while (cam.steps_ns.size() > 15) cam.steps_ns.pop_front();
+    }
+  }
+  cam.any = true;
+  cam.newest_seq = seq;
+  cam.newest_t_ns = t_ns;
+  ++cam.frames;
+  Sample s;
+  s.seq = seq;
+  s.t_ns = t_ns;
+  cam.samples.push_back(std::move(s));
+  // Latest wins: the history is bounded.
+  const int reference = ReferenceId();
+  while (cam.samples.size() > max_pending_ + 2) {
+    if (camera_id == reference && cam.samples.front().seq > taken_up_to_) PassOver(cam.samples.front());
+    RemoveSample(camera_id, cam, cam.samples.begin());
+  }
+  return &cam.samples.back();
 }
 
 bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camera_count, cv::Mat map,
-                               std::string* why, double source_time_s) {
+                               std::string* why, double source_time_s, uint64_t source_id, int64_t arrival_ns) {
   const auto cam = cameras_.find(camera_id);
   if (map.type() != CV_8UC1 || map.empty())
     return Reject(why, "map of camera " + std::to_string(camera_id) + " is not a CV_8UC1 image");
@@ -81,72 +153,185 @@ bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camer
   if (camera_count < 1 || camera_count > 64)
     return Reject(why, "map of camera " + std::to_string(camera_id) + " states " +
                            std::to_string(camera_count) + " cameras");
-  CheckRestart(seq);
-  if (IsGone(seq)) {
-    ++dropped_;
-    if (why) *why = "frame " + std::to_string(seq) + " arrived after a newer frame was used";
-    return false;
-  }
-  Pending* p = Slot(seq, t, camera_count);
-  if (!p) return false;
-  if (p->expected == 0) p->expected = camera_count, p->capture_time_ns = t;
-  p->source_time_s = source_time_s;
-  p->maps[camera_id] = std::move(map);
+  expected_ = camera_count;
+  bool ok;
+  Sample* s = Slot(camera_id, seq, t, source_id, why, &ok);
+  if (!s) return false;
+  s->t_ns = t;  // the map's capture time is authoritative
+  s->source_time_s = source_time_s;
+  s->map = std::move(map);
+  if (arrival_ns != 0) CheckClock(camera_id, cams_[camera_id], t, arrival_ns);
   return true;
 }
 
-bool FramesetAssembler::AddImage(int camera_id, uint64_t seq, int64_t t, cv::Mat image, std::string* why) {
+void FramesetAssembler::CheckClock(int camera_id, Cam& cam, int64_t t, int64_t arrival_ns) {
+  cam.delays_ns.push_back(arrival_ns - t);
+  while (cam.delays_ns.size() > 31) cam.delays_ns.pop_front();
+  if (cam.delays_ns.size() < 5) return;
+  // The least delay of the recent frames: queueing, and a node that polls late,
+  // only ever add delay (the minimum filter of clock-offset estimation, as NTP's).
+  cam.delay_least_ns = *std::min_element(cam.delays_ns.begin(), cam.delays_ns.end());
+  // The smallest delay of the cameras that have enough samples is the level.
+  int64_t level = INT64_MAX;
+  for (const auto& [id, c] : cams_)
+    if (c.delays_ns.size() >= 5) level = std::min(level, c.delay_least_ns);
+  const double tol = tolerance_s();
+  const double ahead_s = -double(cam.delay_least_ns) * 1e-9;                // stamped in the future
+  const double behind_s = double(cam.delay_least_ns - level) * 1e-9;        // later than the others
+  const bool off = ahead_s > tol || behind_s > std::max(tol, kClockCheckMinS);
+  if (off && !cam.clock_off) {
+    ++cam.clock_offsets;
+    spdlog::warn(
+        "camera {}: its capture times are {:.1f} ms {} (least arrival - capture time {:.1f} ms, the other cameras' "
+        "{:.1f} ms): its host's clock or its latency setting is off — is the host synchronised (PTP or chrony)?",
+        camera_id, ahead_s > tol ? ahead_s * 1e3 : behind_s * 1e3,
+        ahead_s > tol ? "in the future of this host's clock" : "behind the other cameras'",
+        double(cam.delay_least_ns) * 1e-6, double(level) * 1e-6);
+  }
+  cam.clock_off = off;
+}
+
+bool FramesetAssembler::AddImage(int camera_id, uint64_t seq, int64_t t, cv::Mat image, std::string* why,
+                                 uint64_t source_id) {
   if (image.empty() || image.type() != CV_8UC3)
     return Reject(why, "image of camera " + std::to_string(camera_id) + " is not BGR8");
-  CheckRestart(seq);
-  if (IsGone(seq)) {
-    ++dropped_;
-    return false;
-  }
-  Pending* p = Slot(seq, t, 0);
-  if (!p) return false;
-  p->images[camera_id] = std::move(image);
+  bool ok;
+  Sample* s = Slot(camera_id, seq, t, source_id, why, &ok);
+  if (!s) return false;
+  s->image = std::move(image);
   return true;
 }
 
-bool FramesetAssembler::Complete(const Pending& p) const {
-  if (p.expected < 1 || int(p.maps.size()) < p.expected) return false;
-  for (const auto& [id, map] : p.maps)
-    if (!cameras_.count(id)) return false;  // parked until its CameraInfo arrives
-  if (want_images_ && int(p.images.size()) < p.expected) return false;
-  return true;
+FramesetAssembler::Evaluation FramesetAssembler::Evaluate(const Sample& ref) const {
+  Evaluation e;
+  const int reference = ReferenceId();
+  int cameras = 0;
+  for (const auto& [id, cam] : cams_)
+    if (cam.any && cameras_.count(id)) ++cameras;
+  bool missing = cameras < expected_ || expected_ < 1;
+  const auto usable = [&](const Sample& s) { return !s.map.empty() && (!want_images_ || !s.image.empty()); };
+  if (!usable(ref)) missing = true;
+  e.members[reference] = &ref;
+  const double tol_ns = tolerance_s() * 1e9;
+  for (const auto& [id, cam] : cams_) {
+    if (id == reference || !cam.any || !cameras_.count(id)) continue;
+    // The first sample at or after t_ref decides: the nearest is it or the one before.
+    auto after = std::find_if(cam.samples.begin(), cam.samples.end(),
+                              [&](const Sample& s) { return s.t_ns >= ref.t_ns; });
+    if (after == cam.samples.end()) {
+      // Not yet decided — unless even the newest is already out of tolerance and
+      // a camera that is running cannot produce a nearer one before t_ref.
+      missing = true;
+      continue;
+    }
+    const Sample* chosen = &*after;
+    if (after != cam.samples.begin()) {
+      const Sample& before = *std::prev(after);
+      if (ref.t_ns - before.t_ns <= after->t_ns - ref.t_ns) chosen = &before;
+    } else if (cam.newest_removed_t_ns >= ref.t_ns - (after->t_ns - ref.t_ns)) {
+      missing = true;  // the nearest may have left the history: undecidable
+      continue;
+    }
+    if (std::abs(double(chosen->t_ns - ref.t_ns)) > tol_ns) {
+      e.out_of_tolerance.push_back(id);
+      if (after != cam.samples.begin() &&
+          double(after->t_ns - std::prev(after)->t_ns) * 1e-9 <= kPausePeriods * PeriodS(cam))
+        e.running.push_back(id);
+      continue;
+    }
+    if (!usable(*chosen)) missing = true;
+    e.members[id] = chosen;
+  }
+  e.state = !e.out_of_tolerance.empty() ? State::kSkewed : missing ? State::kIncomplete : State::kComplete;
+  return e;
+}
+
+void FramesetAssembler::PassOver(const Sample& ref) {
+  const Evaluation e = Evaluate(ref);
+  ++dropped_;
+  if (e.state == State::kComplete) {
+    for (const auto& [id, s] : e.members) const_cast<Sample*>(s)->partnered = true;
+  } else if (e.state == State::kSkewed) {
+    ++dropped_for_skew_;
+    for (const auto& [id, s] : e.members) cams_[id].out_of_tolerance_run = 0;
+    for (int id : e.running) {
+      Cam& cam = cams_[id];
+      if (++cam.out_of_tolerance_run == kOffsetFramesets) {
+        ++cam.clock_offsets;
+        spdlog::warn(
+            "camera {}: no frame within {:.1f} ms of camera {}'s in {} framesets in a row: its clock (or its "
+            "latency setting) is off by more than the tolerance — is its host synchronised (PTP or chrony)?",
+            id, tolerance_s() * 1e3, ReferenceId(), kOffsetFramesets);
+      }
+    }
+  }
 }
 
 std::optional<uint64_t> FramesetAssembler::NewestComplete() const {
-  for (auto it = pending_.rbegin(); it != pending_.rend(); ++it)
-    if (Complete(it->second)) return it->first;
+  const int reference = ReferenceId();
+  if (reference < 0) return std::nullopt;
+  const Cam& rc = cams_.at(reference);
+  for (auto it = rc.samples.rbegin(); it != rc.samples.rend(); ++it) {
+    if (it->seq <= taken_up_to_) break;
+    if (Evaluate(*it).state == State::kComplete) return it->seq;
+  }
   return std::nullopt;
 }
 
 bool FramesetAssembler::IsComplete(uint64_t seq) const {
-  const auto it = pending_.find(seq);
-  return it != pending_.end() && Complete(it->second);
+  const int reference = ReferenceId();
+  if (reference < 0 || seq <= taken_up_to_) return false;
+  for (const Sample& s : cams_.at(reference).samples)
+    if (s.seq == seq) return Evaluate(s).state == State::kComplete;
+  return false;
 }
 
 std::optional<Frameset> FramesetAssembler::Take(uint64_t seq) {
-  const auto it = pending_.find(seq);
-  if (it == pending_.end() || !Complete(it->second)) return std::nullopt;
+  const int reference = ReferenceId();
+  if (reference < 0 || seq <= taken_up_to_) return std::nullopt;
+  Cam& rc = cams_.at(reference);
+  auto it = std::find_if(rc.samples.begin(), rc.samples.end(), [&](const Sample& s) { return s.seq == seq; });
+  if (it == rc.samples.end()) return std::nullopt;
+  const Evaluation e = Evaluate(*it);
+  if (e.state != State::kComplete) return std::nullopt;
   Frameset f;
   f.seq = seq;
-  f.capture_time_ns = it->second.capture_time_ns;
-  f.source_time_s = it->second.source_time_s;
-  for (auto& [id, map] : it->second.maps) {
-    f.maps.push_back({cameras_.at(id), map});
-    const auto img = it->second.images.find(id);
-    if (img != it->second.images.end()) f.images.push_back({cameras_.at(id), img->second});
+  f.capture_time_ns = it->t_ns;
+  f.source_time_s = it->source_time_s;
+  for (const auto& [id, s] : e.members) {
+    const_cast<Sample*>(s)->partnered = true;
+    f.maps.push_back({cameras_.at(id), s->map});
+    if (!s->image.empty()) f.images.push_back({cameras_.at(id), s->image});
+    f.skew_ns.push_back(s->t_ns - it->t_ns);
+    Cam& cam = cams_[id];
+    cam.skew_ms.Add(std::abs(double(s->t_ns - it->t_ns)) * 1e-6);
+    cam.out_of_tolerance_run = 0;
   }
-  while (pending_.begin() != it) {
-    if (Complete(pending_.begin()->second)) ++dropped_;
-    Evict(pending_.begin());
+  // Every older reference sample is passed over for good.
+  while (rc.samples.begin()->seq != seq) {
+    if (rc.samples.front().seq > taken_up_to_) PassOver(rc.samples.front());
+    RemoveSample(reference, rc, rc.samples.begin());
   }
-  pending_.erase(it);
-  taken_up_to_ = std::max(taken_up_to_, seq);
+  taken_up_to_ = seq;
+  taken_time_ns_ = f.capture_time_ns;
+  rc.samples.pop_front();
+  Prune();
   return f;
+}
+
+void FramesetAssembler::Prune() {
+  // A sample older than a camera's newest at or before the last reference time
+  // can never be the nearest to a later reference time.
+  const int reference = ReferenceId();
+  for (auto& [id, cam] : cams_) {
+    if (id == reference) continue;
+    // A camera without calibration is in no frameset: its samples up to the
+    // reference time are rejected (dropped instead if its CameraInfo comes later).
+    const bool calibrated = cameras_.count(id) > 0;
+    while (!cam.samples.empty() && (calibrated ? cam.samples.size() >= 2 && cam.samples[1].t_ns <= taken_time_ns_
+                                               : cam.samples.front().t_ns <= taken_time_ns_))
+      RemoveSample(id, cam, cam.samples.begin());
+  }
 }
 
 std::optional<Frameset> FramesetAssembler::TakeNewest() {
@@ -155,9 +340,25 @@ std::optional<Frameset> FramesetAssembler::TakeNewest() {
   return Take(*seq);
 }
 
-}  // namespace hullpipe
-
-namespace hullpipe {
+std::vector<CameraSkewReport> FramesetAssembler::SkewReports() const {
+  std::vector<CameraSkewReport> out;
+  for (const auto& [id, cam] : cams_) {
+    if (!cameras_.count(id)) continue;
+    CameraSkewReport r;
+    r.camera_id = id;
+    r.skew_ms_p50 = cam.skew_ms.Percentile(50);
+    r.skew_ms_p95 = cam.skew_ms.Percentile(95);
+    r.skew_ms_max = cam.skew_ms.Percentile(100);
+    r.frames = cam.frames;
+    r.unpartnered = cam.unpartnered;
+    r.pauses = cam.pauses;
+    r.restarts = cam.restarts;
+    r.clock_offsets = cam.clock_offsets;
+    r.period_ms = cam.steps_ns.empty() ? 0 : PeriodS(cam) * 1e3;
+    out.push_back(r);
+  }
+  return out;
+}
 
 Aabb FramesetAssembler::workspace() const {
   if (!workspace_.empty()) return workspace_;

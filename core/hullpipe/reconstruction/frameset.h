@@ -1,10 +1,26 @@
-// Assembling framesets: all n cameras' object-pixel maps (and optionally colour
-// images) of one frame, as they arrive one by one from the network. Latest wins:
-// a bounded number of frames is kept pending; older ones are dropped and counted,
-// never queued without bound. Transport-free, so it is tested without DDS.
+// Assembling framesets (paper §3.1–3.2: a volume query needs every camera's
+// object-pixel map of one instant) from maps and images that arrive one by one,
+// from cameras that are not frame-locked and may run on several machines.
+//
+// A frameset is built around one sample of the reference camera (the lowest
+// calibrated camera id) at reference time t_ref, its capture time: every other
+// camera contributes its sample nearest to t_ref, and all must lie within the
+// skew tolerance (default: half the frame period of the slowest camera). The
+// choice is deterministic — a function of the cameras' samples only, never of
+// the order they arrived in — so several nodes assembling the same traffic build
+// the same framesets: a camera's nearest sample is known once it has a sample at
+// or after t_ref. The frameset's id (`seq`) is the reference sample's frame_seq;
+// frame_seq orders one camera's frames only. Capture times are on a clock the
+// cameras' hosts share (PTP or chrony; see docs/architecture.md).
+//
+// Latest wins: each camera keeps a bounded history of samples; older ones are
+// dropped and counted, never queued without bound. Transport-free, so it is
+// tested without DDS and with made-up times.
 #pragma once
 
+#include <climits>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <string>
@@ -16,23 +32,38 @@
 #include "hullpipe/geometry/camera.h"
 #include "hullpipe/reconstruction/texture.h"
 #include "hullpipe/reconstruction/volume_query.h"
+#include "hullpipe/util/latency_stats.h"
 
 namespace hullpipe {
 
-/// All cameras' data for one frame.
+/// All cameras' data for one instant.
 struct Frameset {
-  uint64_t seq = 0;
-  int64_t capture_time_ns = 0;
-  double source_time_s = 0;         ///< Frame time in the source's timeline, seconds.
+  uint64_t seq = 0;                 ///< The reference camera's frame_seq.
+  int64_t capture_time_ns = 0;      ///< The reference time t_ref (the reference sample's capture time).
+  double source_time_s = 0;         ///< The reference frame's time in its source's timeline, seconds.
   std::vector<CameraMap> maps;      ///< In camera-id order.
   std::vector<CameraImage> images;  ///< In camera-id order (empty unless wanted).
+  std::vector<int64_t> skew_ns;     ///< Per map: its capture time minus t_ref, ns.
 };
 
-/// Collects maps (and images) into framesets.
+/// Per camera: how well its samples found partners (NodeStats, stats.json).
+struct CameraSkewReport {
+  int camera_id = 0;
+  double skew_ms_p50 = 0, skew_ms_p95 = 0, skew_ms_max = 0;  ///< |capture time - t_ref| over framesets taken.
+  uint64_t frames = 0;         ///< Samples received.
+  uint64_t unpartnered = 0;    ///< Samples that left the history without belonging to a complete frameset.
+  uint64_t pauses = 0;         ///< Gaps of more than kPausePeriods frame periods (and kPauseMinS) in its capture times.
+  uint64_t restarts = 0;       ///< Its capture source restarted (a new writer, or frame numbers starting over).
+  uint64_t clock_offsets = 0;  ///< Episodes of kOffsetFramesets framesets in a row out of tolerance.
+  double period_ms = 0;        ///< Measured frame period (median of recent capture-time steps); 0 until known.
+};
+
+/// Collects maps (and images) into framesets by capture time.
 class FramesetAssembler {
  public:
-  /// max_pending: frames kept while incomplete (>= 1). want_images: a frameset is
-  /// complete only when every camera's image has arrived too.
+  /// max_pending: samples kept per camera while unused (>= 1; the history holds
+  /// max_pending + 2 so that a reference sample's neighbours stay). want_images: a
+  /// frameset is complete only when each chosen sample's image has arrived too.
   explicit FramesetAssembler(size_t max_pending = 6, bool want_images = false);
 
   /// Registers (or updates) a camera's calibration (from CameraInfo).
@@ -43,64 +74,131 @@ class FramesetAssembler {
   size_t camera_count() const { return cameras_.size(); }
   bool HasCamera(int id) const { return cameras_.count(id) > 0; }
 
-  /// Adds one camera's map for frame `seq`. camera_count is how many cameras the
-  /// sender's frameset has. A map of a camera with no calibration yet is parked
-  /// with its frame (DDS does not order samples across topics, so CameraInfo may
-  /// come second) and checked when the calibration arrives; if its frame is evicted
-  /// first, it counts as rejected — and moves to dropped if the camera's CameraInfo
-  /// comes later (a start-up race, not bad input). Returns false (and counts a rejection, *why
-  /// says why) if the map's size differs from the calibration or camera_count is
-  /// out of range; false (counted as dropped) if the frame is older than the newest
-  /// frameset already taken.
-  bool AddMap(int camera_id, uint64_t seq, int64_t capture_time_ns, int camera_count,
-              cv::Mat map, std::string* why = nullptr, double source_time_s = 0);
-  /// Adds one camera's colour image (any size) for frame `seq`; same rules.
-  bool AddImage(int camera_id, uint64_t seq, int64_t capture_time_ns, cv::Mat image,
-                std::string* why = nullptr);
+  /// The skew tolerance in seconds (> 0), or 0 (the default) for half the frame
+  /// period of the slowest camera, measured from its capture times (kDefaultPeriodS
+  /// until two frames of every camera have arrived).
+  void SetTolerance(double seconds) { tolerance_s_ = seconds > 0 ? seconds : 0; }
+  /// The tolerance in use now, seconds.
+  double tolerance_s() const;
+  static constexpr double kDefaultPeriodS = 0.04;
 
-  /// Sequence number of the newest complete frameset, if any.
+  /// Adds one camera's map. seq: the camera's frame_seq (orders this camera's
+  /// frames); capture_time_ns: its capture time on the shared clock; camera_count:
+  /// how many cameras a frameset has (the rig's size); source_id: who sent it (the
+  /// DDS writer; 0: unknown) — a camera whose sender changes was restarted. A map of a
+  /// camera with no calibration yet is parked in the camera's history and checked
+  /// when the calibration arrives; if it leaves the history first it counts as
+  /// rejected — and moves to dropped if the camera's CameraInfo comes later (a
+  /// start-up race, not bad input). Returns false (and counts a rejection, *why says
+  /// why) if the map is not CV_8UC1, its size differs from the calibration or
+  /// camera_count is out of [1, 64]; false (counted as dropped) if the sample is
+  /// older than the camera's newest and not far enough back to be a restart.
+  /// arrival_ns: when it arrived, on this node's clock (0: unknown); a camera
+  /// whose capture times disagree with their arrival — stamped in the future by
+  /// more than the tolerance, or later than the other cameras' by more than
+  /// max(tolerance, kClockCheckMinS) — has a clock off (logged once per episode,
+  /// counted in clock_offsets).
+  bool AddMap(int camera_id, uint64_t seq, int64_t capture_time_ns, int camera_count, cv::Mat map,
+              std::string* why = nullptr, double source_time_s = 0, uint64_t source_id = 0, int64_t arrival_ns = 0);
+  /// Adds one camera's colour image (CV_8UC3, any size) of frame `seq`; same rules.
+  bool AddImage(int camera_id, uint64_t seq, int64_t capture_time_ns, cv::Mat image, std::string* why = nullptr,
+                uint64_t source_id = 0);
+
+  /// Id of the newest complete frameset not yet taken, if any.
   std::optional<uint64_t> NewestComplete() const;
-  /// True if frame seq is complete.
+  /// True if frameset seq is complete (and not yet taken).
   bool IsComplete(uint64_t seq) const;
-  /// Removes and returns frameset `seq` if complete, dropping every older frame
-  /// (complete ones count as dropped). nullopt if not complete.
+  /// Removes and returns frameset `seq` if complete; every older reference sample
+  /// is passed over (counted as dropped: superseded, no partner, or for skew).
+  /// nullopt if not complete.
   std::optional<Frameset> Take(uint64_t seq);
   /// Take(NewestComplete()).
   std::optional<Frameset> TakeNewest();
-  /// True if frame seq can no longer arrive (older than what was taken or evicted).
+  /// True if frameset seq can no longer be built (at or before the newest taken).
   bool IsGone(uint64_t seq) const { return seq <= taken_up_to_; }
 
-  /// A map or image more than kRestartGap frames older than the newest taken
-  /// frameset means its capture source restarted (frame numbers start over): the
-  /// assembler forgets what it had and takes the new run (counted in restarts()).
-  /// A frame that is merely late is never that far behind (history depth 4).
+  /// A sample more than kRestartGap frames older than its camera's newest means its
+  /// capture source restarted (frame numbers start over): the camera's history is
+  /// forgotten (counted per camera); when it is the reference camera, frameset ids
+  /// start over too (counted in restarts(), which consumers follow). A frame that is
+  /// merely late is never that far behind (history depth 4).
   static constexpr uint64_t kRestartGap = 64;
+  /// A camera whose capture times jump by more than kPausePeriods frame periods
+  /// (and at least kPauseMinS) paused; logged and counted at its return.
+  static constexpr double kPausePeriods = 3, kPauseMinS = 0.15;
+  /// A camera that is running (frames on both sides of t_ref, no pause between)
+  /// yet out of tolerance in kOffsetFramesets reference frames in a row has a clock
+  /// (or latency setting) off by more than the tolerance: logged once per episode.
+  static constexpr int kOffsetFramesets = 5;
+  /// The delay compared is each camera's least (arrival - capture time) over its
+  /// last 31 frames; processing on the capture hosts and a busy receiver still
+  /// make those differ by up to a frame period or two on a loaded machine: delays
+  /// that differ by less than this are not called a clock error.
+  static constexpr double kClockCheckMinS = 0.1;
   uint64_t restarts() const { return restarts_; }
 
   uint64_t dropped() const { return dropped_; }
   uint64_t rejected() const { return rejected_; }
+  /// Reference frames whose nearest partner of some camera lay outside the tolerance.
+  uint64_t dropped_for_skew() const { return dropped_for_skew_; }
+  /// Per camera, in id order.
+  std::vector<CameraSkewReport> SkewReports() const;
 
  private:
-  struct Pending {
-    int64_t capture_time_ns = 0;
+  struct Sample {
+    uint64_t seq = 0;
+    int64_t t_ns = 0;
     double source_time_s = 0;
-    int expected = 0;
-    std::map<int, cv::Mat> maps, images;
+    cv::Mat map, image;
+    bool partnered = false;  ///< Member of a complete frameset.
   };
-  void Evict(std::map<uint64_t, Pending>::iterator it);
-  bool Complete(const Pending& p) const;
-  Pending* Slot(uint64_t seq, int64_t t, int camera_count);
+  struct Cam {
+    std::deque<Sample> samples;  ///< Ascending seq.
+    uint64_t source_id = 0;
+    uint64_t newest_seq = 0;
+    int64_t newest_t_ns = 0;
+    bool any = false;
+    std::deque<int64_t> steps_ns;  ///< Recent capture-time steps per frame.
+    SampleStats skew_ms{20000};
+    uint64_t frames = 0, unpartnered = 0, pauses = 0, restarts = 0, clock_offsets = 0;
+    int out_of_tolerance_run = 0;
+    std::deque<int64_t> delays_ns;  ///< Recent arrival - capture time.
+    int64_t delay_least_ns = 0;  ///< The least recent delay (see kClockCheckMinS).
+    bool clock_off = false;
+    int64_t newest_removed_t_ns = INT64_MIN;  ///< Capture time of the newest sample that left the history.
+    uint64_t evicted_uncalibrated = 0;
+  };
+  enum class State { kIncomplete, kComplete, kSkewed };
+  struct Evaluation {
+    State state = State::kIncomplete;
+    std::map<int, const Sample*> members;  ///< Camera id -> chosen sample (when decided).
+    std::vector<int> out_of_tolerance;     ///< Cameras whose nearest sample was too far...
+    std::vector<int> running;              ///< ...of which these had frames on both sides, no pause between.
+  };
+
+  Sample* Slot(int camera_id, uint64_t seq, int64_t t_ns, uint64_t source_id, std::string* why, bool* ok);
+  Evaluation Evaluate(const Sample& ref) const;
+  /// Classifies a reference sample that will never be taken and counts it.
+  void PassOver(const Sample& ref);
+  void RemoveSample(int camera_id, Cam& cam, std::deque<Sample>::iterator it);
+  void Prune();
+  void ForgetCamera(int camera_id, Cam& cam, const std::string& reason);
+  double PeriodS(const Cam& cam) const;
+  void CheckClock(int camera_id, Cam& cam, int64_t capture_time_ns, int64_t arrival_ns);
+  int ReferenceId() const;
   bool Reject(std::string* why, std::string text);
 
   size_t max_pending_;
   bool want_images_;
+  double tolerance_s_ = 0;
   std::map<int, Camera> cameras_;
+  std::map<int, Cam> cams_;
+  int expected_ = 0;
   Aabb workspace_;
-  std::map<uint64_t, Pending> pending_;
   uint64_t taken_up_to_ = 0;
-  uint64_t dropped_ = 0, rejected_ = 0, restarts_ = 0;
-  void CheckRestart(uint64_t seq);
-  std::map<int, uint64_t> evicted_uncalibrated_;  ///< Per camera id, maps evicted before its CameraInfo.
+  int64_t taken_time_ns_ = 0;
+  bool taken_any_ = false;
+  uint64_t dropped_ = 0, rejected_ = 0, restarts_ = 0, dropped_for_skew_ = 0;
 };
 
 }  // namespace hullpipe

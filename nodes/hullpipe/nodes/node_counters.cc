@@ -27,6 +27,8 @@ NodeStatsSample NodeCounters::Snapshot(const std::string& name, bool final_repor
   s.rejected = rejected_;
   s.final_report = final_report;
   for (const auto& [n, st] : stages_) s.stages[n] = {st.Mean(), st.Percentile(95)};
+  s.cameras = cameras_;
+  s.dropped_for_skew = dropped_for_skew_;
   return s;
 }
 

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "hullpipe/nodes/clock.h"
+#include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/util/latency_stats.h"
 
 namespace hullpipe::nodes {
@@ -23,6 +24,8 @@ struct NodeStatsSample {
     double ms_mean = 0, ms_p95 = 0;
   };
   std::map<std::string, Stage> stages;
+  uint64_t dropped_for_skew = 0;             ///< Framesets dropped for skew (assembling nodes).
+  std::vector<CameraSkewReport> cameras;     ///< Per camera (assembling nodes; empty otherwise).
 };
 
 class NodeCounters {
@@ -36,6 +39,11 @@ class NodeCounters {
   void SetDropped(uint64_t n) { dropped_ = n; }
   void Rejected(uint64_t n = 1) { rejected_ += n; }
   void SetRejected(uint64_t n) { rejected_ = n; }
+  /// How the node's frameset assembler paired its cameras (FramesetAssembler).
+  void SetAssembly(const FramesetAssembler& assembler) {
+    cameras_ = assembler.SkewReports();
+    dropped_for_skew_ = assembler.dropped_for_skew();
+  }
   /// Adds one duration (milliseconds) to a stage.
   void Stage(const std::string& name, double ms) { stages_[name].Add(ms); }
   uint64_t frames_in() const { return frames_in_; }
@@ -56,6 +64,8 @@ class NodeCounters {
   double first_out_s_ = -1, last_out_s_ = -1;
   SampleStats latency_{20000};
   std::map<std::string, SampleStats> stages_;
+  std::vector<CameraSkewReport> cameras_;
+  uint64_t dropped_for_skew_ = 0;
 };
 
 /// RAII: adds the elapsed milliseconds (on the counters' clock) to a stage.

@@ -118,6 +118,7 @@ int ReconController::Step() {
     published += Render(pose, *fs);
   }
   counters_.SetDropped(assembler_.dropped() + poses_dropped_);
+  counters_.SetAssembly(assembler_);
   counters_.SetRejected(assembler_.rejected() + rejected_ + malformed_input_);
   return published;
 }

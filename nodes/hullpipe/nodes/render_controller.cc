@@ -89,10 +89,18 @@ void RenderController::OnCollisionReport(bool has_points) {
 void RenderController::OnNodeStats(const NodeStatsSample& m) {
   node_stats_[m.name] = m;
   if (m.name.rfind("recon", 0) == 0) recon_liveness_.Heard(m.name, clock_.Now(), m.final_report);
-  if (m.final_report && m.name.rfind("capture", 0) == 0 && !capture_done_) {
-    capture_done_ = true;
-    capture_done_s_ = clock_.Now();
-    spdlog::info("{} reports the end of its input", m.name);
+  // With cameras on several capture nodes the input ends when every capture node
+  // heard from has said so.
+  if (m.name.rfind("capture", 0) == 0) {
+    const bool was_final = capture_final_[m.name];
+    capture_final_[m.name] = m.final_report;
+    if (m.final_report && !was_final) spdlog::info("{} reports the end of its input", m.name);
+    bool all = true;
+    for (const auto& [name, final_report] : capture_final_) all = all && final_report;
+    if (all && !capture_done_) {
+      capture_done_ = true;
+      capture_done_s_ = clock_.Now();
+    }
   }
 }
 
@@ -238,6 +246,7 @@ int RenderController::Step() {
     done_ = true;
   }
   counters_.SetRejected(rejected_ + malformed_input_ + assembler_.rejected());
+  counters_.SetAssembly(assembler_);
   return composited;
 }
 
@@ -266,10 +275,25 @@ nlohmann::json RenderController::StatsJson() const {
                           {"frames_out", r.frames_out}, {"dropped", r.dropped},
                           {"rejected", r.rejected}, {"stages_ms", stages}};
   };
+  auto assembly = [](const NodeStatsSample& r) {
+    nlohmann::json cams = nlohmann::json::object();
+    for (const auto& c : r.cameras)
+      cams[std::to_string(c.camera_id)] = {{"skew_ms_p50", c.skew_ms_p50}, {"skew_ms_p95", c.skew_ms_p95},
+                                           {"skew_ms_max", c.skew_ms_max}, {"period_ms", c.period_ms},
+                                           {"frames", c.frames},           {"unpartnered", c.unpartnered},
+                                           {"pauses", c.pauses},           {"restarts", c.restarts},
+                                           {"clock_offsets", c.clock_offsets}};
+    return nlohmann::json{{"dropped_for_skew", r.dropped_for_skew}, {"cameras", cams}};
+  };
   j["nodes"] = nlohmann::json::object();
   for (const auto& [name, r] : node_stats_)
     if (name != "render") j["nodes"][name] = row(r);
   j["nodes"]["render"] = row(counters_.Snapshot("render", true));
+  // Frameset assembly by capture time, per assembling node and camera.
+  j["framesets"] = nlohmann::json::object();
+  for (const auto& [name, r] : node_stats_)
+    if (name != "render" && !r.cameras.empty()) j["framesets"][name] = assembly(r);
+  j["framesets"]["render"] = assembly(counters_.Snapshot("render", true));
   return j;
 }
 
@@ -289,7 +313,19 @@ std::string RenderController::Table() const {
   };
   for (const auto& [name, r] : node_stats_)
     if (name != "render") row(r);
-  row(counters_.Snapshot("render", true));
+  const NodeStatsSample self = counters_.Snapshot("render", true);
+  row(self);
+  // How render's framesets were assembled (the recon and sim nodes' are in stats.json).
+  if (!self.cameras.empty()) {
+    line("\nframesets (render): %llu dropped for skew\n", (unsigned long long)self.dropped_for_skew);
+    line("%-7s %9s %9s %9s %9s %8s %11s %7s %9s %9s\n", "camera", "skew p50", "skew p95", "skew max", "period",
+         "frames", "unpartnered", "pauses", "restarts", "clock off");
+    for (const auto& c : self.cameras)
+      line("%-7d %9.2f %9.2f %9.2f %9.2f %8llu %11llu %7llu %9llu %9llu\n", c.camera_id, c.skew_ms_p50,
+           c.skew_ms_p95, c.skew_ms_max, c.period_ms, (unsigned long long)c.frames,
+           (unsigned long long)c.unpartnered, (unsigned long long)c.pauses, (unsigned long long)c.restarts,
+           (unsigned long long)c.clock_offsets);
+  }
   return out;
 }
 

@@ -144,6 +144,7 @@ class RenderController {
   double last_new_frame_s_ = 0;
   bool any_frame_ = false, done_ = false, capture_done_ = false;
   double capture_done_s_ = 0;
+  std::map<std::string, bool> capture_final_;  ///< Capture node name -> it sent its final report.
 };
 
 }  // namespace hullpipe::nodes

@@ -39,6 +39,7 @@ int SimController::Step() {
     ++stepped;
   }
   counters_.SetDropped(assembler_.dropped());
+  counters_.SetAssembly(assembler_);
   counters_.SetRejected(assembler_.rejected() + commands_rejected_ + malformed_input_);
   return stepped;
 }

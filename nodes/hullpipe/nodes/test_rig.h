@@ -19,11 +19,14 @@ struct TinyRig {
     a.SetWorkspace(hullpipe::test::BigBox());
   }
   /// Every camera's map (and a grey image if `images`) of frame `seq`, with
-  /// source time seq / 25 s.
+  /// source time seq / 25 s, all captured at capture_ns + seq nanoseconds (framesets
+  /// are assembled by capture time: each frame its own instant, however the test's
+  /// clock stands).
   void AddFrame(FramesetAssembler& a, uint64_t seq, int64_t capture_ns, bool images = false) const {
+    const int64_t t = capture_ns + int64_t(seq);
     for (const auto& v : views) {
-      a.AddMap(v.camera.id, seq, capture_ns, int(views.size()), v.map.clone(), nullptr, double(seq) / 25.0);
-      if (images) a.AddImage(v.camera.id, seq, capture_ns, cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 120, 150)));
+      a.AddMap(v.camera.id, seq, t, int(views.size()), v.map.clone(), nullptr, double(seq) / 25.0);
+      if (images) a.AddImage(v.camera.id, seq, t, cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 120, 150)));
     }
   }
 };

@@ -42,6 +42,7 @@ struct OwnedSample {
   std::vector<float> floats;
   std::vector<hullpipe_msg_Vec3> vec3s;
   std::vector<hullpipe_msg_StageTiming> stages;
+  std::vector<hullpipe_msg_CameraSkew> cameras;
   std::vector<std::string> strings;  ///< Reserved before use: their c_str() stay put.
   OwnedSample() = default;
   OwnedSample(const OwnedSample&) = delete;

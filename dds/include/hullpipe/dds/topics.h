@@ -28,6 +28,7 @@ HULLPIPE_TOPIC(VirtualMesh, "hullpipe/virtual_mesh", true, false, 1)
 // waits for its acknowledgement before it leaves).
 HULLPIPE_TOPIC(SceneCommand, "hullpipe/scene_command", true, true, 8)
 HULLPIPE_TOPIC(HeadPose, "hullpipe/head_pose", false, false, 1)
+HULLPIPE_TOPIC(CaptureTimeline, "hullpipe/capture_timeline", true, true, 1)
 
 #undef HULLPIPE_TOPIC
 
