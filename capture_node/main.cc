@@ -21,7 +21,15 @@ namespace {
 
 class CaptureWriters final : public nodes::CaptureSink {
  public:
-  CaptureWriters(const Participant& p, int jpeg_quality) : info_(p), maps_(p), images_(p), jpeg_(jpeg_quality) {}
+  CaptureWriters(const Participant& p, int jpeg_quality, std::string name)
+      : info_(p), maps_(p), images_(p), timeline_(p), jpeg_(jpeg_quality), name_(std::move(name)) {}
+  void AnnounceTimeline(int64_t start_ns, double fps) override {
+    hullpipe_msg_CaptureTimeline m{};
+    m.start_ns = start_ns;
+    m.fps = fps;
+    m.announcer = const_cast<char*>(name_.c_str());
+    timeline_.Write(m);
+  }
   void PublishCameraInfo(const Camera& c, const Aabb& workspace) override { info_.Write(CameraToMsg(c, workspace)); }
   void PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count, const cv::Mat& map,
                     const cv::Mat& image) override {
@@ -34,7 +42,9 @@ class CaptureWriters final : public nodes::CaptureSink {
   Writer<hullpipe_msg_CameraInfo> info_;
   Writer<hullpipe_msg_ObjectPixelMap> maps_;
   Writer<hullpipe_msg_CameraImage> images_;
+  Writer<hullpipe_msg_CaptureTimeline> timeline_;
   int jpeg_;
+  std::string name_;
 };
 
 }  // namespace
@@ -75,6 +85,13 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.05, 1.0))->capture_default_str();
   app.add_option("--jpeg", jpeg_quality, "Publish images as JPEG of this quality (0: raw BGR8)")
       ->check(CLI::Range(0, 100));
+  int64_t start_time_ns = 0;
+  double max_lag = 0.5;
+  app.add_option("--start-time", start_time_ns,
+                 "Capture timeline start, ns since the Unix epoch (default: adopt the one announced on the domain, "
+                 "or announce one now)");
+  app.add_option("--max-lag", max_lag, "Seconds behind the timeline before skipping to the frame due now")
+      ->capture_default_str();
   app.add_option("--wait-readers", wait_readers, "Wait until this many map readers matched")->capture_default_str();
   app.add_option("--wait-timeout", wait_timeout, "Longest wait for readers, seconds")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -86,6 +103,8 @@ int main(int argc, char** argv) {
     co.fast = fast;
     co.loop = loop;
     co.image_scale = image_scale;
+    co.start_ns = start_time_ns;
+    co.max_lag_s = max_lag;
     co.Check();
     auto participant = StartNode("capture", common);
     std::unique_ptr<RigSource> source;
@@ -100,15 +119,22 @@ int main(int argc, char** argv) {
       if (rig_path.empty()) throw std::invalid_argument("give --rig DIR or --synthetic");
       VideoRigOptions vo;
       vo.camera_ids = camera_ids;
+      vo.stop_requested = [] { return StopRequested(); };
       source = OpenVideoRig(rig_path, vo);
     }
-    CaptureWriters writers(*participant, jpeg_quality);
-    nodes::SystemClock clock;
-    nodes::CaptureController capture(co, clock, *source, writers);
-    spdlog::info("{} camera(s) of {}, {:.1f} fps{}", source->cameras().size(), source->rig_camera_count(),
-                 capture.rate(), fast ? " (unpaced)" : "");
     std::string name = "capture";
     for (size_t i = 0; i < camera_ids.size(); ++i) name += (i ? "," : "-") + std::to_string(camera_ids[i]);
+    CaptureWriters writers(*participant, jpeg_quality, name);
+    Reader<hullpipe_msg_CaptureTimeline> timelines(*participant);
+    nodes::SystemClock clock;
+    nodes::CaptureController capture(co, clock, *source, writers);
+    auto hear_timelines = [&] {
+      timelines.TakeEach([&](const hullpipe_msg_CaptureTimeline& m, const dds_sample_info_t&) {
+        capture.OnTimeline(m.start_ns, m.fps);
+      });
+    };
+    spdlog::info("{} camera(s) of {}, {:.1f} fps{}", source->cameras().size(), source->rig_camera_count(),
+                 capture.rate(), fast ? " (unpaced)" : source->live() ? " (live)" : "");
     NodeReporter reporter(*participant, name, capture.counters());
     capture.PublishCalibration();
     if (wait_readers > 0) {
@@ -117,8 +143,13 @@ int main(int argc, char** argv) {
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
       spdlog::info("{} map reader(s) matched", writers.MatchedMapReaders());
     }
+    hear_timelines();
     capture.Start();
-    while (!StopRequested() && capture.Step()) reporter.Publish();
+    spdlog::info("capture timeline starts at {} ns", capture.timeline_start_ns());
+    while (!StopRequested() && capture.Step()) {
+      hear_timelines();
+      reporter.Publish();
+    }
     reporter.Publish(true);
     // Give reliable readers a moment to receive the tail before the writers go.
     std::this_thread::sleep_for(std::chrono::milliseconds(300));

@@ -36,6 +36,7 @@ extern "C" void OnSignal(int) { g_stop = 1; }
 struct NodeSpec {
   std::string name, exec, host = "localhost";
   std::vector<std::string> args;
+  double start_delay = 0;  ///< Seconds after the previous node started.
 };
 
 struct Child {
@@ -112,6 +113,11 @@ int main(int argc, char** argv) {
       s.exec = n["exec"].as<std::string>();
       if (n["host"]) s.host = n["host"].as<std::string>();
       if (n["args"]) s.args = n["args"].as<std::vector<std::string>>();
+      if (n["start_delay"]) {
+        s.start_delay = n["start_delay"].as<double>();
+        if (!(s.start_delay >= 0 && s.start_delay <= 60))
+          throw std::runtime_error("node " + s.name + ": start_delay must be seconds in [0, 60]");
+      }
       specs.push_back(s);
     }
   } catch (const std::exception& e) {
@@ -136,6 +142,11 @@ int main(int argc, char** argv) {
   std::printf("hullpipe_launch: domain %d, DDS config %s, logs in %s/logs\n", domain, dds_config.c_str(), out.c_str());
   std::vector<Child> children;
   for (const auto& spec : specs) {
+    // A staggered start (cameras on several machines start when they start).
+    const auto start_at = std::chrono::steady_clock::now() + std::chrono::duration<double>(spec.start_delay);
+    while (!g_stop && std::chrono::steady_clock::now() < start_at)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    if (g_stop) break;
     std::vector<std::string> args;
     for (const auto& a : spec.args) {
       if (a == "${source}") {
@@ -178,6 +189,7 @@ int main(int argc, char** argv) {
     children.push_back(std::move(c));
   }
   std::fflush(stdout);
+  if (children.empty()) return 130;  // interrupted before anything started
 
   // Run until render_node (the parent pipe) ends, a node fails, or Ctrl-C.
   Child& render = children.front();

@@ -110,7 +110,9 @@ Rig LoadYamlRig(const fs::path& file) {
   const fs::path base = file.parent_path();
   auto resolve = [&](const YAML::Node& n) -> std::string {
     if (!n) return {};
-    const fs::path p = n.as<std::string>();
+    const std::string spec = n.as<std::string>();
+    if (RigCamera::IsLiveSpec(spec)) return spec;  // a device or a URL, not a path
+    const fs::path p = spec;
     return p.is_absolute() ? p.string() : (base / p).string();
   };
   int index = 0;
@@ -145,6 +147,15 @@ Rig LoadYamlRig(const fs::path& file) {
     rc.background = resolve(cam["background"]);
     rc.frames = resolve(cam["frames"]);
     rc.masks = resolve(cam["masks"]);
+    if (const YAML::Node l = cam["latency"]) {
+      try {
+        rc.latency_s = l.as<double>();
+      } catch (const YAML::Exception&) {
+        rc.latency_s = -1;
+      }
+      if (!(rc.latency_s >= 0 && rc.latency_s <= 10))
+        throw CalibrationError(path + ": camera " + std::to_string(c.id) + ": key 'latency' must be seconds in [0, 10]");
+    }
     rig.cameras.push_back(std::move(rc));
     ++index;
   }
@@ -196,6 +207,10 @@ Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width,
   return c;
 }
 
+bool RigCamera::IsLiveSpec(const std::string& spec) {
+  return spec.rfind("v4l2:", 0) == 0 || spec.find("://") != std::string::npos;
+}
+
 std::vector<Camera> Rig::Cameras() const {
   std::vector<Camera> out;
   for (const auto& rc : cameras) out.push_back(rc.camera);
@@ -234,6 +249,7 @@ void WriteRigYaml(const Rig& rig, const std::string& path) {
     if (!rc.background.empty()) out << YAML::Key << "background" << YAML::Value << rc.background;
     if (!rc.frames.empty()) out << YAML::Key << "frames" << YAML::Value << rc.frames;
     if (!rc.masks.empty()) out << YAML::Key << "masks" << YAML::Value << rc.masks;
+    if (rc.latency_s != 0) out << YAML::Key << "latency" << YAML::Value << rc.latency_s;
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;

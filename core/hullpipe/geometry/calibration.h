@@ -45,6 +45,15 @@ struct RigCamera {
   std::string background;  ///< Empty-scene video or image for the background model.
   std::string frames;      ///< Live-scene video, or printf-style image pattern.
   std::string masks;       ///< Optional ready-made object-pixel maps (printf pattern).
+  /// Live cameras (frames "v4l2:N" or a stream URL such as udp://, rtsp://, http://):
+  /// seconds from the moment a frame was exposed to its arrival in capture_node
+  /// (the camera's and the network's delay), subtracted from the arrival time to
+  /// stamp the frame; [0, 10]. YAML key `latency`.
+  double latency_s = 0;
+  /// True if `frames` is a live source rather than a file.
+  bool live() const { return IsLiveSpec(frames); }
+  /// True for "v4l2:N" and URLs ("scheme://...").
+  static bool IsLiveSpec(const std::string& spec);
 };
 
 /// A calibrated rig: its cameras in id order.

@@ -1,5 +1,8 @@
 #include "hullpipe/reconstruction/frameset.h"
 
+#include <algorithm>
+#include <random>
+
 #include <gtest/gtest.h>
 
 #include "hullpipe/evaluation/synthetic.h"
@@ -17,10 +20,10 @@ class Assembler : public ::testing::Test {
 TEST_F(Assembler, CompletesWhenAllCamerasArrived) {
   FramesetAssembler a(4);
   for (const auto& c : cams_) a.SetCamera(c);
-  EXPECT_TRUE(a.AddMap(1, 7, 100, 3, Map()));
+  EXPECT_TRUE(a.AddMap(1, 7, 100, 3, Map(), nullptr, 0.28));  // the reference camera's source time counts
   EXPECT_TRUE(a.AddMap(2, 7, 100, 3, Map()));
   EXPECT_FALSE(a.IsComplete(7));
-  EXPECT_TRUE(a.AddMap(3, 7, 100, 3, Map(), nullptr, 0.28));
+  EXPECT_TRUE(a.AddMap(3, 7, 100, 3, Map()));
   ASSERT_TRUE(a.IsComplete(7));
   const auto f = a.Take(7);
   ASSERT_TRUE(f);
@@ -72,11 +75,10 @@ TEST_F(Assembler, MapsBeforeCameraInfoAreParkedThenChecked) {
 }
 
 TEST_F(Assembler, UnknownCameraIsRejectedWhenItsFrameIsEvicted) {
-  FramesetAssembler a(1);
+  FramesetAssembler a(1);  // history of 3 samples per camera
   for (const auto& c : cams_) a.SetCamera(c);
-  a.AddMap(99, 1, 0, 3, Map());  // no CameraInfo for camera 99
-  a.AddMap(1, 2, 0, 3, Map());   // evicts frame 1
-  EXPECT_EQ(a.rejected(), 1u);
+  for (uint64_t s = 1; s <= 4; ++s) a.AddMap(99, s, int64_t(s), 3, Map());  // no CameraInfo for camera 99
+  EXPECT_EQ(a.rejected(), 1u);  // its first map left the history
   std::string why;
   EXPECT_FALSE(a.AddMap(1, 3, 0, 3, cv::Mat(24, 31, CV_8UC1), &why));
   EXPECT_NE(why.find("calibration says 32x24"), std::string::npos) << why;
@@ -90,8 +92,7 @@ TEST_F(Assembler, MapsEvictedBeforeALateCameraInfoAreDroppedNotRejected) {
   FramesetAssembler a(1);
   a.SetCamera(cams_[0]);
   a.SetCamera(cams_[1]);
-  a.AddMap(3, 1, 0, 3, Map());  // camera 3's calibration is late
-  a.AddMap(1, 2, 0, 3, Map());  // evicts frame 1
+  for (uint64_t s = 1; s <= 4; ++s) a.AddMap(3, s, int64_t(s), 3, Map());  // camera 3's calibration is late
   EXPECT_EQ(a.rejected(), 1u);
   const uint64_t dropped = a.dropped();
   a.SetCamera(cams_[2]);  // id 3 arrives
@@ -107,6 +108,203 @@ TEST_F(Assembler, ImagesCanBeRequired) {
   for (int id = 1; id <= 3; ++id) a.AddImage(id, 1, 0, cv::Mat(12, 16, CV_8UC3, cv::Scalar(1, 2, 3)));
   ASSERT_TRUE(a.IsComplete(1));
   EXPECT_EQ(a.Take(1)->images.size(), 3u);
+}
+
+
+// Framesets by capture time: cameras that are not frame-locked.
+constexpr int64_t kMs = 1000000;
+
+struct Shot {
+  int camera;
+  uint64_t seq;
+  int64_t t_ns;
+};
+
+// Each camera's shots in its own order; `period_ms` and `offset_ms` per camera.
+std::vector<std::vector<Shot>> Streams(const std::vector<double>& period_ms, const std::vector<double>& offset_ms,
+                                       int frames, double jitter_ms = 0, unsigned seed = 1) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(-jitter_ms, jitter_ms);
+  std::vector<std::vector<Shot>> out(period_ms.size());
+  for (size_t c = 0; c < period_ms.size(); ++c)
+    for (int i = 0; i < frames; ++i)
+      out[c].push_back({int(c) + 1, uint64_t(i + 1),
+                        int64_t((1000 + offset_ms[c] + i * period_ms[c] + (jitter_ms > 0 ? jitter(rng) : 0)) * kMs)});
+  return out;
+}
+
+// All shots merged in the order they would arrive from several capture hosts:
+// each after a random transport delay of up to 40 ms (two frame periods), each
+// camera's in its own order (one reliable writer per camera).
+std::vector<Shot> Interleave(const std::vector<std::vector<Shot>>& streams, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> delay_ms(0, 40);
+  std::vector<std::pair<int64_t, Shot>> arrivals;
+  for (const auto& stream : streams) {
+    int64_t previous = 0;
+    for (const Shot& s : stream) {
+      previous = std::max(previous, s.t_ns + int64_t(delay_ms(rng) * kMs));
+      arrivals.push_back({previous, s});
+    }
+  }
+  std::stable_sort(arrivals.begin(), arrivals.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Shot> out;
+  for (const auto& [t, s] : arrivals) out.push_back(s);
+  return out;
+}
+
+class TimedAssembler : public Assembler {
+ protected:
+  void Add(FramesetAssembler& a, const Shot& s, uint64_t source = 0) {
+    a.AddMap(s.camera, s.seq, s.t_ns, 3, Map(), nullptr, 0, source);
+  }
+  // Feeds every shot, taking each frameset as soon as it is complete (oldest
+  // first, as recon does when poses name them); returns reference seq -> skews.
+  std::map<uint64_t, std::vector<int64_t>> Run(FramesetAssembler& a, const std::vector<Shot>& shots) {
+    for (const auto& c : cams_) a.SetCamera(c);
+    std::map<uint64_t, std::vector<int64_t>> taken;
+    for (const Shot& s : shots) {
+      Add(a, s);
+      for (uint64_t seq = 1; seq <= 400; ++seq)
+        if (a.IsComplete(seq)) taken[seq] = a.Take(seq)->skew_ns;
+    }
+    return taken;
+  }
+};
+
+TEST_F(TimedAssembler, TheNearestSampleOfEachCameraIsChosen) {
+  // 20 ms cameras; camera 2 runs 7 ms after camera 1, camera 3 6 ms before it.
+  FramesetAssembler a(6);
+  const auto taken = Run(a, Interleave(Streams({20, 20, 20}, {0, 7, -6}, 20), 3));
+  ASSERT_GE(taken.size(), 18u);
+  for (const auto& [seq, skew] : taken) {
+    ASSERT_EQ(skew.size(), 3u);
+    EXPECT_EQ(skew[0], 0);
+    EXPECT_EQ(skew[1], 7 * kMs) << seq;   // 7 ms beats the 13 ms of the frame before
+    EXPECT_EQ(skew[2], -6 * kMs) << seq;  // -6 ms beats the 14 ms of the frame after
+  }
+  EXPECT_EQ(a.dropped_for_skew(), 0u);
+  const auto r = a.SkewReports();
+  ASSERT_EQ(r.size(), 3u);
+  EXPECT_NEAR(r[1].skew_ms_max, 7.0, 1e-9);
+  EXPECT_NEAR(r[2].skew_ms_p50, 6.0, 1e-9);
+  EXPECT_NEAR(r[0].period_ms, 20.0, 1e-9);
+  EXPECT_NEAR(a.tolerance_s(), 0.010, 1e-12);  // half the slowest camera's period
+}
+
+TEST_F(TimedAssembler, TheChoiceDoesNotDependOnTheOrderOfArrival) {
+  // Several nodes assemble the same traffic in different orders: they must build
+  // the same framesets, or recon tiles of one frameset would disagree.
+  // (A fixed tolerance: the default one is measured from recent frames, which a
+  // node that started later has seen fewer of.)
+  const auto streams = Streams({20, 21, 19.5}, {0, 9, -4}, 60, 2.0, 7);
+  FramesetAssembler all_at_once(100);
+  all_at_once.SetTolerance(0.0105);
+  for (const auto& c : cams_) all_at_once.SetCamera(c);
+  for (const Shot& s : Interleave(streams, 1)) Add(all_at_once, s);
+  std::map<uint64_t, std::vector<int64_t>> reference;
+  for (uint64_t seq = 1; seq <= 60; ++seq)
+    if (all_at_once.IsComplete(seq)) reference[seq] = all_at_once.Take(seq)->skew_ns;
+  ASSERT_GE(reference.size(), 40u);
+  for (unsigned order = 2; order < 8; ++order) {
+    FramesetAssembler a(100);
+    a.SetTolerance(0.0105);
+    const auto taken = Run(a, Interleave(streams, order));
+    for (const auto& [seq, skew] : taken) {
+      ASSERT_TRUE(reference.count(seq)) << "order " << order << " frameset " << seq;
+      EXPECT_EQ(skew, reference.at(seq)) << "order " << order << " frameset " << seq;
+    }
+    EXPECT_EQ(taken.size(), reference.size()) << "order " << order;
+  }
+}
+
+TEST_F(TimedAssembler, JitterWithinHalfAPeriodLosesNothing) {
+  FramesetAssembler a(6);
+  const auto taken = Run(a, Interleave(Streams({20, 20, 20}, {0, 3, -2}, 200, 3.0, 11), 5));
+  // Offsets of 3 and 2 ms plus jitter of up to 3 ms on both sides: |skew| <= 9 ms
+  // < the 10 ms tolerance, so every frame but the last (undecided) is taken.
+  EXPECT_GE(taken.size(), 198u);
+  EXPECT_EQ(a.dropped_for_skew(), 0u);
+  for (const auto& r : a.SkewReports()) EXPECT_LE(r.skew_ms_max, 9.0 + 1e-9);
+}
+
+TEST_F(TimedAssembler, ACameraFivePercentSlowDriftsButStaysPartnered) {
+  FramesetAssembler a(6);
+  const auto taken = Run(a, Interleave(Streams({20, 21, 20}, {0, 0, 0}, 200), 9));
+  // Camera 2's phase walks through every value; its nearest frame is always
+  // within half of its 21 ms period, the tolerance.
+  EXPECT_GE(taken.size(), 188u);  // 200 reference frames; camera 2 has 190 in the same time
+  EXPECT_EQ(a.dropped_for_skew(), 0u);
+  EXPECT_NEAR(a.tolerance_s(), 0.0105, 1e-9);
+  EXPECT_LE(a.SkewReports()[1].skew_ms_max, 10.5 + 1e-9);
+}
+
+TEST_F(TimedAssembler, AMissingCameraStallsFramesetsUntilItReturnsAndIsCountedOnce) {
+  auto streams = Streams({20, 20, 20}, {0, 1, 2}, 150);
+  // Camera 3 pauses for one second: frames 40..89 never come.
+  streams[2].erase(streams[2].begin() + 39, streams[2].begin() + 89);
+  FramesetAssembler a(6);
+  const auto taken = Run(a, Interleave(streams, 4));
+  for (uint64_t seq = 41; seq <= 89; ++seq) EXPECT_FALSE(taken.count(seq)) << seq;
+  EXPECT_GE(taken.size(), 97u);  // 150 - 50 missing - the last, undecided
+  const auto r = a.SkewReports();
+  EXPECT_EQ(r[2].pauses, 1u);
+  EXPECT_EQ(r[0].pauses + r[1].pauses, 0u);
+  EXPECT_GT(r[0].unpartnered + a.dropped(), 0u);
+}
+
+TEST_F(TimedAssembler, ARestartedCameraIsFollowed) {
+  FramesetAssembler a(6);
+  for (const auto& c : cams_) a.SetCamera(c);
+  auto streams = Streams({20, 20, 20}, {0, 0, 0}, 60);
+  // Camera 2's node restarts after frame 30: a new writer, frame numbers from 1.
+  for (size_t i = 30; i < 60; ++i) streams[1][i].seq = i - 29;
+  int taken = 0;
+  for (size_t i = 0; i < 60; ++i)
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_TRUE(a.AddMap(c + 1, streams[c][i].seq, streams[c][i].t_ns, 3, Map(), nullptr, 0,
+                           c == 1 && i >= 30 ? 2 : 1));
+      if (auto f = a.TakeNewest()) ++taken;
+    }
+  EXPECT_EQ(taken, 60);
+  EXPECT_EQ(a.SkewReports()[1].restarts, 1u);
+  EXPECT_EQ(a.restarts(), 0u);  // not the reference camera: frameset ids go on
+}
+
+TEST_F(TimedAssembler, AClockOffBeyondTheToleranceIsDetectedAndCounted) {
+  FramesetAssembler a(6);
+  a.SetTolerance(0.005);
+  // Camera 3's host clock is 8 ms ahead: its nearest frame is 8 ms (or 12 ms) off.
+  const auto taken = Run(a, Interleave(Streams({20, 20, 20}, {0, 1, 8}, 40), 2));
+  // Positive control: with camera 3 at 1 ms every frameset would be taken
+  // (TheNearestSampleOfEachCameraIsChosen); here none is.
+  EXPECT_TRUE(taken.empty());
+  EXPECT_GE(a.dropped_for_skew(), 25u);  // 40 reference frames, the newest 8 still pending
+  EXPECT_EQ(a.SkewReports()[2].clock_offsets, 1u);  // one episode, logged once
+  EXPECT_EQ(a.SkewReports()[1].clock_offsets, 0u);
+}
+
+TEST_F(TimedAssembler, CaptureTimesThatDisagreeWithArrivalNameTheCamera) {
+  // Arrival on the assembling node's clock minus the stamped capture time: a
+  // camera stamped in the future, or much later than the others, has a clock off.
+  // With live cameras this is the only sign: pairing by nearest time alone would
+  // quietly match frames from different instants.
+  for (const double camera3_delay_ms : {-25.0, 150.0, 20.0}) {
+    FramesetAssembler a(6);
+    for (const auto& c : cams_) a.SetCamera(c);
+    const auto streams = Streams({20, 20, 20}, {0, 1, 2}, 40);
+    for (size_t i = 0; i < 40; ++i)
+      for (int c = 0; c < 3; ++c) {
+        const Shot& s = streams[c][i];
+        const double delay_ms = c == 2 ? camera3_delay_ms : 5.0 + c;
+        a.AddMap(s.camera, s.seq, s.t_ns, 3, Map(), nullptr, 0, 0, s.t_ns + int64_t(delay_ms * kMs));
+      }
+    const auto r = a.SkewReports();
+    // 20 ms later than the others is transport and processing (< 50 ms): the control.
+    EXPECT_EQ(r[2].clock_offsets, camera3_delay_ms == 20.0 ? 0u : 1u) << camera3_delay_ms;
+    EXPECT_EQ(r[0].clock_offsets + r[1].clock_offsets, 0u);
+  }
 }
 
 }  // namespace

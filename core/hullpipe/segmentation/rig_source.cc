@@ -1,7 +1,13 @@
 #include "hullpipe/segmentation/rig_source.h"
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -9,6 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/geometry/calibration.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/evaluation/synthetic.h"
 
 namespace hullpipe {
@@ -18,10 +25,101 @@ bool Selected(const std::vector<int>& ids, int id) {
   return ids.empty() || std::find(ids.begin(), ids.end(), id) != ids.end();
 }
 
+// Live captures give up a blocking open or read after these, so a reader thread
+// notices a stop request within half a second (every process stops within a
+// second of SIGINT) and a silent stream is reported rather than waited on forever.
+constexpr int kLiveOpenTimeoutMs = 3000, kLiveReadTimeoutMs = 500;
+
 cv::VideoCapture OpenCapture(const std::string& spec) {
-  if (spec.rfind("v4l2:", 0) == 0) return cv::VideoCapture(std::stoi(spec.substr(5)), cv::CAP_V4L2);
+  if (spec.rfind("v4l2:", 0) == 0) {
+    int index = -1;
+    try {
+      index = std::stoi(spec.substr(5));
+    } catch (const std::exception&) {
+    }
+    if (index < 0) throw std::runtime_error("'" + spec + "': expected v4l2:<device index>");
+    return cv::VideoCapture(index, cv::CAP_V4L2);
+  }
+  if (RigCamera::IsLiveSpec(spec))
+    return cv::VideoCapture(spec, cv::CAP_FFMPEG,
+                            {cv::CAP_PROP_OPEN_TIMEOUT_MSEC, kLiveOpenTimeoutMs, cv::CAP_PROP_READ_TIMEOUT_MSEC,
+                             kLiveReadTimeoutMs});
   return cv::VideoCapture(spec, cv::CAP_ANY);
 }
+
+// Reads one live camera on its own thread, as fast as it delivers, stamping each
+// frame on arrival (before it waits for the capture loop), into a short queue
+// (latest wins: the oldest frame is dropped and counted when it is full).
+class LiveReader {
+ public:
+  LiveReader(int camera_id, std::string spec, std::mutex& mu, std::condition_variable& cv)
+      : id_(camera_id), spec_(std::move(spec)), mu_(mu), cv_(cv) {
+    thread_ = std::thread([this] { Run(); });
+  }
+  ~LiveReader() {
+    stop_ = true;
+    thread_.join();
+  }
+  /// Under the shared mutex: takes the oldest queued frame.
+  bool Pop(cv::Mat* image, int64_t* arrival_ns) {
+    if (queue_.empty()) return false;
+    *image = std::move(queue_.front().second);
+    *arrival_ns = queue_.front().first;
+    queue_.pop_front();
+    return true;
+  }
+  bool HasFrame() const { return !queue_.empty(); }  // under the shared mutex
+  uint64_t overflow() const { return overflow_; }
+
+ private:
+  void Run() {
+    cv::VideoCapture cap;
+    bool told = false;
+    while (!stop_) {
+      if (!cap.isOpened()) {
+        try {
+          cap = OpenCapture(spec_);
+        } catch (const std::exception& e) {
+          spdlog::error("camera {}: {}", id_, e.what());
+          return;
+        }
+        if (!cap.isOpened()) {
+          if (!told) spdlog::warn("camera {}: cannot open {} yet; retrying", id_, spec_);
+          told = true;
+          for (int i = 0; i < 10 && !stop_; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+          continue;
+        }
+        if (told) spdlog::info("camera {}: {} opened", id_, spec_);
+        told = false;
+      }
+      cv::Mat img;
+      bool ok = false;
+      try {
+        ok = cap.read(img) && !img.empty();
+      } catch (const cv::Exception&) {
+        ok = false;
+      }
+      if (!ok) continue;  // a read time-out: the stream is silent; try again
+      const int64_t arrival = NowNs();
+      std::lock_guard<std::mutex> lock(mu_);
+      if (queue_.size() >= 4) {
+        queue_.pop_front();
+        ++overflow_;
+      }
+      queue_.emplace_back(arrival, std::move(img));
+      cv_.notify_all();
+    }
+  }
+
+  int id_;
+  std::string spec_;
+  std::mutex& mu_;
+  std::condition_variable& cv_;
+  std::deque<std::pair<int64_t, cv::Mat>> queue_;
+  std::atomic<bool> stop_{false};
+  uint64_t overflow_ = 0;
+  std::thread thread_;
+};
 
 class VideoRig final : public RigSource {
  public:
@@ -36,12 +134,46 @@ class VideoRig final : public RigSource {
       cam.camera = rc.camera;
       cam.frames_spec = rc.frames;
       cam.masks_spec = rc.masks;
-      if (rc.masks.empty()) cam.background = LearnBackground(rc);
+      cam.latency_ns = int64_t(rc.latency_s * 1e9);
+      cam.live = rc.live();
+      if (cam.live && !rc.masks.empty())
+        throw std::runtime_error("camera " + std::to_string(rc.camera.id) + ": a live camera cannot have masks");
+      if (rc.masks.empty() && !rc.background.empty()) cam.background = LearnBackground(rc);
       cams_.push_back(std::move(cam));
       cameras_.push_back(rc.camera);
     }
     if (cams_.empty()) throw std::runtime_error(path + ": none of the selected cameras is in the rig");
+    live_ = cams_.front().live;
+    for (const Cam& c : cams_)
+      if (c.live != live_)
+        throw std::runtime_error(path + ": the selected cameras mix live sources and files; run them in separate "
+                                        "capture nodes (--cameras)");
+    for (Cam& c : cams_) {
+      if (!c.live && c.masks_spec.empty() && c.background.empty())
+        throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": no background and no masks");
+    }
     OpenAll();
+    for (Cam& c : cams_)
+      if (c.live && c.background.empty()) LearnLiveBackground(c);
+  }
+  ~VideoRig() override {
+    for (Cam& c : cams_) c.reader.reset();
+  }
+  bool live() const override { return live_; }
+  bool Skip() override {
+    if (live_) return false;
+    int alive = 0;
+    for (Cam& c : cams_) {
+      if (c.ended) continue;
+      if (!c.frames.grab()) {
+        c.ended = true;
+        continue;
+      }
+      if (!c.masks_spec.empty()) c.masks.grab();
+      ++alive;
+    }
+    ++index_;
+    return alive > 0;
   }
   const std::vector<Camera>& cameras() const override { return cameras_; }
   int rig_camera_count() const override { return rig_camera_count_; }
@@ -51,8 +183,10 @@ class VideoRig final : public RigSource {
   bool Next(RigFrame* f) override {
     f->images.assign(cams_.size(), cv::Mat());
     f->maps.assign(cams_.size(), cv::Mat());
+    f->capture_ns.assign(cams_.size(), 0);
     f->errors.clear();
     f->time_s = double(index_) / fps_;
+    if (live_) return NextLive(f);
     int alive = 0;
     for (size_t i = 0; i < cams_.size(); ++i) {
       Cam& c = cams_[i];
@@ -101,6 +235,7 @@ class VideoRig final : public RigSource {
   }
 
   bool Rewind() override {
+    if (live_) return false;
     OpenAll();
     return true;
   }
@@ -112,7 +247,88 @@ class VideoRig final : public RigSource {
     cv::VideoCapture frames, masks;
     BackgroundModel background;
     bool ended = false;
+    bool live = false;
+    int64_t latency_ns = 0;
+    std::unique_ptr<LiveReader> reader;
   };
+
+  // Live: waits up to kLiveWaitS for any camera's frame, then takes one queued
+  // frame of every camera that has one. The input ends when no camera delivered
+  // for options_.live_timeout_s.
+  static constexpr double kLiveWaitS = 0.1;
+  bool NextLive(RigFrame* f) {
+    std::vector<std::pair<cv::Mat, int64_t>> got(cams_.size());
+    {
+      std::unique_lock<std::mutex> lock(live_mu_);
+      live_cv_.wait_for(lock, std::chrono::duration<double>(kLiveWaitS), [&] {
+        for (const Cam& c : cams_)
+          if (c.reader->HasFrame()) return true;
+        return false;
+      });
+      for (size_t i = 0; i < cams_.size(); ++i) cams_[i].reader->Pop(&got[i].first, &got[i].second);
+    }
+    const double now = MonotonicSeconds();
+    if (last_live_frame_s_ == 0) last_live_frame_s_ = now;
+    bool any = false;
+    for (size_t i = 0; i < cams_.size(); ++i) {
+      if (got[i].first.empty()) continue;
+      any = true;
+      Cam& c = cams_[i];
+      const cv::Mat& img = got[i].first;
+      if (img.type() != CV_8UC3 || img.cols != c.camera.width || img.rows != c.camera.height) {
+        f->errors.push_back("camera " + std::to_string(c.camera.id) + ": a frame of " + std::to_string(img.cols) +
+                            "x" + std::to_string(img.rows) + ", calibration says " + std::to_string(c.camera.width) +
+                            "x" + std::to_string(c.camera.height) + "; skipped");
+        continue;
+      }
+      f->images[i] = img;
+      f->maps[i] = c.background.Segment(img, options_.segmentation);
+      c.background.Follow(img, f->maps[i], options_.background_rate);
+      f->capture_ns[i] = got[i].second - c.latency_ns;
+    }
+    if (any) {
+      last_live_frame_s_ = now;
+      ++index_;
+      return true;
+    }
+    if (now - last_live_frame_s_ > options_.live_timeout_s) {
+      f->errors.push_back("no frame from any live camera for " + std::to_string(options_.live_timeout_s) +
+                          " s: input ended");
+      return false;
+    }
+    return true;  // nothing this time; the caller asks again
+  }
+
+  // A live camera without a background learns it from its first frames: the
+  // operator keeps the scene empty meanwhile.
+  void LearnLiveBackground(Cam& c) {
+    spdlog::info("camera {}: learning the background from its first {} frames: keep the scene empty", c.camera.id,
+                 options_.background_frames);
+    std::vector<cv::Mat> frames;
+    double last = MonotonicSeconds();
+    while (int(frames.size()) < options_.background_frames) {
+      cv::Mat img;
+      int64_t t;
+      {
+        std::unique_lock<std::mutex> lock(live_mu_);
+        live_cv_.wait_for(lock, std::chrono::duration<double>(kLiveWaitS), [&] { return c.reader->HasFrame(); });
+        c.reader->Pop(&img, &t);
+      }
+      if (options_.stop_requested && options_.stop_requested())
+        throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": stopped while learning the background");
+      if (img.empty()) {
+        if (MonotonicSeconds() - last > options_.live_timeout_s)
+          throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": no frame from " + c.frames_spec +
+                                   " for " + std::to_string(options_.live_timeout_s) + " s while learning the background");
+        continue;
+      }
+      last = MonotonicSeconds();
+      if (img.cols == c.camera.width && img.rows == c.camera.height && img.type() == CV_8UC3)
+        frames.push_back(img);
+    }
+    c.background = BackgroundModel(frames);
+    spdlog::info("camera {}: background learnt from {} frames; capturing", c.camera.id, frames.size());
+  }
 
   BackgroundModel LearnBackground(const RigCamera& rc) {
     if (rc.background.empty())
@@ -136,6 +352,10 @@ class VideoRig final : public RigSource {
   void OpenAll() {
     index_ = 0;
     for (Cam& c : cams_) {
+      if (c.live) {
+        c.reader = std::make_unique<LiveReader>(c.camera.id, c.frames_spec, live_mu_, live_cv_);
+        continue;
+      }
       c.frames = OpenCapture(c.frames_spec);
       if (!c.frames.isOpened())
         throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": cannot open " + c.frames_spec);
@@ -147,6 +367,10 @@ class VideoRig final : public RigSource {
   }
 
   VideoRigOptions options_;
+  std::mutex live_mu_;
+  std::condition_variable live_cv_;
+  bool live_ = false;
+  double last_live_frame_s_ = 0;
   std::vector<Cam> cams_;
   std::vector<Camera> cameras_;
   Aabb workspace_;
@@ -193,6 +417,11 @@ class SyntheticRig final : public RigSource {
   }
   bool Rewind() override {
     index_ = 0;
+    return true;
+  }
+  bool Skip() override {
+    if (index_ >= options_.frames) return false;
+    ++index_;  // nothing to render
     return true;
   }
 

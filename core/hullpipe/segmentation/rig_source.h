@@ -3,6 +3,7 @@
 // exact masks. Each Next() gives one frame of every selected camera.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,6 +23,10 @@ struct RigFrame {
   std::vector<cv::Mat> maps;    ///< CV_8UC1 object-pixel maps.
   std::vector<std::string> errors;
   double time_s = 0;            ///< Source time of the frame (frame index / fps).
+  /// Live sources: per camera, when its frame was captured (CLOCK_REALTIME ns:
+  /// arrival minus the camera's latency setting); 0 for file and synthetic
+  /// sources, whose frames take their due time on the capture timeline.
+  std::vector<int64_t> capture_ns;
 };
 
 /// A multi-camera source.
@@ -40,13 +45,29 @@ class RigSource {
   virtual bool Next(RigFrame* frame) = 0;
   /// Restarts from the first frame (for --loop). Returns false if not possible.
   virtual bool Rewind() = 0;
+  /// Passes over the next frame without segmenting it (joining a shared timeline
+  /// late). Returns false at the end of the input.
+  virtual bool Skip() {
+    RigFrame scratch;
+    return Next(&scratch);
+  }
+  /// True if frames come as the cameras deliver them (V4L2, network streams):
+  /// not paced, not skippable, stamped on arrival.
+  virtual bool live() const { return false; }
 };
 
 /// Options of the file/live source.
 struct VideoRigOptions {
   std::vector<int> camera_ids;   ///< Subset of camera ids (empty = all).
   SegmentationOptions segmentation;
-  int background_frames = 60;    ///< Frames of the background video to learn from.
+  int background_frames = 60;    ///< Frames of the background video (or of a live camera without one) to learn from.
+  /// Live cameras: the background model follows slow lighting change outside
+  /// object pixels at this rate per frame (BackgroundModel::Follow), [0, 1]; 0: fixed.
+  double background_rate = 0.05;
+  /// Live cameras: the input ends when no camera delivered a frame for this long, seconds.
+  double live_timeout_s = 5;
+  /// Polled while learning a live background (which waits for frames): true aborts.
+  std::function<bool()> stop_requested;
 };
 
 /// Opens a rig (LoadRig: Utrecht directory or YAML rig file). Each camera's

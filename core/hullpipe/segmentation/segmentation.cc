@@ -97,6 +97,27 @@ cv::Mat BackgroundModel::Segment(const cv::Mat& frame_bgr, const SegmentationOpt
   return map;
 }
 
+void BackgroundModel::Follow(const cv::Mat& frame_bgr, const cv::Mat& map, double rate) {
+  if (empty()) throw std::invalid_argument("BackgroundModel: not learnt");
+  if (frame_bgr.size() != size() || frame_bgr.type() != CV_8UC3 || map.size() != size() || map.type() != CV_8UC1)
+    throw std::invalid_argument("BackgroundModel::Follow: frame or map of another size or type than the model");
+  if (!(rate >= 0 && rate <= 1)) throw std::invalid_argument("BackgroundModel::Follow: rate must be in [0, 1]");
+  cv::Mat background;
+  cv::compare(map, 0, background, cv::CMP_EQ);
+  // Too little background visible to measure the light: keep the model.
+  if (cv::countNonZero(background) < int(0.05 * double(map.total()))) return;
+  if (background_f_.empty()) background_bgr_.convertTo(background_f_, CV_32FC3);
+  cv::Mat frame_f;
+  frame_bgr.convertTo(frame_f, CV_32FC3);
+  const cv::Scalar seen = cv::mean(frame_f, background), model = cv::mean(background_f_, background);
+  cv::Scalar gain;
+  for (int k = 0; k < 3; ++k) gain[k] = model[k] > 1 ? std::clamp(seen[k] / model[k], 0.5, 2.0) : 1.0;
+  cv::multiply(background_f_, gain, background_f_);
+  cv::accumulateWeighted(frame_f, background_f_, rate, background);
+  background_f_.convertTo(background_bgr_, CV_8UC3);
+  cv::cvtColor(background_bgr_, background_hsv_, cv::COLOR_BGR2HSV);
+}
+
 void CleanObjectPixelMap(cv::Mat& map, const SegmentationOptions& o) {
   if (o.open_radius > 0) {
     const int k = 2 * o.open_radius + 1;

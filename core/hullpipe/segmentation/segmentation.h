@@ -55,6 +55,14 @@ class BackgroundModel {
   /// 0/255). Throws std::invalid_argument if the frame's size or type differs.
   cv::Mat Segment(const cv::Mat& frame_bgr, const SegmentationOptions& options = {}) const;
 
+  /// Follows slow lighting change (the reference background of paper §3.1, kept
+  /// current for live cameras): scales the whole model by the frame's brightness
+  /// gain per channel, measured over the pixels `map` (CV_8UC1, the frame's
+  /// object-pixel map) calls background — so pixels hidden by the object follow too —
+  /// then blends those background pixels towards the frame at `rate` in [0, 1]
+  /// per frame. The spread is kept. Throws std::invalid_argument on sizes or types
+  /// that differ from the model's, or a rate outside [0, 1].
+  void Follow(const cv::Mat& frame_bgr, const cv::Mat& map, double rate);
   bool empty() const { return background_bgr_.empty(); }
   cv::Size size() const { return background_bgr_.size(); }
   const cv::Mat& background_bgr() const { return background_bgr_; }
@@ -63,6 +71,7 @@ class BackgroundModel {
   cv::Mat background_bgr_;  // CV_8UC3 median
   cv::Mat background_hsv_;  // CV_8UC3
   cv::Mat value_spread_;    // CV_32F, per-pixel robust spread of V (MAD * 1.4826)
+  cv::Mat background_f_;    // CV_32FC3, the model Follow() keeps (created on first use)
 };
 
 /// Removes speckle, fills cracks and holes, drops small components (the cleaning

@@ -13,6 +13,8 @@ void CaptureOptions::Check() const {
   if (!(fps == 0 || (std::isfinite(fps) && fps > 0 && fps <= 1000)))
     throw std::invalid_argument("--fps must be in (0, 1000] (0: the source's rate)");
   if (!(image_scale >= 0.05 && image_scale <= 1.0)) throw std::invalid_argument("--image-scale must be in [0.05, 1]");
+  if (start_ns < 0) throw std::invalid_argument("--start-time must be >= 0 (ns since the Unix epoch; 0: none)");
+  if (!(max_lag_s > 0 && max_lag_s <= 60)) throw std::invalid_argument("--max-lag must be in (0, 60] seconds");
 }
 
 CaptureController::CaptureController(CaptureOptions options, const Clock& clock, RigSource& source,
@@ -21,21 +23,74 @@ CaptureController::CaptureController(CaptureOptions options, const Clock& clock,
   rate_ = o_.fps > 0 ? o_.fps : source_.fps();
   if (!(std::isfinite(rate_) && rate_ > 0 && rate_ <= 1000))
     throw std::invalid_argument("the source's frame rate is " + std::to_string(rate_) + ": give --fps");
-  start_s_ = clock_.Now();
+  last_seq_.assign(source_.cameras().size(), 0);
+  start_ns_ = o_.start_ns;
 }
 
 void CaptureController::PublishCalibration() {
   for (const auto& c : source_.cameras()) sink_.PublishCameraInfo(c, source_.workspace());
 }
 
-void CaptureController::Start() { start_s_ = clock_.Now(); }
+void CaptureController::OnTimeline(int64_t start_ns, double fps) {
+  if (o_.fast || o_.start_ns != 0 || start_ns <= 0) return;  // unpaced, or told by the launcher
+  if (std::abs(fps - rate_) > 1e-6 * rate_) {
+    spdlog::warn("a capture timeline at {:.3f} fps was announced; this node runs at {:.3f} fps: ignored", fps, rate_);
+    return;
+  }
+  if (start_ns_ != 0 && start_ns >= start_ns_) return;
+  if (started_)
+    spdlog::info("adopting an earlier capture timeline ({:.3f} s earlier)", double(start_ns_ - start_ns) * 1e-9);
+  start_ns_ = start_ns;
+}
+
+void CaptureController::Start() {
+  if (start_ns_ == 0) start_ns_ = clock_.WallNs();
+  // Every node announces the timeline it runs on, so it outlives the first node.
+  if (!o_.fast) sink_.AnnounceTimeline(start_ns_, rate_);
+  started_ = true;
+}
+
+bool CaptureController::CatchUp(double lag_s, const char* why) {
+  auto due_now = [&] { return int64_t(std::floor(double(clock_.WallNs() - start_ns_) * 1e-9 * rate_)); };
+  if (due_now() - index_ <= int64_t(lag_s * rate_)) return true;
+  spdlog::info("{}: skipping frames {}..{} to the frame due now", why, index_ + 1, due_now());
+  // (Skipping takes time too: the frame due is asked again after each.)
+  while (index_ < due_now()) {
+    if (!source_.Skip()) {
+      if (o_.loop && source_.Rewind()) continue;
+      return false;
+    }
+    if (published_ > 0) counters_.Dropped();
+    ++index_;
+  }
+  return true;
+}
 
 bool CaptureController::Step() {
-  while (o_.frames <= 0 || published_ < o_.frames) {
-    // The frame's capture time is when it is due (paced) and read: latency
-    // downstream includes reading and segmenting it.
-    if (!o_.fast) clock_.SleepUntil(start_s_ + double(published_) / rate_);
-    const int64_t t_ns = clock_.WallNs();
+  if (!started_) Start();
+  const bool paced = !o_.fast && !source_.live();
+  // Paced nodes count frames on the timeline, so that every node of a run stops
+  // at the same frame however late it joined.
+  while (o_.frames <= 0 || (paced ? index_ : published_) < o_.frames) {
+    if (paced) {
+      // Join the timeline at the frame due now; later, skip only when far behind.
+      if (!CatchUp(published_ == 0 ? 0.0 : o_.max_lag_s,
+                   published_ == 0 ? "joining the capture timeline" : "behind the capture timeline")) {
+        spdlog::info("end of input after {} frames", published_);
+        return false;
+      }
+      // Wait for the frame's due time in slices, so a stop request is seen
+      // within kMaxWaitS even when the timeline starts in the future.
+      const int64_t wait_ns = DueNs(index_) - clock_.WallNs();
+      if (double(wait_ns) * 1e-9 > kMaxWaitS) {
+        clock_.SleepUntil(clock_.Now() + kMaxWaitS);
+        return true;
+      }
+      if (wait_ns > 0) clock_.SleepUntil(clock_.Now() + double(wait_ns) * 1e-9);
+    }
+    // Paced frames carry their due time: equal for every camera of one instant,
+    // in every process. Unpaced ones carry the time they were read.
+    const int64_t t_ns = paced ? DueNs(index_) : clock_.WallNs();
     bool ok;
     {
       StageTimer t(counters_, "read+segment");
@@ -50,21 +105,37 @@ bool CaptureController::Step() {
       spdlog::info("end of input after {} frames", published_);
       return false;
     }
-    ++seq_;
+    bool any = false;
+    for (const auto& m : frame_.maps) any = any || !m.empty();
+    if (source_.live() && !any) return true;  // no frame yet: ask again
     counters_.FrameIn();
     {
       StageTimer t(counters_, "publish");
       const uint32_t camera_count = uint32_t(source_.rig_camera_count());
       for (size_t i = 0; i < source_.cameras().size(); ++i) {
         if (frame_.maps[i].empty()) continue;
+        int64_t stamp = t_ns;
+        uint64_t seq = uint64_t(index_ + 1);
+        if (i < frame_.capture_ns.size() && frame_.capture_ns[i] != 0) {
+          // A live frame: its own stamp, numbered by its place on the timeline
+          // (strictly increasing per camera).
+          stamp = frame_.capture_ns[i];
+          seq = uint64_t(std::max<int64_t>(1, std::llround(double(stamp - start_ns_) * 1e-9 * rate_) + 1));
+        }
+        seq = std::max(seq, last_seq_[i] + 1);
+        last_seq_[i] = seq;
         cv::Mat img = frame_.images[i];
         if (o_.image_scale < 1.0) cv::resize(img, img, cv::Size(), o_.image_scale, o_.image_scale, cv::INTER_AREA);
-        sink_.PublishFrame(uint32_t(source_.cameras()[i].id), seq_, t_ns, frame_.time_s, camera_count,
+        sink_.PublishFrame(uint32_t(source_.cameras()[i].id), seq, stamp, frame_.time_s, camera_count,
                            frame_.maps[i], img);
       }
     }
+    ++index_;
     ++published_;
-    counters_.FrameOut(t_ns);
+    int64_t latency_from = t_ns;
+    for (const int64_t c : frame_.capture_ns)
+      if (c != 0) latency_from = c;  // a live frame: from its own stamp
+    counters_.FrameOut(latency_from);
     return true;
   }
   return false;

@@ -1,12 +1,21 @@
 // capture_node's run-time logic (paper §3.1): publishes every selected camera's
-// calibration once, then per frame, paced at the source's rate (or unpaced), one
-// object-pixel map and one colour image per camera under one frame sequence
-// number, with the frame's capture time (when it was due and read). Bad frames
-// are skipped and counted; the end of input ends the run (or rewinds with
-// loop). DDS-free; tests drive it with a FakeClock and a synthetic source.
+// calibration once, then per frame one object-pixel map and one colour image per
+// camera. Bad frames are skipped and counted; the end of input ends the run (or
+// rewinds with loop). DDS-free; tests drive it with a FakeClock.
+//
+// File and synthetic sources are paced on a capture timeline shared by every
+// capture node of the run: frame index i is due at start_ns + i / fps (wall
+// clock), is numbered i + 1 and stamped with that due time, so maps of one
+// instant carry equal capture times whichever process sent them. The first
+// capture node announces the timeline (or the launcher gives it); a node that
+// starts later joins at the frame due now, and every node adopts the earliest
+// start it hears of. Live sources are not paced: each frame is stamped on
+// arrival minus the camera's latency and numbered by its place on the timeline.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -25,6 +34,12 @@ struct CaptureOptions {
   bool fast = false;        ///< Do not pace.
   bool loop = false;        ///< Rewind at the end of input.
   double image_scale = 0.5;  ///< Scale of the published colour images, [0.05, 1].
+  /// The timeline's start (CLOCK_REALTIME ns; --start-time); 0: adopt an announced
+  /// one or announce one at Start().
+  int64_t start_ns = 0;
+  /// A paced node more than this many seconds behind the timeline skips ahead to
+  /// the frame due now (counted as dropped), (0, 60].
+  double max_lag_s = 0.5;
   /// Throws std::invalid_argument naming the flag out of range.
   void Check() const;
 };
@@ -37,6 +52,8 @@ class CaptureSink {
   /// One camera's map (CV_8UC1) and image (CV_8UC3, already scaled) of frame `seq`.
   virtual void PublishFrame(uint32_t camera_id, uint64_t seq, int64_t capture_time_ns, double source_time_s,
                             uint32_t camera_count, const cv::Mat& map, const cv::Mat& image) = 0;
+  /// The timeline this node starts (CaptureTimeline, transient-local).
+  virtual void AnnounceTimeline(int64_t start_ns, double fps) = 0;
 };
 
 class CaptureController {
@@ -44,12 +61,20 @@ class CaptureController {
   CaptureController(CaptureOptions options, const Clock& clock, RigSource& source, CaptureSink& sink);
   /// Publishes every camera's calibration (call once, before the first Step).
   void PublishCalibration();
-  /// Starts the pacing clock now (call after waiting for readers).
+  /// A timeline announced by another capture node (or this node's own, echoed):
+  /// adopted if it starts earlier than the one in use and has this node's rate.
+  void OnTimeline(int64_t start_ns, double fps);
+  /// Starts: on the --start-time timeline, else on one heard of (OnTimeline before
+  /// Start), else on a new one starting now, announced. Call after waiting for readers.
   void Start();
-  /// Waits for the next frame's due time, reads, segments and publishes it.
-  /// Returns false when the run is over (frames reached or end of input).
+  int64_t timeline_start_ns() const { return start_ns_; }
+  /// Waits for the next frame's due time (at most kMaxWaitS, then returns true
+  /// having published nothing), reads, segments and publishes it. Live sources:
+  /// publishes what the cameras delivered (maybe nothing yet). Returns false when
+  /// the run is over (frames reached or end of input).
   bool Step();
   int64_t published() const { return published_; }
+  static constexpr double kMaxWaitS = 0.2;
   double rate() const { return rate_; }
   NodeCounters& counters() { return counters_; }
   const NodeCounters& counters() const { return counters_; }
@@ -60,9 +85,16 @@ class CaptureController {
   RigSource& source_;
   CaptureSink& sink_;
   NodeCounters counters_;
+  /// Wall time of frame index `index` on the timeline.
+  int64_t DueNs(int64_t index) const { return start_ns_ + int64_t(std::llround(double(index) * 1e9 / rate_)); }
+  /// Skips the source ahead to the frame due now when it is behind by more than
+  /// `lag_s` (or at all, when joining). Returns false at the end of input.
+  bool CatchUp(double lag_s, const char* why);
   double rate_ = 0;
-  double start_s_ = 0;
-  uint64_t seq_ = 0;
+  int64_t start_ns_ = 0;
+  bool started_ = false;
+  int64_t index_ = 0;             ///< Timeline index of the next frame read.
+  std::vector<uint64_t> last_seq_;  ///< Per camera, the last frame_seq sent.
   int64_t published_ = 0;
   RigFrame frame_;
 };
