@@ -85,6 +85,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.05, 1.0))->capture_default_str();
   app.add_option("--jpeg", jpeg_quality, "Publish images as JPEG of this quality (0: raw BGR8)")
       ->check(CLI::Range(0, 100));
+  double live_timeout = 5;
+  app.add_option("--live-timeout", live_timeout, "Live cameras: end the input when none delivered for this long, s")
+      ->check(CLI::Range(0.2, 3600.0))
+      ->capture_default_str();
   int64_t start_time_ns = 0;
   double max_lag = 0.5;
   app.add_option("--start-time", start_time_ns,
@@ -120,6 +124,7 @@ int main(int argc, char** argv) {
       VideoRigOptions vo;
       vo.camera_ids = camera_ids;
       vo.stop_requested = [] { return StopRequested(); };
+      vo.live_timeout_s = live_timeout;
       source = OpenVideoRig(rig_path, vo);
     }
     std::string name = "capture";

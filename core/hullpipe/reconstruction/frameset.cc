@@ -231,6 +231,10 @@ FramesetAssembler::Evaluation FramesetAssembler::Evaluate(const Sample& ref) con
     } else if (cam.newest_removed_t_ns >= ref.t_ns - (after->t_ns - ref.t_ns)) {
       missing = true;  // the nearest may have left the history: undecidable
       continue;
+    } else if (cam.newest_removed_t_ns == INT64_MIN && cam.restarts == 0 &&
+               double(after->t_ns - ref.t_ns) > tol_ns) {
+      missing = true;  // the camera started after t_ref: no partner, not skew
+      continue;
     }
     if (std::abs(double(chosen->t_ns - ref.t_ns)) > tol_ns) {
       e.out_of_tolerance.push_back(id);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdlib>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -17,6 +18,7 @@
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/util/parallel.h"
 
 namespace hullpipe {
 namespace {
@@ -28,7 +30,7 @@ bool Selected(const std::vector<int>& ids, int id) {
 // Live captures give up a blocking open or read after these, so a reader thread
 // notices a stop request within half a second (every process stops within a
 // second of SIGINT) and a silent stream is reported rather than waited on forever.
-constexpr int kLiveOpenTimeoutMs = 3000, kLiveReadTimeoutMs = 500;
+constexpr int kLiveOpenTimeoutMs = 2000, kLiveReadTimeoutMs = 500;
 
 cv::VideoCapture OpenCapture(const std::string& spec) {
   if (spec.rfind("v4l2:", 0) == 0) {
@@ -40,56 +42,87 @@ cv::VideoCapture OpenCapture(const std::string& spec) {
     if (index < 0) throw std::runtime_error("'" + spec + "': expected v4l2:<device index>");
     return cv::VideoCapture(index, cv::CAP_V4L2);
   }
-  if (RigCamera::IsLiveSpec(spec))
+  if (RigCamera::IsLiveSpec(spec)) {
+    // FFmpeg probes a network stream for 5 s by default before the first frame
+    // (and again after each reopen): a camera joins within half a second instead.
+    // A user's own OPENCV_FFMPEG_CAPTURE_OPTIONS is kept.
+    setenv("OPENCV_FFMPEG_CAPTURE_OPTIONS", "analyzeduration;500000|probesize;500000|fflags;nobuffer", 0);
     return cv::VideoCapture(spec, cv::CAP_FFMPEG,
                             {cv::CAP_PROP_OPEN_TIMEOUT_MSEC, kLiveOpenTimeoutMs, cv::CAP_PROP_READ_TIMEOUT_MSEC,
                              kLiveReadTimeoutMs});
+  }
   return cv::VideoCapture(spec, cv::CAP_ANY);
 }
 
+// What a VideoRig and its live readers share: one lock and one wake-up for "a
+// frame arrived from any camera".
+struct LiveHub {
+  std::mutex mu;
+  std::condition_variable cv;
+};
+
 // Reads one live camera on its own thread, as fast as it delivers, stamping each
 // frame on arrival (before it waits for the capture loop), into a short queue
-// (latest wins: the oldest frame is dropped and counted when it is full).
+// (latest wins: the oldest frame is dropped and counted when it is full). The
+// thread owns its state with the reader: a reader destroyed while its thread is
+// blocked in FFmpeg (an open or read time-out, at most kLiveOpenTimeoutMs) lets
+// it finish alone, so the node stops at once.
 class LiveReader {
  public:
-  LiveReader(int camera_id, std::string spec, std::mutex& mu, std::condition_variable& cv)
-      : id_(camera_id), spec_(std::move(spec)), mu_(mu), cv_(cv) {
-    thread_ = std::thread([this] { Run(); });
+  LiveReader(int camera_id, std::string spec, std::shared_ptr<LiveHub> hub)
+      : s_(std::make_shared<State>()) {
+    s_->id = camera_id;
+    s_->spec = std::move(spec);
+    s_->hub = std::move(hub);
+    thread_ = std::thread([s = s_] { Run(*s); });
   }
   ~LiveReader() {
-    stop_ = true;
-    thread_.join();
+    s_->stop = true;
+    for (int i = 0; i < 25 && !s_->done; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (s_->done)
+      thread_.join();
+    else
+      thread_.detach();  // it holds its own state; it ends when FFmpeg returns
   }
-  /// Under the shared mutex: takes the oldest queued frame.
+  /// Under the hub's mutex: takes the oldest queued frame.
   bool Pop(cv::Mat* image, int64_t* arrival_ns) {
-    if (queue_.empty()) return false;
-    *image = std::move(queue_.front().second);
-    *arrival_ns = queue_.front().first;
-    queue_.pop_front();
+    if (s_->queue.empty()) return false;
+    *image = std::move(s_->queue.front().second);
+    *arrival_ns = s_->queue.front().first;
+    s_->queue.pop_front();
     return true;
   }
-  bool HasFrame() const { return !queue_.empty(); }  // under the shared mutex
-  uint64_t overflow() const { return overflow_; }
+  bool HasFrame() const { return !s_->queue.empty(); }  // under the hub's mutex
 
  private:
-  void Run() {
+  struct State {
+    int id = 0;
+    std::string spec;
+    std::shared_ptr<LiveHub> hub;
+    std::deque<std::pair<int64_t, cv::Mat>> queue;
+    std::atomic<bool> stop{false}, done{false};
+    uint64_t overflow = 0;
+  };
+  static void Run(State& s) {
     cv::VideoCapture cap;
     bool told = false;
-    while (!stop_) {
+    int failures = 0;
+    while (!s.stop) {
       if (!cap.isOpened()) {
         try {
-          cap = OpenCapture(spec_);
+          cap = OpenCapture(s.spec);
         } catch (const std::exception& e) {
-          spdlog::error("camera {}: {}", id_, e.what());
-          return;
+          spdlog::error("camera {}: {}", s.id, e.what());
+          break;
         }
+        if (s.stop) break;
         if (!cap.isOpened()) {
-          if (!told) spdlog::warn("camera {}: cannot open {} yet; retrying", id_, spec_);
+          if (!told) spdlog::warn("camera {}: cannot open {} yet; retrying", s.id, s.spec);
           told = true;
-          for (int i = 0; i < 10 && !stop_; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+          for (int i = 0; i < 10 && !s.stop; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
           continue;
         }
-        if (told) spdlog::info("camera {}: {} opened", id_, spec_);
+        if (told) spdlog::info("camera {}: {} opened", s.id, s.spec);
         told = false;
       }
       cv::Mat img;
@@ -99,25 +132,30 @@ class LiveReader {
       } catch (const cv::Exception&) {
         ok = false;
       }
-      if (!ok) continue;  // a read time-out: the stream is silent; try again
-      const int64_t arrival = NowNs();
-      std::lock_guard<std::mutex> lock(mu_);
-      if (queue_.size() >= 4) {
-        queue_.pop_front();
-        ++overflow_;
+      if (!ok) {
+        // A read time-out: the stream is silent. FFmpeg's context does not recover
+        // from an interrupted read, so a camera silent for two time-outs is
+        // reopened (it is found again when it resumes).
+        if (++failures >= 2) {
+          cap.release();
+          failures = 0;
+        }
+        continue;
       }
-      queue_.emplace_back(arrival, std::move(img));
-      cv_.notify_all();
+      failures = 0;
+      const int64_t arrival = NowNs();
+      std::lock_guard<std::mutex> lock(s.hub->mu);
+      if (s.queue.size() >= 4) {
+        s.queue.pop_front();
+        ++s.overflow;
+      }
+      s.queue.emplace_back(arrival, std::move(img));
+      s.hub->cv.notify_all();
     }
+    s.done = true;
   }
 
-  int id_;
-  std::string spec_;
-  std::mutex& mu_;
-  std::condition_variable& cv_;
-  std::deque<std::pair<int64_t, cv::Mat>> queue_;
-  std::atomic<bool> stop_{false};
-  uint64_t overflow_ = 0;
+  std::shared_ptr<State> s_;
   std::thread thread_;
 };
 
@@ -187,48 +225,18 @@ class VideoRig final : public RigSource {
     f->errors.clear();
     f->time_s = double(index_) / fps_;
     if (live_) return NextLive(f);
+    // The cameras are read and segmented in parallel (one file each); errors are
+    // collected per camera and reported in camera order.
+    std::vector<std::vector<std::string>> errors(cams_.size());
+    std::vector<int> alive_of(cams_.size(), 0);
+    const int threads = std::max(1, std::min(int(cams_.size()), int(std::thread::hardware_concurrency())));
+    ForEachRowBand(int(cams_.size()), threads, [&](int c0, int c1, int) {
+      for (int ci = c0; ci < c1; ++ci) ReadOne(size_t(ci), f, &errors[size_t(ci)], &alive_of[size_t(ci)]);
+    });
     int alive = 0;
     for (size_t i = 0; i < cams_.size(); ++i) {
-      Cam& c = cams_[i];
-      if (c.ended) continue;
-      cv::Mat img;
-      bool ok = false;
-      try {
-        ok = c.frames.read(img);
-      } catch (const cv::Exception& e) {
-        ok = false;
-      }
-      if (!ok || img.empty()) {
-        c.ended = true;
-        f->errors.push_back("camera " + std::to_string(c.camera.id) + ": no more frames after frame " +
-                            std::to_string(index_) + " (end of input or unreadable video)");
-        continue;
-      }
-      ++alive;
-      if (img.type() != CV_8UC3 || img.cols != c.camera.width || img.rows != c.camera.height) {
-        f->errors.push_back("camera " + std::to_string(c.camera.id) + ": frame " + std::to_string(index_) +
-                            " is " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                            ", calibration says " + std::to_string(c.camera.width) + "x" +
-                            std::to_string(c.camera.height) + "; skipped");
-        continue;
-      }
-      cv::Mat map;
-      if (!c.masks_spec.empty()) {
-        cv::Mat m;
-        if (c.masks.read(m) && !m.empty()) {
-          if (m.channels() == 3) cv::cvtColor(m, m, cv::COLOR_BGR2GRAY);
-          if (m.size() == img.size()) map = m > 0;
-        }
-        if (map.empty()) {
-          f->errors.push_back("camera " + std::to_string(c.camera.id) + ": mask of frame " +
-                              std::to_string(index_) + " unreadable or of the wrong size; skipped");
-          continue;
-        }
-      } else {
-        map = c.background.Segment(img, options_.segmentation);
-      }
-      f->images[i] = img;
-      f->maps[i] = map;
+      alive += alive_of[i];
+      for (auto& e : errors[i]) f->errors.push_back(std::move(e));
     }
     ++index_;
     return alive > 0;
@@ -252,6 +260,50 @@ class VideoRig final : public RigSource {
     std::unique_ptr<LiveReader> reader;
   };
 
+  // Reads and segments camera i's next frame into f (its own slots only).
+  void ReadOne(size_t i, RigFrame* f, std::vector<std::string>* errors, int* alive) {
+    Cam& c = cams_[i];
+    if (c.ended) return;
+    cv::Mat img;
+    bool ok = false;
+    try {
+      ok = c.frames.read(img);
+    } catch (const cv::Exception& e) {
+      ok = false;
+    }
+    if (!ok || img.empty()) {
+      c.ended = true;
+      errors->push_back("camera " + std::to_string(c.camera.id) + ": no more frames after frame " +
+                          std::to_string(index_) + " (end of input or unreadable video)");
+      return;
+    }
+    *alive = 1;
+    if (img.type() != CV_8UC3 || img.cols != c.camera.width || img.rows != c.camera.height) {
+      errors->push_back("camera " + std::to_string(c.camera.id) + ": frame " + std::to_string(index_) +
+                          " is " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+                          ", calibration says " + std::to_string(c.camera.width) + "x" +
+                          std::to_string(c.camera.height) + "; skipped");
+      return;
+    }
+    cv::Mat map;
+    if (!c.masks_spec.empty()) {
+      cv::Mat m;
+      if (c.masks.read(m) && !m.empty()) {
+        if (m.channels() == 3) cv::cvtColor(m, m, cv::COLOR_BGR2GRAY);
+        if (m.size() == img.size()) map = m > 0;
+      }
+      if (map.empty()) {
+        errors->push_back("camera " + std::to_string(c.camera.id) + ": mask of frame " +
+                            std::to_string(index_) + " unreadable or of the wrong size; skipped");
+        return;
+      }
+    } else {
+      map = c.background.Segment(img, options_.segmentation);
+    }
+    f->images[i] = img;
+    f->maps[i] = map;
+  }
+
   // Live: waits up to kLiveWaitS for any camera's frame, then takes one queued
   // frame of every camera that has one. The input ends when no camera delivered
   // for options_.live_timeout_s.
@@ -259,8 +311,8 @@ class VideoRig final : public RigSource {
   bool NextLive(RigFrame* f) {
     std::vector<std::pair<cv::Mat, int64_t>> got(cams_.size());
     {
-      std::unique_lock<std::mutex> lock(live_mu_);
-      live_cv_.wait_for(lock, std::chrono::duration<double>(kLiveWaitS), [&] {
+      std::unique_lock<std::mutex> lock(hub_->mu);
+      hub_->cv.wait_for(lock, std::chrono::duration<double>(kLiveWaitS), [&] {
         for (const Cam& c : cams_)
           if (c.reader->HasFrame()) return true;
         return false;
@@ -292,8 +344,7 @@ class VideoRig final : public RigSource {
       return true;
     }
     if (now - last_live_frame_s_ > options_.live_timeout_s) {
-      f->errors.push_back("no frame from any live camera for " + std::to_string(options_.live_timeout_s) +
-                          " s: input ended");
+      f->errors.push_back(cv::format("no frame from any live camera for %.1f s: input ended", options_.live_timeout_s));
       return false;
     }
     return true;  // nothing this time; the caller asks again
@@ -310,8 +361,8 @@ class VideoRig final : public RigSource {
       cv::Mat img;
       int64_t t;
       {
-        std::unique_lock<std::mutex> lock(live_mu_);
-        live_cv_.wait_for(lock, std::chrono::duration<double>(kLiveWaitS), [&] { return c.reader->HasFrame(); });
+        std::unique_lock<std::mutex> lock(hub_->mu);
+        hub_->cv.wait_for(lock, std::chrono::duration<double>(kLiveWaitS), [&] { return c.reader->HasFrame(); });
         c.reader->Pop(&img, &t);
       }
       if (options_.stop_requested && options_.stop_requested())
@@ -319,7 +370,7 @@ class VideoRig final : public RigSource {
       if (img.empty()) {
         if (MonotonicSeconds() - last > options_.live_timeout_s)
           throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": no frame from " + c.frames_spec +
-                                   " for " + std::to_string(options_.live_timeout_s) + " s while learning the background");
+                                   cv::format(" for %.1f s while learning the background", options_.live_timeout_s));
         continue;
       }
       last = MonotonicSeconds();
@@ -353,7 +404,7 @@ class VideoRig final : public RigSource {
     index_ = 0;
     for (Cam& c : cams_) {
       if (c.live) {
-        c.reader = std::make_unique<LiveReader>(c.camera.id, c.frames_spec, live_mu_, live_cv_);
+        c.reader = std::make_unique<LiveReader>(c.camera.id, c.frames_spec, hub_);
         continue;
       }
       c.frames = OpenCapture(c.frames_spec);
@@ -367,8 +418,7 @@ class VideoRig final : public RigSource {
   }
 
   VideoRigOptions options_;
-  std::mutex live_mu_;
-  std::condition_variable live_cv_;
+  std::shared_ptr<LiveHub> hub_ = std::make_shared<LiveHub>();
   bool live_ = false;
   double last_live_frame_s_ = 0;
   std::vector<Cam> cams_;
