@@ -2,8 +2,8 @@
 // YAML rig file, optionally pointing each camera's frames at a live source — how a
 // lab turns its calibration into the rig file of live cameras (README, "Cameras
 // on several machines and live cameras").
-//   hullpipe_rig convert ../shared/data/utrecht-4cam -o live.yaml \
-//       --frames 'udp://127.0.0.1:{5000+id}' --latency 0.05
+//   hullpipe_rig convert ../shared/data/utrecht-4cam -o live.yaml
+//       --frames 'udp://127.0.0.1:{5000+id}' --latency 0.05   (one command line)
 // {id} in --frames and --background is replaced by the camera id, {5000+id} by
 // 5000 plus the id (any base). Exit 0 when written; 1 with one line on error.
 #include <cstdio>
