@@ -32,8 +32,8 @@ class CaptureWriters final : public nodes::CaptureSink {
   }
   void PublishCameraInfo(const Camera& c, const Aabb& workspace) override { info_.Write(CameraToMsg(c, workspace)); }
   void PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count, const cv::Mat& map,
-                    const cv::Mat& image) override {
-    maps_.Write(MakeMapMessage(id, seq, t_ns, source_time_s, count, map).msg);
+                    const cv::Mat& image, const Rigid3d* cam_from_world) override {
+    maps_.Write(MakeMapMessage(id, seq, t_ns, source_time_s, count, map, cam_from_world).msg);
     images_.Write(MakeImageMessage(id, seq, t_ns, image, jpeg_).msg);
   }
   uint32_t MatchedMapReaders() const { return maps_.MatchedReaders(); }
@@ -75,6 +75,9 @@ int main(int argc, char** argv) {
   app.add_option("--synthetic-cameras", synthetic_options.cameras, "Number of synthetic cameras (3-16)")
       ->check(CLI::Range(1, 16))->capture_default_str();
   app.add_option("--synthetic-k1", synthetic_options.distortion[0], "Synthetic radial distortion k1")
+      ->capture_default_str();
+  app.add_option("--synthetic-tracked", synthetic_options.tracked_camera,
+                 "Synthetic camera that moves on a known path, its pose sent with each frame (0: none)")
       ->capture_default_str();
   app.add_option("--cameras", camera_ids, "Camera ids to capture (default: all)")->delimiter(',');
   app.add_option("--frames", frames, "Stop after this many frames (0: end of input)");

@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
     std::unique_ptr<gl::SweepBackend> backend = gl::MakeSweepBackend(backend_name, o.threads, o.refine);
     spdlog::info("tile {}/{}, backend {}", o.tile, o.tile_count, backend->Name());
     WaitSet ws(*participant);
-    FramesetInput input(*participant, ws, 8, /*with_images=*/true);
+    FramesetInput input(*participant, ws, kFramesetHistory, /*with_images=*/true);
     if (!(skew_tolerance_ms >= 0 && skew_tolerance_ms <= 1000))
       throw std::invalid_argument("--skew-tolerance must be in [0, 1000] ms");
     input.assembler().SetTolerance(skew_tolerance_ms * 1e-3);

@@ -154,7 +154,7 @@ int main(int argc, char** argv) {
     const bool have_display = std::getenv("DISPLAY") || std::getenv("WAYLAND_DISPLAY");
     fs::create_directories(out_dir);
     WaitSet ws(*participant);
-    FramesetInput input(*participant, ws, 8, false);
+    FramesetInput input(*participant, ws, kFramesetHistory, false);
     if (!(skew_tolerance_ms >= 0 && skew_tolerance_ms <= 1000))
       throw std::invalid_argument("--skew-tolerance must be in [0, 1000] ms");
     input.assembler().SetTolerance(skew_tolerance_ms * 1e-3);

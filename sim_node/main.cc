@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
     const SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path);
     auto participant = StartNode("sim", common);
     WaitSet ws(*participant);
-    FramesetInput input(*participant, ws, 6, false);
+    FramesetInput input(*participant, ws, kFramesetHistory, false);
     if (!(skew_tolerance_ms >= 0 && skew_tolerance_ms <= 1000))
       throw std::invalid_argument("--skew-tolerance must be in [0, 1000] ms");
     input.assembler().SetTolerance(skew_tolerance_ms * 1e-3);

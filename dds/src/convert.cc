@@ -70,7 +70,8 @@ Camera CameraFromMsg(const hullpipe_msg_CameraInfo& m, Aabb* ws) {
 
 OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint64_t frame_seq,
                                                         int64_t t, double source_time_s,
-                                                        uint32_t camera_count, const cv::Mat& map) {
+                                                        uint32_t camera_count, const cv::Mat& map,
+                                                        const Rigid3d* cam_from_world) {
   OwnedSample<hullpipe_msg_ObjectPixelMap> s;
   s.words = RunLengthEncode(map);
   auto& m = s.msg;
@@ -83,7 +84,25 @@ OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint
   m.camera_count = camera_count;
   m.encoding = hullpipe_msg_MAP_ENCODING_RLE;
   Borrow(&m.runs, s.words);
+  m.tracked = cam_from_world != nullptr;
+  if (cam_from_world) {
+    for (int i = 0; i < 9; ++i) m.cam_from_world_rotation[i] = cam_from_world->rotation(i / 3, i % 3);
+    for (int i = 0; i < 3; ++i) m.cam_from_world_translation[i] = cam_from_world->translation[i];
+  }
   return s;
+}
+
+std::optional<Rigid3d> MapPoseFromMsg(const hullpipe_msg_ObjectPixelMap& m) {
+  if (!m.tracked) return std::nullopt;
+  Rigid3d pose;
+  for (int i = 0; i < 9; ++i) pose.rotation(i / 3, i % 3) = m.cam_from_world_rotation[i];
+  for (int i = 0; i < 3; ++i) pose.translation[i] = m.cam_from_world_translation[i];
+  const bool finite = pose.rotation.allFinite() && pose.translation.allFinite();
+  if (!finite || (pose.rotation * pose.rotation.transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-6 ||
+      pose.rotation.determinant() < 0)
+    throw MessageError("ObjectPixelMap of camera " + std::to_string(m.camera_id) +
+                       ": its tracked pose is not a rotation and a finite translation");
+  return pose;
 }
 
 cv::Mat MapFromMsg(const hullpipe_msg_ObjectPixelMap& m) {

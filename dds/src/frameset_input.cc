@@ -38,7 +38,7 @@ void FramesetInput::Poll() {
       // The writer's handle tells a restarted capture node from a live one; the
       // arrival time, on this host's clock, checks the capture host's clock.
       if (!assembler_.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count), MapFromMsg(m),
-                             &why, m.source_time, info.publication_handle, NowNs()) &&
+                             &why, m.source_time, info.publication_handle, NowNs(), MapPoseFromMsg(m)) &&
           assembler_.rejected() > rejected_before)
         spdlog::warn("rejected: {}", why);
     } catch (const MessageError& e) {

@@ -147,6 +147,7 @@ Rig LoadYamlRig(const fs::path& file) {
     rc.background = resolve(cam["background"]);
     rc.frames = resolve(cam["frames"]);
     rc.masks = resolve(cam["masks"]);
+    rc.tracked = resolve(cam["tracked"]);
     if (const YAML::Node l = cam["latency"]) {
       try {
         rc.latency_s = l.as<double>();
@@ -250,6 +251,7 @@ void WriteRigYaml(const Rig& rig, const std::string& path) {
     if (!rc.frames.empty()) out << YAML::Key << "frames" << YAML::Value << rc.frames;
     if (!rc.masks.empty()) out << YAML::Key << "masks" << YAML::Value << rc.masks;
     if (rc.latency_s != 0) out << YAML::Key << "latency" << YAML::Value << rc.latency_s;
+    if (!rc.tracked.empty()) out << YAML::Key << "tracked" << YAML::Value << rc.tracked;
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;

@@ -50,6 +50,11 @@ struct RigCamera {
   /// (the camera's and the network's delay), subtracted from the arrival time to
   /// stamp the frame; [0, 10]. YAML key `latency`.
   double latency_s = 0;
+  /// A tracked camera (paper §5: the one on the head-mounted display): a pose log
+  /// in the head-pose CSV format (geometry/head_pose.h; world_from_camera, t = the
+  /// frame's source time) giving its pose per frame; empty: a fixed camera. YAML
+  /// key `tracked`.
+  std::string tracked;
   /// True if `frames` is a live source rather than a file.
   bool live() const { return IsLiveSpec(frames); }
   /// True for "v4l2:N" and URLs ("scheme://...").

@@ -1,6 +1,7 @@
 #include "hullpipe/geometry/calibration.h"
 
 #include <fstream>
+#include <iterator>
 
 #include <gtest/gtest.h>
 
@@ -66,7 +67,13 @@ TEST(Calibration, YamlRigRoundTrip) {
   Rig rig;
   for (const auto& c : RingCameras(3, 3.0, 2.0, Eigen::Vector3d(0, 0, -1), 320, 240, 1.0,
                                    Distortion{-0.2, 0.05, 0.001, -0.001, 0}))
-    rig.cameras.push_back({c, "bg.png", "frames_%03d.png", ""});
+    rig.cameras.push_back({c, "bg.png", "frames_%03d.png", "", 0.0, ""});
+  // A live camera: its URL is kept as written (not made a path), its latency and
+  // a tracked camera's pose log round-trip.
+  rig.cameras[1].frames = "udp://127.0.0.1:5002?overrun_nonfatal=1";
+  rig.cameras[1].latency_s = 0.045;
+  rig.cameras[2].frames = "v4l2:0";
+  rig.cameras[2].tracked = "poses.csv";
   rig.workspace.min = Eigen::Vector3d(-1, -1, -2);
   rig.workspace.max = Eigen::Vector3d(1, 1, 0);
   WriteRigYaml(rig, (dir / "rig.yaml").string());
@@ -83,6 +90,23 @@ TEST(Calibration, YamlRigRoundTrip) {
     EXPECT_EQ(back.cameras[i].background, (dir / "bg.png").string());  // relative to the file
   }
   EXPECT_NEAR((back.workspace.max - rig.workspace.max).norm(), 0, 1e-12);
+  EXPECT_EQ(back.cameras[1].frames, "udp://127.0.0.1:5002?overrun_nonfatal=1");
+  EXPECT_TRUE(back.cameras[1].live());
+  EXPECT_FALSE(back.cameras[0].live());
+  EXPECT_DOUBLE_EQ(back.cameras[1].latency_s, 0.045);
+  EXPECT_EQ(back.cameras[2].frames, "v4l2:0");
+  EXPECT_EQ(back.cameras[2].tracked, (dir / "poses.csv").string());
+  // A latency out of [0, 10] s is refused, naming the key.
+  std::ifstream in((dir / "rig.yaml").string());
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.replace(text.find("latency: 0.045"), 14, "latency: -1   ");
+  std::ofstream((dir / "bad.yaml").string()) << text;
+  try {
+    LoadRig((dir / "bad.yaml").string());
+    ADD_FAILURE() << "a negative latency was accepted";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("'latency'"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Calibration, YamlMissingKeyIsNamed) {

@@ -142,7 +142,8 @@ FramesetAssembler::Sample* FramesetAssembler::Slot(int camera_id, uint64_t seq, 
 }
 
 bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camera_count, cv::Mat map,
-                               std::string* why, double source_time_s, uint64_t source_id, int64_t arrival_ns) {
+                               std::string* why, double source_time_s, uint64_t source_id, int64_t arrival_ns,
+                               std::optional<Rigid3d> cam_from_world) {
   const auto cam = cameras_.find(camera_id);
   if (map.type() != CV_8UC1 || map.empty())
     return Reject(why, "map of camera " + std::to_string(camera_id) + " is not a CV_8UC1 image");
@@ -160,6 +161,7 @@ bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camer
   s->t_ns = t;  // the map's capture time is authoritative
   s->source_time_s = source_time_s;
   s->map = std::move(map);
+  s->cam_from_world = cam_from_world;
   if (arrival_ns != 0) CheckClock(camera_id, cams_[camera_id], t, arrival_ns);
   return true;
 }
@@ -304,8 +306,10 @@ std::optional<Frameset> FramesetAssembler::Take(uint64_t seq) {
   f.source_time_s = it->source_time_s;
   for (const auto& [id, s] : e.members) {
     const_cast<Sample*>(s)->partnered = true;
-    f.maps.push_back({cameras_.at(id), s->map});
-    if (!s->image.empty()) f.images.push_back({cameras_.at(id), s->image});
+    Camera camera = cameras_.at(id);
+    if (s->cam_from_world) camera.cam_from_world = *s->cam_from_world;  // a tracked camera's pose of this frame
+    f.maps.push_back({camera, s->map});
+    if (!s->image.empty()) f.images.push_back({camera, s->image});
     f.skew_ns.push_back(s->t_ns - it->t_ns);
     Cam& cam = cams_[id];
     cam.skew_ms.Add(std::abs(double(s->t_ns - it->t_ns)) * 1e-6);

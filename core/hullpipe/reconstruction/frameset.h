@@ -93,13 +93,16 @@ class FramesetAssembler {
   /// why) if the map is not CV_8UC1, its size differs from the calibration or
   /// camera_count is out of [1, 64]; false (counted as dropped) if the sample is
   /// older than the camera's newest and not far enough back to be a restart.
+  /// cam_from_world: a tracked camera's pose at this frame, used for it in the
+  /// frameset instead of the calibration's (paper §5: the head-mounted camera).
   /// arrival_ns: when it arrived, on this node's clock (0: unknown); a camera
   /// whose capture times disagree with their arrival — stamped in the future by
   /// more than the tolerance, or later than the other cameras' by more than
   /// max(tolerance, kClockCheckMinS) — has a clock off (logged once per episode,
   /// counted in clock_offsets).
   bool AddMap(int camera_id, uint64_t seq, int64_t capture_time_ns, int camera_count, cv::Mat map,
-              std::string* why = nullptr, double source_time_s = 0, uint64_t source_id = 0, int64_t arrival_ns = 0);
+              std::string* why = nullptr, double source_time_s = 0, uint64_t source_id = 0, int64_t arrival_ns = 0,
+              std::optional<Rigid3d> cam_from_world = std::nullopt);
   /// Adds one camera's colour image (CV_8UC3, any size) of frame `seq`; same rules.
   bool AddImage(int camera_id, uint64_t seq, int64_t capture_time_ns, cv::Mat image, std::string* why = nullptr,
                 uint64_t source_id = 0);
@@ -150,6 +153,7 @@ class FramesetAssembler {
     int64_t t_ns = 0;
     double source_time_s = 0;
     cv::Mat map, image;
+    std::optional<Rigid3d> cam_from_world;  ///< A tracked camera's pose of this frame.
     bool partnered = false;  ///< Member of a complete frameset.
   };
   struct Cam {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <chrono>
 #include <condition_variable>
@@ -17,6 +18,7 @@
 
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/geometry/head_pose.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/util/parallel.h"
 
@@ -173,6 +175,7 @@ class VideoRig final : public RigSource {
       cam.frames_spec = rc.frames;
       cam.masks_spec = rc.masks;
       cam.latency_ns = int64_t(rc.latency_s * 1e9);
+      if (!rc.tracked.empty()) cam.track = LoadPoseTrack(rc.tracked);
       cam.live = rc.live();
       if (cam.live && !rc.masks.empty())
         throw std::runtime_error("camera " + std::to_string(rc.camera.id) + ": a live camera cannot have masks");
@@ -222,8 +225,11 @@ class VideoRig final : public RigSource {
     f->images.assign(cams_.size(), cv::Mat());
     f->maps.assign(cams_.size(), cv::Mat());
     f->capture_ns.assign(cams_.size(), 0);
+    f->poses.assign(cams_.size(), std::nullopt);
     f->errors.clear();
     f->time_s = double(index_) / fps_;
+    for (size_t i = 0; i < cams_.size(); ++i)
+      if (!cams_[i].track.empty()) f->poses[i] = cams_[i].track.At(f->time_s).Inverse();
     if (live_) return NextLive(f);
     // The cameras are read and segmented in parallel (one file each); errors are
     // collected per camera and reported in camera order.
@@ -258,6 +264,7 @@ class VideoRig final : public RigSource {
     bool live = false;
     int64_t latency_ns = 0;
     std::unique_ptr<LiveReader> reader;
+    PoseTrack track;  ///< A tracked camera's world_from_camera by source time.
   };
 
   // Reads and segments camera i's next frame into f (its own slots only).
@@ -438,6 +445,9 @@ class SyntheticRig final : public RigSource {
     if (o.placement != "ring" && o.placement != "dome")
       throw std::invalid_argument("synthetic rig: placement must be ring or dome, not '" + o.placement + "'");
     const Eigen::Vector3d target = o.scene == "figure" ? Eigen::Vector3d(0, 0, -0.9) : Eigen::Vector3d(0, 0, -1.0);
+    target_ = target;
+    if (o.tracked_camera < 0 || o.tracked_camera > o.cameras)
+      throw std::invalid_argument("synthetic rig: the tracked camera must be one of 1.." + std::to_string(o.cameras));
     const auto all = o.placement == "dome"
                          ? DomeCameras(o.cameras, 3.0, target, o.width, o.height, o.hfov, o.distortion)
                          : RingCameras(o.cameras, 4.0, 2.0, target, o.width, o.height, o.hfov, o.distortion);
@@ -458,7 +468,13 @@ class SyntheticRig final : public RigSource {
     f->images.clear();
     f->maps.clear();
     f->errors.clear();
-    for (const auto& c : cameras_) {
+    f->poses.assign(cameras_.size(), std::nullopt);
+    for (size_t i = 0; i < cameras_.size(); ++i) {
+      Camera c = cameras_[i];
+      if (c.id == options_.tracked_camera) {
+        c.cam_from_world = SyntheticTrackedPose(cameras_[i], target_, f->time_s);
+        f->poses[i] = c.cam_from_world;
+      }
       f->maps.push_back(RenderExactMap(c, scene));
       f->images.push_back(RenderColour(c, scene));
     }
@@ -478,11 +494,20 @@ class SyntheticRig final : public RigSource {
  private:
   SyntheticRigOptions options_;
   std::vector<Camera> cameras_;
+  Eigen::Vector3d target_ = Eigen::Vector3d::Zero();
   Aabb workspace_;
   int64_t index_ = 0;
 };
 
 }  // namespace
+
+Rigid3d SyntheticTrackedPose(const Camera& calibrated, const Eigen::Vector3d& target, double t) {
+  const Rigid3d world_from_cam = calibrated.cam_from_world.Inverse();
+  Rigid3d move;  // about the vertical through the target, then up (-z)
+  move.rotation = Eigen::AngleAxisd(0.35 * std::sin(t), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  move.translation = target - move.rotation * target + Eigen::Vector3d(0.4 * std::sin(t), 0, -0.1 * std::sin(2 * t));
+  return (move * world_from_cam).Inverse();
+}
 
 std::unique_ptr<RigSource> OpenVideoRig(const std::string& rig_path, const VideoRigOptions& options) {
   return std::make_unique<VideoRig>(rig_path, options);

@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,9 @@ struct RigFrame {
   /// arrival minus the camera's latency setting); 0 for file and synthetic
   /// sources, whose frames take their due time on the capture timeline.
   std::vector<int64_t> capture_ns;
+  /// Per camera: a tracked camera's cam_from_world at this frame (empty optional:
+  /// a fixed camera, whose pose is its calibration's).
+  std::vector<std::optional<Rigid3d>> poses;
 };
 
 /// A multi-camera source.
@@ -89,7 +93,16 @@ struct SyntheticRigOptions {
   std::vector<int> camera_ids;   ///< Subset (empty = all).
   std::string scene = "figure";  ///< NamedScene: figure, hand, sphere, box, torus, mixed.
   std::string placement = "ring";  ///< ring (4 m around the scene, 2 m up) or dome (3 m).
+  /// A tracked camera (0: none): this camera moves on SyntheticTrackedPose's path and
+  /// each frame carries its pose.
+  int tracked_camera = 0;
 };
+
+/// The path of the synthetic source's tracked camera: its calibrated pose turned
+/// about the vertical axis through `target` by 0.35 sin(t) rad, then moved by
+/// 0.4 sin(t) m along world x and raised by 0.1 sin(2t) m (world z points down;
+/// it no longer looks at the target), t in seconds of source time.
+Rigid3d SyntheticTrackedPose(const Camera& calibrated, const Eigen::Vector3d& target, double t);
 
 /// The built-in synthetic scene (NamedScene, moving, seen by RingCameras or
 /// DomeCameras): exact maps, shaded colour, no files needed. Throws

@@ -38,8 +38,10 @@ void CaptureController::OnTimeline(int64_t start_ns, double fps) {
     return;
   }
   if (start_ns_ != 0 && start_ns >= start_ns_) return;
-  if (started_)
+  if (started_) {
     spdlog::info("adopting an earlier capture timeline ({:.3f} s earlier)", double(start_ns_ - start_ns) * 1e-9);
+    rejoin_ = true;  // at the frame due on it now, as when joining late
+  }
   start_ns_ = start_ns;
 }
 
@@ -74,8 +76,9 @@ bool CaptureController::Step() {
   while (o_.frames <= 0 || (paced ? index_ : published_) < o_.frames) {
     if (paced) {
       // Join the timeline at the frame due now; later, skip only when far behind.
-      if (!CatchUp(published_ == 0 ? 0.0 : o_.max_lag_s,
-                   published_ == 0 ? "joining the capture timeline" : "behind the capture timeline")) {
+      const bool join = published_ == 0 || rejoin_;
+      rejoin_ = false;
+      if (!CatchUp(join ? 0.0 : o_.max_lag_s, join ? "joining the capture timeline" : "behind the capture timeline")) {
         spdlog::info("end of input after {} frames", published_);
         return false;
       }
@@ -126,8 +129,9 @@ bool CaptureController::Step() {
         last_seq_[i] = seq;
         cv::Mat img = frame_.images[i];
         if (o_.image_scale < 1.0) cv::resize(img, img, cv::Size(), o_.image_scale, o_.image_scale, cv::INTER_AREA);
+        const Rigid3d* pose = i < frame_.poses.size() && frame_.poses[i] ? &*frame_.poses[i] : nullptr;
         sink_.PublishFrame(uint32_t(source_.cameras()[i].id), seq, stamp, frame_.time_s, camera_count,
-                           frame_.maps[i], img);
+                           frame_.maps[i], img, pose);
       }
     }
     ++index_;

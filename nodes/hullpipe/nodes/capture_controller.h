@@ -49,9 +49,11 @@ class CaptureSink {
  public:
   virtual ~CaptureSink() = default;
   virtual void PublishCameraInfo(const Camera& camera, const Aabb& workspace) = 0;
-  /// One camera's map (CV_8UC1) and image (CV_8UC3, already scaled) of frame `seq`.
+  /// One camera's map (CV_8UC1) and image (CV_8UC3, already scaled) of frame `seq`;
+  /// cam_from_world: a tracked camera's pose of this frame (nullptr: fixed).
   virtual void PublishFrame(uint32_t camera_id, uint64_t seq, int64_t capture_time_ns, double source_time_s,
-                            uint32_t camera_count, const cv::Mat& map, const cv::Mat& image) = 0;
+                            uint32_t camera_count, const cv::Mat& map, const cv::Mat& image,
+                            const Rigid3d* cam_from_world) = 0;
   /// The timeline this node starts (CaptureTimeline, transient-local).
   virtual void AnnounceTimeline(int64_t start_ns, double fps) = 0;
 };
@@ -93,6 +95,7 @@ class CaptureController {
   double rate_ = 0;
   int64_t start_ns_ = 0;
   bool started_ = false;
+  bool rejoin_ = false;  ///< An earlier timeline was adopted: skip to its frame due now.
   int64_t index_ = 0;             ///< Timeline index of the next frame read.
   std::vector<uint64_t> last_seq_;  ///< Per camera, the last frame_seq sent.
   int64_t published_ = 0;

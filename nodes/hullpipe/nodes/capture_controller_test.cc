@@ -1,6 +1,13 @@
 #include "hullpipe/nodes/capture_controller.h"
 
+#include <algorithm>
+#include <random>
+
 #include <gtest/gtest.h>
+
+#include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/reconstruction/frameset.h"
+#include "hullpipe/reconstruction/volume_query.h"
 
 namespace hullpipe::nodes {
 namespace {
@@ -19,7 +26,7 @@ struct CaptureRecorder final : CaptureSink {
   std::vector<std::pair<int64_t, double>> timelines;
   void AnnounceTimeline(int64_t start_ns, double fps) override { timelines.push_back({start_ns, fps}); }
   void PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double, uint32_t count, const cv::Mat& map,
-                    const cv::Mat& image) override {
+                    const cv::Mat& image, const Rigid3d*) override {
     frames.push_back({id, seq, t_ns, count, map.size(), image.size()});
   }
 };
@@ -128,6 +135,12 @@ TEST(Capture, NodesConvergeOnTheEarliestTimeline) {
   ASSERT_TRUE(c.Step());
   EXPECT_EQ(sink.frames.front().seq, 4u);
   EXPECT_EQ(sink.frames.front().t_ns, own - 120'000'000 + 3 * 40'000'000);
+  // Adopted while running: it rejoins at the frame due on the earlier timeline now
+  // (a node left behind on the old one would never catch up at the frame rate).
+  c.OnTimeline(own - 520'000'000, 25.0);
+  ASSERT_TRUE(c.Step());
+  EXPECT_EQ(sink.frames.back().seq, 14u) << "13 frames of 40 ms since the new start";
+  EXPECT_EQ(sink.frames.back().t_ns, own - 520'000'000 + 13 * 40'000'000);
   // A launcher-given start is never replaced.
   CaptureOptions given;
   given.start_ns = own + 5'000'000'000;  // 5 s in the future: Step waits in slices
@@ -138,6 +151,70 @@ TEST(Capture, NodesConvergeOnTheEarliestTimeline) {
   ASSERT_TRUE(d.Step());
   EXPECT_TRUE(sink2.frames.empty()) << "not due yet";
   EXPECT_EQ(d.timeline_start_ns(), given.start_ns);
+}
+
+// The paper's head-mounted camera: a tracked camera's pose travels with each of
+// its frames and the frameset uses it. Ground truth: the visual hull contains the
+// object, so every point 3 cm (more than a pixel) inside the synthetic sphere must be inside
+// the hull built from the frameset; the same maps with the calibrated (unmoved)
+// pose for the tracked camera are the control — they carve the sphere away.
+TEST(Capture, ATrackedCameraSendsItsPoseAndTheHullUsesIt) {
+  FakeClock clock;
+  SyntheticRigOptions so;
+  so.cameras = 4;
+  so.width = 192;
+  so.height = 144;
+  so.fps = 25;
+  so.frames = 10;
+  so.scene = "sphere";
+  so.tracked_camera = 2;
+  auto source = OpenSyntheticRig(so);
+  struct ToAssembler final : CaptureSink {
+    FramesetAssembler a{8};
+    void PublishCameraInfo(const Camera& c, const Aabb& ws) override {
+      a.SetCamera(c);
+      a.SetWorkspace(ws);
+    }
+    void PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count,
+                      const cv::Mat& map, const cv::Mat&, const Rigid3d* pose) override {
+      a.AddMap(int(id), seq, t_ns, int(count), map.clone(), nullptr, source_time_s, 0, 0,
+               pose ? std::optional<Rigid3d>(*pose) : std::nullopt);
+    }
+    void AnnounceTimeline(int64_t, double) override {}
+  } sink;
+  CaptureController c({}, clock, *source, sink);
+  c.PublishCalibration();
+  c.Start();
+  for (int k = 0; k < 7; ++k) ASSERT_TRUE(c.Step());  // frame 6 at 0.24 s: the camera has moved 4.8 deg
+  auto fs = sink.a.TakeNewest();
+  ASSERT_TRUE(fs);
+  const Camera& calibrated = source->cameras()[1];
+  const Rigid3d expected = SyntheticTrackedPose(calibrated, Eigen::Vector3d(0, 0, -1.0), fs->source_time_s);
+  ASSERT_EQ(fs->maps[1].camera.id, 2);
+  EXPECT_LT((fs->maps[1].camera.cam_from_world.rotation - expected.rotation).norm(), 1e-12);
+  EXPECT_LT((fs->maps[1].camera.cam_from_world.translation - expected.translation).norm(), 1e-12);
+  const Eigen::Vector3d moved_centre = expected.Inverse().translation;
+  EXPECT_GT((moved_centre - calibrated.Center()).norm(), 0.2) << "the camera moved";
+  const SyntheticScene scene = NamedScene("sphere", fs->source_time_s);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.6, 0.6);
+  std::vector<Eigen::Vector3d> inside;
+  while (inside.size() < 2000) {
+    const Eigen::Vector3d p = Eigen::Vector3d(0, 0, -1.0) + Eigen::Vector3d(u(rng), u(rng), u(rng));
+    double d = 1e9;
+    for (const auto& sh : scene.shapes) d = std::min(d, sh.SignedDistance(p));
+    // A pixel spans 2.3 cm at the sphere (1 rad over 192 pixels, 4.5 m away): a
+    // point 3 cm inside projects onto pixels whose centres see the sphere.
+    if (d < -0.03) inside.push_back(p);
+  }
+  auto misses = [&](const std::vector<CameraMap>& maps) {
+    const VolumeQuery hull(maps, sink.a.workspace());
+    return std::count_if(inside.begin(), inside.end(), [&](const Eigen::Vector3d& p) { return !hull.Inside(p); });
+  };
+  EXPECT_EQ(misses(fs->maps), 0);
+  std::vector<CameraMap> unmoved = fs->maps;
+  unmoved[1].camera = calibrated;
+  EXPECT_GT(misses(unmoved), 100) << "control: the calibrated pose must carve the moved camera's sphere away";
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <stdexcept>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -62,9 +63,14 @@ void Borrow(Seq* seq, std::vector<T>& v) {
 }
 
 /// ObjectPixelMap of one camera's map (CV_8UC1), run-length encoded.
+/// cam_from_world: a tracked camera's pose at this frame (nullptr: a fixed camera).
 OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint64_t frame_seq,
                                                         int64_t capture_time_ns, double source_time_s,
-                                                        uint32_t camera_count, const cv::Mat& map);
+                                                        uint32_t camera_count, const cv::Mat& map,
+                                                        const Rigid3d* cam_from_world = nullptr);
+/// A tracked camera's pose of this frame; nullopt for a fixed camera. Throws
+/// MessageError if the rotation is not orthonormal (1e-6) or a value not finite.
+std::optional<Rigid3d> MapPoseFromMsg(const hullpipe_msg_ObjectPixelMap& msg);
 /// Decoded map (CV_8UC1 0/255). Throws MessageError on a bad encoding or size.
 cv::Mat MapFromMsg(const hullpipe_msg_ObjectPixelMap& msg);
 

@@ -12,6 +12,11 @@
 
 namespace hullpipe::dds {
 
+/// Frames kept per camera while a frameset waits for its partners: half a second
+/// at 50 fps, the lag (capture_node --max-lag) a capture host may fall behind the
+/// others before it skips ahead, so a lagging host's frames still find theirs.
+constexpr size_t kFramesetHistory = 24;
+
 class FramesetInput {
  public:
   /// Creates the readers and attaches them to `waitset`. max_pending and
