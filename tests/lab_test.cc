@@ -26,10 +26,10 @@ int Sh(const std::string& cmd) { return std::system((cmd + " >/dev/null 2>&1").c
 // The namespaces and links of one test; removed on destruction.
 struct Lab {
   std::string tag;
-  std::vector<std::string> hosts = {"cap", "rec", "ren"};
+  std::vector<std::string> hosts;
   std::vector<std::string> addr;
   bool ok = false;
-  explicit Lab(const std::string& t) : tag(t) {
+  Lab(const std::string& t, std::vector<std::string> host_names) : tag(t), hosts(std::move(host_names)) {
     const int net = 100 + getpid() % 100;
     if (Sh("ip netns add " + Ns("sw"))) return;
     ok = Sh("ip netns exec " + Ns("sw") + " ip link add br0 type bridge") == 0 &&
@@ -65,11 +65,14 @@ struct Lab {
   }
 };
 
-// Runs the five nodes, each through `prefix(host)` (empty: this machine),
-// synthetic source, 40 frames at 8 fps (slow enough that nothing is dropped).
+// Runs the nodes, each through `prefix(host)` (empty: this machine), synthetic
+// source, 40 frames at 8 fps (slow enough that nothing is dropped). One capture
+// node on host "cap", or with capture_per_camera one per camera on hosts
+// "cap1".."cap4", all given one capture timeline starting `start_delay_s` from
+// now (so every node publishes from the first frame, as the one node does).
 nlohmann::json RunPipeline(const std::filesystem::path& out, const std::function<std::vector<std::string>(const std::string&)>& prefix,
                            const std::function<std::string(const std::string&)>& config,
-                           const std::function<void()>& while_running = {}) {
+                           const std::function<void()>& while_running = {}, bool capture_per_camera = false) {
   const std::string domain = std::to_string(test::UniqueDomain());
   std::vector<std::unique_ptr<test::Process>> procs;
   auto start = [&](const std::string& host, const std::string& exe, std::vector<std::string> args) {
@@ -87,17 +90,74 @@ nlohmann::json RunPipeline(const std::filesystem::path& out, const std::function
   start("ren", "sim_node", {});
   start("rec", "recon_node", {"--tile", "0/2"});
   start("rec", "recon_node", {"--tile", "1/2"});
-  start("cap", "capture_node", {"--synthetic", "--frames", "40", "--fps", "8", "--wait-readers", "4",
-                                "--wait-timeout", "40"});
+  if (capture_per_camera) {
+    const std::string start_ns = std::to_string(NowNs() + int64_t(15e9));  // the nodes' start-up fits in 15 s
+    for (int id = 1; id <= 4; ++id)
+      start("cap" + std::to_string(id), "capture_node",
+            {"--synthetic", "--cameras", std::to_string(id), "--frames", "40", "--fps", "8", "--wait-readers", "4",
+             "--wait-timeout", "40", "--start-time", start_ns});
+  } else {
+    start("cap", "capture_node", {"--synthetic", "--frames", "40", "--fps", "8", "--wait-readers", "4",
+                                  "--wait-timeout", "40"});
+  }
   if (while_running) while_running();
   EXPECT_EQ(render->Wait(120), 0) << test::ReadFile((out / "render_node0.log").string());
   for (auto& p : procs) p->Stop();
   return nlohmann::json::parse(test::ReadFile((out / "run" / "stats.json").string()));
 }
 
+// Identical images for every frame both runs composited (the view path and the
+// simulation follow the frames' source time, not the wall clock); returns how many.
+int CompareFrames(const std::filesystem::path& a_dir, const std::filesystem::path& b_dir) {
+  int common = 0;
+  for (const auto& e : std::filesystem::directory_iterator(a_dir)) {
+    const std::string png = e.path().filename().string();
+    if (png.rfind("frame_", 0) != 0 || !std::filesystem::exists(b_dir / png)) continue;
+    const cv::Mat a = cv::imread(e.path().string());
+    const cv::Mat b = cv::imread((b_dir / png).string());
+    EXPECT_FALSE(a.empty() || b.empty()) << png;
+    if (a.empty() || b.empty()) continue;
+    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << png;
+    ++common;
+  }
+  return common;
+}
+
+// Each camera on its own host (four capture nodes in four namespaces, their
+// framesets assembled by capture time), recon and render on two more: the same
+// composited frames, pixel for pixel, as one machine with one capture node.
+TEST(Lab, EachCameraOnItsOwnHostMatchesOneMachine) {
+  if (geteuid() != 0) GTEST_SKIP() << "network namespaces need root here";
+  Lab lab("hq" + std::to_string(getpid() % 100000), {"cap1", "cap2", "cap3", "cap4", "rec", "ren"});
+  if (!lab.ok) GTEST_SKIP() << "the kernel refused network namespaces or veth links";
+  const auto dir = test::TempDir("lab_cameras");
+  std::filesystem::create_directories(dir / "lab");
+  std::filesystem::create_directories(dir / "one");
+  const std::string ip = std::filesystem::exists("/usr/sbin/ip") ? "/usr/sbin/ip" : "/sbin/ip";
+  const auto lab_run = RunPipeline(
+      dir / "lab", [&](const std::string& h) { return std::vector<std::string>{ip, "netns", "exec", lab.Ns(h)}; },
+      [&](const std::string& h) { return lab.Config(dir, h); }, {}, true);
+  const std::string one_config = test::WriteLoopbackConfig(dir / "one");
+  const auto one_run = RunPipeline(
+      dir / "one", [](const std::string&) { return std::vector<std::string>{}; },
+      [&](const std::string&) { return one_config; });
+  EXPECT_GE(lab_run["frames_composited"].get<int>(), 36) << lab_run.dump(1);
+  EXPECT_GE(one_run["frames_composited"].get<int>(), 36) << one_run.dump(1);
+  for (int id = 1; id <= 4; ++id) {
+    const std::string node = "capture-" + std::to_string(id);
+    ASSERT_TRUE(lab_run["nodes"].contains(node)) << lab_run.dump(1);
+    EXPECT_EQ(lab_run["nodes"][node]["frames_out"].get<int>(), 40) << node;
+  }
+  // One timeline: every camera's frames at the reference time exactly.
+  for (const auto& [id, c] : lab_run["framesets"]["render"]["cameras"].items())
+    EXPECT_EQ(c["skew_ms_max"].get<double>(), 0.0) << "camera " << id;
+  EXPECT_EQ(lab_run["framesets"]["render"]["dropped_for_skew"].get<int>(), 0);
+  EXPECT_GE(CompareFrames(dir / "lab" / "run", dir / "one" / "run"), 32) << "frames composited in both runs";
+}
+
 TEST(Lab, ThreeHostsInNetworkNamespacesMatchOneMachine) {
   if (geteuid() != 0) GTEST_SKIP() << "network namespaces need root here";
-  Lab lab("hp" + std::to_string(getpid() % 100000));
+  Lab lab("hp" + std::to_string(getpid() % 100000), {"cap", "rec", "ren"});
   if (!lab.ok) GTEST_SKIP() << "the kernel refused network namespaces or veth links";
   const auto dir = test::TempDir("lab");
   std::filesystem::create_directories(dir / "lab");
@@ -135,20 +195,8 @@ TEST(Lab, ThreeHostsInNetworkNamespacesMatchOneMachine) {
     EXPECT_EQ(lab_run["nodes"][node]["dropped"].get<int>(), 0) << node;
   }
   EXPECT_EQ(lab_run["nodes"]["render"]["rejected"].get<int>(), 0);
-  // The same frames composited the same way: identical images for every frame
-  // both runs composited (the view path and the simulation follow the frames'
-  // source time, not the wall clock).
-  int common = 0;
-  for (const auto& e : std::filesystem::directory_iterator(dir / "lab" / "run")) {
-    const std::string png = e.path().filename().string();
-    if (png.rfind("frame_", 0) != 0 || !std::filesystem::exists(dir / "one" / "run" / png)) continue;
-    const cv::Mat a = cv::imread(e.path().string());
-    const cv::Mat b = cv::imread((dir / "one" / "run" / png).string());
-    ASSERT_FALSE(a.empty() || b.empty()) << png;
-    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << png;
-    ++common;
-  }
-  EXPECT_GE(common, 32) << "frames composited in both runs";
+  // The same frames composited the same way.
+  EXPECT_GE(CompareFrames(dir / "lab" / "run", dir / "one" / "run"), 32) << "frames composited in both runs";
 }
 
 }  // namespace
