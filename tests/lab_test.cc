@@ -125,6 +125,24 @@ int CompareFrames(const std::filesystem::path& a_dir, const std::filesystem::pat
   return common;
 }
 
+// The pipeline in the lab's namespaces (under dir/lab) and then on this machine
+// alone (under dir/one, one capture node); returns both runs' stats.json.
+std::pair<nlohmann::json, nlohmann::json> RunLabThenOneMachine(const Lab& lab, const std::filesystem::path& dir,
+                                                               const std::function<void()>& while_running,
+                                                               bool capture_per_camera) {
+  std::filesystem::create_directories(dir / "lab");
+  std::filesystem::create_directories(dir / "one");
+  const std::string ip = std::filesystem::exists("/usr/sbin/ip") ? "/usr/sbin/ip" : "/sbin/ip";
+  auto lab_run = RunPipeline(
+      dir / "lab", [&](const std::string& h) { return std::vector<std::string>{ip, "netns", "exec", lab.Ns(h)}; },
+      [&](const std::string& h) { return lab.Config(dir, h); }, while_running, capture_per_camera);
+  const std::string one_config = test::WriteLoopbackConfig(dir / "one");
+  auto one_run = RunPipeline(
+      dir / "one", [](const std::string&) { return std::vector<std::string>{}; },
+      [&](const std::string&) { return one_config; });
+  return {std::move(lab_run), std::move(one_run)};
+}
+
 // Each camera on its own host (four capture nodes in four namespaces, their
 // framesets assembled by capture time), recon and render on two more: the same
 // composited frames, pixel for pixel, as one machine with one capture node.
@@ -133,16 +151,7 @@ TEST(Lab, EachCameraOnItsOwnHostMatchesOneMachine) {
   Lab lab("hq" + std::to_string(getpid() % 100000), {"cap1", "cap2", "cap3", "cap4", "rec", "ren"});
   if (!lab.ok) GTEST_SKIP() << "the kernel refused network namespaces or veth links";
   const auto dir = test::TempDir("lab_cameras");
-  std::filesystem::create_directories(dir / "lab");
-  std::filesystem::create_directories(dir / "one");
-  const std::string ip = std::filesystem::exists("/usr/sbin/ip") ? "/usr/sbin/ip" : "/sbin/ip";
-  const auto lab_run = RunPipeline(
-      dir / "lab", [&](const std::string& h) { return std::vector<std::string>{ip, "netns", "exec", lab.Ns(h)}; },
-      [&](const std::string& h) { return lab.Config(dir, h); }, {}, true);
-  const std::string one_config = test::WriteLoopbackConfig(dir / "one");
-  const auto one_run = RunPipeline(
-      dir / "one", [](const std::string&) { return std::vector<std::string>{}; },
-      [&](const std::string&) { return one_config; });
+  const auto [lab_run, one_run] = RunLabThenOneMachine(lab, dir, {}, true);
   EXPECT_GE(lab_run["frames_composited"].get<int>(), 36) << lab_run.dump(1);
   EXPECT_GE(one_run["frames_composited"].get<int>(), 36) << one_run.dump(1);
   for (int id = 1; id <= 4; ++id) {
@@ -162,12 +171,8 @@ TEST(Lab, ThreeHostsInNetworkNamespacesMatchOneMachine) {
   Lab lab("hp" + std::to_string(getpid() % 100000), {"cap", "rec", "ren"});
   if (!lab.ok) GTEST_SKIP() << "the kernel refused network namespaces or veth links";
   const auto dir = test::TempDir("lab");
-  std::filesystem::create_directories(dir / "lab");
-  std::filesystem::create_directories(dir / "one");
-  const std::string ip = std::filesystem::exists("/usr/sbin/ip") ? "/usr/sbin/ip" : "/sbin/ip";
-  const auto lab_run = RunPipeline(
-      dir / "lab", [&](const std::string& h) { return std::vector<std::string>{ip, "netns", "exec", lab.Ns(h)}; },
-      [&](const std::string& h) { return lab.Config(dir, h); },
+  const auto [lab_run, one_run] = RunLabThenOneMachine(
+      lab, dir,
       [&] {
         // The nodes really run inside the hosts' namespaces (each shows a
         // process within 10 s of its start).
@@ -182,11 +187,8 @@ TEST(Lab, ThreeHostsInNetworkNamespacesMatchOneMachine) {
           }
           EXPECT_TRUE(any) << "no process in namespace " << lab.Ns(h);
         }
-      });
-  const std::string one_config = test::WriteLoopbackConfig(dir / "one");
-  const auto one_run = RunPipeline(
-      dir / "one", [](const std::string&) { return std::vector<std::string>{}; },
-      [&](const std::string&) { return one_config; });
+      },
+      false);
   // Capture runs at 8 fps, well under what the pipeline composites: nearly every
   // frame is composited in both runs (one may be superseded at start-up while
   // the nodes warm up), with nothing rejected or dropped on the links.
