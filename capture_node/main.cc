@@ -88,6 +88,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.05, 1.0))->capture_default_str();
   app.add_option("--jpeg", jpeg_quality, "Publish images as JPEG of this quality (0: raw BGR8)")
       ->check(CLI::Range(0, 100));
+  int background_frames = 60;
+  app.add_option("--background-frames", background_frames,
+                 "Frames of each camera's background video (or, for a live camera without one, of its first "
+                 "frames) to learn the background from")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
   double live_timeout = 5;
   app.add_option("--live-timeout", live_timeout, "Live cameras: end the input when none delivered for this long, s")
       ->check(CLI::Range(0.2, 3600.0))
@@ -128,6 +134,7 @@ int main(int argc, char** argv) {
       vo.camera_ids = camera_ids;
       vo.stop_requested = [] { return StopRequested(); };
       vo.live_timeout_s = live_timeout;
+      vo.background_frames = background_frames;
       source = OpenVideoRig(rig_path, vo);
     }
     std::string name = "capture";

@@ -78,6 +78,12 @@ int main(int argc, char** argv) {
   app.add_option("--dds-config", dds_config, "Cyclone XML config (default: loopback config written to --out)");
   app.add_option("--bin-dir", bin_dir, "Directory of the node executables (default: beside this one)");
   app.add_option("--grace", grace, "Seconds between SIGINT and SIGKILL at shutdown")->capture_default_str();
+  double start_in = 0;
+  app.add_option("--start-in", start_in,
+                 "Give the capture nodes one timeline starting this many seconds after launch, as ${start_time} "
+                 "(0: the first capture node announces one)")
+      ->check(CLI::Range(0.0, 600.0))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   if (rig.empty() == !synthetic) {
     std::fprintf(stderr, "give exactly one of --rig DIR or --synthetic\n");
@@ -131,7 +137,12 @@ int main(int argc, char** argv) {
   const std::map<std::string, std::string> vars = {
       {"out", out},       {"frames", std::to_string(frames)}, {"backend", backend},
       {"width", std::to_string(width)}, {"height", std::to_string(height)}, {"scene", fs::absolute(scene).string()},
-      {"planes", std::to_string(planes)}};
+      {"planes", std::to_string(planes)},
+      {"start_time", std::to_string(start_in > 0 ? std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                                       std::chrono::system_clock::now().time_since_epoch())
+                                                               .count() +
+                                                           int64_t(start_in * 1e9)
+                                                     : 0)}};
 
   struct sigaction sa = {};
   sa.sa_handler = OnSignal;

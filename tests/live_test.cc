@@ -18,6 +18,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/dds.h"
+#include "hullpipe/dds/topics.h"
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
 #include "test_util.h"
@@ -153,6 +156,59 @@ TEST(LiveCameras, FourCaptureNodesOnUnsynchronisedStreamsCompositeWhatOneNodeDoe
   // The second without camera 2 is seen as a pause (and the node goes on).
   EXPECT_GE(four.pauses_of_paused_camera, 1) << four.logs;
   EXPECT_GE(one.pauses_of_paused_camera, 1) << one.logs;
+}
+
+// A live camera without a background learns it from its first frames while the
+// operator keeps the scene empty. The stand-in camera sends the rig's empty-scene
+// video for 3 s, then the seated person: the maps published after learning are
+// empty while the scene is (below 0.5% of the pixels: cleaning removes speckle),
+// and the person shows once they appear (the positive control: above 2%).
+TEST(LiveCameras, ACameraWithoutABackgroundLearnsItFromItsFirstFrames) {
+  if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
+  if (std::system("ffmpeg -hide_banner -version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no ffmpeg";
+  const auto dir = test::TempDir("live_learn");
+  const std::string config = test::WriteLoopbackConfig(dir);
+  const uint32_t domain = test::UniqueDomain();
+  const int port = 20000 + int(domain) * 10 + 9;
+  Rig rig = LoadRig(test::RigDir());
+  rig.cameras.resize(1);
+  const std::string background = rig.cameras[0].background, video = rig.cameras[0].frames;
+  rig.cameras[0].background.clear();
+  rig.cameras[0].frames = "udp://127.0.0.1:" + std::to_string(port) + "?overrun_nonfatal=1&fifo_size=50000";
+  WriteRigYaml(rig, (dir / "live.yaml").string());
+  setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);  // this process's participant: loopback too
+  dds::Participant participant(domain);
+  dds::Reader<hullpipe_msg_ObjectPixelMap> maps(participant);
+  const std::string log = (dir / "capture.log").string();
+  auto capture = test::StartExe("capture_node",
+                                {"--rig", (dir / "live.yaml").string(), "--background-frames", "30", "--frames",
+                                 "70", "--wait-readers", "1", "--wait-timeout", "30", "--live-timeout", "3"},
+                                domain, config, log);
+  test::Process camera({"ffmpeg", "-nostdin", "-hide_banner", "-loglevel", "error", "-readrate", "1", "-i",
+                        background, "-readrate", "1", "-i", video, "-filter_complex",
+                        "[0:v]trim=duration=3,setpts=PTS-STARTPTS,fps=25[a];"
+                        "[1:v]trim=duration=4,setpts=PTS-STARTPTS,fps=25[b];[a][b]concat=n=2:v=1[out]",
+                        "-map", "[out]", "-fps_mode", "vfr", "-c:v", "mpeg4", "-q:v", "3", "-g", "10", "-f", "mpegts",
+                        "udp://127.0.0.1:" + std::to_string(port) + "?pkt_size=1316"},
+                       (dir / "ffmpeg.log").string());
+  std::vector<std::pair<uint64_t, double>> fractions;  // frame_seq, object fraction
+  WaitFor(40, [&] {
+    maps.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
+      const cv::Mat map = dds::MapFromMsg(m);
+      fractions.push_back({m.frame_seq, double(cv::countNonZero(map)) / double(map.total())});
+    });
+    return !capture->Running();
+  });
+  EXPECT_EQ(capture->Wait(10), 0) << test::ReadFile(log);
+  const std::string text = test::ReadFile(log);
+  EXPECT_NE(text.find("learning the background from its first 30 frames"), std::string::npos) << text;
+  EXPECT_NE(text.find("background learnt from 30 frames"), std::string::npos) << text;
+  ASSERT_GE(fractions.size(), 40u) << text;
+  std::sort(fractions.begin(), fractions.end());
+  for (size_t i = 0; i < 5; ++i) EXPECT_LT(fractions[i].second, 0.005) << "map " << i << " after learning";
+  double last = 0;
+  for (size_t i = fractions.size() - 5; i < fractions.size(); ++i) last = std::max(last, fractions[i].second);
+  EXPECT_GT(last, 0.02) << "control: the person must show against the learnt background";
 }
 
 }  // namespace
