@@ -10,16 +10,20 @@ RUNS=${1:-3}
 FRAMES=${2:-300}
 DELAYS=${3:-"0.3 1.5"}
 RIG=${HULLPIPE_RIG:-../shared/data/utrecht-4cam}
+# CAPTURE_FPS=25: pace every capture node at that rate (on two cores one node for
+# four cameras cannot keep the rig's 50 fps and skips frames, leaving recon more CPU
+# than two nodes that keep up do; at 25 fps both keep up and compare like for like).
+CAPTURE_FPS=${CAPTURE_FPS:-}
 [ -x build/bin/hullpipe_launch ] || { cmake -S . -B build -G Ninja >/dev/null && ninja -C build >/dev/null; }
 OUT=$(mktemp -d /tmp/hullpipe_split.XXXXXX)
 declare -A results
 for run in $(seq "$RUNS"); do
   for cfg in one $DELAYS; do
-    desc=launch/local.yaml
-    if [ "$cfg" != one ]; then
-      sed "s/start_delay: .*/start_delay: $cfg/" launch/split-capture.yaml > "$OUT/split_$cfg.yaml"
-      desc="$OUT/split_$cfg.yaml"
-    fi
+    src=launch/local.yaml
+    [ "$cfg" != one ] && src=launch/split-capture.yaml
+    desc="$OUT/desc_$cfg.yaml"
+    sed "s/start_delay: .*/start_delay: $cfg/" "$src" > "$desc"
+    [ -n "$CAPTURE_FPS" ] && sed -i "/\\\${source}/s/--frames, \"\${frames}\",/--frames, \"\${frames}\", --fps, \"$CAPTURE_FPS\",/" "$desc"
     dir="$OUT/$cfg-$run"
     build/bin/hullpipe_launch --description "$desc" --rig "$RIG" --frames "$FRAMES" --out "$dir" > "$dir.log" 2>&1 ||
       { echo "run $cfg-$run failed: $dir.log" >&2; exit 1; }

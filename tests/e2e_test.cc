@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
@@ -375,6 +376,37 @@ TEST(Tools, SpacingSweepFindsTheKnownAnswerOfItsExampleMotion) {
   EXPECT_NEAR(known, 0.13, 1e-9);
   EXPECT_GE(found, known - 0.001) << "a spacing below the true pipe's need came out free";
   EXPECT_LE(found, known + 0.01);
+}
+
+TEST(Tools, HullpipeRigConvertWritesALiveRigWithTheSameCameras) {
+  if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
+  const auto out = test::TempDir("rig_convert");
+  const std::string yaml = (out / "live.yaml").string();
+  test::Process convert({test::BinDir() + "/hullpipe_rig", "convert", test::RigDir(), "-o", yaml, "--frames",
+                         "udp://127.0.0.1:{5000+id}", "--latency", "0.05"},
+                        (out / "convert.log").string());
+  ASSERT_EQ(convert.Wait(60), 0) << test::ReadFile((out / "convert.log").string());
+  const Rig original = LoadRig(test::RigDir()), live = LoadRig(yaml);
+  ASSERT_EQ(live.cameras.size(), original.cameras.size());
+  for (size_t i = 0; i < live.cameras.size(); ++i) {
+    const Camera &a = original.cameras[i].camera, &b = live.cameras[i].camera;
+    EXPECT_EQ(live.cameras[i].frames, "udp://127.0.0.1:" + std::to_string(5000 + a.id));
+    EXPECT_TRUE(live.cameras[i].live());
+    EXPECT_DOUBLE_EQ(live.cameras[i].latency_s, 0.05);
+    EXPECT_EQ(live.cameras[i].background, original.cameras[i].background);
+    // Printed to 17 digits: the same cameras within 1e-9 (pixels, metres).
+    EXPECT_NEAR(a.fx, b.fx, 1e-9);
+    EXPECT_NEAR(a.cx, b.cx, 1e-9);
+    EXPECT_NEAR((a.cam_from_world.rotation - b.cam_from_world.rotation).norm(), 0, 1e-9);
+    EXPECT_NEAR((a.cam_from_world.translation - b.cam_from_world.translation).norm(), 0, 1e-9);
+  }
+  // The Utrecht workspace (capped at the floor) travels with it.
+  EXPECT_NEAR((live.workspace.max - original.workspace.max).norm(), 0, 1e-9);
+  // A bad latency is one line naming the flag, exit 1.
+  test::Process bad({test::BinDir() + "/hullpipe_rig", "convert", test::RigDir(), "-o", yaml, "--latency", "-2"},
+                    (out / "bad.log").string());
+  EXPECT_EQ(bad.Wait(60), 1);
+  EXPECT_NE(test::ReadFile((out / "bad.log").string()).find("--latency"), std::string::npos);
 }
 
 TEST(Tools, VhEvalCollisionPrintsOneJsonObjectWithTheDocumentedFields) {
