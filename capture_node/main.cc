@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.2, 3600.0))
       ->capture_default_str();
   int64_t start_time_ns = 0;
-  double max_lag = 0.5;
+  double max_lag = 0.1;
   app.add_option("--start-time", start_time_ns,
                  "Capture timeline start, ns since the Unix epoch (default: adopt the one announced on the domain, "
                  "or announce one now)");

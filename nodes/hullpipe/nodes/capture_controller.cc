@@ -54,7 +54,9 @@ void CaptureController::Start() {
 
 bool CaptureController::CatchUp(double lag_s, const char* why) {
   auto due_now = [&] { return int64_t(std::floor(double(clock_.WallNs() - start_ns_) * 1e-9 * rate_)); };
-  if (due_now() - index_ <= int64_t(lag_s * rate_)) return true;
+  // Behind by more than the lag, and by two frames at least (at low rates a
+  // fraction of a frame is no lag).
+  if (due_now() - index_ <= std::max<int64_t>(int64_t(lag_s * rate_), lag_s > 0 ? 2 : 0)) return true;
   spdlog::info("{}: skipping frames {}..{} to the frame due now", why, index_ + 1, due_now());
   // (Skipping takes time too: the frame due is asked again after each.)
   while (index_ < due_now()) {

@@ -37,9 +37,9 @@ struct CaptureOptions {
   /// The timeline's start (CLOCK_REALTIME ns; --start-time); 0: adopt an announced
   /// one or announce one at Start().
   int64_t start_ns = 0;
-  /// A paced node more than this many seconds behind the timeline skips ahead to
-  /// the frame due now (counted as dropped), (0, 60].
-  double max_lag_s = 0.5;
+  /// A paced node more than this many seconds (and two frames) behind the
+  /// timeline skips ahead to the frame due now (counted as dropped), (0, 60].
+  double max_lag_s = 0.1;
   /// Throws std::invalid_argument naming the flag out of range.
   void Check() const;
 };

@@ -13,8 +13,9 @@
 namespace hullpipe::dds {
 
 /// Frames kept per camera while a frameset waits for its partners: half a second
-/// at 50 fps, the lag (capture_node --max-lag) a capture host may fall behind the
-/// others before it skips ahead, so a lagging host's frames still find theirs.
+/// at 50 fps, five times the lag (capture_node --max-lag, 0.1 s) a capture host may
+/// fall behind the others before it skips ahead, so a lagging host's frames —
+/// and a busy receiver's backlog — still find theirs.
 constexpr size_t kFramesetHistory = 24;
 
 class FramesetInput {
