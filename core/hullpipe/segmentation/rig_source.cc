@@ -179,6 +179,10 @@ class VideoRig final : public RigSource {
       cam.live = rc.live();
       if (cam.live && !rc.masks.empty())
         throw std::runtime_error("camera " + std::to_string(rc.camera.id) + ": a live camera cannot have masks");
+      if (cam.live && !rc.tracked.empty())
+        throw std::runtime_error("camera " + std::to_string(rc.camera.id) +
+                                 ": key 'tracked': a pose log is keyed by source time and serves file sources; a "
+                                 "live tracked camera is not supported");
       if (rc.masks.empty() && !rc.background.empty()) cam.background = LearnBackground(rc);
       cams_.push_back(std::move(cam));
       cameras_.push_back(rc.camera);

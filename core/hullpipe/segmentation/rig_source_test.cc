@@ -2,6 +2,8 @@
 // the synthetic source's exact maps.
 #include "hullpipe/segmentation/rig_source.h"
 
+#include <fstream>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
@@ -83,6 +85,35 @@ TEST(RigSource, SyntheticSourceGivesExactMaps) {
   EXPECT_FALSE(rig->Next(&f));  // the input ends
   EXPECT_TRUE(rig->Rewind());
   EXPECT_TRUE(rig->Next(&f));
+}
+
+TEST(RigSource, ATrackedCameraOfAFileRigTakesItsPoseFromItsLog) {
+  const auto dir = test::TempDir("rig_tracked");
+  const std::string path = WriteImageRig(dir, true, 3);
+  Rig rig = LoadRig(path);
+  // world_from_camera: 1 m along x at t = 0, 3 m at t = 1 s (linear in between).
+  std::ofstream(dir / "poses.csv") << "t,x,y,z,qw,qx,qy,qz\n0,1,0,-1,1,0,0,0\n1,3,0,-1,1,0,0,0\n";
+  rig.cameras[1].tracked = "poses.csv";
+  WriteRigYaml(rig, (dir / "tracked.yaml").string());
+  const auto source = OpenVideoRig((dir / "tracked.yaml").string(), {});
+  RigFrame f;
+  ASSERT_TRUE(source->Next(&f));
+  ASSERT_TRUE(source->Next(&f));  // frame 1: source time 1 / fps
+  ASSERT_EQ(f.poses.size(), 2u);
+  EXPECT_FALSE(f.poses[0].has_value());  // a fixed camera
+  ASSERT_TRUE(f.poses[1].has_value());
+  const double x = 1 + 2 * f.time_s;
+  EXPECT_NEAR((f.poses[1]->Inverse().translation - Eigen::Vector3d(x, 0, -1)).norm(), 0, 1e-12);
+  // A live camera with a pose log is refused, naming the key.
+  rig.cameras[1].frames = "udp://127.0.0.1:5999";
+  rig.cameras[1].masks.clear();  // (a live camera has none)
+  WriteRigYaml(rig, (dir / "live_tracked.yaml").string());
+  try {
+    OpenVideoRig((dir / "live_tracked.yaml").string(), {});
+    ADD_FAILURE() << "a live tracked camera was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("'tracked'"), std::string::npos) << "got: " << e.what();
+  }
 }
 
 }  // namespace
