@@ -78,6 +78,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--synthetic-tracked", synthetic_options.tracked_camera,
                  "Synthetic camera that moves on a known path, its pose sent with each frame (0: none)")
+      ->check(CLI::Range(0, 16))
       ->capture_default_str();
   app.add_option("--cameras", camera_ids, "Camera ids to capture (default: all)")->delimiter(',');
   app.add_option("--frames", frames, "Stop after this many frames (0: end of input)");

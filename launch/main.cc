@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
       if (n["host"]) s.host = n["host"].as<std::string>();
       if (n["args"]) s.args = n["args"].as<std::vector<std::string>>();
       if (n["start_delay"]) {
-        s.start_delay = n["start_delay"].as<double>();
+        s.start_delay = n["start_delay"].as<double>(-1.0);  // not a number: refused below, naming the key
         if (!(s.start_delay >= 0 && s.start_delay <= 60))
           throw std::runtime_error("node " + s.name + ": start_delay must be seconds in [0, 60]");
       }

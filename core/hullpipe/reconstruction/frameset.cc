@@ -35,13 +35,6 @@ bool FramesetAssembler::Reject(std::string* why, std::string text) {
   return false;
 }
 
-double FramesetAssembler::PeriodS(const Cam& cam) const {
-  if (cam.steps_ns.size() < 1) return kDefaultPeriodS;
-  std::vector<int64_t> s(cam.steps_ns.begin(), cam.steps_ns.end());
-  std::nth_element(s.begin(), s.begin() + s.size() / 2, s.end());
-  return double(s[s.size() / 2]) * 1e-9;
-}
-
 double FramesetAssembler::tolerance_s() const {
   if (tolerance_s_ > 0) return tolerance_s_;
   double slowest = 0;
@@ -72,14 +65,14 @@ void FramesetAssembler::ForgetCamera(int camera_id, Cam& cam, const std::string&
   dropped_ += cam.samples.size();
   cam.samples.clear();
   cam.steps_ns.clear();
+  cam.period_s = 0;
   cam.any = false;
   cam.newest_seq = 0;
   ++cam.restarts;
 }
 
 FramesetAssembler::Sample* FramesetAssembler::Slot(int camera_id, uint64_t seq, int64_t t_ns, uint64_t source_id,
-                                                   std::string* why, bool* ok) {
-  *ok = true;
+                                                   std::string* why) {
   Cam& cam = cams_[camera_id];
   const bool is_reference = camera_id == ReferenceId();
   if (source_id != 0 && cam.source_id != 0 && source_id != cam.source_id && cam.any) {
@@ -101,14 +94,12 @@ FramesetAssembler::Sample* FramesetAssembler::Slot(int camera_id, uint64_t seq, 
       }
     } else {
       ++dropped_;
-      *ok = false;
       if (why) *why = "camera " + std::to_string(camera_id) + " frame " + std::to_string(seq) + " arrived late";
       return nullptr;
     }
   }
-  if (is_reference && seq <= taken_up_to_ && camera_id == ReferenceId()) {
+  if (is_reference && seq <= taken_up_to_) {
     ++dropped_;
-    *ok = false;
     if (why) *why = "frame " + std::to_string(seq) + " arrived after a newer frameset was used";
     return nullptr;
   }
@@ -120,8 +111,12 @@ FramesetAssembler::Sample* FramesetAssembler::Slot(int camera_id, uint64_t seq, 
       spdlog::warn("camera {}: no frame for {:.2f} s of capture time (frames {}..{}); resumed", camera_id, gap_s,
                    cam.newest_seq, seq);
     } else if (step > 0) {
+      // The period is measured here, once per frame, not in every evaluation.
       cam.steps_ns.push_back(step);
       while (cam.steps_ns.size() > 15) cam.steps_ns.pop_front();
+      std::vector<int64_t> s(cam.steps_ns.begin(), cam.steps_ns.end());
+      std::nth_element(s.begin(), s.begin() + s.size() / 2, s.end());
+      cam.period_s = double(s[s.size() / 2]) * 1e-9;
     }
   }
   cam.any = true;
@@ -155,8 +150,7 @@ bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camer
     return Reject(why, "map of camera " + std::to_string(camera_id) + " states " +
                            std::to_string(camera_count) + " cameras");
   expected_ = camera_count;
-  bool ok;
-  Sample* s = Slot(camera_id, seq, t, source_id, why, &ok);
+  Sample* s = Slot(camera_id, seq, t, source_id, why);
   if (!s) return false;
   s->t_ns = t;  // the map's capture time is authoritative
   s->source_time_s = source_time_s;
@@ -197,8 +191,7 @@ bool FramesetAssembler::AddImage(int camera_id, uint64_t seq, int64_t t, cv::Mat
                                  uint64_t source_id) {
   if (image.empty() || image.type() != CV_8UC3)
     return Reject(why, "image of camera " + std::to_string(camera_id) + " is not BGR8");
-  bool ok;
-  Sample* s = Slot(camera_id, seq, t, source_id, why, &ok);
+  Sample* s = Slot(camera_id, seq, t, source_id, why);
   if (!s) return false;
   s->image = std::move(image);
   return true;
@@ -221,9 +214,7 @@ FramesetAssembler::Evaluation FramesetAssembler::Evaluate(const Sample& ref) con
     auto after = std::find_if(cam.samples.begin(), cam.samples.end(),
                               [&](const Sample& s) { return s.t_ns >= ref.t_ns; });
     if (after == cam.samples.end()) {
-      // Not yet decided — unless even the newest is already out of tolerance and
-      // a camera that is running cannot produce a nearer one before t_ref.
-      missing = true;
+      missing = true;  // not yet decided: a nearer frame may still come
       continue;
     }
     const Sample* chosen = &*after;
@@ -362,7 +353,7 @@ std::vector<CameraSkewReport> FramesetAssembler::SkewReports() const {
     r.pauses = cam.pauses;
     r.restarts = cam.restarts;
     r.clock_offsets = cam.clock_offsets;
-    r.period_ms = cam.steps_ns.empty() ? 0 : PeriodS(cam) * 1e3;
+    r.period_ms = cam.period_s * 1e3;
     out.push_back(r);
   }
   return out;

@@ -163,6 +163,7 @@ class FramesetAssembler {
     int64_t newest_t_ns = 0;
     bool any = false;
     std::deque<int64_t> steps_ns;  ///< Recent capture-time steps per frame.
+    double period_s = 0;           ///< Median of steps_ns, seconds (0: no step yet); kept with it.
     SampleStats skew_ms{20000};
     uint64_t frames = 0, unpartnered = 0, pauses = 0, restarts = 0, clock_offsets = 0;
     int out_of_tolerance_run = 0;
@@ -180,14 +181,17 @@ class FramesetAssembler {
     std::vector<int> running;              ///< ...of which these had frames on both sides, no pause between.
   };
 
-  Sample* Slot(int camera_id, uint64_t seq, int64_t t_ns, uint64_t source_id, std::string* why, bool* ok);
+  /// The camera's sample of frame `seq` (made if new); nullptr (counted as dropped,
+  /// *why says why) if the frame arrived too late to be used.
+  Sample* Slot(int camera_id, uint64_t seq, int64_t t_ns, uint64_t source_id, std::string* why);
   Evaluation Evaluate(const Sample& ref) const;
   /// Classifies a reference sample that will never be taken and counts it.
   void PassOver(const Sample& ref);
   void RemoveSample(int camera_id, Cam& cam, std::deque<Sample>::iterator it);
   void Prune();
   void ForgetCamera(int camera_id, Cam& cam, const std::string& reason);
-  double PeriodS(const Cam& cam) const;
+  /// The camera's measured frame period, or kDefaultPeriodS before it has one.
+  static double PeriodS(const Cam& cam) { return cam.period_s > 0 ? cam.period_s : kDefaultPeriodS; }
   void CheckClock(int camera_id, Cam& cam, int64_t capture_time_ns, int64_t arrival_ns);
   int ReferenceId() const;
   bool Reject(std::string* why, std::string text);

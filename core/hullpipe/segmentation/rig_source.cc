@@ -65,7 +65,7 @@ struct LiveHub {
 
 // Reads one live camera on its own thread, as fast as it delivers, stamping each
 // frame on arrival (before it waits for the capture loop), into a short queue
-// (latest wins: the oldest frame is dropped and counted when it is full). The
+// (latest wins: the oldest frame is dropped when it is full). The
 // thread owns its state with the reader: a reader destroyed while its thread is
 // blocked in FFmpeg (an open or read time-out, at most kLiveOpenTimeoutMs) lets
 // it finish alone, so the node stops at once.
@@ -78,13 +78,28 @@ class LiveReader {
     s_->hub = std::move(hub);
     thread_ = std::thread([s = s_] { Run(*s); });
   }
+  /// Asks the thread to stop; it notices within a read time-out, or when a
+  /// blocked open returns.
+  void RequestStop() { s_->stop = true; }
+  bool Done() const { return s_->done; }
+  /// Joins a thread that has finished; one still blocked in FFmpeg is left to
+  /// finish alone (it holds its own state). Callers give it time first (StopAll).
   ~LiveReader() {
-    s_->stop = true;
-    for (int i = 0; i < 25 && !s_->done; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    RequestStop();
     if (s_->done)
       thread_.join();
     else
-      thread_.detach();  // it holds its own state; it ends when FFmpeg returns
+      thread_.detach();
+  }
+  /// Asks every reader to stop, then gives them together up to 0.5 s to finish
+  /// (waiting for each in turn would add their time-outs up past the second a
+  /// node has to stop).
+  static void StopAll(const std::vector<LiveReader*>& readers) {
+    for (LiveReader* r : readers) r->RequestStop();
+    const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+    for (LiveReader* r : readers)
+      while (!r->Done() && std::chrono::steady_clock::now() < until)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   /// Under the hub's mutex: takes the oldest queued frame.
   bool Pop(cv::Mat* image, int64_t* arrival_ns) {
@@ -103,7 +118,6 @@ class LiveReader {
     std::shared_ptr<LiveHub> hub;
     std::deque<std::pair<int64_t, cv::Mat>> queue;
     std::atomic<bool> stop{false}, done{false};
-    uint64_t overflow = 0;
   };
   static void Run(State& s) {
     cv::VideoCapture cap;
@@ -147,10 +161,7 @@ class LiveReader {
       failures = 0;
       const int64_t arrival = NowNs();
       std::lock_guard<std::mutex> lock(s.hub->mu);
-      if (s.queue.size() >= 4) {
-        s.queue.pop_front();
-        ++s.overflow;
-      }
+      if (s.queue.size() >= 4) s.queue.pop_front();
       s.queue.emplace_back(arrival, std::move(img));
       s.hub->cv.notify_all();
     }
@@ -202,7 +213,10 @@ class VideoRig final : public RigSource {
       if (c.live && c.background.empty()) LearnLiveBackground(c);
   }
   ~VideoRig() override {
-    for (Cam& c : cams_) c.reader.reset();
+    std::vector<LiveReader*> readers;
+    for (Cam& c : cams_)
+      if (c.reader) readers.push_back(c.reader.get());
+    LiveReader::StopAll(readers);
   }
   bool live() const override { return live_; }
   bool Skip() override {
