@@ -87,22 +87,28 @@ class RayQuery {
     return true;
   }
   // Is the point at eye depth d on the aimed ray inside the hull?
-  // *near_miss (if given) is set when every camera but the last one asked accepted
-  // the point: the stencil count was n - 1, the hull is probably very close.
+  // *near_miss (if given) is set when exactly one camera vetoes the point: the
+  // stencil count was n - 1, the hull is probably very close. (Whatever order the
+  // cameras are asked in, so the GPU march, which asks in index order, agrees.)
   bool InsideAt(float d, bool* near_miss = nullptr) {
     if (near_miss) *near_miss = false;
     int object = 0, unseen = 0;
     for (size_t j = 0; j < n_; ++j) {
       const size_t c = order_[j];
       ++projections;
-      const Eigen::Vector3f X = A_[c] + d * B_[c];
-      const Vote vote = VolumeQuery::VoteFast(cams_[c], X.x(), X.y(), X.z());
+      const Vote vote = VoteAt(c, d);
       if (vote == Vote::kObject) {
         ++object;
       } else if (q_.Vetoes(vote)) {
+        if (near_miss) {
+          *near_miss = true;
+          for (size_t i = j + 1; i < n_ && *near_miss; ++i) {
+            ++projections;
+            *near_miss = !q_.Vetoes(VoteAt(order_[i], d));
+          }
+        }
         // The camera that rejected goes first next time: neighbouring points are
         // usually rejected by the same camera.
-        if (near_miss) *near_miss = j + 1 == n_;
         if (j > 0) std::rotate(order_.begin(), order_.begin() + long(j), order_.begin() + long(j) + 1);
         return false;
       } else {
@@ -110,6 +116,10 @@ class RayQuery {
       }
     }
     return q_.Accepts(object, unseen);
+  }
+  Vote VoteAt(size_t c, float d) const {
+    const Eigen::Vector3f X = A_[c] + d * B_[c];
+    return VolumeQuery::VoteFast(cams_[c], X.x(), X.y(), X.z());
   }
   // Bisects between an outside depth lo and an inside depth hi; returns the final
   // inside end.
@@ -135,6 +145,7 @@ class RayQuery {
 // entry, whichever is deeper. The near plane (k == 0) is not refined: in front of
 // it the frustum is cut.
 constexpr size_t kMaxNearMisses = 8;
+constexpr int kMaxEdgeSteps = 256;
 
 bool RefineBracket(const std::vector<double>& depths, size_t k, double s0, float* lo) {
   if (k == 0) return false;
@@ -182,7 +193,9 @@ void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vecto
           if (!(step > 0)) continue;
           double prev = a;
           bool found = false;
-          for (double t = a + step; t < b; t += step) {
+          for (int i = 1; i < 16; ++i) {
+            const double t = a + i * step;
+            if (!(t < b)) break;
             if (ray.InsideAt(float(t))) {
               out_row[col] = ray.Bisect(float(prev), float(t), refine_iterations);
               found = true;
@@ -275,9 +288,12 @@ void RefineEdges(const VolumeQuery& query, const NovelView& view, const std::vec
           const double step = SpacingAt(depths, a) / 8;
           if (!(step > 0)) continue;
           double prev = a;
-          for (double t = a; t <= b && t < best; t += step) {
+          // At most kMaxEdgeSteps steps (the window is 4 spacings; 8 steps each).
+          for (int i = 0; i < kMaxEdgeSteps; ++i) {
+            const double t = a + i * step;
+            if (!(t <= b && t < best)) break;
             if (ray.InsideAt(float(t))) {
-              if (t == a) {
+              if (i == 0) {
                 // Inside at the window's start: the entry lies in front, after the
                 // last plane before it (which the sweep found outside) or the box entry.
                 const auto k = std::lower_bound(depths.begin(), depths.end(), a);
