@@ -37,6 +37,13 @@ int main(int argc, char** argv) {
   app.add_option("--tile", tile_spec, "This node's tile i/N of the view (horizontal bands)")->capture_default_str();
   app.add_option("--backend", backend_name, "Sweep backend: cpu|gl|auto")
       ->check(CLI::IsMember({"cpu", "gl", "auto"}))->capture_default_str();
+  gl::BackendOptions bo;
+  app.add_option("--gl-method", bo.gl_method,
+                 "GL sweep: march (compute-shader ray march, refinement on the GPU) or stencil (the paper's "
+                 "stencil counting)")
+      ->check(CLI::IsMember({"march", "stencil"}))->capture_default_str();
+  app.add_option("--gl-device", bo.gl_device, "EGL device index for GL (-1: the first hardware device)")
+      ->check(CLI::Range(-1, 64))->capture_default_str();
   app.add_option("--planes", o.sweep.num_planes, "Sweep planes")->capture_default_str();
   app.add_option("--threads", o.threads, "CPU sweep threads")->capture_default_str();
   app.add_option("--refine", o.refine, "Depth refinement bisections after the sweep (0: the paper's plane depth)")
@@ -70,8 +77,11 @@ int main(int argc, char** argv) {
   const std::string name = o.NodeName();
   try {
     auto participant = StartNode(name, common);
-    std::unique_ptr<gl::SweepBackend> backend = gl::MakeSweepBackend(backend_name, o.threads, o.refine);
-    spdlog::info("tile {}/{}, backend {}", o.tile, o.tile_count, backend->Name());
+    bo.name = backend_name;
+    bo.threads = o.threads;
+    bo.refine = o.refine;
+    std::unique_ptr<gl::SweepBackend> backend = gl::MakeSweepBackend(bo);
+    spdlog::info("tile {}/{}, backend {} ({})", o.tile, o.tile_count, backend->Name(), backend->reason());
     WaitSet ws(*participant);
     FramesetInput input(*participant, ws, kFramesetHistory, /*with_images=*/true);
     if (!(skew_tolerance_ms >= 0 && skew_tolerance_ms <= 1000))

@@ -7,6 +7,8 @@
 #include "hullpipe/gl/backend.h"
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
+#include "hullpipe/gl/gl_ray_sweep.h"
+#include "hullpipe/gl/gl_texture.h"
 #include "hullpipe/gl/gl_triangle_query.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
@@ -156,9 +158,268 @@ TEST_F(Gl, BackendChoice) {
   const auto a = MakeSweepBackend("auto");
   if (ctx_->IsSoftware()) {
     EXPECT_EQ(a->Name(), "cpu");  // llvmpipe: the CPU is faster
+    EXPECT_NE(a->reason().find("software"), std::string::npos) << a->reason();
+  } else {
+    EXPECT_NE(a->Name().find("gl march"), std::string::npos) << a->Name();
   }
-  EXPECT_NE(MakeSweepBackend("gl")->Name().find("gl"), std::string::npos);
+  const auto g = MakeSweepBackend("gl");
+  EXPECT_NE(g->Name().find("gl march"), std::string::npos);
+  ASSERT_NE(g->gl_info(), nullptr);
+  EXPECT_FALSE(g->gl_info()->vendor.empty());
+  EXPECT_NE(g->gl_info()->version.find("4."), std::string::npos) << g->gl_info()->version;
+  BackendOptions o;
+  o.name = "gl";
+  o.gl_method = "stencil";
+  EXPECT_NE(MakeSweepBackend(o)->Name().find("gl stencil"), std::string::npos);
   EXPECT_THROW(MakeSweepBackend("vulkan"), std::invalid_argument);
+  o.gl_method = "compute";
+  EXPECT_THROW(MakeSweepBackend(o), std::invalid_argument);
+}
+
+TEST_F(Gl, DeviceSelection) {
+  // The context names its renderer and how EGL reached it; a device index past
+  // the list fails with a line naming the flag under `gl` and falls back under `auto`.
+  EXPECT_FALSE(ctx_->info().renderer.empty());
+  EXPECT_FALSE(ctx_->info().source.empty());
+  EXPECT_NE(ctx_->info().Summary().find(ctx_->info().renderer), std::string::npos);
+  const std::vector<EglDeviceInfo> devices = ListEglDevices();
+  for (size_t i = 0; i < devices.size(); ++i) EXPECT_EQ(devices[i].index, int(i));
+  BackendOptions o;
+  o.name = "gl";
+  o.gl_device = 63;
+  try {
+    MakeSweepBackend(o);
+    ADD_FAILURE() << "device 63 accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("--gl-device 63"), std::string::npos) << e.what();
+  }
+  o.name = "auto";
+  const auto a = MakeSweepBackend(o);
+  EXPECT_EQ(a->Name(), "cpu");
+  EXPECT_NE(a->reason().find("--gl-device 63"), std::string::npos) << a->reason();
+  // Each listed device either gives a context or says why (positive control: the
+  // default choice above made one).
+  for (const auto& d : devices) {
+    std::string why;
+    auto c = EglContext::TryCreate(EglOptions{d.index}, &why);
+    if (c) {
+      EXPECT_NE(c->info().source.find("EGL device " + std::to_string(d.index)), std::string::npos);
+    } else {
+      EXPECT_FALSE(why.empty());
+    }
+  }
+  ctx_->MakeCurrent();
+}
+
+// Compares a GPU depth tile with the CPU's: the march is the CPU's algorithm in
+// floats, so the two differ only where float rounding (the GPU's division and
+// box clip in float, the CPU's ray in double) flips a point at a silhouette or a
+// plane at the hull box's face. Without refinement such a flip moves the depth by
+// one plane (bounded here by `spacing`, or 0 to skip); with refinement a flipped
+// near miss on a thin part can move it to the hull behind, so only the count is
+// bounded. At most `max_fraction` of the hull pixels may differ by more than 1 µm.
+void ExpectMarchMatches(const cv::Mat& gl, const cv::Mat& cpu, double spacing, double max_fraction,
+                        const std::string& what, int min_hull = 500) {
+  int hull = 0, differ = 0;
+  for (int r = 0; r < cpu.rows; ++r)
+    for (int c = 0; c < cpu.cols; ++c) {
+      const float a = gl.at<float>(r, c), b = cpu.at<float>(r, c);
+      if (std::isfinite(b)) ++hull;
+      if (a == b || std::abs(a - b) <= 1e-6f) continue;
+      ++differ;
+      if (spacing > 0 && std::isfinite(a) && std::isfinite(b)) {
+        EXPECT_LE(std::abs(a - b), spacing * 1.01) << what << " at " << r << "," << c;
+      }
+    }
+  EXPECT_GT(hull, min_hull) << what;
+  EXPECT_LE(differ, int(max_fraction * hull) + 2) << what << ": " << differ << " of " << hull << " hull pixels differ";
+}
+
+// A hard scene for the march: a sphere, a thin capsule (thinner than the plane
+// spacing, where refinement's near-miss scans and silhouette pass matter) and a
+// torus (a hole and grazing rays), under distortion.
+std::vector<CameraMap> HardViews(int w, int h, const Distortion& d) {
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Sphere(kCentre, 0.22));
+  scene.shapes.push_back(Shape::Capsule(kCentre + Eigen::Vector3d(-0.4, 0.3, 0.1),
+                                        kCentre + Eigen::Vector3d(0.4, 0.35, -0.2), 0.012));
+  scene.shapes.push_back(Shape::Torus(kCentre + Eigen::Vector3d(0.0, -0.35, 0.0), 0.15, 0.04));
+  std::vector<CameraMap> views;
+  for (const auto& c : RingCameras(5, 3.0, 1.8, kCentre, w, h, 1.0, d)) views.push_back({c, RenderExactMap(c, scene)});
+  return views;
+}
+
+TEST_F(Gl, RayMarchSweepMatchesCpuWithAndWithoutRefinement) {
+  GlRaySweep march;
+  const NovelView view = NovelView::FromFov(
+      200, 150, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
+  for (const Distortion& d : {Distortion{}, Distortion{-0.3, 0.1, 0.001, -0.001, -0.02}}) {
+    for (const OutOfView p : {OutOfView::kUnknown, OutOfView::kOutside}) {
+      VolumeQueryOptions qo;
+      qo.out_of_view = p;
+      const VolumeQuery q(HardViews(240, 180, d), test::BigBox(), qo);
+      march.Upload(q);
+      for (const int planes : {30, 100}) {
+        PlaneSweepOptions o;
+        o.num_planes = planes;
+        const auto depths = SweepPlaneDepths(q, view, o);
+        const double spacing = depths[1] - depths[0];
+        for (const int refine : {0, 6}) {
+          for (const cv::Rect tile : {cv::Rect(0, 0, 200, 150), TileRect(1, 2, 200, 150)}) {
+            const std::string what = "k1=" + std::to_string(d[0]) + " rule=" + std::to_string(int(p)) +
+                                     " planes=" + std::to_string(planes) + " refine=" + std::to_string(refine) +
+                                     " tile y=" + std::to_string(tile.y);
+            // Without refinement only silhouette rounding differs (the stencil GL
+            // sweep's 0.5%); refinement bisects in floats on both sides, each
+            // bisection step another chance for a border point to round the other way.
+            ExpectMarchMatches(march.Sweep(q, view, depths, tile, refine),
+                               PlaneSweepCpu(q, view, depths, tile, nullptr, 1, refine), refine ? 0 : spacing,
+                               refine ? 0.01 : 0.005, what);
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST_F(Gl, RayMarchRefinementIsCloserToTheSurfaceThanThePlanes) {
+  // Refinement on the GPU does its job, not only the CPU's arithmetic: depth
+  // error against the exact sphere falls from ~half a plane spacing to under 1%
+  // of it.
+  const VolumeQuery q(test::SphereViews(8, 320, 240, kCentre, 0.3), test::BigBox());
+  const NovelView view = NovelView::FromFov(
+      160, 120, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
+  PlaneSweepOptions o;
+  o.num_planes = 40;
+  const auto depths = SweepPlaneDepths(q, view, o);
+  const double spacing = depths[1] - depths[0];
+  GlRaySweep march;
+  march.Upload(q);
+  const cv::Mat plain = march.Sweep(q, view, depths, {0, 0, 160, 120}, 0);
+  const cv::Mat refined = march.Sweep(q, view, depths, {0, 0, 160, 120}, 8);
+  const cv::Mat cpu = PlaneSweepCpu(q, view, depths, {0, 0, 160, 120}, nullptr, 1, 8);
+  std::vector<double> err_plain, err_refined;
+  for (int r = 0; r < 120; ++r)
+    for (int c = 0; c < 160; ++c) {
+      const float a = plain.at<float>(r, c), b = refined.at<float>(r, c), ref = cpu.at<float>(r, c);
+      if (!std::isfinite(a) || !std::isfinite(b) || !std::isfinite(ref)) continue;
+      err_plain.push_back(std::abs(a - ref));
+      err_refined.push_back(std::abs(b - ref));
+    }
+  ASSERT_GT(err_plain.size(), 1500u);
+  std::nth_element(err_plain.begin(), err_plain.begin() + long(err_plain.size() / 2), err_plain.end());
+  std::nth_element(err_refined.begin(), err_refined.begin() + long(err_refined.size() / 2), err_refined.end());
+  EXPECT_GT(err_plain[err_plain.size() / 2], 0.2 * spacing);
+  EXPECT_LT(err_refined[err_refined.size() / 2], 0.01 * spacing);
+}
+
+TEST_F(Gl, RayMarchUploadsDoNotMixFramesets) {
+  // Two framesets uploaded in turn through the two pixel buffers, three rounds:
+  // each sweep sees its own maps (a ring that handed a buffer back too early
+  // would show the other sphere).
+  const VolumeQuery a(test::SphereViews(4, 200, 150, kCentre, 0.3), test::BigBox());
+  const VolumeQuery b(test::SphereViews(4, 200, 150, kCentre + Eigen::Vector3d(0.2, 0, 0), 0.2), test::BigBox());
+  const NovelView view = NovelView::FromFov(
+      160, 120, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
+  GlRaySweep march;
+  for (int round = 0; round < 3; ++round)
+    for (const VolumeQuery* q : {&a, &b}) {
+      PlaneSweepOptions o;
+      const auto depths = SweepPlaneDepths(*q, view, o);
+      march.Upload(*q);
+      ExpectMarchMatches(march.Sweep(*q, view, depths, {0, 0, 160, 120}), PlaneSweepCpu(*q, view, depths, {0, 0, 160, 120}),
+                         depths[1] - depths[0], 0.005, "round " + std::to_string(round));
+    }
+  EXPECT_THROW(march.Sweep(VolumeQuery(test::SphereViews(3, 200, 150, kCentre, 0.3), test::BigBox()), view,
+                           {1.0, 2.0}, {0, 0, 16, 16}),
+               std::invalid_argument);
+}
+
+// Colour images for the sphere cameras: a pattern that differs per camera and
+// varies smoothly (so bilinear sampling matters) at half the maps' resolution.
+std::vector<CameraImage> PatternImages(const std::vector<CameraMap>& views) {
+  std::vector<CameraImage> images;
+  for (size_t k = 0; k < views.size(); ++k) {
+    cv::Mat img(views[k].camera.height / 2, views[k].camera.width / 2, CV_8UC3);
+    for (int r = 0; r < img.rows; ++r)
+      for (int c = 0; c < img.cols; ++c)
+        img.at<cv::Vec3b>(r, c) = cv::Vec3b(uint8_t((c * 3 + 40 * k) % 256), uint8_t((r * 5) % 256),
+                                            uint8_t(((r + c) * 2 + 60 * k) % 256));
+    images.push_back({views[k].camera, img});
+  }
+  return images;
+}
+
+// Compares GPU and CPU colours of one tile: at most 1 level apart (float against
+// double arithmetic in the bilinear blend and the weights, then rounding) on all
+// but `max_fraction` of the pixels, where a camera's visibility or its place among
+// the best two may flip at a rounding border (none did on these scenes; a wrong
+// camera choice or sample offset changes most pixels of the pattern by > 1).
+void ExpectColoursMatch(const cv::Mat& gl, const cv::Mat& cpu, double max_fraction, const std::string& what) {
+  ASSERT_EQ(gl.size(), cpu.size());
+  ASSERT_EQ(gl.type(), CV_8UC3);
+  int coloured = 0, differ = 0;
+  for (int r = 0; r < cpu.rows; ++r)
+    for (int c = 0; c < cpu.cols; ++c) {
+      const cv::Vec3b a = gl.at<cv::Vec3b>(r, c), b = cpu.at<cv::Vec3b>(r, c);
+      coloured += b != cv::Vec3b(0, 0, 0);
+      int worst = 0;
+      for (int i = 0; i < 3; ++i) worst = std::max(worst, std::abs(int(a[i]) - int(b[i])));
+      differ += worst > 1;
+    }
+  EXPECT_GT(coloured, 1000) << what;
+  EXPECT_LE(differ, int(max_fraction * coloured) + 2) << what << ": " << differ << " of " << coloured;
+}
+
+TEST_F(Gl, TextureMatchesCpuWithAndWithoutVisibility) {
+  const auto views = test::SphereViews(4, 240, 180, kCentre, 0.3, Distortion{-0.2, 0.05, 0.001, -0.001, 0});
+  const VolumeQuery q(views, test::BigBox());
+  const auto images = PatternImages(views);
+  const NovelView view = NovelView::FromFov(
+      200, 150, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
+  PlaneSweepOptions o;
+  const auto depths = SweepPlaneDepths(q, view, o);
+  std::vector<Camera> cams;
+  for (const auto& im : images) cams.push_back(im.camera);
+  PlaneSweepOptions vo;
+  vo.num_planes = 48;
+  const HullVisibility vis = ComputeHullVisibility(q, cams, 80, vo, 4);
+  GlTexture tex;
+  tex.UploadImages(images);
+  for (const cv::Rect tile : {cv::Rect(0, 0, 200, 150), TileRect(0, 2, 200, 150)}) {
+    const cv::Mat depth = PlaneSweepCpu(q, view, depths, tile, nullptr, 1, 4);
+    ExpectColoursMatch(tex.Texture(depth, tile, view, images), TextureHull(depth, tile, view, images), 0.005,
+                       "no visibility");
+    ExpectColoursMatch(tex.Texture(depth, tile, view, images, {}, &vis),
+                       TextureHull(depth, tile, view, images, {}, &vis), 0.005, "visibility");
+  }
+}
+
+TEST_F(Gl, GlBackendRendersAFramesetAsTheCpuBackend) {
+  // The backend's whole frameset path (upload, visibility maps by the march,
+  // sweep, texture) against the CPU backend's.
+  const auto views = test::SphereViews(4, 240, 180, kCentre, 0.3);
+  const VolumeQuery q(views, test::BigBox());
+  const auto images = PatternImages(views);
+  const NovelView view = NovelView::FromFov(
+      200, 150, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
+  PlaneSweepOptions o;
+  const auto depths = SweepPlaneDepths(q, view, o);
+  std::vector<Camera> cams;
+  for (const auto& im : images) cams.push_back(im.camera);
+  PlaneSweepOptions vo;
+  vo.num_planes = 48;
+  const auto gpu = MakeSweepBackend("gl", 1, 6), cpu = MakeSweepBackend("cpu", 1, 6);
+  for (SweepBackend* b : {gpu.get(), cpu.get()}) b->BeginFrameset(q, images);
+  const HullVisibility vg = gpu->Visibility(q, cams, 80, vo), vc = cpu->Visibility(q, cams, 80, vo);
+  ASSERT_EQ(vg.depth.size(), 4u);
+  for (size_t k = 0; k < 4; ++k)
+    ExpectMarchMatches(vg.depth[k], vc.depth[k], 0, 0.03, "visibility map " + std::to_string(k), 100);
+  const cv::Rect tile = TileRect(1, 2, 200, 150);
+  const cv::Mat dg = gpu->Sweep(q, view, depths, tile), dc = cpu->Sweep(q, view, depths, tile);
+  ExpectMarchMatches(dg, dc, 0, 0.02, "tile");
+  ExpectColoursMatch(gpu->Texture(dc, tile, view, images, &vc), cpu->Texture(dc, tile, view, images, &vc), 0.02,
+                     "texture");
 }
 
 }  // namespace

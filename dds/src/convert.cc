@@ -414,8 +414,9 @@ OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const Colli
 
 OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsSample& s, int64_t stamp_ns) {
   OwnedSample<hullpipe_msg_NodeStats> o;
-  o.strings.reserve(s.stages.size() + 1);
+  o.strings.reserve(s.stages.size() + 2);
   o.strings.push_back(s.name);
+  o.strings.push_back(s.backend);
   for (const auto& [n, st] : s.stages) {
     o.strings.push_back(n);
     o.stages.push_back({const_cast<char*>(o.strings.back().c_str()), st.ms_mean, st.ms_p95});
@@ -437,6 +438,7 @@ OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsS
     o.cameras.push_back({uint32_t(c.camera_id), c.skew_ms_p50, c.skew_ms_p95, c.skew_ms_max, c.period_ms, c.frames,
                          c.unpartnered, c.pauses, c.restarts, c.clock_offsets});
   Borrow(&m.cameras, o.cameras);
+  m.backend = const_cast<char*>(o.strings[1].c_str());
   return o;
 }
 
@@ -456,6 +458,7 @@ nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& m) {
     s.stages[st.name ? st.name : "?"] = {st.ms_mean, st.ms_p95};
   }
   s.dropped_for_skew = m.dropped_for_skew;
+  s.backend = m.backend ? m.backend : "";
   for (uint32_t i = 0; i < m.cameras._length && i < 64; ++i) {
     const auto& c = m.cameras._buffer[i];
     CameraSkewReport r;

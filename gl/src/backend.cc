@@ -2,11 +2,10 @@
 
 #include <stdexcept>
 
-#include <spdlog/spdlog.h>
-
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
-#include "hullpipe/gl/gl_triangle_query.h"
+#include "hullpipe/gl/gl_ray_sweep.h"
+#include "hullpipe/gl/gl_texture.h"
 
 namespace hullpipe::gl {
 namespace {
@@ -14,9 +13,18 @@ namespace {
 class CpuBackend final : public SweepBackend {
  public:
   CpuBackend(int threads, int refine) : threads_(threads), refine_(refine) {}
+  void BeginFrameset(const VolumeQuery&, const std::vector<CameraImage>&) override {}
   cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d,
                 const cv::Rect& tile) override {
     return PlaneSweepCpu(q, v, d, tile, nullptr, threads_, refine_);
+  }
+  HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
+                            const PlaneSweepOptions& sweep) override {
+    return ComputeHullVisibility(q, cams, width, sweep, refine_, threads_);
+  }
+  cv::Mat Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
+                  const std::vector<CameraImage>& images, const HullVisibility* vis) override {
+    return TextureHull(depth, tile, view, images, {}, vis);
   }
   std::string Name() const override { return "cpu"; }
 
@@ -26,40 +34,103 @@ class CpuBackend final : public SweepBackend {
 
 class GlBackend final : public SweepBackend {
  public:
-  GlBackend(EglContext ctx, int threads, int refine) : ctx_(std::move(ctx)), threads_(threads), refine_(refine) {}
+  GlBackend(EglContext ctx, bool stencil, int threads, int refine)
+      : ctx_(std::move(ctx)), stencil_(stencil), threads_(threads), refine_(refine) {
+    // The programs are built here, with the context current: a driver that cannot
+    // build them fails now, where `auto` can still fall back.
+    if (stencil_) stencil_sweep_ = std::make_unique<GlPlaneSweep>();
+    march_ = std::make_unique<GlRaySweep>();
+    texture_ = std::make_unique<GlTexture>();
+  }
+  void BeginFrameset(const VolumeQuery& q, const std::vector<CameraImage>& images) override {
+    ctx_.MakeCurrent();
+    march_->Upload(q);
+    texture_->UploadImages(images);
+  }
   cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d,
                 const cv::Rect& tile) override {
     ctx_.MakeCurrent();
-    cv::Mat depth = sweep_.Sweep(q, v, d, tile);
+    if (!stencil_) return march_->Sweep(q, v, d, tile, refine_);
+    cv::Mat depth = stencil_sweep_->Sweep(q, v, d, tile);
     RefineSweepDepth(q, v, d, tile, refine_, &depth, threads_);  // CPU point queries on the GPU's bracket
     return depth;
   }
-  std::string Name() const override { return "gl (" + ctx_.renderer() + ")"; }
+  HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
+                            const PlaneSweepOptions& sweep) override {
+    ctx_.MakeCurrent();
+    HullVisibility vis;
+    for (const Camera& cam : cams) {
+      NovelView v = HullVisibilityView(cam, width);
+      const auto depths = SweepPlaneDepths(q, v, sweep);
+      vis.depth.push_back(march_->Sweep(q, v, depths, {0, 0, v.width, v.height}, refine_));
+      vis.views.push_back(v);
+    }
+    return vis;
+  }
+  cv::Mat Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
+                  const std::vector<CameraImage>& images, const HullVisibility* vis) override {
+    ctx_.MakeCurrent();
+    return texture_->Texture(depth, tile, view, images, {}, vis);
+  }
+  std::string Name() const override {
+    return std::string("gl ") + (stencil_ ? "stencil" : "march") + " (" + ctx_.renderer() + ")";
+  }
+  const GlInfo* gl_info() const override { return &ctx_.info(); }
 
  private:
   EglContext ctx_;
+  bool stencil_;
   int threads_, refine_;
-  GlPlaneSweep sweep_;  // constructed after ctx_ is current
+  std::unique_ptr<GlPlaneSweep> stencil_sweep_;
+  std::unique_ptr<GlRaySweep> march_;
+  std::unique_ptr<GlTexture> texture_;
 };
 
 }  // namespace
 
-std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int threads, int refine) {
-  if (refine < 0) throw std::invalid_argument("refine iterations must be >= 0");
-  if (name == "cpu") return std::make_unique<CpuBackend>(threads, refine);
-  if (name != "gl" && name != "auto") throw std::invalid_argument("unknown backend '" + name + "'");
+void BackendOptions::Check() const {
+  if (name != "cpu" && name != "gl" && name != "auto")
+    throw std::invalid_argument("--backend: unknown backend '" + name + "' (cpu, gl or auto)");
+  if (gl_method != "march" && gl_method != "stencil")
+    throw std::invalid_argument("--gl-method: unknown method '" + gl_method + "' (march or stencil)");
+  if (refine < 0) throw std::invalid_argument("--refine: refine iterations must be >= 0");
+  if (threads < 1) throw std::invalid_argument("--threads: must be >= 1");
+  if (gl_device < -1) throw std::invalid_argument("--gl-device: must be >= 0 (or -1 to pick)");
+}
+
+std::unique_ptr<SweepBackend> MakeSweepBackend(const BackendOptions& o) {
+  o.Check();
+  auto cpu = [&](const std::string& why) {
+    auto b = std::make_unique<CpuBackend>(o.threads, o.refine);
+    b->set_reason(why);
+    return b;
+  };
+  if (o.name == "cpu") return cpu("--backend cpu");
   std::string why;
-  std::optional<EglContext> ctx = EglContext::TryCreate(&why);
+  std::optional<EglContext> ctx = EglContext::TryCreate(EglOptions{o.gl_device}, &why);
   if (!ctx) {
-    if (name == "gl") throw std::runtime_error("--backend gl: " + why);
-    spdlog::info("auto backend: {}; using the CPU sweep", why);
-    return std::make_unique<CpuBackend>(threads, refine);
+    if (o.name == "gl") throw std::runtime_error("--backend gl: no GL context: " + why);
+    return cpu("auto: no GL context (" + why + "); the CPU sweep");
   }
-  if (name == "auto" && ctx->IsSoftware()) {
-    spdlog::info("auto backend: GL renderer is software ({}); the CPU sweep is faster there", ctx->renderer());
-    return std::make_unique<CpuBackend>(threads, refine);
+  if (o.name == "auto" && ctx->IsSoftware())
+    return cpu("auto: GL renderer is software (" + ctx->renderer() + "); the CPU sweep is faster there");
+  const std::string summary = ctx->info().Summary();
+  try {
+    auto b = std::make_unique<GlBackend>(std::move(*ctx), o.gl_method == "stencil", o.threads, o.refine);
+    b->set_reason((o.name == "auto" ? "auto: hardware GL renderer " : "--backend gl: ") + summary);
+    return b;
+  } catch (const std::exception& e) {
+    if (o.name == "gl") throw std::runtime_error(std::string("--backend gl: ") + e.what());
+    return cpu(std::string("auto: GL programs failed (") + e.what() + "); the CPU sweep");
   }
-  return std::make_unique<GlBackend>(std::move(*ctx), threads, refine);
+}
+
+std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int threads, int refine) {
+  BackendOptions o;
+  o.name = name;
+  o.threads = threads;
+  o.refine = refine;
+  return MakeSweepBackend(o);
 }
 
 }  // namespace hullpipe::gl

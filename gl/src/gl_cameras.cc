@@ -1,5 +1,6 @@
 #include "gl_cameras.h"
 
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -42,6 +43,28 @@ void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps
   glUniform1i(glGetUniformLocation(program, "u_required"), GLint(q.required_seen()));
   glUniform1i(glGetUniformLocation(program, "u_ncam"), GLint(views.size()));
   CheckGl("upload maps and camera uniforms");
+}
+
+GpuCamera PackCamera(const hullpipe::detail::FastCamera& f, const Eigen::Matrix3d& M, const Eigen::Vector3d& A) {
+  GpuCamera g{};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) g.m[4 * r + c] = float(M(r, c));
+  for (int i = 0; i < 3; ++i) g.a[i] = float(A[i]);
+  g.intr[0] = f.fx, g.intr[1] = f.fy, g.intr[2] = f.cx, g.intr[3] = f.cy;
+  g.k[0] = f.k1, g.k[1] = f.k2, g.k[2] = f.k3, g.k[3] = f.r2max;
+  g.p[0] = f.p1, g.p[1] = f.p2, g.p[2] = float(f.width), g.p[3] = float(f.height);
+  return g;
+}
+
+GpuCamera PackCamera(const Camera& c) {
+  hullpipe::detail::FastCamera f{};
+  f.fx = float(c.fx), f.fy = float(c.fy), f.cx = float(c.cx), f.cy = float(c.cy);
+  f.k1 = float(c.distortion[0]), f.k2 = float(c.distortion[1]);
+  f.p1 = float(c.distortion[2]), f.p2 = float(c.distortion[3]), f.k3 = float(c.distortion[4]);
+  const double r2 = c.MaxValidRadius2();
+  f.r2max = r2 > 1e30 ? std::numeric_limits<float>::max() : float(r2);
+  f.width = c.width, f.height = c.height;
+  return PackCamera(f, c.cam_from_world.rotation, c.cam_from_world.translation);
 }
 
 }  // namespace hullpipe::gl

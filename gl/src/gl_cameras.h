@@ -47,6 +47,54 @@ int VoteOf(int c, vec3 X) {
 }
 )";
 
+// Shared GLSL of the compute passes: cameras in a shader storage buffer (any
+// number of them), their maps in one texture array, so every camera is tested in
+// one invocation without indexing sampler arrays. Camera c's point for a pass
+// parameter d and direction ray is X_c = a + d * (M ray), M's rows m0..m2.
+inline const char* kCameraBufferGlsl = R"(
+struct Cam {
+  vec4 m0, m1, m2;  // rows of M
+  vec4 a;           // xyz: A
+  vec4 intr;        // fx fy cx cy
+  vec4 k;           // k1 k2 k3 r2max
+  vec4 p;           // p1 p2 width height
+};
+layout(std430, binding = 0) readonly buffer Cams { Cam cams[]; };
+// Where camera c sees camera-frame point X: its pixel, or (-1, -1) if unseen
+// (as VolumeQuery::VoteFast and Camera::Project).
+vec2 CamPixel(int c, vec3 X) {
+  if (!(X.z > 1e-6)) return vec2(-1.0);
+  float iz = 1.0 / X.z;
+  vec2 xn = X.xy * iz;
+  precise float r2 = xn.x * xn.x + xn.y * xn.y;
+  vec4 k = cams[c].k, p = cams[c].p, intr = cams[c].intr;
+  if (!(r2 <= k.w)) return vec2(-1.0);
+  precise float radial = 1.0 + r2 * (k.x + r2 * (k.y + r2 * k.z));
+  precise float xy = xn.x * xn.y;
+  precise vec2 xd = vec2(xn.x * radial + 2.0 * p.x * xy + p.y * (r2 + 2.0 * xn.x * xn.x),
+                         xn.y * radial + p.x * (r2 + 2.0 * xn.y * xn.y) + 2.0 * p.y * xy);
+  precise vec2 uv = vec2(intr.x * xd.x + intr.z, intr.y * xd.y + intr.w);
+  if (!(uv.x >= 0.0 && uv.y >= 0.0 && uv.x < p.z && uv.y < p.w)) return vec2(-1.0);
+  return uv;
+}
+)";
+
+/// One camera as kCameraBufferGlsl's Cam (std430: 28 floats).
+struct GpuCamera {
+  float m[12];
+  float a[4];
+  float intr[4];
+  float k[4];
+  float p[4];
+};
+
+/// Packs a camera for a pass where X_c = A + d * (M ray): M and A in double, then
+/// rounded to float; intrinsics and distortion as VolumeQuery's FastCamera (which
+/// must be the camera's).
+GpuCamera PackCamera(const hullpipe::detail::FastCamera& f, const Eigen::Matrix3d& M, const Eigen::Vector3d& A);
+/// The same for a Camera: X_c = A + M X with M, A its cam_from_world (texturing).
+GpuCamera PackCamera(const Camera& camera);
+
 /// Uploads maps as R8 textures (row 0 of the image = texel row 0) and sets the
 /// per-camera uniforms of `program`; camera c's point is X_c = A[c] + M[c] * x.
 /// Throws std::invalid_argument for more than kMaxGlCameras cameras, GlError on

@@ -1,5 +1,8 @@
 #include "hullpipe/gl/gl_objects.h"
 
+#include <initializer_list>
+#include <utility>
+
 #include <vector>
 
 namespace hullpipe::gl {
@@ -18,6 +21,11 @@ Texture MakeTexture() {
   glGenTextures(1, &n);
   return Texture(n);
 }
+Texture MakeTexture(GLenum target) {
+  GLuint n = 0;
+  glCreateTextures(target, 1, &n);
+  return Texture(n);
+}
 Framebuffer MakeFramebuffer() {
   GLuint n = 0;
   glGenFramebuffers(1, &n);
@@ -30,7 +38,7 @@ Renderbuffer MakeRenderbuffer() {
 }
 Buffer MakeBuffer() {
   GLuint n = 0;
-  glGenBuffers(1, &n);
+  glCreateBuffers(1, &n);  // exists at once: usable with the DSA calls
   return Buffer(n);
 }
 VertexArray MakeVertexArray() {
@@ -58,21 +66,12 @@ GLuint Compile(GLenum type, const char* src) {
 }
 }  // namespace
 
-Program BuildProgram(const char* vs, const char* fs) {
-  const GLuint v = Compile(GL_VERTEX_SHADER, vs);
-  GLuint f = 0;
-  try {
-    f = Compile(GL_FRAGMENT_SHADER, fs);
-  } catch (...) {
-    glDeleteShader(v);
-    throw;
-  }
+namespace {
+Program Link(std::initializer_list<GLuint> shaders) {
   Program p(glCreateProgram());
-  glAttachShader(p.get(), v);
-  glAttachShader(p.get(), f);
+  for (GLuint s : shaders) glAttachShader(p.get(), s);
   glLinkProgram(p.get());
-  glDeleteShader(v);
-  glDeleteShader(f);
+  for (GLuint s : shaders) glDeleteShader(s);
   GLint ok = 0;
   glGetProgramiv(p.get(), GL_LINK_STATUS, &ok);
   if (!ok) {
@@ -83,6 +82,52 @@ Program BuildProgram(const char* vs, const char* fs) {
     throw GlError(std::string("program link: ") + log.data());
   }
   return p;
+}
+}  // namespace
+
+Program BuildProgram(const char* vs, const char* fs) {
+  const GLuint v = Compile(GL_VERTEX_SHADER, vs);
+  GLuint f = 0;
+  try {
+    f = Compile(GL_FRAGMENT_SHADER, fs);
+  } catch (...) {
+    glDeleteShader(v);
+    throw;
+  }
+  return Link({v, f});
+}
+
+Program BuildComputeProgram(const char* cs) { return Link({Compile(GL_COMPUTE_SHADER, cs)}); }
+
+Fence::~Fence() {
+  if (sync_) glDeleteSync(sync_);
+}
+
+Fence& Fence::operator=(Fence&& o) noexcept {
+  if (this != &o) {
+    if (sync_) glDeleteSync(sync_);
+    sync_ = std::exchange(o.sync_, nullptr);
+  }
+  return *this;
+}
+
+void Fence::Insert() {
+  if (sync_) glDeleteSync(sync_);
+  sync_ = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+}
+
+void Fence::Wait() {
+  if (!sync_) return;
+  // Flush on the first wait so the fence is sure to be signalled; 1 s slices.
+  GLbitfield flags = GL_SYNC_FLUSH_COMMANDS_BIT;
+  for (;;) {
+    const GLenum r = glClientWaitSync(sync_, flags, 1000000000ull);
+    if (r == GL_ALREADY_SIGNALED || r == GL_CONDITION_SATISFIED) break;
+    if (r == GL_WAIT_FAILED) throw GlError("glClientWaitSync failed");
+    flags = 0;
+  }
+  glDeleteSync(sync_);
+  sync_ = nullptr;
 }
 
 }  // namespace hullpipe::gl

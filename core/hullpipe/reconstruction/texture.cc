@@ -29,17 +29,22 @@ cv::Vec3f Bilinear(const cv::Mat& img, double u, double v) {
 }
 }  // namespace
 
+NovelView HullVisibilityView(const Camera& cam, int width) {
+  const double s = double(width) / cam.width;
+  NovelView v;
+  v.width = width;
+  v.height = std::max(1, int(std::lround(cam.height * s)));
+  v.fx = cam.fx * s, v.fy = cam.fy * double(v.height) / cam.height;
+  v.cx = cam.cx * s, v.cy = cam.cy * double(v.height) / cam.height;
+  v.world_from_eye = cam.cam_from_world.Inverse();
+  return v;
+}
+
 HullVisibility ComputeHullVisibility(const VolumeQuery& query, const std::vector<Camera>& cameras, int width,
                                      const PlaneSweepOptions& sweep, int refine_iterations, int threads) {
   HullVisibility vis;
   for (const Camera& cam : cameras) {
-    const double s = double(width) / cam.width;
-    NovelView v;
-    v.width = width;
-    v.height = std::max(1, int(std::lround(cam.height * s)));
-    v.fx = cam.fx * s, v.fy = cam.fy * double(v.height) / cam.height;
-    v.cx = cam.cx * s, v.cy = cam.cy * double(v.height) / cam.height;
-    v.world_from_eye = cam.cam_from_world.Inverse();
+    const NovelView v = HullVisibilityView(cam, width);
     const auto depths = SweepPlaneDepths(query, v, sweep);
     vis.depth.push_back(PlaneSweepCpu(query, v, depths, {0, 0, v.width, v.height}, nullptr, threads, refine_iterations));
     vis.views.push_back(v);

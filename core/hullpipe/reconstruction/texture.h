@@ -40,6 +40,11 @@ struct HullVisibility {
   std::vector<cv::Mat> depth;    ///< CV_32FC1 eye-z depth of the hull from each.
 };
 
+/// The pinhole view a visibility map of `camera` is swept in: the camera's pose,
+/// `width` pixels across, height and intrinsics scaled in proportion (lens
+/// distortion left out).
+NovelView HullVisibilityView(const Camera& camera, int width);
+
 /// Sweeps the hull from each camera's viewpoint at `width` pixels across (height
 /// in proportion; lens distortion is left out: the map is indexed by the pinhole
 /// projection, which is what TextureHull looks up). planes / refine as for the

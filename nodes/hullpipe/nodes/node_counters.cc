@@ -29,6 +29,7 @@ NodeStatsSample NodeCounters::Snapshot(const std::string& name, bool final_repor
   for (const auto& [n, st] : stages_) s.stages[n] = {st.Mean(), st.Percentile(95)};
   s.cameras = cameras_;
   s.dropped_for_skew = dropped_for_skew_;
+  s.backend = backend_;
   return s;
 }
 

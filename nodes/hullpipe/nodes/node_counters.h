@@ -26,6 +26,7 @@ struct NodeStatsSample {
   std::map<std::string, Stage> stages;
   uint64_t dropped_for_skew = 0;             ///< Framesets dropped for skew (assembling nodes).
   std::vector<CameraSkewReport> cameras;     ///< Per camera (assembling nodes; empty otherwise).
+  std::string backend;  ///< "cpu", or the GL method and GlInfo::Summary() (empty: not reported).
 };
 
 class NodeCounters {
@@ -44,6 +45,8 @@ class NodeCounters {
     cameras_ = assembler.SkewReports();
     dropped_for_skew_ = assembler.dropped_for_skew();
   }
+  /// What computes this node's work (NodeStatsSample::backend).
+  void SetBackend(std::string backend) { backend_ = std::move(backend); }
   /// Adds one duration (milliseconds) to a stage.
   void Stage(const std::string& name, double ms) { stages_[name].Add(ms); }
   uint64_t frames_in() const { return frames_in_; }
@@ -66,6 +69,7 @@ class NodeCounters {
   std::map<std::string, SampleStats> stages_;
   std::vector<CameraSkewReport> cameras_;
   uint64_t dropped_for_skew_ = 0;
+  std::string backend_;
 };
 
 /// RAII: adds the elapsed milliseconds (on the counters' clock) to a stage.

@@ -43,6 +43,8 @@ ReconController::ReconController(ReconOptions options, const Clock& clock, Frame
       peers_((o_.Check(), o_.failover)),
       adopted_(size_t(o_.tile_count), false) {
   query_options_.out_of_view = o_.out_of_view;
+  const gl::GlInfo* gl = backend_.gl_info();
+  counters_.SetBackend(gl ? backend_.Name() + " | " + gl->Summary() : backend_.Name());
   // Every peer counts as heard at the start: none is adopted before it had
   // `failover` s to report.
   for (int k = 0; k < o_.tile_count; ++k)
@@ -129,6 +131,10 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
   const VolumeQuery vq(fs.maps, assembler_.workspace(), query_options_);  // includes the hull box
   const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, o_.sweep);
   counters_.Stage("hull_box", (clock_.Now() - t0) * 1e3);
+  {
+    StageTimer st(counters_, "upload");
+    backend_.BeginFrameset(vq, fs.images);
+  }
   std::optional<HullVisibility> vis;
   if (o_.visibility_width > 0) {
     StageTimer st(counters_, "visibility");
@@ -136,7 +142,7 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
     for (const auto& im : fs.images) cams.push_back(im.camera);
     PlaneSweepOptions vis_sweep = o_.sweep;
     vis_sweep.num_planes = std::min(o_.sweep.num_planes, 48);
-    vis = ComputeHullVisibility(vq, cams, o_.visibility_width, vis_sweep, o_.refine, o_.threads);
+    vis = backend_.Visibility(vq, cams, o_.visibility_width, vis_sweep);
   }
   int published = 0;
   for (const int t : MyTiles()) {
@@ -149,7 +155,7 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
     }
     {
       StageTimer st(counters_, "texture");
-      tile.colour = TextureHull(tile.depth, rect, pose.view, fs.images, {}, vis ? &*vis : nullptr);
+      tile.colour = backend_.Texture(tile.depth, rect, pose.view, fs.images, vis ? &*vis : nullptr);
     }
     tile.rect = rect;
     tile.node_id = uint32_t(o_.tile);

@@ -270,10 +270,12 @@ nlohmann::json RenderController::StatsJson() const {
   auto row = [](const NodeStatsSample& r) {
     nlohmann::json stages = nlohmann::json::object();
     for (const auto& [n, s] : r.stages) stages[n] = {{"ms_mean", s.ms_mean}, {"ms_p95", s.ms_p95}};
-    return nlohmann::json{{"fps", r.fps},           {"latency_ms_p50", r.latency_ms_p50},
-                          {"latency_ms_p95", r.latency_ms_p95}, {"frames_in", r.frames_in},
-                          {"frames_out", r.frames_out}, {"dropped", r.dropped},
-                          {"rejected", r.rejected}, {"stages_ms", stages}};
+    nlohmann::json out{{"fps", r.fps},           {"latency_ms_p50", r.latency_ms_p50},
+                       {"latency_ms_p95", r.latency_ms_p95}, {"frames_in", r.frames_in},
+                       {"frames_out", r.frames_out}, {"dropped", r.dropped},
+                       {"rejected", r.rejected}, {"stages_ms", stages}};
+    if (!r.backend.empty()) out["backend"] = r.backend;
+    return out;
   };
   auto assembly = [](const NodeStatsSample& r) {
     nlohmann::json cams = nlohmann::json::object();
@@ -315,6 +317,9 @@ std::string RenderController::Table() const {
     if (name != "render") row(r);
   const NodeStatsSample self = counters_.Snapshot("render", true);
   row(self);
+  // What computed each node's hull or collisions (CPU, or which GL renderer).
+  for (const auto& [name, r] : node_stats_)
+    if (!r.backend.empty()) line("%-10s backend: %.200s\n", name.c_str(), r.backend.c_str());
   // How render's framesets were assembled (the recon and sim nodes' are in stats.json).
   if (!self.cameras.empty()) {
     line("\nframesets (render): %llu dropped for skew\n", (unsigned long long)self.dropped_for_skew);

@@ -62,6 +62,8 @@ using VertexArray = GlName<detail::DeleteVertexArray>;
 using Program = GlName<detail::DeleteProgram>;
 
 Texture MakeTexture();
+/// A texture created for `target` (glCreateTextures: usable with the DSA calls at once).
+Texture MakeTexture(GLenum target);
 Framebuffer MakeFramebuffer();
 Renderbuffer MakeRenderbuffer();
 Buffer MakeBuffer();
@@ -70,5 +72,28 @@ VertexArray MakeVertexArray();
 /// Compiles and links a vertex + fragment shader pair (GLSL 450 core). Throws
 /// GlError with the compiler's log.
 Program BuildProgram(const char* vertex_src, const char* fragment_src);
+
+/// Compiles and links a compute shader (GLSL 450 core). Throws GlError with the
+/// compiler's log.
+Program BuildComputeProgram(const char* compute_src);
+
+/// A GL fence (glFenceSync), move-only: Insert() after commands, Wait() blocks
+/// until the GPU has finished them (throws GlError if the wait fails).
+class Fence {
+ public:
+  Fence() = default;
+  ~Fence();
+  Fence(const Fence&) = delete;
+  Fence& operator=(const Fence&) = delete;
+  Fence(Fence&& o) noexcept : sync_(std::exchange(o.sync_, nullptr)) {}
+  Fence& operator=(Fence&& o) noexcept;
+  /// Replaces any earlier fence with one after the commands issued so far.
+  void Insert();
+  /// Returns once the fenced commands are done (at once if none is pending).
+  void Wait();
+
+ private:
+  GLsync sync_ = nullptr;
+};
 
 }  // namespace hullpipe::gl

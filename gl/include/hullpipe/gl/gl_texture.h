@@ -1,0 +1,53 @@
+// Texturing the visual hull on the GPU (OpenGL 4.5 compute shader, headless EGL):
+// the GPU twin of TextureHull (texture.h, paper §3.3), visibility test included,
+// equal to it up to float rounding (gl tests compare them).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "hullpipe/gl/gl_objects.h"
+#include "hullpipe/reconstruction/texture.h"
+
+namespace hullpipe::gl {
+
+class LayerUploader;
+
+/// Most cameras one texturing pass blends from (per-invocation arrays).
+inline constexpr int kMaxTextureCameras = 32;
+
+/// Hull texturing on the GPU. Needs a current context (EglContext).
+class GlTexture {
+ public:
+  GlTexture();
+  ~GlTexture();
+  GlTexture(const GlTexture&) = delete;
+  GlTexture& operator=(const GlTexture&) = delete;
+
+  /// Uploads a frameset's colour images (CV_8UC3 BGR; one texture array layer
+  /// each, through double-buffered pixel buffers). Every Texture call until the
+  /// next upload reads these. Throws std::invalid_argument for more than
+  /// kMaxTextureCameras images or a non-CV_8UC3 image, GlError on a GL error.
+  void UploadImages(const std::vector<CameraImage>& images);
+
+  /// Same contract as TextureHull(depth_tile, tile, view, images, options,
+  /// visibility): CV_8UC3 of the tile's size. `images` must be the ones last
+  /// uploaded (only their cameras and sizes are read here). Throws as TextureHull,
+  /// std::invalid_argument if the images differ in number from the upload or
+  /// options.max_cameras > kMaxTextureCameras, GlError on a GL error.
+  cv::Mat Texture(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
+                  const std::vector<CameraImage>& images, const TextureOptions& options = {},
+                  const HullVisibility* visibility = nullptr);
+
+ private:
+  Program program_;
+  std::unique_ptr<LayerUploader> images_, visibility_;
+  size_t uploaded_ = 0;
+  Buffer cams_, extra_;
+  gl::Texture depth_, out_;
+  int w_ = 0, h_ = 0;
+};
+
+}  // namespace hullpipe::gl

@@ -1,0 +1,223 @@
+#include "hullpipe/gl/gl_texture.h"
+
+#include <algorithm>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+#include "gl_cameras.h"
+#include "gl_upload.h"
+
+namespace hullpipe::gl {
+namespace {
+
+// Per camera, beside its projection (kCameraBufferGlsl's Cam, scaled to its image):
+// its centre and its visibility view (eye_from_world, pinhole intrinsics, size).
+struct TexExtra {
+  float centre[4];
+  float vr[12];
+  float vt[4];
+  float vintr[4];
+  float vsize[4];
+};
+
+std::string TextureCs() {
+  return std::string("#version 450 core\nlayout(local_size_x = 8, local_size_y = 8) in;\n") + kCameraBufferGlsl + R"(
+struct Extra { vec4 centre; vec4 vr0, vr1, vr2; vec4 vt; vec4 vintr; vec4 vsize; };
+layout(std430, binding = 2) readonly buffer Extras { Extra ex[]; };
+layout(binding = 0) uniform usampler2DArray u_images;  // bytes B, G, R per texel
+layout(binding = 1) uniform sampler2DArray u_vis;      // hull depth from each camera
+layout(binding = 2) uniform sampler2D u_depth;         // the tile's eye-z depths
+layout(rgba8ui, binding = 0) uniform writeonly uimage2D u_out;
+uniform int u_ncam;
+uniform int u_max;        // TextureOptions::max_cameras
+uniform float u_power;    // TextureOptions::angle_power
+uniform float u_bias;     // TextureOptions::visibility_bias_m
+uniform int u_has_vis;
+uniform vec4 u_view;
+uniform vec2 u_origin;
+uniform mat3 u_Rwe;
+uniform vec3 u_O;
+uniform ivec2 u_size;
+const int MAXC = 32;
+
+vec3 Bilinear(int k, vec2 uv) {
+  vec2 sz = cams[k].p.zw;
+  float x = clamp(uv.x - 0.5, 0.0, sz.x - 1.0), y = clamp(uv.y - 0.5, 0.0, sz.y - 1.0);
+  int x0 = int(x), y0 = int(y);
+  int x1 = min(x0 + 1, int(sz.x) - 1), y1 = min(y0 + 1, int(sz.y) - 1);
+  float ax = x - float(x0), ay = y - float(y0);
+  vec3 p00 = vec3(texelFetch(u_images, ivec3(x0, y0, k), 0).rgb), p01 = vec3(texelFetch(u_images, ivec3(x1, y0, k), 0).rgb);
+  vec3 p10 = vec3(texelFetch(u_images, ivec3(x0, y1, k), 0).rgb), p11 = vec3(texelFetch(u_images, ivec3(x1, y1, k), 0).rgb);
+  return (p00 * (1.0 - ax) + p01 * ax) * (1.0 - ay) + (p10 * (1.0 - ax) + p11 * ax) * ay;
+}
+
+bool Visible(int k, vec3 X) {
+  vec3 p = vec3(dot(ex[k].vr0.xyz, X), dot(ex[k].vr1.xyz, X), dot(ex[k].vr2.xyz, X)) + ex[k].vt.xyz;
+  if (!(p.z > 0.0)) return false;
+  vec4 in_ = ex[k].vintr;
+  float u = in_.x * p.x / p.z + in_.z, w = in_.y * p.y / p.z + in_.w;
+  vec2 sz = ex[k].vsize.xy;
+  if (!(u >= 0.0 && w >= 0.0 && u < sz.x && w < sz.y)) return false;
+  int x = clamp(int(u), 0, int(sz.x) - 1), y = clamp(int(w), 0, int(sz.y) - 1);
+  float d = texelFetch(u_vis, ivec3(x, y, k), 0).r;
+  float footprint = p.z / in_.x;
+  return isinf(d) || p.z <= d + u_bias + 2.0 * footprint;
+}
+
+void main() {
+  ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+  if (px.x >= u_size.x || px.y >= u_size.y) return;
+  float d = texelFetch(u_depth, px, 0).r;
+  if (isinf(d) || isnan(d)) { imageStore(u_out, px, uvec4(0u)); return; }
+  vec2 uv = u_origin + vec2(px) + 0.5;
+  vec3 ray = vec3((uv.x - u_view.z) / u_view.x, (uv.y - u_view.w) / u_view.y, 1.0);
+  vec3 X = u_O + d * (u_Rwe * ray);
+  vec3 to_eye = normalize(u_O - X);
+  float w[MAXC];
+  vec3 col[MAXC];
+  bool seen[MAXC];
+  int n = 0;
+  bool any_seen = false;
+  for (int k = 0; k < u_ncam; ++k) {
+    float cosang = dot(to_eye, normalize(ex[k].centre.xyz - X));
+    vec3 Xc = cams[k].a.xyz + vec3(dot(cams[k].m0.xyz, X), dot(cams[k].m1.xyz, X), dot(cams[k].m2.xyz, X));
+    vec2 puv = CamPixel(k, Xc);
+    if (puv.x < 0.0) continue;
+    // Cameras facing the eye's side dominate; when none does the least oblique wins.
+    w[n] = (cosang > 0.0 ? pow(cosang, u_power) : 0.0) + 1e-9 * (1.0 + cosang);
+    col[n] = Bilinear(k, puv);
+    seen[n] = u_has_vis == 0 || Visible(k, X);
+    any_seen = any_seen || seen[n];
+    ++n;
+  }
+  if (n == 0) { imageStore(u_out, px, uvec4(128u, 128u, 128u, 255u)); return; }
+  vec3 sum = vec3(0.0);
+  float wsum = 0.0;
+  // The u_max heaviest of the cameras that see the point (all, if none does).
+  for (int taken = 0; taken < u_max; ++taken) {
+    int best = -1;
+    for (int i = 0; i < n; ++i)
+      if ((seen[i] || !any_seen) && w[i] >= 0.0 && (best < 0 || w[i] > w[best])) best = i;
+    if (best < 0) break;
+    sum += col[best] * w[best];
+    wsum += w[best];
+    w[best] = -1.0;
+  }
+  sum *= 1.0 / wsum;
+  imageStore(u_out, px, uvec4(uvec3(clamp(roundEven(sum), 0.0, 255.0)), 255u));
+}
+)";
+}
+
+}  // namespace
+
+GlTexture::GlTexture()
+    : program_(BuildComputeProgram(TextureCs().c_str())),
+      images_(std::make_unique<LayerUploader>(GL_RGBA8UI, GL_RGB_INTEGER, GL_UNSIGNED_BYTE, CV_8UC3)),
+      visibility_(std::make_unique<LayerUploader>(GL_R32F, GL_RED, GL_FLOAT, CV_32FC1)),
+      cams_(MakeBuffer()),
+      extra_(MakeBuffer()) {}
+
+GlTexture::~GlTexture() = default;
+
+void GlTexture::UploadImages(const std::vector<CameraImage>& images) {
+  if (images.size() > size_t(kMaxTextureCameras))
+    throw std::invalid_argument("GlTexture: at most " + std::to_string(kMaxTextureCameras) + " images");
+  std::vector<cv::Mat> layers;
+  for (const auto& im : images) layers.push_back(im.image);
+  images_->Upload(layers);
+  uploaded_ = images.size();
+}
+
+cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
+                           const std::vector<CameraImage>& images, const TextureOptions& options,
+                           const HullVisibility* vis) {
+  options.Check();
+  view.Check();
+  CV_Assert(depth.type() == CV_32FC1 && depth.size() == tile.size());
+  if (vis && (vis->views.size() != images.size() || vis->depth.size() != images.size()))
+    throw std::invalid_argument("GlTexture: visibility has " + std::to_string(vis->views.size()) +
+                                " cameras, images " + std::to_string(images.size()));
+  if (images.size() != uploaded_)
+    throw std::invalid_argument("GlTexture: " + std::to_string(images.size()) + " images, the last upload " +
+                                std::to_string(uploaded_));
+  if (options.max_cameras > kMaxTextureCameras)
+    throw std::invalid_argument("GlTexture: max_cameras above " + std::to_string(kMaxTextureCameras));
+  cv::Mat out(tile.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+  if (tile.area() == 0 || images.empty()) return out;
+
+  std::vector<GpuCamera> cams;
+  std::vector<TexExtra> extra(images.size());
+  for (size_t k = 0; k < images.size(); ++k) {
+    const Camera c = ScaledCamera(images[k].camera, images[k].image.cols, images[k].image.rows);
+    cams.push_back(PackCamera(c));
+    TexExtra& e = extra[k];
+    const Eigen::Vector3d C = c.Center();
+    for (int i = 0; i < 3; ++i) e.centre[i] = float(C[i]);
+    if (vis) {
+      const NovelView& v = vis->views[k];
+      const Rigid3d ew = v.world_from_eye.Inverse();
+      for (int r = 0; r < 3; ++r)
+        for (int j = 0; j < 3; ++j) e.vr[4 * r + j] = float(ew.rotation(r, j));
+      for (int i = 0; i < 3; ++i) e.vt[i] = float(ew.translation[i]);
+      e.vintr[0] = float(v.fx), e.vintr[1] = float(v.fy), e.vintr[2] = float(v.cx), e.vintr[3] = float(v.cy);
+      e.vsize[0] = float(v.width), e.vsize[1] = float(v.height);
+    }
+  }
+  glNamedBufferData(cams_.get(), GLsizeiptr(cams.size() * sizeof(GpuCamera)), cams.data(), GL_STREAM_DRAW);
+  glNamedBufferData(extra_.get(), GLsizeiptr(extra.size() * sizeof(TexExtra)), extra.data(), GL_STREAM_DRAW);
+  if (vis) visibility_->Upload(vis->depth);
+
+  if (tile.width > w_ || tile.height > h_) {
+    w_ = std::max(w_, tile.width);
+    h_ = std::max(h_, tile.height);
+    depth_ = MakeTexture(GL_TEXTURE_2D);
+    glTextureStorage2D(depth_.get(), 1, GL_R32F, w_, h_);
+    glTextureParameteri(depth_.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(depth_.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    out_ = MakeTexture(GL_TEXTURE_2D);
+    glTextureStorage2D(out_.get(), 1, GL_RGBA8UI, w_, h_);
+  }
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(depth.step[0] / sizeof(float)));
+  glTextureSubImage2D(depth_.get(), 0, 0, 0, tile.width, tile.height, GL_RED, GL_FLOAT, depth.data);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+
+  const GLuint p = program_.get();
+  glUseProgram(p);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, cams_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, extra_.get());
+  glBindTextureUnit(0, images_->texture());
+  glBindTextureUnit(1, vis ? visibility_->texture() : images_->texture());
+  glBindTextureUnit(2, depth_.get());
+  glBindImageTexture(0, out_.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8UI);
+  glUniform1i(glGetUniformLocation(p, "u_ncam"), GLint(images.size()));
+  glUniform1i(glGetUniformLocation(p, "u_max"), options.max_cameras);
+  glUniform1f(glGetUniformLocation(p, "u_power"), float(options.angle_power));
+  glUniform1f(glGetUniformLocation(p, "u_bias"), float(options.visibility_bias_m));
+  glUniform1i(glGetUniformLocation(p, "u_has_vis"), vis ? 1 : 0);
+  glUniform4f(glGetUniformLocation(p, "u_view"), float(view.fx), float(view.fy), float(view.cx), float(view.cy));
+  glUniform2f(glGetUniformLocation(p, "u_origin"), float(tile.x), float(tile.y));
+  const Eigen::Matrix3f Rwe = view.world_from_eye.rotation.cast<float>();
+  const Eigen::Vector3f O = view.world_from_eye.translation.cast<float>();
+  glUniformMatrix3fv(glGetUniformLocation(p, "u_Rwe"), 1, GL_FALSE, Rwe.data());
+  glUniform3fv(glGetUniformLocation(p, "u_O"), 1, O.data());
+  glUniform2i(glGetUniformLocation(p, "u_size"), tile.width, tile.height);
+  glUniform1i(glGetUniformLocation(p, "u_images"), 0);
+  glUniform1i(glGetUniformLocation(p, "u_vis"), 1);
+  glUniform1i(glGetUniformLocation(p, "u_depth"), 2);
+  glDispatchCompute(GLuint((tile.width + 7) / 8), GLuint((tile.height + 7) / 8), 1);
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  cv::Mat bgra(tile.size(), CV_8UC4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glGetTextureSubImage(out_.get(), 0, 0, 0, 0, tile.width, tile.height, 1, GL_RGBA_INTEGER, GL_UNSIGNED_BYTE,
+                       GLsizei(bgra.total() * 4), bgra.data);
+  CheckGl("texture hull");
+  cv::cvtColor(bgra, out, cv::COLOR_BGRA2BGR);
+  return out;
+}
+
+}  // namespace hullpipe::gl
