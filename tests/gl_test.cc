@@ -153,6 +153,32 @@ TEST_F(Gl, TriangleQueryMatchesCpu) {
   EXPECT_EQ(got.back().collision_points.size(), 1u);  // sub-pixel triangle, centroid inside
 }
 
+TEST_F(Gl, TriangleQueryInSeveralPassesWithMorePointsThanTheFirstBuffer) {
+  // 300 triangles inside the sphere in 10x10 viewports: ~15,000 inside points,
+  // more than the point buffer first holds (4096: the query runs again with room),
+  // and a 64-pixel atlas (36 cells) draws them in 9 passes. Same points as the CPU.
+  const VolumeQuery q(test::SphereViews(4, 200, 150, kCentre, 0.3), test::BigBox());
+  std::vector<Triangle> tris;
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector3d o = kCentre + Eigen::Vector3d(0.01 * (i % 20) - 0.1, 0.01 * (i / 20) - 0.075, 0.0);
+    tris.push_back({o, o + Eigen::Vector3d(0.008, 0, 0), o + Eigen::Vector3d(0, 0.008, 0.001)});
+  }
+  const TriangleQueryOptions o{0.002, 10, 64};
+  for (const int atlas : {64, 16384}) {
+    GlTriangleQuery gl(atlas);
+    const auto got = gl.Query(q, tris, o);
+    size_t points = 0;
+    for (size_t i = 0; i < tris.size(); ++i) {
+      const auto ref = QueryTriangleCpu(q, tris[i].a, tris[i].b, tris[i].c, o);
+      EXPECT_NEAR(got[i].pixels_tested, ref.pixels_tested, 40) << i;  // edge pixels, as above
+      EXPECT_NEAR(double(got[i].collision_points.size()), double(ref.collision_points.size()), 40) << i;
+      points += got[i].collision_points.size();
+    }
+    EXPECT_GT(points, 8000u) << "atlas " << atlas;
+  }
+  EXPECT_THROW(GlTriangleQuery(32), std::invalid_argument);
+}
+
 TEST_F(Gl, BackendChoice) {
   EXPECT_EQ(MakeSweepBackend("cpu")->Name(), "cpu");
   const auto a = MakeSweepBackend("auto");

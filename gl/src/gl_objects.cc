@@ -28,7 +28,7 @@ Texture MakeTexture(GLenum target) {
 }
 Framebuffer MakeFramebuffer() {
   GLuint n = 0;
-  glGenFramebuffers(1, &n);
+  glCreateFramebuffers(1, &n);
   return Framebuffer(n);
 }
 Renderbuffer MakeRenderbuffer() {
