@@ -3,9 +3,15 @@
 // segmentation, CPU and GL plane sweeps at 320x240 and 640x480 with 50/100/200
 // planes, texturing, and the triangle query (the paper's case: 720 triangles in
 // 10x10 viewports). Each figure is the median of --repeats runs.
+// With --backend cpu|gl|both it prints instead the backend table (docs/gpu.md):
+// a whole recon frame (upload, visibility maps, sweep with refinement, texture)
+// at three view sizes with 4, 8 and 16 cameras and 50/100/200 planes, and the
+// triangle query at 720, 10,000 and 100,000 triangles, on one synthetic input
+// for both backends, ratios beside times.
 #include <algorithm>
 #include <cstdio>
 #include <functional>
+#include <thread>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -17,6 +23,8 @@
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/reconstruction/compositor.h"
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/gl/backend.h"
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
 #include "hullpipe/gl/gl_triangle_query.h"
@@ -46,6 +54,142 @@ void Row(const std::string& what, const std::string& config, double ms, const st
   std::fflush(stdout);
 }
 
+// The backend table's input: a seated-person-sized figure (head, torso, arms,
+// legs as spheres and capsules, 1.3 m tall) seen by n cameras on a ring, exact
+// object-pixel maps at the rig's 644x486 and half-size colour images with a
+// pattern per camera.
+struct BackendInput {
+  std::vector<CameraMap> views;
+  std::vector<CameraImage> images;
+  Eigen::Vector3d centre{0, 0, -0.8};
+};
+
+BackendInput MakeBackendInput(int cameras) {
+  BackendInput in;
+  const Eigen::Vector3d c = in.centre;
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Sphere(c + Eigen::Vector3d(0, 0, -0.55), 0.11));
+  scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0, 0, -0.35), c + Eigen::Vector3d(0, 0, 0.1), 0.16));
+  scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0.2, 0, -0.3), c + Eigen::Vector3d(0.45, 0.25, 0.0), 0.045));
+  scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(-0.2, 0, -0.3), c + Eigen::Vector3d(-0.4, 0.3, -0.1), 0.045));
+  scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0.1, 0, 0.15), c + Eigen::Vector3d(0.12, 0.45, 0.6), 0.07));
+  scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(-0.1, 0, 0.15), c + Eigen::Vector3d(-0.12, 0.45, 0.6), 0.07));
+  for (const Camera& cam : RingCameras(cameras, 3.0, 1.8, c, 644, 486, 1.0)) {
+    in.views.push_back({cam, RenderExactMap(cam, scene)});
+    cv::Mat img(243, 322, CV_8UC3);
+    for (int r = 0; r < img.rows; ++r)
+      for (int k = 0; k < img.cols; ++k)
+        img.at<cv::Vec3b>(r, k) = cv::Vec3b(uint8_t((k * 3 + 40 * cam.id) % 256), uint8_t((r * 5) % 256),
+                                            uint8_t(((r + k) * 2) % 256));
+    in.images.push_back({cam, img});
+  }
+  return in;
+}
+
+int BackendTable(const std::string& which, int repeats, int gl_device) {
+  std::unique_ptr<gl::SweepBackend> cpu, gpu;
+  if (which != "gl") cpu = gl::MakeSweepBackend("cpu", 1, 6);
+  std::optional<gl::EglContext> tri_ctx;
+  if (which != "cpu") {
+    gl::BackendOptions o;
+    o.name = "gl";
+    o.refine = 6;
+    o.gl_device = gl_device;
+    try {
+      gpu = gl::MakeSweepBackend(o);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s\n", e.what());
+      return 1;
+    }
+  }
+  std::printf("backend table: %u hardware threads, CPU backend 1 thread; GL: %s\n",
+              std::thread::hardware_concurrency(), gpu ? gpu->gl_info()->Summary().c_str() : "not run");
+  std::printf("frame = upload + visibility maps (4..16 x 80 px, 48 planes) + sweep (refine 6) + texture; median of %d\n\n",
+              repeats);
+  std::printf("| view      | cams | planes | CPU sweep ms | CPU frame ms | GL sweep ms | GL frame ms | frame CPU/GL |\n");
+  std::printf("|-----------|------|--------|--------------|--------------|-------------|-------------|--------------|\n");
+  auto frame = [&](gl::SweepBackend& b, const BackendInput& in, const VolumeQuery& q, const NovelView& view,
+                   const std::vector<double>& depths, double* sweep_ms) {
+    std::vector<Camera> cams;
+    for (const auto& im : in.images) cams.push_back(im.camera);
+    PlaneSweepOptions vo;
+    vo.num_planes = 48;
+    const cv::Rect all(0, 0, view.width, view.height);
+    *sweep_ms = MedianMs(repeats, [&] { (void)b.Sweep(q, view, depths, all); });
+    return MedianMs(repeats, [&] {
+      b.BeginFrameset(q, in.images);
+      const HullVisibility vis = b.Visibility(q, cams, 80, vo);
+      const cv::Mat d = b.Sweep(q, view, depths, all);
+      (void)b.Texture(d, all, view, in.images, &vis);
+    });
+  };
+  for (const int ncam : {4, 8, 16}) {
+    const BackendInput in = MakeBackendInput(ncam);
+    const VolumeQuery q(in.views, DefaultWorkspace([&] {
+                          std::vector<Camera> c;
+                          for (const auto& v : in.views) c.push_back(v.camera);
+                          return c;
+                        }()));
+    OrbitPath orbit;
+    orbit.centre = in.centre;
+    for (const auto& [w, h] : {std::pair{320, 240}, std::pair{640, 480}, std::pair{1280, 720}}) {
+      const NovelView view = NovelView::FromFov(w, h, 50 * M_PI / 180, orbit.WorldFromEye(1.0));
+      for (const int planes : {50, 100, 200}) {
+        PlaneSweepOptions o;
+        o.num_planes = planes;
+        const auto depths = SweepPlaneDepths(q, view, o);
+        double cs = 0, cf = 0, gs = 0, gf = 0;
+        if (cpu) {
+          cpu->BeginFrameset(q, in.images);
+          cf = frame(*cpu, in, q, view, depths, &cs);
+        }
+        if (gpu) {
+          gpu->BeginFrameset(q, in.images);
+          gf = frame(*gpu, in, q, view, depths, &gs);
+        }
+        auto cell = [](double v) { return v > 0 ? std::to_string(v).substr(0, std::to_string(v).find('.') + 3) : std::string("-"); };
+        std::printf("| %4dx%-4d | %4d | %6d | %12s | %12s | %11s | %11s | %12s |\n", w, h, ncam, planes,
+                    cell(cs).c_str(), cell(cf).c_str(), cell(gs).c_str(), cell(gf).c_str(),
+                    cpu && gpu ? cell(cf / gf).c_str() : "-");
+        std::fflush(stdout);
+      }
+    }
+  }
+  // Triangle query: triangles of ~8 mm across the figure's torso plane, some
+  // inside the hull and some out, each in a 10x10 viewport (the paper's setting).
+  {
+    const BackendInput in = MakeBackendInput(4);
+    std::vector<Camera> cams;
+    for (const auto& v : in.views) cams.push_back(v.camera);
+    const VolumeQuery q(in.views, DefaultWorkspace(cams));
+    const TriangleQueryOptions o{0.002, 10, 64};
+    std::unique_ptr<gl::GlTriangleQuery> gl_tri;
+    if (gpu) {
+      tri_ctx = gl::EglContext::TryCreate(gl::EglOptions{gl_device});
+      if (tri_ctx) gl_tri = std::make_unique<gl::GlTriangleQuery>();
+    }
+    std::printf("\n| triangles (10x10 viewports) | CPU ms | CPU tris/s | GL ms | GL tris/s | CPU/GL |\n");
+    std::printf("|-----------------------------|--------|------------|-------|-----------|--------|\n");
+    for (const int count : {720, 10000, 100000}) {
+      std::vector<Triangle> tris;
+      const int side = int(std::ceil(std::sqrt(count)));
+      const double s = 0.9 / side;
+      for (int i = 0; int(tris.size()) < count; ++i) {
+        const Eigen::Vector3d p = in.centre + Eigen::Vector3d((i % side) * s - 0.45, 0.0, (i / side) * s - 0.6);
+        tris.push_back({p, p + Eigen::Vector3d(s, 0, 0), p + Eigen::Vector3d(0, 0.002, s)});
+      }
+      const int reps = count >= 100000 ? std::max(1, repeats / 3) : repeats;
+      const double cms = cpu ? MedianMs(reps, [&] { (void)QueryTrianglesCpu(q, tris, o, 1); }) : 0;
+      const double gms = gl_tri ? MedianMs(reps, [&] { (void)gl_tri->Query(q, tris, o); }) : 0;
+      std::printf("| %27d | %6.1f | %10.0f | %5.1f | %9.0f | %6s |\n", count, cms, cms > 0 ? count / cms * 1e3 : 0.0,
+                  gms, gms > 0 ? count / gms * 1e3 : 0.0,
+                  cms > 0 && gms > 0 ? std::to_string(cms / gms).substr(0, 5).c_str() : "-");
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -58,8 +202,20 @@ int main(int argc, char** argv) {
   app.add_flag("--no-gl", no_gl, "Skip the GL rows");
   app.add_option("--repeats", repeats, "Runs per row (median)")->capture_default_str();
   app.add_option("--frame", frame, "Rig frame")->capture_default_str();
+  std::string backend;
+  int gl_device = -1;
+  app.add_option("--backend", backend,
+                 "Print the backend table instead (synthetic input): cpu, gl or both (ratios)")
+      ->check(CLI::IsMember({"cpu", "gl", "both"}));
+  app.add_option("--gl-device", gl_device, "EGL device for GL (-1: the first hardware device)")
+      ->check(CLI::Range(-1, 64))->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
+  if (!(repeats >= 1 && repeats <= 1000)) {
+    std::fprintf(stderr, "--repeats must be in [1, 1000]\n");
+    return 2;
+  }
+  if (!backend.empty()) return BackendTable(backend, repeats, gl_device);
 
   std::unique_ptr<RigSource> src;
   if (synthetic) {
@@ -116,6 +272,7 @@ int main(int argc, char** argv) {
     }
   }
   const std::string gl_name = ctx ? "GL (" + ctx->renderer().substr(0, ctx->renderer().find(' ')) + ")" : "";
+  if (ctx) std::fprintf(stderr, "GL: %s\n", ctx->info().Summary().c_str());
 
   for (const auto& [w, h] : {std::pair{320, 240}, std::pair{640, 480}}) {
     const NovelView view = NovelView::FromFov(w, h, 50 * M_PI / 180, orbit.WorldFromEye(1.0));
