@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "hullpipe/gl/backend.h"
 #include "hullpipe/gl/egl_context.h"
@@ -397,18 +398,31 @@ void ExpectColoursMatch(const cv::Mat& gl, const cv::Mat& cpu, double max_fracti
   EXPECT_LE(differ, int(max_fraction * coloured) + 2) << what << ": " << differ << " of " << coloured;
 }
 
-TEST_F(Gl, TextureMatchesCpuWithAndWithoutVisibility) {
-  const auto views = test::SphereViews(4, 240, 180, kCentre, 0.3, Distortion{-0.2, 0.05, 0.001, -0.001, 0});
-  const VolumeQuery q(views, test::BigBox());
-  const auto images = PatternImages(views);
-  const NovelView view = NovelView::FromFov(
-      200, 150, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
-  PlaneSweepOptions o;
-  const auto depths = SweepPlaneDepths(q, view, o);
+// The sphere seen by four cameras with pattern images, a 200x150 view of it, its
+// default planes, and the visibility sweep's settings (recon's: 48 planes).
+struct TexturedSphere {
+  explicit TexturedSphere(const Distortion& d)
+      : views(test::SphereViews(4, 240, 180, kCentre, 0.3, d)),
+        q(views, test::BigBox()),
+        images(PatternImages(views)),
+        view(NovelView::FromFov(200, 150, 0.8,
+                                LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}))),
+        depths(SweepPlaneDepths(q, view, PlaneSweepOptions{})) {
+    for (const auto& im : images) cams.push_back(im.camera);
+    vo.num_planes = 48;
+  }
+  std::vector<CameraMap> views;
+  VolumeQuery q;
+  std::vector<CameraImage> images;
+  NovelView view;
+  std::vector<double> depths;
   std::vector<Camera> cams;
-  for (const auto& im : images) cams.push_back(im.camera);
   PlaneSweepOptions vo;
-  vo.num_planes = 48;
+};
+
+TEST_F(Gl, TextureMatchesCpuWithAndWithoutVisibility) {
+  const TexturedSphere t(Distortion{-0.2, 0.05, 0.001, -0.001, 0});
+  const auto& [views, q, images, view, depths, cams, vo] = t;
   const HullVisibility vis = ComputeHullVisibility(q, cams, 80, vo, 4);
   GlTexture tex;
   tex.UploadImages(images);
@@ -424,17 +438,8 @@ TEST_F(Gl, TextureMatchesCpuWithAndWithoutVisibility) {
 TEST_F(Gl, GlBackendRendersAFramesetAsTheCpuBackend) {
   // The backend's whole frameset path (upload, visibility maps by the march,
   // sweep, texture) against the CPU backend's.
-  const auto views = test::SphereViews(4, 240, 180, kCentre, 0.3);
-  const VolumeQuery q(views, test::BigBox());
-  const auto images = PatternImages(views);
-  const NovelView view = NovelView::FromFov(
-      200, 150, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
-  PlaneSweepOptions o;
-  const auto depths = SweepPlaneDepths(q, view, o);
-  std::vector<Camera> cams;
-  for (const auto& im : images) cams.push_back(im.camera);
-  PlaneSweepOptions vo;
-  vo.num_planes = 48;
+  const TexturedSphere t(Distortion{});
+  const auto& [views, q, images, view, depths, cams, vo] = t;
   const auto gpu = MakeSweepBackend("gl", 1, 6), cpu = MakeSweepBackend("cpu", 1, 6);
   for (SweepBackend* b : {gpu.get(), cpu.get()}) b->BeginFrameset(q, images);
   const HullVisibility vg = gpu->Visibility(q, cams, 80, vo), vc = cpu->Visibility(q, cams, 80, vo);
@@ -446,6 +451,26 @@ TEST_F(Gl, GlBackendRendersAFramesetAsTheCpuBackend) {
   ExpectMarchMatches(dg, dc, 0, 0.02, "tile");
   ExpectColoursMatch(gpu->Texture(dc, tile, view, images, &vc), cpu->Texture(dc, tile, view, images, &vc), 0.02,
                      "texture");
+}
+
+TEST_F(Gl, FiveProcessesWithTheGlBackend) {
+  // The pipeline with both recon nodes on GL (the ray march, refinement and
+  // texturing on the GPU): frames are composited and each recon node reports the
+  // GL renderer it used in stats.json.
+  const auto out = test::TempDir("e2e_gl");
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "20", "--width", "160",
+                        "--height", "120", "--backend", "gl", "--out", out.string(), "--domain",
+                        std::to_string(test::UniqueDomain())},
+                       (out / "launch.log").string());
+  ASSERT_EQ(launch.Wait(240), 0) << test::ReadFile((out / "launch.log").string());
+  const auto j = nlohmann::json::parse(test::ReadFile((out / "stats.json").string()));
+  EXPECT_GE(j["frames_composited"].get<int>(), 3);
+  EXPECT_GT(j["hull_pixel_fraction_mean"].get<double>(), 0.01);
+  for (const char* node : {"recon0", "recon1"}) {
+    const std::string backend = j["nodes"][node].value("backend", "");
+    EXPECT_NE(backend.find("gl march"), std::string::npos) << node << ": " << backend;
+    EXPECT_NE(backend.find(ctx_->renderer()), std::string::npos) << node << ": " << backend;
+  }
 }
 
 }  // namespace
