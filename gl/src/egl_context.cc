@@ -121,8 +121,10 @@ std::optional<EglContext> EglContext::TryCreate(const EglOptions& options, std::
   std::string failures;
   auto note = [&](const std::string& w) { failures += (failures.empty() ? "" : "; ") + w; };
 
+  std::vector<EglDeviceInfo> infos;
+  for (size_t i = 0; i < devices.size(); ++i) infos.push_back(Describe(devices[i], int(i)));
   auto try_device = [&](size_t i) -> std::optional<EglContext> {
-    const EglDeviceInfo d = Describe(devices[i], int(i));
+    const EglDeviceInfo& d = infos[i];
     const std::string label = "EGL device " + std::to_string(i) + " (" + d.name + ")";
     EGLDisplay dpy = get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
     if (dpy == EGL_NO_DISPLAY) {
@@ -175,11 +177,11 @@ std::optional<EglContext> EglContext::TryCreate(const EglOptions& options, std::
   }
   // Hardware devices first, then Mesa's surfaceless platform, then any device.
   for (size_t i = 0; i < devices.size(); ++i)
-    if (!Describe(devices[i], int(i)).software)
+    if (!infos[i].software)
       if (auto c = try_device(i)) return c;
   if (auto c = try_surfaceless()) return c;
   for (size_t i = 0; i < devices.size(); ++i)
-    if (Describe(devices[i], int(i)).software)
+    if (infos[i].software)
       if (auto c = try_device(i)) return c;
   if (devices.empty()) note(list_why);
   return fail(failures.empty() ? "no EGL display" : failures);
