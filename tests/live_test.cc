@@ -5,8 +5,8 @@
 // Four capture nodes, one per camera, started in a random order 0–2 s apart,
 // read them; framesets are assembled by capture time (arrival stamps). The same
 // streams read by one capture node are the reference: the four-node run must
-// composite at least 90% of what it composites, with the skew between cameras'
-// frames within half a frame period, and the pause seen and counted.
+// assemble at least 90% of the framesets it assembles, with the skew between
+// cameras' frames within half a frame period, and the pause seen and counted.
 #include <algorithm>
 #include <filesystem>
 #include <functional>
@@ -29,14 +29,17 @@ namespace hullpipe {
 namespace {
 
 constexpr double kStreamS = 8;      // seconds of each video streamed
-constexpr double kVideoFps = 25;    // every other frame of the rig's 50 fps videos: four live
+constexpr double kVideoFps = 12.5;  // every fourth frame of the rig's 50 fps videos: four live
                                     // streams at 50 fps, their decoding and segmentation
-                                    // saturate this 2-core machine before anything else runs
+                                    // saturate a 2-core machine before anything else runs; at
+                                    // 25 fps a loaded one stamps arrivals late and drops frames
 constexpr int kPausedCamera = 2;    // no frames from 3 s to 4 s into its video
 constexpr int kSlowCamera = 4;      // read and sent at 95% of the real rate
 
 struct LiveRun {
   int composited = 0;
+  int reference_frames = 0;    // the reference camera's frames render's assembler decided on
+  int complete = 0;            // of those, complete framesets (whether composited or not)
   double skew_ms_p95_max = 0;  // the worst camera's, as render assembled them
   double period_ms_max = 0;    // the slowest camera's measured frame period
   int pauses_of_paused_camera = 0;
@@ -114,7 +117,7 @@ LiveRun RunLive(bool one_node_per_camera) {
                                      "-readrate", id == kSlowCamera ? "0.95" : "1", "-i", videos[i],
                                      "-t", std::to_string(kStreamS), "-an"};
     // (vfr: the dropped second is a real silence rather than repeated frames.)
-    args.insert(args.end(), {"-vf", id == kPausedCamera ? "fps=25,select=not(between(t\\,3\\,4))" : "fps=25"});
+    args.insert(args.end(), {"-vf", id == kPausedCamera ? "fps=12.5,select=not(between(t\\,3\\,4))" : "fps=12.5"});
     args.insert(args.end(), {"-fps_mode", "vfr", "-c:v", "mpeg4", "-q:v", "3", "-g", "10",
                              "-f", "mpegts", "udp://127.0.0.1:" + std::to_string(base_port + id) + "?pkt_size=1316"});
     cameras.push_back(std::make_unique<test::Process>(args, (dir / ("ffmpeg" + std::to_string(id) + ".log")).string()));
@@ -129,14 +132,17 @@ LiveRun RunLive(bool one_node_per_camera) {
   for (const auto& l : logs) result.logs += "== " + l + "\n" + test::ReadFile(l);
   const auto j = nlohmann::json::parse(test::ReadFile((dir / "out" / "stats.json").string()));
   result.composited = j["frames_composited"].get<int>();
+  result.reference_frames = j["framesets"]["render"]["reference_frames"].get<int>();
+  result.complete = j["framesets"]["render"]["complete"].get<int>();
   for (const auto& [id, c] : j["framesets"]["render"]["cameras"].items()) {
     result.skew_ms_p95_max = std::max(result.skew_ms_p95_max, c["skew_ms_p95"].get<double>());
     result.period_ms_max = std::max(result.period_ms_max, c["period_ms"].get<double>());
     if (id == std::to_string(kPausedCamera)) result.pauses_of_paused_camera = c["pauses"].get<int>();
   }
-  std::printf("%s: %d framesets composited, worst camera's skew p95 %.1f ms\n",
-              one_node_per_camera ? "four capture nodes" : "one capture node", result.composited,
-              result.skew_ms_p95_max);
+  std::printf("%s: %d of %d reference frames made complete framesets, %d composited, worst camera's skew p95 "
+              "%.1f ms\n",
+              one_node_per_camera ? "four capture nodes" : "one capture node", result.complete,
+              result.reference_frames, result.composited, result.skew_ms_p95_max);
   return result;
 }
 
@@ -145,14 +151,22 @@ TEST(LiveCameras, FourCaptureNodesOnUnsynchronisedStreamsCompositeWhatOneNodeDoe
   if (std::system("ffmpeg -hide_banner -version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no ffmpeg";
   const LiveRun one = RunLive(false);
   const LiveRun four = RunLive(true);
-  // Positive control: the reference run composites part of the 7 s with all four
-  // cameras (175 framesets at 25 fps; this 2-core machine composites 15-25 a second).
-  ASSERT_GE(one.composited, 40) << one.logs;
-  EXPECT_GE(four.composited, 0.9 * one.composited) << four.logs;
+  // Framesets assembled, not composited: render takes the newest complete frameset
+  // and composites what its machine has time for (on 2 cores, 2-17 a second
+  // depending on the load), which is not what is compared. Positive control: the
+  // reference run decides on the reference camera's frames of the 8 s (about 96 at
+  // 12.5 fps) and assembles a quarter of them with all four cameras (measured 37-45
+  // of 95: the one node's cameras 2-4 join about 2 s after camera 1 — 66-76 frames
+  // against 96 — and the paused camera is silent a second), and composites.
+  ASSERT_GE(one.reference_frames, 60) << one.logs;
+  ASSERT_GE(one.complete, 24) << one.logs;
+  EXPECT_GE(one.composited, 10) << one.logs;
+  EXPECT_GE(four.composited, 10) << four.logs;
+  EXPECT_GE(four.complete, 0.9 * one.complete) << four.logs;
   // Arrival stamps of unsynchronised cameras: the nearest frame is at most half a
   // period away — of the slowest camera as measured, which is the tolerance (about
-  // 21 ms: 40 ms / 0.95 / 2; more when a loaded machine delivers the streams
-  // late: a run on a busy machine had a 24.9 ms skew p95). +5%: the period is
+  // 42 ms: 80 ms / 0.95 / 2; more when a loaded machine delivers the streams
+  // late). +5%: the period is
   // re-measured as frames come, the end-of-run figure is the last of them. The
   // period itself stays near the streams' (positive control on the measurement).
   for (const LiveRun* r : {&one, &four}) {

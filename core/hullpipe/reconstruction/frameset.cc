@@ -246,7 +246,9 @@ FramesetAssembler::Evaluation FramesetAssembler::Evaluate(const Sample& ref) con
 void FramesetAssembler::PassOver(const Sample& ref) {
   const Evaluation e = Evaluate(ref);
   ++dropped_;
+  ++reference_frames_;
   if (e.state == State::kComplete) {
+    ++framesets_complete_;
     for (const auto& [id, s] : e.members) const_cast<Sample*>(s)->partnered = true;
   } else if (e.state == State::kSkewed) {
     ++dropped_for_skew_;
@@ -313,6 +315,8 @@ std::optional<Frameset> FramesetAssembler::Take(uint64_t seq) {
   }
   taken_up_to_ = seq;
   taken_time_ns_ = f.capture_time_ns;
+  ++reference_frames_;
+  ++framesets_complete_;
   rc.samples.pop_front();
   Prune();
   return f;

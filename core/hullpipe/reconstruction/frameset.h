@@ -144,6 +144,13 @@ class FramesetAssembler {
   uint64_t rejected() const { return rejected_; }
   /// Reference frames whose nearest partner of some camera lay outside the tolerance.
   uint64_t dropped_for_skew() const { return dropped_for_skew_; }
+  /// Reference frames decided so far: taken, or passed over (superseded by a newer
+  /// frameset taken, or left the history).
+  uint64_t reference_frames() const { return reference_frames_; }
+  /// Of those, the ones that were complete framesets (taken, or complete when passed
+  /// over): how many framesets the cameras' streams made, whatever the consumer's
+  /// speed — a consumer that takes only the newest takes fewer.
+  uint64_t framesets_complete() const { return framesets_complete_; }
   /// Per camera, in id order.
   std::vector<CameraSkewReport> SkewReports() const;
 
@@ -207,6 +214,7 @@ class FramesetAssembler {
   int64_t taken_time_ns_ = 0;
   bool taken_any_ = false;
   uint64_t dropped_ = 0, rejected_ = 0, restarts_ = 0, dropped_for_skew_ = 0;
+  uint64_t reference_frames_ = 0, framesets_complete_ = 0;
 };
 
 }  // namespace hullpipe

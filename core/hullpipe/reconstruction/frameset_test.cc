@@ -59,6 +59,25 @@ TEST_F(Assembler, LatestWinsWithBoundedMemory) {
   EXPECT_EQ(f->seq, 10u);
   EXPECT_EQ(a.dropped(), 9u);  // 8 evicted by the bound + frame 9 superseded
   EXPECT_FALSE(a.TakeNewest());
+  // Every one was a complete frameset when it was passed over.
+  EXPECT_EQ(a.reference_frames(), 10u);
+  EXPECT_EQ(a.framesets_complete(), 10u);
+}
+
+// The framesets the streams made, counted apart from how many a slow consumer took.
+TEST_F(Assembler, CountsCompleteFramesetsWhateverTheConsumerTakes) {
+  FramesetAssembler a(8);
+  for (const auto& c : cams_) a.SetCamera(c);
+  const int64_t period = 40'000'000;  // 25 fps
+  for (uint64_t s = 1; s <= 6; ++s)
+    for (int id = 1; id <= 3; ++id)
+      if (!(id == 3 && (s == 2 || s == 3))) a.AddMap(id, s, int64_t(s) * period, 3, Map());  // camera 3 misses 2, 3
+  ASSERT_TRUE(a.Take(6));  // the newest only: 1..5 passed over
+  EXPECT_EQ(a.reference_frames(), 6u);
+  // 1, 4, 5 and 6 complete; 2 and 3 have camera 3's nearest a period away, outside
+  // the half-period tolerance.
+  EXPECT_EQ(a.framesets_complete(), 4u);
+  EXPECT_EQ(a.dropped_for_skew(), 2u);
 }
 
 TEST_F(Assembler, MapsBeforeCameraInfoAreParkedThenChecked) {

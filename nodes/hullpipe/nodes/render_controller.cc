@@ -296,6 +296,10 @@ nlohmann::json RenderController::StatsJson() const {
   for (const auto& [name, r] : node_stats_)
     if (name != "render" && !r.cameras.empty()) j["framesets"][name] = assembly(r);
   j["framesets"]["render"] = assembly(counters_.Snapshot("render", true));
+  // How many framesets the cameras' streams made, apart from how many this node
+  // had time to composite (it takes the newest).
+  j["framesets"]["render"]["reference_frames"] = assembler_.reference_frames();
+  j["framesets"]["render"]["complete"] = assembler_.framesets_complete();
   return j;
 }
 
