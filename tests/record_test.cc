@@ -7,7 +7,11 @@
 #include <signal.h>
 #include <sys/wait.h>
 
+#include <sqlite3.h>
+
 #include <algorithm>
+#include <fstream>
+#include <random>
 #include <map>
 #include <set>
 #include <thread>
@@ -93,6 +97,167 @@ TEST(Recording, AWriterKilledBySigkillLosesOnlyItsLastBatch) {
   EXPECT_EQ(r.Info().samples, 50);  // the five committed batches, not the open one
 }
 
+// A file made with SQLite directly: `sql` run on a new database.
+std::string MakeDb(const std::filesystem::path& dir, const std::string& name, const std::string& sql) {
+  const std::string path = (dir / name).string();
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  char* err = nullptr;
+  EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err), SQLITE_OK) << (err ? err : "");
+  sqlite3_free(err);
+  sqlite3_close(db);
+  return path;
+}
+
+// The tables of the format, without the writer's NOT NULL constraints.
+const char* kLooseTables =
+    "CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT);"
+    "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT, type TEXT, keyed INTEGER, reliable INTEGER,"
+    " transient_local INTEGER, depth INTEGER);";
+
+// Files that are not (whole) recordings: one RecordingError naming the file and
+// what is wrong, never a crash or a bare SQLite message.
+std::map<std::string, std::pair<std::string, std::string>> BadRecordings(const std::filesystem::path& dir) {
+  std::map<std::string, std::pair<std::string, std::string>> bad;  // case -> {path, expected words}
+  const std::string empty = (dir / "empty.hprec").string();
+  std::ofstream(empty).close();
+  bad["empty file"] = {empty, "empty file"};
+  const std::string text = (dir / "text.hprec").string();
+  std::ofstream(text) << std::string(4096, 'x');
+  bad["not SQLite"] = {text, "not a hullpipe recording"};
+  bad["no samples table"] = {MakeDb(dir, "nosamples.hprec", std::string(kLooseTables) +
+                                                               "INSERT INTO meta VALUES('format', 'hullpipe-recording-2');"),
+                             "no table 'samples'"};
+  const std::string samples =
+      "CREATE TABLE samples(id INTEGER PRIMARY KEY, topic_id INTEGER, source_ns INTEGER, arrival_ns INTEGER,"
+      " data BLOB, crc INTEGER);";
+  bad["NULL format"] = {MakeDb(dir, "nullformat.hprec",
+                               std::string(kLooseTables) + samples + "INSERT INTO meta VALUES('format', NULL);"),
+                        "meta 'format' is NULL"};
+  bad["NULL topic name"] = {
+      MakeDb(dir, "nullname.hprec",
+             std::string(kLooseTables) + samples +
+                 "INSERT INTO meta VALUES('format', 'hullpipe-recording-2');"
+                 "INSERT INTO topics VALUES(1, NULL, 'hullpipe::msg::CameraInfo', 1, 1, 1, 1);"),
+      "topics row 1 has no name"};
+  bad["NULL topic type"] = {
+      MakeDb(dir, "nulltype.hprec",
+             std::string(kLooseTables) + samples +
+                 "INSERT INTO meta VALUES('format', 'hullpipe-recording-2');"
+                 "INSERT INTO topics VALUES(1, 'hullpipe/camera_info', NULL, 1, 1, 1, 1);"),
+      "topics row 1 has no type"};
+  return bad;
+}
+
+TEST(Recording, BadFilesGiveOneErrorNamingTheFile) {
+  const auto dir = test::TempDir("rec_bad");
+  for (const auto& [what, file] : BadRecordings(dir)) {
+    try {
+      const RecordingReader r(file.first);
+      ADD_FAILURE() << what << ": opened";
+    } catch (const RecordingError& e) {
+      const std::string msg = e.what();
+      EXPECT_EQ(msg.rfind(file.first + ": ", 0), 0u) << what << ": " << msg;
+      EXPECT_NE(msg.find(file.second), std::string::npos) << what << ": " << msg;
+    }
+  }
+}
+
+std::string Bytes(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+// A recording with `n` samples of 1000 bytes, closed by its writer.
+std::string WriteRecording(const std::filesystem::path& dir, const std::string& name, int n) {
+  const std::string path = (dir / name).string();
+  RecordingWriter w(path);
+  const int64_t t = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4});
+  for (int k = 0; k < n; ++k) {
+    Sample s = MakeSample(t, (k + 1) * 1'000'000, uint8_t(k), 1000);
+    for (size_t i = 0; i < s.data.size(); ++i) s.data[i] = uint8_t(k * 31 + i * 7);
+    w.Append(s);
+    if (k % 20 == 19) w.Commit();
+  }
+  return path;
+}
+
+// Reading (info, replay) never writes the file; a file whose writer was killed
+// says so, one whose writer closed it does not.
+TEST(Recording, ReadingNeverChangesTheFileAndAKilledWriterIsMarked) {
+  const auto dir = test::TempDir("rec_ro");
+  const std::string closed = WriteRecording(dir, "closed.hprec", 10);
+  const std::string killed = (dir / "killed.hprec").string();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    RecordingWriter w(killed);
+    const int64_t t = w.AddTopic({0, "x", "hullpipe::msg::CameraInfo", false, true, false, 1});
+    for (int k = 0; k < 10; ++k) w.Append(MakeSample(t, (k + 1) * 1000, uint8_t(k)));
+    w.Commit();
+    raise(SIGKILL);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(std::filesystem::exists(killed + "-wal"));  // the commit is in the log, not yet in the file
+  const std::string db = Bytes(killed), wal = Bytes(killed + "-wal");
+  {
+    const RecordingReader r(killed);
+    const RecordingInfo info = r.Info();
+    EXPECT_EQ(info.samples, 10);
+    EXPECT_TRUE(info.interrupted);
+    EXPECT_EQ(info.damage, "");
+  }
+  EXPECT_EQ(Bytes(killed), db) << "the reader changed the file";
+  EXPECT_EQ(Bytes(killed + "-wal"), wal) << "the reader changed the log";
+  const RecordingReader c(closed);
+  EXPECT_FALSE(c.Info().interrupted);  // control
+}
+
+// Random bit flips in the middle of a file: the damage is reported (never
+// plausible counts), and reading skips or stops with an error, never crashes or
+// returns a changed sample.
+TEST(Recording, BitFlipsAreReportedNotReadAsData) {
+  const auto dir = test::TempDir("rec_flip");
+  const std::string good = WriteRecording(dir, "good.hprec", 200);
+  std::map<int64_t, std::vector<uint8_t>> original;  // by arrival time
+  {
+    const RecordingReader r(good);
+    EXPECT_EQ(r.Info().damage, "");  // control: the intact file is sound
+    r.ForEach([&](const Sample& s) {
+      original[s.arrival_ns] = s.data;
+      return true;
+    });
+  }
+  ASSERT_EQ(original.size(), 200u);
+  std::mt19937 rng(16);
+  int reported = 0;
+  const int kFiles = 20;
+  for (int f = 0; f < kFiles; ++f) {
+    std::string bytes = Bytes(good);
+    std::uniform_int_distribution<size_t> at(bytes.size() / 4, bytes.size() * 3 / 4);
+    for (int k = 0; k < 8; ++k) bytes[at(rng)] ^= char(1 << (rng() % 8));
+    const std::string path = (dir / ("flip" + std::to_string(f) + ".hprec")).string();
+    std::ofstream(path, std::ios::binary) << bytes;
+    bool found = false;
+    try {
+      const RecordingReader r(path);
+      found = !r.Info().damage.empty();
+      r.ForEach([&](const Sample& s) {
+        const auto it = original.find(s.arrival_ns);
+        EXPECT_TRUE(it != original.end() && it->second == s.data) << "file " << f << ": a changed sample was read";
+        return true;
+      });
+    } catch (const RecordingError& e) {
+      found = true;  // one line naming the file
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+    reported += found;
+  }
+  // Every flipped file was found damaged (flips landing in unused bytes of a
+  // page could go unseen; none did with this seed).
+  EXPECT_EQ(reported, kFiles);
+}
+
 // A clock that only moves when the player sleeps.
 struct FakeClock : PlayerClock {
   double t = 100.0;
@@ -158,6 +323,47 @@ TEST(Player, TimingRateOffsetLoopAndFilters) {
   const PlayStats st = Play(r, once, [&](const TopicInfo&, const Sample&) { ++n; }, &control, &clock);
   stopper.join();
   EXPECT_EQ(st.samples, 2);
+}
+
+// A stop request during a long wait between samples (rate 0.001: 17 min of gap)
+// is honoured within one sleep slice, not after the gap.
+TEST(Player, AStopEndsALongGapWithinASlice) {
+  const auto dir = test::TempDir("player_gap");
+  const std::string path = WriteRecording(dir, "g.hprec", 3);  // samples 1 ms apart
+  const RecordingReader r(path);
+  struct StoppingClock : FakeClock {
+    PlayerControl* control = nullptr;
+    void SleepFor(double s) override {
+      FakeClock::SleepFor(s);
+      if (t > 100.5) control->stop = true;  // the stop request comes 0.5 s into the gap
+    }
+  } clock;
+  PlayerControl control;
+  clock.control = &control;
+  PlayerOptions o;
+  o.rate = 0.001;
+  int played = 0;
+  Play(r, o, [&](const TopicInfo&, const Sample&) { ++played; }, &control, &clock);
+  EXPECT_EQ(played, 1);
+  EXPECT_LE(clock.t - 100.0, 0.5 + kSleepSliceS + 1e-9);
+}
+
+TEST(Player, BoundsOnRateAndStartOffset) {
+  const auto dir = test::TempDir("player_bounds");
+  const RecordingReader r(WriteRecording(dir, "b.hprec", 3));  // 2 ms long
+  auto play = [&](double rate, double offset) {
+    PlayerOptions o;
+    o.rate = rate;
+    o.start_offset_s = offset;
+    FakeClock clock;
+    return Play(r, o, [](const TopicInfo&, const Sample&) {}, nullptr, &clock).samples;
+  };
+  EXPECT_THROW(play(1, 1e30), std::invalid_argument);   // was: an overflow that replayed everything
+  EXPECT_THROW(play(1, 0.5), std::invalid_argument);    // past the end
+  EXPECT_THROW(play(1e-6, 0), std::invalid_argument);   // below 0.001
+  EXPECT_THROW(play(-1, 0), std::invalid_argument);
+  EXPECT_THROW(play(std::nan(""), 0), std::invalid_argument);
+  EXPECT_EQ(play(1, 0.0015), 1);                        // control: within the recording
 }
 
 // ---- The tools as processes (DDS on loopback, a domain each).
@@ -343,6 +549,86 @@ TEST_F(RecordTools, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
     ASSERT_TRUE(b.count(f)) << f;
     EXPECT_EQ(pts, b.at(f)) << "frame " << f;  // exactly, not approximately
   }
+}
+
+}  // namespace
+}  // namespace hullpipe
+
+namespace hullpipe {
+namespace {
+
+// The tools on bad recordings: one line naming the file, a non-zero exit, never
+// a signal (each of these crashed or aborted before).
+TEST_F(RecordTools, BadRecordingsEndInOneLineAndANonZeroExit) {
+  auto cases = BadRecordings(dir_);
+  // A bit-flipped recording (a seed whose flips land in the b-tree and the data).
+  const std::string good = WriteRecording(dir_, "good.hprec", 200);
+  std::string bytes = Bytes(good);
+  std::mt19937 rng(16);
+  std::uniform_int_distribution<size_t> at(bytes.size() / 4, bytes.size() * 3 / 4);
+  for (int k = 0; k < 8; ++k) bytes[at(rng)] ^= char(1 << (rng() % 8));
+  const std::string flipped = (dir_ / "flipped.hprec").string();
+  std::ofstream(flipped, std::ios::binary) << bytes;
+  cases["bit flips"] = {flipped, "damaged"};
+  for (const auto& [what, file] : cases) {
+    for (const std::string exe : {"hullpipe_replay", "hullpipe_record"}) {
+      std::vector<std::string> args = {file.first, "--no-keyboard", "--linger", "0"};
+      if (exe == "hullpipe_record") args = {"info", file.first};
+      const std::string log_path = (dir_ / (exe + "_bad.log")).string();
+      std::vector<std::string> argv = {test::BinDir() + "/" + exe};
+      argv.insert(argv.end(), args.begin(), args.end());
+      test::Process run(argv, log_path);
+      const int rc = run.Wait(30);
+      const std::string log = test::ReadFile(log_path);
+      EXPECT_TRUE(rc == 1 || rc == 3) << what << ", " << exe << ": " << launch::DescribeStatus(run.status()) << "\n"
+                                      << log;
+      EXPECT_NE(log.find(file.first), std::string::npos) << what << ", " << exe << ": " << log;
+    }
+  }
+}
+
+// SIGINT during a long gap between samples ends the replay within a second.
+TEST_F(RecordTools, ReplayStopsWithinASecondOfSigintInAGap) {
+  dds::Participant p(domain_);
+  const dds::KnownType& map_type = *dds::FindKnownType("hullpipe::msg::ObjectPixelMap");
+  dds::CdrReader cdr(p, map_type, dds::QosSpec{true, false, 8});
+  // One real map, serialized (written here and taken back as CDR).
+  std::vector<uint8_t> map_cdr;
+  {
+    dds::Writer<hullpipe_msg_ObjectPixelMap> maps(p);
+    WaitFor([&] { return maps.MatchedReaders() > 0; }, 20);
+    maps.Write(dds::MakeMapMessage(1, 1, NowNs(), 0, 1, cv::Mat(48, 64, CV_8UC1, cv::Scalar(0))).msg);
+    WaitFor([&] {
+      cdr.TakeEach([&](const std::vector<uint8_t>& b, int64_t) { map_cdr = b; });
+      return !map_cdr.empty();
+    }, 20);
+    ASSERT_FALSE(map_cdr.empty());
+  }
+  const std::string path = (dir_ / "gap.hprec").string();
+  {
+    RecordingWriter w(path);
+    const int64_t t = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true,
+                                  false, 4});
+    for (int k = 0; k < 3; ++k) {
+      Sample s = MakeSample(t, (k + 1) * 1'000'000'000LL, 0);  // 1 s apart
+      s.data = map_cdr;
+      w.Append(s);
+    }
+  }
+  // At rate 0.001 the gaps are 1000 s.
+  auto replay = Start("hullpipe_replay", {path, "--rate", "0.001", "--no-keyboard", "--wait-readers", "1",
+                                          "--settle", "0.2", "--linger", "0"});
+  // In the gap: the first sample has arrived.
+  int got = 0;
+  WaitFor([&] {
+    cdr.TakeEach([&](const std::vector<uint8_t>&, int64_t) { ++got; });
+    return got > 0;
+  }, 20);
+  ASSERT_EQ(got, 1) << Log("hullpipe_replay");
+  const double t0 = MonotonicSeconds();
+  replay->Signal(SIGINT);
+  EXPECT_EQ(replay->Wait(5), 0) << Log("hullpipe_replay");
+  EXPECT_LT(MonotonicSeconds() - t0, 1.0);
 }
 
 }  // namespace

@@ -40,17 +40,23 @@ int Info(const std::string& path, bool json) {
     j["samples"] = info.samples;
     j["bytes"] = info.bytes;
     j["meta"] = info.meta;
+    j["interrupted"] = info.interrupted;
+    j["damage"] = info.damage;
+    j["damaged_samples"] = info.damaged_samples;
     for (const auto& t : info.topics)
       j["topics"].push_back({{"name", t.topic.name}, {"type", t.topic.type}, {"count", t.count}, {"bytes", t.bytes},
                              {"keyed", t.topic.keyed}, {"reliable", t.topic.reliable},
                              {"transient_local", t.topic.transient_local}, {"depth", t.topic.depth}});
-    std::printf("%s\n", j.dump(1).c_str());
-    return 0;
+    std::printf("%s\n", j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
+    return info.damage.empty() ? 0 : 3;
   }
   std::printf("Files:             %s\n", path.c_str());
   std::printf("Duration:          %.3f s\n", info.duration_s());
   std::printf("Messages:          %lld\n", (long long)info.samples);
   std::printf("Bytes:             %.1f MiB\n", double(info.bytes) / (1 << 20));
+  if (info.interrupted)
+    std::printf("Interrupted:       yes: the recorder did not close it (killed?); samples up to its last commit\n");
+  if (!info.damage.empty()) std::printf("DAMAGED:           %s\n", info.damage.c_str());
   for (const auto& [k, v] : info.meta) std::printf("%-18s %s\n", (k + ":").c_str(), v.c_str());
   std::printf("Topic information:\n");
   for (const auto& t : info.topics)
@@ -58,6 +64,10 @@ int Info(const std::string& path, bool json) {
                 t.topic.type.c_str(), (long long)t.count, double(t.bytes) / 1024,
                 t.topic.reliable ? "reliable" : "best-effort", t.topic.transient_local ? ", transient-local" : "",
                 t.topic.depth);
+  if (!info.damage.empty()) {
+    std::fprintf(stderr, "%s: damaged: %s\n", path.c_str(), info.damage.c_str());
+    return 3;
+  }
   return 0;
 }
 

@@ -5,6 +5,9 @@
 //                   [--include 'hullpipe/object_pixel_map'] [--wait-readers 2]
 // Timing: the original arrival times divided by --rate; --rate 0 publishes as
 // fast as the readers take it (each sample waits for its readers' acknowledgement).
+// Topics: by default only what the nodes consume (calibration, maps, images, head
+// poses, scene commands), so a replay into live nodes does not mix a recorded
+// run's outputs (views, tiles, NodeStats) with theirs; --all-topics plays all.
 // Keys on a terminal: space pauses and resumes, s steps one sample while paused,
 // q quits. Samples are written byte for byte as recorded (dds_writecdr).
 #include <termios.h>
@@ -15,6 +18,7 @@
 #include <thread>
 
 #include <CLI/CLI.hpp>
+#include <spdlog/fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/geometry/conventions.h"
@@ -70,6 +74,30 @@ class Keyboard {
   std::thread thread_;
 };
 
+// Sets `stop` and joins on scope exit, also when an exception leaves main's body.
+class StopWatcher {
+ public:
+  explicit StopWatcher(PlayerControl* control) : control_(control), thread_([this] {
+    while (!control_->stop.load()) {
+      if (StopRequested()) control_->stop = true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }) {}
+  ~StopWatcher() {
+    control_->stop = true;
+    thread_.join();
+  }
+
+ private:
+  PlayerControl* control_;
+  std::thread thread_;
+};
+
+// What the nodes consume; the rest is what they produce.
+const std::vector<std::string> kInputTopics = {"hullpipe/camera_info", "hullpipe/object_pixel_map",
+                                               "hullpipe/camera_image", "hullpipe/head_pose",
+                                               "hullpipe/scene_command"};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -81,13 +109,14 @@ int main(int argc, char** argv) {
   int wait_readers = 0;
   std::string wait_topic = "hullpipe/object_pixel_map";
   double wait_timeout = 20, linger = 1.0, settle = 0.5;
-  bool keyboard = true;
+  bool keyboard = true, all_topics = false;
   app.add_option("recording", path, "Recording file (hullpipe_record -o)")->required();
   app.add_option("--rate", po.rate, "Speed factor; 0: as fast as the readers take it")->capture_default_str();
   app.add_flag("--loop", po.loop, "Start over at the end");
   app.add_option("--max-loops", po.max_loops, "With --loop: stop after this many passes");
   app.add_option("--start-offset", po.start_offset_s, "Skip this many seconds (transient-local state still sent)");
-  app.add_option("--include", po.include, "Replay only topics matching these globs");
+  app.add_option("--include", po.include, "Replay only topics matching these globs (default: the nodes' inputs)");
+  app.add_flag("--all-topics", all_topics, "Replay every topic, the recorded nodes' outputs too");
   app.add_option("--exclude", po.exclude, "Do not replay topics matching these globs");
   app.add_option("--wait-readers", wait_readers, "Before playing, wait until --wait-topic has this many readers");
   app.add_option("--wait-topic", wait_topic, "The topic --wait-readers counts on")->capture_default_str();
@@ -100,7 +129,23 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     po.Check();
+    if (wait_readers < 0 || wait_readers > 1000) throw std::invalid_argument("--wait-readers must be in [0, 1000]");
+    for (const auto& [flag, v] : {std::pair<const char*, double>{"--wait-timeout", wait_timeout},
+                                  {"--settle", settle}, {"--linger", linger}})
+      if (!(v >= 0 && v <= 3600)) throw std::invalid_argument(std::string(flag) + " must be in [0, 3600] s");
+    if (all_topics && !po.include.empty()) throw std::invalid_argument("--all-topics goes without --include");
     const RecordingReader rec(path);
+    // Damage found before anything is published, rather than half-way.
+    if (const std::string damage = rec.QuickCheck(); !damage.empty())
+      throw std::runtime_error(path + ": damaged (" + damage + "); see hullpipe_record info");
+    if (po.include.empty() && !all_topics) {
+      po.include = kInputTopics;
+      std::vector<std::string> outputs;
+      for (const auto& t : rec.topics())
+        if (!TopicSelected(po.include, po.exclude, t.name)) outputs.push_back(t.name);
+      if (!outputs.empty())
+        spdlog::info("not replaying the recorded nodes' outputs ({}): --all-topics plays them", fmt::join(outputs, ", "));
+    }
     auto participant = StartNode("replay", common);
     std::map<int64_t, std::unique_ptr<CdrWriter>> writers;
     for (const auto& t : rec.topics()) {
@@ -112,7 +157,7 @@ int main(int argc, char** argv) {
       }
       writers[t.id] = std::make_unique<CdrWriter>(*participant, *kt, QosSpec{t.reliable, t.transient_local, t.depth});
     }
-    if (writers.empty()) throw std::runtime_error(path + ": no topic to replay");
+    if (writers.empty()) throw std::runtime_error(path + ": no topic to replay (--include, --all-topics)");
     std::vector<std::string> kept;
     for (const auto& t : rec.topics())
       if (writers.count(t.id)) kept.push_back(t.name);
@@ -135,12 +180,7 @@ int main(int argc, char** argv) {
       std::this_thread::sleep_for(std::chrono::duration<double>(settle));
     }
     PlayerControl control;
-    std::thread stopper([&] {
-      while (!control.stop.load()) {
-        if (StopRequested()) control.stop = true;
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      }
-    });
+    const StopWatcher stopper(&control);
     std::unique_ptr<Keyboard> keys;
     if (keyboard) keys = std::make_unique<Keyboard>(&control);
     uint64_t refused = 0;
@@ -164,11 +204,14 @@ int main(int argc, char** argv) {
     }
     const double until = MonotonicSeconds() + linger;
     while (!StopRequested() && MonotonicSeconds() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    control.stop = true;
-    stopper.join();
     keys.reset();
     spdlog::info("replayed {} samples in {} pass(es), {} refused, latest {:.1f} ms behind", st.samples, st.loops,
                  refused, st.max_lateness_s * 1e3);
+    if (rec.damaged_samples() > 0 || refused > 0) {
+      spdlog::error("{}: {} damaged sample(s) skipped (CRC-32 mismatch or unknown topic), {} refused by DDS", path,
+                    rec.damaged_samples(), refused);
+      return 3;
+    }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -9,9 +9,11 @@
 namespace hullpipe::record {
 
 void PlayerOptions::Check() const {
-  if (!(rate >= 0)) throw std::invalid_argument("player: rate must be >= 0");
-  if (max_loops < 0) throw std::invalid_argument("player: max_loops must be >= 0");
-  if (!(start_offset_s >= 0)) throw std::invalid_argument("player: start_offset_s must be >= 0");
+  if (!(rate == 0 || (rate >= kMinRate && rate <= kMaxRate)))
+    throw std::invalid_argument("--rate must be 0 or in [0.001, 1000]");
+  if (max_loops < 0) throw std::invalid_argument("--max-loops must be >= 0");
+  if (!(start_offset_s >= 0 && start_offset_s <= kMaxStartOffsetS))
+    throw std::invalid_argument("--start-offset must be in [0, 1e6] s");
 }
 
 namespace {
@@ -47,6 +49,17 @@ PlayStats Play(const RecordingReader& rec, const PlayerOptions& o,
   }, selected);
   if (first_ns < 0) return stats;
   const int64_t start_ns = first_ns + int64_t(o.start_offset_s * 1e9);
+  if (o.start_offset_s > 0) {
+    int64_t last_ns = first_ns;
+    rec.ForEach([&](const Sample& s) {
+      last_ns = std::max(last_ns, s.arrival_ns);
+      return true;
+    }, selected);
+    if (start_ns > last_ns)
+      throw std::invalid_argument("--start-offset " + std::to_string(o.start_offset_s) +
+                                  " s is past the recording's end (" + std::to_string(double(last_ns - first_ns) * 1e-9) +
+                                  " s)");
+  }
   for (;;) {
     double wall0 = clock->Now();
     int64_t t0 = -1;  // arrival time of the first timed sample of this pass
@@ -79,9 +92,17 @@ PlayStats Play(const RecordingReader& rec, const PlayerOptions& o,
       if (t0 < 0) t0 = s.arrival_ns;
       if (o.rate > 0) {
         const double due = wall0 + double(s.arrival_ns - t0) * 1e-9 / o.rate;
-        const double now = clock->Now();
-        if (due > now) clock->SleepFor(due - now);
-        else stats.max_lateness_s = std::max(stats.max_lateness_s, now - due);
+        double now = clock->Now();
+        if (due <= now) stats.max_lateness_s = std::max(stats.max_lateness_s, now - due);
+        // In slices, so a stop request is honoured within kSleepSliceS of any gap.
+        while (due > now && !control->stop.load()) {
+          clock->SleepFor(std::min(kSleepSliceS, due - now));
+          now = clock->Now();
+        }
+        if (control->stop.load()) {
+          stopped = true;
+          return false;
+        }
       }
       sink(topic, s);
       ++stats.samples;

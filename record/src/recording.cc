@@ -2,8 +2,11 @@
 
 #include <fnmatch.h>
 #include <sqlite3.h>
+#include <zlib.h>
 
+#include <chrono>
 #include <filesystem>
+#include <set>
 
 namespace hullpipe::record {
 namespace {
@@ -22,6 +25,30 @@ void Exec(sqlite3* db, const char* sql, const std::string& path) {
     throw RecordingError(path + ": " + sql + ": " + msg);
   }
 }
+
+// CRC-32 (zlib) of a sample's row: topic id, source and arrival times (8 bytes
+// each, little-endian) and the data, so a flip in any of them is found.
+uint32_t RowCrc(int64_t topic_id, int64_t source_ns, int64_t arrival_ns, const uint8_t* data, size_t size) {
+  uLong c = crc32(0L, Z_NULL, 0);
+  for (int64_t v : {topic_id, source_ns, arrival_ns}) {
+    uint8_t le[8];
+    for (int i = 0; i < 8; ++i) le[i] = uint8_t(uint64_t(v) >> (8 * i));
+    c = crc32(c, le, 8);
+  }
+  size_t off = 0;
+  while (off < size) {  // zlib takes uInt lengths
+    const size_t n = std::min<size_t>(size - off, 1u << 30);
+    c = crc32(c, data + off, uInt(n));
+    off += n;
+  }
+  return uint32_t(c);
+}
+
+// Text of column i, or nullptr for NULL.
+const char* Text(sqlite3_stmt* st, int i) { return reinterpret_cast<const char*>(sqlite3_column_text(st, i)); }
+
+constexpr const char* kFormat = "hullpipe-recording-2";
+constexpr const char* kFormatNoCrc = "hullpipe-recording-1";
 
 // A prepared statement, finalized on scope exit.
 struct Stmt {
@@ -47,16 +74,19 @@ RecordingWriter::RecordingWriter(const std::string& path) : path_(path) {
        "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT UNIQUE NOT NULL, type TEXT NOT NULL,"
        " keyed INTEGER, reliable INTEGER, transient_local INTEGER, depth INTEGER);"
        "CREATE TABLE samples(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, source_ns INTEGER,"
-       " arrival_ns INTEGER, data BLOB);"
-       "INSERT INTO meta VALUES('format', 'hullpipe-recording-1');",
+       " arrival_ns INTEGER, data BLOB, crc INTEGER);"
+       "INSERT INTO meta VALUES('format', 'hullpipe-recording-2');",
        path_);
-  CheckSql(sqlite3_prepare_v2(db_, "INSERT INTO samples(topic_id, source_ns, arrival_ns, data) VALUES(?,?,?,?)", -1,
-                              &insert_, nullptr),
+  CheckSql(sqlite3_prepare_v2(db_, "INSERT INTO samples(topic_id, source_ns, arrival_ns, data, crc) VALUES(?,?,?,?,?)",
+                              -1, &insert_, nullptr),
            db_, "sqlite3_prepare_v2", path_);
 }
 
 RecordingWriter::~RecordingWriter() {
   try {
+    SetMeta("closed_ns", std::to_string(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                            std::chrono::system_clock::now().time_since_epoch())
+                                            .count()));
     Commit();
   } catch (...) {
   }
@@ -96,6 +126,7 @@ void RecordingWriter::Append(const Sample& s) {
   sqlite3_bind_int64(insert_, 2, s.source_ns);
   sqlite3_bind_int64(insert_, 3, s.arrival_ns);
   sqlite3_bind_blob64(insert_, 4, s.data.data(), s.data.size(), SQLITE_STATIC);
+  sqlite3_bind_int64(insert_, 5, RowCrc(s.topic_id, s.source_ns, s.arrival_ns, s.data.data(), s.data.size()));
   CheckSql(sqlite3_step(insert_), db_, "INSERT INTO samples", path_);
   ++pending_;
 }
@@ -117,26 +148,67 @@ void RecordingWriter::Commit() {
 }
 
 RecordingReader::RecordingReader(const std::string& path) : path_(path) {
-  if (!std::filesystem::exists(path)) throw RecordingError(path + ": no such recording");
-  // Read-write open so a killed writer's WAL is replayed into view; nothing is written.
-  CheckSql(sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READWRITE, nullptr), db_, "sqlite3_open_v2", path);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw RecordingError(path + ": no such recording (not a file)");
+  if (std::filesystem::file_size(path, ec) == 0) throw RecordingError(path + ": empty file, not a hullpipe recording");
+  // Read-only: reading never changes the file. A killed writer's WAL is still
+  // read (SQLite reads the log of a read-only connection; nothing is checkpointed).
+  CheckSql(sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr), db_, "sqlite3_open_v2", path);
   try {
+    auto not_ours = [&](const std::string& why) { return RecordingError(path_ + ": not a hullpipe recording (" + why + ")"); };
+    std::set<std::string> tables;
+    {
+      sqlite3_stmt* st = nullptr;
+      if (sqlite3_prepare_v2(db_, "SELECT name FROM sqlite_master WHERE type = 'table'", -1, &st, nullptr) !=
+          SQLITE_OK) {
+        const std::string msg = sqlite3_errmsg(db_);
+        sqlite3_finalize(st);
+        throw not_ours(msg);
+      }
+      int rc;
+      while ((rc = sqlite3_step(st)) == SQLITE_ROW)
+        if (const char* n = Text(st, 0)) tables.insert(n);
+      sqlite3_finalize(st);
+      if (rc != SQLITE_DONE) throw not_ours(sqlite3_errstr(rc));
+    }
+    for (const char* t : {"meta", "topics", "samples"})
+      if (!tables.count(t)) throw not_ours(std::string("no table '") + t + "'");
     Stmt fmt(db_, "SELECT value FROM meta WHERE key = 'format'", path_);
-    if (sqlite3_step(fmt.s) != SQLITE_ROW ||
-        std::string(reinterpret_cast<const char*>(sqlite3_column_text(fmt.s, 0))) != "hullpipe-recording-1")
-      throw RecordingError(path_ + ": not a hullpipe recording");
+    if (sqlite3_step(fmt.s) != SQLITE_ROW) throw not_ours("no meta 'format'");
+    const char* f = Text(fmt.s, 0);
+    if (!f) throw not_ours("meta 'format' is NULL");
+    if (std::string(f) != kFormat && std::string(f) != kFormatNoCrc)
+      throw not_ours("format '" + std::string(f) + "'; this build reads " + kFormat + " and " + kFormatNoCrc);
+    has_crc_ = std::string(f) == kFormat;
+    {
+      // The columns the reader selects, so a table of the wrong shape is named
+      // here rather than failing in the middle of a replay.
+      const char* sql = has_crc_ ? "SELECT topic_id, source_ns, arrival_ns, data, crc FROM samples LIMIT 0"
+                                 : "SELECT topic_id, source_ns, arrival_ns, data FROM samples LIMIT 0";
+      sqlite3_stmt* st = nullptr;
+      const int rc = sqlite3_prepare_v2(db_, sql, -1, &st, nullptr);
+      const std::string msg = sqlite3_errmsg(db_);
+      sqlite3_finalize(st);
+      if (rc != SQLITE_OK) throw not_ours("table 'samples': " + msg);
+    }
     Stmt st(db_, "SELECT id, name, type, keyed, reliable, transient_local, depth FROM topics ORDER BY id", path_);
-    while (sqlite3_step(st.s) == SQLITE_ROW) {
+    int rc;
+    while ((rc = sqlite3_step(st.s)) == SQLITE_ROW) {
       TopicInfo t;
       t.id = sqlite3_column_int64(st.s, 0);
-      t.name = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 1));
-      t.type = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 2));
+      const char* name = Text(st.s, 1);
+      const char* type = Text(st.s, 2);
+      if (!name || !type)
+        throw RecordingError(path_ + ": topics row " + std::to_string(t.id) + " has no " + (name ? "type" : "name"));
+      t.name = name;
+      t.type = type;
       t.keyed = sqlite3_column_int(st.s, 3);
       t.reliable = sqlite3_column_int(st.s, 4);
       t.transient_local = sqlite3_column_int(st.s, 5);
       t.depth = sqlite3_column_int(st.s, 6);
       topics_.push_back(t);
     }
+    CheckSql(rc, db_, "SELECT FROM topics", path_);
   } catch (...) {
     sqlite3_close(db_);
     throw;
@@ -147,7 +219,12 @@ RecordingReader::~RecordingReader() { sqlite3_close(db_); }
 
 void RecordingReader::ForEach(const std::function<bool(const Sample&)>& f,
                               const std::optional<std::vector<int64_t>>& topic_ids) const {
-  Stmt st(db_, "SELECT topic_id, source_ns, arrival_ns, data FROM samples ORDER BY arrival_ns, id", path_);
+  Stmt st(db_,
+          has_crc_ ? "SELECT topic_id, source_ns, arrival_ns, data, crc FROM samples ORDER BY arrival_ns, id"
+                   : "SELECT topic_id, source_ns, arrival_ns, data, NULL FROM samples ORDER BY arrival_ns, id",
+          path_);
+  std::set<int64_t> known;
+  for (const auto& t : topics_) known.insert(t.id);
   Sample s;
   int rc;
   while ((rc = sqlite3_step(st.s)) == SQLITE_ROW) {
@@ -156,14 +233,60 @@ void RecordingReader::ForEach(const std::function<bool(const Sample&)>& f,
     s.source_ns = sqlite3_column_int64(st.s, 1);
     s.arrival_ns = sqlite3_column_int64(st.s, 2);
     const auto* p = static_cast<const uint8_t*>(sqlite3_column_blob(st.s, 3));
-    s.data.assign(p, p + sqlite3_column_bytes(st.s, 3));
+    const int n = sqlite3_column_bytes(st.s, 3);
+    if (p) s.data.assign(p, p + n);
+    else s.data.clear();
+    if (!known.count(s.topic_id) ||
+        (has_crc_ && (sqlite3_column_type(st.s, 4) != SQLITE_INTEGER ||
+                      uint32_t(sqlite3_column_int64(st.s, 4)) !=
+                          RowCrc(s.topic_id, s.source_ns, s.arrival_ns, s.data.data(), s.data.size())))) {
+      ++damaged_;
+      continue;
+    }
     if (!f(s)) return;
   }
   CheckSql(rc, db_, "SELECT FROM samples", path_);
 }
 
+std::string RecordingReader::QuickCheck() const {
+  Stmt st(db_, "PRAGMA quick_check(10)", path_);
+  std::string out;
+  int rc;
+  while ((rc = sqlite3_step(st.s)) == SQLITE_ROW) {
+    const char* line = Text(st.s, 0);
+    if (line && std::string(line) == "ok") continue;
+    out += (out.empty() ? "" : "; ") + std::string(line ? line : "?");
+  }
+  if (rc != SQLITE_DONE) out += (out.empty() ? "" : "; ") + std::string(sqlite3_errmsg(db_));
+  return out;
+}
+
 RecordingInfo RecordingReader::Info() const {
   RecordingInfo info;
+  info.damage = QuickCheck();
+  try {
+    Counts(&info);
+  } catch (const RecordingError& e) {  // a damaged file: the counts so far
+    info.damage += (info.damage.empty() ? "" : "; ") + std::string(e.what());
+  }
+  // Files of format 1 were closed by the recorder tool, which set stopped_ns.
+  info.interrupted = !info.meta.count("closed_ns") && !info.meta.count("stopped_ns");
+  // Every sample's CRC (and samples of no known topic).
+  const int64_t before = damaged_;
+  try {
+    ForEach([](const Sample&) { return true; });
+  } catch (const RecordingError& e) {
+    info.damage += (info.damage.empty() ? "" : "; ") + std::string(e.what());
+  }
+  info.damaged_samples = damaged_ - before;
+  if (info.damaged_samples > 0)
+    info.damage += (info.damage.empty() ? "" : "; ") + std::to_string(info.damaged_samples) +
+                   " sample(s) whose row does not match its CRC-32 or whose topic is unknown";
+  return info;
+}
+
+void RecordingReader::Counts(RecordingInfo* out) const {
+  RecordingInfo& info = *out;
   for (const auto& t : topics_) {
     RecordingInfo::TopicSummary ts;
     ts.topic = t;
@@ -181,10 +304,11 @@ RecordingInfo RecordingReader::Info() const {
   info.first_arrival_ns = sqlite3_column_int64(range.s, 0);
   info.last_arrival_ns = sqlite3_column_int64(range.s, 1);
   Stmt meta(db_, "SELECT key, value FROM meta", path_);
-  while (sqlite3_step(meta.s) == SQLITE_ROW)
-    info.meta[reinterpret_cast<const char*>(sqlite3_column_text(meta.s, 0))] =
-        reinterpret_cast<const char*>(sqlite3_column_text(meta.s, 1));
-  return info;
+  while (sqlite3_step(meta.s) == SQLITE_ROW) {
+    const char* k = Text(meta.s, 0);
+    const char* v = Text(meta.s, 1);
+    if (k) info.meta[k] = v ? v : "";
+  }
 }
 
 bool TopicMatches(const std::string& pattern, const std::string& name) {

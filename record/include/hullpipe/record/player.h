@@ -24,7 +24,10 @@ struct PlayerOptions {
   /// joiners downstream get them as in the original run.
   double start_offset_s = 0;
   std::vector<std::string> include, exclude;  ///< Topic name globs (TopicSelected).
-  /// Throws std::invalid_argument naming the bad field.
+  /// Bounds: rate 0 or in [kMinRate, kMaxRate]; start_offset_s in [0, kMaxStartOffsetS]
+  /// (and, checked by Play, not past the recording's end).
+  static constexpr double kMinRate = 1e-3, kMaxRate = 1e3, kMaxStartOffsetS = 1e6;
+  /// Throws std::invalid_argument naming the bad flag.
   void Check() const;
 };
 
@@ -49,10 +52,15 @@ struct PlayStats {
   double max_lateness_s = 0; ///< Largest delay of a sample behind its due time.
 };
 
+/// The longest single sleep of Play: a stop request is honoured within it, at any rate.
+constexpr double kSleepSliceS = 0.05;
+
 /// Plays the recording's selected samples into `sink` in arrival order, each at
 /// its original arrival time (relative to the first played sample) divided by
-/// rate. Honours `control` (pause, step, stop) between samples. clock: nullptr
-/// uses the steady clock. Throws std::invalid_argument if options fail Check().
+/// rate. Honours `control` (pause, step, stop) between samples and during the
+/// wait for one. clock: nullptr uses the steady clock. Throws std::invalid_argument
+/// if options fail Check() or the start offset is past the end; RecordingError if
+/// the file turns out damaged.
 PlayStats Play(const RecordingReader& recording, const PlayerOptions& options,
                const std::function<void(const TopicInfo&, const Sample&)>& sink, PlayerControl* control = nullptr,
                PlayerClock* clock = nullptr);

@@ -8,9 +8,14 @@
 //   topics(id INTEGER PRIMARY KEY, name TEXT UNIQUE, type TEXT, keyed INTEGER,
 //          reliable INTEGER, transient_local INTEGER, depth INTEGER)
 //   samples(id INTEGER PRIMARY KEY, topic_id INTEGER, source_ns INTEGER,
-//           arrival_ns INTEGER, data BLOB)            in arrival order
+//           arrival_ns INTEGER, data BLOB, crc INTEGER) in arrival order
+// format 'hullpipe-recording-2'; crc is the CRC-32 (zlib) of topic_id, source_ns,
+// arrival_ns (8 bytes each, little-endian) and data. Files of
+// format 1 (no crc column) are still read, without the per-sample check.
 // Samples are written in batched transactions: a writer killed (even by SIGKILL)
-// loses at most its last, uncommitted batch, and the file still opens.
+// loses at most its last, uncommitted batch, and the file still opens. A writer
+// that closes sets meta 'closed_ns'; a file without it was interrupted.
+// Readers open the file read-only: reading never changes it.
 #pragma once
 
 #include <cstdint>
@@ -58,7 +63,7 @@ class RecordingWriter {
   /// Creates `path` (an existing file is an error: recordings are never
   /// overwritten). Throws RecordingError.
   explicit RecordingWriter(const std::string& path);
-  ~RecordingWriter();  ///< Commits the open batch.
+  ~RecordingWriter();  ///< Sets meta 'closed_ns' and commits the open batch.
   RecordingWriter(const RecordingWriter&) = delete;
   RecordingWriter& operator=(const RecordingWriter&) = delete;
 
@@ -93,13 +98,23 @@ struct RecordingInfo {
   int64_t samples = 0, bytes = 0;
   int64_t first_arrival_ns = 0, last_arrival_ns = 0;
   std::map<std::string, std::string> meta;
+  /// The writer did not close the file (killed, or the machine stopped): samples
+  /// up to its last committed batch are there.
+  bool interrupted = false;
+  /// Empty if the file is sound; else what is wrong: SQLite's quick_check findings
+  /// (damaged pages: counts may be wrong) and the number of samples whose CRC-32
+  /// does not match their data.
+  std::string damage;
+  int64_t damaged_samples = 0;
   double duration_s() const { return samples ? double(last_arrival_ns - first_arrival_ns) * 1e-9 : 0.0; }
 };
 
 /// Reads a recording (read-only; works on a file whose writer was killed).
 class RecordingReader {
  public:
-  /// Throws RecordingError if the file is missing or not a recording.
+  /// Throws RecordingError, naming the file and what is wrong, if the file is
+  /// missing, empty, not SQLite, lacks a table or column of the format, has an
+  /// unknown format, or a topics row without name or type.
   explicit RecordingReader(const std::string& path);
   ~RecordingReader();
   RecordingReader(const RecordingReader&) = delete;
@@ -107,15 +122,27 @@ class RecordingReader {
 
   const std::vector<TopicInfo>& topics() const { return topics_; }
   /// Calls f on every sample in arrival order (ties by insertion), until f
-  /// returns false. Samples of topics not in `topic_ids` (if given) are skipped.
+  /// returns false. Samples of topics not in `topic_ids` (if given) are skipped;
+  /// so are samples whose CRC-32 does not match (counted in damaged_samples()) or
+  /// whose topic id is not in the topics table. Throws RecordingError (file named)
+  /// if SQLite finds the file damaged on the way.
   void ForEach(const std::function<bool(const Sample&)>& f,
                const std::optional<std::vector<int64_t>>& topic_ids = std::nullopt) const;
+  /// Counts, sizes, meta, and a full check: quick_check and every sample's CRC.
   RecordingInfo Info() const;
+  /// SQLite's quick_check of the file's structure: empty if sound, else its
+  /// findings (at most 10 lines). Reads the whole file.
+  std::string QuickCheck() const;
+  /// Samples ForEach skipped for a CRC mismatch or an unknown topic, so far.
+  int64_t damaged_samples() const { return damaged_; }
 
  private:
   std::string path_;
   sqlite3* db_ = nullptr;
   std::vector<TopicInfo> topics_;
+  void Counts(RecordingInfo* info) const;  ///< Per-topic counts, time range, meta.
+  bool has_crc_ = false;
+  mutable int64_t damaged_ = 0;
 };
 
 /// True if `name` matches the glob `pattern` (`*`, `?`, `[...]`, as fnmatch).
