@@ -160,6 +160,31 @@ TEST(Convert, HeadPoseRoundTripAndBadRotation) {
   EXPECT_THROW(HeadPoseFromMsg(m), MessageError);
 }
 
+// One NodeStats sample with an invalid UTF-8 byte in its name once made render's
+// stats.json empty (nlohmann-json threw at the end of the run): rejected at the
+// wire now, one line, counted.
+TEST(Convert, NodeStatsWithBadTextIsRejected) {
+  nodes::NodeStatsSample s;
+  s.name = "recon0";
+  s.stages["sweep"] = {1.0, 2.0};
+  s.backend = "cpu";
+  const auto good = MakeNodeStatsMessage(s, 1);
+  EXPECT_EQ(NodeStatsFromMsg(good.msg).name, "recon0");  // control
+  for (const std::string& bad : {std::string("rec\xff"), std::string("\xc3"), std::string("\xc0\x80"),
+                                std::string("\xed\xa0\x80"), std::string(65, 'a'), std::string()}) {
+    s.name = bad;
+    const auto m = MakeNodeStatsMessage(s, 1);
+    EXPECT_THROW(NodeStatsFromMsg(m.msg), MessageError) << bad.size();
+  }
+  s.name = "sim";
+  s.stages.clear();
+  s.stages["caf\xc3\xa9"] = {1, 1};  // valid UTF-8 passes
+  EXPECT_NO_THROW(NodeStatsFromMsg(MakeNodeStatsMessage(s, 1).msg));
+  s.stages.clear();
+  s.stages["st\xfe"] = {1, 1};
+  EXPECT_THROW(NodeStatsFromMsg(MakeNodeStatsMessage(s, 1).msg), MessageError);
+}
+
 TEST(Dds, ErrorsNameTheCall) {
   try {
     Check(DDS_RETCODE_BAD_PARAMETER, "dds_create_writer");

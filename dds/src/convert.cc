@@ -442,9 +442,36 @@ OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsS
   return o;
 }
 
+namespace {
+// A string from the wire that ends up in logs and stats.json: at most max_len
+// bytes of valid UTF-8 (one bad byte from anyone on the domain must not spoil
+// the run's record).
+std::string WireText(const char* p, size_t max_len, const std::string& what) {
+  const std::string t = p ? p : "";
+  if (t.size() > max_len) throw MessageError("NodeStats: " + what + " longer than " + std::to_string(max_len) + " bytes");
+  for (size_t i = 0; i < t.size();) {
+    const auto c = uint8_t(t[i]);
+    const size_t n = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
+    if (n == 0 || i + n > t.size()) throw MessageError("NodeStats: " + what + " is not valid UTF-8");
+    uint32_t cp = n == 1 ? c : n == 2 ? (c & 0x1F) : n == 3 ? (c & 0x0F) : (c & 0x07);
+    for (size_t k = 1; k < n; ++k) {
+      const auto cc = uint8_t(t[i + k]);
+      if ((cc >> 6) != 0x2) throw MessageError("NodeStats: " + what + " is not valid UTF-8");
+      cp = (cp << 6) | (cc & 0x3F);
+    }
+    const uint32_t least[5] = {0, 0, 0x80, 0x800, 0x10000};
+    if (cp < least[n] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF) || cp == 0)
+      throw MessageError("NodeStats: " + what + " is not valid UTF-8");
+    i += n;
+  }
+  return t;
+}
+}  // namespace
+
 nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& m) {
   nodes::NodeStatsSample s;
-  s.name = m.node_name ? m.node_name : "";
+  s.name = WireText(m.node_name, 64, "node_name");
+  if (s.name.empty()) throw MessageError("NodeStats: empty node_name");
   s.fps = m.fps;
   s.latency_ms_p50 = m.latency_ms_p50;
   s.latency_ms_p95 = m.latency_ms_p95;
@@ -455,10 +482,11 @@ nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& m) {
   s.final_report = m.final_report;
   for (uint32_t i = 0; i < m.stages._length; ++i) {
     const auto& st = m.stages._buffer[i];
-    s.stages[st.name ? st.name : "?"] = {st.ms_mean, st.ms_p95};
+    if (i >= 64) throw MessageError("NodeStats: more than 64 stages");
+    s.stages[WireText(st.name ? st.name : "?", 64, "stage name")] = {st.ms_mean, st.ms_p95};
   }
   s.dropped_for_skew = m.dropped_for_skew;
-  s.backend = m.backend ? m.backend : "";
+  s.backend = WireText(m.backend, 512, "backend");
   for (uint32_t i = 0; i < m.cameras._length && i < 64; ++i) {
     const auto& c = m.cameras._buffer[i];
     CameraSkewReport r;

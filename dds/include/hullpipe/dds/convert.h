@@ -112,8 +112,9 @@ VirtualObjectSample VirtualObjectFromMsg(const hullpipe_msg_VirtualObjectState& 
 OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const CollisionReportSample& r);
 /// NodeStats of a node's report.
 OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsSample& s, int64_t stamp_ns);
-/// The report in a NodeStats sample (a missing name becomes "", a missing stage
-/// name "?").
+/// The report in a NodeStats sample (a missing stage name becomes "?"). Throws
+/// MessageError for an empty node name, a name or stage name over 64 bytes, a
+/// backend over 512, any of them not valid UTF-8 (or with NUL), or over 64 stages.
 nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& msg);
 
 inline hullpipe_msg_Vec3 ToMsg(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
