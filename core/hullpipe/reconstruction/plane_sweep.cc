@@ -31,7 +31,8 @@ NovelView NovelView::FromFov(int width, int height, double hfov_rad, const Rigid
 }
 
 void PlaneSweepOptions::Check() const {
-  if (num_planes < 2) throw std::invalid_argument("PlaneSweepOptions: num_planes must be >= 2");
+  if (num_planes < 2 || num_planes > kMaxPlanes)
+    throw std::invalid_argument("--planes (num_planes) must be in [2, " + std::to_string(kMaxPlanes) + "]");
   if (!(near > 0) || !(far > near))
     throw std::invalid_argument("PlaneSweepOptions: need 0 < near < far");
 }

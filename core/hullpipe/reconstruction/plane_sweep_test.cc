@@ -500,3 +500,20 @@ TEST(PlaneSweep, RefiningAfterwardsEqualsRefiningInTheSweep) {
 
 }  // namespace
 }  // namespace hullpipe
+
+namespace hullpipe {
+namespace {
+
+// --planes 100000 once stalled recon_node past SIGINT: bounded, named.
+TEST(PlaneSweepOptions, PlanesAreBounded) {
+  PlaneSweepOptions o;
+  o.num_planes = 100000;
+  EXPECT_THROW(o.Check(), std::invalid_argument);
+  o.num_planes = 1;
+  EXPECT_THROW(o.Check(), std::invalid_argument);
+  o.num_planes = PlaneSweepOptions::kMaxPlanes;
+  EXPECT_NO_THROW(o.Check());  // control
+}
+
+}  // namespace
+}  // namespace hullpipe

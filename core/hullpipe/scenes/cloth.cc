@@ -17,7 +17,8 @@ void ClothConfig::Check() const {
   if (!(length > 0)) throw std::invalid_argument("cloth: length must be > 0");
   if (iterations < 1 || iterations > 200) throw std::invalid_argument("cloth: iterations must be in [1, 200]");
   if (!(damping >= 0 && damping < 1)) throw std::invalid_argument("cloth: damping must be in [0, 1)");
-  if (!(max_substep > 0)) throw std::invalid_argument("cloth: max_substep must be > 0");
+  if (!(max_substep >= kMinSubstepS && max_substep <= kMaxSubstepS))
+    throw std::invalid_argument("cloth: max_substep must be in [1e-4, 0.1] s");
   if (!(clearance >= 0)) throw std::invalid_argument("cloth: clearance must be >= 0");
   if (!(max_search > clearance)) throw std::invalid_argument("cloth: max_search must be > clearance");
   collision.Check();

@@ -26,6 +26,7 @@
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/collision/triangle_query.h"
 #include "hullpipe/reconstruction/volume_query.h"
+#include "hullpipe/scenes/limits.h"
 
 namespace hullpipe {
 

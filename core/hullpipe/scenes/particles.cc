@@ -23,7 +23,8 @@ void ParticleConfig::Check() const {
   if (!(friction >= 0 && friction <= 1)) throw std::invalid_argument("particles: friction must be in [0, 1]");
   if (!(radius > 0)) throw std::invalid_argument("particles: radius must be > 0");
   if (!(clearance > 0)) throw std::invalid_argument("particles: clearance must be > 0");
-  if (!(max_substep > 0)) throw std::invalid_argument("particles: max_substep must be > 0");
+  if (!(max_substep >= kMinSubstepS && max_substep <= kMaxSubstepS))
+    throw std::invalid_argument("particles: max_substep must be in [1e-4, 0.1] s");
   if (!(sample_spacing > 0)) throw std::invalid_argument("particles: sample_spacing must be > 0");
 }
 

@@ -22,6 +22,7 @@
 #include <Eigen/Core>
 
 #include "hullpipe/reconstruction/volume_query.h"
+#include "hullpipe/scenes/limits.h"
 
 namespace hullpipe {
 

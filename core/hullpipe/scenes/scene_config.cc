@@ -10,7 +10,8 @@ namespace hullpipe {
 
 void SceneConfig::Check() const {
   if (!gravity.allFinite()) throw std::invalid_argument("scene: gravity must be finite");
-  if (!(max_substep > 0)) throw std::invalid_argument("scene: max_substep must be > 0");
+  if (!(max_substep >= kMinSubstepS && max_substep <= kMaxSubstepS))
+    throw std::invalid_argument("scene: max_substep must be in [1e-4, 0.1] s");
   collision.Check();
   if (cloth) cloth->Check();
   if (particles) particles->Check();
@@ -42,7 +43,30 @@ void Get(const YAML::Node& n, const char* key, T* out) {
   if (n[key]) *out = n[key].as<T>();
 }
 
+// A section must be a map with only the keys this build reads (a misspelt key
+// would otherwise be ignored and its default used without a word) and the ones
+// it cannot do without.
+void Keys(const YAML::Node& n, const std::string& path, const std::string& section,
+          std::initializer_list<const char*> known, std::initializer_list<const char*> required = {}) {
+  const std::string where = section.empty() ? "" : section + ".";
+  if (!n.IsMap()) throw std::runtime_error(path + ": '" + section + "' must be a map of keys");
+  for (const auto& kv : n) {
+    const std::string key = kv.first.as<std::string>();
+    if (std::find_if(known.begin(), known.end(), [&](const char* k) { return key == k; }) == known.end()) {
+      std::string list;
+      for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+      throw std::runtime_error(path + ": unknown key '" + where + key + "' (known: " + list + ")");
+    }
+  }
+  for (const char* k : required)
+    if (!n[k]) throw std::runtime_error(path + ": key '" + where + k + "' is missing");
+}
+
 ClothConfig ParseCloth(const YAML::Node& n, const std::string& path) {
+  Keys(n, path, "cloth",
+       {"id", "rod_a", "rod_b", "length", "nx", "ny", "iterations", "damping", "max_substep", "clearance",
+        "max_search", "max_pixel_size"},
+       {"rod_a", "rod_b", "length"});
   ClothConfig c;
   Get(n, "id", &c.id);
   c.rod_a = Vec3(n, path, "rod_a", c.rod_a);
@@ -60,6 +84,10 @@ ClothConfig ParseCloth(const YAML::Node& n, const std::string& path) {
 }
 
 ParticleConfig ParseParticles(const YAML::Node& n, const std::string& path) {
+  Keys(n, path, "particles",
+       {"id", "emitter", "emitter_radius", "velocity", "velocity_jitter", "rate", "max_particles", "lifetime",
+        "restitution", "friction", "radius", "clearance", "max_substep", "seed"},
+       {"emitter", "velocity"});
   ParticleConfig c;
   Get(n, "id", &c.id);
   c.emitter = Vec3(n, path, "emitter", c.emitter);
@@ -79,6 +107,9 @@ ParticleConfig ParseParticles(const YAML::Node& n, const std::string& path) {
 }
 
 PayloadConfig ParsePayload(const YAML::Node& n, const std::string& path) {
+  Keys(n, path, "payload",
+       {"first_id", "pmt_centre", "pmt_half", "axis", "direction", "spacing", "a_half", "shaft_radius",
+        "shaft_length", "max_clearance", "max_pixel_size"});
   PayloadConfig c;
   Get(n, "first_id", &c.first_id);
   c.pmt_centre = Vec3(n, path, "pmt_centre", c.pmt_centre);
@@ -95,6 +126,9 @@ PayloadConfig ParsePayload(const YAML::Node& n, const std::string& path) {
 }
 
 LightConfig ParseLight(const YAML::Node& n, const std::string& path) {
+  Keys(n, path, "light",
+       {"position", "target", "fov_deg", "map_size", "planes", "refine", "bias", "ambient", "hull_diffuse"},
+       {"position", "target"});
   LightConfig c;
   c.position = Vec3(n, path, "position", c.position);
   c.target = Vec3(n, path, "target", c.target);
@@ -114,6 +148,14 @@ SceneConfig LoadSceneConfig(const std::string& path) {
   SceneConfig cfg;
   try {
     const YAML::Node root = YAML::LoadFile(path);
+    if (!root.IsMap() || root.size() == 0)
+      throw std::runtime_error(path + ": not a scene (empty, or not a YAML map of keys)");
+    // 'balls' is required (balls: [] for none): a file without it would get the
+    // default ball unasked.
+    Keys(root, path, "",
+         {"gravity", "floor", "collision", "response", "max_substep", "balls", "cloth", "particles", "payload",
+          "light"},
+         {"balls"});
     cfg.gravity = Vec3(root, path, "gravity", cfg.gravity);
     if (root["floor"]) {
       if (root["floor"].IsNull()) {
@@ -123,6 +165,7 @@ SceneConfig LoadSceneConfig(const std::string& path) {
       }
     }
     if (const YAML::Node c = root["collision"]) {
+      Keys(c, path, "collision", {"max_pixel_size", "fixed_viewport", "max_viewport"});
       if (c["max_pixel_size"]) cfg.collision.max_pixel_size = c["max_pixel_size"].as<double>();
       if (c["fixed_viewport"]) cfg.collision.fixed_viewport = c["fixed_viewport"].as<int>();
       if (c["max_viewport"]) cfg.collision.max_viewport = c["max_viewport"].as<int>();
@@ -134,9 +177,13 @@ SceneConfig LoadSceneConfig(const std::string& path) {
     }
     if (root["max_substep"]) cfg.max_substep = root["max_substep"].as<double>();
     if (const YAML::Node balls = root["balls"]) {
+      if (!balls.IsSequence()) throw std::runtime_error(path + ": 'balls' must be a list ([] for none)");
       cfg.balls.clear();
       int index = 0;
       for (const auto& b : balls) {
+        Keys(b, path, "balls[" + std::to_string(index) + "]",
+             {"id", "radius", "start", "target", "flight_time", "restitution", "rethrow_period", "subdivisions"},
+             {"radius", "start", "target"});
         BallConfig bc;
         bc.id = b["id"] ? b["id"].as<int>() : index + 1;
         if (b["radius"]) bc.radius = b["radius"].as<double>();

@@ -37,6 +37,13 @@
 //     {position: [..], target: [..], fov_deg: 70, map_size: 192, planes: 48, refine: 6,
 //      bias: 0.02, ambient: 0.45, hull_diffuse: 0.5}   # read by render_node
 //   balls: []                       # no balls
+//
+// Checked where read (LoadSceneConfig): the file is a non-empty map; every key
+// is one of the above (a misspelt key is an error naming it, never ignored);
+// `balls` is required (`[]` for none), and so are a ball's radius, start and
+// target, the cloth's rod_a, rod_b and length, the particles' emitter and
+// velocity, the light's position and target. Bounds: max_substep (scene, cloth,
+// particles) in [1e-4, 0.1] s (limits.h); the rest as each Config::Check says.
 #pragma once
 
 #include <optional>
@@ -74,7 +81,8 @@ struct SceneConfig {
   /// How the §4.2 response is found: exact (RefineFarthestCollisionPoint +
   /// ComputeResponse) or paper (ComputeResponsePaper).
   enum class Response { kExact, kPaper } response = Response::kExact;
-  double max_substep = 0.01;  ///< Longest integration step (s), limits tunnelling.
+  /// Longest integration step (s), limits tunnelling; in [kMinSubstepS, kMaxSubstepS].
+  double max_substep = 0.01;
   std::vector<BallConfig> balls{BallConfig{}};
   std::optional<ClothConfig> cloth;         ///< The curtain, if any.
   std::optional<ParticleConfig> particles;  ///< The particle stream, if any.

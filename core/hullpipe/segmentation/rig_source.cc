@@ -457,8 +457,13 @@ class VideoRig final : public RigSource {
 class SyntheticRig final : public RigSource {
  public:
   explicit SyntheticRig(const SyntheticRigOptions& o) : options_(o) {
-    if (o.cameras < 1 || o.width < 8 || o.height < 8 || !(o.fps > 0))
-      throw std::invalid_argument("synthetic rig: need >= 1 camera, size >= 8, fps > 0");
+    if (o.cameras < 1 || o.cameras > SyntheticRigOptions::kMaxCameras)
+      throw std::invalid_argument("synthetic rig: --cameras must be in [1, 64]");
+    if (o.width < 8 || o.height < 8 || o.width > SyntheticRigOptions::kMaxSide ||
+        o.height > SyntheticRigOptions::kMaxSide)
+      throw std::invalid_argument("synthetic rig: --synthetic-size must be in [8, 4096] x [8, 4096] pixels");
+    if (!(o.fps > 0 && o.fps <= 1000)) throw std::invalid_argument("synthetic rig: --fps must be in (0, 1000]");
+    if (o.frames < 0) throw std::invalid_argument("synthetic rig: --frames must be >= 0");
     (void)NamedScene(o.scene, 0);  // throws on an unknown name
     if (o.placement != "ring" && o.placement != "dome")
       throw std::invalid_argument("synthetic rig: placement must be ring or dome, not '" + o.placement + "'");

@@ -84,9 +84,12 @@ std::unique_ptr<RigSource> OpenVideoRig(const std::string& rig_path, const Video
 
 /// Options of the synthetic source.
 struct SyntheticRigOptions {
-  int cameras = 4;
-  int width = 320, height = 240;
-  double fps = 25;
+  /// Bounds (checked by OpenSyntheticRig): a 4096x4096 camera is 16 MB a map and
+  /// image; 100000x100000 once grew past 9.8 GB without a word.
+  static constexpr int kMaxSide = 4096, kMaxCameras = 64;
+  int cameras = 4;                ///< [1, kMaxCameras]
+  int width = 320, height = 240;  ///< Pixels, each in [8, kMaxSide].
+  double fps = 25;                ///< (0, 1000]
   double hfov = 1.0;             ///< radians
   Distortion distortion{};
   int frames = 250;              ///< Frames before the input ends.

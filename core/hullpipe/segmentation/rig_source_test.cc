@@ -118,3 +118,29 @@ TEST(RigSource, ATrackedCameraOfAFileRigTakesItsPoseFromItsLog) {
 
 }  // namespace
 }  // namespace hullpipe
+
+namespace hullpipe {
+namespace {
+
+// --synthetic-size 100000x100000 once allocated without end: bounded, named.
+TEST(SyntheticRig, SizesAndCountsAreBounded) {
+  auto open = [](int w, int h, int cams, double fps) {
+    SyntheticRigOptions o;
+    o.width = w;
+    o.height = h;
+    o.cameras = cams;
+    o.fps = fps;
+    o.frames = 1;
+    return OpenSyntheticRig(o);
+  };
+  EXPECT_THROW(open(100000, 100000, 4, 25), std::invalid_argument);
+  EXPECT_THROW(open(4097, 240, 4, 25), std::invalid_argument);
+  EXPECT_THROW(open(320, 4, 4, 25), std::invalid_argument);
+  EXPECT_THROW(open(320, 240, 65, 25), std::invalid_argument);
+  EXPECT_THROW(open(320, 240, 4, 0), std::invalid_argument);
+  EXPECT_THROW(open(320, 240, 4, std::nan("")), std::invalid_argument);
+  EXPECT_NO_THROW(open(64, 48, 2, 25));  // control
+}
+
+}  // namespace
+}  // namespace hullpipe
