@@ -275,6 +275,16 @@ TEST_F(NodeTest, RenderNodeRejectsTilesOfTheWrongSize) {
   EXPECT_EQ(node->Stop(), 0) << test::ReadFile(log_);
 }
 
+// `set-spacing nan` once printed "sent" and exited 0 (NaN passes every range
+// check by comparison): refused at once, one line naming the subcommand.
+TEST_F(NodeTest, CmdRefusesANonFiniteSpacing) {
+  for (const char* bad : {"nan", "inf", "-1"}) {
+    auto cmd = Start("hullpipe_cmd", {"set-spacing", bad, "--timeout", "30"});
+    EXPECT_EQ(cmd->Wait(10), 1) << bad << ": " << test::ReadFile(log_);
+    EXPECT_NE(test::ReadFile(log_).find("set-spacing"), std::string::npos) << test::ReadFile(log_);
+  }
+}
+
 // --- capture_node on broken files (needs the Utrecht rig) -------------------
 
 class CaptureFiles : public NodeTest {
