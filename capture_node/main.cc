@@ -13,6 +13,7 @@
 #include "hullpipe/dds/node.h"
 #include "hullpipe/nodes/capture_controller.h"
 #include "hullpipe/segmentation/rig_source.h"
+#include "hullpipe/util/cli_range.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -86,7 +87,7 @@ int main(int argc, char** argv) {
   app.add_flag("--fast", fast, "Do not pace: as fast as possible");
   app.add_flag("--loop", loop, "Restart the input at its end");
   app.add_option("--image-scale", image_scale, "Scale of the published colour images (0,1]")
-      ->check(CLI::Range(0.05, 1.0))->capture_default_str();
+      ->check(hullpipe::FiniteRange(0.05, 1.0))->capture_default_str();
   app.add_option("--jpeg", jpeg_quality, "Publish images as JPEG of this quality (0: raw BGR8)")
       ->check(CLI::Range(0, 100));
   int background_frames = 60;
@@ -97,7 +98,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   double live_timeout = 5;
   app.add_option("--live-timeout", live_timeout, "Live cameras: end the input when none delivered for this long, s")
-      ->check(CLI::Range(0.2, 3600.0))
+      ->check(hullpipe::FiniteRange(0.2, 3600.0))
       ->capture_default_str();
   int64_t start_time_ns = 0;
   double max_lag = 0.1;

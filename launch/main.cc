@@ -25,6 +25,7 @@
 #include "hullpipe/launch/cyclone_config.h"
 #include "hullpipe/launch/domain.h"
 #include "hullpipe/launch/process.h"
+#include "hullpipe/util/cli_range.h"
 
 namespace fs = std::filesystem;
 
@@ -82,7 +83,7 @@ int main(int argc, char** argv) {
   app.add_option("--start-in", start_in,
                  "Give the capture nodes one timeline starting this many seconds after launch, as ${start_time} "
                  "(0: the first capture node announces one)")
-      ->check(CLI::Range(0.0, 600.0))
+      ->check(hullpipe::FiniteRange(0.0, 600.0))
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   if (rig.empty() == !synthetic) {
