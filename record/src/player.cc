@@ -50,11 +50,7 @@ PlayStats Play(const RecordingReader& rec, const PlayerOptions& o,
   if (first_ns < 0) return stats;
   const int64_t start_ns = first_ns + int64_t(o.start_offset_s * 1e9);
   if (o.start_offset_s > 0) {
-    int64_t last_ns = first_ns;
-    rec.ForEach([&](const Sample& s) {
-      last_ns = std::max(last_ns, s.arrival_ns);
-      return true;
-    }, selected);
+    const int64_t last_ns = std::max(first_ns, rec.LastArrivalNs(selected).value_or(first_ns));
     if (start_ns > last_ns)
       throw std::invalid_argument("--start-offset " + std::to_string(o.start_offset_s) +
                                   " s is past the recording's end (" + std::to_string(double(last_ns - first_ns) * 1e-9) +

@@ -248,6 +248,19 @@ void RecordingReader::ForEach(const std::function<bool(const Sample&)>& f,
   CheckSql(rc, db_, "SELECT FROM samples", path_);
 }
 
+std::optional<int64_t> RecordingReader::LastArrivalNs(const std::optional<std::vector<int64_t>>& topic_ids) const {
+  std::string sql = "SELECT MAX(arrival_ns) FROM samples";
+  if (topic_ids) {
+    sql += " WHERE topic_id IN (";
+    for (size_t i = 0; i < topic_ids->size(); ++i) sql += (i ? "," : "") + std::to_string((*topic_ids)[i]);
+    sql += ")";
+  }
+  Stmt st(db_, sql.c_str(), path_);
+  CheckSql(sqlite3_step(st.s), db_, "SELECT MAX", path_);
+  if (sqlite3_column_type(st.s, 0) == SQLITE_NULL) return std::nullopt;
+  return sqlite3_column_int64(st.s, 0);
+}
+
 std::string RecordingReader::QuickCheck() const {
   Stmt st(db_, "PRAGMA quick_check(10)", path_);
   std::string out;

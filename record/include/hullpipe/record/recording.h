@@ -128,6 +128,10 @@ class RecordingReader {
   /// if SQLite finds the file damaged on the way.
   void ForEach(const std::function<bool(const Sample&)>& f,
                const std::optional<std::vector<int64_t>>& topic_ids = std::nullopt) const;
+  /// The latest arrival_ns among the samples of `topic_ids` (all topics if not
+  /// given), by SQL MAX over the column (no sample data is read);
+  /// nullopt if there are none. Throws RecordingError.
+  std::optional<int64_t> LastArrivalNs(const std::optional<std::vector<int64_t>>& topic_ids = std::nullopt) const;
   /// Counts, sizes, meta, and a full check: quick_check and every sample's CRC.
   RecordingInfo Info() const;
   /// SQLite's quick_check of the file's structure: empty if sound, else its
