@@ -76,6 +76,12 @@ TEST(EndToEnd, TheCompositedHullIsTheExactHullFromTheTrackedView) {
   const std::string pngs = "--png-every, \"50\"";
   ASSERT_NE(description.find(pngs), std::string::npos);
   description.replace(description.find(pngs), pngs.size(), "--png-every, \"1\", --save-depth");
+  // Capture at 5 fps, not the source's 25: render takes the newest frameset and
+  // writes a PNG and a depth TIFF per frame, and on CI's 2 cores at 25 fps it
+  // composited only 2 of the 12 frames; at 5 fps each frame has 200 ms.
+  const std::string wait = "--wait-timeout, \"20\"";
+  ASSERT_NE(description.find(wait), std::string::npos);
+  description.replace(description.find(wait), wait.size(), "--fps, \"5\", " + wait);
   std::ofstream(out / "save_depth.yaml") << description;
   const std::string track_csv = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/head_track_example.csv";
   test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "12", "--out",
