@@ -231,9 +231,11 @@ class VideoRig final : public RigSource {
       if (!c.masks_spec.empty()) c.masks.grab();
       ++alive;
     }
+    if (!CheckEnds(alive)) return false;
     ++index_;
-    return alive > 0;
+    return true;
   }
+  std::string IncompleteEnd() const override { return incomplete_; }
   const std::vector<Camera>& cameras() const override { return cameras_; }
   int rig_camera_count() const override { return rig_camera_count_; }
   Aabb workspace() const override { return workspace_; }
@@ -262,8 +264,9 @@ class VideoRig final : public RigSource {
       alive += alive_of[i];
       for (auto& e : errors[i]) f->errors.push_back(std::move(e));
     }
+    if (!CheckEnds(alive)) return false;
     ++index_;
-    return alive > 0;
+    return true;
   }
 
   bool Rewind() override {
@@ -279,6 +282,7 @@ class VideoRig final : public RigSource {
     cv::VideoCapture frames, masks;
     BackgroundModel background;
     bool ended = false;
+    int64_t declared_frames = 0;  ///< The container's frame count (0: unknown).
     bool live = false;
     int64_t latency_ns = 0;
     std::unique_ptr<LiveReader> reader;
@@ -297,9 +301,7 @@ class VideoRig final : public RigSource {
       ok = false;
     }
     if (!ok || img.empty()) {
-      c.ended = true;
-      errors->push_back("camera " + std::to_string(c.camera.id) + ": no more frames after frame " +
-                          std::to_string(index_) + " (end of input or unreadable video)");
+      c.ended = true;  // CheckEnds says whether this is the input's end or a short camera
       return;
     }
     *alive = 1;
@@ -425,8 +427,47 @@ class VideoRig final : public RigSource {
     return BackgroundModel(frames);
   }
 
+  // After reading frame index_ (alive: cameras that delivered it). A frameset
+  // needs every camera, so the input ends at the first camera that ends; the
+  // end is incomplete when other cameras went on, or when a video ends well
+  // before the frame count its container declares (a truncated or damaged file).
+  // Returns false at the end of the input.
+  bool CheckEnds(int alive) {
+    std::string ended, going_on;
+    for (const Cam& c : cams_) {
+      std::string& list = c.ended ? ended : going_on;
+      list += (list.empty() ? "" : ", ") + std::to_string(c.camera.id);
+    }
+    if (ended.empty()) return true;
+    if (alive > 0) {
+      incomplete_ = "camera(s) " + ended + " ended after frame " + std::to_string(index_) + " while camera(s) " +
+                    going_on + " went on (" + FilesOf(true) +
+                    "): a frameset needs every camera, so the input ends there";
+    } else {
+      for (const Cam& c : cams_) {
+        // Containers' counts are estimates (the rig's 426-frame videos declare
+        // 428): short by more than max(5 frames, 1%) is a truncated file.
+        const int64_t slack = std::max<int64_t>(5, c.declared_frames / 100);
+        if (c.declared_frames > 0 && index_ + slack < c.declared_frames) {
+          incomplete_ = "camera " + std::to_string(c.camera.id) + ": " + c.frames_spec + " ends after frame " +
+                        std::to_string(index_) + " of the " + std::to_string(c.declared_frames) +
+                        " its container declares (truncated or damaged)";
+          break;
+        }
+      }
+    }
+    return false;
+  }
+  std::string FilesOf(bool ended) const {
+    std::string s;
+    for (const Cam& c : cams_)
+      if (c.ended == ended) s += (s.empty() ? "" : ", ") + c.frames_spec;
+    return s;
+  }
+
   void OpenAll() {
     index_ = 0;
+    incomplete_.clear();
     for (Cam& c : cams_) {
       if (c.live) {
         c.reader = std::make_unique<LiveReader>(c.camera.id, c.frames_spec, hub_);
@@ -437,6 +478,8 @@ class VideoRig final : public RigSource {
         throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": cannot open " + c.frames_spec);
       if (!c.masks_spec.empty()) c.masks = cv::VideoCapture(c.masks_spec, cv::CAP_IMAGES);
       c.ended = false;
+      const double declared = c.frames.get(cv::CAP_PROP_FRAME_COUNT);
+      c.declared_frames = std::isfinite(declared) && declared > 0 && declared < 1e9 ? int64_t(declared) : 0;
       const double f = c.frames.get(cv::CAP_PROP_FPS);
       if (f > 1 && f < 1000) fps_ = f;
     }
@@ -452,6 +495,7 @@ class VideoRig final : public RigSource {
   int rig_camera_count_ = 0;
   double fps_ = 25;
   int64_t index_ = 0;
+  std::string incomplete_;
 };
 
 class SyntheticRig final : public RigSource {

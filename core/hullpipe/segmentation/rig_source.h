@@ -58,6 +58,12 @@ class RigSource {
   /// True if frames come as the cameras deliver them (V4L2, network streams):
   /// not paced, not skippable, stamped on arrival.
   virtual bool live() const { return false; }
+  /// After Next or Skip returned false: empty when the input simply ended (every
+  /// camera at its last frame); otherwise one line saying why it ended early: a
+  /// camera ended while others went on (a frameset needs every camera, so the
+  /// input ends at the first camera to end), or a video ended well before the
+  /// frame count its container declares (truncated or damaged). Cleared by Rewind.
+  virtual std::string IncompleteEnd() const { return {}; }
 };
 
 /// Options of the file/live source.

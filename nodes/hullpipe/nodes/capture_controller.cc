@@ -61,13 +61,21 @@ bool CaptureController::CatchUp(double lag_s, const char* why) {
   // (Skipping takes time too: the frame due is asked again after each.)
   while (index_ < due_now()) {
     if (!source_.Skip()) {
-      if (o_.loop && source_.Rewind()) continue;
+      if (AtEnd()) continue;
       return false;
     }
     if (published_ > 0) counters_.Dropped();
     ++index_;
   }
   return true;
+}
+
+bool CaptureController::AtEnd() {
+  const std::string why = source_.IncompleteEnd();
+  if (!why.empty()) incomplete_ = why;  // the node's last line says it, once
+  const bool rewound = o_.loop && source_.Rewind();
+  if (rewound && !why.empty()) spdlog::warn("input ended early ({}); --loop: from the start again", why);
+  return rewound;
 }
 
 bool CaptureController::Step() {
@@ -106,7 +114,7 @@ bool CaptureController::Step() {
       if (ok) counters_.Rejected();  // a skipped frame; the end of input is no rejection
     }
     if (!ok) {
-      if (o_.loop && source_.Rewind()) continue;
+      if (AtEnd()) continue;
       spdlog::info("end of input after {} frames", published_);
       return false;
     }

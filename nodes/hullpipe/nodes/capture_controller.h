@@ -76,6 +76,9 @@ class CaptureController {
   /// the run is over (frames reached or end of input).
   bool Step();
   int64_t published() const { return published_; }
+  /// Non-empty when the input ended early at least once (RigSource::IncompleteEnd):
+  /// the frames before it were published, the node should exit non-zero.
+  const std::string& incomplete() const { return incomplete_; }
   static constexpr double kMaxWaitS = 0.2;
   double rate() const { return rate_; }
   NodeCounters& counters() { return counters_; }
@@ -99,7 +102,11 @@ class CaptureController {
   int64_t index_ = 0;             ///< Timeline index of the next frame read.
   std::vector<uint64_t> last_seq_;  ///< Per camera, the last frame_seq sent.
   int64_t published_ = 0;
+  std::string incomplete_;
   RigFrame frame_;
+  /// At the source's end: logs and keeps an incomplete end. Returns true to go on
+  /// (--loop rewound the source).
+  bool AtEnd();
 };
 
 }  // namespace hullpipe::nodes

@@ -65,6 +65,57 @@ TEST(Capture, PacesAtTheSourceRateAndPublishesEveryCameraPerFrame) {
   EXPECT_EQ(sink.frames[3].t_ns - sink.frames[0].t_ns, 40'000'000) << "capture times 1/25 s apart";
 }
 
+// A source whose input ends early after `good` frames (a short camera): it
+// wraps the synthetic source and says so through IncompleteEnd.
+class EndsEarly final : public RigSource {
+ public:
+  EndsEarly(int good) : inner_(Synthetic(100)), good_(good) {}
+  const std::vector<Camera>& cameras() const override { return inner_->cameras(); }
+  int rig_camera_count() const override { return inner_->rig_camera_count(); }
+  Aabb workspace() const override { return inner_->workspace(); }
+  double fps() const override { return inner_->fps(); }
+  bool Next(RigFrame* f) override { return read_++ < good_ && inner_->Next(f); }
+  bool Rewind() override {
+    read_ = 0;
+    ++rewinds;
+    return inner_->Rewind();
+  }
+  std::string IncompleteEnd() const override { return read_ > good_ ? "camera(s) 2 ended after frame 2" : ""; }
+  int rewinds = 0;
+
+ private:
+  std::unique_ptr<RigSource> inner_;
+  int good_, read_ = 0;
+};
+
+TEST(Capture, AnEarlyEndKeepsTheGoodFramesAndIsKept) {
+  FakeClock clock;
+  EndsEarly source(2);
+  CaptureRecorder sink;
+  CaptureOptions o;
+  o.fast = true;
+  CaptureController c(o, clock, source, sink);
+  c.Start();
+  EXPECT_TRUE(c.Step());
+  EXPECT_TRUE(c.Step());
+  EXPECT_EQ(c.incomplete(), "");
+  EXPECT_FALSE(c.Step());
+  EXPECT_EQ(c.published(), 2);
+  EXPECT_EQ(c.incomplete(), "camera(s) 2 ended after frame 2");
+  // --loop: rewound and going on, and the early end is still reported at the end.
+  EndsEarly looped(2);
+  CaptureRecorder sink2;
+  o.loop = true;
+  o.frames = 5;
+  CaptureController l(o, clock, looped, sink2);
+  l.Start();
+  while (l.Step()) {
+  }
+  EXPECT_EQ(l.published(), 5);
+  EXPECT_EQ(looped.rewinds, 2);
+  EXPECT_EQ(l.incomplete(), "camera(s) 2 ended after frame 2");
+}
+
 TEST(Capture, StopsAfterFramesAndLoopsWhenAsked) {
   FakeClock clock;
   auto source = Synthetic(3);
