@@ -76,14 +76,16 @@ int main(int argc, char** argv) {
   app.add_option("--synthetic-cameras", synthetic_options.cameras, "Number of synthetic cameras (3-16)")
       ->check(CLI::Range(1, 16))->capture_default_str();
   app.add_option("--synthetic-k1", synthetic_options.distortion[0], "Synthetic radial distortion k1")
+      ->check(hullpipe::FiniteRange(-1.0, 1.0))
       ->capture_default_str();
   app.add_option("--synthetic-tracked", synthetic_options.tracked_camera,
                  "Synthetic camera that moves on a known path, its pose sent with each frame (0: none)")
       ->check(CLI::Range(0, 16))
       ->capture_default_str();
   app.add_option("--cameras", camera_ids, "Camera ids to capture (default: all)")->delimiter(',');
-  app.add_option("--frames", frames, "Stop after this many frames (0: end of input)");
-  app.add_option("--fps", fps, "Pace at this rate (default: the source's rate)");
+  app.add_option("--frames", frames, "Stop after this many frames (0: end of input)")->check(CLI::NonNegativeNumber);
+  app.add_option("--fps", fps, "Pace at this rate (default: the source's rate)")
+      ->check(hullpipe::FiniteRange(0.0, 1000.0));
   app.add_flag("--fast", fast, "Do not pace: as fast as possible");
   app.add_flag("--loop", loop, "Restart the input at its end");
   app.add_option("--image-scale", image_scale, "Scale of the published colour images (0,1]")
@@ -106,9 +108,14 @@ int main(int argc, char** argv) {
                  "Capture timeline start, ns since the Unix epoch (default: adopt the one announced on the domain, "
                  "or announce one now)");
   app.add_option("--max-lag", max_lag, "Seconds behind the timeline before skipping to the frame due now")
+      ->check(hullpipe::FiniteRange(1e-3, 60.0))
       ->capture_default_str();
-  app.add_option("--wait-readers", wait_readers, "Wait until this many map readers matched")->capture_default_str();
-  app.add_option("--wait-timeout", wait_timeout, "Longest wait for readers, seconds")->capture_default_str();
+  app.add_option("--wait-readers", wait_readers, "Wait until this many map readers matched")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  app.add_option("--wait-timeout", wait_timeout, "Longest wait for readers, seconds")
+      ->check(hullpipe::FiniteRange(0.0, 3600.0))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -171,6 +178,14 @@ int main(int argc, char** argv) {
     // Give reliable readers a moment to receive the tail before the writers go.
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     spdlog::info("published {} frames, {} rejected", capture.published(), capture.counters().rejected());
+    if (!capture.incomplete().empty()) {
+      spdlog::error("the input ended early (exit 3): {}", capture.incomplete());
+      return 3;
+    }
+    if (capture.published() == 0 && !StopRequested()) {
+      spdlog::error("no frame published: the input ended before its first frame");
+      return 1;
+    }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -244,7 +244,13 @@ int main(int argc, char** argv) {
     const int st = c.process->status();
     const bool ok = WIFEXITED(st) && WEXITSTATUS(st) == 0;
     std::printf("  %-8s %s\n", c.spec.name.c_str(), hullpipe::launch::DescribeStatus(st).c_str());
-    if (!ok) rc = 1;
+    if (!ok) {
+      rc = 1;
+      // The node's reason on the terminal, not only its log's path (render
+      // writes to the terminal already).
+      const std::string why = c.spec.exec == "render_node" ? "" : hullpipe::launch::LastErrorLine(c.log);
+      if (!why.empty()) std::printf("           %s\n", why.c_str());
+    }
   }
   return g_stop ? 130 : rc;
 }

@@ -71,8 +71,8 @@ int main(int argc, char** argv) {
     o.out_of_view = out_of_view == "outside" ? OutOfView::kOutside : OutOfView::kUnknown;
     o.Check();
   } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "%s\n", e.what());
-    return 2;
+    spdlog::error("{}", e.what());  // one line, as every node's bad flag (exit 1)
+    return 1;
   }
   const std::string name = o.NodeName();
   try {

@@ -15,6 +15,7 @@
 #include "hullpipe/dds/node.h"
 #include "hullpipe/nodes/render_controller.h"
 #include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/util/cli_range.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -38,18 +39,24 @@ class Outputs final : public nodes::RenderSink {
   }
   void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
                   const cv::Mat& hull_depth, double path_time_s) override {
-    if (!video_.isOpened()) {
+    if (!video_.isOpened() && !video_failed_) {
       video_.open(video_path(), cv::VideoWriter::fourcc('m', 'p', '4', 'v'), video_fps_, frame.size());
-      if (!video_.isOpened()) spdlog::warn("cannot open {} for writing; no video", video_path());
+      if (!video_.isOpened()) {
+        video_failed_ = true;
+        Failed(video_path());
+      }
     }
-    if (video_.isOpened()) video_.write(frame);
+    if (video_.isOpened()) {
+      video_.write(frame);
+      ++video_frames_;
+    }
     if (png_every_ > 0 && count % uint64_t(png_every_) == 1 % uint64_t(png_every_)) {
       const std::string stem = (fs::path(out_dir_) / cv::format("frame_%05llu", (unsigned long long)frame_seq)).string();
-      cv::imwrite(stem + ".png", frame);
+      Write(stem + ".png", frame);
       if (save_depth_) {
         // The hull's eye-z depth (float TIFF, metres, +inf: no hull) and the view
         // it was seen from, so the frame can be checked against a reference.
-        cv::imwrite(stem + "_depth.tiff", hull_depth);
+        Write(stem + "_depth.tiff", hull_depth);
         if (!views_.is_open()) {
           views_.open((fs::path(out_dir_) / "views.csv").string());
           views_ << "frame_seq,path_time_s,width,height,fx,fy,cx,cy,"
@@ -76,6 +83,10 @@ class Outputs final : public nodes::RenderSink {
   }
   std::string video_path() const { return (fs::path(out_dir_) / "hullpipe.mp4").string(); }
   void Close() { video_.release(); }
+  int64_t video_frames() const { return video_frames_; }
+  /// Output files that could not be written (the video, PNGs, depth TIFFs), and the first.
+  int64_t failures() const { return failures_; }
+  const std::string& first_failure() const { return first_failure_; }
 
  private:
   const Writer<hullpipe_msg_ViewPose>& poses_;
@@ -85,7 +96,27 @@ class Outputs final : public nodes::RenderSink {
   bool show_;
   bool save_depth_;
   cv::VideoWriter video_;
+  bool video_failed_ = false;
+  int64_t video_frames_ = 0;
   std::ofstream views_;
+  int64_t failures_ = 0;
+  std::string first_failure_;
+
+  void Write(const std::string& path, const cv::Mat& image) {
+    bool ok = false;
+    try {
+      ok = cv::imwrite(path, image);
+    } catch (const cv::Exception&) {
+      ok = false;
+    }
+    if (!ok) Failed(path);
+  }
+  void Failed(const std::string& path) {
+    if (failures_++ == 0) {
+      first_failure_ = path;
+      spdlog::error("cannot write {} (further failures are counted)", path);
+    }
+  }
 };
 
 }  // namespace
@@ -107,11 +138,14 @@ int main(int argc, char** argv) {
   app.add_option("--hfov", o.hfov_deg, "Horizontal field of view, degrees")->capture_default_str();
   app.add_option("--tiles", o.tiles, "Recon tiles per frame (number of recon nodes)")->capture_default_str();
   app.add_option("--max-in-flight", o.max_in_flight, "Poses rendered concurrently")->capture_default_str();
-  app.add_option("--png-every", png_every, "Write every K-th composited frame as PNG (0: none)");
+  app.add_option("--png-every", png_every, "Write every K-th composited frame as PNG (0: none)")
+      ->check(CLI::Range(0, 1000000));
   app.add_flag("--save-depth", save_depth,
                "With each PNG, the hull's depth (frame_N_depth.tiff, float eye z in metres) and its view (views.csv: "
                "K, world_from_eye)");
-  app.add_option("--video-fps", video_fps, "Frame rate written into the video")->capture_default_str();
+  app.add_option("--video-fps", video_fps, "Frame rate written into the video")
+      ->check(hullpipe::FiniteRange(1.0, 1000.0))
+      ->capture_default_str();
   app.add_option("--idle-timeout", o.idle_timeout, "Stop when no new frameset came for this many s")
       ->capture_default_str();
   app.add_option("--tile-timeout", o.tile_timeout, "Give up on a pose's missing tiles after this many s")
@@ -224,10 +258,22 @@ int main(int argc, char** argv) {
     j["video"] = outputs.video_path();
     const std::string stats_path = (fs::path(out_dir) / "stats.json").string();
     std::ofstream(stats_path) << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
-    std::printf("\n%s\nvideo: %s\nstats: %s\n", render.Table().c_str(), outputs.video_path().c_str(),
+    std::printf("\n%s\nvideo: %s\nstats: %s\n", render.Table().c_str(),
+                outputs.video_frames() > 0 ? outputs.video_path().c_str() : "none (no frame written)",
                 stats_path.c_str());
     std::fflush(stdout);
     reporter.Publish(true);
+    // Missing output is a failure, not an exit 0 (an interrupted run that
+    // composited nothing has nothing to miss).
+    if (outputs.failures() > 0) {
+      spdlog::error("{} output file(s) could not be written, the first {}", outputs.failures(),
+                    outputs.first_failure());
+      return 1;
+    }
+    if (render.counters().frames_out() == 0 && !StopRequested()) {
+      spdlog::error("no frame composited, so no video: no complete frameset and tiles came (see capture and recon)");
+      return 1;
+    }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -65,6 +65,25 @@ TEST(EndToEnd, FiveProcessesOnTheSyntheticSource) {
   EXPECT_GT(j["hull_pixel_fraction_mean"].get<double>(), 0.01);
 }
 
+// A node that cannot do its job: the launcher's terminal shows the node's own
+// error line, not only the path of its log, and the launcher exits non-zero.
+TEST(EndToEnd, TheLauncherShowsAFailedNodesErrorLine) {
+  const auto out = test::TempDir("e2e_fail");
+  std::string description = test::ReadFile(std::string(HULLPIPE_SOURCE_DIR) + "/launch/local.yaml");
+  const std::string wait = "--wait-timeout, \"20\"";
+  ASSERT_NE(description.find(wait), std::string::npos);
+  description.replace(description.find(wait), wait.size(), "--synthetic-size, \"5x5\", " + wait);
+  std::ofstream(out / "bad_capture.yaml") << description;
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "10", "--out",
+                        (out / "run").string(), "--description", (out / "bad_capture.yaml").string(), "--domain",
+                        std::to_string(test::UniqueDomain())},
+                       (out / "launch.log").string());
+  EXPECT_EQ(launch.Wait(60), 1) << test::ReadFile((out / "launch.log").string());
+  const std::string log = test::ReadFile((out / "launch.log").string());
+  EXPECT_NE(log.find("capture failed (exit 1)"), std::string::npos) << log;
+  EXPECT_NE(log.find("[capture] error synthetic rig: --synthetic-size must be in"), std::string::npos) << log;
+}
+
 // Content, not only counts: the five processes on the synthetic source (exact
 // maps, known cameras), the viewpoint from a tracker's log. For frames render
 // composited, the hull depth it assembled from the two recon nodes' tiles equals

@@ -286,6 +286,48 @@ TEST_F(NodeTest, CmdRefusesANonFiniteSpacing) {
   }
 }
 
+// Flags out of their bounds end the node at once with one line naming the flag
+// (exit 1 from the options' Check, 105 from CLI11's validators), never a run
+// that composites nothing with exit 0. Positive control: the first row of each
+// node is a valid value that keeps the node running until stopped.
+TEST_F(NodeTest, FlagsOutOfBoundsEndInOneLineNamingTheFlag) {
+  struct Case {
+    const char* exe;
+    std::vector<std::string> args;
+    const char* named;
+  };
+  const std::vector<Case> cases = {
+      {"render_node", {"--tiles", "0"}, "--tiles"},
+      {"render_node", {"--width", "0"}, "--width"},
+      {"render_node", {"--hfov", "0"}, "--hfov"},
+      {"render_node", {"--up", "0,0,0"}, "--up"},
+      {"render_node", {"--video-fps", "nan"}, "--video-fps"},
+      {"render_node", {"--png-every", "-1"}, "--png-every"},
+      {"render_node", {"--log-level", "nonsense"}, "--log-level"},
+      {"capture_node", {"--synthetic", "--max-lag", "nan"}, "--max-lag"},
+      {"capture_node", {"--synthetic", "--wait-timeout", "inf"}, "--wait-timeout"},
+      {"capture_node", {"--synthetic", "--fps", "-5"}, "--fps"},
+      {"capture_node", {"--synthetic", "--synthetic-k1", "nan"}, "--synthetic-k1"},
+      {"recon_node", {"--planes", "100000"}, "--planes"},
+      {"recon_node", {"--tile", "3/2"}, "--tile"},
+      {"sim_node", {"--skew-tolerance", "-1"}, "--skew-tolerance"},
+  };
+  for (const auto& c : cases) {
+    std::vector<std::string> args = c.args;
+    if (std::string(c.exe) == "render_node") args.insert(args.end(), {"--out", (dir_ / "render_out").string()});
+    auto node = Start(c.exe, args);
+    const int rc = node->Wait(20);
+    const std::string log = test::ReadFile(log_);
+    EXPECT_TRUE(rc == 1 || rc == 105) << c.exe << " " << c.args[0] << ": exit " << rc << "\n" << log;
+    EXPECT_NE(log.find(c.named), std::string::npos) << c.exe << ": the flag is not named:\n" << log;
+  }
+  // Positive control: in-bounds values run until stopped.
+  auto render = Start("render_node", {"--tiles", "1", "--width", "64", "--height", "48", "--window", "off", "--out",
+                                      (dir_ / "render_ok").string()});
+  EXPECT_EQ(render->Wait(1.5), -1) << "still running:\n" << test::ReadFile(log_);
+  EXPECT_EQ(render->Stop(), 0) << test::ReadFile(log_);
+}
+
 // --- capture_node on broken files (needs the Utrecht rig) -------------------
 
 class CaptureFiles : public NodeTest {

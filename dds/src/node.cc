@@ -13,9 +13,13 @@
 namespace hullpipe::dds {
 
 void AddCommonOptions(CLI::App& app, CommonOptions& o) {
-  app.add_option("--domain", o.domain, "DDS domain id")->capture_default_str();
+  // Cyclone's domain ids are 0..232 (the RTPS port formula's limit).
+  app.add_option("--domain", o.domain, "DDS domain id")->check(CLI::Range(0, 232))->capture_default_str();
   app.add_option("--dds-config", o.dds_config, "Cyclone DDS XML config file (sets CYCLONEDDS_URI)");
-  app.add_option("--log-level", o.log_level, "trace|debug|info|warn|error")->capture_default_str();
+  // spdlog reads an unknown name as "off": a node that says nothing.
+  app.add_option("--log-level", o.log_level, "trace|debug|info|warn|error")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
+      ->capture_default_str();
 }
 
 std::unique_ptr<Participant> StartNode(const std::string& node_name, const CommonOptions& o) {

@@ -45,6 +45,26 @@ TEST(Process, ExitCodesSignalsLogAndEnvironment) {
   std::filesystem::remove(log);
 }
 
+// The launcher shows a failed node's reason: its last error line.
+TEST(Process, LastErrorLineIsTheNodesLastErrorOrCritical) {
+  const auto log = std::filesystem::temp_directory_path() / ("hullpipe_errline_" + std::to_string(getpid()) + ".log");
+  std::ofstream(log) << "[10:00:00.000] [capture] info starting\n"
+                     << "[10:00:00.100] [capture] error first problem\n"
+                     << "[10:00:00.200] [capture] warning a warning, not an error\n"
+                     << "[10:00:00.300] [capture] error the input ended early (exit 3): camera(s) 2 ended\n"
+                     << "[10:00:00.400] [capture] info published 128 frames, 0 rejected\n";
+  EXPECT_EQ(LastErrorLine(log.string()),
+            "[10:00:00.300] [capture] error the input ended early (exit 3): camera(s) 2 ended");
+  std::ofstream(log) << "[2026-11-22 10:00:00.000] [error] --tiles must be 1..64\n[10:00:00.000] [x] info y\n";
+  EXPECT_EQ(LastErrorLine(log.string()), "[2026-11-22 10:00:00.000] [error] --tiles must be 1..64");
+  std::ofstream(log) << "[10:00:00.000] [capture] info all well\n";
+  EXPECT_EQ(LastErrorLine(log.string()), "");
+  std::ofstream(log) << "[10:00:00.000] [sim] critical " << std::string(1000, 'x') << "\n";
+  EXPECT_EQ(LastErrorLine(log.string()).size(), 300u);
+  std::filesystem::remove(log);
+  EXPECT_EQ(LastErrorLine(log.string()), "") << "a missing log";
+}
+
 TEST(CycloneConfig, LoopbackWithFastRepairAnnouncementsAndLoss) {
   const std::string x = CycloneConfigXml({});
   for (const char* part : {"<NetworkInterface name=\"lo\"/>", "<Peer address=\"127.0.0.1\"/>",

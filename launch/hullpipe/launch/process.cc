@@ -1,5 +1,9 @@
 #include "hullpipe/launch/process.h"
 
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
@@ -99,6 +103,26 @@ std::string DescribeStatus(int status) {
   if (WIFEXITED(status)) return "exit " + std::to_string(WEXITSTATUS(status));
   if (WIFSIGNALED(status)) return std::string("killed by signal ") + strsignal(WTERMSIG(status));
   return "?";
+}
+
+std::string LastErrorLine(const std::string& log_path) {
+  std::ifstream in(log_path, std::ios::binary);
+  if (!in) return {};
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  const std::streamoff from = std::max<std::streamoff>(0, size - 64 * 1024);
+  in.seekg(from);
+  std::string tail(size_t(size - from), '\0');
+  in.read(tail.data(), std::streamsize(tail.size()));
+  tail.resize(size_t(std::max<std::streamsize>(0, in.gcount())));
+  std::string found;
+  std::istringstream lines(tail);
+  for (std::string line; std::getline(lines, line);)
+    for (const char* level : {"] error ", "] critical ", "[error] ", "[critical] "})  // node and default patterns
+      if (line.find(level) != std::string::npos) found = line;
+  // spdlog colours the level on a terminal; in a log file there are no codes.
+  if (found.size() > 300) found = found.substr(0, 297) + "...";
+  return found;
 }
 
 }  // namespace hullpipe::launch

@@ -45,4 +45,12 @@ class Process {
 /// "exit N" or "killed by signal NAME" for a wait status.
 std::string DescribeStatus(int status);
 
+/// The last line of a node's log that spdlog wrote at level error or critical
+/// (the node pattern "[time] [name] error message", or spdlog's default
+/// "[time] [error] message" before the node set its own), read from the log's last
+/// 64 KiB, cut to 300 bytes; empty when there is none or the log cannot be read.
+/// The launcher prints it when a node fails, so the reason is on the terminal,
+/// not only a log path.
+std::string LastErrorLine(const std::string& log_path);
+
 }  // namespace hullpipe::launch
