@@ -1,6 +1,7 @@
 #include "hullpipe/geometry/calibration.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -35,6 +36,40 @@ cv::Mat ReadMatrix(const cv::FileStorage& fs_in, const std::string& path, const 
   return m.reshape(1, 1);
 }
 
+// The intrinsics K (row-major 3x3, OpenCV pixel centres) of `key` in `path`
+// into c (hullpipe pixel centres). hullpipe's pinhole has no skew and a last
+// row (0, 0, 1): any other K is refused rather than read in part (fx, fy, cx,
+// cy alone would drop the skew and take a singular K). Bounds: fx, fy in
+// [0.01, 10^4] x width (a horizontal field of view between 179.4 and 0.006
+// degrees), the principal point inside the image.
+void SetIntrinsics(const std::vector<double>& k, const std::string& path, const std::string& key, Camera* c) {
+  auto bad = [&](const std::string& what) {
+    throw CalibrationError(path + ": camera " + std::to_string(c->id) + ": key '" + key + "' " + what);
+  };
+  for (double v : k)
+    if (!std::isfinite(v)) bad("must be finite");
+  const double fx = k[0], fy = k[4];
+  // Exact zeros in calibration files; the tolerance only absorbs a printed 1e-17.
+  const double tiny = 1e-9 * std::max({1.0, std::abs(fx), std::abs(fy)});
+  if (std::abs(k[3]) > tiny || std::abs(k[6]) > tiny || std::abs(k[7]) > tiny || std::abs(k[8] - 1) > 1e-9)
+    bad("must be [fx s cx; 0 fy cy; 0 0 1]: its last two rows are not (0 fy cy) and (0 0 1)");
+  if (std::abs(k[1]) > tiny)
+    bad("has skew " + std::to_string(k[1]) +
+        " (row 0, column 1); hullpipe's camera model has none: calibrate with zero skew (OpenCV's calibrateCamera "
+        "does)");
+  const double w = c->width, h = c->height;
+  if (!(fx >= 0.01 * w && fx <= 1e4 * w && fy >= 0.01 * w && fy <= 1e4 * w))
+    bad("has fx " + std::to_string(fx) + ", fy " + std::to_string(fy) + ": each must be in [0.01, 10000] x the width " +
+        std::to_string(c->width) + " px (singular or implausible)");
+  if (!(k[2] >= 0 && k[2] <= w && k[5] >= 0 && k[5] <= h))
+    bad("has its principal point (" + std::to_string(k[2]) + ", " + std::to_string(k[5]) + ") outside the " +
+        std::to_string(c->width) + "x" + std::to_string(c->height) + " image");
+  c->fx = fx;
+  c->fy = fy;
+  c->cx = k[2] + kOpenCvToHullpipePixelOffset;
+  c->cy = k[5] + kOpenCvToHullpipePixelOffset;
+}
+
 // Image size of a video or image file; {0,0} if it cannot be read.
 cv::Size ProbeSize(const std::string& path) {
   if (path.empty() || !fs::exists(path)) return {0, 0};
@@ -58,6 +93,9 @@ Rig LoadUtrechtDir(const fs::path& dir) {
   }
   std::sort(cams.begin(), cams.end());
   if (cams.empty()) throw CalibrationError(dir.string() + ": no cam<N>/ directories");
+  if (cams.size() > size_t(Rig::kMaxCameras))
+    throw CalibrationError(dir.string() + ": " + std::to_string(cams.size()) + " cam<N>/ directories; at most " +
+                           std::to_string(Rig::kMaxCameras));
   for (const auto& [id, cam_dir] : cams) {
     RigCamera rc;
     rc.background = (cam_dir / "background.avi").string();
@@ -95,6 +133,16 @@ std::vector<double> ReadList(const YAML::Node& cam, const std::string& path,
   return v;
 }
 
+// A misspelt key ("distortio") would silently become a default: refused, named.
+void RejectUnknownKeys(const YAML::Node& map, const std::string& path, const std::string& where,
+                       std::initializer_list<const char*> known) {
+  for (const auto& kv : map) {
+    const std::string key = kv.first.as<std::string>("?");
+    if (std::none_of(known.begin(), known.end(), [&](const char* k) { return key == k; }))
+      throw CalibrationError(path + ": " + where + "unknown key '" + key + "'");
+  }
+}
+
 Rig LoadYamlRig(const fs::path& file) {
   const std::string path = file.string();
   YAML::Node root;
@@ -103,8 +151,13 @@ Rig LoadYamlRig(const fs::path& file) {
   } catch (const YAML::Exception& e) {
     throw CalibrationError(path + ": " + e.what());
   }
+  if (!root.IsMap()) throw CalibrationError(path + ": not a YAML map with key 'cameras'");
+  RejectUnknownKeys(root, path, "", {"cameras", "workspace"});
   if (!root["cameras"] || !root["cameras"].IsSequence())
     throw CalibrationError(path + ": missing key 'cameras' (a list)");
+  if (root["cameras"].size() > size_t(Rig::kMaxCameras))
+    throw CalibrationError(path + ": key 'cameras' lists " + std::to_string(root["cameras"].size()) +
+                           " cameras; at most " + std::to_string(Rig::kMaxCameras));
   Rig rig;
   rig.source = path;
   const fs::path base = file.parent_path();
@@ -117,6 +170,10 @@ Rig LoadYamlRig(const fs::path& file) {
   };
   int index = 0;
   for (const auto& cam : root["cameras"]) {
+    if (!cam.IsMap()) throw CalibrationError(path + ": camera " + std::to_string(index + 1) + " is not a map");
+    RejectUnknownKeys(cam, path, "camera " + std::to_string(index + 1) + ": ",
+                      {"id", "width", "height", "K", "distortion", "R", "t", "background", "frames", "masks",
+                       "tracked", "latency"});
     RigCamera rc;
     Camera& c = rc.camera;
     try {
@@ -128,11 +185,10 @@ Rig LoadYamlRig(const fs::path& file) {
     } catch (const YAML::Exception& e) {
       throw CalibrationError(path + ": bad id/width/height: " + e.what());
     }
-    const auto k = ReadList(cam, path, "K", 9, true);
-    c.fx = k[0];
-    c.fy = k[4];
-    c.cx = k[2] + kOpenCvToHullpipePixelOffset;
-    c.cy = k[5] + kOpenCvToHullpipePixelOffset;
+    if (!(c.width >= 1 && c.width <= Camera::kMaxSide && c.height >= 1 && c.height <= Camera::kMaxSide))
+      throw CalibrationError(path + ": camera " + std::to_string(c.id) + ": keys 'width', 'height' must be in [1, " +
+                             std::to_string(Camera::kMaxSide) + "] pixels");
+    SetIntrinsics(ReadList(cam, path, "K", 9, true), path, "K", &c);
     const auto d = ReadList(cam, path, "distortion", 5, false);
     std::copy(d.begin(), d.end(), c.distortion.begin());
     const auto r = ReadList(cam, path, "R", 9, true);
@@ -162,6 +218,8 @@ Rig LoadYamlRig(const fs::path& file) {
   }
   rig.workspace = DefaultWorkspace(rig.Cameras());
   if (const YAML::Node ws = root["workspace"]) {
+    if (!ws.IsMap()) throw CalibrationError(path + ": key 'workspace' must be a map {min: [x,y,z], max: [x,y,z]}");
+    RejectUnknownKeys(ws, path, "workspace: ", {"min", "max"});
     const auto lo = ReadList(ws, path, "min", 3, true), hi = ReadList(ws, path, "max", 3, true);
     rig.workspace.min = Eigen::Vector3d(lo[0], lo[1], lo[2]);
     rig.workspace.max = Eigen::Vector3d(hi[0], hi[1], hi[2]);
@@ -188,10 +246,11 @@ Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width,
   c.id = camera_id;
   c.width = width;
   c.height = height;
-  c.fx = k.at<double>(0);
-  c.fy = k.at<double>(4);
-  c.cx = k.at<double>(2) + kOpenCvToHullpipePixelOffset;
-  c.cy = k.at<double>(5) + kOpenCvToHullpipePixelOffset;
+  if (!(width >= 1 && width <= Camera::kMaxSide && height >= 1 && height <= Camera::kMaxSide))
+    throw CalibrationError(path + ": the camera's images are " + std::to_string(width) + "x" +
+                           std::to_string(height) + " pixels; each side must be in [1, " +
+                           std::to_string(Camera::kMaxSide) + "]");
+  SetIntrinsics(std::vector<double>(k.begin<double>(), k.end<double>()), path, "CameraMatrix", &c);
   for (int i = 0; i < 5; ++i) c.distortion[i] = d.at<double>(i);
   cv::Mat rmat;
   cv::Rodrigues(rvec.reshape(1, 3), rmat);

@@ -36,7 +36,10 @@ class CalibrationError : public std::runtime_error {
 
 /// Reads one Utrecht-style config.xml into a Camera: converts mm -> m and OpenCV
 /// pixel centres -> hullpipe (+0.5). width/height must be supplied (from the video).
-/// Throws CalibrationError on a missing file, missing key or wrong matrix shape.
+/// Throws CalibrationError on a missing file, missing key or wrong matrix shape,
+/// an image side outside [1, Camera::kMaxSide], and a CameraMatrix that is not
+/// [fx 0 cx; 0 fy cy; 0 0 1] (skew, a wrong last row), whose fx or fy is outside
+/// [0.01, 10^4] x width (singular), or whose principal point is outside the image.
 Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width, int height);
 
 /// One camera of a rig with the paths of its inputs (empty where absent).
@@ -63,6 +66,8 @@ struct RigCamera {
 
 /// A calibrated rig: its cameras in id order.
 struct Rig {
+  /// Most cameras a rig file may list (the paper used 4; a frameset holds at most 64).
+  static constexpr int kMaxCameras = 64;
   std::string source;  ///< Path it was loaded from.
   std::vector<RigCamera> cameras;
   /// World box (metres) outside which nothing is real object. Generic rig files may
@@ -75,7 +80,9 @@ struct Rig {
 
 /// Loads a rig from a Utrecht-layout directory or a generic YAML rig file.
 /// Video sizes are probed with OpenCV; a camera whose video cannot be opened gets
-/// its size from the background image/video, else CalibrationError.
+/// its size from the background image/video, else CalibrationError. YAML rig
+/// files: unknown keys are refused (named), at most Rig::kMaxCameras cameras, and
+/// each camera's `K` is checked as ReadOpenCvCameraConfig checks CameraMatrix.
 Rig LoadRig(const std::string& path);
 
 /// Writes a rig as a generic YAML rig file (paths written as given). Used by tools

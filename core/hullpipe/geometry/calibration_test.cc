@@ -122,6 +122,76 @@ TEST(Calibration, YamlMissingKeyIsNamed) {
   }
 }
 
+// Only fx, fy, cx, cy were read: a skewed K lost its skew and a singular one
+// was taken. Each bad K is refused with the file and key named; the good K of
+// kConfig is the positive control.
+TEST(Calibration, SkewedSingularOrMalformedIntrinsicsAreRefused) {
+  const auto dir = test::TempDir("calib_k");
+  const std::string good = "500. 0. 320. 0. 510. 240. 0. 0. 1.";
+  struct Case {
+    const char* k;
+    const char* says;
+  };
+  for (const Case& c : std::vector<Case>{{"500. 3.5 320. 0. 510. 240. 0. 0. 1.", "has skew 3.5"},
+                                         {"0. 0. 320. 0. 510. 240. 0. 0. 1.", "has fx 0"},
+                                         {"1e-30 0. 320. 0. 1e-30 240. 0. 0. 1.", "singular"},
+                                         {"500. 0. 320. 0. 510. 240. 0. 0. 0.", "last two rows"},
+                                         {"500. 0. 320. 0. 510. 240. 0.1 0. 1.", "last two rows"},
+                                         {"500. 0. 320. 7. 510. 240. 0. 0. 1.", "last two rows"},
+                                         {"500. 0. 5000. 0. 510. 240. 0. 0. 1.", "principal point"},
+                                         {"500. 0. .nan 0. 510. 240. 0. 0. 1.", "finite"}}) {
+    std::string text = kConfig;
+    text.replace(text.find(good), good.size(), c.k);
+    std::ofstream(dir / "config.xml") << text;
+    try {
+      ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 640, 480);
+      ADD_FAILURE() << c.k << " was accepted";
+    } catch (const CalibrationError& e) {
+      EXPECT_NE(std::string(e.what()).find("config.xml: camera 1: key 'CameraMatrix' "), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find(c.says), std::string::npos) << e.what();
+    }
+  }
+  std::ofstream(dir / "config.xml") << kConfig;
+  EXPECT_NO_THROW(ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 640, 480));
+  // An image side beyond Camera::kMaxSide (what a node would allocate per map).
+  EXPECT_THROW(ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 100000, 480), CalibrationError);
+}
+
+// YAML rigs: a misspelt key became a default; too many cameras, a huge image
+// and a skewed K are refused, each naming the key.
+TEST(Calibration, YamlRigKeysAndBoundsAreChecked) {
+  const auto dir = test::TempDir("rig_yaml_keys");
+  const std::string cam = "  - id: 1\n    width: 640\n    height: 480\n    K: [500,0,320,0,510,240,0,0,1]\n"
+                          "    R: [1,0,0,0,1,0,0,0,1]\n    t: [0,0,5]\n";
+  auto load = [&](const std::string& text) -> std::string {
+    std::ofstream(dir / "rig.yaml") << text;
+    try {
+      LoadRig((dir / "rig.yaml").string());
+      return "";
+    } catch (const CalibrationError& e) {
+      return e.what();
+    }
+  };
+  EXPECT_EQ(load("cameras:\n" + cam), "") << "the positive control";
+  EXPECT_NE(load("cameras:\n" + cam + "    distortio: [0.1,0,0,0,0]\n").find("camera 1: unknown key 'distortio'"),
+            std::string::npos);
+  EXPECT_NE(load("camera:\n" + cam).find("unknown key 'camera'"), std::string::npos);
+  EXPECT_NE(load("cameras:\n" + cam + "workspace: {min: [0,0,0], max: [1,1,1], mx: 2}\n")
+                .find("workspace: unknown key 'mx'"),
+            std::string::npos);
+  std::string many = "cameras:\n";
+  for (int i = 0; i < 65; ++i) many += cam;
+  EXPECT_NE(load(many).find("65 cameras; at most 64"), std::string::npos);
+  std::string huge = cam;
+  huge.replace(huge.find("width: 640"), 10, "width: 100000");
+  EXPECT_NE(load("cameras:\n" + huge).find("'width', 'height' must be in [1, 16384]"), std::string::npos);
+  std::string skewed = cam;
+  skewed.replace(skewed.find("[500,0,"), 7, "[500,2,");
+  EXPECT_NE(load("cameras:\n" + skewed).find("key 'K' has skew"), std::string::npos);
+  EXPECT_NE(load("- just a list\n").find("not a YAML map"), std::string::npos);
+}
+
 TEST(Calibration, LoadsTheUtrechtRig) {
   if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
   const Rig rig = LoadRig(test::RigDir());

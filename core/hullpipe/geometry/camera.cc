@@ -10,7 +10,8 @@ void Camera::Check() const {
   auto fail = [this](const std::string& what) {
     throw std::invalid_argument("camera " + std::to_string(id) + ": " + what);
   };
-  if (width <= 0 || height <= 0) fail("image size must be positive");
+  if (width <= 0 || height <= 0 || width > kMaxSide || height > kMaxSide)
+    fail("image size must be in [1, " + std::to_string(kMaxSide) + "] pixels");
   if (!(fx > 0) || !(fy > 0) || !std::isfinite(fx) || !std::isfinite(fy))
     fail("focal lengths must be finite and positive");
   if (!std::isfinite(cx) || !std::isfinite(cy)) fail("principal point must be finite");

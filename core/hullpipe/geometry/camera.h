@@ -17,6 +17,9 @@ using Distortion = std::array<double, 5>;
 
 /// One calibrated camera. Intrinsics K are in hullpipe pixels (centres at +0.5).
 struct Camera {
+  /// Largest image side accepted (Check): 16384 px, a 268-Mpixel map, beyond any
+  /// camera a rig uses; it bounds what a calibration file can make a node allocate.
+  static constexpr int kMaxSide = 16384;
   int id = 0;                     ///< Camera id as on the wire (CameraInfo.camera_id).
   int width = 0, height = 0;      ///< Image size in pixels.
   double fx = 0, fy = 0;          ///< Focal lengths in pixels.
