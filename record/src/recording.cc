@@ -16,6 +16,19 @@ void CheckSql(int rc, sqlite3* db, const char* call, const std::string& path) {
   throw RecordingError(path + ": " + call + ": " + (db ? sqlite3_errmsg(db) : sqlite3_errstr(rc)));
 }
 
+// sqlite3_open_v2 allocates a handle even when it fails: closed here before
+// the error is thrown (a constructor that throws runs no destructor).
+sqlite3* Open(const std::string& path, int flags) {
+  sqlite3* db = nullptr;
+  const int rc = sqlite3_open_v2(path.c_str(), &db, flags, nullptr);
+  if (rc != SQLITE_OK) {
+    const std::string msg = db ? sqlite3_errmsg(db) : sqlite3_errstr(rc);
+    sqlite3_close(db);
+    throw RecordingError(path + ": sqlite3_open_v2: " + msg);
+  }
+  return db;
+}
+
 void Exec(sqlite3* db, const char* sql, const std::string& path) {
   char* err = nullptr;
   const int rc = sqlite3_exec(db, sql, nullptr, nullptr, &err);
@@ -63,23 +76,27 @@ struct Stmt {
 
 RecordingWriter::RecordingWriter(const std::string& path) : path_(path) {
   if (std::filesystem::exists(path)) throw RecordingError(path + ": exists; recordings are never overwritten");
-  CheckSql(sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr), db_,
-           "sqlite3_open_v2", path);
-  // WAL: a commit is durable once its frames are in the log; a killed writer
-  // leaves the log, which the next open replays up to the last commit.
-  Exec(db_, "PRAGMA journal_mode=WAL", path_);
-  Exec(db_, "PRAGMA synchronous=NORMAL", path_);
-  Exec(db_,
-       "CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT);"
-       "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT UNIQUE NOT NULL, type TEXT NOT NULL,"
-       " keyed INTEGER, reliable INTEGER, transient_local INTEGER, depth INTEGER);"
-       "CREATE TABLE samples(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, source_ns INTEGER,"
-       " arrival_ns INTEGER, data BLOB, crc INTEGER);"
-       "INSERT INTO meta VALUES('format', 'hullpipe-recording-2');",
-       path_);
-  CheckSql(sqlite3_prepare_v2(db_, "INSERT INTO samples(topic_id, source_ns, arrival_ns, data, crc) VALUES(?,?,?,?,?)",
-                              -1, &insert_, nullptr),
-           db_, "sqlite3_prepare_v2", path_);
+  db_ = Open(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
+  try {
+    // WAL: a commit is durable once its frames are in the log; a killed writer
+    // leaves the log, which the next open replays up to the last commit.
+    Exec(db_, "PRAGMA journal_mode=WAL", path_);
+    Exec(db_, "PRAGMA synchronous=NORMAL", path_);
+    Exec(db_,
+         "CREATE TABLE meta(key TEXT PRIMARY KEY, value TEXT);"
+         "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT UNIQUE NOT NULL, type TEXT NOT NULL,"
+         " keyed INTEGER, reliable INTEGER, transient_local INTEGER, depth INTEGER);"
+         "CREATE TABLE samples(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, source_ns INTEGER,"
+         " arrival_ns INTEGER, data BLOB, crc INTEGER);"
+         "INSERT INTO meta VALUES('format', 'hullpipe-recording-2');",
+         path_);
+    CheckSql(sqlite3_prepare_v2(db_, "INSERT INTO samples(topic_id, source_ns, arrival_ns, data, crc) VALUES(?,?,?,?,?)",
+                                -1, &insert_, nullptr),
+             db_, "sqlite3_prepare_v2", path_);
+  } catch (...) {
+    sqlite3_close(db_);
+    throw;
+  }
 }
 
 RecordingWriter::~RecordingWriter() {
@@ -153,7 +170,7 @@ RecordingReader::RecordingReader(const std::string& path) : path_(path) {
   if (std::filesystem::file_size(path, ec) == 0) throw RecordingError(path + ": empty file, not a hullpipe recording");
   // Read-only: reading never changes the file. A killed writer's WAL is still
   // read (SQLite reads the log of a read-only connection; nothing is checkpointed).
-  CheckSql(sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr), db_, "sqlite3_open_v2", path);
+  db_ = Open(path, SQLITE_OPEN_READONLY);
   try {
     auto not_ours = [&](const std::string& why) { return RecordingError(path_ + ": not a hullpipe recording (" + why + ")"); };
     std::set<std::string> tables;
