@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
@@ -193,6 +194,30 @@ TEST(Dds, ErrorsNameTheCall) {
     EXPECT_NE(std::string(e.what()).find("dds_create_writer"), std::string::npos);
     EXPECT_EQ(e.code(), DDS_RETCODE_BAD_PARAMETER);
   }
+}
+
+// Recorded bytes reach Cyclone only as XCDR1, what hullpipe's writers send:
+// Cyclone 0.10.2 reads past its buffer deserializing an XCDR2-encapsulated
+// CameraInfo the wire fuzzer made (fuzz/corpus/fuzz_wire_samples). Encode and
+// Decode round-trip (the positive control); the same bytes marked XCDR2 are refused.
+TEST(Dds, RecordedSamplesMustBeXcdr1) {
+  const auto dir = test::TempDir("dds_xcdr");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  Participant p(test::UniqueDomain());
+  const KnownType& kt = *FindKnownType("hullpipe::msg::CameraInfo");
+  CdrWriter w(p, kt, kt.qos);
+  const hullpipe_msg_CameraInfo info = CameraToMsg(TestCamera(), {});
+  std::vector<uint8_t> cdr = w.Encode(&info);
+  ASSERT_GE(cdr.size(), 4u);
+  EXPECT_EQ(cdr[1], 1) << "CDR_LE";
+  hullpipe_msg_CameraInfo back{};
+  ASSERT_TRUE(w.Decode(cdr, &back));
+  EXPECT_EQ(CameraFromMsg(back).fx, TestCamera().fx);
+  dds_sample_free(&back, kt.descriptor, DDS_FREE_CONTENTS);
+  cdr[1] = 7;  // CDR2_LE
+  hullpipe_msg_CameraInfo none{};
+  EXPECT_FALSE(w.Decode(cdr, &none));
+  EXPECT_THROW(w.Write(cdr), std::invalid_argument);
 }
 
 // CameraInfo is transient-local: a reader that joins after it was written still

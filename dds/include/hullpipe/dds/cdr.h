@@ -60,15 +60,19 @@ class CdrWriter : public Entity {
   CdrWriter(const Participant& p, const KnownType& type, const QosSpec& qos);
   ~CdrWriter();
   /// Publishes one serialized sample (CDR with its 4-byte header, as recorded).
-  /// Throws DdsError if Cyclone refuses it, std::invalid_argument if it does not
-  /// deserialize as this type.
+  /// Throws DdsError if Cyclone refuses it, std::invalid_argument if it is not
+  /// XCDR1 (what hullpipe's writers send) or does not deserialize as this type.
   void Write(const std::vector<uint8_t>& cdr) const;
   uint32_t MatchedReaders() const;
   /// Deserializes a recorded sample of this writer's type into *sample (a
   /// zeroed struct of the type; its sequences/strings are allocated by Cyclone:
   /// free them with dds_sample_free(sample, descriptor, DDS_FREE_CONTENTS)).
-  /// Returns false if the bytes are not a valid sample.
+  /// Returns false if the bytes are not a valid XCDR1 sample of the type.
   bool Decode(const std::vector<uint8_t>& cdr, void* sample) const;
+  /// Serializes a sample of this writer's type (the struct Decode fills) into
+  /// CDR with its 4-byte header, as a recording stores it. Throws DdsError if
+  /// Cyclone cannot serialize it.
+  std::vector<uint8_t> Encode(const void* sample) const;
 
  private:
   Entity topic_;
