@@ -2,6 +2,8 @@
 // process on its own DDS domain (loopback only), feeds it malformed samples or
 // broken files, checks it logged and counted them, that it still works on good
 // input, and that it stops cleanly on SIGINT.
+#include <signal.h>
+
 #include <gtest/gtest.h>
 #include <opencv2/videoio.hpp>
 
@@ -326,6 +328,38 @@ TEST_F(NodeTest, FlagsOutOfBoundsEndInOneLineNamingTheFlag) {
                                       (dir_ / "render_ok").string()});
   EXPECT_EQ(render->Wait(1.5), -1) << "still running:\n" << test::ReadFile(log_);
   EXPECT_EQ(render->Stop(), 0) << test::ReadFile(log_);
+}
+
+// Every node stops within a second of SIGINT while it waits: capture for its
+// map readers (an hour's --wait-timeout), recon, sim and render for their first
+// frameset. Each is seen in that state first (its log line, or running after a
+// moment): the positive control that the signal, not an end, stopped it.
+TEST_F(NodeTest, EveryNodeStopsWithinASecondOfSigintWhileWaiting) {
+  struct Case {
+    const char* exe;
+    std::vector<std::string> args;
+    const char* waiting_line;  // logged once in the waiting state
+  };
+  const std::vector<Case> cases = {
+      {"capture_node", {"--synthetic", "--wait-readers", "4", "--wait-timeout", "3600"}, "camera(s) of"},
+      {"recon_node", {"--tile", "0/1"}, "backend"},
+      {"sim_node", {}, ""},
+      {"render_node", {"--window", "off", "--out", (dir_ / "render_wait").string()}, ""},
+  };
+  for (const auto& c : cases) {
+    auto node = Start(c.exe, c.args);
+    const double deadline = MonotonicSeconds() + 20;
+    while (*c.waiting_line && test::ReadFile(log_).find(c.waiting_line) == std::string::npos &&
+           MonotonicSeconds() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_EQ(node->Wait(0.5), -1) << c.exe << " is waiting:\n" << test::ReadFile(log_);
+    node->Signal(SIGINT);
+    const double t0 = MonotonicSeconds();
+    const int rc = node->Wait(5);
+    const double took = MonotonicSeconds() - t0;
+    EXPECT_EQ(rc, 0) << c.exe << "\n" << test::ReadFile(log_);
+    EXPECT_LT(took, 1.0) << c.exe << " took " << took << " s to stop\n" << test::ReadFile(log_);
+  }
 }
 
 // --- capture_node on broken files (needs the Utrecht rig) -------------------
