@@ -11,6 +11,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libspdlog-dev nlohmann-json3-dev libyaml-cpp-dev libsqlite3-dev
   ffmpeg gnuplot-nox openssl iproute2
+  clang-14 libclang-rt-14-dev llvm-14
 )
 
 missing=()

@@ -8,3 +8,8 @@ bash scripts/setup.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build build
 ctest --test-dir build -j2 --output-on-failure --timeout 300 "$@"
+# The whole run (no ctest arguments) goes on to the sanitizer builds and the
+# fuzz targets (docs/reliability.md); HULLPIPE_SANITIZE=0 skips them.
+if [ $# -eq 0 ] && [ "${HULLPIPE_SANITIZE:-1}" != 0 ]; then
+  bash scripts/sanitize.sh
+fi

@@ -20,10 +20,6 @@
 namespace hullpipe {
 namespace {
 
-// The test sphere of the shared fixtures (SphereViews, SphereHull, SphereSideView).
-const Eigen::Vector3d& kCentre = test::kSphereCentre;
-constexpr double kRadius = test::kSphereRadius;
-
 TEST(Texture, VisibilityTestKeepsAnOccludedCamerasColourOff) {
   // A red sphere behind a blue one as camera A sees it; the eye, beside A, sees
   // the red sphere, which camera E also sees. With one camera blended (the best

@@ -1,0 +1,22 @@
+// libFuzzer: recording files (record/recording.h) as `hullpipe_record info` and
+// `hullpipe_replay` open them: the reader, Info (quick_check and every row's
+// CRC), and every sample in arrival order. A bad file must end in
+// RecordingError naming the file, never a crash or another exception.
+#include "fuzz_util.h"
+#include "hullpipe/record/recording.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  hullpipe::fuzz::InputFile file(data, size, ".hullrec");
+  try {
+    hullpipe::record::RecordingReader reader(file.path());
+    reader.Info();
+    reader.LastArrivalNs();
+    size_t bytes = 0;
+    reader.ForEach([&](const hullpipe::record::Sample& s) {
+      bytes += s.data.size();
+      return true;
+    });
+  } catch (const hullpipe::record::RecordingError&) {
+  }
+  return 0;
+}

@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# The sanitizer and fuzzing part of the test command (docs/reliability.md),
+# run by scripts/test.sh after the main suite:
+#  1. build-asan (clang, AddressSanitizer + UndefinedBehaviorSanitizer, libFuzzer
+#     coverage): the core unit tests (label core) and the recording tests that
+#     run in one process; then each fuzz target for FUZZ_SECONDS (default 20) on
+#     its seeds: fuzz/corpus/<target> (kept in git), the rig's config.xml files,
+#     the shipped scenes and CSVs, and what fuzz_make_seeds writes.
+#  2. build-tsan (clang, ThreadSanitizer): the threaded code's tests (parallel
+#     row bands, the rig source's per-camera reads and live readers, the plane
+#     sweep, the controllers) and the recorder's and player's.
+# A finding fails the run: sanitizers abort on the first report
+# (-fno-sanitize-recover=all), a fuzzer exits non-zero and leaves its crash file
+# in build-asan/fuzz-out/<target>/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+FUZZ_SECONDS="${FUZZ_SECONDS:-20}"
+RIG="${RIG:-../shared/data/utrecht-4cam}"
+# Warnings are the main (gcc, -Werror) build's business; clang's own extra
+# warnings do not stop the sanitizer builds.
+CLANG=(-DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_BUILD_TYPE=RelWithDebInfo)
+export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+
+CORE_TESTS=(util_tests geometry_tests reconstruction_tests collision_tests evaluation_tests segmentation_tests
+            scenes_tests nodes_tests launch_support_tests)
+FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings)
+
+echo "== sanitize: ASan + UBSan build (clang-14)"
+cmake -S . -B build-asan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=address,undefined -DHULLPIPE_FUZZ=ON -DHULLPIPE_WERROR=OFF >/dev/null
+cmake --build build-asan --target "${CORE_TESTS[@]}" record_tests "${FUZZERS[@]}" fuzz_make_seeds
+ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -L core
+ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -R '^(Recording|Player)\.'
+
+echo "== sanitize: fuzzing, ${FUZZ_SECONDS} s per target"
+SEEDS=build-asan/fuzz-seeds
+rm -rf "$SEEDS" && mkdir -p "$SEEDS"
+./build-asan/bin/fuzz_make_seeds "$SEEDS"
+mkdir -p "$SEEDS/fuzz_rig_files" "$SEEDS/fuzz_scene_files" "$SEEDS/fuzz_csv_files"
+# The rig parser's first byte picks XML (even) or YAML (odd).
+for cfg in "$RIG"/cam*/config.xml; do
+  [ -f "$cfg" ] && { printf '\x00'; cat "$cfg"; } > "$SEEDS/fuzz_rig_files/$(basename "$(dirname "$cfg")").xml"
+done
+for yml in launch/*.yaml; do { printf '\x01'; cat "$yml"; } > "$SEEDS/fuzz_rig_files/$(basename "$yml")"; done
+cp scenes/*.yaml "$SEEDS/fuzz_scene_files/"
+for csv in scenes/*.csv; do
+  { printf '\x00'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/pose_$(basename "$csv")"
+  { printf '\x01'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/motion_$(basename "$csv")"
+done
+for f in "${FUZZERS[@]}"; do
+  work="build-asan/fuzz-out/$f"
+  rm -rf "$work" && mkdir -p "$work/corpus"
+  dirs=("$work/corpus" "$SEEDS/$f")
+  [ -d "fuzz/corpus/$f" ] && dirs+=("fuzz/corpus/$f")
+  echo "-- $f"
+  if ! (cd "$work" && "$OLDPWD/build-asan/bin/$f" -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 -timeout=10 \
+          -max_len=65536 -print_final_stats=1 "${dirs[@]/#/$OLDPWD/}" >fuzz.log 2>&1); then
+    tail -40 "$work/fuzz.log" >&2
+    echo "sanitize: $f found a failing input: $(ls "$work"/crash-* "$work"/leak-* "$work"/timeout-* "$work"/oom-* 2>/dev/null | head -3)" >&2
+    exit 1
+  fi
+  grep -E "^stat::(number_of_executed_units|peak_rss_mb)|INFO: seed corpus" "$work/fuzz.log" || true
+done
+
+echo "== sanitize: TSan build (clang-14)"
+cmake -S . -B build-tsan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=thread -DHULLPIPE_WERROR=OFF >/dev/null
+cmake --build build-tsan --target util_tests segmentation_tests reconstruction_tests nodes_tests record_tests \
+    hullpipe_record hullpipe_replay
+export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp}"
+ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 \
+    -R '^(ParallelFor|RowBands|Parallel|Rig|Live|PlaneSweep|Sweep|Capture|Recon|Render|Sim|Recording|Player)' 
+echo "== sanitize: clean"
