@@ -22,6 +22,19 @@ cv::Mat ReadMatrix(const cv::FileStorage& fs_in, const std::string& path, const 
                    int expected_elements) {
   const cv::FileNode node = fs_in[key];
   if (node.empty()) throw CalibrationError(path + ": missing key '" + key + "'");
+  // An opencv-matrix's rows and cols are checked before OpenCV allocates them
+  // (a file saying <rows>1000000</rows> made it ask for 48 GB; fuzz_rig_files).
+  if (node.isMap()) {
+    const cv::FileNode rows = node["rows"], cols = node["cols"];
+    const bool shaped = rows.isInt() && cols.isInt() && int(rows) >= 1 && int(cols) >= 1 &&
+                        int64_t(int(rows)) * int64_t(int(cols)) == expected_elements;
+    if (!shaped)
+      throw CalibrationError(path + ": key '" + key + "' must be a matrix of " + std::to_string(expected_elements) +
+                             " elements (its rows and cols say otherwise)");
+  } else if (node.isSeq() && node.size() != size_t(expected_elements)) {
+    throw CalibrationError(path + ": key '" + key + "' must have " + std::to_string(expected_elements) +
+                           " elements, has " + std::to_string(node.size()));
+  }
   cv::Mat m;
   try {
     node >> m;
@@ -231,10 +244,23 @@ Rig LoadYamlRig(const fs::path& file) {
 }  // namespace
 
 Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width, int height) {
+  // The text is read and checked here first: OpenCV 4.6's FileStorage parser
+  // dereferences NULL on a NUL byte inside an XML attribute (fuzz_rig_files
+  // found it), and a calibration file is a few KB of text.
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw CalibrationError(path + ": cannot open calibration file");
+  constexpr std::streamsize kMaxBytes = 1 << 20;
+  std::string text(size_t(kMaxBytes) + 1, '\0');
+  in.read(text.data(), kMaxBytes + 1);
+  text.resize(size_t(in.gcount()));
+  if (std::streamsize(text.size()) > kMaxBytes)
+    throw CalibrationError(path + ": larger than 1 MiB, not a calibration file");
+  if (const size_t nul = text.find('\0'); nul != std::string::npos)
+    throw CalibrationError(path + ": a NUL byte at offset " + std::to_string(nul) + ": not a text calibration file");
   cv::FileStorage fs_in;
   try {
-    if (!fs_in.open(path, cv::FileStorage::READ))
-      throw CalibrationError(path + ": cannot open calibration file");
+    if (!fs_in.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY))
+      throw CalibrationError(path + ": not a readable OpenCV FileStorage file");
   } catch (const cv::Exception& e) {
     throw CalibrationError(path + ": not a readable OpenCV FileStorage file");
   }

@@ -154,6 +154,16 @@ TEST(Calibration, SkewedSingularOrMalformedIntrinsicsAreRefused) {
   }
   std::ofstream(dir / "config.xml") << kConfig;
   EXPECT_NO_THROW(ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 640, 480));
+  // NUL bytes in an attribute crashed OpenCV's parser (fuzz_rig_files): refused first.
+  std::string nul = kConfig;
+  nul.replace(nul.find("type_id=") + 8, 4, std::string(4, '\0'));
+  std::ofstream(dir / "config.xml", std::ios::binary) << nul;
+  try {
+    ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 640, 480);
+    ADD_FAILURE() << "a NUL byte was accepted";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("NUL byte at offset"), std::string::npos) << e.what();
+  }
   // An image side beyond Camera::kMaxSide (what a node would allocate per map).
   EXPECT_THROW(ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 100000, 480), CalibrationError);
 }
