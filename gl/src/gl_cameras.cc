@@ -56,6 +56,20 @@ GpuCamera PackCamera(const hullpipe::detail::FastCamera& f, const Eigen::Matrix3
   return g;
 }
 
+void SetViewUniforms(GLuint program, const NovelView& view, cv::Point origin, const Aabb* hull_box) {
+  glUniform4f(glGetUniformLocation(program, "u_view"), float(view.fx), float(view.fy), float(view.cx), float(view.cy));
+  glUniform2f(glGetUniformLocation(program, "u_origin"), float(origin.x), float(origin.y));
+  const Eigen::Matrix3f Rwe = view.world_from_eye.rotation.cast<float>();
+  const Eigen::Vector3f O = view.world_from_eye.translation.cast<float>();
+  glUniformMatrix3fv(glGetUniformLocation(program, "u_Rwe"), 1, GL_FALSE, Rwe.data());
+  glUniform3fv(glGetUniformLocation(program, "u_O"), 1, O.data());
+  if (hull_box) {
+    const Eigen::Vector3f bmin = hull_box->min.cast<float>(), bmax = hull_box->max.cast<float>();
+    glUniform3fv(glGetUniformLocation(program, "u_bmin"), 1, bmin.data());
+    glUniform3fv(glGetUniformLocation(program, "u_bmax"), 1, bmax.data());
+  }
+}
+
 GpuCamera PackCamera(const Camera& c) {
   hullpipe::detail::FastCamera f{};
   f.fx = float(c.fx), f.fy = float(c.fy), f.cx = float(c.cx), f.cy = float(c.cy);

@@ -1,7 +1,7 @@
-// What the GL plane sweep and the GL triangle query share (private to
-// hullpipe_gl): the GLSL of a camera's projection with OpenCV distortion and its
-// vote on a point (as VolumeQuery::VoteFast), and the upload of the n
-// object-pixel maps and camera uniforms.
+// What the GL passes share (private to hullpipe_gl): the GLSL of a camera's
+// projection with OpenCV distortion and its vote on a point (as
+// VolumeQuery::VoteFast), the upload of the n object-pixel maps and camera
+// uniforms, and the eye-ray uniforms of the sweeps and the texturing pass.
 #pragma once
 
 #include <vector>
@@ -10,6 +10,7 @@
 
 #include "hullpipe/gl/gl_objects.h"
 #include "hullpipe/gl/gl_plane_sweep.h"  // kMaxGlCameras
+#include "hullpipe/reconstruction/plane_sweep.h"  // NovelView
 #include "hullpipe/reconstruction/volume_query.h"
 
 namespace hullpipe::gl {
@@ -101,5 +102,11 @@ GpuCamera PackCamera(const Camera& camera);
 /// a GL error.
 void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps,
                 const std::vector<Eigen::Matrix3f>& M, const std::vector<Eigen::Vector3f>& A, bool upload = true);
+
+/// Sets the eye-ray uniforms of `program` (in use) that the sweeps and the
+/// texturing pass share: u_view (fx, fy, cx, cy), u_origin (the region's top-left
+/// pixel in the view), u_Rwe and u_O (world_from_eye), and, when `hull_box` is
+/// given, u_bmin and u_bmax (world metres).
+void SetViewUniforms(GLuint program, const NovelView& view, cv::Point origin, const Aabb* hull_box = nullptr);
 
 }  // namespace hullpipe::gl

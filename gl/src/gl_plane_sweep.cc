@@ -117,15 +117,7 @@ cv::Mat GlPlaneSweep::Sweep(const VolumeQuery& q, const NovelView& view, const s
   const GLint loc_cam = glGetUniformLocation(cp, "u_cam"), loc_d = glGetUniformLocation(cp, "u_depth");
   const GLint loc_rd = glGetUniformLocation(rp, "u_depth"), loc_rank = glGetUniformLocation(rp, "u_rank");
   SetCameras(rp, q, maps_, M, A, /*upload=*/false);  // leaves rp in use
-  glUniform4f(glGetUniformLocation(rp, "u_view"), float(view.fx), float(view.fy), float(view.cx), float(view.cy));
-  glUniform2f(glGetUniformLocation(rp, "u_origin"), float(tile.x), float(tile.y));
-  const Eigen::Matrix3f Rwe = view.world_from_eye.rotation.cast<float>();
-  const Eigen::Vector3f O = view.world_from_eye.translation.cast<float>();
-  const Eigen::Vector3f bmin = q.hull_box().min.cast<float>(), bmax = q.hull_box().max.cast<float>();
-  glUniformMatrix3fv(glGetUniformLocation(rp, "u_Rwe"), 1, GL_FALSE, Rwe.data());
-  glUniform3fv(glGetUniformLocation(rp, "u_O"), 1, O.data());
-  glUniform3fv(glGetUniformLocation(rp, "u_bmin"), 1, bmin.data());
-  glUniform3fv(glGetUniformLocation(rp, "u_bmax"), 1, bmax.data());
+  SetViewUniforms(rp, view, tile.tl(), &q.hull_box());
 
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_.get());
   glViewport(0, 0, tile.width, tile.height);

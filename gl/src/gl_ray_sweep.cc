@@ -230,15 +230,7 @@ void SetRayUniforms(GLuint p, const VolumeQuery& q, const NovelView& view, const
   glUniform1i(glGetUniformLocation(p, "u_required"), GLint(q.required_seen()));
   glUniform1i(glGetUniformLocation(p, "u_nplanes"), nplanes);
   glUniform1i(glGetUniformLocation(p, "u_refine"), refine);
-  glUniform4f(glGetUniformLocation(p, "u_view"), float(view.fx), float(view.fy), float(view.cx), float(view.cy));
-  glUniform2f(glGetUniformLocation(p, "u_origin"), float(region.x), float(region.y));
-  const Eigen::Matrix3f Rwe = view.world_from_eye.rotation.cast<float>();
-  const Eigen::Vector3f O = view.world_from_eye.translation.cast<float>();
-  const Eigen::Vector3f bmin = q.hull_box().min.cast<float>(), bmax = q.hull_box().max.cast<float>();
-  glUniformMatrix3fv(glGetUniformLocation(p, "u_Rwe"), 1, GL_FALSE, Rwe.data());
-  glUniform3fv(glGetUniformLocation(p, "u_O"), 1, O.data());
-  glUniform3fv(glGetUniformLocation(p, "u_bmin"), 1, bmin.data());
-  glUniform3fv(glGetUniformLocation(p, "u_bmax"), 1, bmax.data());
+  SetViewUniforms(p, view, region.tl(), &q.hull_box());
   glUniform1i(glGetUniformLocation(p, "u_maps"), 0);
 }
 

@@ -199,12 +199,7 @@ cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const Nov
   glUniform1f(glGetUniformLocation(p, "u_power"), float(options.angle_power));
   glUniform1f(glGetUniformLocation(p, "u_bias"), float(options.visibility_bias_m));
   glUniform1i(glGetUniformLocation(p, "u_has_vis"), vis ? 1 : 0);
-  glUniform4f(glGetUniformLocation(p, "u_view"), float(view.fx), float(view.fy), float(view.cx), float(view.cy));
-  glUniform2f(glGetUniformLocation(p, "u_origin"), float(tile.x), float(tile.y));
-  const Eigen::Matrix3f Rwe = view.world_from_eye.rotation.cast<float>();
-  const Eigen::Vector3f O = view.world_from_eye.translation.cast<float>();
-  glUniformMatrix3fv(glGetUniformLocation(p, "u_Rwe"), 1, GL_FALSE, Rwe.data());
-  glUniform3fv(glGetUniformLocation(p, "u_O"), 1, O.data());
+  SetViewUniforms(p, view, tile.tl());
   glUniform2i(glGetUniformLocation(p, "u_size"), tile.width, tile.height);
   glUniform1i(glGetUniformLocation(p, "u_images"), 0);
   glUniform1i(glGetUniformLocation(p, "u_vis"), 1);
