@@ -444,8 +444,8 @@ TEST_F(CaptureFiles, ACameraWithNoFramesIsAnError) {
   const int rc = node->Wait(60);
   EXPECT_NE(rc, 0) << test::ReadFile(log_);
   const std::string log = test::ReadFile(log_);
-  EXPECT_NE(log.find("camera"), std::string::npos) << log;
-  EXPECT_NE(log.find("3"), std::string::npos) << log;
+  EXPECT_EQ(rc, 3) << log;
+  EXPECT_NE(log.find("camera(s) 3 ended after frame 0 while camera(s) 1, 2, 4 went on"), std::string::npos) << log;
   EXPECT_LE(PublishedFrames(log), 0) << log;
 }
 
