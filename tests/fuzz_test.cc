@@ -13,33 +13,13 @@
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/topics.h"
+#include "hullpipe/dds/valid_samples.h"
 #include "test_util.h"
 
 namespace hullpipe {
 namespace {
 
 using namespace hullpipe::dds;
-
-// Valid seeds of every topic a node reads, as typed samples written once with a
-// typed writer and taken back serialized.
-struct Seeds {
-  std::map<std::string, std::vector<std::vector<uint8_t>>> cdr;  // by topic name
-};
-
-template <typename T>
-void Seed(const Participant& p, Seeds* seeds, const std::function<void(const Writer<T>&)>& write) {
-  const KnownType& kt = *FindKnownType(TopicTraits<T>::Descriptor()->m_typename);
-  CdrReader r(p, kt, QosSpec{kt.qos.reliable, false, 16});
-  Writer<T> w(p);
-  const double end = MonotonicSeconds() + 10;
-  while (w.MatchedReaders() == 0 && MonotonicSeconds() < end) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  write(w);
-  auto& out = seeds->cdr[kt.topic_name];
-  while (out.empty() && MonotonicSeconds() < end) {
-    r.TakeEach([&](const std::vector<uint8_t>& b, int64_t) { out.push_back(b); });
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-}
 
 TEST(Fuzz, MalformedSamplesOnEveryTopicCrashNoNode) {
   const auto dir = test::TempDir("fuzz");
@@ -55,59 +35,19 @@ TEST(Fuzz, MalformedSamplesOnEveryTopicCrashNoNode) {
   Participant p(domain);
   Reader<hullpipe_msg_NodeStats> stats(p);
 
-  Seeds seeds;
+  // Valid seeds of every topic a node reads (NodeStats aside: this test reads
+  // the nodes' own to see them work), by topic name.
   const auto views = test::SphereViews(2, 64, 48, Eigen::Vector3d(0, 0, -1), 0.3);
-  Seed<hullpipe_msg_CameraInfo>(p, &seeds, [&](const auto& w) { w.Write(CameraToMsg(views[0].camera, test::BigBox())); });
-  Seed<hullpipe_msg_ObjectPixelMap>(p, &seeds, [&](const auto& w) {
-    w.Write(MakeMapMessage(1, 1, NowNs(), 0.04, 2, views[0].map).msg);
-  });
-  Seed<hullpipe_msg_CameraImage>(p, &seeds, [&](const auto& w) {
-    w.Write(MakeImageMessage(1, 1, NowNs(), cv::Mat(12, 16, CV_8UC3, cv::Scalar(1, 2, 3)), 0).msg);
-  });
-  NovelView view;
-  view.width = 32, view.height = 24, view.fx = view.fy = 30, view.cx = 16, view.cy = 12;
-  Seed<hullpipe_msg_ViewPose>(p, &seeds, [&](const auto& w) { w.Write(ViewToMsg(view, 1, 1, NowNs())); });
-  Seed<hullpipe_msg_HullView>(p, &seeds, [&](const auto& w) {
-    HullTile t;
-    t.rect = {0, 0, 8, 8};
-    t.depth = cv::Mat(8, 8, CV_32FC1, cv::Scalar(1));
-    t.colour = cv::Mat(8, 8, CV_8UC3, cv::Scalar(9));
-    w.Write(MakeHullViewMessage(t, 1).msg);
-  });
-  Seed<hullpipe_msg_VirtualObjectState>(p, &seeds, [&](const auto& w) {
-    hullpipe_msg_VirtualObjectState s{};
-    s.object_id = 1, s.frame_seq = 1, s.radius = 0.1, s.position = {0, 0, -1}, s.orientation[0] = 1;
-    w.Write(s);
-  });
-  Seed<hullpipe_msg_CollisionReport>(p, &seeds, [&](const auto& w) {
-    hullpipe_msg_Vec3 pt{0, 0, -1};
-    hullpipe_msg_CollisionReport r{};
-    r.object_id = 1, r.frame_seq = 1;
-    r.collision_points._buffer = &pt;
-    r.collision_points._length = r.collision_points._maximum = 1;
-    w.Write(r);
-  });
-  Seed<hullpipe_msg_VirtualMesh>(p, &seeds, [&](const auto& w) {
-    VirtualMeshSample m;
-    m.object_id = 100, m.kind = hullpipe_msg_MESH_KIND_CLOTH, m.frame_seq = 1;
-    m.draw.vertices = {{0, 0, -1}, {0.1, 0, -1}, {0, 0.1, -1}};
-    m.draw.triangles = {{0, 1, 2}};
-    m.draw.colliding = {1};
-    w.Write(MakeVirtualMeshMessage(m).msg);
-  });
-  Seed<hullpipe_msg_SceneCommand>(p, &seeds, [&](const auto& w) {
-    hullpipe_msg_SceneCommand c{};
-    c.command = hullpipe_msg_SCENE_COMMAND_SET_SPACING, c.value = 0.2;
-    w.Write(c);
-  });
-  Seed<hullpipe_msg_HeadPose>(p, &seeds, [&](const auto& w) { w.Write(HeadPoseToMsg(Rigid3d{}, 1, NowNs())); });
+  std::map<std::string, std::vector<std::vector<uint8_t>>> seeds;
+  for (const auto& [type, bytes] : ValidSampleOfEachTopic(p, views[0].camera, test::BigBox(), views[0].map))
+    if (type != "hullpipe::msg::NodeStats") seeds[FindKnownType(type)->topic_name] = {bytes};
 
   // Mutations: 1-6 bytes after the encapsulation header set to random values
   // (biased to 0xFF/0x00/0x7F, the bytes of huge, zero and NaN-ish values), or
   // the sample truncated / extended.
   std::mt19937 rng(20261122);
   int sent = 0, refused_locally = 0;
-  for (const auto& [topic, blobs] : seeds.cdr) {
+  for (const auto& [topic, blobs] : seeds) {
     ASSERT_FALSE(blobs.empty()) << topic;
     const KnownType* kt = nullptr;
     for (const auto& k : KnownTypes())
