@@ -69,11 +69,8 @@ TEST(EndToEnd, FiveProcessesOnTheSyntheticSource) {
 // error line, not only the path of its log, and the launcher exits non-zero.
 TEST(EndToEnd, TheLauncherShowsAFailedNodesErrorLine) {
   const auto out = test::TempDir("e2e_fail");
-  std::string description = test::ReadFile(std::string(HULLPIPE_SOURCE_DIR) + "/launch/local.yaml");
-  const std::string wait = "--wait-timeout, \"20\"";
-  ASSERT_NE(description.find(wait), std::string::npos);
-  description.replace(description.find(wait), wait.size(), "--synthetic-size, \"5x5\", " + wait);
-  std::ofstream(out / "bad_capture.yaml") << description;
+  std::ofstream(out / "bad_capture.yaml")
+      << test::LocalDescriptionWith(test::kCaptureWaitArg, "--synthetic-size, \"5x5\", " + test::kCaptureWaitArg);
   test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "10", "--out",
                         (out / "run").string(), "--description", (out / "bad_capture.yaml").string(), "--domain",
                         std::to_string(test::UniqueDomain())},
@@ -91,16 +88,14 @@ TEST(EndToEnd, TheLauncherShowsAFailedNodesErrorLine) {
 // intervals), and the view is the log's pose at that frame's time.
 TEST(EndToEnd, TheCompositedHullIsTheExactHullFromTheTrackedView) {
   const auto out = test::TempDir("e2e_exact");
-  std::string description = test::ReadFile(std::string(HULLPIPE_SOURCE_DIR) + "/launch/local.yaml");
-  const std::string pngs = "--png-every, \"50\"";
-  ASSERT_NE(description.find(pngs), std::string::npos);
-  description.replace(description.find(pngs), pngs.size(), "--png-every, \"1\", --save-depth");
+  std::string description =
+      test::LocalDescriptionWith("--png-every, \"50\"", "--png-every, \"1\", --save-depth");
   // Capture at 5 fps, not the source's 25: render takes the newest frameset and
   // writes a PNG and a depth TIFF per frame, and on CI's 2 cores at 25 fps it
   // composited only 2 of the 12 frames; at 5 fps each frame has 200 ms.
-  const std::string wait = "--wait-timeout, \"20\"";
-  ASSERT_NE(description.find(wait), std::string::npos);
-  description.replace(description.find(wait), wait.size(), "--fps, \"5\", " + wait);
+  const size_t wait = description.find(test::kCaptureWaitArg);
+  ASSERT_NE(wait, std::string::npos);
+  description.insert(wait, "--fps, \"5\", ");
   std::ofstream(out / "save_depth.yaml") << description;
   const std::string track_csv = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/head_track_example.csv";
   test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "12", "--out",

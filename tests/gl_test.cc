@@ -464,11 +464,8 @@ TEST_F(Gl, FiveProcessesWithTheGlBackend) {
   const auto out = test::TempDir("e2e_gl");
   // Capture at 5 fps, not the source's 25: render takes the newest frameset, and
   // with llvmpipe's sweeps on a loaded 2-core machine it composited 2 of 20.
-  std::string description = test::ReadFile(std::string(HULLPIPE_SOURCE_DIR) + "/launch/local.yaml");
-  const std::string wait = "--wait-timeout, \"20\"";
-  ASSERT_NE(description.find(wait), std::string::npos);
-  description.replace(description.find(wait), wait.size(), "--fps, \"5\", " + wait);
-  std::ofstream(out / "capture_5fps.yaml") << description;
+  std::ofstream(out / "capture_5fps.yaml")
+      << test::LocalDescriptionWith(test::kCaptureWaitArg, "--fps, \"5\", " + test::kCaptureWaitArg);
   test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "20", "--width", "160",
                         "--height", "120", "--backend", "gl", "--out", out.string(), "--description",
                         (out / "capture_5fps.yaml").string(), "--domain", std::to_string(test::UniqueDomain())},

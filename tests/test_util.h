@@ -8,7 +8,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -40,6 +42,21 @@ inline std::string WriteLoopbackConfig(const std::filesystem::path& dir, int los
   o.loss_per_mille = loss_per_mille;
   return launch::WriteCycloneConfig((dir / (loss_per_mille ? "cyclonedds-lossy.xml" : "cyclonedds.xml")).string(), o);
 }
+
+/// launch/local.yaml with `arg` ("--flag, value" in the YAML list's syntax)
+/// replaced by `by` in the one node whose arguments contain it. Throws
+/// std::logic_error if the file no longer has `arg` (the test must follow it).
+inline std::string LocalDescriptionWith(const std::string& arg, const std::string& by) {
+  std::ifstream f(std::string(HULLPIPE_SOURCE_DIR) + "/launch/local.yaml");
+  std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const size_t at = text.find(arg);
+  if (at == std::string::npos) throw std::logic_error("launch/local.yaml has no '" + arg + "'");
+  return text.replace(at, arg.size(), by);
+}
+
+/// The argument of capture in launch/local.yaml that LocalDescriptionWith
+/// prefixes to add capture arguments.
+inline const std::string kCaptureWaitArg = "--wait-timeout, \"20\"";
 
 }  // namespace hullpipe::test
 
