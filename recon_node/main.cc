@@ -81,6 +81,7 @@ int main(int argc, char** argv) {
     bo.threads = o.threads;
     bo.refine = o.refine;
     std::unique_ptr<gl::SweepBackend> backend = gl::MakeSweepBackend(bo);
+    backend->set_stop(StopRequestFlag());  // SIGINT ends a long sweep too
     spdlog::info("tile {}/{}, backend {} ({})", o.tile, o.tile_count, backend->Name(), backend->reason());
     WaitSet ws(*participant);
     FramesetInput input(*participant, ws, kFramesetHistory, /*with_images=*/true);
@@ -108,7 +109,12 @@ int main(int argc, char** argv) {
         }
       });
       recon.SetMalformedInput(input.malformed());
-      recon.Step();
+      try {
+        recon.Step();
+      } catch (const Interrupted& e) {
+        spdlog::info("{}; stopping", e.what());
+        break;
+      }
       reporter.Publish();
     }
     reporter.Publish(true);

@@ -24,7 +24,7 @@ export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 
 CORE_TESTS=(util_tests geometry_tests reconstruction_tests collision_tests evaluation_tests segmentation_tests
             scenes_tests nodes_tests launch_support_tests)
-FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings)
+FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings)  # as in scripts/fuzz.sh
 
 echo "== sanitize: ASan + UBSan build (clang-14)"
 cmake -S . -B build-asan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=address,undefined -DHULLPIPE_FUZZ=ON -DHULLPIPE_WERROR=OFF >/dev/null
@@ -33,34 +33,7 @@ ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -L core
 ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -R '^(Recording|Player)\.'
 
 echo "== sanitize: fuzzing, ${FUZZ_SECONDS} s per target"
-SEEDS=build-asan/fuzz-seeds
-rm -rf "$SEEDS" && mkdir -p "$SEEDS"
-./build-asan/bin/fuzz_make_seeds "$SEEDS"
-mkdir -p "$SEEDS/fuzz_rig_files" "$SEEDS/fuzz_scene_files" "$SEEDS/fuzz_csv_files"
-# The rig parser's first byte picks XML (even) or YAML (odd).
-for cfg in "$RIG"/cam*/config.xml; do
-  [ -f "$cfg" ] && { printf '\x00'; cat "$cfg"; } > "$SEEDS/fuzz_rig_files/$(basename "$(dirname "$cfg")").xml"
-done
-for yml in launch/*.yaml; do { printf '\x01'; cat "$yml"; } > "$SEEDS/fuzz_rig_files/$(basename "$yml")"; done
-cp scenes/*.yaml "$SEEDS/fuzz_scene_files/"
-for csv in scenes/*.csv; do
-  { printf '\x00'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/pose_$(basename "$csv")"
-  { printf '\x01'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/motion_$(basename "$csv")"
-done
-for f in "${FUZZERS[@]}"; do
-  work="build-asan/fuzz-out/$f"
-  rm -rf "$work" && mkdir -p "$work/corpus"
-  dirs=("$work/corpus" "$SEEDS/$f")
-  [ -d "fuzz/corpus/$f" ] && dirs+=("fuzz/corpus/$f")
-  echo "-- $f"
-  if ! (cd "$work" && "$OLDPWD/build-asan/bin/$f" -seed=1 -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 -timeout=10 \
-          -max_len=65536 -print_final_stats=1 "${dirs[@]/#/$OLDPWD/}" >fuzz.log 2>&1); then
-    tail -40 "$work/fuzz.log" >&2
-    echo "sanitize: $f found a failing input: $(ls "$work"/crash-* "$work"/leak-* "$work"/timeout-* "$work"/oom-* 2>/dev/null | head -3)" >&2
-    exit 1
-  fi
-  grep -E "^stat::(number_of_executed_units|peak_rss_mb)|INFO: seed corpus" "$work/fuzz.log" || true
-done
+FUZZ_SECONDS="$FUZZ_SECONDS" RIG="$RIG" bash scripts/fuzz.sh
 
 # The TSan stage has not had a clean run yet (docs/reliability.md): opt-in
 # with HULLPIPE_TSAN=1 until it has.

@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
     SimWriters writers(*participant);
     nodes::SystemClock clock;
     nodes::SimController sim(config, clock, input.assembler(), writers);
+    sim.set_stop(StopRequestFlag());  // SIGINT ends a long step too
     NodeReporter reporter(*participant, "sim", sim.counters());
     while (!StopRequested()) {
       ws.Wait(0.1);
@@ -66,7 +67,12 @@ int main(int argc, char** argv) {
           sim.RejectCommand(c.command_seq, "unknown command " + std::to_string(c.command));
       });
       sim.SetMalformedInput(input.malformed());
-      sim.Step();
+      try {
+        sim.Step();
+      } catch (const Interrupted& e) {
+        spdlog::info("{}; stopping", e.what());
+        break;
+      }
       reporter.Publish();
     }
     reporter.Publish(true);

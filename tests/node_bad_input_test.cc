@@ -4,6 +4,9 @@
 // input, and that it stops cleanly on SIGINT.
 #include <signal.h>
 
+#include <fstream>
+#include <regex>
+
 #include <gtest/gtest.h>
 #include <opencv2/videoio.hpp>
 
@@ -364,6 +367,70 @@ TEST_F(NodeTest, EveryNodeStopsWithinASecondOfSigintWhileWaiting) {
     const double took = MonotonicSeconds() - t0;
     EXPECT_EQ(rc, 0) << c.exe << "\n" << test::ReadFile(log_);
     EXPECT_LT(took, 1.0) << c.exe << " took " << took << " s to stop\n" << test::ReadFile(log_);
+  }
+}
+
+// Mid-work: recon_node in the sweep of the largest view it accepts (8192x8192,
+// 4096 planes: over 10 s of work) and sim_node in the step of the heaviest
+// scene (a 100,000-vertex cloth at 200 iterations and 1e-4 s substeps:
+// minutes). Each is seen in that state first by its debug line, and must log
+// that the work was interrupted (the positive control that the signal came
+// mid-work, not between frames) and exit 0 within a second.
+TEST_F(NodeTest, ReconAndSimStopWithinASecondOfSigintMidWork) {
+  const auto views = test::SphereViews(2, 64, 48, kCentre, 0.3);
+  const cv::Mat img(48, 64, CV_8UC3, cv::Scalar(50, 60, 70));
+  const NovelView huge =
+      NovelView::FromFov(8192, 8192, 1.0, LookAt(kCentre + Eigen::Vector3d(2, 0, -0.5), kCentre, {0, 0, -1}));
+  const auto scene = dir_ / "heavy.yaml";
+  {
+    std::ofstream f(scene);
+    f << "gravity: [0, 0, 9.81]\nballs: []\ncloth:\n  rod_a: [5, 0, -2]\n  rod_b: [6, 0, -2]\n  length: 1\n"
+         "  nx: 400\n  ny: 250\n  iterations: 200\n  max_substep: 0.0001\n";
+  }
+  struct Case {
+    const char* exe;
+    std::vector<std::string> args;
+    std::regex working;  // its debug line once the long work has begun
+  };
+  const std::vector<Case> cases = {
+      {"recon_node",
+       {"--tile", "0/1", "--planes", "4096", "--refine", "0", "--backend", "cpu", "--log-level", "debug"},
+       std::regex("sweeping a 8192x8192 view, 4096 planes")},
+      // The first frameset steps 0 s; a later one steps the source time between them.
+      {"sim_node", {"--scene", scene.string(), "--log-level", "debug"}, std::regex("stepping the scene 0\\.0*[1-9]")},
+  };
+  Writer<hullpipe_msg_CameraInfo> info(*participant_);
+  Writer<hullpipe_msg_ObjectPixelMap> maps(*participant_);
+  Writer<hullpipe_msg_CameraImage> images(*participant_);
+  Writer<hullpipe_msg_ViewPose> poses(*participant_);
+  uint64_t seq = 0;
+  for (const auto& c : cases) {
+    auto node = Start(c.exe, c.args);
+    WaitMatched(maps, 1);
+    // Frames (and, for recon, the huge view) until the node logs that it works
+    // on one: volatile readers drop what came before they matched.
+    const double deadline = MonotonicSeconds() + 30;
+    while (!std::regex_search(test::ReadFile(log_), c.working) && MonotonicSeconds() < deadline) {
+      for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
+      ++seq;
+      const int64_t t = NowNs();
+      for (const auto& v : views) {
+        maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, t, double(seq) / 25, 2, v.map).msg);
+        images.Write(MakeImageMessage(uint32_t(v.camera.id), seq, t, img, 0).msg);
+      }
+      poses.Write(ViewToMsg(huge, seq, seq, NowNs()));
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    }
+    ASSERT_TRUE(std::regex_search(test::ReadFile(log_), c.working)) << c.exe << ":\n" << test::ReadFile(log_);
+    ASSERT_TRUE(node->Running()) << c.exe << ":\n" << test::ReadFile(log_);
+    node->Signal(SIGINT);
+    const double t0 = MonotonicSeconds();
+    const int rc = node->Wait(10);
+    const double took = MonotonicSeconds() - t0;
+    const std::string log = test::ReadFile(log_);
+    EXPECT_EQ(rc, 0) << c.exe << "\n" << log;
+    EXPECT_LT(took, 1.0) << c.exe << " took " << took << " s to stop\n" << log;
+    EXPECT_NE(log.find("interrupted by a stop request; stopping"), std::string::npos) << c.exe << "\n" << log;
   }
 }
 

@@ -53,6 +53,7 @@ extern "C" void OnSignal(int) { g_stop.store(true); }
 
 bool StopRequested() { return g_stop.load(); }
 void RequestStop() { g_stop.store(true); }
+StopFlag StopRequestFlag() { return &g_stop; }
 
 void InstallStopHandler() {
   struct sigaction sa = {};

@@ -16,15 +16,15 @@ class CpuBackend final : public SweepBackend {
   void BeginFrameset(const VolumeQuery&, const std::vector<CameraImage>&) override {}
   cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d,
                 const cv::Rect& tile) override {
-    return PlaneSweepCpu(q, v, d, tile, nullptr, threads_, refine_);
+    return PlaneSweepCpu(q, v, d, tile, nullptr, threads_, refine_, stop());
   }
   HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
                             const PlaneSweepOptions& sweep) override {
-    return ComputeHullVisibility(q, cams, width, sweep, refine_, threads_);
+    return ComputeHullVisibility(q, cams, width, sweep, refine_, threads_, stop());
   }
   cv::Mat Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
                   const std::vector<CameraImage>& images, const HullVisibility* vis) override {
-    return TextureHull(depth, tile, view, images, {}, vis);
+    return TextureHull(depth, tile, view, images, {}, vis, stop());
   }
   std::string Name() const override { return "cpu"; }
 
@@ -52,7 +52,7 @@ class GlBackend final : public SweepBackend {
     ctx_.MakeCurrent();
     if (!stencil_) return march_->Sweep(q, v, d, tile, refine_);
     cv::Mat depth = stencil_sweep_->Sweep(q, v, d, tile);
-    RefineSweepDepth(q, v, d, tile, refine_, &depth, threads_);  // CPU point queries on the GPU's bracket
+    RefineSweepDepth(q, v, d, tile, refine_, &depth, threads_, stop());  // CPU point queries on the GPU's bracket
     return depth;
   }
   HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,

@@ -156,14 +156,16 @@ bool RefineBracket(const std::vector<double>& depths, size_t k, double s0, float
 
 void SweepRows(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
                const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out, SweepStats* stats,
-               int refine_iterations) {
+               int refine_iterations, StopFlag stop) {
   RayQuery ray(query, view);
   const std::vector<float> d(depths.begin(), depths.end());
   SweepStats local;
-  for (int r = row_begin; r < row_end; ++r) {
+  for (int r = row_begin; r < row_end && !Stopped(stop); ++r) {
     float* out_row = out.ptr<float>(r);
     for (int col = 0; col < tile.width; ++col) {
       out_row[col] = kNoDepth;
+      // A ray can take 4096 planes x n cameras of tests: poll per pixel.
+      if (Stopped(stop)) break;
       double s0 = depths.front(), s1 = depths.back();
       if (!ray.Aim(tile.x + col + 0.5, tile.y + r + 0.5, &s0, &s1)) continue;
       ++local.rays;
@@ -258,13 +260,13 @@ double SpacingAt(const std::vector<double>& depths, double d) {
 // scenes of `vh_eval sweep`.)
 void RefineEdges(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
                  const cv::Rect& region, const cv::Rect& inner, int iterations, const cv::Mat& swept, cv::Mat& out,
-                 int threads) {
+                 int threads, StopFlag stop) {
   ForRowBands(inner.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
     RayQuery ray(query, view);
     std::vector<std::pair<double, double>> windows;
-    for (int rr = r0; rr < r1; ++rr) {
+    for (int rr = r0; rr < r1 && !Stopped(stop); ++rr) {
       const int r = inner.y + rr;
-      for (int c = inner.x; c < inner.x + inner.width; ++c) {
+      for (int c = inner.x; c < inner.x + inner.width && !Stopped(stop); ++c) {
         const float dp = swept.at<float>(r, c);
         windows.clear();
         const int nb[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
@@ -314,21 +316,22 @@ void RefineEdges(const VolumeQuery& query, const NovelView& view, const std::vec
       }
     }
   });
+  ThrowIfStopped(stop, "the sweep's silhouette refinement");
 }
 
 }  // namespace
 
 void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
-                      const cv::Rect& tile, int iterations, cv::Mat* depth, int threads) {
+                      const cv::Rect& tile, int iterations, cv::Mat* depth, int threads, StopFlag stop) {
   view.Check();
   if (depth == nullptr || depth->type() != CV_32FC1 || depth->size() != tile.size())
     throw std::invalid_argument("RefineSweepDepth: depth must be CV_32FC1 of the tile's size");
   if (iterations <= 0 || depths.empty() || query.hull_box().empty()) return;
   ForRowBands(tile.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
     RayQuery ray(query, view);
-    for (int r = r0; r < r1; ++r) {
+    for (int r = r0; r < r1 && !Stopped(stop); ++r) {
       float* row = depth->ptr<float>(r);
-      for (int col = 0; col < tile.width; ++col) {
+      for (int col = 0; col < tile.width && !Stopped(stop); ++col) {
         if (!std::isfinite(row[col])) continue;
         double s0 = depths.front(), s1 = depths.back();
         if (!ray.Aim(tile.x + col + 0.5, tile.y + r + 0.5, &s0, &s1)) continue;
@@ -343,20 +346,23 @@ void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std
   });
   // The silhouette pass sees only this tile's pixels: at a tile's border it has
   // fewer neighbours than in a whole-view render (PlaneSweepCpu has no such seam).
+  ThrowIfStopped(stop, "the sweep's depth refinement");
   const cv::Mat swept = depth->clone();
-  RefineEdges(query, view, depths, tile, {0, 0, tile.width, tile.height}, iterations, swept, *depth, threads);
+  RefineEdges(query, view, depths, tile, {0, 0, tile.width, tile.height}, iterations, swept, *depth, threads,
+              stop);
 }
 
 cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                       const std::vector<double>& depths, const cv::Rect& tile, SweepStats* stats,
-                      int threads, int refine_iterations) {
+                      int threads, int refine_iterations, StopFlag stop) {
   view.Check();
   cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
   if (depths.empty() || tile.area() == 0 || query.hull_box().empty()) return out;
   if (refine_iterations <= 0) {
     ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
-      SweepRows(query, view, depths, tile, r0, r1, out, st, 0);
+      SweepRows(query, view, depths, tile, r0, r1, out, st, 0, stop);
     });
+    ThrowIfStopped(stop, "the plane sweep");
     return out;
   }
   // Refinement: sweep with a one-pixel margin inside the view, so the silhouette
@@ -366,11 +372,12 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                           cv::Rect(0, 0, view.width, view.height);
   cv::Mat swept(region.height, region.width, CV_32FC1, cv::Scalar(kNoDepth));
   ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
-    SweepRows(query, view, depths, region, r0, r1, swept, st, refine_iterations);
+    SweepRows(query, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
   });
+  ThrowIfStopped(stop, "the plane sweep");
   const cv::Rect inner(tile.x - region.x, tile.y - region.y, tile.width, tile.height);
   cv::Mat refined = swept.clone();
-  RefineEdges(query, view, depths, region, inner, refine_iterations, swept, refined, threads);
+  RefineEdges(query, view, depths, region, inner, refine_iterations, swept, refined, threads, stop);
   refined(inner).copyTo(out);
   return out;
 }

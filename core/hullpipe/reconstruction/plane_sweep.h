@@ -13,6 +13,7 @@
 
 #include "hullpipe/geometry/rigid3.h"
 #include "hullpipe/reconstruction/volume_query.h"
+#include "hullpipe/util/interrupt.h"
 
 namespace hullpipe {
 
@@ -79,10 +80,13 @@ struct SweepStats {
 /// grazing ray's piece of hull can fall between two planes, rescans the ray near
 /// the neighbour's depth at 1/8 of the spacing and bisects a hit. Tiles of a view
 /// still assemble to exactly the whole-view result. 0 keeps the paper's result,
-/// identical to the GL sweep.
+/// identical to the GL sweep. `stop` (util/interrupt.h) is polled per pixel: once
+/// it is set the sweep ends within a pixel's work per thread and throws
+/// Interrupted (a node stops mid-sweep on SIGINT).
 cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                       const std::vector<double>& plane_depths, const cv::Rect& tile,
-                      SweepStats* stats = nullptr, int threads = 1, int refine_iterations = 0);
+                      SweepStats* stats = nullptr, int threads = 1, int refine_iterations = 0,
+                      StopFlag stop = nullptr);
 
 /// Depth refinement (beyond the paper; docs/benchmarks.md) of a finished sweep, for backends
 /// that cannot refine themselves (the GL sweep): each finite depth in *depth (a
@@ -90,9 +94,10 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
 /// `iterations` times between the previous plane (or the hull box entry) and
 /// itself with point queries. Gives the same result as PlaneSweepCpu with
 /// refine_iterations, up to float rounding. Throws std::invalid_argument if *depth
-/// is not CV_32FC1 of the tile's size.
+/// is not CV_32FC1 of the tile's size; Interrupted once `stop` is set (polled per pixel).
 void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
-                      const cv::Rect& tile, int iterations, cv::Mat* depth, int threads = 1);
+                      const cv::Rect& tile, int iterations, cv::Mat* depth, int threads = 1,
+                      StopFlag stop = nullptr);
 
 /// Tile i of n of a view: n horizontal bands of (nearly) equal height, top first.
 /// Throws std::invalid_argument unless 0 <= i < n <= height.

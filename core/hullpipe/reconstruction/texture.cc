@@ -41,12 +41,14 @@ NovelView HullVisibilityView(const Camera& cam, int width) {
 }
 
 HullVisibility ComputeHullVisibility(const VolumeQuery& query, const std::vector<Camera>& cameras, int width,
-                                     const PlaneSweepOptions& sweep, int refine_iterations, int threads) {
+                                     const PlaneSweepOptions& sweep, int refine_iterations, int threads,
+                                     StopFlag stop) {
   HullVisibility vis;
   for (const Camera& cam : cameras) {
     const NovelView v = HullVisibilityView(cam, width);
     const auto depths = SweepPlaneDepths(query, v, sweep);
-    vis.depth.push_back(PlaneSweepCpu(query, v, depths, {0, 0, v.width, v.height}, nullptr, threads, refine_iterations));
+    vis.depth.push_back(PlaneSweepCpu(query, v, depths, {0, 0, v.width, v.height}, nullptr, threads, refine_iterations,
+                                       stop));
     vis.views.push_back(v);
   }
   return vis;
@@ -73,7 +75,7 @@ bool Visible(const HullVisibility& vis, size_t k, const Rigid3d& eye_from_world,
 
 cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
                     const std::vector<CameraImage>& images, const TextureOptions& options,
-                    const HullVisibility* visibility) {
+                    const HullVisibility* visibility, StopFlag stop) {
   options.Check();
   CV_Assert(depth.type() == CV_32FC1 && depth.size() == tile.size());
   if (visibility && (visibility->views.size() != images.size() || visibility->depth.size() != images.size()))
@@ -98,6 +100,7 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
   };
   std::vector<Candidate> cand;
   for (int r = 0; r < depth.rows; ++r) {
+    ThrowIfStopped(stop, "texturing");
     for (int c = 0; c < depth.cols; ++c) {
       const float d = depth.at<float>(r, c);
       if (!std::isfinite(d)) continue;

@@ -49,8 +49,10 @@ NovelView HullVisibilityView(const Camera& camera, int width);
 /// in proportion; lens distortion is left out: the map is indexed by the pinhole
 /// projection, which is what TextureHull looks up). planes / refine as for the
 /// novel view. cameras[i] must be the query's camera i, or any calibrated camera.
+/// Throws Interrupted once `stop` is set (PlaneSweepCpu).
 HullVisibility ComputeHullVisibility(const VolumeQuery& query, const std::vector<Camera>& cameras, int width,
-                                     const PlaneSweepOptions& sweep, int refine_iterations, int threads = 1);
+                                     const PlaneSweepOptions& sweep, int refine_iterations, int threads = 1,
+                                     StopFlag stop = nullptr);
 
 /// Colours the hull pixels of a depth tile (CV_32FC1 eye z, kNoDepth = none) at
 /// `tile` of `view`. Returns CV_8UC3 of the tile's size, black where there is no
@@ -61,9 +63,10 @@ HullVisibility ComputeHullVisibility(const VolumeQuery& query, const std::vector
 /// test leaves no camera, the cameras that image the point are used as without
 /// it (a guess, not a grey hole); a point no camera images stays mid-grey. Without
 /// `visibility`, a camera whose view of the point is blocked by another part of
-/// the hull may still contribute.
+/// the hull may still contribute. Throws Interrupted once `stop` is set (polled
+/// per row).
 cv::Mat TextureHull(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
                     const std::vector<CameraImage>& images, const TextureOptions& options = {},
-                    const HullVisibility* visibility = nullptr);
+                    const HullVisibility* visibility = nullptr, StopFlag stop = nullptr);
 
 }  // namespace hullpipe

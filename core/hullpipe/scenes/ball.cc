@@ -36,7 +36,7 @@ TriangleMesh BallSimulation::WorldMesh(size_t i) const {
   return meshes_[i].Transformed(world_from_body);
 }
 
-void BallSimulation::Step(double dt, const VolumeQuery* hull) {
+void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
   dt = std::clamp(dt, 0.0, 0.25);
   for (auto& s : bodies_) s.colliding = false;
   // Substeps short in time, and short in space: no ball moves more than its own
@@ -54,6 +54,7 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull) {
   const Eigen::Vector3d g_hat = g_norm > 0 ? Eigen::Vector3d(config_.gravity / g_norm)
                                            : Eigen::Vector3d::UnitZ();
   for (int k = 0; k < substeps; ++k) {
+    ThrowIfStopped(stop, "the balls' step");
     time_ += h;
     for (size_t i = 0; i < bodies_.size(); ++i) {
       if (time_ >= next_throw_[i]) Throw(i);

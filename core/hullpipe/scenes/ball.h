@@ -13,6 +13,7 @@
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/util/interrupt.h"
 
 namespace hullpipe {
 
@@ -35,8 +36,9 @@ class BallSimulation {
   /// Advances by dt seconds (clamped to [0, 0.25]) in substeps of at most
   /// max_substep and short enough that no ball moves more than its radius in one
   /// (so it cannot tunnel through a thin part of the hull), each checked against
-  /// `hull` (nullptr: no hull this step).
-  void Step(double dt, const VolumeQuery* hull);
+  /// `hull` (nullptr: no hull this step). Throws Interrupted (util/interrupt.h)
+  /// between substeps once `stop` is set.
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr);
   const std::vector<BodyState>& bodies() const { return bodies_; }
   /// The world-frame mesh of body i at its current position.
   TriangleMesh WorldMesh(size_t i) const;

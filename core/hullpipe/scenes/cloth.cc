@@ -137,7 +137,7 @@ void ClothSimulation::Respond(const VolumeQuery& hull, const std::vector<Eigen::
   }
 }
 
-ClothStepStats ClothSimulation::Step(double dt, const VolumeQuery* hull) {
+ClothStepStats ClothSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
   ClothStepStats stats;
   dt = std::clamp(dt, 0.0, 0.25);
   if (dt <= 0) {
@@ -147,6 +147,7 @@ ClothStepStats ClothSimulation::Step(double dt, const VolumeQuery* hull) {
   const double h = substeps ? dt / substeps : 0;
   std::vector<Eigen::Vector3d> previous;
   for (int s = 0; s < substeps; ++s) {
+    ThrowIfStopped(stop, "the cloth's step");
     previous = x_;
     for (size_t i = 0; i < x_.size(); ++i) {
       if (inv_mass_[i] == 0) continue;
@@ -154,6 +155,8 @@ ClothStepStats ClothSimulation::Step(double dt, const VolumeQuery* hull) {
       x_[i] += h * v_[i];
     }
     for (int it = 0; it < config_.iterations; ++it) {
+      // A substep of a 100,000-vertex cloth at 200 iterations takes seconds.
+      ThrowIfStopped(stop, "the cloth's step");
       for (const Constraint& c : constraints_) {
         const double wi = inv_mass_[size_t(c.i)], wj = inv_mass_[size_t(c.j)];
         if (wi + wj == 0) continue;

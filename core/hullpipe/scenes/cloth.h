@@ -27,6 +27,7 @@
 #include "hullpipe/collision/triangle_query.h"
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/scenes/limits.h"
+#include "hullpipe/util/interrupt.h"
 
 namespace hullpipe {
 
@@ -61,8 +62,9 @@ class ClothSimulation {
   /// fails Check() or gravity is zero (the curtain needs a down direction).
   ClothSimulation(const ClothConfig& config, const Eigen::Vector3d& gravity);
   /// Advances by dt seconds (clamped to [0, 0.25]) in substeps of at most
-  /// max_substep, each checked against `hull` (nullptr: no hull).
-  ClothStepStats Step(double dt, const VolumeQuery* hull);
+  /// max_substep, each checked against `hull` (nullptr: no hull). Throws
+  /// Interrupted (util/interrupt.h) between substeps once `stop` is set.
+  ClothStepStats Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr);
   /// The current mesh, world metres; triangles(): 2 (nx-1)(ny-1), CCW seen from
   /// the side the gravity-cross-rod normal points to.
   TriangleMesh Mesh() const;

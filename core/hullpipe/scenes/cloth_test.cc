@@ -3,7 +3,10 @@
 // left inside, none tunnelling through a thin plate), and a ball bouncing off a
 // box face whose hull face is exact (outgoing direction against the exact
 // reflection).
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -24,6 +27,57 @@ namespace hullpipe {
 namespace {
 
 
+
+// sim_node stops within a second of SIGINT mid-step (README, "Engineering
+// rules"). The heaviest scene the bounds allow steps for minutes: a
+// 100,000-vertex cloth at 200 iterations and 1e-4 s substeps, a 0.25-s step
+// (2,500 substeps). The flag is set 0.1 s in; the step must end with
+// Interrupted within 0.5 s of it (one constraint iteration, 400,000
+// constraints, takes milliseconds; the margin is for a loaded machine and the
+// sanitizer build). Interrupted, not a finished step, shows it was still
+// stepping. Balls and particles honour a flag already set.
+TEST(VirtualScene, AStopFlagEndsTheHeaviestStepWithinHalfASecond) {
+  SceneConfig cfg;
+  cfg.balls.clear();
+  ClothConfig cloth;
+  cloth.nx = 400;
+  cloth.ny = 250;
+  cloth.iterations = 200;
+  cloth.max_substep = kMinSubstepS;
+  cfg.cloth = cloth;
+  VirtualScene scene(cfg);
+  using Clock = std::chrono::steady_clock;
+  std::atomic<bool> stop{false};
+  std::atomic<Clock::time_point> set_at{};
+  std::thread setter([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    set_at = Clock::now();
+    stop = true;
+  });
+  Clock::time_point ended{};
+  try {
+    scene.Step(0.25, nullptr, &stop);
+    ADD_FAILURE() << "the step finished before the flag was set; it proves nothing";
+  } catch (const Interrupted& e) {
+    ended = Clock::now();
+    EXPECT_NE(std::string(e.what()).find("cloth"), std::string::npos) << e.what();
+  }
+  setter.join();
+  if (ended != Clock::time_point{}) {
+    EXPECT_LT(std::chrono::duration<double>(ended - set_at.load()).count(), 0.5);
+  }
+
+  SceneConfig small;  // one ball (the default scene) and a few particles
+  small.particles = ParticleConfig{};
+  VirtualScene quick(small);
+  stop = false;
+  EXPECT_NO_THROW(quick.Step(0.1, nullptr, &stop));  // control: an unset flag
+  stop = true;
+  BallSimulation balls(small);
+  EXPECT_THROW(balls.Step(0.1, nullptr, &stop), Interrupted);
+  ParticleSystem particles(*small.particles, small.gravity, small.has_floor, small.floor);
+  EXPECT_THROW(particles.Step(0.1, nullptr, &stop), Interrupted);
+}
 
 TEST(Cloth, HasThePapersTriangleCountAndHangsStill) {
   ClothConfig cfg;

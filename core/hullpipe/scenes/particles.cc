@@ -58,7 +58,7 @@ void ParticleSystem::Emit(double dt) {
   }
 }
 
-ParticleStepStats ParticleSystem::Step(double dt, const VolumeQuery* hull) {
+ParticleStepStats ParticleSystem::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
   ParticleStepStats stats;
   dt = std::clamp(dt, 0.0, 0.25);
   std::fill(touching_.begin(), touching_.end(), 0);
@@ -67,6 +67,7 @@ ParticleStepStats ParticleSystem::Step(double dt, const VolumeQuery* hull) {
   const double h = substeps ? dt / substeps : 0;
   const Aabb* box = hull && !hull->hull_box().empty() ? &hull->hull_box() : nullptr;
   for (int s = 0; s < substeps; ++s) {
+    ThrowIfStopped(stop, "the particles' step");
     Emit(h);
     for (size_t i = 0; i < x_.size(); ++i) {
       age_[i] += h;

@@ -23,6 +23,7 @@
 
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/scenes/limits.h"
+#include "hullpipe/util/interrupt.h"
 
 namespace hullpipe {
 
@@ -61,8 +62,9 @@ class ParticleSystem {
   /// Throws std::invalid_argument if the config fails Check().
   ParticleSystem(const ParticleConfig& config, const Eigen::Vector3d& gravity, bool has_floor, double floor);
   /// Advances by dt seconds (clamped to [0, 0.25]): emits, integrates, collides
-  /// with `hull` (nullptr: none) and the floor, recycles old particles.
-  ParticleStepStats Step(double dt, const VolumeQuery* hull);
+  /// with `hull` (nullptr: none) and the floor, recycles old particles. Throws
+  /// Interrupted (util/interrupt.h) between substeps once `stop` is set.
+  ParticleStepStats Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr);
   const std::vector<Eigen::Vector3d>& positions() const { return x_; }
   const std::vector<Eigen::Vector3d>& velocities() const { return v_; }
   /// Per particle: 1 if it touched the hull in the last step.

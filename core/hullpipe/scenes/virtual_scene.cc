@@ -9,11 +9,11 @@ VirtualScene::VirtualScene(const SceneConfig& config) : config_(config), balls_(
   if (config_.particles) particles_.emplace(*config_.particles, config_.gravity, config_.has_floor, config_.floor);
 }
 
-SceneStepStats VirtualScene::Step(double dt, const VolumeQuery* hull) {
+SceneStepStats VirtualScene::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
   SceneStepStats st;
-  balls_.Step(dt, hull);
-  if (cloth_) st.cloth = cloth_->Step(dt, hull);
-  if (particles_) st.particles = particles_->Step(dt, hull);
+  balls_.Step(dt, hull, stop);
+  if (cloth_) st.cloth = cloth_->Step(dt, hull, stop);
+  if (particles_) st.particles = particles_->Step(dt, hull, stop);
   if (config_.payload) st.payload = EvaluatePayload(*config_.payload, hull);
   return st;
 }

@@ -22,8 +22,10 @@ class VirtualScene {
  public:
   /// Throws std::invalid_argument if the config fails Check().
   explicit VirtualScene(const SceneConfig& config);
-  /// Advances every part by dt seconds against `hull` (nullptr: none).
-  SceneStepStats Step(double dt, const VolumeQuery* hull);
+  /// Advances every part by dt seconds against `hull` (nullptr: none). Throws
+  /// Interrupted (util/interrupt.h) between substeps once `stop` is set; the
+  /// scene is then part-way through the step (good only for stopping).
+  SceneStepStats Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr);
   const BallSimulation& balls() const { return balls_; }
   const ClothSimulation* cloth() const { return cloth_ ? &*cloth_ : nullptr; }
   const ParticleSystem* particles() const { return particles_ ? &*particles_ : nullptr; }

@@ -145,6 +145,8 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
     vis = backend_.Visibility(vq, cams, o_.visibility_width, vis_sweep);
   }
   int published = 0;
+  spdlog::debug("frameset {}, pose {}: sweeping a {}x{} view, {} planes", fs.seq, pose.pose_seq, pose.view.width,
+                pose.view.height, depths.size());
   for (const int t : MyTiles()) {
     const double tt0 = clock_.Now();
     const cv::Rect rect = TileRect(t, o_.tile_count, pose.view.width, pose.view.height);

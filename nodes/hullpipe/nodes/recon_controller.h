@@ -63,6 +63,8 @@ class ReconController {
   /// assembler (counted into this node's rejected, with the assembler's own).
   void SetMalformedInput(uint64_t n) { malformed_input_ = n; }
   /// Serves every pose that can be served now; returns the tiles published.
+  /// Throws Interrupted (util/interrupt.h) when the backend's stop flag is set
+  /// mid-render: the node is stopping, and the pose is dropped.
   int Step();
   /// The tiles this node renders now: its own, plus any it adopts.
   std::vector<int> MyTiles();

@@ -53,7 +53,8 @@ void SimController::StepOne(const Frameset& fs) {
   {
     StageTimer st(counters_, "step");
     VolumeQuery vq(fs.maps, assembler_.workspace());
-    step = scene_.Step(dt, &vq);
+    spdlog::debug("frameset {}: stepping the scene {:.3f} s", fs.seq, dt);
+    step = scene_.Step(dt, &vq, stop_);
   }
   auto mesh = [&](uint32_t id, uint8_t kind, VirtualMeshDraw draw, double clearance) {
     VirtualMeshSample m;

@@ -51,8 +51,11 @@ class SimController {
   /// assembler (counted into this node's rejected, with the assembler's own).
   void SetMalformedInput(uint64_t n) { malformed_input_ = n; }
   /// Steps the scene on every new frameset (newest first wins); returns the
-  /// framesets stepped.
+  /// framesets stepped. Throws Interrupted (util/interrupt.h) when the stop flag
+  /// is set mid-step: the node is stopping.
   int Step();
+  /// The flag a long step polls between substeps (nullptr: never stops).
+  void set_stop(StopFlag stop) { stop_ = stop; }
 
   const VirtualScene& scene() const { return scene_; }
   NodeCounters& counters() { return counters_; }
@@ -71,6 +74,7 @@ class SimController {
   std::vector<PartCollisionEvent> part_events_;
   uint64_t collisions_ = 0, commands_rejected_ = 0, malformed_input_ = 0;
   double last_source_time_ = -1;
+  StopFlag stop_ = nullptr;
 };
 
 }  // namespace hullpipe::nodes

@@ -11,6 +11,8 @@
 
 #include <dds/dds.h>
 
+#include "hullpipe/util/interrupt.h"
+
 namespace hullpipe::dds {
 
 /// A Cyclone call failed; what() is "<call>: <dds_strretcode>".
@@ -170,6 +172,8 @@ class WaitSet : public Entity {
 /// Process-wide stop request, set by SIGINT/SIGTERM once InstallStopHandler ran.
 bool StopRequested();
 void RequestStop();
+/// The same request as a flag that core loops poll (util/interrupt.h).
+StopFlag StopRequestFlag();
 /// Installs SIGINT and SIGTERM handlers that call RequestStop (async-signal-safe).
 void InstallStopHandler();
 

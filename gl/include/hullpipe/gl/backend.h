@@ -41,9 +41,16 @@ class SweepBackend {
   /// software (llvmpipe ...); the CPU sweep is faster there".
   const std::string& reason() const { return reason_; }
   void set_reason(std::string r) { reason_ = std::move(r); }
+  /// The flag Sweep, Visibility and Texture poll (util/interrupt.h): once set they
+  /// throw Interrupted. The CPU backend polls per pixel or row, and the GL
+  /// stencil method in its CPU refinement; GL draws and dispatches, once queued,
+  /// run to their end. nullptr (the default) never stops.
+  void set_stop(StopFlag stop) { stop_ = stop; }
+  StopFlag stop() const { return stop_; }
 
  private:
   std::string reason_;
+  StopFlag stop_ = nullptr;
 };
 
 /// How to make a backend.

@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Runs hullpipe's libFuzzer targets (docs/reliability.md, "Fuzzing and
+# sanitizers") from an existing build-asan (scripts/sanitize.sh makes it):
+#   FUZZ_SECONDS=600 bash scripts/fuzz.sh [target ...]
+# Each target starts from its seeds: fuzz/corpus/<target> (regression inputs kept
+# in git), the rig's config.xml files, the launch YAMLs, the shipped scenes and
+# CSVs, and one valid sample of every topic and a small recording
+# (fuzz_make_seeds). A fixed -seed keeps CI's short runs repeatable. Per target
+# it prints the executions, the peak RSS and the corpus it grew; a finding exits
+# 1 naming the crash file left in build-asan/fuzz-out/<target>/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+FUZZ_SECONDS="${FUZZ_SECONDS:-20}"
+RIG="${RIG:-../shared/data/utrecht-4cam}"
+BIN=build-asan/bin
+export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings)
+[ $# -gt 0 ] && FUZZERS=("$@")
+for f in "${FUZZERS[@]}" fuzz_make_seeds; do
+  [ -x "$BIN/$f" ] || { echo "fuzz.sh: $BIN/$f is missing; run scripts/sanitize.sh first" >&2; exit 1; }
+done
+
+SEEDS=build-asan/fuzz-seeds
+rm -rf "$SEEDS" && mkdir -p "$SEEDS"
+"$BIN/fuzz_make_seeds" "$SEEDS"
+mkdir -p "$SEEDS/fuzz_rig_files" "$SEEDS/fuzz_scene_files" "$SEEDS/fuzz_csv_files"
+# The rig parser's first byte picks XML (even) or YAML (odd).
+for cfg in "$RIG"/cam*/config.xml; do
+  [ -f "$cfg" ] && { printf '\x00'; cat "$cfg"; } > "$SEEDS/fuzz_rig_files/$(basename "$(dirname "$cfg")").xml"
+done
+for yml in launch/*.yaml; do { printf '\x01'; cat "$yml"; } > "$SEEDS/fuzz_rig_files/$(basename "$yml")"; done
+cp scenes/*.yaml "$SEEDS/fuzz_scene_files/"
+for csv in scenes/*.csv; do
+  { printf '\x00'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/pose_$(basename "$csv")"
+  { printf '\x01'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/motion_$(basename "$csv")"
+done
+
+for f in "${FUZZERS[@]}"; do
+  work="build-asan/fuzz-out/$f"
+  rm -rf "$work" && mkdir -p "$work/corpus"
+  dirs=("$work/corpus" "$SEEDS/$f")
+  [ -d "fuzz/corpus/$f" ] && dirs+=("fuzz/corpus/$f")
+  echo "-- $f (${FUZZ_SECONDS} s)"
+  if ! (cd "$work" && "$OLDPWD/$BIN/$f" -seed=1 -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 -timeout=10 \
+          -max_len=65536 -print_final_stats=1 "${dirs[@]/#/$OLDPWD/}" >fuzz.log 2>&1); then
+    tail -40 "$work/fuzz.log" >&2
+    echo "fuzz.sh: $f found a failing input: $(ls "$work"/crash-* "$work"/leak-* "$work"/timeout-* "$work"/oom-* 2>/dev/null | head -3)" >&2
+    exit 1
+  fi
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$work/fuzz.log")
+  rss=$(sed -n 's/^stat::peak_rss_mb: *//p' "$work/fuzz.log")
+  echo "$f: ${execs:-?} executions in ${FUZZ_SECONDS} s, peak RSS ${rss:-?} MB, corpus $(ls "$work/corpus" | wc -l) inputs grown, no finding"
+done
