@@ -54,6 +54,7 @@ int main(int argc, char** argv) {
   CLI::App app{"hullpipe capture_node: cameras -> object-pixel maps + colour images over DDS"};
   CommonOptions common;
   AddCommonOptions(app, common);
+  AddRunIdOption(app, common);
   std::string rig_path;
   bool synthetic = false;
   std::vector<int> camera_ids;
@@ -159,7 +160,7 @@ int main(int argc, char** argv) {
     };
     spdlog::info("{} camera(s) of {}, {:.1f} fps{}", source->cameras().size(), source->rig_camera_count(),
                  capture.rate(), fast ? " (unpaced)" : source->live() ? " (live)" : "");
-    NodeReporter reporter(*participant, name, capture.counters());
+    NodeReporter reporter(*participant, name, capture.counters(), common.run_id);
     capture.PublishCalibration();
     if (wait_readers > 0) {
       const double deadline = MonotonicSeconds() + wait_timeout;

@@ -26,6 +26,7 @@
 #include "hullpipe/launch/domain.h"
 #include "hullpipe/launch/process.h"
 #include "hullpipe/util/cli_range.h"
+#include "hullpipe/util/run_id.h"
 
 namespace fs = std::filesystem;
 
@@ -76,6 +77,13 @@ int main(int argc, char** argv) {
   app.add_option("--height", height, "Novel view height")->capture_default_str();
   app.add_option("--planes", planes, "Plane-sweep planes")->capture_default_str();
   app.add_option("--domain", domain, "DDS domain id (default: unique per run, from the pid)");
+  std::string run_id_text;
+  app.add_option("--run-id", run_id_text,
+                 "This run's id, 1-16 hex digits, given to every node (default: a random one); render_node and "
+                 "recon_node ignore samples of another run on the domain")
+      ->check([](const std::string& t) {
+        return hullpipe::ParseRunId(t) ? std::string() : "--run-id must be 1 to 16 hex digits, not zero";
+      });
   app.add_option("--dds-config", dds_config, "Cyclone XML config (default: loopback config written to --out)");
   app.add_option("--bin-dir", bin_dir, "Directory of the node executables (default: beside this one)");
   app.add_option("--grace", grace, "Seconds between SIGINT and SIGKILL at shutdown")->capture_default_str();
@@ -90,6 +98,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "give exactly one of --rig DIR or --synthetic\n");
     return 2;
   }
+  const uint64_t run_id = run_id_text.empty() ? hullpipe::NewRunId() : *hullpipe::ParseRunId(run_id_text);
   const fs::path self_dir = fs::canonical("/proc/self/exe").parent_path();
   if (bin_dir.empty()) bin_dir = self_dir.string();
   if (description.empty()) description = HULLPIPE_SOURCE_DIR "/launch/local.yaml";
@@ -151,7 +160,8 @@ int main(int argc, char** argv) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
 
-  std::printf("hullpipe_launch: domain %d, DDS config %s, logs in %s/logs\n", domain, dds_config.c_str(), out.c_str());
+  std::printf("hullpipe_launch: domain %d, run id %s, DDS config %s, logs in %s/logs\n", domain,
+              hullpipe::RunIdText(run_id).c_str(), dds_config.c_str(), out.c_str());
   std::vector<Child> children;
   for (const auto& spec : specs) {
     // A staggered start (cameras on several machines start when they start).
@@ -177,6 +187,8 @@ int main(int argc, char** argv) {
     }
     args.push_back("--domain");
     args.push_back(std::to_string(domain));
+    args.push_back("--run-id");
+    args.push_back(hullpipe::RunIdText(run_id));
     const std::string exe = (fs::path(bin_dir) / spec.exec).string();
     std::vector<std::string> argv_s;
     if (spec.host == "localhost" || spec.host.empty()) {

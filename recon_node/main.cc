@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   CLI::App app{"hullpipe recon_node: object-pixel maps + ViewPose -> HullView tile"};
   CommonOptions common;
   AddCommonOptions(app, common);
+  AddRunIdOption(app, common);
   nodes::ReconOptions o;
   std::string tile_spec = "0/1", backend_name = "auto", out_of_view = "unknown";
   app.add_option("--tile", tile_spec, "This node's tile i/N of the view (horizontal bands)")->capture_default_str();
@@ -93,17 +94,18 @@ int main(int argc, char** argv) {
     ws.Attach(pose_reader);
     TileWriter tiles(*participant);
     nodes::SystemClock clock;
+    o.run_id = common.run_id;
     nodes::ReconController recon(o, clock, input.assembler(), *backend, tiles);
-    NodeReporter reporter(*participant, name, recon.counters());
+    NodeReporter reporter(*participant, name, recon.counters(), common.run_id);
     while (!StopRequested()) {
       ws.Wait(0.1);
       input.Poll();
       peer_stats.TakeEach([&](const hullpipe_msg_NodeStats& m, const dds_sample_info_t&) {
-        recon.OnNodeStats(m.node_name ? m.node_name : "", m.final_report);
+        recon.OnNodeStats(m.node_name ? m.node_name : "", m.final_report, m.run_id);
       });
       pose_reader.TakeEach([&](const hullpipe_msg_ViewPose& m, const dds_sample_info_t&) {
         try {
-          recon.OnPose(ViewFromMsg(m), m.pose_seq, m.frame_seq);
+          recon.OnPose(ViewFromMsg(m), m.pose_seq, m.frame_seq, m.run_id);
         } catch (const MessageError& e) {
           recon.Reject(e.what());
         }
@@ -118,8 +120,10 @@ int main(int argc, char** argv) {
       reporter.Publish();
     }
     reporter.Publish(true);
-    spdlog::info("stopped: {} tiles out, {} dropped, {} rejected", recon.counters().frames_out(),
-                 recon.counters().dropped(), recon.counters().rejected());
+    uint64_t other_runs = 0;
+    for (const auto& [kind, n] : recon.runs().ignored()) other_runs += n;
+    spdlog::info("stopped: {} tiles out, {} dropped, {} rejected, {} sample(s) of other runs ignored",
+                 recon.counters().frames_out(), recon.counters().dropped(), recon.counters().rejected(), other_runs);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

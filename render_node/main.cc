@@ -26,16 +26,17 @@ namespace {
 // ViewPose messages, and the video, PNGs and window.
 class Outputs final : public nodes::RenderSink {
  public:
-  Outputs(const Writer<hullpipe_msg_ViewPose>& poses, std::string out_dir, double video_fps, int png_every, bool show,
-          bool save_depth)
+  Outputs(const Writer<hullpipe_msg_ViewPose>& poses, uint64_t run_id, std::string out_dir, double video_fps,
+          int png_every, bool show, bool save_depth)
       : poses_(poses),
+        run_id_(run_id),
         out_dir_(std::move(out_dir)),
         video_fps_(video_fps),
         png_every_(png_every),
         show_(show),
         save_depth_(save_depth) {}
   void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq) override {
-    poses_.Write(ViewToMsg(view, pose_seq, frame_seq, NowNs()));
+    poses_.Write(ViewToMsg(view, pose_seq, frame_seq, NowNs(), run_id_));
   }
   void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
                   const cv::Mat& hull_depth, double path_time_s) override {
@@ -90,6 +91,7 @@ class Outputs final : public nodes::RenderSink {
 
  private:
   const Writer<hullpipe_msg_ViewPose>& poses_;
+  uint64_t run_id_;
   std::string out_dir_;
   double video_fps_;
   int png_every_;
@@ -125,6 +127,7 @@ int main(int argc, char** argv) {
   CLI::App app{"hullpipe render_node: viewpoint, tile assembly, compositing, outputs"};
   CommonOptions common;
   AddCommonOptions(app, common);
+  AddRunIdOption(app, common);
   nodes::RenderOptions o;
   std::string out_dir = "out", window = "auto", view_source = "orbit", head_poses, scene_path;
   int png_every = 0;
@@ -204,11 +207,15 @@ int main(int argc, char** argv) {
     ws.Attach(report_reader);
     ws.Attach(stats_reader);
     ws.Attach(mesh_reader);
-    Outputs outputs(pose_writer, out_dir, video_fps, png_every, window == "on" || (window == "auto" && have_display),
+    // Poses carry this run's id and tiles echo it (nodes/run_filter.h): without
+    // --run-id, render's own random one still tells its tiles from a replay's.
+    o.run_id = common.run_id ? common.run_id : NewRunId();
+    spdlog::info("run id {}{}", RunIdText(o.run_id), common.run_id ? "" : " (its own: no --run-id given)");
+    Outputs outputs(pose_writer, o.run_id, out_dir, video_fps, png_every, window == "on" || (window == "auto" && have_display),
                     save_depth);
     nodes::SystemClock clock;
     nodes::RenderController render(o, clock, input.assembler(), outputs);
-    NodeReporter reporter(*participant, "render", render.counters());
+    NodeReporter reporter(*participant, "render", render.counters(), o.run_id);
 
     // Converts one sample; a malformed one is rejected on one line.
     auto take = [&render](auto& reader, auto&& use) {

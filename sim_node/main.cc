@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   CLI::App app{"hullpipe sim_node: virtual scene colliding with the visual hull"};
   CommonOptions common;
   AddCommonOptions(app, common);
+  AddRunIdOption(app, common);
   std::string scene_path;
   app.add_option("--scene", scene_path, "Scene file (YAML); default: one ball");
   double skew_tolerance_ms = 0;
@@ -56,7 +57,7 @@ int main(int argc, char** argv) {
     nodes::SystemClock clock;
     nodes::SimController sim(config, clock, input.assembler(), writers);
     sim.set_stop(StopRequestFlag());  // SIGINT ends a long step too
-    NodeReporter reporter(*participant, "sim", sim.counters());
+    NodeReporter reporter(*participant, "sim", sim.counters(), common.run_id);
     while (!StopRequested()) {
       ws.Wait(0.1);
       input.Poll();

@@ -551,6 +551,63 @@ TEST_F(RecordTools, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
   }
 }
 
+// The README's replay into live nodes, with the whole recording: run A
+// (capture, recon, render) is recorded with every topic; run B is a live recon
+// and render fed by replaying that recording with --all-topics. The recorded
+// ViewPose, HullView and NodeStats once mixed with run B's own (63 of 426
+// frames composited, the recorded rows shown as live, no warning). Now run B's
+// nodes ignore them, count them and say so, and composite the replayed frames
+// from their own poses (the control that the replay reached them).
+TEST_F(RecordTools, AWholeRecordingReplayedIntoALiveRunIsNotMixedIn) {
+  const std::string path = (dir_ / "run_a.hprec").string();
+  const auto out_a = dir_ / "out_a", out_b = dir_ / "out_b";
+  auto render_args = [](const std::string& run, const std::filesystem::path& out) {
+    return std::vector<std::string>{"--run-id", run, "--tiles", "1", "--window", "off", "--out", out.string()};
+  };
+  const std::vector<std::string> recon_args = {"--tile", "0/1", "--backend", "cpu", "--planes", "20"};
+  auto with_run = [](std::vector<std::string> a, const std::string& run) {
+    a.insert(a.end(), {"--run-id", run});
+    return a;
+  };
+  {
+    auto recorder = Start("hullpipe_record", {"-o", path});
+    auto recon = Start("recon_node", with_run(recon_args, "a"));
+    auto render = Start("render_node", render_args("a", out_a));
+    // Maps are read by the recorder, recon and render: capture starts when all three are there.
+    auto capture = Start("capture_node", {"--synthetic", "--frames", "30", "--fps", "10", "--run-id", "a",
+                                          "--wait-readers", "3", "--wait-timeout", "30"});
+    ASSERT_EQ(capture->Wait(60), 0) << Log("capture_node");
+    ASSERT_EQ(render->Wait(30), 0) << Log("render_node");
+    EXPECT_EQ(recon->Stop(), 0) << Log("recon_node");
+    ASSERT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
+  }
+  const auto run_a = nlohmann::json::parse(test::ReadFile((out_a / "stats.json").string()));
+  ASSERT_GT(run_a["frames_composited"].get<int>(), 0) << run_a.dump();
+
+  const uint32_t d = test::UniqueDomain();
+  auto recon = Start("recon_node", with_run(recon_args, "b"), d);
+  auto render = Start("render_node", render_args("b", out_b), d);
+  auto replay = Start("hullpipe_replay", {path, "--all-topics", "--wait-readers", "2", "--rate", "1", "--no-keyboard"}, d);
+  EXPECT_EQ(replay->Wait(60), 0) << Log("hullpipe_replay");
+  // The recorded capture's final report is another run's: render B ends when no
+  // frameset came for its idle time-out (5 s).
+  ASSERT_EQ(render->Wait(30), 0) << Log("render_node");
+  EXPECT_EQ(recon->Stop(), 0) << Log("recon_node");
+  const auto run_b = nlohmann::json::parse(test::ReadFile((out_b / "stats.json").string()));
+  EXPECT_EQ(run_b["run_id"], "000000000000000b");
+  EXPECT_GT(run_b["ignored_from_other_runs"]["HullView"].get<int>(), 0) << run_b.dump();
+  EXPECT_GT(run_b["ignored_from_other_runs"]["NodeStats"].get<int>(), 0) << run_b.dump();
+  EXPECT_FALSE(run_b["nodes"].contains("capture")) << "the recorded capture is not this run's: " << run_b.dump();
+  EXPECT_TRUE(run_b["nodes"].contains("recon0")) << run_b.dump();
+  // Run B composited the replayed frames from its own poses: at least half of
+  // the 30 (latest wins on a busy machine; run A's own count is the same kind).
+  EXPECT_GE(run_b["frames_composited"].get<int>(), 15) << run_b.dump();
+  EXPECT_NE(Log("recon_node").find("ignoring ViewPose samples of another run (run id 000000000000000a"),
+            std::string::npos)
+      << Log("recon_node");
+  EXPECT_NE(Log("render_node").find("ignoring HullView samples"), std::string::npos) << Log("render_node");
+}
+
 }  // namespace
 }  // namespace hullpipe
 

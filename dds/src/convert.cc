@@ -162,8 +162,10 @@ cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& m) {
   throw MessageError(who + "unknown encoding " + std::to_string(int(m.encoding)));
 }
 
-hullpipe_msg_ViewPose ViewToMsg(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq, int64_t stamp) {
+hullpipe_msg_ViewPose ViewToMsg(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq, int64_t stamp,
+                                uint64_t run_id) {
   hullpipe_msg_ViewPose m{};
+  m.run_id = run_id;
   m.pose_seq = pose_seq;
   m.stamp_ns = stamp;
   m.frame_seq = frame_seq;
@@ -224,6 +226,7 @@ OwnedSample<hullpipe_msg_HullView> MakeHullViewMessage(const HullTile& t, uint32
   Borrow(&m.colour, s.bytes);
   m.planes = planes;
   m.render_ms = t.render_ms;
+  m.run_id = t.run_id;
   return s;
 }
 
@@ -248,6 +251,7 @@ HullTile TileFromMsg(const hullpipe_msg_HullView& m) {
   t.frame_seq = m.frame_seq;
   t.capture_time_ns = m.capture_time_ns;
   t.render_ms = m.render_ms;
+  t.run_id = m.run_id;
   // 0 (no hull on the wire), and anything not a positive finite depth from a bad
   // sender, becomes kNoDepth (+inf) inside, where depth tests take the minimum.
   for (int r = 0; r < t.depth.rows; ++r) {
@@ -439,6 +443,7 @@ OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsS
                          c.unpartnered, c.pauses, c.restarts, c.clock_offsets});
   Borrow(&m.cameras, o.cameras);
   m.backend = const_cast<char*>(o.strings[1].c_str());
+  m.run_id = s.run_id;
   return o;
 }
 
@@ -480,6 +485,7 @@ nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& m) {
   s.dropped = m.dropped;
   s.rejected = m.rejected;
   s.final_report = m.final_report;
+  s.run_id = m.run_id;
   for (uint32_t i = 0; i < m.stages._length; ++i) {
     const auto& st = m.stages._buffer[i];
     if (i >= 64) throw MessageError("NodeStats: more than 64 stages");

@@ -9,6 +9,7 @@
 
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/run_id.h"
 
 namespace hullpipe::dds {
 
@@ -21,6 +22,21 @@ void AddCommonOptions(CLI::App& app, CommonOptions& o) {
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
 }
+
+void AddRunIdOption(CLI::App& app, CommonOptions& o) {
+  app.add_option_function<std::string>(
+         "--run-id",
+         [&o](const std::string& text) {
+           const auto id = ParseRunId(text);
+           if (!id) throw CLI::ValidationError("--run-id", "must be 1 to 16 hex digits, not zero: '" + text + "'");
+           o.run_id = *id;
+         },
+         "This run's id (hex; hullpipe_launch gives every node one): NodeStats carry it, and render_node and "
+         "recon_node ignore samples of another run on the domain")
+      ->type_name("HEX");
+}
+
+
 
 std::unique_ptr<Participant> StartNode(const std::string& node_name, const CommonOptions& o) {
   spdlog::set_pattern("[%H:%M:%S.%e] [" + node_name + "] %^%l%$ %v");
@@ -38,8 +54,9 @@ std::unique_ptr<Participant> StartNode(const std::string& node_name, const Commo
   return std::make_unique<Participant>(o.domain);
 }
 
-NodeReporter::NodeReporter(const Participant& p, std::string name, const nodes::NodeCounters& counters)
-    : writer_(p), name_(std::move(name)), counters_(counters) {}
+NodeReporter::NodeReporter(const Participant& p, std::string name, const nodes::NodeCounters& counters,
+                           uint64_t run_id)
+    : writer_(p), name_(std::move(name)), counters_(counters), run_id_(run_id) {}
 
 NodeReporter::~NodeReporter() {
   try {
@@ -52,7 +69,9 @@ void NodeReporter::Publish(bool final_report) {
   const double now = counters_.clock().Now();
   if (final_sent_ || (!final_report && now - last_publish_s_ < 0.5)) return;
   last_publish_s_ = now;
-  writer_.Write(MakeNodeStatsMessage(counters_.Snapshot(name_, final_report), counters_.clock().WallNs()).msg);
+  nodes::NodeStatsSample s = counters_.Snapshot(name_, final_report);
+  s.run_id = run_id_;
+  writer_.Write(MakeNodeStatsMessage(s, counters_.clock().WallNs()).msg);
   if (final_report) final_sent_ = true;
 }
 

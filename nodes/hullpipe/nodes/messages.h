@@ -22,6 +22,7 @@ struct HullTile {
   uint64_t pose_seq = 0, frame_seq = 0;
   int64_t capture_time_ns = 0;
   double render_ms = 0;
+  uint64_t run_id = 0;  ///< The ViewPose's run (docs/reliability.md, "run id").
 };
 
 /// What a VirtualMesh is (values as the IDL's MESH_KIND_*).

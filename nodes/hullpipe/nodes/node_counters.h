@@ -27,6 +27,7 @@ struct NodeStatsSample {
   uint64_t dropped_for_skew = 0;             ///< Framesets dropped for skew (assembling nodes).
   std::vector<CameraSkewReport> cameras;     ///< Per camera (assembling nodes; empty otherwise).
   std::string backend;  ///< "cpu", or the GL method and GlInfo::Summary() (empty: not reported).
+  uint64_t run_id = 0;  ///< The node's --run-id (0: none given; docs/reliability.md, "run id").
 };
 
 class NodeCounters {

@@ -41,6 +41,7 @@ ReconController::ReconController(ReconOptions options, const Clock& clock, Frame
       sink_(sink),
       counters_(clock),
       peers_((o_.Check(), o_.failover)),
+      runs_(o_.run_id),
       adopted_(size_t(o_.tile_count), false) {
   query_options_.out_of_view = o_.out_of_view;
   const gl::GlInfo* gl = backend_.gl_info();
@@ -51,11 +52,13 @@ ReconController::ReconController(ReconOptions options, const Clock& clock, Frame
     if (k != o_.tile) peers_.Expect("recon" + std::to_string(k), clock_.Now());
 }
 
-void ReconController::OnPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq) {
-  poses_.push_back({view, pose_seq, frame_seq, clock_.Now()});
+void ReconController::OnPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq, uint64_t run_id) {
+  if (!runs_.Accept(run_id, "ViewPose", /*take_unset=*/false)) return;
+  poses_.push_back({view, pose_seq, frame_seq, clock_.Now(), run_id});
 }
 
-void ReconController::OnNodeStats(const std::string& name, bool final_report) {
+void ReconController::OnNodeStats(const std::string& name, bool final_report, uint64_t run_id) {
+  if (!runs_.Accept(run_id, "NodeStats", /*take_unset=*/true, name)) return;
   int k = -1;
   char tail = 0;
   if (std::sscanf(name.c_str(), "recon%d%c", &k, &tail) != 1 || k < 0 || k >= o_.tile_count || k == o_.tile) return;
@@ -166,6 +169,7 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
     tile.pose_seq = pose.pose_seq;
     tile.frame_seq = fs.seq;
     tile.capture_time_ns = fs.capture_time_ns;
+    tile.run_id = pose.run_id;
     tile.render_ms = (clock_.Now() - (t == o_.tile ? t0 : tt0)) * 1e3;
     sink_.PublishTile(tile, uint32_t(depths.size()));
     ++published;

@@ -19,6 +19,7 @@
 #include "hullpipe/nodes/messages.h"
 #include "hullpipe/nodes/node_counters.h"
 #include "hullpipe/nodes/peer_liveness.h"
+#include "hullpipe/nodes/run_filter.h"
 #include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/reconstruction/volume_query.h"
@@ -35,6 +36,7 @@ struct ReconOptions {
   OutOfView out_of_view = OutOfView::kUnknown;
   double pose_timeout = 1.0;     ///< Drop a pose whose frameset did not come within this many s.
   double failover = 1.2;         ///< A peer silent this many s has its tile adopted.
+  uint64_t run_id = 0;           ///< This run (--run-id; 0: serve any run's poses). nodes/run_filter.h.
   /// Parses "i/N" (0 <= i < N <= 64) into tile, tile_count; std::invalid_argument otherwise.
   void ParseTile(const std::string& spec);
   /// Throws std::invalid_argument naming the flag out of range.
@@ -54,10 +56,13 @@ class ReconController {
  public:
   ReconController(ReconOptions options, const Clock& clock, FramesetAssembler& assembler,
                   gl::SweepBackend& backend, ReconSink& sink);
-  /// A ViewPose: render frameset frame_seq (0: the newest complete) from `view`.
-  void OnPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq);
-  /// A NodeStats sample of node `name` (peers are "recon<k>"; others ignored).
-  void OnNodeStats(const std::string& name, bool final_report);
+  /// A ViewPose of run `run_id`: render frameset frame_seq (0: the newest
+  /// complete) from `view`; its tile carries the run id back. A pose of another
+  /// run is ignored (counted in runs().ignored(); one warning per run).
+  void OnPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq, uint64_t run_id = 0);
+  /// A NodeStats sample of node `name` (peers are "recon<k>"; others ignored,
+  /// as are reports of another run: a replayed peer must not seem alive).
+  void OnNodeStats(const std::string& name, bool final_report, uint64_t run_id = 0);
   void Reject(const std::string& why);
   /// Input samples the caller could not decode before they reached the
   /// assembler (counted into this node's rejected, with the assembler's own).
@@ -72,6 +77,7 @@ class ReconController {
   NodeCounters& counters() { return counters_; }
   const NodeCounters& counters() const { return counters_; }
   uint64_t poses_dropped() const { return poses_dropped_; }
+  const RunFilter& runs() const { return runs_; }
   uint64_t rejected() const { return rejected_; }
 
  private:
@@ -79,6 +85,7 @@ class ReconController {
     NovelView view;
     uint64_t pose_seq = 0, frame_seq = 0;
     double received_s = 0;
+    uint64_t run_id = 0;
   };
   int Render(const PendingPose& pose, const Frameset& fs);
 
@@ -89,6 +96,7 @@ class ReconController {
   ReconSink& sink_;
   NodeCounters counters_;
   PeerLiveness peers_;
+  RunFilter runs_;
   VolumeQueryOptions query_options_;
   std::vector<bool> adopted_;
   std::deque<PendingPose> poses_;

@@ -114,5 +114,42 @@ TEST_F(Recon, TheLowestLiveNodeAdoptsASilentPeersTileUntilItIsHeardAgain) {
   EXPECT_EQ(r0.MyTiles(), std::vector<int>({0, 1}));
 }
 
+// Replaying a whole recording into a live run put the recorded run's poses on
+// the wire beside render's: recon served both. A pose of another run is ignored
+// and counted; this run's pose is served (the control) and its tile carries the
+// run id back; a peer's report from another run does not keep it alive.
+TEST_F(Recon, PosesAndPeerReportsOfAnotherRunAreIgnored) {
+  ReconOptions o = Options("0/2");
+  o.run_id = 0xa;
+  ReconController r(o, clock_, assembler_, *cpu_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs(), true);
+  r.OnPose(View(), 1, 1, /*run_id=*/0xb);
+  r.OnPose(View(), 2, 1, /*run_id=*/0);  // a pose without a run id is not this run's either
+  EXPECT_EQ(r.Step(), 0);
+  EXPECT_EQ(r.runs().ignored().at("ViewPose"), 2u);
+  r.OnPose(View(), 3, 1, 0xa);
+  ASSERT_EQ(r.Step(), 1);
+  EXPECT_EQ(sink_.tiles[0].pose_seq, 3u);
+  EXPECT_EQ(sink_.tiles[0].run_id, 0xau);
+  // recon1 of another run keeps reporting; this run's recon1 is silent: adopted.
+  clock_.Advance(0.6);
+  r.OnNodeStats("recon1", false, 0xb);
+  clock_.Advance(0.7);
+  r.OnNodeStats("recon1", false, 0xb);
+  EXPECT_EQ(r.MyTiles(), std::vector<int>({0, 1}));
+  EXPECT_EQ(r.runs().ignored().at("NodeStats"), 2u);
+  r.OnNodeStats("recon1", false, 0xa);  // control: this run's report is taken
+  EXPECT_EQ(r.MyTiles(), std::vector<int>({0}));
+  r.OnNodeStats("recon1", false, 0);  // a node started without --run-id: taken
+  EXPECT_EQ(r.runs().ignored().at("NodeStats"), 2u);
+  // Without a run id of its own, recon serves any run's pose.
+  TileRecorder any;
+  ReconController free_run(Options("0/1"), clock_, assembler_, *cpu_, any);
+  rig_.AddFrame(assembler_, 2, clock_.WallNs(), true);
+  free_run.OnPose(View(), 9, 2, 0xb);
+  EXPECT_EQ(free_run.Step(), 1);
+  EXPECT_EQ(any.tiles.at(0).run_id, 0xbu);
+}
+
 }  // namespace
 }  // namespace hullpipe::nodes

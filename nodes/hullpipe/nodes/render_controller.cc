@@ -36,7 +36,8 @@ RenderController::RenderController(RenderOptions options, const Clock& clock, Fr
       assembler_(assembler),
       sink_(sink),
       counters_(clock),
-      recon_liveness_((o_.Check(), o_.recon_silence)) {
+      recon_liveness_((o_.Check(), o_.recon_silence)),
+      runs_(o_.run_id) {
   orbit_.up = o_.up.normalized();
   orbit_.radius = o_.orbit_radius;
   orbit_.height = o_.orbit_height;
@@ -55,6 +56,10 @@ void RenderController::Reject(const std::string& why) {
 }
 
 void RenderController::OnTile(HullTile t) {
+  // A tile answers a pose, and a pose carries this run's id: render's tiles
+  // always carry it, so one without it is another run's too.
+  if (!runs_.Accept(t.run_id, "HullView", /*take_unset=*/o_.run_id == 0, "recon" + std::to_string(t.node_id)))
+    return;
   auto it = in_flight_.find(t.pose_seq);
   if (it == in_flight_.end()) {
     ++tiles_late_;
@@ -87,6 +92,7 @@ void RenderController::OnCollisionReport(bool has_points) {
 }
 
 void RenderController::OnNodeStats(const NodeStatsSample& m) {
+  if (!runs_.Accept(m.run_id, "NodeStats", /*take_unset=*/true, m.name)) return;
   node_stats_[m.name] = m;
   if (m.name.rfind("recon", 0) == 0) recon_liveness_.Heard(m.name, clock_.Now(), m.final_report);
   // With cameras on several capture nodes the input ends when every capture node
@@ -253,6 +259,8 @@ int RenderController::Step() {
 nlohmann::json RenderController::StatsJson() const {
   nlohmann::json j;
   j["view"] = {{"width", o_.width}, {"height", o_.height}, {"tiles", o_.tiles}};
+  j["run_id"] = RunIdText(o_.run_id);
+  j["ignored_from_other_runs"] = runs_.ignored();  // samples by kind (HullView, NodeStats)
   j["frames_composited"] = counters_.frames_out();
   j["last_frame_seq"] = last_composited_;
   j["collision_frames_drawn"] = collisions_drawn_;
@@ -324,6 +332,9 @@ std::string RenderController::Table() const {
   // What computed each node's hull or collisions (CPU, or which GL renderer).
   for (const auto& [name, r] : node_stats_)
     if (!r.backend.empty()) line("%-10s backend: %.200s\n", name.c_str(), r.backend.c_str());
+  for (const auto& [kind, n] : runs_.ignored())
+    line("ignored %llu %s sample(s) of other runs (this run is %s)\n", (unsigned long long)n, kind.c_str(),
+         RunIdText(o_.run_id).c_str());
   // How render's framesets were assembled (the recon and sim nodes' are in stats.json).
   if (!self.cameras.empty()) {
     line("\nframesets (render): %llu dropped for skew\n", (unsigned long long)self.dropped_for_skew);

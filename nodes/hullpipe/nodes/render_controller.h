@@ -23,6 +23,7 @@
 #include "hullpipe/nodes/messages.h"
 #include "hullpipe/nodes/node_counters.h"
 #include "hullpipe/nodes/peer_liveness.h"
+#include "hullpipe/nodes/run_filter.h"
 #include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/scenes/lighting.h"
@@ -47,6 +48,10 @@ struct RenderOptions {
   enum class View { kOrbit, kFile, kTopic } view = View::kOrbit;
   PoseTrack track;                   ///< For View::kFile.
   std::optional<LightConfig> light;  ///< The scene's light (shadows), if any.
+  /// This run (nodes/run_filter.h): its poses carry it, and tiles and NodeStats of
+  /// another run are ignored. The main gives --run-id or a random id; 0 (tests)
+  /// takes only tiles without one.
+  uint64_t run_id = 0;
   /// Throws std::invalid_argument naming the flag that is out of range.
   void Check() const;
 };
@@ -72,7 +77,9 @@ class RenderController {
   RenderController(RenderOptions options, const Clock& clock, FramesetAssembler& assembler, RenderSink& sink);
 
   // Inputs, as they arrive. A tile for an unknown pose is counted late; one that
-  // does not fit the view is rejected (std::invalid_argument, nothing kept).
+  // does not fit the view is rejected (std::invalid_argument, nothing kept). A
+  // tile or NodeStats of another run is ignored, counted in stats.json
+  // ("ignored_from_other_runs") and named in one warning per run.
   void OnTile(HullTile tile);
   void OnObjectState(const VirtualObjectSample& state);
   void OnMesh(VirtualMeshSample mesh);
@@ -106,6 +113,7 @@ class RenderController {
   size_t in_flight() const { return in_flight_.size(); }
   const PeerLiveness& recon_liveness() const { return recon_liveness_; }
   const OrbitPath& orbit() const { return orbit_; }
+  const RunFilter& runs() const { return runs_; }
 
  private:
   struct InFlight {
@@ -126,6 +134,7 @@ class RenderController {
   RenderSink& sink_;
   NodeCounters counters_;
   PeerLiveness recon_liveness_;
+  RunFilter runs_;
   OrbitPath orbit_;
   bool centre_known_ = false;
   CompositeOptions comp_;

@@ -203,6 +203,57 @@ TEST_F(Render, ASilentReconIsNoticedAndItsReturnLogged) {
   EXPECT_EQ(r.StatsJson()["recon_outages"]["recon1"], 1);
 }
 
+// Replaying a whole recording into a live run mixed the recorded tiles and
+// NodeStats with the live ones (63 of 426 frames composited, the recorded rows
+// shown as live). Now tiles and reports of another run are ignored, counted in
+// stats.json and the table; this run's (and a report without a run id, from a
+// node started by hand) are taken: the controls.
+TEST_F(Render, TilesAndReportsOfAnotherRunAreIgnoredAndCounted) {
+  RenderOptions o = Options();
+  o.run_id = 0xa;
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  ASSERT_EQ(sink_.poses.size(), 1u);
+  HullTile foreign = WholeTile(sink_.poses[0], 1.0f, {0, 200, 0});
+  foreign.run_id = 0xb;
+  r.OnTile(foreign);
+  HullTile unset = WholeTile(sink_.poses[0], 1.0f, {0, 200, 0});
+  r.OnTile(unset);  // render's own poses always carry its id: a tile without one is not its own
+  EXPECT_EQ(r.Step(), 0) << "no tile of this run yet";
+  HullTile own = WholeTile(sink_.poses[0], 1.0f, {0, 0, 200});
+  own.run_id = 0xa;
+  r.OnTile(own);
+  ASSERT_EQ(r.Step(), 1);
+  EXPECT_EQ(sink_.frames[0].second.at<cv::Vec3b>(24, 32), cv::Vec3b(0, 0, 200)) << "this run's tile";
+
+  NodeStatsSample recorded;
+  recorded.name = "capture";
+  recorded.run_id = 0xb;
+  recorded.final_report = true;  // a recorded capture's end must not end this run
+  r.OnNodeStats(recorded);
+  NodeStatsSample live;
+  live.name = "sim";
+  live.run_id = 0xa;
+  r.OnNodeStats(live);
+  NodeStatsSample by_hand;
+  by_hand.name = "recon0";
+  r.OnNodeStats(by_hand);
+  clock_.Advance(1.0);
+  r.Step();
+  EXPECT_FALSE(r.done()) << "the other run's capture ended, not this one's";
+  const auto j = r.StatsJson();
+  EXPECT_EQ(j["run_id"], "000000000000000a");
+  EXPECT_EQ(j["ignored_from_other_runs"]["HullView"], 2);
+  EXPECT_EQ(j["ignored_from_other_runs"]["NodeStats"], 1);
+  EXPECT_FALSE(j["nodes"].contains("capture")) << j.dump();
+  EXPECT_TRUE(j["nodes"].contains("sim"));
+  EXPECT_TRUE(j["nodes"].contains("recon0"));
+  EXPECT_NE(r.Table().find("ignored 2 HullView sample(s) of other runs (this run is 000000000000000a)"),
+            std::string::npos)
+      << r.Table();
+}
+
 TEST_F(Render, EndsWhenCaptureReportsItsEndAndEverythingIsComposited) {
   RenderOptions o = Options();
   o.tile_timeout = 10;  // the pose stays in flight while the clock moves

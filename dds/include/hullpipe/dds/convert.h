@@ -81,9 +81,9 @@ OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint6
 /// Decoded BGR image. Throws MessageError on a bad encoding or size.
 cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& msg);
 
-/// ViewPose for a novel view.
+/// ViewPose for a novel view, of run `run_id` (docs/reliability.md, "run id").
 hullpipe_msg_ViewPose ViewToMsg(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq,
-                                int64_t stamp_ns);
+                                int64_t stamp_ns, uint64_t run_id = 0);
 /// Validated NovelView (size 1..8192, finite, orthonormal rotation).
 NovelView ViewFromMsg(const hullpipe_msg_ViewPose& msg);
 

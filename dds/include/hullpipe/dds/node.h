@@ -19,10 +19,16 @@ struct CommonOptions {
   uint32_t domain = 0;       ///< DDS domain id (tests use a unique one each).
   std::string dds_config;    ///< Cyclone XML config file (sets CYCLONEDDS_URI).
   std::string log_level = "info";
+  /// The run this node belongs to (docs/reliability.md, "run id"): its NodeStats
+  /// carry it; render_node and recon_node ignore samples of another run. 0: none
+  /// given (its reports are taken by any run; render_node then picks its own).
+  uint64_t run_id = 0;
 };
 
 /// Adds --domain, --dds-config and --log-level to a CLI11 app.
 void AddCommonOptions(CLI::App& app, CommonOptions& options);
+/// Adds the nodes' --run-id (1 to 16 hex digits, not zero) into options.run_id.
+void AddRunIdOption(CLI::App& app, CommonOptions& options);
 
 /// Sets up logging (one line per message, "[node] ..."), exports CYCLONEDDS_URI
 /// if --dds-config was given, installs the SIGINT/SIGTERM stop handler and
@@ -33,7 +39,8 @@ std::unique_ptr<Participant> StartNode(const std::string& node_name, const Commo
 /// a second and, once, a final report (at the latest when destroyed).
 class NodeReporter {
  public:
-  NodeReporter(const Participant& participant, std::string node_name, const nodes::NodeCounters& counters);
+  NodeReporter(const Participant& participant, std::string node_name, const nodes::NodeCounters& counters,
+               uint64_t run_id = 0);
   ~NodeReporter();
   NodeReporter(const NodeReporter&) = delete;
   NodeReporter& operator=(const NodeReporter&) = delete;
@@ -45,6 +52,7 @@ class NodeReporter {
   Writer<hullpipe_msg_NodeStats> writer_;
   std::string name_;
   const nodes::NodeCounters& counters_;
+  uint64_t run_id_ = 0;
   double last_publish_s_ = -1e9;
   bool final_sent_ = false;
 };
