@@ -220,6 +220,27 @@ TEST(Dds, RecordedSamplesMustBeXcdr1) {
   EXPECT_THROW(w.Write(cdr), std::invalid_argument);
 }
 
+// A recording of an earlier build holds ViewPose samples without the run_id
+// field (8 bytes shorter: the field follows doubles, so no padding differs).
+// Such a sample is refused, never read with a made-up run id.
+TEST(Dds, ASampleOfTheOlderShorterLayoutIsRefused) {
+  const auto dir = test::TempDir("dds_old_layout");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  Participant p(test::UniqueDomain());
+  const KnownType& kt = *FindKnownType("hullpipe::msg::ViewPose");
+  CdrWriter w(p, kt, kt.qos);
+  const hullpipe_msg_ViewPose pose =
+      ViewToMsg(NovelView::FromFov(64, 48, 1.0, Rigid3d{}), 7, 3, 1000, /*run_id=*/0xabc);
+  std::vector<uint8_t> cdr = w.Encode(&pose);
+  hullpipe_msg_ViewPose back{};
+  ASSERT_TRUE(w.Decode(cdr, &back));  // control: the whole sample
+  EXPECT_EQ(back.run_id, 0xabcu);
+  cdr.resize(cdr.size() - 8);
+  hullpipe_msg_ViewPose old{};
+  EXPECT_FALSE(w.Decode(cdr, &old));
+  EXPECT_THROW(w.Write(cdr), std::invalid_argument);
+}
+
 // CameraInfo is transient-local: a reader that joins after it was written still
 // gets it (late joiners must not miss the calibration).
 TEST(Dds, LateJoinerGetsCameraInfo) {

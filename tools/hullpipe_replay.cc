@@ -184,13 +184,16 @@ int main(int argc, char** argv) {
     std::unique_ptr<Keyboard> keys;
     if (keyboard) keys = std::make_unique<Keyboard>(&control);
     uint64_t refused = 0;
+    std::set<std::string> refused_topics;  // one line per topic; all counted
     const PlayStats st = Play(rec, po, [&](const TopicInfo& t, const Sample& s) {
       const CdrWriter& w = *writers.at(t.id);
       try {
         w.Write(s.data);
       } catch (const std::invalid_argument& e) {
-        ++refused;  // a corrupt sample in the file: skip it, keep playing
-        spdlog::warn("{}: sample at {} ns: {}", t.name, s.arrival_ns, e.what());
+        ++refused;  // a corrupt sample, or another build's layout: skip it, keep playing
+        if (refused_topics.insert(t.name).second)
+          spdlog::warn("{}: sample at {} ns: {} (further refusals on this topic are counted, not logged)", t.name,
+                       s.arrival_ns, e.what());
         return;
       }
       if (po.rate == 0) {
