@@ -1,5 +1,7 @@
 #include "hullpipe/dds/frameset_input.h"
 
+#include <algorithm>
+
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/dds/convert.h"
@@ -34,6 +36,12 @@ void FramesetInput::Poll() {
   maps_.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t& info) {
     try {
       std::string why;
+      // The size against the calibration first: decoding allocates it.
+      if (!assembler_.CheckMapSize(int(m.camera_id), int(std::min(m.width, 1u << 30)),
+                                   int(std::min(m.height, 1u << 30)), &why)) {
+        spdlog::warn("rejected: {}", why);
+        return;
+      }
       const uint64_t rejected_before = assembler_.rejected();
       // The writer's handle tells a restarted capture node from a live one; the
       // arrival time, on this host's clock, checks the capture host's clock.

@@ -136,16 +136,21 @@ FramesetAssembler::Sample* FramesetAssembler::Slot(int camera_id, uint64_t seq, 
   return &cam.samples.back();
 }
 
+bool FramesetAssembler::CheckMapSize(int camera_id, int width, int height, std::string* why) {
+  const auto cam = cameras_.find(camera_id);
+  if (cam != cameras_.end() && (width != cam->second.width || height != cam->second.height))
+    return Reject(why, "map of camera " + std::to_string(camera_id) + " is " + std::to_string(width) + "x" +
+                           std::to_string(height) + ", calibration says " + std::to_string(cam->second.width) +
+                           "x" + std::to_string(cam->second.height));
+  return true;
+}
+
 bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camera_count, cv::Mat map,
                                std::string* why, double source_time_s, uint64_t source_id, int64_t arrival_ns,
                                std::optional<Rigid3d> cam_from_world) {
-  const auto cam = cameras_.find(camera_id);
   if (map.type() != CV_8UC1 || map.empty())
     return Reject(why, "map of camera " + std::to_string(camera_id) + " is not a CV_8UC1 image");
-  if (cam != cameras_.end() && (map.cols != cam->second.width || map.rows != cam->second.height))
-    return Reject(why, "map of camera " + std::to_string(camera_id) + " is " + std::to_string(map.cols) +
-                           "x" + std::to_string(map.rows) + ", calibration says " +
-                           std::to_string(cam->second.width) + "x" + std::to_string(cam->second.height));
+  if (!CheckMapSize(camera_id, map.cols, map.rows, why)) return false;
   if (camera_count < 1 || camera_count > 64)
     return Reject(why, "map of camera " + std::to_string(camera_id) + " states " +
                            std::to_string(camera_count) + " cameras");

@@ -103,6 +103,11 @@ class FramesetAssembler {
   bool AddMap(int camera_id, uint64_t seq, int64_t capture_time_ns, int camera_count, cv::Mat map,
               std::string* why = nullptr, double source_time_s = 0, uint64_t source_id = 0, int64_t arrival_ns = 0,
               std::optional<Rigid3d> cam_from_world = std::nullopt);
+  /// Whether a map of width x height fits camera_id's calibration (true while the
+  /// camera has none yet). Checked before a received map is decoded, so a map
+  /// claiming 16384x16384 pixels for a 644x486 camera costs no 268-MB decode;
+  /// false counts a rejection as AddMap does, *why says why.
+  bool CheckMapSize(int camera_id, int width, int height, std::string* why = nullptr);
   /// Adds one camera's colour image (CV_8UC3, any size) of frame `seq`; same rules.
   bool AddImage(int camera_id, uint64_t seq, int64_t capture_time_ns, cv::Mat image, std::string* why = nullptr,
                 uint64_t source_id = 0);
