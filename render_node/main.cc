@@ -281,6 +281,10 @@ int main(int argc, char** argv) {
       spdlog::error("no frame composited, so no video: no complete frameset and tiles came (see capture and recon)");
       return 1;
     }
+    if (const std::string early = render.IncompleteInput(); !early.empty() && !StopRequested()) {
+      spdlog::error("{}", early);
+      return 3;
+    }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

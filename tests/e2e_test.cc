@@ -81,6 +81,43 @@ TEST(EndToEnd, TheLauncherShowsAFailedNodesErrorLine) {
   EXPECT_NE(log.find("[capture] error synthetic rig: --synthetic-size must be in"), std::string::npos) << log;
 }
 
+// A lab's capture nodes each hold one camera; camera 2's input is 15 frames
+// where the others' are 40 (a truncated file). Its node ends with exit 0: it
+// has no other camera to compare with. render, which assembles every camera,
+// names camera 2 once every capture node reported its end, and exits 3; the
+// other cameras' nodes (the control) are not named.
+TEST(EndToEnd, ACaptureNodeWhoseCameraEndedEarlyIsNamedByRender) {
+  const auto dir = test::TempDir("e2e_short_camera");
+  const std::string config = test::WriteLoopbackConfig(dir);
+  const uint32_t domain = test::UniqueDomain();
+  auto render = test::StartExe("render_node",
+                               {"--out", (dir / "run").string(), "--tiles", "1", "--window", "off"}, domain, config,
+                               (dir / "render.log").string());
+  auto recon = test::StartExe("recon_node", {"--tile", "0/1", "--planes", "20"}, domain, config,
+                              (dir / "recon.log").string());
+  const std::string start_ns = std::to_string(NowNs() + int64_t(10e9));  // one timeline; start-up fits in 10 s
+  std::vector<std::unique_ptr<test::Process>> captures;
+  for (int id = 1; id <= 4; ++id)
+    captures.push_back(test::StartExe(
+        "capture_node",
+        {"--synthetic", "--cameras", std::to_string(id), "--frames", id == 2 ? "15" : "40", "--fps", "10",
+         "--wait-readers", "2", "--wait-timeout", "30", "--start-time", start_ns, "--max-lag", "30"},
+        domain, config, (dir / ("capture" + std::to_string(id) + ".log")).string()));
+  for (int id = 1; id <= 4; ++id)
+    EXPECT_EQ(captures[size_t(id - 1)]->Wait(60), 0)
+        << test::ReadFile((dir / ("capture" + std::to_string(id) + ".log")).string());
+  const std::string render_log = (dir / "render.log").string();
+  EXPECT_EQ(render->Wait(60), 3) << test::ReadFile(render_log);
+  recon->Stop();
+  const std::string log = test::ReadFile(render_log);
+  EXPECT_NE(log.find("error the input ended early (exit 3): camera(s) 2 ended before the others"), std::string::npos)
+      << log;
+  EXPECT_NE(log.find("camera 2: 15 frames"), std::string::npos) << log;
+  const auto stats = nlohmann::json::parse(test::ReadFile((dir / "run" / "stats.json").string()));
+  EXPECT_EQ(stats["cameras_ended_early"], nlohmann::json::array({2})) << stats.dump(1);
+  EXPECT_GT(stats["frames_composited"].get<int>(), 0) << "the 15 complete framesets were composited";
+}
+
 // Content, not only counts: the five processes on the synthetic source (exact
 // maps, known cameras), the viewpoint from a tracker's log. For frames render
 // composited, the hull depth it assembled from the two recon nodes' tiles equals

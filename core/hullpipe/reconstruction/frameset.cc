@@ -119,6 +119,7 @@ FramesetAssembler::Sample* FramesetAssembler::Slot(int camera_id, uint64_t seq, 
       cam.period_s = double(s[s.size() / 2]) * 1e-9;
     }
   }
+  if (!cam.any) cam.first_t_ns = t_ns;
   cam.any = true;
   cam.newest_seq = seq;
   cam.newest_t_ns = t_ns;
@@ -364,6 +365,27 @@ std::vector<CameraSkewReport> FramesetAssembler::SkewReports() const {
     r.clock_offsets = cam.clock_offsets;
     r.period_ms = cam.period_s * 1e3;
     out.push_back(r);
+  }
+  return out;
+}
+
+std::vector<FramesetAssembler::EarlyEnd> FramesetAssembler::EndedEarly() const {
+  int64_t newest = INT64_MIN, first = INT64_MAX;
+  for (const auto& [id, cam] : cams_) {
+    if (!cam.any || !cameras_.count(id)) continue;
+    newest = std::max(newest, cam.newest_t_ns);
+    first = std::min(first, cam.first_t_ns);
+  }
+  std::vector<EarlyEnd> out;
+  if (newest == INT64_MIN) return out;
+  const double span_s = double(newest - first) * 1e-9;
+  for (const auto& [id, cam] : cameras_) {
+    const auto it = cams_.find(id);
+    const bool any = it != cams_.end() && it->second.any;
+    const double lag_s = any ? double(newest - it->second.newest_t_ns) * 1e-9 : span_s;
+    const double period = any ? PeriodS(it->second) : kDefaultPeriodS;
+    if (!any || lag_s > std::max({kEarlyEndMinS, kEarlyEndPeriods * period, kEarlyEndFraction * span_s}))
+      out.push_back({id, lag_s, any ? it->second.frames : 0});
   }
   return out;
 }

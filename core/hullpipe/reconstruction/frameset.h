@@ -159,6 +159,25 @@ class FramesetAssembler {
   /// Per camera, in id order.
   std::vector<CameraSkewReport> SkewReports() const;
 
+  /// A calibrated camera whose input ended before the others': its newest
+  /// capture time lags the newest of all cameras by lag_s (the whole span for a
+  /// camera that sent nothing); it sent `frames` frames.
+  struct EarlyEnd {
+    int camera_id = 0;
+    double lag_s = 0;
+    uint64_t frames = 0;
+  };
+  /// Cameras lagging by more than max(kEarlyEndMinS, kEarlyEndPeriods of their
+  /// frame period, kEarlyEndFraction of the run's capture-time span), in id
+  /// order: file sources of one rig end within a frame or two of each other, and
+  /// live streams that end by themselves within a second (the live test's
+  /// stand-in streams: up to 0.53 s apart, their decoders' flush), so a camera
+  /// beyond that had a shorter (truncated) input and the framesets after its end
+  /// are incomplete. Only meaningful once the input has ended (every capture
+  /// node's final report): while running, every camera lags by its latency.
+  std::vector<EarlyEnd> EndedEarly() const;
+  static constexpr double kEarlyEndMinS = 1.0, kEarlyEndPeriods = 5, kEarlyEndFraction = 0.01;
+
  private:
   struct Sample {
     uint64_t seq = 0;
@@ -173,6 +192,7 @@ class FramesetAssembler {
     uint64_t source_id = 0;
     uint64_t newest_seq = 0;
     int64_t newest_t_ns = 0;
+    int64_t first_t_ns = 0;  ///< Capture time of its first frame (since its last restart).
     bool any = false;
     std::deque<int64_t> steps_ns;  ///< Recent capture-time steps per frame.
     double period_s = 0;           ///< Median of steps_ns, seconds (0: no step yet); kept with it.

@@ -108,6 +108,33 @@ TEST_F(Assembler, AMapSizeIsCheckedBeforeDecodingOnceTheCameraIsKnown) {
   EXPECT_EQ(a.rejected(), 1u);
 }
 
+// With a camera per capture node, a truncated video ends that node's input
+// early and it cannot tell (it has no other camera): the assembler, which sees
+// every camera, names it. Cameras ending within a frame of each other (a rig's
+// files) are not early: the control.
+TEST_F(Assembler, ACameraWhoseInputEndedEarlyIsNamed) {
+  FramesetAssembler a(4);
+  for (const auto& c : cams_) a.SetCamera(c);
+  const int64_t period = 40'000'000;  // 25 fps
+  for (uint64_t f = 1; f <= 100; ++f)
+    for (int cam = 1; cam <= 3; ++cam) {
+      if (cam == 2 && f > 40) continue;  // camera 2's video was cut at frame 40
+      if (cam == 3 && f > 80) continue;  // camera 3 ends 0.8 s before camera 1: a live stream's end, not early
+      a.AddMap(cam, f, int64_t(f) * period + cam * 1000, 3, Map());
+    }
+  const auto early = a.EndedEarly();
+  ASSERT_EQ(early.size(), 1u);
+  EXPECT_EQ(early[0].camera_id, 2);
+  EXPECT_EQ(early[0].frames, 40u);
+  EXPECT_NEAR(early[0].lag_s, 60 * 0.04, 1e-4);
+  // A calibrated camera that sent nothing ended early too.
+  FramesetAssembler silent(4);
+  for (const auto& c : cams_) silent.SetCamera(c);
+  for (uint64_t f = 1; f <= 10; ++f) silent.AddMap(1, f, int64_t(f) * period, 3, Map());
+  ASSERT_EQ(silent.EndedEarly().size(), 2u);
+  EXPECT_EQ(silent.EndedEarly()[1].camera_id, 3);
+}
+
 TEST_F(Assembler, UnknownCameraIsRejectedWhenItsFrameIsEvicted) {
   FramesetAssembler a(1);  // history of 3 samples per camera
   for (const auto& c : cams_) a.SetCamera(c);

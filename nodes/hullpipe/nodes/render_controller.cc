@@ -256,11 +256,31 @@ int RenderController::Step() {
   return composited;
 }
 
+std::string RenderController::IncompleteInput() const {
+  if (!capture_done_) return "";
+  const auto early = assembler_.EndedEarly();
+  if (early.empty()) return "";
+  std::string ids, detail;
+  for (const auto& e : early) {
+    ids += (ids.empty() ? "" : ", ") + std::to_string(e.camera_id);
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%scamera %d: %llu frames, ended %.2f s of capture time before the last",
+                  detail.empty() ? "" : "; ", e.camera_id, (unsigned long long)e.frames, e.lag_s);
+    detail += buf;
+  }
+  return "the input ended early (exit 3): camera(s) " + ids +
+         " ended before the others, so the framesets after their end are incomplete (" + detail + ")";
+}
+
 nlohmann::json RenderController::StatsJson() const {
   nlohmann::json j;
   j["view"] = {{"width", o_.width}, {"height", o_.height}, {"tiles", o_.tiles}};
   j["run_id"] = RunIdText(o_.run_id);
   j["ignored_from_other_runs"] = runs_.ignored();  // samples by kind (HullView, NodeStats)
+  if (capture_done_) {
+    j["cameras_ended_early"] = nlohmann::json::array();
+    for (const auto& e : assembler_.EndedEarly()) j["cameras_ended_early"].push_back(e.camera_id);
+  }
   j["frames_composited"] = counters_.frames_out();
   j["last_frame_seq"] = last_composited_;
   j["collision_frames_drawn"] = collisions_drawn_;

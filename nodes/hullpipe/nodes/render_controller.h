@@ -98,6 +98,11 @@ class RenderController {
   int Step();
   /// The run is over (max_frames reached, input ended or idle).
   bool done() const { return done_; }
+  /// Once every capture node reported the end of its input: one line naming the
+  /// cameras whose input ended early (FramesetAssembler::EndedEarly; with a
+  /// camera per capture node, no capture node can see that itself), else "".
+  /// render_node then exits 3, as capture_node does for its own cameras.
+  std::string IncompleteInput() const;
 
   /// stats.json: the view, counts, outages, payload clearances and every node's
   /// newest report (this node's own under "render").

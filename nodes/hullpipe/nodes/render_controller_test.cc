@@ -275,6 +275,48 @@ TEST_F(Render, EndsWhenCaptureReportsItsEndAndEverythingIsComposited) {
   EXPECT_TRUE(r.done()) << "capture ended 1 s ago and its last frameset is composited";
 }
 
+// One capture node per camera: camera 2's node ended after frame 10 while
+// camera 1's went on to 60; each said "the end of my input" with exit 0.
+// render, which sees both, names camera 2 once the input has ended (not before:
+// live cameras lag by their latency).
+TEST_F(Render, ACameraWhoseInputEndedEarlyIsNamedOnceTheInputEnded) {
+  RenderOptions o = Options();
+  RenderController r(o, clock_, assembler_, sink_);
+  const int64_t t0 = clock_.WallNs();
+  for (uint64_t f = 1; f <= 60; ++f) {
+    const auto& v = rig_.views[0];
+    assembler_.AddMap(v.camera.id, f, t0 + int64_t(f) * 40'000'000, 2, v.map.clone());
+    if (f <= 10) {
+      const auto& w = rig_.views[1];
+      assembler_.AddMap(w.camera.id, f, t0 + int64_t(f) * 40'000'000, 2, w.map.clone());
+    }
+  }
+  r.Step();
+  EXPECT_EQ(r.IncompleteInput(), "") << "the input has not ended yet";
+  NodeStatsSample cap;
+  cap.name = "capture";
+  cap.final_report = true;
+  r.OnNodeStats(cap);
+  const std::string line = r.IncompleteInput();
+  EXPECT_NE(line.find("the input ended early (exit 3): camera(s) " + std::to_string(rig_.views[1].camera.id) +
+                      " ended before the others"),
+            std::string::npos)
+      << line;
+  EXPECT_NE(line.find("10 frames, ended 2.00 s of capture time before the last"), std::string::npos) << line;
+  EXPECT_EQ(r.StatsJson()["cameras_ended_early"].size(), 1u);
+}
+
+TEST_F(Render, NoCameraEndedEarlyWhenAllEndTogether) {
+  RenderController r(Options(), clock_, assembler_, sink_);
+  for (uint64_t f = 1; f <= 60; ++f) rig_.AddFrame(assembler_, f, clock_.WallNs() + int64_t(f) * 40'000'000);
+  NodeStatsSample cap;
+  cap.name = "capture";
+  cap.final_report = true;
+  r.OnNodeStats(cap);
+  EXPECT_EQ(r.IncompleteInput(), "");
+  EXPECT_TRUE(r.StatsJson()["cameras_ended_early"].empty());
+}
+
 TEST_F(Render, EndsWhenNoFramesetCameForTheIdleTimeout) {
   RenderOptions o = Options();
   o.idle_timeout = 2.0;
