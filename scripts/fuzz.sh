@@ -2,8 +2,9 @@
 # Runs hullpipe's libFuzzer targets (docs/reliability.md, "Fuzzing and
 # sanitizers") from an existing build-asan (scripts/sanitize.sh makes it):
 #   FUZZ_SECONDS=600 bash scripts/fuzz.sh [target ...]
-# Each target starts from its seeds: fuzz/corpus/<target> (regression inputs kept
-# in git), the rig's config.xml files, the launch YAMLs, the shipped scenes and
+# Each target first runs its regression inputs (fuzz/regressions/<target>, in
+# git: what once failed), then fuzzes from its seeds: fuzz/corpus/<target> (in
+# git), the rig's config.xml files, the launch YAMLs, the shipped scenes and
 # CSVs, and one valid sample of every topic and a small recording
 # (fuzz_make_seeds). A fixed -seed keeps CI's short runs repeatable. Per target
 # it prints the executions, the peak RSS and the corpus it grew; a finding exits
@@ -37,6 +38,17 @@ for csv in scenes/*.csv; do
 done
 
 for f in "${FUZZERS[@]}"; do
+  # Regression inputs (fuzz/regressions/<target>): each once, before fuzzing.
+  # They are not seeds: the 201-Mpixel map that timed out would slow every
+  # mutation made from it.
+  if compgen -G "fuzz/regressions/$f/*" >/dev/null; then
+    if ! "$BIN/$f" -timeout=10 -rss_limit_mb=2048 fuzz/regressions/"$f"/* >"build-asan/fuzz-regressions-$f.log" 2>&1; then
+      tail -40 "build-asan/fuzz-regressions-$f.log" >&2
+      echo "fuzz.sh: $f fails on a regression input in fuzz/regressions/$f" >&2
+      exit 1
+    fi
+    echo "$f: $(ls fuzz/regressions/"$f" | wc -l) regression input(s) pass"
+  fi
   work="build-asan/fuzz-out/$f"
   rm -rf "$work" && mkdir -p "$work/corpus"
   dirs=("$work/corpus" "$SEEDS/$f")

@@ -173,10 +173,12 @@ int main(int argc, char** argv) {
     // writers' order (source time) before it is appended.
     auto take_all = [&] {
       std::vector<Sample> taken;
-      for (auto& [name, r] : topics) {
+      for (auto& entry : topics) {
+        auto& r = entry.second;  // (a structured binding cannot be captured by clang 14's lambdas)
+        const auto topic_id = r.id;
         r.count += int64_t(r.reader->TakeEach([&](const std::vector<uint8_t>& bytes, int64_t source_ns) {
           Sample s;
-          s.topic_id = r.id;
+          s.topic_id = topic_id;
           s.source_ns = source_ns;
           s.arrival_ns = NowNs();
           s.data = bytes;
