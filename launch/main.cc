@@ -123,10 +123,28 @@ int main(int argc, char** argv) {
   std::vector<NodeSpec> specs;
   try {
     const YAML::Node root = YAML::LoadFile(description);
+    // Every key named, a misspelt one refused (it was ignored: "arg:" ran a node
+    // without its arguments).
+    if (!root.IsMap()) throw std::runtime_error("the file must be a map with a 'nodes' list");
+    for (const auto& kv : root)
+      if (kv.first.as<std::string>() != "nodes")
+        throw std::runtime_error("unknown key '" + kv.first.as<std::string>() + "' (known: nodes)");
+    if (!root["nodes"].IsSequence()) throw std::runtime_error("'nodes' must be a list");
     for (const auto& n : root["nodes"]) {
+      if (!n.IsMap()) throw std::runtime_error("each entry of 'nodes' must be a map");
+      for (const auto& kv : n) {
+        const std::string key = kv.first.as<std::string>();
+        if (key != "name" && key != "exec" && key != "host" && key != "args" && key != "start_delay")
+          throw std::runtime_error("node " + (n["name"] ? n["name"].as<std::string>() : std::string("?")) +
+                                   ": unknown key '" + key + "' (known: name, exec, host, args, start_delay)");
+      }
+      if (!n["name"] || !n["exec"]) throw std::runtime_error("every node needs 'name' and 'exec'");
       NodeSpec s;
       s.name = n["name"].as<std::string>();
       s.exec = n["exec"].as<std::string>();
+      if (s.exec != "render_node" && s.exec != "recon_node" && s.exec != "sim_node" && s.exec != "capture_node")
+        throw std::runtime_error("node " + s.name + ": exec '" + s.exec +
+                                 "' is not a hullpipe node (render_node, recon_node, sim_node, capture_node)");
       if (n["host"]) s.host = n["host"].as<std::string>();
       if (n["args"]) s.args = n["args"].as<std::vector<std::string>>();
       if (n["start_delay"]) {

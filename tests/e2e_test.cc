@@ -81,6 +81,54 @@ TEST(EndToEnd, TheLauncherShowsAFailedNodesErrorLine) {
   EXPECT_NE(log.find("[capture] error synthetic rig: --synthetic-size must be in"), std::string::npos) << log;
 }
 
+// A launch description is checked key by key before anything starts: a
+// misspelt key was ignored ("arg:" ran a node without its arguments), an
+// unknown exec failed only at spawn. Each refusal names the file and the key;
+// the control is the shipped description, which gets past the check (the
+// launcher prints its domain line) and is then stopped.
+TEST(EndToEnd, TheLauncherRefusesABadDescriptionNamingTheKey) {
+  const auto out = test::TempDir("e2e_bad_description");
+  const std::string good = test::ReadFile(HULLPIPE_SOURCE_DIR "/launch/local.yaml");
+  auto replaced = [&](const std::string& from, const std::string& to) {
+    std::string t = good;
+    const auto at = t.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return t.replace(at, from.size(), to);
+  };
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {replaced("    args: [--tile, \"0/2\"", "    arg: [--tile, \"0/2\""), "node recon0: unknown key 'arg'"},
+      {replaced("exec: sim_node", "exec: sim_nod"), "node sim: exec 'sim_nod' is not a hullpipe node"},
+      {"node:\n  - name: render\n", "unknown key 'node' (known: nodes)"},
+      {"nodes: render\n", "'nodes' must be a list"},
+      {replaced("  - name: sim\n    exec: sim_node\n", "  - name: sim\n    exec: sim_node\n    start_delay: soon\n"),
+       "node sim: start_delay must be seconds in [0, 60]"},
+  };
+  int k = 0;
+  for (const auto& [text, expected] : cases) {
+    const auto path = out / ("bad" + std::to_string(++k) + ".yaml");
+    std::ofstream(path) << text;
+    test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--out", (out / "run").string(),
+                          "--description", path.string()},
+                         (out / "launch.log").string());
+    EXPECT_EQ(launch.Wait(20), 2) << expected;
+    const std::string log = test::ReadFile((out / "launch.log").string());
+    EXPECT_NE(log.find(path.string() + ": " + expected), std::string::npos) << log;
+    EXPECT_EQ(log.find("started"), std::string::npos) << "nothing may start: " << log;
+  }
+  const auto path = out / "good.yaml";
+  std::ofstream(path) << good;
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--out", (out / "run").string(),
+                        "--description", path.string(), "--domain", std::to_string(test::UniqueDomain())},
+                       (out / "launch.log").string());
+  const double end = MonotonicSeconds() + 20;
+  while (test::ReadFile((out / "launch.log").string()).find("hullpipe_launch: domain") == std::string::npos &&
+         MonotonicSeconds() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_NE(test::ReadFile((out / "launch.log").string()).find("hullpipe_launch: domain"), std::string::npos);
+  launch.Signal(SIGINT);
+  launch.Wait(20);
+}
+
 // A lab's capture nodes each hold one camera; camera 2's input is 15 frames
 // where the others' are 40 (a truncated file). Its node ends with exit 0: it
 // has no other camera to compare with. render, which assembles every camera,
