@@ -3,10 +3,9 @@
 # sanitizers") from an existing build-asan (scripts/sanitize.sh makes it):
 #   FUZZ_SECONDS=600 bash scripts/fuzz.sh [target ...]
 # Each target first runs its regression inputs (fuzz/regressions/<target>, in
-# git: what once failed), then fuzzes from its seeds: fuzz/corpus/<target> (in
-# git), the rig's config.xml files, the launch YAMLs, the shipped scenes and
-# CSVs, and one valid sample of every topic and a small recording
-# (fuzz_make_seeds). A fixed -seed keeps CI's short runs repeatable. Per target
+# git: what once failed), then fuzzes from its seeds: the rig's config.xml
+# files, the launch YAMLs, the shipped scenes and CSVs, and one valid sample of
+# every topic and a small recording (fuzz_make_seeds). A fixed -seed keeps CI's short runs repeatable. Per target
 # it prints the executions, the peak RSS and the corpus it grew; a finding exits
 # 1 naming the crash file left in build-asan/fuzz-out/<target>/.
 set -euo pipefail
@@ -52,7 +51,6 @@ for f in "${FUZZERS[@]}"; do
   work="build-asan/fuzz-out/$f"
   rm -rf "$work" && mkdir -p "$work/corpus"
   dirs=("$work/corpus" "$SEEDS/$f")
-  [ -d "fuzz/corpus/$f" ] && dirs+=("fuzz/corpus/$f")
   echo "-- $f (${FUZZ_SECONDS} s)"
   if ! (cd "$work" && "$OLDPWD/$BIN/$f" -seed=1 -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 -timeout=10 \
           -max_len=65536 -print_final_stats=1 "${dirs[@]/#/$OLDPWD/}" >fuzz.log 2>&1); then

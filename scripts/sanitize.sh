@@ -4,8 +4,8 @@
 #  1. build-asan (clang, AddressSanitizer + UndefinedBehaviorSanitizer, libFuzzer
 #     coverage): the core unit tests (label core) and the recording tests that
 #     run in one process; then each fuzz target for FUZZ_SECONDS (default 20) on
-#     its seeds: fuzz/corpus/<target> (kept in git), the rig's config.xml files,
-#     the shipped scenes and CSVs, and what fuzz_make_seeds writes.
+#     its seeds (scripts/fuzz.sh), after its regression inputs
+#     (fuzz/regressions/<target>).
 #  2. build-tsan (clang, ThreadSanitizer): the threaded code's tests (parallel
 #     row bands, the rig source's per-camera reads and live readers, the plane
 #     sweep, the controllers) and the recorder's and player's.

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+#include <libxml/parser.h>
 #include <yaml-cpp/yaml.h>
 
 #include "hullpipe/geometry/conventions.h"
@@ -243,6 +244,31 @@ Rig LoadYamlRig(const fs::path& file) {
 
 }  // namespace
 
+namespace {
+// Throws CalibrationError naming the file and libxml2's first error unless
+// `text` is one well-formed XML document (no network, no external DTD, no
+// entity substitution: a calibration file needs none of them).
+void CheckWellFormedXml(const std::string& text, const std::string& path) {
+  const size_t first = text.find_first_not_of(" \t\r\n");
+  if (first == std::string::npos || (text[first] != '<' && text.compare(first, 3, "\xEF\xBB\xBF") != 0))
+    throw CalibrationError(path + ": not XML (an OpenCV FileStorage .xml calibration file starts with '<')");
+  xmlParserCtxtPtr ctxt = xmlNewParserCtxt();
+  if (!ctxt) throw CalibrationError(path + ": cannot make an XML parser (out of memory)");
+  xmlDocPtr doc = xmlCtxtReadMemory(ctxt, text.data(), int(text.size()), "config.xml", nullptr,
+                                    XML_PARSE_NONET | XML_PARSE_NOERROR | XML_PARSE_NOWARNING);
+  std::string error;
+  if (!doc) {
+    const xmlError* e = xmlCtxtGetLastError(ctxt);
+    std::string message = e && e->message ? e->message : "unknown error";
+    while (!message.empty() && (message.back() == '\n' || message.back() == ' ')) message.pop_back();
+    error = path + ": not well-formed XML" + (e ? " (line " + std::to_string(e->line) + ": " + message + ")" : "");
+  }
+  xmlFreeDoc(doc);
+  xmlFreeParserCtxt(ctxt);
+  if (!error.empty()) throw CalibrationError(error);
+}
+}  // namespace
+
 Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width, int height) {
   // The text is read and checked here first: OpenCV 4.6's FileStorage parser
   // dereferences NULL on a NUL byte inside an XML attribute (fuzz_rig_files
@@ -257,6 +283,11 @@ Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width,
     throw CalibrationError(path + ": larger than 1 MiB, not a calibration file");
   if (const size_t nul = text.find('\0'); nul != std::string::npos)
     throw CalibrationError(path + ": a NUL byte at offset " + std::to_string(nul) + ": not a text calibration file");
+  // Well-formed XML first (libxml2), then OpenCV: its 4.6 XML parser also
+  // dereferences NULL on an attribute cut off at the end of the file
+  // (fuzz_rig_files, in a 10-minute run), and reads YAML or JSON text with
+  // other parsers. config.xml is XML.
+  CheckWellFormedXml(text, path);
   cv::FileStorage fs_in;
   try {
     if (!fs_in.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY))

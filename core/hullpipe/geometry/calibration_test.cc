@@ -164,6 +164,22 @@ TEST(Calibration, SkewedSingularOrMalformedIntrinsicsAreRefused) {
   } catch (const CalibrationError& e) {
     EXPECT_NE(std::string(e.what()).find("NUL byte at offset"), std::string::npos) << e.what();
   }
+  // An attribute cut off at the end of the file crashed OpenCV's parser too
+  // (fuzz_rig_files, a 10-minute run): the XML must be well-formed first. YAML
+  // or JSON text, which OpenCV would read with other parsers, is not XML.
+  for (const auto& [text, says] : std::vector<std::pair<std::string, std::string>>{
+           {"<?xml vo=\"20\"?>\n<op vo=", "not well-formed XML (line 2"},
+           {std::string(kConfig).substr(0, std::string(kConfig).size() / 2), "not well-formed XML"},
+           {"%YAML:1.0\nCameraMatrix: !!opencv-matrix\n", "not XML"},
+           {"{\"CameraMatrix\": 1}", "not XML"}}) {
+    std::ofstream(dir / "config.xml", std::ios::binary | std::ios::trunc) << text;
+    try {
+      ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 640, 480);
+      ADD_FAILURE() << text << " was accepted";
+    } catch (const CalibrationError& e) {
+      EXPECT_NE(std::string(e.what()).find("config.xml: " + says), std::string::npos) << e.what();
+    }
+  }
   // An image side beyond Camera::kMaxSide (what a node would allocate per map).
   EXPECT_THROW(ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 100000, 480), CalibrationError);
 }
