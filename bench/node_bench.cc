@@ -172,7 +172,9 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // its side matches too
   for (const auto& s : rec["hullpipe/camera_info"].samples) info_w->Write(s.data);
   const double cpu0 = CpuSeconds(pid), t0 = MonotonicSeconds();
-  for (const auto& [f, ms] : maps) {
+  for (const auto& entry : maps) {
+    const auto f = entry.first;  // (a structured binding cannot be captured by clang 14's lambdas)
+    const auto& ms = entry.second;
     if (max_frames > 0 && r.frames + r.timeouts >= max_frames) break;
     if (recon && !poses.count(f)) continue;
     if (recon)
