@@ -110,8 +110,8 @@ TEST_F(Assembler, AMapSizeIsCheckedBeforeDecodingOnceTheCameraIsKnown) {
 
 // With a camera per capture node, a truncated video ends that node's input
 // early and it cannot tell (it has no other camera): the assembler, which sees
-// every camera, names it. Cameras ending within a frame of each other (a rig's
-// files) are not early: the control.
+// every camera, names it. A camera ending 0.8 s before the last (within the
+// 1-s floor: live streams end that raggedly) is not early: the control.
 TEST_F(Assembler, ACameraWhoseInputEndedEarlyIsNamed) {
   FramesetAssembler a(4);
   for (const auto& c : cams_) a.SetCamera(c);

@@ -23,6 +23,7 @@
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/reconstruction/texture.h"
 #include "hullpipe/testing/fixtures.h"
+#include "hullpipe/testing/stop_timing.h"
 
 namespace hullpipe {
 namespace {
@@ -524,26 +525,12 @@ TEST_F(SphereHull, AStopFlagEndsTheLargestSweepWithinHalfASecond) {
   const auto depths = SweepPlaneDepths(query_, view, o);
   ASSERT_EQ(depths.size(), size_t(o.num_planes));
   for (const int threads : {1, 2}) {
-    std::atomic<bool> stop{false};
-    using Clock = std::chrono::steady_clock;
-    std::atomic<Clock::time_point> set_at{};
-    std::thread setter([&] {
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      set_at = Clock::now();
-      stop = true;
+    const auto t = test::StopAfter(std::chrono::milliseconds(100), [&](StopFlag stop) {
+      PlaneSweepCpu(query_, view, depths, {0, 0, view.width, view.height}, nullptr, threads, 0, stop);
     });
-    Clock::time_point ended{};
-    try {
-      PlaneSweepCpu(query_, view, depths, {0, 0, view.width, view.height}, nullptr, threads, 0, &stop);
-      ADD_FAILURE() << "the sweep finished before the flag was set; it proves nothing";
-    } catch (const Interrupted& e) {
-      ended = Clock::now();
-      EXPECT_NE(std::string(e.what()).find("plane sweep"), std::string::npos) << e.what();
-    }
-    setter.join();
-    if (ended != Clock::time_point{}) {
-      EXPECT_LT(std::chrono::duration<double>(ended - set_at.load()).count(), 0.5) << threads << " thread(s)";
-    }
+    ASSERT_TRUE(t.seconds) << "the sweep finished before the flag was set; it proves nothing";
+    EXPECT_LT(*t.seconds, 0.5) << threads << " thread(s)";
+    EXPECT_NE(t.what.find("plane sweep"), std::string::npos) << t.what;
   }
 }
 

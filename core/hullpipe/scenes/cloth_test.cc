@@ -22,6 +22,7 @@
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/scenes/virtual_scene.h"
 #include "hullpipe/testing/fixtures.h"
+#include "hullpipe/testing/stop_timing.h"
 
 namespace hullpipe {
 namespace {
@@ -46,27 +47,13 @@ TEST(VirtualScene, AStopFlagEndsTheHeaviestStepWithinHalfASecond) {
   cloth.max_substep = kMinSubstepS;
   cfg.cloth = cloth;
   VirtualScene scene(cfg);
-  using Clock = std::chrono::steady_clock;
-  std::atomic<bool> stop{false};
-  std::atomic<Clock::time_point> set_at{};
-  std::thread setter([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    set_at = Clock::now();
-    stop = true;
-  });
-  Clock::time_point ended{};
-  try {
-    scene.Step(0.25, nullptr, &stop);
-    ADD_FAILURE() << "the step finished before the flag was set; it proves nothing";
-  } catch (const Interrupted& e) {
-    ended = Clock::now();
-    EXPECT_NE(std::string(e.what()).find("cloth"), std::string::npos) << e.what();
-  }
-  setter.join();
-  if (ended != Clock::time_point{}) {
-    EXPECT_LT(std::chrono::duration<double>(ended - set_at.load()).count(), 0.5);
-  }
+  const auto t =
+      test::StopAfter(std::chrono::milliseconds(100), [&](StopFlag stop) { scene.Step(0.25, nullptr, stop); });
+  ASSERT_TRUE(t.seconds) << "the step finished before the flag was set; it proves nothing";
+  EXPECT_LT(*t.seconds, 0.5);
+  EXPECT_NE(t.what.find("cloth"), std::string::npos) << t.what;
 
+  std::atomic<bool> stop{false};
   SceneConfig small;  // one ball (the default scene) and a few particles
   small.particles = ParticleConfig{};
   VirtualScene quick(small);
