@@ -199,7 +199,8 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
 }
 
 // render: the bench plays capture (recorded maps) and the recon nodes (the
-// recorded tiles of the frameset, relabelled with render's new pose_seq). With
+// recorded tiles of the frameset, relabelled with render's new pose_seq and
+// run id). With
 // --max-in-flight 1 render asks for frameset f+1 only once f is composited, so
 // the loop is: maps of f -> ViewPose(f) -> tiles of f, maps of f+1 ->
 // ViewPose(f+1) = f composited. Latency: tiles of f written -> ViewPose(f+1).
@@ -265,6 +266,7 @@ Result BenchRender(const Participant& p, pid_t pid, const std::string& recording
       hullpipe_msg_HullView m{};
       tile_decoder->Decode(s->data, &m);
       m.pose_seq = pose.pose_seq;
+      m.run_id = pose.run_id;  // the answer to render's pose, as a recon node's tile is
       tiles.Write(m);
       dds_sample_free(&m, TopicTraits<hullpipe_msg_HullView>::Descriptor(), DDS_FREE_CONTENTS);
     }
