@@ -1,5 +1,9 @@
 // Message conversion and validation, and Cyclone DDS behaviour hullpipe relies on.
 #include <limits>
+#include <thread>
+
+#include <dds/ddsi/ddsi_serdata.h>
+#include <dds/ddsi/ddsi_sertype.h>
 
 #include <Eigen/Geometry>
 
@@ -218,6 +222,90 @@ TEST(Dds, RecordedSamplesMustBeXcdr1) {
   hullpipe_msg_CameraInfo none{};
   EXPECT_FALSE(w.Decode(cdr, &none));
   EXPECT_THROW(w.Write(cdr), std::invalid_argument);
+}
+
+// The XCDR2-marked CameraInfo that makes Cyclone 0.10.2 read past its buffer
+// when deserializing recorded bytes, written on the wire by another process
+// (raw serialized data, as a foreign writer could): Cyclone delivers it, and a
+// typed take read it as garbage (camera 99 with fx 2e300 and translations of
+// 1e-315: the over-read). The node's reader now refuses it by its encapsulation
+// before deserializing and counts it. Each is sent between valid samples of
+// camera 1 (the control: they arrive), and the writer ends with a valid sample
+// of camera 2, which the reader waits for.
+TEST(Dds, ASampleNotInXcdr1FromTheWireIsRefusedBeforeDeserializing) {
+  const auto dir = test::TempDir("dds_live_xcdr");
+  const std::string config = test::WriteLoopbackConfig(dir);
+  setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  Participant node(domain);
+  Reader<hullpipe_msg_CameraInfo> reader(node);
+  // The foreign writer: this test binary again, running the helper below.
+  test::Process writer({"/proc/self/exe", "--gtest_filter=Dds.ForeignXcdr2WriterHelper"},
+                       (dir / "writer.log").string(),
+                       {{"CYCLONEDDS_URI", "file://" + config}, {"HULLPIPE_TEST_XCDR2_DOMAIN", std::to_string(domain)}});
+  int valid = 0, other = 0;
+  bool last = false;
+  const double end = MonotonicSeconds() + 30;
+  while (!last && MonotonicSeconds() < end) {
+    reader.TakeEach([&](const hullpipe_msg_CameraInfo& m, const dds_sample_info_t&) {
+      if (m.camera_id == 2) last = true;
+      else if (m.camera_id == uint32_t(TestCamera().id) && m.K[0] == TestCamera().fx) ++valid;
+      else ++other;
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(writer.Wait(30), 0) << test::ReadFile((dir / "writer.log").string());
+  EXPECT_TRUE(last) << "the writer's last sample did not come";
+  EXPECT_GE(valid, 1) << "the valid samples around the XCDR2 ones (the control; keep-last 1 per camera)";
+  EXPECT_EQ(other, 0) << "an XCDR2-marked sample was deserialized";
+  EXPECT_GE(reader.refused(), 1u) << "the XCDR2-marked samples were delivered and refused";
+}
+
+// The writer process of the test above (skipped unless it started it): valid,
+// XCDR2-marked (camera 99), valid, 20 times, then camera 2's valid sample.
+TEST(Dds, ForeignXcdr2WriterHelper) {
+  const char* domain_text = std::getenv("HULLPIPE_TEST_XCDR2_DOMAIN");
+  if (!domain_text) GTEST_SKIP() << "the writer process of ASampleNotInXcdr1FromTheWireIsRefusedBeforeDeserializing";
+  Participant stranger(uint32_t(std::atoi(domain_text)));
+  Writer<hullpipe_msg_CameraInfo> writer(stranger);
+  const KnownType& kt = *FindKnownType("hullpipe::msg::CameraInfo");
+  CdrWriter encoder(stranger, kt, kt.qos);
+  const hullpipe_msg_CameraInfo valid = CameraToMsg(TestCamera(), {});
+  hullpipe_msg_CameraInfo marked = valid;
+  marked.camera_id = 99;  // whatever of it arrived would show as camera 99 (or garbage)
+  std::vector<uint8_t> cdr = encoder.Encode(&marked);
+  cdr[1] = 7;  // CDR2_LE
+  // Cyclone's sertype of the topic, from a serialized sample of a probe reader.
+  Entity probe(Check(dds_create_reader(stranger.handle(), dds_get_topic(writer.handle()), nullptr, nullptr),
+                     "dds_create_reader"));
+  struct ddsi_serdata* sample = nullptr;
+  dds_sample_info_t si;
+  const double end = MonotonicSeconds() + 20;
+  while (writer.MatchedReaders() < 2 && MonotonicSeconds() < end)  // the probe and the node's reader
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GE(writer.MatchedReaders(), 2u);
+  while (Check(dds_takecdr(probe.handle(), &sample, 1, &si, DDS_ANY_STATE), "dds_takecdr") == 0 &&
+         MonotonicSeconds() < end) {
+    sample = nullptr;
+    writer.Write(valid);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_NE(sample, nullptr);
+  ddsrt_iovec_t iov;
+  iov.iov_base = cdr.data();
+  iov.iov_len = static_cast<ddsrt_iov_len_t>(cdr.size());
+  for (int k = 0; k < 20; ++k) {
+    writer.Write(valid);
+    struct ddsi_serdata* xcdr2 = ddsi_serdata_from_ser_iov(sample->type, SDK_DATA, 1, &iov, cdr.size());
+    ASSERT_NE(xcdr2, nullptr);
+    Check(dds_writecdr(writer.handle(), xcdr2), "dds_writecdr");  // takes the reference
+    writer.Write(valid);
+  }
+  hullpipe_msg_CameraInfo last = valid;
+  last.camera_id = 2;
+  writer.Write(last);
+  dds_wait_for_acks(writer.handle(), DDS_SECS(5));
+  ddsi_serdata_unref(sample);
 }
 
 // A recording of an earlier build holds ViewPose samples without the run_id

@@ -1,6 +1,13 @@
 #include "hullpipe/dds/dds.h"
 
+#include <dds/ddsi/ddsi_serdata.h>
+
 #include <csignal>
+#include <cstddef>
+#include <cstring>
+#include <vector>
+
+#include <spdlog/spdlog.h>
 
 namespace hullpipe::dds {
 
@@ -44,6 +51,54 @@ int WaitSet::Wait(double timeout_s) const {
   dds_attach_t xs[16];
   return int(Check(dds_waitset_wait(handle(), xs, 16, timeout_s > 0 ? dds_duration_t(timeout_s * 1e9) : 0),
                    "dds_waitset_wait"));
+}
+
+size_t TakeXcdr1(dds_entity_t reader, const dds_topic_descriptor_t* descriptor, size_t sample_size,
+                 const char* topic, uint64_t* refused,
+                 const std::function<void(const void*, const dds_sample_info_t&)>& f) {
+  // One zeroed sample, refilled per sample and its contents freed after f.
+  std::vector<std::max_align_t> storage((sample_size + sizeof(std::max_align_t) - 1) / sizeof(std::max_align_t));
+  void* sample = storage.data();
+  size_t taken = 0;
+  for (;;) {
+    struct ddsi_serdata* data[32] = {nullptr};
+    dds_sample_info_t infos[32];
+    const dds_return_t n = Check(dds_takecdr(reader, data, 32, infos, DDS_ANY_STATE), "dds_takecdr");
+    struct Refs {  // drops the serdata references even if f throws
+      struct ddsi_serdata** d;
+      int32_t n;
+      ~Refs() {
+        for (int32_t i = 0; i < n; ++i)
+          if (d[i]) ddsi_serdata_unref(d[i]);
+      }
+    } refs{data, n};
+    for (int32_t i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      unsigned char header[4] = {0xff, 0xff, 0, 0};
+      if (ddsi_serdata_size(data[i]) >= 4) ddsi_serdata_to_ser(data[i], 0, 4, header);
+      if (!(header[0] == 0 && header[1] <= 1)) {
+        if ((*refused)++ == 0)
+          spdlog::warn("{}: refused a sample whose encapsulation {:02x} {:02x} is not XCDR1 (further ones are "
+                       "counted)",
+                       topic, header[0], header[1]);
+        continue;
+      }
+      std::memset(sample, 0, sample_size);
+      if (!ddsi_serdata_to_sample(data[i], sample, nullptr, nullptr)) {
+        ++*refused;
+        continue;
+      }
+      struct Contents {  // frees what deserializing allocated, even if f throws
+        void* s;
+        const dds_topic_descriptor_t* d;
+        ~Contents() { dds_sample_free(s, d, DDS_FREE_CONTENTS); }
+      } contents{sample, descriptor};
+      f(sample, infos[i]);
+      ++taken;
+    }
+    if (n < 32) break;
+  }
+  return taken;
 }
 
 namespace {

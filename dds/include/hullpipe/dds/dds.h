@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -106,37 +107,34 @@ class Writer : public Entity {
   Entity topic_;
 };
 
+/// Takes every available sample of `reader` serialized (dds_takecdr, in batches
+/// of 32), refuses any whose encapsulation is not XCDR1 (CDR_BE 00 00 or CDR_LE
+/// 00 01: what hullpipe's writers send) before Cyclone deserializes it,
+/// deserializes the rest into a zeroed sample of `sample_size` bytes and calls
+/// f(sample, info) for each valid one. Cyclone 0.10.2 delivers an XCDR2-marked
+/// sample from another process and reads it past its buffer as garbage
+/// (docs/reliability.md). Refused samples are counted in *refused, with one
+/// warning naming the topic the first time. Returns how many f saw.
+size_t TakeXcdr1(dds_entity_t reader, const dds_topic_descriptor_t* descriptor, size_t sample_size,
+                 const char* topic, uint64_t* refused,
+                 const std::function<void(const void*, const dds_sample_info_t&)>& f);
+
 /// A typed data reader of T with T's QoS, with a read condition for waitsets.
 template <typename T>
 class Reader : public Entity {
  public:
   explicit Reader(const Participant& p) : Reader(p, CreateTopic<T>(p)) {}
 
-  /// Takes every available sample (loaned, in batches of 32) and calls
-  /// f(const T&, const dds_sample_info_t&) for each valid one. Returns how many.
+  /// Takes every available sample and calls f(const T&, const dds_sample_info_t&)
+  /// for each valid one (TakeXcdr1: a sample not in XCDR1 is refused, counted in
+  /// refused(), never deserialized). Returns how many.
   template <typename F>
   size_t TakeEach(F&& f) const {
-    size_t taken = 0;
-    for (;;) {
-      void* samples[32] = {nullptr};
-      dds_sample_info_t infos[32];
-      const dds_return_t n = Check(dds_take(handle(), samples, infos, 32, 32), "dds_take");
-      if (n == 0) break;
-      struct Loan {  // returns the loan even if f throws
-        dds_entity_t reader;
-        void** buf;
-        int32_t n;
-        ~Loan() { dds_return_loan(reader, buf, n); }
-      } loan{handle(), samples, n};
-      for (int32_t i = 0; i < n; ++i) {
-        if (!infos[i].valid_data) continue;
-        f(*static_cast<const T*>(samples[i]), infos[i]);
-        ++taken;
-      }
-      if (n < 32) break;
-    }
-    return taken;
+    return TakeXcdr1(handle(), TopicTraits<T>::Descriptor(), sizeof(T), TopicTraits<T>::kName, &refused_,
+                     [&](const void* s, const dds_sample_info_t& info) { f(*static_cast<const T*>(s), info); });
   }
+  /// Samples refused for their encapsulation since creation.
+  uint64_t refused() const { return refused_; }
   dds_entity_t condition() const { return condition_.handle(); }
   /// Number of matched writers right now.
   uint32_t MatchedWriters() const {
@@ -154,6 +152,7 @@ class Reader : public Entity {
         condition_(Check(dds_create_readcondition(handle(), DDS_ANY_STATE), "dds_create_readcondition")) {}
   Entity topic_;
   Entity condition_;
+  mutable uint64_t refused_ = 0;
 };
 
 /// Waits for data on attached readers, with a timeout so stop requests are seen.

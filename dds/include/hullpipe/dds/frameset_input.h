@@ -29,9 +29,12 @@ class FramesetInput {
 
   FramesetAssembler& assembler() { return assembler_; }
   /// Malformed samples plus the assembler's rejections.
-  uint64_t rejected() const { return malformed_ + assembler_.rejected(); }
-  /// Samples that could not be decoded (they never reached the assembler).
-  uint64_t malformed() const { return malformed_; }
+  uint64_t rejected() const { return malformed() + assembler_.rejected(); }
+  /// Samples that could not be decoded (they never reached the assembler),
+  /// those refused for their encapsulation (Reader::refused) included.
+  uint64_t malformed() const {
+    return malformed_ + info_.refused() + maps_.refused() + (images_ ? images_->refused() : 0);
+  }
   /// Framesets superseded or evicted before use.
   uint64_t dropped() const { return assembler_.dropped(); }
 
