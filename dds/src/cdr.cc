@@ -127,20 +127,9 @@ CdrWriter::~CdrWriter() {
   if (sertype_) ddsi_sertype_unref(sertype_);
 }
 
-namespace {
-
-// hullpipe's writers send XCDR1 (encapsulation CDR_BE 0x0000 or CDR_LE 0x0001).
-// Cyclone 0.10.2 (Debian 12) reads past the end of its buffer deserializing some
-// XCDR2-encapsulated samples of these @final types (fuzz_wire_samples found it
-// with a CameraInfo; docs/reliability.md), so recorded bytes with any other
-// encapsulation are refused before Cyclone sees them.
-bool IsXcdr1(const std::vector<uint8_t>& cdr) { return cdr.size() >= 4 && cdr[0] == 0 && cdr[1] <= 1; }
-
-}  // namespace
-
 void CdrWriter::Write(const std::vector<uint8_t>& cdr) const {
   if (cdr.size() < 4) throw std::invalid_argument("CDR sample shorter than its header");
-  if (!IsXcdr1(cdr)) throw std::invalid_argument("CDR sample is not XCDR1 (encapsulation CDR_LE or CDR_BE)");
+  if (!IsXcdr1(cdr.data(), cdr.size())) throw std::invalid_argument("CDR sample is not XCDR1 (encapsulation CDR_LE or CDR_BE)");
   ddsrt_iovec_t iov;
   iov.iov_base = const_cast<uint8_t*>(cdr.data());
   iov.iov_len = static_cast<ddsrt_iov_len_t>(cdr.size());
@@ -150,7 +139,7 @@ void CdrWriter::Write(const std::vector<uint8_t>& cdr) const {
 }
 
 bool CdrWriter::Decode(const std::vector<uint8_t>& cdr, void* sample) const {
-  if (!IsXcdr1(cdr)) return false;
+  if (!IsXcdr1(cdr.data(), cdr.size())) return false;
   ddsrt_iovec_t iov;
   iov.iov_base = const_cast<uint8_t*>(cdr.data());
   iov.iov_len = static_cast<ddsrt_iov_len_t>(cdr.size());

@@ -56,9 +56,9 @@ int WaitSet::Wait(double timeout_s) const {
 size_t TakeXcdr1(dds_entity_t reader, const dds_topic_descriptor_t* descriptor, size_t sample_size,
                  const char* topic, uint64_t* refused,
                  const std::function<void(const void*, const dds_sample_info_t&)>& f) {
-  // One zeroed sample, refilled per sample and its contents freed after f.
-  std::vector<std::max_align_t> storage((sample_size + sizeof(std::max_align_t) - 1) / sizeof(std::max_align_t));
-  void* sample = storage.data();
+  // One zeroed sample, made at the first sample taken (most polls take none),
+  // refilled per sample and its contents freed after f.
+  std::vector<std::max_align_t> storage;
   size_t taken = 0;
   for (;;) {
     struct ddsi_serdata* data[32] = {nullptr};
@@ -75,14 +75,18 @@ size_t TakeXcdr1(dds_entity_t reader, const dds_topic_descriptor_t* descriptor, 
     for (int32_t i = 0; i < n; ++i) {
       if (!infos[i].valid_data) continue;
       unsigned char header[4] = {0xff, 0xff, 0, 0};
-      if (ddsi_serdata_size(data[i]) >= 4) ddsi_serdata_to_ser(data[i], 0, 4, header);
-      if (!(header[0] == 0 && header[1] <= 1)) {
+      const size_t size = ddsi_serdata_size(data[i]);
+      if (size >= 4) ddsi_serdata_to_ser(data[i], 0, 4, header);
+      if (!IsXcdr1(header, size)) {
         if ((*refused)++ == 0)
           spdlog::warn("{}: refused a sample whose encapsulation {:02x} {:02x} is not XCDR1 (further ones are "
                        "counted)",
                        topic, header[0], header[1]);
         continue;
       }
+      if (storage.empty())
+        storage.resize((sample_size + sizeof(std::max_align_t) - 1) / sizeof(std::max_align_t));
+      void* sample = storage.data();
       std::memset(sample, 0, sample_size);
       if (!ddsi_serdata_to_sample(data[i], sample, nullptr, nullptr)) {
         ++*refused;

@@ -107,6 +107,17 @@ class Writer : public Entity {
   Entity topic_;
 };
 
+/// Whether a serialized sample of `size` bytes starting with `header` (its first
+/// 4 bytes, or fewer when size < 4) is XCDR1: encapsulation CDR_BE 00 00 or
+/// CDR_LE 00 01, what hullpipe's writers send. Cyclone 0.10.2 (Debian 12) reads
+/// past its buffer deserializing some XCDR2-marked samples of these @final
+/// types (docs/reliability.md), so recorded bytes (CdrWriter) and live samples
+/// (TakeXcdr1) with any other encapsulation are refused before Cyclone
+/// deserializes them.
+inline bool IsXcdr1(const unsigned char* header, size_t size) {
+  return size >= 4 && header[0] == 0 && header[1] <= 1;
+}
+
 /// Takes every available sample of `reader` serialized (dds_takecdr, in batches
 /// of 32), refuses any whose encapsulation is not XCDR1 (CDR_BE 00 00 or CDR_LE
 /// 00 01: what hullpipe's writers send) before Cyclone deserializes it,
