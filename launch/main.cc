@@ -27,6 +27,7 @@
 #include "hullpipe/launch/process.h"
 #include "hullpipe/util/cli_range.h"
 #include "hullpipe/util/run_id.h"
+#include "hullpipe/util/yaml_keys.h"
 
 namespace fs = std::filesystem;
 
@@ -126,18 +127,15 @@ int main(int argc, char** argv) {
     // Every key named, a misspelt one refused (it was ignored: "arg:" ran a node
     // without its arguments).
     if (!root.IsMap()) throw std::runtime_error("the file must be a map with a 'nodes' list");
-    for (const auto& kv : root)
-      if (kv.first.as<std::string>() != "nodes")
-        throw std::runtime_error("unknown key '" + kv.first.as<std::string>() + "' (known: nodes)");
+    if (const auto key = hullpipe::FirstUnknownKey(root, {"nodes"}))
+      throw std::runtime_error("unknown key '" + *key + "' (known: nodes)");
     if (!root["nodes"].IsSequence()) throw std::runtime_error("'nodes' must be a list");
     for (const auto& n : root["nodes"]) {
       if (!n.IsMap()) throw std::runtime_error("each entry of 'nodes' must be a map");
-      for (const auto& kv : n) {
-        const std::string key = kv.first.as<std::string>();
-        if (key != "name" && key != "exec" && key != "host" && key != "args" && key != "start_delay")
-          throw std::runtime_error("node " + (n["name"] ? n["name"].as<std::string>() : std::string("?")) +
-                                   ": unknown key '" + key + "' (known: name, exec, host, args, start_delay)");
-      }
+      const std::initializer_list<const char*> kNodeKeys = {"name", "exec", "host", "args", "start_delay"};
+      if (const auto key = hullpipe::FirstUnknownKey(n, kNodeKeys))
+        throw std::runtime_error("node " + (n["name"] ? n["name"].as<std::string>() : std::string("?")) +
+                                 ": unknown key '" + *key + "' (known: " + hullpipe::KeyList(kNodeKeys) + ")");
       if (!n["name"] || !n["exec"]) throw std::runtime_error("every node needs 'name' and 'exec'");
       NodeSpec s;
       s.name = n["name"].as<std::string>();

@@ -13,6 +13,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/yaml_keys.h"
 
 namespace fs = std::filesystem;
 
@@ -150,11 +151,8 @@ std::vector<double> ReadList(const YAML::Node& cam, const std::string& path,
 // A misspelt key ("distortio") would silently become a default: refused, named.
 void RejectUnknownKeys(const YAML::Node& map, const std::string& path, const std::string& where,
                        std::initializer_list<const char*> known) {
-  for (const auto& kv : map) {
-    const std::string key = kv.first.as<std::string>("?");
-    if (std::none_of(known.begin(), known.end(), [&](const char* k) { return key == k; }))
-      throw CalibrationError(path + ": " + where + "unknown key '" + key + "'");
-  }
+  if (const auto key = FirstUnknownKey(map, known))
+    throw CalibrationError(path + ": " + where + "unknown key '" + *key + "'");
 }
 
 Rig LoadYamlRig(const fs::path& file) {

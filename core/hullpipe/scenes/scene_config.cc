@@ -6,6 +6,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "hullpipe/util/yaml_keys.h"
+
 namespace hullpipe {
 
 void SceneConfig::Check() const {
@@ -50,14 +52,8 @@ void Keys(const YAML::Node& n, const std::string& path, const std::string& secti
           std::initializer_list<const char*> known, std::initializer_list<const char*> required = {}) {
   const std::string where = section.empty() ? "" : section + ".";
   if (!n.IsMap()) throw std::runtime_error(path + ": '" + section + "' must be a map of keys");
-  for (const auto& kv : n) {
-    const std::string key = kv.first.as<std::string>();
-    if (std::find_if(known.begin(), known.end(), [&](const char* k) { return key == k; }) == known.end()) {
-      std::string list;
-      for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
-      throw std::runtime_error(path + ": unknown key '" + where + key + "' (known: " + list + ")");
-    }
-  }
+  if (const auto key = FirstUnknownKey(n, known))
+    throw std::runtime_error(path + ": unknown key '" + where + *key + "' (known: " + KeyList(known) + ")");
   for (const char* k : required)
     if (!n[k]) throw std::runtime_error(path + ": key '" + where + k + "' is missing");
 }
