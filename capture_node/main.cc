@@ -32,10 +32,15 @@ class CaptureWriters final : public nodes::CaptureSink {
     timeline_.Write(m);
   }
   void PublishCameraInfo(const Camera& c, const Aabb& workspace) override { info_.Write(CameraToMsg(c, workspace)); }
-  void PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count, const cv::Mat& map,
-                    const cv::Mat& image, const Rigid3d* cam_from_world) override {
-    maps_.Write(MakeMapMessage(id, seq, t_ns, source_time_s, count, map, cam_from_world).msg);
-    images_.Write(MakeImageMessage(id, seq, t_ns, image, jpeg_).msg);
+  nodes::PublishTimes PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count,
+                                   const cv::Mat& map, const cv::Mat& image, const Rigid3d* cam_from_world) override {
+    const double t0 = MonotonicSeconds();
+    const auto map_msg = MakeMapMessage(id, seq, t_ns, source_time_s, count, map, cam_from_world);
+    const auto image_msg = MakeImageMessage(id, seq, t_ns, image, jpeg_);
+    const double t1 = MonotonicSeconds();
+    maps_.Write(map_msg.msg);
+    images_.Write(image_msg.msg);
+    return {(t1 - t0) * 1e3, (MonotonicSeconds() - t1) * 1e3};
   }
   uint32_t MatchedMapReaders() const { return maps_.MatchedReaders(); }
 

@@ -97,6 +97,7 @@ int main(int argc, char** argv) {
     o.run_id = common.run_id;
     nodes::ReconController recon(o, clock, input.assembler(), *backend, tiles);
     NodeReporter reporter(*participant, name, recon.counters(), common.run_id);
+    input.SetCounters(&recon.counters());
     while (!StopRequested()) {
       ws.Wait(0.1);
       input.Poll();

@@ -216,6 +216,7 @@ int main(int argc, char** argv) {
     nodes::SystemClock clock;
     nodes::RenderController render(o, clock, input.assembler(), outputs);
     NodeReporter reporter(*participant, "render", render.counters(), o.run_id);
+    input.SetCounters(&render.counters());
 
     // Converts one sample; a malformed one is rejected on one line.
     auto take = [&render](auto& reader, auto&& use) {
@@ -236,7 +237,13 @@ int main(int argc, char** argv) {
       // Right after compositing, loop at once: a new pose may be issued now.
       if (composited == 0) ws.Wait(0.05);
       input.Poll();
-      take(tile_reader, [&](const hullpipe_msg_HullView& m) { render.OnTile(TileFromMsg(m)); });
+      tile_reader.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t& info) {
+        try {
+          render.OnTile(TileFromMsg(m), info.source_timestamp);
+        } catch (const MessageError& e) {
+          render.Reject(e.what());
+        }
+      });
       take(state_reader, [&](const hullpipe_msg_VirtualObjectState& m) { render.OnObjectState(VirtualObjectFromMsg(m)); });
       take(head_reader, [&](const hullpipe_msg_HeadPose& m) { render.OnHeadPose(HeadPoseFromMsg(m)); });
       take(mesh_reader, [&](const hullpipe_msg_VirtualMesh& m) { render.OnMesh(VirtualMeshFromMsg(m)); });
@@ -264,7 +271,18 @@ int main(int argc, char** argv) {
     nlohmann::json j = render.StatsJson();
     j["video"] = outputs.video_path();
     const std::string stats_path = (fs::path(out_dir) / "stats.json").string();
-    std::ofstream(stats_path) << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
+    // stats.json and the budget's waterfall rows (latency.tsv, for
+    // scripts/latency_plot.sh); a file that cannot be written fails the run.
+    const std::string budget_path = (fs::path(out_dir) / "latency.tsv").string();
+    std::string unwritten;
+    for (const auto& [path, text] :
+         {std::pair{stats_path, j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n"},
+          std::pair{budget_path, render.Budget().WaterfallTsv()}}) {
+      std::ofstream f(path);
+      f << text;
+      f.close();
+      if (!f) unwritten += (unwritten.empty() ? "" : ", ") + path;
+    }
     std::printf("\n%s\nvideo: %s\nstats: %s\n", render.Table().c_str(),
                 outputs.video_frames() > 0 ? outputs.video_path().c_str() : "none (no frame written)",
                 stats_path.c_str());
@@ -272,6 +290,10 @@ int main(int argc, char** argv) {
     reporter.Publish(true);
     // Missing output is a failure, not an exit 0 (an interrupted run that
     // composited nothing has nothing to miss).
+    if (!unwritten.empty()) {
+      spdlog::error("could not write {}", unwritten);
+      return 1;
+    }
     if (outputs.failures() > 0) {
       spdlog::error("{} output file(s) could not be written, the first {}", outputs.failures(),
                     outputs.first_failure());

@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
     nodes::SimController sim(config, clock, input.assembler(), writers);
     sim.set_stop(StopRequestFlag());  // SIGINT ends a long step too
     NodeReporter reporter(*participant, "sim", sim.counters(), common.run_id);
+    input.SetCounters(&sim.counters());
     while (!StopRequested()) {
       ws.Wait(0.1);
       input.Poll();

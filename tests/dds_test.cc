@@ -190,6 +190,27 @@ TEST(Convert, NodeStatsWithBadTextIsRejected) {
   EXPECT_THROW(NodeStatsFromMsg(MakeNodeStatsMessage(s, 1).msg), MessageError);
 }
 
+// The latency budget needs each stage's median, p95 and count, and the host
+// (which stamps cross hosts): all of them cross the wire.
+TEST(Convert, NodeStatsCarriesEachStagesPercentilesAndTheHost) {
+  nodes::NodeStatsSample s;
+  s.name = "recon1";
+  s.host = "lab-pc-2";
+  s.stages["sweep"] = {12.5, 11.0, 20.0, 321};
+  s.stages["transport_map"] = {1.5, 1.0, 3.0, 1284};
+  const nodes::NodeStatsSample back = NodeStatsFromMsg(MakeNodeStatsMessage(s, 1).msg);
+  EXPECT_EQ(back.host, "lab-pc-2");
+  ASSERT_EQ(back.stages.size(), 2u);
+  const auto& st = back.stages.at("sweep");
+  EXPECT_EQ(st.ms_mean, 12.5);
+  EXPECT_EQ(st.ms_p50, 11.0);
+  EXPECT_EQ(st.ms_p95, 20.0);
+  EXPECT_EQ(st.count, 321u);
+  EXPECT_EQ(back.stages.at("transport_map").count, 1284u);
+  s.host = std::string(256, 'h');  // longer than any host name
+  EXPECT_THROW(NodeStatsFromMsg(MakeNodeStatsMessage(s, 1).msg), MessageError);
+}
+
 TEST(Dds, ErrorsNameTheCall) {
   try {
     Check(DDS_RETCODE_BAD_PARAMETER, "dds_create_writer");

@@ -418,12 +418,14 @@ OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const Colli
 
 OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsSample& s, int64_t stamp_ns) {
   OwnedSample<hullpipe_msg_NodeStats> o;
-  o.strings.reserve(s.stages.size() + 2);
+  // (Reserved first: the message borrows the strings' buffers.)
+  o.strings.reserve(s.stages.size() + 3);
   o.strings.push_back(s.name);
   o.strings.push_back(s.backend);
+  o.strings.push_back(s.host);
   for (const auto& [n, st] : s.stages) {
     o.strings.push_back(n);
-    o.stages.push_back({const_cast<char*>(o.strings.back().c_str()), st.ms_mean, st.ms_p95});
+    o.stages.push_back({const_cast<char*>(o.strings.back().c_str()), st.ms_mean, st.ms_p50, st.ms_p95, st.count});
   }
   auto& m = o.msg;
   m.node_name = const_cast<char*>(o.strings.front().c_str());
@@ -443,6 +445,7 @@ OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsS
                          c.unpartnered, c.pauses, c.restarts, c.clock_offsets});
   Borrow(&m.cameras, o.cameras);
   m.backend = const_cast<char*>(o.strings[1].c_str());
+  m.host = const_cast<char*>(o.strings[2].c_str());
   m.run_id = s.run_id;
   return o;
 }
@@ -489,10 +492,11 @@ nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& m) {
   for (uint32_t i = 0; i < m.stages._length; ++i) {
     const auto& st = m.stages._buffer[i];
     if (i >= 64) throw MessageError("NodeStats: more than 64 stages");
-    s.stages[WireText(st.name ? st.name : "?", 64, "stage name")] = {st.ms_mean, st.ms_p95};
+    s.stages[WireText(st.name ? st.name : "?", 64, "stage name")] = {st.ms_mean, st.ms_p50, st.ms_p95, st.count};
   }
   s.dropped_for_skew = m.dropped_for_skew;
   s.backend = WireText(m.backend, 512, "backend");
+  s.host = WireText(m.host, 255, "host");
   for (uint32_t i = 0; i < m.cameras._length && i < 64; ++i) {
     const auto& c = m.cameras._buffer[i];
     CameraSkewReport r;

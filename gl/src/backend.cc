@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "hullpipe/geometry/conventions.h"
+
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
 #include "hullpipe/gl/gl_ray_sweep.h"
@@ -14,9 +16,9 @@ class CpuBackend final : public SweepBackend {
  public:
   CpuBackend(int threads, int refine) : threads_(threads), refine_(refine) {}
   void BeginFrameset(const VolumeQuery&, const std::vector<CameraImage>&) override {}
-  cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d,
-                const cv::Rect& tile) override {
-    return PlaneSweepCpu(q, v, d, tile, nullptr, threads_, refine_, stop());
+  cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d, const cv::Rect& tile,
+                SweepStats* stats) override {
+    return PlaneSweepCpu(q, v, d, tile, stats, threads_, refine_, stop());
   }
   HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
                             const PlaneSweepOptions& sweep) override {
@@ -47,12 +49,18 @@ class GlBackend final : public SweepBackend {
     march_->Upload(q);
     texture_->UploadImages(images);
   }
-  cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d,
-                const cv::Rect& tile) override {
+  cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d, const cv::Rect& tile,
+                SweepStats* stats) override {
     ctx_.MakeCurrent();
-    if (!stencil_) return march_->Sweep(q, v, d, tile, refine_);
-    cv::Mat depth = stencil_sweep_->Sweep(q, v, d, tile);
-    RefineSweepDepth(q, v, d, tile, refine_, &depth, threads_, stop());  // CPU point queries on the GPU's bracket
+    const double t0 = MonotonicSeconds();
+    cv::Mat depth = stencil_ ? stencil_sweep_->Sweep(q, v, d, tile) : march_->Sweep(q, v, d, tile, refine_);
+    const double t1 = MonotonicSeconds();
+    // The stencil sweep's bracket is refined with CPU point queries.
+    if (stencil_) RefineSweepDepth(q, v, d, tile, refine_, &depth, threads_, stop());
+    if (stats) {
+      stats->sweep_ms += (t1 - t0) * 1e3;
+      stats->refine_ms += (MonotonicSeconds() - t1) * 1e3;
+    }
     return depth;
   }
   HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,

@@ -162,6 +162,7 @@ bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camer
   s->source_time_s = source_time_s;
   s->map = std::move(map);
   s->cam_from_world = cam_from_world;
+  s->map_arrival_ns = arrival_ns;
   if (arrival_ns != 0) CheckClock(camera_id, cams_[camera_id], t, arrival_ns);
   return true;
 }
@@ -194,12 +195,13 @@ void FramesetAssembler::CheckClock(int camera_id, Cam& cam, int64_t t, int64_t a
 }
 
 bool FramesetAssembler::AddImage(int camera_id, uint64_t seq, int64_t t, cv::Mat image, std::string* why,
-                                 uint64_t source_id) {
+                                 uint64_t source_id, int64_t arrival_ns) {
   if (image.empty() || image.type() != CV_8UC3)
     return Reject(why, "image of camera " + std::to_string(camera_id) + " is not BGR8");
   Sample* s = Slot(camera_id, seq, t, source_id, why);
   if (!s) return false;
   s->image = std::move(image);
+  s->image_arrival_ns = arrival_ns;
   return true;
 }
 
@@ -310,6 +312,7 @@ std::optional<Frameset> FramesetAssembler::Take(uint64_t seq) {
     f.maps.push_back({camera, s->map});
     if (!s->image.empty()) f.images.push_back({camera, s->image});
     f.skew_ns.push_back(s->t_ns - it->t_ns);
+    f.last_arrival_ns = std::max({f.last_arrival_ns, s->map_arrival_ns, want_images_ ? s->image_arrival_ns : 0});
     Cam& cam = cams_[id];
     cam.skew_ms.Add(std::abs(double(s->t_ns - it->t_ns)) * 1e-6);
     cam.out_of_tolerance_run = 0;

@@ -44,6 +44,10 @@ struct Frameset {
   std::vector<CameraMap> maps;      ///< In camera-id order.
   std::vector<CameraImage> images;  ///< In camera-id order (empty unless wanted).
   std::vector<int64_t> skew_ns;     ///< Per map: its capture time minus t_ref, ns.
+  /// The last arrival among its maps and images (the arrival_ns given to
+  /// AddMap/AddImage, the node's wall clock ns; 0: none known). A frameset that
+  /// waited for a later sample to decide a nearest frame became complete after it.
+  int64_t last_arrival_ns = 0;
 };
 
 /// Per camera: how well its samples found partners (NodeStats, stats.json).
@@ -110,7 +114,7 @@ class FramesetAssembler {
   bool CheckMapSize(int camera_id, int width, int height, std::string* why = nullptr);
   /// Adds one camera's colour image (CV_8UC3, any size) of frame `seq`; same rules.
   bool AddImage(int camera_id, uint64_t seq, int64_t capture_time_ns, cv::Mat image, std::string* why = nullptr,
-                uint64_t source_id = 0);
+                uint64_t source_id = 0, int64_t arrival_ns = 0);
 
   /// Id of the newest complete frameset not yet taken, if any.
   std::optional<uint64_t> NewestComplete() const;
@@ -185,6 +189,7 @@ class FramesetAssembler {
     double source_time_s = 0;
     cv::Mat map, image;
     std::optional<Rigid3d> cam_from_world;  ///< A tracked camera's pose of this frame.
+    int64_t map_arrival_ns = 0, image_arrival_ns = 0;  ///< Node wall clock ns (0: unknown).
     bool partnered = false;  ///< Member of a complete frameset.
   };
   struct Cam {

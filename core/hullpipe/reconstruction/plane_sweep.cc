@@ -359,10 +359,12 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
   if (depths.empty() || tile.area() == 0 || query.hull_box().empty()) return out;
   if (refine_iterations <= 0) {
+    const double t0 = MonotonicSeconds();
     ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
       SweepRows(query, view, depths, tile, r0, r1, out, st, 0, stop);
     });
     ThrowIfStopped(stop, "the plane sweep");
+    if (stats) stats->sweep_ms += (MonotonicSeconds() - t0) * 1e3;
     return out;
   }
   // Refinement: sweep with a one-pixel margin inside the view, so the silhouette
@@ -370,15 +372,21 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   // seams; refine only the tile's own pixels.
   const cv::Rect region = cv::Rect(tile.x - 1, tile.y - 1, tile.width + 2, tile.height + 2) &
                           cv::Rect(0, 0, view.width, view.height);
+  const double t0 = MonotonicSeconds();
   cv::Mat swept(region.height, region.width, CV_32FC1, cv::Scalar(kNoDepth));
   ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
     SweepRows(query, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
   });
   ThrowIfStopped(stop, "the plane sweep");
+  const double t1 = MonotonicSeconds();
   const cv::Rect inner(tile.x - region.x, tile.y - region.y, tile.width, tile.height);
   cv::Mat refined = swept.clone();
   RefineEdges(query, view, depths, region, inner, refine_iterations, swept, refined, threads, stop);
   refined(inner).copyTo(out);
+  if (stats) {
+    stats->sweep_ms += (t1 - t0) * 1e3;
+    stats->refine_ms += (MonotonicSeconds() - t1) * 1e3;
+  }
   return out;
 }
 

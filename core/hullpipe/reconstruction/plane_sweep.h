@@ -64,6 +64,10 @@ struct SweepStats {
   int64_t rays = 0;          ///< Pixels whose ray met the hull box.
   int64_t plane_points = 0;  ///< Plane points visited.
   int64_t projections = 0;   ///< Point-in-camera tests made.
+  /// Wall milliseconds (added to, not reset): the sweep with its per-ray
+  /// bisection, and the silhouette/rim refinement pass (the latency budget's
+  /// recon "sweep" and "refine", docs/latency.md).
+  double sweep_ms = 0, refine_ms = 0;
 };
 
 /// CPU plane sweep over the pixels of `tile` (a rectangle of the full view).

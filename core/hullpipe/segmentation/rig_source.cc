@@ -246,6 +246,8 @@ class VideoRig final : public RigSource {
     f->maps.assign(cams_.size(), cv::Mat());
     f->capture_ns.assign(cams_.size(), 0);
     f->poses.assign(cams_.size(), std::nullopt);
+    f->read_ms.assign(cams_.size(), 0.0);
+    f->segment_ms.assign(cams_.size(), 0.0);
     f->errors.clear();
     f->time_s = double(index_) / fps_;
     for (size_t i = 0; i < cams_.size(); ++i)
@@ -295,6 +297,7 @@ class VideoRig final : public RigSource {
     if (c.ended) return;
     cv::Mat img;
     bool ok = false;
+    const double t_read = MonotonicSeconds();
     try {
       ok = c.frames.read(img);
     } catch (const cv::Exception& e) {
@@ -312,6 +315,8 @@ class VideoRig final : public RigSource {
                           std::to_string(c.camera.height) + "; skipped");
       return;
     }
+    const double t_segment = MonotonicSeconds();
+    f->read_ms[i] = (t_segment - t_read) * 1e3;
     cv::Mat map;
     if (!c.masks_spec.empty()) {
       cv::Mat m;
@@ -329,6 +334,7 @@ class VideoRig final : public RigSource {
     }
     f->images[i] = img;
     f->maps[i] = map;
+    f->segment_ms[i] = (MonotonicSeconds() - t_segment) * 1e3;
   }
 
   // Live: waits up to kLiveWaitS for any camera's frame, then takes one queued
@@ -361,8 +367,10 @@ class VideoRig final : public RigSource {
         continue;
       }
       f->images[i] = img;
+      const double t_segment = MonotonicSeconds();
       f->maps[i] = c.background.Segment(img, options_.segmentation);
       c.background.Follow(img, f->maps[i], options_.background_rate);
+      f->segment_ms[i] = (MonotonicSeconds() - t_segment) * 1e3;
       f->capture_ns[i] = got[i].second - c.latency_ns;
     }
     if (any) {

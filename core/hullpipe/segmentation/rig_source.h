@@ -31,6 +31,11 @@ struct RigFrame {
   /// Per camera: a tracked camera's cam_from_world at this frame (empty optional:
   /// a fixed camera, whose pose is its calibration's).
   std::vector<std::optional<Rigid3d>> poses;
+  /// Per camera: wall milliseconds spent reading (decoding) its frame and
+  /// segmenting it into the map (the latency budget's capture stages,
+  /// docs/latency.md); empty when the source does not time them. Cameras are
+  /// read in parallel: the frame's stage time is the slowest camera's.
+  std::vector<double> read_ms, segment_ms;
 };
 
 /// A multi-camera source.

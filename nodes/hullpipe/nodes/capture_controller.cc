@@ -1,5 +1,6 @@
 #include "hullpipe/nodes/capture_controller.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -104,11 +105,12 @@ bool CaptureController::Step() {
     // Paced frames carry their due time: equal for every camera of one instant,
     // in every process. Unpaced ones carry the time they were read.
     const int64_t t_ns = paced ? DueNs(index_) : clock_.WallNs();
-    bool ok;
-    {
-      StageTimer t(counters_, "read+segment");
-      ok = source_.Next(&frame_);
-    }
+    // The budget's capture stages (docs/latency.md): lag (due time to read),
+    // read, segment, encode, publish.
+    const double lag_ms = paced ? double(clock_.WallNs() - t_ns) * 1e-6 : 0.0;
+    const double t_read = clock_.Now();
+    const bool ok = source_.Next(&frame_);
+    const double next_ms = (clock_.Now() - t_read) * 1e3;
     for (const auto& e : frame_.errors) {
       spdlog::warn("{}", e);
       if (ok) counters_.Rejected();  // a skipped frame; the end of input is no rejection
@@ -122,8 +124,15 @@ bool CaptureController::Step() {
     for (const auto& m : frame_.maps) any = any || !m.empty();
     if (source_.live() && !any) return true;  // no frame yet: ask again
     counters_.FrameIn();
+    if (paced) counters_.Stage("lag", lag_ms);
+    if (frame_.read_ms.empty()) {
+      counters_.Stage("read", next_ms);  // a source that does not split its time
+    } else {
+      counters_.Stage("read", *std::max_element(frame_.read_ms.begin(), frame_.read_ms.end()));
+      counters_.Stage("segment", *std::max_element(frame_.segment_ms.begin(), frame_.segment_ms.end()));
+    }
     {
-      StageTimer t(counters_, "publish");
+      PublishTimes spent;
       const uint32_t camera_count = uint32_t(source_.rig_camera_count());
       for (size_t i = 0; i < source_.cameras().size(); ++i) {
         if (frame_.maps[i].empty()) continue;
@@ -137,12 +146,18 @@ bool CaptureController::Step() {
         }
         seq = std::max(seq, last_seq_[i] + 1);
         last_seq_[i] = seq;
+        const double t_scale = clock_.Now();
         cv::Mat img = frame_.images[i];
         if (o_.image_scale < 1.0) cv::resize(img, img, cv::Size(), o_.image_scale, o_.image_scale, cv::INTER_AREA);
+        spent.encode_ms += (clock_.Now() - t_scale) * 1e3;
         const Rigid3d* pose = i < frame_.poses.size() && frame_.poses[i] ? &*frame_.poses[i] : nullptr;
-        sink_.PublishFrame(uint32_t(source_.cameras()[i].id), seq, stamp, frame_.time_s, camera_count,
-                           frame_.maps[i], img, pose);
+        const PublishTimes t = sink_.PublishFrame(uint32_t(source_.cameras()[i].id), seq, stamp, frame_.time_s,
+                                                  camera_count, frame_.maps[i], img, pose);
+        spent.encode_ms += t.encode_ms;
+        spent.write_ms += t.write_ms;
       }
+      counters_.Stage("encode", spent.encode_ms);
+      counters_.Stage("publish", spent.write_ms);
     }
     ++index_;
     ++published_;

@@ -44,6 +44,12 @@ struct CaptureOptions {
   void Check() const;
 };
 
+/// Wall milliseconds a sink spent on one camera's frame: encoding the map and
+/// image into messages, and writing them (the budget's "encode" and "publish").
+struct PublishTimes {
+  double encode_ms = 0, write_ms = 0;
+};
+
 /// Where capture's outputs go (CameraInfo, ObjectPixelMap, CameraImage).
 class CaptureSink {
  public:
@@ -51,7 +57,8 @@ class CaptureSink {
   virtual void PublishCameraInfo(const Camera& camera, const Aabb& workspace) = 0;
   /// One camera's map (CV_8UC1) and image (CV_8UC3, already scaled) of frame `seq`;
   /// cam_from_world: a tracked camera's pose of this frame (nullptr: fixed).
-  virtual void PublishFrame(uint32_t camera_id, uint64_t seq, int64_t capture_time_ns, double source_time_s,
+  /// Returns the time it took (zeros: not timed).
+  virtual PublishTimes PublishFrame(uint32_t camera_id, uint64_t seq, int64_t capture_time_ns, double source_time_s,
                             uint32_t camera_count, const cv::Mat& map, const cv::Mat& image,
                             const Rigid3d* cam_from_world) = 0;
   /// The timeline this node starts (CaptureTimeline, transient-local).

@@ -25,9 +25,10 @@ struct CaptureRecorder final : CaptureSink {
   void PublishCameraInfo(const Camera&, const Aabb&) override { ++infos; }
   std::vector<std::pair<int64_t, double>> timelines;
   void AnnounceTimeline(int64_t start_ns, double fps) override { timelines.push_back({start_ns, fps}); }
-  void PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double, uint32_t count, const cv::Mat& map,
-                    const cv::Mat& image, const Rigid3d*) override {
+  PublishTimes PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double, uint32_t count, const cv::Mat& map,
+                            const cv::Mat& image, const Rigid3d*) override {
     frames.push_back({id, seq, t_ns, count, map.size(), image.size()});
+    return {};
   }
 };
 
@@ -226,10 +227,11 @@ TEST(Capture, ATrackedCameraSendsItsPoseAndTheHullUsesIt) {
       a.SetCamera(c);
       a.SetWorkspace(ws);
     }
-    void PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count,
-                      const cv::Mat& map, const cv::Mat&, const Rigid3d* pose) override {
+    PublishTimes PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count,
+                              const cv::Mat& map, const cv::Mat&, const Rigid3d* pose) override {
       a.AddMap(int(id), seq, t_ns, int(count), map.clone(), nullptr, source_time_s, 0, 0,
                pose ? std::optional<Rigid3d>(*pose) : std::nullopt);
+      return {};
     }
     void AnnounceTimeline(int64_t, double) override {}
   } sink;

@@ -1,6 +1,13 @@
 #include "hullpipe/nodes/node_counters.h"
 
+#include <unistd.h>
+
 namespace hullpipe::nodes {
+
+NodeCounters::NodeCounters(const Clock& clock) : clock_(clock) {
+  char host[256] = {};
+  if (gethostname(host, sizeof host - 1) == 0) host_ = host;
+}
 
 void NodeCounters::FrameOut(int64_t capture_time_ns) {
   ++frames_out_;
@@ -26,10 +33,11 @@ NodeStatsSample NodeCounters::Snapshot(const std::string& name, bool final_repor
   s.dropped = dropped_;
   s.rejected = rejected_;
   s.final_report = final_report;
-  for (const auto& [n, st] : stages_) s.stages[n] = {st.Mean(), st.Percentile(95)};
+  for (const auto& [n, st] : stages_) s.stages[n] = {st.Mean(), st.Percentile(50), st.Percentile(95), st.count()};
   s.cameras = cameras_;
   s.dropped_for_skew = dropped_for_skew_;
   s.backend = backend_;
+  s.host = host_;
   return s;
 }
 

@@ -20,19 +20,23 @@ struct NodeStatsSample {
   double latency_ms_p50 = 0, latency_ms_p95 = 0;
   uint64_t frames_in = 0, frames_out = 0, dropped = 0, rejected = 0;
   bool final_report = false;  ///< The node is stopping.
+  /// One stage's durations (docs/latency.md names each stage and what it measures).
   struct Stage {
-    double ms_mean = 0, ms_p95 = 0;
+    double ms_mean = 0, ms_p50 = 0, ms_p95 = 0;
+    uint64_t count = 0;  ///< Samples taken in all.
   };
   std::map<std::string, Stage> stages;
   uint64_t dropped_for_skew = 0;             ///< Framesets dropped for skew (assembling nodes).
   std::vector<CameraSkewReport> cameras;     ///< Per camera (assembling nodes; empty otherwise).
   std::string backend;  ///< "cpu", or the GL method and GlInfo::Summary() (empty: not reported).
   uint64_t run_id = 0;  ///< The node's --run-id (0: none given; docs/reliability.md, "run id").
+  std::string host;     ///< The node's host name (empty: not reported): which stamps cross hosts.
 };
 
 class NodeCounters {
  public:
-  explicit NodeCounters(const Clock& clock) : clock_(clock) {}
+  /// The host name (NodeStatsSample::host) is this machine's (gethostname).
+  explicit NodeCounters(const Clock& clock);
   void FrameIn(uint64_t n = 1) { frames_in_ += n; }
   /// One output for a frameset captured at capture_time_ns (wall clock; <= 0:
   /// unknown, no latency sample).
@@ -48,8 +52,16 @@ class NodeCounters {
   }
   /// What computes this node's work (NodeStatsSample::backend).
   void SetBackend(std::string backend) { backend_ = std::move(backend); }
-  /// Adds one duration (milliseconds) to a stage.
-  void Stage(const std::string& name, double ms) { stages_[name].Add(ms); }
+  /// Adds one duration (milliseconds) to a stage (docs/latency.md). Negative
+  /// durations (a stamp from another host's clock running ahead) are kept as
+  /// they are: the budget shows the clocks' disagreement rather than hiding it.
+  void Stage(const std::string& name, double ms) {
+    auto it = stages_.find(name);
+    if (it == stages_.end()) it = stages_.emplace(name, SampleStats(kStageSamples)).first;
+    it->second.Add(ms);
+  }
+  /// Samples kept per stage (a ring: the most recent ones).
+  static constexpr size_t kStageSamples = 20000;
   uint64_t frames_in() const { return frames_in_; }
   uint64_t frames_out() const { return frames_out_; }
   uint64_t dropped() const { return dropped_; }
@@ -71,6 +83,7 @@ class NodeCounters {
   std::vector<CameraSkewReport> cameras_;
   uint64_t dropped_for_skew_ = 0;
   std::string backend_;
+  std::string host_;
 };
 
 /// RAII: adds the elapsed milliseconds (on the counters' clock) to a stage.

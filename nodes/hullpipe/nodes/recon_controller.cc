@@ -130,6 +130,10 @@ int ReconController::Step() {
 
 int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
   counters_.FrameIn();
+  // The budget's recon stages (docs/latency.md): wait (the frameset's last
+  // sample taken to this start: a pose naming it, or this node busy), hull_box,
+  // upload, visibility, sweep, refine, texture, publish.
+  if (fs.last_arrival_ns != 0) counters_.Stage("wait", double(clock_.WallNs() - fs.last_arrival_ns) * 1e-6);
   const double t0 = clock_.Now();
   const VolumeQuery vq(fs.maps, assembler_.workspace(), query_options_);  // includes the hull box
   const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, o_.sweep);
@@ -154,10 +158,10 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
     const double tt0 = clock_.Now();
     const cv::Rect rect = TileRect(t, o_.tile_count, pose.view.width, pose.view.height);
     HullTile tile;
-    {
-      StageTimer st(counters_, "sweep");
-      tile.depth = backend_.Sweep(vq, pose.view, depths, rect);
-    }
+    SweepStats sweep_stats;
+    tile.depth = backend_.Sweep(vq, pose.view, depths, rect, &sweep_stats);
+    counters_.Stage("sweep", sweep_stats.sweep_ms);
+    counters_.Stage("refine", sweep_stats.refine_ms);
     {
       StageTimer st(counters_, "texture");
       tile.colour = backend_.Texture(tile.depth, rect, pose.view, fs.images, vis ? &*vis : nullptr);
@@ -171,6 +175,7 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
     tile.capture_time_ns = fs.capture_time_ns;
     tile.run_id = pose.run_id;
     tile.render_ms = (clock_.Now() - (t == o_.tile ? t0 : tt0)) * 1e3;
+    StageTimer st(counters_, "publish");
     sink_.PublishTile(tile, uint32_t(depths.size()));
     ++published;
   }

@@ -55,7 +55,7 @@ void RenderController::Reject(const std::string& why) {
   spdlog::warn("rejected: {}", why);
 }
 
-void RenderController::OnTile(HullTile t) {
+void RenderController::OnTile(HullTile t, int64_t sent_ns) {
   // A tile answers a pose, and a pose carries this run's id: render's tiles
   // always carry it, so one without it is another run's too.
   if (!runs_.Accept(t.run_id, "HullView", /*take_unset=*/o_.run_id == 0, "recon" + std::to_string(t.node_id)))
@@ -70,7 +70,11 @@ void RenderController::OnTile(HullTile t) {
     Reject("HullView tile rectangle lies outside the view");
     return;
   }
-  it->second.tiles[t.tile_index] = std::move(t);
+  if (sent_ns != 0) counters_.Stage("transport_tile", double(clock_.WallNs() - sent_ns) * 1e-6);
+  auto& tiles = it->second.tiles;
+  tiles[t.tile_index] = std::move(t);
+  // The tiles' round trip: the pose sent to its last tile in (beside recon's stages).
+  if (int(tiles.size()) == o_.tiles) counters_.Stage("tiles", (clock_.Now() - it->second.sent_s) * 1e3);
 }
 
 void RenderController::OnObjectState(const VirtualObjectSample& s) {
@@ -153,13 +157,15 @@ void RenderController::IssuePoses() {
     f.view = NovelView::FromFov(o_.width, o_.height, o_.hfov_deg * M_PI / 180.0, world_from_eye);
     ++pose_seq_;
     sink_.PublishPose(f.view, pose_seq_, fset->seq);
+    // Render's own frameset in (its last sample taken) to its pose out.
+    if (fset->last_arrival_ns != 0) counters_.Stage("issue", double(clock_.WallNs() - fset->last_arrival_ns) * 1e-6);
     in_flight_[pose_seq_] = std::move(f);
     last_requested_ = fset->seq;
   }
 }
 
 void RenderController::Composite(InFlight& f) {
-  StageTimer st(counters_, "composite");
+  std::optional<StageTimer> st(std::in_place, counters_, "composite");
   cv::Mat depth(o_.height, o_.width, CV_32FC1, cv::Scalar(kNoDepth));
   cv::Mat colour(o_.height, o_.width, CV_8UC3, cv::Scalar(0, 0, 0));
   for (const auto& [idx, t] : f.tiles) {
@@ -193,13 +199,17 @@ void RenderController::Composite(InFlight& f) {
   meshes_drawn_ += draws.size();
   cv::Mat composited_depth;
   cv::Mat frame = hullpipe::Composite(f.view, depth, colour, spheres, comp_, &composited_depth, draws);
+  st.reset();
   if (o_.light) {
     StageTimer lt(counters_, "light");
     const ShadowMap shadow = RenderShadowMap(*o_.light, orbit_.up, f.hull.get(), spheres, draws);
     ApplyLighting(f.view, composited_depth, depth, *o_.light, shadow, &frame);
     ++lit_frames_;
   }
-  sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1, f.view, depth, f.path_time_s);
+  {
+    StageTimer wt(counters_, "write");
+    sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1, f.view, depth, f.path_time_s);
+  }
   counters_.FrameOut(f.capture_time_ns);
   last_composited_ = std::max(last_composited_, f.frame_seq);
 }
@@ -297,7 +307,8 @@ nlohmann::json RenderController::StatsJson() const {
   }
   auto row = [](const NodeStatsSample& r) {
     nlohmann::json stages = nlohmann::json::object();
-    for (const auto& [n, s] : r.stages) stages[n] = {{"ms_mean", s.ms_mean}, {"ms_p95", s.ms_p95}};
+    for (const auto& [n, s] : r.stages)
+      stages[n] = {{"ms_mean", s.ms_mean}, {"ms_p50", s.ms_p50}, {"ms_p95", s.ms_p95}, {"count", s.count}};
     nlohmann::json out{{"fps", r.fps},           {"latency_ms_p50", r.latency_ms_p50},
                        {"latency_ms_p95", r.latency_ms_p95}, {"frames_in", r.frames_in},
                        {"frames_out", r.frames_out}, {"dropped", r.dropped},
@@ -328,7 +339,14 @@ nlohmann::json RenderController::StatsJson() const {
   // had time to composite (it takes the newest).
   j["framesets"]["render"]["reference_frames"] = assembler_.reference_frames();
   j["framesets"]["render"]["complete"] = assembler_.framesets_complete();
+  j["latency_budget"] = Budget().ToJson();
   return j;
+}
+
+LatencyBudget RenderController::Budget() const {
+  std::map<std::string, NodeStatsSample> reports = node_stats_;
+  reports["render"] = counters_.Snapshot("render", true);
+  return BuildLatencyBudget(reports);
 }
 
 std::string RenderController::Table() const {
@@ -355,6 +373,9 @@ std::string RenderController::Table() const {
   for (const auto& [kind, n] : runs_.ignored())
     line("ignored %llu %s sample(s) of other runs (this run is %s)\n", (unsigned long long)n, kind.c_str(),
          RunIdText(o_.run_id).c_str());
+  // Where the time from capture to composite goes (docs/latency.md).
+  line("\nlatency budget (ms after capture; * on the critical path):\n");
+  out += Budget().Table();
   // How render's framesets were assembled (the recon and sim nodes' are in stats.json).
   if (!self.cameras.empty()) {
     line("\nframesets (render): %llu dropped for skew\n", (unsigned long long)self.dropped_for_skew);

@@ -20,6 +20,7 @@
 
 #include "hullpipe/geometry/head_pose.h"
 #include "hullpipe/nodes/clock.h"
+#include "hullpipe/nodes/latency_budget.h"
 #include "hullpipe/nodes/messages.h"
 #include "hullpipe/nodes/node_counters.h"
 #include "hullpipe/nodes/peer_liveness.h"
@@ -80,7 +81,9 @@ class RenderController {
   // does not fit the view is rejected (std::invalid_argument, nothing kept). A
   // tile or NodeStats of another run is ignored, counted in stats.json
   // ("ignored_from_other_runs") and named in one warning per run.
-  void OnTile(HullTile tile);
+  /// sent_ns: the tile's DDS source timestamp (CLOCK_REALTIME ns on the recon
+  /// node's host; 0: unknown), for the budget's "transport_tile".
+  void OnTile(HullTile tile, int64_t sent_ns = 0);
   void OnObjectState(const VirtualObjectSample& state);
   void OnMesh(VirtualMeshSample mesh);
   void OnHeadPose(const Rigid3d& world_from_eye);
@@ -107,8 +110,11 @@ class RenderController {
   /// stats.json: the view, counts, outages, payload clearances and every node's
   /// newest report (this node's own under "render").
   nlohmann::json StatsJson() const;
-  /// The end-of-run table, one row per node.
+  /// The end-of-run table, one row per node, then the latency budget.
   std::string Table() const;
+  /// The latency budget from every node's newest report and render's own
+  /// (nodes/latency_budget.h); in stats.json as "latency_budget".
+  LatencyBudget Budget() const;
 
   const NodeCounters& counters() const { return counters_; }
   NodeCounters& counters() { return counters_; }

@@ -386,7 +386,7 @@ TEST_F(Render, StatsJsonSchema) {
   recon.name = "recon0";
   recon.fps = 30;
   recon.frames_out = 5;
-  recon.stages["sweep"] = {12.5, 20.0};
+  recon.stages["sweep"] = {12.5, 11.0, 20.0, 5};
   r.OnNodeStats(recon);
   VirtualMeshSample part;
   part.object_id = 301;
@@ -409,7 +409,19 @@ TEST_F(Render, StatsJsonSchema) {
     EXPECT_TRUE(me.contains(key)) << key;
   EXPECT_NEAR(me["latency_ms_p50"].get<double>(), 50.0, 1e-3);  // 40 ms before + 10 ms of fake time
   EXPECT_TRUE(me["stages_ms"].contains("composite"));
+  EXPECT_TRUE(me["stages_ms"].contains("write"));
+  EXPECT_EQ(j["nodes"]["recon0"]["stages_ms"]["sweep"]["ms_p50"], 11.0);
+  // The latency budget: recon0's sweep and render's stages on the path.
+  bool sweep_on_path = false, composite_on_path = false;
+  for (const auto& row : j["latency_budget"]["rows"]) {
+    if (row["node"] == "recon0" && row["stage"] == "sweep") sweep_on_path = row["on_path"];
+    if (row["node"] == "render" && row["stage"] == "composite") composite_on_path = row["on_path"];
+  }
+  EXPECT_TRUE(sweep_on_path);
+  EXPECT_TRUE(composite_on_path);
+  EXPECT_NEAR(j["latency_budget"]["end_to_end_ms"]["p50"].get<double>(), 50.0, 1e-3);
   EXPECT_NE(r.Table().find("recon0"), std::string::npos);
+  EXPECT_NE(r.Table().find("latency budget"), std::string::npos);
 }
 
 }  // namespace

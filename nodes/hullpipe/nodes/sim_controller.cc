@@ -46,6 +46,8 @@ int SimController::Step() {
 
 void SimController::StepOne(const Frameset& fs) {
   counters_.FrameIn();
+  // The budget's sim stages (docs/latency.md): wait, step, publish.
+  if (fs.last_arrival_ns != 0) counters_.Stage("wait", double(counters_.clock().WallNs() - fs.last_arrival_ns) * 1e-6);
   // Simulated time follows the frames' source time (not the wall clock).
   const double dt = last_source_time_ < 0 ? 0.0 : fs.source_time_s - last_source_time_;
   last_source_time_ = fs.source_time_s;
@@ -56,6 +58,7 @@ void SimController::StepOne(const Frameset& fs) {
     spdlog::debug("frameset {}: stepping the scene {:.3f} s", fs.seq, dt);
     step = scene_.Step(dt, &vq, stop_);
   }
+  StageTimer publish_timer(counters_, "publish");
   auto mesh = [&](uint32_t id, uint8_t kind, VirtualMeshDraw draw, double clearance) {
     VirtualMeshSample m;
     m.object_id = id;

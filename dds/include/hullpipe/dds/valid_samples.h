@@ -56,7 +56,8 @@ inline std::map<std::string, std::vector<uint8_t>> ValidSampleOfEachTopic(const 
   encode("hullpipe::msg::CollisionReport", &rep.msg);
   nodes::NodeStatsSample stats;
   stats.name = "recon0", stats.fps = 25, stats.frames_in = 10, stats.backend = "cpu";
-  stats.stages["sweep"] = {4.0, 6.0};
+  stats.stages["sweep"] = {4.0, 3.5, 6.0, 120};
+  stats.host = "lab-pc-1";
   const auto st = MakeNodeStatsMessage(stats, kStampNs);
   encode("hullpipe::msg::NodeStats", &st.msg);
   VirtualMeshSample mesh;

@@ -24,9 +24,11 @@ class SweepBackend {
   /// Starts a frameset (the GL backend uploads its maps and images here, once).
   virtual void BeginFrameset(const VolumeQuery& query, const std::vector<CameraImage>& images) = 0;
   /// Same contract as PlaneSweepCpu with the backend's refinement; `query` is the
-  /// one given to BeginFrameset.
+  /// one given to BeginFrameset. stats (optional): the work and wall times
+  /// (SweepStats::sweep_ms, refine_ms; a refinement done inside the sweep's own
+  /// pass, as the GL ray march's, counts as sweep).
   virtual cv::Mat Sweep(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
-                        const cv::Rect& tile) = 0;
+                        const cv::Rect& tile, SweepStats* stats = nullptr) = 0;
   /// Same contract as ComputeHullVisibility with the backend's refinement.
   virtual HullVisibility Visibility(const VolumeQuery& query, const std::vector<Camera>& cameras, int width,
                                     const PlaneSweepOptions& sweep) = 0;
