@@ -47,6 +47,22 @@ TEST(EndToEnd, FiveProcessesOnTheRealRig) {
     EXPECT_EQ(j["nodes"][node]["rejected"].get<int>(), 0) << node;
   }
   EXPECT_TRUE(std::filesystem::file_size(out / "hullpipe.mp4") > 1000);
+  // The latency budget (docs/latency.md): every node's stages, timed, and the
+  // path from capture through a recon lane to render.
+  std::set<std::string> timed, on_path;
+  for (const auto& row : j["latency_budget"]["rows"]) {
+    const std::string name = row["node"].get<std::string>() + " " + row["stage"].get<std::string>();
+    if (row["count"].get<int>() > 0) timed.insert(name);
+    if (row["on_path"].get<bool>()) on_path.insert(name);
+    EXPECT_FALSE(row["crosses_hosts"].get<bool>()) << name;  // one host
+  }
+  for (const char* stage : {"capture lag", "capture read", "capture segment", "capture encode", "capture publish",
+                            "recon0 transport_map", "recon0 wait", "recon0 sweep", "recon1 texture", "sim step",
+                            "render issue", "render tiles", "render transport_tile", "render composite", "render write"})
+    EXPECT_TRUE(timed.count(stage)) << stage << "\n" << j["latency_budget"].dump(1);
+  EXPECT_TRUE(on_path.count("capture segment") && on_path.count("render composite"));
+  EXPECT_GT(j["latency_budget"]["end_to_end_ms"]["p50"].get<double>(), 0);
+  EXPECT_GT(std::filesystem::file_size(out / "latency.tsv"), 100u);
   const std::string log = test::ReadFile((out / "launch.log").string());
   for (const char* node : {"render", "recon0", "recon1", "sim", "capture"})
     EXPECT_NE(log.find(std::string("  ") + node), std::string::npos);
