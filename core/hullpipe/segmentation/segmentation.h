@@ -70,6 +70,7 @@ class BackgroundModel {
  private:
   cv::Mat background_bgr_;  // CV_8UC3 median
   cv::Mat background_hsv_;  // CV_8UC3
+  cv::Mat background_planes_[3];  // its H, S, V planes (CV_8UC1 each)
   cv::Mat value_spread_;    // CV_32F, per-pixel robust spread of V (MAD * 1.4826)
   cv::Mat background_f_;    // CV_32FC3, the model Follow() keeps (created on first use)
 };

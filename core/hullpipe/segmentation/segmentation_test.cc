@@ -1,8 +1,11 @@
 #include "hullpipe/segmentation/segmentation.h"
 
+#include <algorithm>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "hullpipe/evaluation/reprojection.h"
 #include "hullpipe/evaluation/synthetic.h"
@@ -93,6 +96,103 @@ TEST(Segmentation, AFollowingBackgroundKeepsUpWithABrightnessRamp) {
   EXPECT_GE(worst_following, 0.94);
   EXPECT_GE(worst_following, worst_still - 0.005);
   EXPECT_LT(worst_fixed, 0.95) << "control: the ramp must defeat a fixed background, or the test shows nothing";
+}
+
+// The per-pixel rule written plainly, as it was before it was vectorized: the
+// model's test must give exactly this map (before cleaning) for any frame.
+cv::Mat ReferenceRule(const std::vector<cv::Mat>& bg, const cv::Mat& frame, const SegmentationOptions& o) {
+  cv::Mat median(frame.size(), CV_8UC3), hsv, bg_hsv;
+  std::vector<cv::Mat> bg_v(bg.size());
+  for (size_t i = 0; i < bg.size(); ++i) {
+    cv::Mat h;
+    cv::cvtColor(bg[i], h, cv::COLOR_BGR2HSV);
+    cv::extractChannel(h, bg_v[i], 2);
+  }
+  for (int r = 0; r < frame.rows; ++r)
+    for (int c = 0; c < frame.cols; ++c)
+      for (int ch = 0; ch < 3; ++ch) {
+        std::vector<uint8_t> v;
+        for (const auto& b : bg) v.push_back(b.at<cv::Vec3b>(r, c)[ch]);
+        std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+        median.at<cv::Vec3b>(r, c)[ch] = v[v.size() / 2];
+      }
+  cv::cvtColor(median, bg_hsv, cv::COLOR_BGR2HSV);
+  cv::cvtColor(frame, hsv, cv::COLOR_BGR2HSV);
+  cv::Mat map(frame.size(), CV_8UC1);
+  for (int r = 0; r < frame.rows; ++r)
+    for (int c = 0; c < frame.cols; ++c) {
+      std::vector<uint8_t> v;
+      for (const auto& b : bg_v) v.push_back(b.at<uint8_t>(r, c));
+      std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+      const int med = v[v.size() / 2];
+      for (auto& x : v) x = uint8_t(std::abs(int(x) - med));
+      std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+      const float spread = 1.4826f * v[v.size() / 2];
+      const cv::Vec3b f = hsv.at<cv::Vec3b>(r, c), b = bg_hsv.at<cv::Vec3b>(r, c);
+      int dh = std::abs(int(f[0]) - int(b[0]));
+      dh = std::min(dh, 180 - dh);
+      const bool hue_differs = f[1] > o.hue_min_saturation && b[1] > o.hue_min_saturation && dh > o.hue_threshold;
+      const bool sat_differs = std::abs(int(f[1]) - int(b[1])) > int(o.saturation_threshold);
+      const float dv = float(f[2]) - float(b[2]);
+      const bool value_differs =
+          std::abs(dv) > std::max(float(o.value_threshold), float(o.value_noise_k) * spread);
+      bool object = hue_differs || sat_differs || value_differs;
+      if (object && !hue_differs && !sat_differs && dv < 0 && b[2] > 0) {
+        const float ratio = float(f[2]) / float(b[2]);
+        if (ratio >= float(o.shadow_min_ratio) && ratio <= float(o.shadow_max_ratio)) object = false;
+      }
+      map.at<uint8_t>(r, c) = object ? 255 : 0;
+    }
+  return map;
+}
+
+TEST(Segmentation, TheVectorizedTestGivesExactlyThePlainRule) {
+  // Noisy backgrounds (a value spread), frames with dark, light and coloured
+  // patches and shadows of every ratio, at odd widths (vector tails).
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> byte(0, 255), noise(-6, 6);
+  for (const cv::Size size : {cv::Size(37, 11), cv::Size(64, 9), cv::Size(5, 3)}) {
+    cv::Mat base(size, CV_8UC3);
+    cv::randu(base, 0, 256);
+    std::vector<cv::Mat> bg;
+    for (int k = 0; k < 5; ++k) {
+      cv::Mat b = base.clone();
+      for (auto it = b.begin<cv::Vec3b>(); it != b.end<cv::Vec3b>(); ++it)
+        for (int ch = 0; ch < 3; ++ch) (*it)[ch] = cv::saturate_cast<uint8_t>((*it)[ch] + noise(rng));
+      bg.push_back(b);
+    }
+    const BackgroundModel model(bg);
+    for (int trial = 0; trial < 4; ++trial) {
+      cv::Mat frame = base.clone();
+      for (auto it = frame.begin<cv::Vec3b>(); it != frame.end<cv::Vec3b>(); ++it) {
+        const int kind = byte(rng) % 4;  // unchanged+noise, shadow, new colour, brighter
+        for (int ch = 0; ch < 3; ++ch) {
+          const int v = (*it)[ch];
+          (*it)[ch] = cv::saturate_cast<uint8_t>(kind == 0 ? v + noise(rng) : kind == 1 ? v * (30 + byte(rng) % 70) / 100
+                                                 : kind == 2 ? byte(rng) : v + 40);
+        }
+      }
+      SegmentationOptions o;
+      o.open_radius = o.close_radius = 0;  // the rule alone: no cleaning...
+      o.min_component_fraction = 0;
+      o.min_component_ratio = 0;
+      o.max_hole_fraction = 0;
+      if (trial % 2) {
+        o.value_noise_k = 1.5;
+        o.shadow_min_ratio = 0.3;
+        o.shadow_max_ratio = 0.95;
+        o.hue_threshold = 5;
+      }
+      const cv::Mat ref = ReferenceRule(bg, frame, o);
+      // ...but the components' cleaning still runs: compare with it applied to the reference.
+      cv::Mat expected = ref.clone();
+      CleanObjectPixelMap(expected, o);
+      const cv::Mat got = model.Segment(frame, o);
+      EXPECT_EQ(cv::countNonZero(got != expected), 0) << size << " trial " << trial;
+      EXPECT_GT(cv::countNonZero(ref), 0);
+      EXPECT_LT(cv::countNonZero(ref), int(ref.total()));
+    }
+  }
 }
 
 }  // namespace
