@@ -1,5 +1,7 @@
 #include "hullpipe/segmentation/object_pixel_map.h"
 
+#include <random>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -15,6 +17,43 @@ TEST(ObjectPixelMap, RunLengthRoundTrip) {
   EXPECT_EQ(runs.front(), 0u);
   const cv::Mat back = RunLengthDecode(runs, 64, 48);
   EXPECT_EQ(cv::countNonZero(back != m), 0);
+}
+
+// The word-at-a-time encoder against the plain per-pixel one: runs of every
+// length around the 8-byte words, object values other than 255, and a map
+// that is a view into a larger image (not continuous).
+TEST(ObjectPixelMap, RunLengthEncodeEqualsThePlainPerPixelEncoder) {
+  auto plain = [](const cv::Mat& map) {
+    std::vector<uint32_t> runs;
+    bool current = false;
+    uint32_t length = 0;
+    for (int r = 0; r < map.rows; ++r)
+      for (int c = 0; c < map.cols; ++c) {
+        const bool obj = map.at<uint8_t>(r, c) != 0;
+        if (obj != current) {
+          runs.push_back(length);
+          length = 0;
+          current = obj;
+        }
+        ++length;
+      }
+    runs.push_back(length);
+    return runs;
+  };
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 200; ++trial) {
+    const int w = 1 + int(rng() % 70), h = 1 + int(rng() % 9);
+    cv::Mat big(h + 2, w + 5, CV_8UC1, cv::Scalar(0));
+    cv::Mat map = trial % 2 ? big(cv::Rect(3, 1, w, h)) : cv::Mat(h, w, CV_8UC1, cv::Scalar(0));
+    // Runs of 0..19 pixels, object bytes 1..255.
+    bool obj = rng() % 2;
+    for (int i = 0; i < w * h;) {
+      const int len = int(rng() % 20);
+      for (int k = 0; k < len && i < w * h; ++k, ++i) map.at<uint8_t>(i / w, i % w) = obj ? uint8_t(1 + rng() % 255) : 0;
+      obj = !obj;
+    }
+    ASSERT_EQ(RunLengthEncode(map), plain(map)) << w << "x" << h << " trial " << trial;
+  }
 }
 
 TEST(ObjectPixelMap, EmptyAndFullMaps) {
