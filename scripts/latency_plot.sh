@@ -28,7 +28,7 @@ set xlabel "ms after the frame's capture time"
 set yrange [$ROWS:-1]
 set ytics nomirror
 set grid xtics
-set key bottom right
+set key below horizontal
 set style fill solid 0.9 noborder
 plot "$IN" using (\$3 + \$4 / 2):1:(\$3):(\$3 + \$4):(\$1 - 0.35):(\$1 + 0.35):ytic(2) \
        every ::0 with boxxyerror lc rgb "#c7d7ea" title "off the path (beside it)", \
