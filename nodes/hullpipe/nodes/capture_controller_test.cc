@@ -14,6 +14,7 @@ namespace {
 
 struct CaptureRecorder final : CaptureSink {
   int infos = 0;
+  PublishTimes times;  ///< What each PublishFrame reports it spent.
   struct Frame {
     uint32_t camera_id;
     uint64_t seq;
@@ -28,7 +29,7 @@ struct CaptureRecorder final : CaptureSink {
   PublishTimes PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double, uint32_t count, const cv::Mat& map,
                             const cv::Mat& image, const Rigid3d*) override {
     frames.push_back({id, seq, t_ns, count, map.size(), image.size()});
-    return {};
+    return times;
   }
 };
 
@@ -64,6 +65,28 @@ TEST(Capture, PacesAtTheSourceRateAndPublishesEveryCameraPerFrame) {
   EXPECT_EQ(sink.frames.back().map, cv::Size(80, 60));
   EXPECT_EQ(sink.frames.back().image, cv::Size(40, 30));
   EXPECT_EQ(sink.frames[3].t_ns - sink.frames[0].t_ns, 40'000'000) << "capture times 1/25 s apart";
+}
+
+// The latency budget's capture stages (docs/latency.md): lag from the frame's
+// due time to its read, the read (a source that does not split read and
+// segmentation reports it all as read), and the sink's encode and write times
+// summed over the frame's cameras.
+TEST(Capture, TimesTheBudgetsStagesFromTheFramesDueTime) {
+  FakeClock clock;
+  auto source = Synthetic(4);
+  CaptureRecorder sink;
+  sink.times = {1.5, 0.5};
+  CaptureController c({}, clock, *source, sink);
+  c.Start();
+  clock.Advance(0.05);  // late: frame 1 (due at 0.04 s) is read at 0.05 s
+  ASSERT_TRUE(c.Step());
+  ASSERT_EQ(sink.frames.front().seq, 2u) << "joined at the frame due now";
+  const auto& st = c.counters().stages();
+  for (const char* s : {"lag", "read", "encode", "publish"}) ASSERT_TRUE(st.count(s)) << s;
+  EXPECT_FALSE(st.count("segment")) << "the synthetic source does not time segmentation apart";
+  EXPECT_NEAR(st.at("lag").Percentile(50), 10.0, 1e-3);
+  EXPECT_NEAR(st.at("encode").Percentile(50), 3 * 1.5, 1e-9);  // three cameras; the fake clock stands still
+  EXPECT_NEAR(st.at("publish").Percentile(50), 3 * 0.5, 1e-9);
 }
 
 // A source whose input ends early after `good` frames (a short camera): it

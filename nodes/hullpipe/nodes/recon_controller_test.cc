@@ -43,6 +43,29 @@ TEST_F(Recon, TileSpecAndOptionsAreChecked) {
   EXPECT_THROW(o.Check(), std::invalid_argument);
 }
 
+// The latency budget's recon stages (docs/latency.md): "wait" runs from the
+// frameset's last sample taken to the node starting on it, on the node's clock.
+TEST_F(Recon, TimesEachBudgetStageFromTheFramesetsLastArrival) {
+  ReconController r(Options("0/1"), clock_, assembler_, *cpu_, sink_);
+  rig_.AddFrame(assembler_, 5, clock_.WallNs(), /*images=*/true, /*arrival_ns=*/clock_.WallNs());
+  clock_.Advance(0.030);  // the pose naming it comes 30 ms later
+  r.OnPose(View(), 1, 5);
+  ASSERT_EQ(r.Step(), 1);
+  const auto& stages = r.counters().stages();
+  ASSERT_TRUE(stages.count("wait"));
+  EXPECT_NEAR(stages.at("wait").Percentile(50), 30.0, 1e-3);
+  for (const char* s : {"hull_box", "upload", "sweep", "refine", "texture", "publish"}) {
+    ASSERT_TRUE(stages.count(s)) << s;
+    EXPECT_EQ(stages.at(s).count(), 1u) << s;
+  }
+  // A frameset whose arrival is unknown (a test assembler, a replay) gives no wait sample.
+  rig_.AddFrame(assembler_, 6, clock_.WallNs(), /*images=*/true);
+  r.OnPose(View(), 2, 6);
+  ASSERT_EQ(r.Step(), 1);
+  EXPECT_EQ(stages.at("wait").count(), 1u);
+  EXPECT_EQ(stages.at("sweep").count(), 2u);
+}
+
 TEST_F(Recon, ServesAPoseWhenItsFramesetIsCompleteWithTheCpuSweepsDepth) {
   ReconController r(Options("0/1"), clock_, assembler_, *cpu_, sink_);
   r.OnPose(View(), 1, 5);

@@ -375,6 +375,25 @@ TEST_F(Render, TheViewFollowsTheOrbitThenTheTrackersNewestPose) {
   EXPECT_LT((second.rotation - tracked.rotation).norm(), 1e-12);
 }
 
+// The latency budget's render stages (docs/latency.md): issue (its frameset's
+// last sample taken to the pose written), tiles (pose to its last tile),
+// transport_tile (the tile's DDS source timestamp to its take).
+TEST_F(Render, TimesTheBudgetsStages) {
+  RenderController r(Options(), clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs() - 40'000'000, false, /*arrival_ns=*/clock_.WallNs());
+  clock_.Advance(0.004);
+  r.Step();  // the pose goes out 4 ms after the frameset came in
+  ASSERT_EQ(sink_.poses.size(), 1u);
+  clock_.Advance(0.020);
+  r.OnTile(WholeTile(sink_.poses[0], 2.0f, {10, 20, 30}), /*sent_ns=*/clock_.WallNs() - 3'000'000);
+  r.Step();
+  const auto& st = r.counters().stages();
+  for (const char* s : {"issue", "tiles", "transport_tile", "composite", "write"}) ASSERT_TRUE(st.count(s)) << s;
+  EXPECT_NEAR(st.at("issue").Percentile(50), 4.0, 1e-3);
+  EXPECT_NEAR(st.at("tiles").Percentile(50), 20.0, 1e-3);
+  EXPECT_NEAR(st.at("transport_tile").Percentile(50), 3.0, 1e-3);
+}
+
 TEST_F(Render, StatsJsonSchema) {
   RenderController r(Options(), clock_, assembler_, sink_);
   rig_.AddFrame(assembler_, 1, clock_.WallNs() - 40'000'000);  // captured 40 ms ago

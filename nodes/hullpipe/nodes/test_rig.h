@@ -22,11 +22,14 @@ struct TinyRig {
   /// source time seq / 25 s, all captured at capture_ns + seq nanoseconds (framesets
   /// are assembled by capture time: each frame its own instant, however the test's
   /// clock stands).
-  void AddFrame(FramesetAssembler& a, uint64_t seq, int64_t capture_ns, bool images = false) const {
+  /// arrival_ns: when the samples arrived, on the node's clock (0: unknown).
+  void AddFrame(FramesetAssembler& a, uint64_t seq, int64_t capture_ns, bool images = false,
+                int64_t arrival_ns = 0) const {
     const int64_t t = capture_ns + int64_t(seq);
     for (const auto& v : views) {
-      a.AddMap(v.camera.id, seq, t, int(views.size()), v.map.clone(), nullptr, double(seq) / 25.0);
-      if (images) a.AddImage(v.camera.id, seq, t, cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 120, 150)));
+      a.AddMap(v.camera.id, seq, t, int(views.size()), v.map.clone(), nullptr, double(seq) / 25.0, 0, arrival_ns);
+      if (images)
+        a.AddImage(v.camera.id, seq, t, cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 120, 150)), nullptr, 0, arrival_ns);
     }
   }
 };
