@@ -40,6 +40,9 @@ struct NodeSpec {
   std::string name, exec, host = "localhost";
   std::vector<std::string> args;
   double start_delay = 0;  ///< Seconds after the previous node started.
+  /// Scheduling niceness added to the node (`nice -n`), 0..19: a node that may
+  /// take what the others leave (recon on a machine the five nodes share).
+  int nice = 0;
 };
 
 struct Child {
@@ -132,7 +135,7 @@ int main(int argc, char** argv) {
     if (!root["nodes"].IsSequence()) throw std::runtime_error("'nodes' must be a list");
     for (const auto& n : root["nodes"]) {
       if (!n.IsMap()) throw std::runtime_error("each entry of 'nodes' must be a map");
-      const std::initializer_list<const char*> kNodeKeys = {"name", "exec", "host", "args", "start_delay"};
+      const std::initializer_list<const char*> kNodeKeys = {"name", "exec", "host", "args", "start_delay", "nice"};
       if (const auto key = hullpipe::FirstUnknownKey(n, kNodeKeys))
         throw std::runtime_error("node " + (n["name"] ? n["name"].as<std::string>() : std::string("?")) +
                                  ": unknown key '" + *key + "' (known: " + hullpipe::KeyList(kNodeKeys) + ")");
@@ -149,6 +152,11 @@ int main(int argc, char** argv) {
         s.start_delay = n["start_delay"].as<double>(-1.0);  // not a number: refused below, naming the key
         if (!(s.start_delay >= 0 && s.start_delay <= 60))
           throw std::runtime_error("node " + s.name + ": start_delay must be seconds in [0, 60]");
+      }
+      if (n["nice"]) {
+        s.nice = n["nice"].as<int>(-1);  // not an integer: refused below, naming the key
+        if (s.nice < 0 || s.nice > 19)
+          throw std::runtime_error("node " + s.name + ": nice must be an integer in [0, 19]");
       }
       specs.push_back(s);
     }
@@ -207,11 +215,11 @@ int main(int argc, char** argv) {
     args.push_back(hullpipe::RunIdText(run_id));
     const std::string exe = (fs::path(bin_dir) / spec.exec).string();
     std::vector<std::string> argv_s;
-    if (spec.host == "localhost" || spec.host.empty()) {
-      argv_s.push_back(exe);
-    } else {
-      argv_s = {"ssh", spec.host, "env", "CYCLONEDDS_URI=file://" + dds_config, exe};
-    }
+    if (spec.host != "localhost" && !spec.host.empty())
+      argv_s = {"ssh", spec.host, "env", "CYCLONEDDS_URI=file://" + dds_config};
+    // (nice execs the node: the pid, its signals and exit status are the node's.)
+    if (spec.nice > 0) argv_s.insert(argv_s.end(), {"nice", "-n", std::to_string(spec.nice)});
+    argv_s.push_back(exe);
     argv_s.insert(argv_s.end(), args.begin(), args.end());
     Child c;
     c.spec = spec;

@@ -118,6 +118,8 @@ TEST(EndToEnd, TheLauncherRefusesABadDescriptionNamingTheKey) {
       {"nodes: render\n", "'nodes' must be a list"},
       {replaced("  - name: sim\n    exec: sim_node\n", "  - name: sim\n    exec: sim_node\n    start_delay: soon\n"),
        "node sim: start_delay must be seconds in [0, 60]"},
+      {replaced("  - name: sim\n    exec: sim_node\n", "  - name: sim\n    exec: sim_node\n    nice: -5\n"),
+       "node sim: nice must be an integer in [0, 19]"},
   };
   int k = 0;
   for (const auto& [text, expected] : cases) {
