@@ -43,12 +43,11 @@ void FramesetInput::Poll() {
         return;
       }
       const uint64_t rejected_before = assembler_.rejected();
-      const int64_t now_ns = NowNs();
-      if (counters_) counters_->Stage("transport_map", double(now_ns - info.source_timestamp) * 1e-6);
+      if (counters_) counters_->StageSince("transport_map", info.source_timestamp);
       // The writer's handle tells a restarted capture node from a live one; the
       // arrival time, on this host's clock, checks the capture host's clock.
       if (!assembler_.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count), MapFromMsg(m),
-                             &why, m.source_time, info.publication_handle, now_ns, MapPoseFromMsg(m)) &&
+                             &why, m.source_time, info.publication_handle, NowNs(), MapPoseFromMsg(m)) &&
           assembler_.rejected() > rejected_before)
         spdlog::warn("rejected: {}", why);
     } catch (const MessageError& e) {
@@ -58,10 +57,9 @@ void FramesetInput::Poll() {
   if (images_) {
     images_->TakeEach([&](const hullpipe_msg_CameraImage& m, const dds_sample_info_t& info) {
       try {
-        const int64_t now_ns = NowNs();
-        if (counters_) counters_->Stage("transport_image", double(now_ns - info.source_timestamp) * 1e-6);
+        if (counters_) counters_->StageSince("transport_image", info.source_timestamp);
         // (Images and maps come from different writers: only maps name the sender.)
-        assembler_.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m), nullptr, 0, now_ns);
+        assembler_.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m), nullptr, 0, NowNs());
       } catch (const MessageError& e) {
         Reject(e.what());
       }

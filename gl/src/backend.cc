@@ -3,7 +3,6 @@
 #include <stdexcept>
 
 #include "hullpipe/geometry/conventions.h"
-
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
 #include "hullpipe/gl/gl_ray_sweep.h"

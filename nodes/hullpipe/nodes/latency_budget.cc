@@ -13,18 +13,34 @@ std::string Kind(const std::string& name) {
   return "";
 }
 
-// Stages that follow one another in their node's lane (docs/latency.md); the
-// others run beside them (recon's images beside its maps; render's own
-// frameset, pose and the tiles' round trip beside the recon lanes).
-bool Sequential(const std::string& kind, const std::string& stage) {
-  static const std::map<std::string, std::set<std::string>> seq = {
-      {"capture", {"lag", "read", "segment", "encode", "publish"}},
-      {"recon", {"transport_map", "wait", "hull_box", "upload", "visibility", "sweep", "refine", "texture", "publish"}},
-      {"sim", {"transport_map", "wait", "step", "publish"}},
-      {"render", {"transport_tile", "composite", "light", "write"}},
+// Each kind's stages in pipeline order (docs/latency.md), and whether each
+// follows the one before it in its node's lane (true) or runs beside it: recon's
+// images beside its maps; render's own frameset, pose and the tiles' round trip
+// beside the recon lanes.
+struct StageDef {
+  const char* name;
+  bool sequential;
+};
+const std::map<std::string, std::vector<StageDef>>& Stages() {
+  static const std::map<std::string, std::vector<StageDef>> stages = {
+      {"capture", {{"lag", true}, {"read", true}, {"segment", true}, {"encode", true}, {"publish", true}}},
+      {"recon",
+       {{"transport_map", true}, {"transport_image", false}, {"wait", true}, {"hull_box", true}, {"upload", true},
+        {"visibility", true}, {"sweep", true}, {"refine", true}, {"texture", true}, {"publish", true}}},
+      {"sim", {{"transport_map", true}, {"wait", true}, {"step", true}, {"publish", true}}},
+      {"render",
+       {{"transport_map", false}, {"issue", false}, {"tiles", false}, {"transport_tile", true}, {"composite", true},
+        {"light", true}, {"write", true}}},
   };
-  const auto it = seq.find(kind);
-  return it != seq.end() && it->second.count(stage) > 0;
+  return stages;
+}
+
+bool Sequential(const std::string& kind, const std::string& stage) {
+  const auto it = Stages().find(kind);
+  if (it == Stages().end()) return false;
+  for (const StageDef& d : it->second)
+    if (stage == d.name) return d.sequential;
+  return false;
 }
 
 // Kinds whose lanes can be on the capture-to-composite path (sim's objects are
@@ -49,14 +65,12 @@ std::set<std::string> WriterHosts(const std::string& stage, const std::map<std::
 }  // namespace
 
 const std::vector<std::string>& StageOrder(const std::string& node_name) {
-  static const std::map<std::string, std::vector<std::string>> order = {
-      {"capture", {"lag", "read", "segment", "encode", "publish"}},
-      {"recon",
-       {"transport_map", "transport_image", "wait", "hull_box", "upload", "visibility", "sweep", "refine", "texture",
-        "publish"}},
-      {"sim", {"transport_map", "wait", "step", "publish"}},
-      {"render", {"transport_map", "issue", "tiles", "transport_tile", "composite", "light", "write"}},
-  };
+  static const std::map<std::string, std::vector<std::string>> order = [] {
+    std::map<std::string, std::vector<std::string>> o;
+    for (const auto& [kind, defs] : Stages())
+      for (const StageDef& d : defs) o[kind].push_back(d.name);
+    return o;
+  }();
   static const std::vector<std::string> none;
   const auto it = order.find(Kind(node_name));
   return it == order.end() ? none : it->second;

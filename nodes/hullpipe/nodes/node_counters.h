@@ -60,6 +60,12 @@ class NodeCounters {
     if (it == stages_.end()) it = stages_.emplace(name, SampleStats(kStageSamples)).first;
     it->second.Add(ms);
   }
+  /// Adds the time from a wall-clock stamp (CLOCK_REALTIME ns, maybe another
+  /// host's: a DDS source timestamp, a sample's arrival) to now on this node's
+  /// clock, in milliseconds, to a stage; a stamp of 0 (unknown) adds nothing.
+  void StageSince(const std::string& name, int64_t since_wall_ns) {
+    if (since_wall_ns != 0) Stage(name, double(clock_.WallNs() - since_wall_ns) * 1e-6);
+  }
   /// Samples kept per stage (a ring: the most recent ones).
   static constexpr size_t kStageSamples = 20000;
   uint64_t frames_in() const { return frames_in_; }

@@ -133,7 +133,7 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
   // The budget's recon stages (docs/latency.md): wait (the frameset's last
   // sample taken to this start: a pose naming it, or this node busy), hull_box,
   // upload, visibility, sweep, refine, texture, publish.
-  if (fs.last_arrival_ns != 0) counters_.Stage("wait", double(clock_.WallNs() - fs.last_arrival_ns) * 1e-6);
+  counters_.StageSince("wait", fs.last_arrival_ns);
   const double t0 = clock_.Now();
   const VolumeQuery vq(fs.maps, assembler_.workspace(), query_options_);  // includes the hull box
   const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, o_.sweep);

@@ -70,7 +70,7 @@ void RenderController::OnTile(HullTile t, int64_t sent_ns) {
     Reject("HullView tile rectangle lies outside the view");
     return;
   }
-  if (sent_ns != 0) counters_.Stage("transport_tile", double(clock_.WallNs() - sent_ns) * 1e-6);
+  counters_.StageSince("transport_tile", sent_ns);
   auto& tiles = it->second.tiles;
   tiles[t.tile_index] = std::move(t);
   // The tiles' round trip: the pose sent to its last tile in (beside recon's stages).
@@ -158,7 +158,7 @@ void RenderController::IssuePoses() {
     ++pose_seq_;
     sink_.PublishPose(f.view, pose_seq_, fset->seq);
     // Render's own frameset in (its last sample taken) to its pose out.
-    if (fset->last_arrival_ns != 0) counters_.Stage("issue", double(clock_.WallNs() - fset->last_arrival_ns) * 1e-6);
+    counters_.StageSince("issue", fset->last_arrival_ns);
     in_flight_[pose_seq_] = std::move(f);
     last_requested_ = fset->seq;
   }

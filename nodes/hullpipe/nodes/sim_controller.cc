@@ -47,7 +47,7 @@ int SimController::Step() {
 void SimController::StepOne(const Frameset& fs) {
   counters_.FrameIn();
   // The budget's sim stages (docs/latency.md): wait, step, publish.
-  if (fs.last_arrival_ns != 0) counters_.Stage("wait", double(counters_.clock().WallNs() - fs.last_arrival_ns) * 1e-6);
+  counters_.StageSince("wait", fs.last_arrival_ns);
   // Simulated time follows the frames' source time (not the wall clock).
   const double dt = last_source_time_ < 0 ? 0.0 : fs.source_time_s - last_source_time_;
   last_source_time_ = fs.source_time_s;
