@@ -3,6 +3,7 @@
 // (nodes/render_controller.h), which holds all of the node's run-time logic.
 #include <filesystem>
 #include <fstream>
+#include <type_traits>
 
 #include <CLI/CLI.hpp>
 #include <opencv2/highgui.hpp>
@@ -218,11 +219,15 @@ int main(int argc, char** argv) {
     NodeReporter reporter(*participant, "render", render.counters(), o.run_id);
     input.SetCounters(&render.counters());
 
-    // Converts one sample; a malformed one is rejected on one line.
+    // Converts one sample (use(m), or use(m, info) when it wants the sample
+    // info); a malformed one is rejected on one line.
     auto take = [&render](auto& reader, auto&& use) {
-      reader.TakeEach([&](const auto& m, const dds_sample_info_t&) {
+      reader.TakeEach([&](const auto& m, const dds_sample_info_t& info) {
         try {
-          use(m);
+          if constexpr (std::is_invocable_v<decltype(use), decltype(m), const dds_sample_info_t&>)
+            use(m, info);
+          else
+            use(m);
         } catch (const MessageError& e) {
           render.Reject(e.what());
         }
@@ -237,12 +242,8 @@ int main(int argc, char** argv) {
       // Right after compositing, loop at once: a new pose may be issued now.
       if (composited == 0) ws.Wait(0.05);
       input.Poll();
-      tile_reader.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t& info) {
-        try {
-          render.OnTile(TileFromMsg(m), info.source_timestamp);
-        } catch (const MessageError& e) {
-          render.Reject(e.what());
-        }
+      take(tile_reader, [&](const hullpipe_msg_HullView& m, const dds_sample_info_t& info) {
+        render.OnTile(TileFromMsg(m), info.source_timestamp);
       });
       take(state_reader, [&](const hullpipe_msg_VirtualObjectState& m) { render.OnObjectState(VirtualObjectFromMsg(m)); });
       take(head_reader, [&](const hullpipe_msg_HeadPose& m) { render.OnHeadPose(HeadPoseFromMsg(m)); });

@@ -33,14 +33,14 @@ std::vector<uint32_t> RunLengthEncode(const cv::Mat& map) {
   const size_t n = m.total();
   std::vector<uint32_t> runs;
   runs.reserve(64);
-  bool object = false;  // runs start with background
-  for (size_t i = 0; i < n || runs.empty();) {
+  bool object = false;  // runs start with background (the first may be 0 long)
+  size_t i = 0;
+  do {
     const size_t end = RunEnd(p, i, n, object);
     runs.push_back(uint32_t(end - i));
     i = end;
     object = !object;
-    if (i == n) break;
-  }
+  } while (i < n);
   return runs;
 }
 
