@@ -113,6 +113,8 @@ class FramesetAssembler {
   /// false counts a rejection as AddMap does, *why says why.
   bool CheckMapSize(int camera_id, int width, int height, std::string* why = nullptr);
   /// Adds one camera's colour image (CV_8UC3, any size) of frame `seq`; same rules.
+  /// arrival_ns: when it arrived, on this node's clock (0: unknown), for
+  /// Frameset::last_arrival_ns (no clock check: images name no sender).
   bool AddImage(int camera_id, uint64_t seq, int64_t capture_time_ns, cv::Mat image, std::string* why = nullptr,
                 uint64_t source_id = 0, int64_t arrival_ns = 0);
 
