@@ -47,10 +47,10 @@ TEST(Recording, RoundTripInfoAndNeverOverwrites) {
   const std::string path = (dir / "a.hprec").string();
   {
     RecordingWriter w(path);
-    TopicInfo info{0, "hullpipe/camera_info", "hullpipe::msg::CameraInfo", true, true, true, 1};
+    TopicInfo info{0, "hullpipe/camera_info", "hullpipe::msg::CameraInfo", true, true, true, 1, ""};
     const int64_t a = w.AddTopic(info);
     EXPECT_EQ(w.AddTopic(info), a);  // same name, same id
-    const int64_t b = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4});
+    const int64_t b = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
     w.Append(MakeSample(a, 1'000'000'000, 1));
     w.Append(MakeSample(b, 1'500'000'000, 2, 1000));
     w.Append(MakeSample(b, 3'000'000'000, 3, 1000));
@@ -83,7 +83,7 @@ TEST(Recording, AWriterKilledBySigkillLosesOnlyItsLastBatch) {
   const pid_t pid = fork();
   if (pid == 0) {
     RecordingWriter w(path);
-    const int64_t t = w.AddTopic({0, "x", "hullpipe::msg::CameraInfo", false, true, false, 1});
+    const int64_t t = w.AddTopic({0, "x", "hullpipe::msg::CameraInfo", false, true, false, 1, ""});
     for (int batch = 0; batch < 5; ++batch) {
       for (int k = 0; k < 10; ++k) w.Append(MakeSample(t, (batch * 10 + k + 1) * 1000, uint8_t(k)));
       w.Commit();
@@ -173,7 +173,7 @@ std::string Bytes(const std::string& path) {
 std::string WriteRecording(const std::filesystem::path& dir, const std::string& name, int n) {
   const std::string path = (dir / name).string();
   RecordingWriter w(path);
-  const int64_t t = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4});
+  const int64_t t = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
   for (int k = 0; k < n; ++k) {
     Sample s = MakeSample(t, (k + 1) * 1'000'000, uint8_t(k), 1000);
     for (size_t i = 0; i < s.data.size(); ++i) s.data[i] = uint8_t(k * 31 + i * 7);
@@ -192,7 +192,7 @@ TEST(Recording, ReadingNeverChangesTheFileAndAKilledWriterIsMarked) {
   const pid_t pid = fork();
   if (pid == 0) {
     RecordingWriter w(killed);
-    const int64_t t = w.AddTopic({0, "x", "hullpipe::msg::CameraInfo", false, true, false, 1});
+    const int64_t t = w.AddTopic({0, "x", "hullpipe::msg::CameraInfo", false, true, false, 1, ""});
     for (int k = 0; k < 10; ++k) w.Append(MakeSample(t, (k + 1) * 1000, uint8_t(k)));
     w.Commit();
     raise(SIGKILL);
@@ -271,8 +271,8 @@ TEST(Player, TimingRateOffsetLoopAndFilters) {
   const std::string path = (dir / "p.hprec").string();
   {
     RecordingWriter w(path);
-    const int64_t info = w.AddTopic({0, "hullpipe/camera_info", "T", true, true, true, 1});
-    const int64_t maps = w.AddTopic({0, "hullpipe/object_pixel_map", "T", true, true, false, 4});
+    const int64_t info = w.AddTopic({0, "hullpipe/camera_info", "T", true, true, true, 1, ""});
+    const int64_t maps = w.AddTopic({0, "hullpipe/object_pixel_map", "T", true, true, false, 4, ""});
     w.Append(MakeSample(info, 0, 1));
     for (int k = 1; k <= 4; ++k) w.Append(MakeSample(maps, int64_t(k) * 500'000'000, uint8_t(k)));  // every 0.5 s
   }
@@ -668,7 +668,7 @@ TEST_F(RecordTools, ReplayStopsWithinASecondOfSigintInAGap) {
   {
     RecordingWriter w(path);
     const int64_t t = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true,
-                                  false, 4});
+                                  false, 4, ""});
     for (int k = 0; k < 3; ++k) {
       Sample s = MakeSample(t, (k + 1) * 1'000'000'000LL, 0);  // 1 s apart
       s.data = map_cdr;

@@ -1,21 +1,31 @@
-// Recordings of DDS traffic (docs/architecture.md): serialized samples (CDR, untouched, with
+// Recordings of DDS traffic (docs/recording.md): serialized samples (CDR, untouched, with
 // their encapsulation header) of every recorded topic, with source and arrival
-// timestamps, in one SQLite file. DDS-free: the recorder and the player tools put
+// timestamps, in SQLite files. DDS-free: the recorder and the player tools put
 // DDS on either side; tests use this library alone.
 //
-// File format (SQLite 3, WAL journal):
-//   meta(key TEXT PRIMARY KEY, value TEXT)            format, created_ns, dropped counts...
+// File format (SQLite 3, WAL journal), 'hullpipe-recording-3':
+//   meta(key TEXT PRIMARY KEY, value TEXT)   format, compression, created_ns,
+//        closed_ns, set, part, lost:<topic>...
 //   topics(id INTEGER PRIMARY KEY, name TEXT UNIQUE, type TEXT, keyed INTEGER,
-//          reliable INTEGER, transient_local INTEGER, depth INTEGER)
+//          reliable INTEGER, transient_local INTEGER, depth INTEGER,
+//          type_description TEXT)                  the type's IDL text
 //   samples(id INTEGER PRIMARY KEY, topic_id INTEGER, source_ns INTEGER,
-//           arrival_ns INTEGER, data BLOB, crc INTEGER) in arrival order
-// format 'hullpipe-recording-2'; crc is the CRC-32 (zlib) of topic_id, source_ns,
-// arrival_ns (8 bytes each, little-endian) and data. Files of
-// format 1 (no crc column) are still read, without the per-sample check.
+//           arrival_ns INTEGER, data BLOB, crc INTEGER, codec INTEGER,
+//           size INTEGER)                           in arrival order
+// codec 0: data is the sample; 1: data is one zstd frame of it (a sample that
+// zstd does not shrink is stored as it is). size is the sample's own size. crc is
+// the CRC-32 (zlib) of topic_id, source_ns, arrival_ns (8 bytes each,
+// little-endian) and the sample's own bytes (after decompression), so it checks
+// the whole path. Formats 1 (no crc) and 2 (no codec, size, type_description)
+// are still read.
+// A split recording is a directory of such files (part_0000.hprec, ...), each a
+// recording of its own with meta 'set' (one id for all) and 'part' (0, 1, ...);
+// RecordingReader reads the directory as one recording.
 // Samples are written in batched transactions: a writer killed (even by SIGKILL)
 // loses at most its last, uncommitted batch, and the file still opens. A writer
 // that closes sets meta 'closed_ns'; a file without it was interrupted.
-// Readers open the file read-only: reading never changes it.
+// Readers open files read-only: reading never changes them. A file cut short or
+// otherwise damaged is recovered by Repair (repair.h).
 #pragma once
 
 #include <cstdint>
@@ -40,7 +50,30 @@ struct TopicInfo {
   bool reliable = true;
   bool transient_local = false;
   int32_t depth = 1;          ///< Keep-last depth.
+  /// The IDL text that defines `type` in the recording build (dds/idl/*.idl), so
+  /// another build or a tool that does not link hullpipe can read the samples;
+  /// empty in recordings of formats 1 and 2.
+  std::string type_description;
 };
+
+/// How sample data is stored.
+enum class Compression { kNone, kZstd };
+/// "none" / "zstd"; ParseCompression throws std::invalid_argument naming --compression.
+const char* CompressionName(Compression c);
+Compression ParseCompression(const std::string& name);
+
+/// Settings of RecordingWriter.
+struct WriterOptions {
+  Compression compression = Compression::kNone;
+  int zstd_level = 1;  ///< 1 (fast) .. 19 (small); zstd's own scale.
+  /// Throws std::invalid_argument naming the flag (--zstd-level).
+  void Check() const;
+};
+
+/// The largest sample a reader decodes (a zstd frame claiming more is damage, not
+/// an allocation): 1 GiB, far above hullpipe's largest message (a 1280x720 BGR
+/// image is 2.8 MB).
+constexpr int64_t kMaxSampleBytes = int64_t(1) << 30;
 
 /// One recorded sample.
 struct Sample {
@@ -61,25 +94,39 @@ class RecordingError : public std::runtime_error {
 class RecordingWriter {
  public:
   /// Creates `path` (an existing file is an error: recordings are never
-  /// overwritten). Throws RecordingError.
-  explicit RecordingWriter(const std::string& path);
+  /// overwritten). Throws RecordingError, or std::invalid_argument if options
+  /// fail Check().
+  explicit RecordingWriter(const std::string& path, const WriterOptions& options = {});
   ~RecordingWriter();  ///< Sets meta 'closed_ns' and commits the open batch.
   RecordingWriter(const RecordingWriter&) = delete;
   RecordingWriter& operator=(const RecordingWriter&) = delete;
 
   /// Adds a topic; returns its id (the same id if the name is already there).
   int64_t AddTopic(const TopicInfo& topic);
-  /// Appends a sample to the open batch (a transaction opened on demand).
+  /// Appends a sample to the open batch (a transaction opened on demand),
+  /// compressed as the options say.
   void Append(const Sample& sample);
+  /// Appends a sample already encoded with `codec` (0 none, 1 zstd) whose own
+  /// bytes have CRC-32 row checksum `crc` and size `size` (Repair copies rows so).
+  void AppendEncoded(int64_t topic_id, int64_t source_ns, int64_t arrival_ns, const std::vector<uint8_t>& data,
+                     int codec, int64_t size, uint32_t crc);
   /// Commits the open batch: after this returns, the samples survive a crash.
   void Commit();
   /// Sets a meta value (committed with the next batch).
   void SetMeta(const std::string& key, const std::string& value);
   int64_t samples_committed() const { return committed_; }
   int64_t samples_pending() const { return pending_; }
+  /// Sample bytes as stored (after compression) and before it, so far.
+  int64_t stored_bytes() const { return stored_bytes_; }
+  int64_t raw_bytes() const { return raw_bytes_; }
+  const std::string& path() const { return path_; }
 
  private:
   void Begin();
+  WriterOptions options_;
+  void* zstd_ = nullptr;  ///< ZSTD_CCtx, reused
+  std::vector<uint8_t> scratch_;
+  int64_t stored_bytes_ = 0, raw_bytes_ = 0;
   std::string path_;
   sqlite3* db_ = nullptr;
   sqlite3_stmt* insert_ = nullptr;
@@ -92,62 +139,91 @@ struct RecordingInfo {
   struct TopicSummary {
     TopicInfo topic;
     int64_t count = 0;
-    int64_t bytes = 0;
+    int64_t bytes = 0;         ///< The samples' own bytes.
+    int64_t stored_bytes = 0;  ///< As stored (compressed where it is).
+    /// Samples the recorder's reader lost (DDS sample-lost / rejected), from meta
+    /// 'lost:<topic>'; -1 where the recorder did not say (it did not stop cleanly).
+    int64_t lost = -1;
   };
   std::vector<TopicSummary> topics;
-  int64_t samples = 0, bytes = 0;
+  int64_t samples = 0, bytes = 0, stored_bytes = 0;
   int64_t first_arrival_ns = 0, last_arrival_ns = 0;
-  std::map<std::string, std::string> meta;
-  /// The writer did not close the file (killed, or the machine stopped): samples
-  /// up to its last committed batch are there.
+  std::map<std::string, std::string> meta;  ///< Later parts' values win.
+  std::string format;       ///< meta 'format' of the (first) file.
+  std::string compression;  ///< "none", "zstd", or "none, zstd" for a mixed set.
+  /// The files read, in order (one, or a split recording's parts), and their
+  /// sizes on disk (the database file and its WAL log, if any).
+  std::vector<std::string> files;
+  int64_t file_bytes = 0;
+  /// The writer did not close the (last) file (killed, or the machine stopped):
+  /// samples up to its last committed batch are there.
   bool interrupted = false;
-  /// Empty if the file is sound; else what is wrong: SQLite's quick_check findings
-  /// (damaged pages: counts may be wrong) and the number of samples whose CRC-32
-  /// does not match their data.
+  /// Empty if the recording is sound; else what is wrong: SQLite's quick_check
+  /// findings (damaged pages: counts may be wrong), a missing part, and the number
+  /// of samples whose CRC-32 does not match their data.
   std::string damage;
   int64_t damaged_samples = 0;
   double duration_s() const { return samples ? double(last_arrival_ns - first_arrival_ns) * 1e-9 : 0.0; }
 };
 
-/// Reads a recording (read-only; works on a file whose writer was killed).
+/// Reads a recording: one file, or a directory holding the parts of one split
+/// recording, read as one (read-only; works on a file whose writer was killed).
 class RecordingReader {
  public:
   /// Throws RecordingError, naming the file and what is wrong, if the file is
   /// missing, empty, not SQLite, lacks a table or column of the format, has an
-  /// unknown format, or a topics row without name or type.
+  /// unknown format, or a topics row without name or type; for a directory, also
+  /// if it holds no .hprec file, files of more than one recording (meta 'set'), or
+  /// two files of the same part.
   explicit RecordingReader(const std::string& path);
   ~RecordingReader();
   RecordingReader(const RecordingReader&) = delete;
   RecordingReader& operator=(const RecordingReader&) = delete;
 
+  /// Every topic of every part, each name once (ids of a split recording's parts
+  /// are mapped to these).
   const std::vector<TopicInfo>& topics() const { return topics_; }
-  /// Calls f on every sample in arrival order (ties by insertion), until f
-  /// returns false. Samples of topics not in `topic_ids` (if given) are skipped;
-  /// so are samples whose CRC-32 does not match (counted in damaged_samples()) or
-  /// whose topic id is not in the topics table. Throws RecordingError (file named)
-  /// if SQLite finds the file damaged on the way.
+  /// Calls f on every sample in arrival order (ties by insertion; parts one after
+  /// the other), decompressed, until f returns false. Samples of topics not in
+  /// `topic_ids` (if given) are skipped before their data is read or decoded; so
+  /// are samples whose CRC-32 does not match, whose zstd frame does not decode to
+  /// its recorded size, or whose topic id is not in the topics table (counted in
+  /// damaged_samples()). Throws RecordingError (file named) if SQLite finds a file
+  /// damaged on the way.
   void ForEach(const std::function<bool(const Sample&)>& f,
                const std::optional<std::vector<int64_t>>& topic_ids = std::nullopt) const;
-  /// The latest arrival_ns among the samples of `topic_ids` (all topics if not
-  /// given), by SQL MAX over the column (no sample data is read);
+  /// The earliest / latest arrival_ns among the samples of `topic_ids` (all topics
+  /// if not given), by SQL MIN/MAX over the column (no sample data is read);
   /// nullopt if there are none. Throws RecordingError.
+  std::optional<int64_t> FirstArrivalNs(const std::optional<std::vector<int64_t>>& topic_ids = std::nullopt) const;
   std::optional<int64_t> LastArrivalNs(const std::optional<std::vector<int64_t>>& topic_ids = std::nullopt) const;
   /// Counts, sizes, meta, and a full check: quick_check and every sample's CRC.
   RecordingInfo Info() const;
-  /// SQLite's quick_check of the file's structure: empty if sound, else its
-  /// findings (at most 10 lines). Reads the whole file.
+  /// SQLite's quick_check of every file's structure: empty if sound, else its
+  /// findings (at most 10 lines a file). Reads the whole recording.
   std::string QuickCheck() const;
-  /// Samples ForEach skipped for a CRC mismatch or an unknown topic, so far.
+  /// Samples ForEach skipped for a CRC mismatch, a bad frame or an unknown topic, so far.
   int64_t damaged_samples() const { return damaged_; }
+  /// The files read, in order.
+  std::vector<std::string> files() const;
 
  private:
+  struct Part;
+  static std::unique_ptr<Part> OpenPart(const std::string& path);
   std::string path_;
-  sqlite3* db_ = nullptr;
+  std::vector<std::unique_ptr<Part>> parts_;
   std::vector<TopicInfo> topics_;
+  std::string missing_parts_;  ///< "part 2 missing", found at open
   void Counts(RecordingInfo* info) const;  ///< Per-topic counts, time range, meta.
-  bool has_crc_ = false;
+  std::optional<int64_t> ArrivalBound(const char* fn, const std::optional<std::vector<int64_t>>& topic_ids) const;
   mutable int64_t damaged_ = 0;
 };
+
+/// Decodes one stored sample: codec 0 copies, 1 decompresses a zstd frame that
+/// must decode to exactly `size` bytes (<= kMaxSampleBytes). False if it does not.
+bool DecodeSampleData(const uint8_t* data, size_t n, int codec, int64_t size, std::vector<uint8_t>* out);
+/// The row checksum of the format (header comment).
+uint32_t RowCrc(int64_t topic_id, int64_t source_ns, int64_t arrival_ns, const uint8_t* data, size_t size);
 
 /// True if `name` matches the glob `pattern` (`*`, `?`, `[...]`, as fnmatch).
 bool TopicMatches(const std::string& pattern, const std::string& name);
