@@ -326,6 +326,74 @@ TEST(Player, TimingRateOffsetLoopAndFilters) {
   EXPECT_EQ(st.samples, 2);
 }
 
+// An end offset, a seek and a rate change while playing (what the command topic
+// and the keyboard ask for), against the recording's own timing.
+TEST(Player, EndSeekAndRateChanges) {
+  const auto dir = test::TempDir("player_seek");
+  const std::string path = (dir / "p.hprec").string();
+  {
+    RecordingWriter w(path);
+    const int64_t info = w.AddTopic({0, "hullpipe/camera_info", "T", true, true, true, 1, ""});
+    const int64_t maps = w.AddTopic({0, "hullpipe/object_pixel_map", "T", true, true, false, 4, ""});
+    w.Append(MakeSample(info, 0, 1));
+    for (int k = 1; k <= 4; ++k) w.Append(MakeSample(maps, int64_t(k) * 500'000'000, uint8_t(k)));  // every 0.5 s
+  }
+  const RecordingReader r(path);
+  struct Played {
+    uint8_t fill;
+    double at;
+  };
+  // Plays with `o`; `on` is called after each sample with the control.
+  auto play = [&](const PlayerOptions& o, const std::function<void(const Sample&, PlayerControl&)>& on) {
+    FakeClock clock;
+    PlayerControl control;
+    std::vector<Played> out;
+    const PlayStats st = Play(r, o, [&](const TopicInfo&, const Sample& s) {
+      out.push_back({s.data[0], clock.t - 100.0});
+      on(s, control);
+    }, &control, &clock);
+    return std::make_pair(out, st);
+  };
+  auto nothing = [](const Sample&, PlayerControl&) {};
+  PlayerOptions o;
+  o.end_offset_s = 1.2;  // CameraInfo at 0, maps at 0.5 and 1.0
+  auto [p, st] = play(o, nothing);
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_EQ(p.back().fill, 2);
+  o.end_offset_s = 0;
+  // At the map of 0.5 s, seek to 1.9 s: the CameraInfo again (state before the
+  // seek point), then the map of 2.0 s, 0.1 s of recording later.
+  std::tie(p, st) = play(o, [](const Sample& s, PlayerControl& c) {
+    if (s.data[0] == 1 && s.arrival_ns == 500'000'000) c.seek_s = 1.9;
+  });
+  ASSERT_EQ(p.size(), 4u);
+  EXPECT_EQ(p[2].fill, 1);  // CameraInfo
+  EXPECT_EQ(p[3].fill, 4);  // the map of 2.0 s
+  EXPECT_NEAR(p[3].at - p[1].at, 0.0, 1e-9);  // the pass restarts its clock at the seek point
+  EXPECT_EQ(st.seeks, 1);
+  // At 0.5 s, twice as fast: the next maps 0.25 s apart.
+  std::tie(p, st) = play(o, [](const Sample& s, PlayerControl& c) {
+    if (s.data[0] == 1 && s.arrival_ns == 500'000'000) c.new_rate = 2.0;
+  });
+  ASSERT_EQ(p.size(), 5u);
+  EXPECT_NEAR(p[2].at - p[1].at, 0.25, 1e-9);
+  EXPECT_NEAR(p[4].at - p[1].at, 0.75, 1e-9);
+  // A rate out of bounds is refused and counted; the timing stays.
+  std::tie(p, st) = play(o, [](const Sample& s, PlayerControl& c) {
+    if (s.arrival_ns == 500'000'000) c.new_rate = 1e9;
+  });
+  EXPECT_EQ(st.refused_requests, 1);
+  EXPECT_NEAR(p[4].at, 2.0, 1e-9);
+  // A seek past the end ends the pass.
+  std::tie(p, st) = play(o, [](const Sample& s, PlayerControl& c) {
+    if (s.arrival_ns == 500'000'000) c.seek_s = 99;
+  });
+  EXPECT_EQ(p.size(), 2u);  // CameraInfo and the map of 0.5 s
+  o.start_offset_s = 1.0;
+  o.end_offset_s = 0.5;
+  EXPECT_THROW(o.Check(), std::invalid_argument);
+}
+
 // A stop request during a long wait between samples (rate 0.001: 17 min of gap)
 // is honoured within one sleep slice, not after the gap.
 TEST(Player, AStopEndsALongGapWithinASlice) {

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "hullpipe/dds/topics.h"
+#include "hullpipe_idl_text.h"
 
 namespace hullpipe::dds {
 namespace {
@@ -43,6 +44,8 @@ const std::vector<KnownType>& KnownTypes() {
       Make<hullpipe_msg_SceneCommand>(), Make<hullpipe_msg_HeadPose>()};
   return types;
 }
+
+const char* IdlText() { return kHullpipeIdlText; }
 
 const KnownType* FindKnownType(const std::string& type_name) {
   for (const auto& k : KnownTypes())

@@ -35,6 +35,9 @@ struct KnownType {
 const std::vector<KnownType>& KnownTypes();
 /// The known type of that type name, or nullptr.
 const KnownType* FindKnownType(const std::string& type_name);
+/// The text of idl/hullpipe.idl as this build compiled it: every type's
+/// definition. Recordings store it with each topic (record/recording.h).
+const char* IdlText();
 
 /// A reader of serialized samples of a known type, with the given QoS (depth is
 /// the keep-last depth per instance).

@@ -23,19 +23,32 @@ struct PlayerOptions {
   /// (e.g. CameraInfo) before the offset are still played, at once, so late
   /// joiners downstream get them as in the original run.
   double start_offset_s = 0;
+  /// Stop at this many seconds after the recording's first sample (0: at its end).
+  /// --duration D on the command line is end_offset_s = start_offset_s + D.
+  double end_offset_s = 0;
   std::vector<std::string> include, exclude;  ///< Topic name globs (TopicSelected).
-  /// Bounds: rate 0 or in [kMinRate, kMaxRate]; start_offset_s in [0, kMaxStartOffsetS]
-  /// (and, checked by Play, not past the recording's end).
+  /// Bounds: rate 0 or in [kMinRate, kMaxRate]; start_offset_s and end_offset_s in
+  /// [0, kMaxStartOffsetS], end_offset_s 0 or above start_offset_s (and, checked by
+  /// Play, the start not past the recording's end).
   static constexpr double kMinRate = 1e-3, kMaxRate = 1e3, kMaxStartOffsetS = 1e6;
   /// Throws std::invalid_argument naming the bad flag.
   void Check() const;
 };
 
-/// Keyboard (or test) control of a running Play; thread-safe.
+/// Keyboard, command-topic (or test) control of a running Play; thread-safe.
 struct PlayerControl {
   std::atomic<bool> paused{false};
   std::atomic<int> steps{0};    ///< While paused: samples to release one by one.
   std::atomic<bool> stop{false};
+  /// A request to jump to this many seconds after the recording's first sample
+  /// (negative: none). Play takes it (resets it to -1) before the next sample,
+  /// sends the transient-local samples before that point at once, as a start
+  /// offset does, and goes on from there; a seek past the end ends the pass.
+  std::atomic<double> seek_s{-1};
+  /// A request for a new rate (negative: none; 0 or in [kMinRate, kMaxRate], else
+  /// ignored and counted in PlayStats::refused_requests). Timing continues from the
+  /// next sample at the new rate.
+  std::atomic<double> new_rate{-1};
 };
 
 /// Where the player's time comes from (monotonic seconds); tests pass a fake.
@@ -49,6 +62,8 @@ struct PlayerClock {
 struct PlayStats {
   int64_t samples = 0;       ///< Handed to the sink.
   int loops = 0;             ///< Complete passes.
+  int seeks = 0;             ///< Seek requests taken.
+  int refused_requests = 0;  ///< Rate requests out of bounds.
   double max_lateness_s = 0; ///< Largest delay of a sample behind its due time.
 };
 
@@ -57,10 +72,10 @@ constexpr double kSleepSliceS = 0.05;
 
 /// Plays the recording's selected samples into `sink` in arrival order, each at
 /// its original arrival time (relative to the first played sample) divided by
-/// rate. Honours `control` (pause, step, stop) between samples and during the
-/// wait for one. clock: nullptr uses the steady clock. Throws std::invalid_argument
-/// if options fail Check() or the start offset is past the end; RecordingError if
-/// the file turns out damaged.
+/// rate, from start_offset_s to end_offset_s. Honours `control` (pause, step,
+/// stop, seek, rate) between samples and during the wait for one. clock: nullptr
+/// uses the steady clock. Throws std::invalid_argument if options fail Check() or
+/// the start offset is past the end; RecordingError if the file turns out damaged.
 PlayStats Play(const RecordingReader& recording, const PlayerOptions& options,
                const std::function<void(const TopicInfo&, const Sample&)>& sink, PlayerControl* control = nullptr,
                PlayerClock* clock = nullptr);
