@@ -542,6 +542,165 @@ TEST_F(RecordTools, ReplayIsByteIdenticalAndLateJoinersGetCameraInfo) {
   EXPECT_EQ(replay->Wait(30), 0) << Log("hullpipe_replay");
 }
 
+// Maps of two cameras (CameraInfo first), `frames` frames, at `hz` (0: at once).
+void PublishMaps(uint32_t domain, int frames, double hz, const std::function<bool()>& ready) {
+  dds::Participant p(domain);
+  dds::Writer<hullpipe_msg_CameraInfo> info(p);
+  dds::Writer<hullpipe_msg_ObjectPixelMap> maps(p);
+  const double end = MonotonicSeconds() + 20;
+  while (!(info.MatchedReaders() > 0 && maps.MatchedReaders() > 0 && ready()) && MonotonicSeconds() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_GT(maps.MatchedReaders(), 0u);
+  const auto views = test::SphereViews(2, 64, 48, Eigen::Vector3d(0, 0, -1), 0.3);
+  for (const auto& v : views) info.Write(dds::CameraToMsg(v.camera, test::BigBox()));
+  const double t0 = MonotonicSeconds();
+  for (int seq = 1; seq <= frames; ++seq) {
+    if (hz > 0)
+      while (MonotonicSeconds() < t0 + seq / hz) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    for (const auto& v : views)
+      maps.Write(dds::MakeMapMessage(uint32_t(v.camera.id), uint64_t(seq), NowNs(), double(seq) / 25, 2, v.map).msg);
+  }
+  ASSERT_EQ(dds_wait_for_acks(maps.handle(), DDS_SECS(10)), DDS_RETCODE_OK);
+  ASSERT_EQ(dds_wait_for_acks(info.handle(), DDS_SECS(10)), DDS_RETCODE_OK);
+}
+
+// A compressed recording split into parts: info reads it as one (counts, dates,
+// format, per-topic losses, a clean close), export round-trips the counts (a PNG
+// and a JSON line per map), and the directory replays as one recording.
+TEST_F(RecordTools, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
+  const std::string set = (dir_ / "split").string();
+  {
+    // 1 s of maps in parts of 0.25 s (a size split is tested on the library: these
+    // maps compress to a few KiB in all).
+    auto recorder = Start("hullpipe_record", {"-o", set, "--compression", "zstd", "--split-duration", "0.25"});
+    PublishMaps(domain_, 20, 20, [] { return true; });
+    EXPECT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
+  }
+  const std::string info_log = (dir_ / "split_info.json").string();
+  test::Process info({test::BinDir() + "/hullpipe_record", "info", set, "--json"}, info_log);
+  ASSERT_EQ(info.Wait(20), 0) << test::ReadFile(info_log);
+  const auto j = nlohmann::json::parse(test::ReadFile(info_log));
+  EXPECT_EQ(j["samples"].get<int>(), 42);
+  EXPECT_GT(j["files"].size(), 1u) << "not split";
+  EXPECT_EQ(j["compression"], "zstd");
+  EXPECT_EQ(j["format"], "hullpipe-recording-3");
+  EXPECT_TRUE(j["closed_cleanly"].get<bool>());
+  EXPECT_LT(j["stored_bytes"].get<int64_t>(), j["bytes"].get<int64_t>());
+  EXPECT_NE(j["start"].get<std::string>().find("T"), std::string::npos);
+  for (const auto& t : j["topics"]) EXPECT_EQ(t["lost"], 0) << t["name"];
+  // Export: every map a PNG and a JSON line.
+  const std::string out = (dir_ / "export").string();
+  const std::string export_log = (dir_ / "export.log").string();
+  test::Process exp({test::BinDir() + "/hullpipe_record", "export", set, "-o", out, "--domain",
+                     std::to_string(test::UniqueDomain())}, export_log);
+  ASSERT_EQ(exp.Wait(60), 0) << test::ReadFile(export_log);
+  const auto e = nlohmann::json::parse(test::ReadFile(out + "/export.json"));
+  const auto& maps = e["topics"]["hullpipe/object_pixel_map"];
+  EXPECT_EQ(maps["samples"], 40);
+  EXPECT_EQ(maps["pngs"], 40);
+  EXPECT_EQ(maps["json_lines"], 40);
+  EXPECT_EQ(maps["undecodable"], 0);
+  EXPECT_EQ(e["topics"]["hullpipe/camera_info"]["json_lines"], 2);
+  int pngs = 0;
+  for (const auto& f : std::filesystem::recursive_directory_iterator(out + "/maps")) pngs += f.path().extension() == ".png";
+  EXPECT_EQ(pngs, 40);
+  std::ifstream lines(out + "/hullpipe_object_pixel_map.jsonl");
+  int n = 0;
+  for (std::string line; std::getline(lines, line); ++n) EXPECT_EQ(nlohmann::json::parse(line)["width"], 64);
+  EXPECT_EQ(n, 40);
+  // The directory replays as one recording.
+  const uint32_t d2 = test::UniqueDomain();
+  dds::Participant p2(d2);
+  dds::CdrReader cdr(p2, *dds::FindKnownType("hullpipe::msg::ObjectPixelMap"), dds::QosSpec{true, false, 64});
+  auto replay = Start("hullpipe_replay", {set, "--wait-readers", "1", "--rate", "0", "--no-keyboard"}, d2);
+  size_t got = 0;
+  WaitFor([&] {
+    got += cdr.TakeEach([](const std::vector<uint8_t>&, int64_t) {});
+    return got >= 40;
+  }, 20);
+  EXPECT_EQ(got, 40u) << Log("hullpipe_replay");
+  EXPECT_EQ(replay->Wait(30), 0) << Log("hullpipe_replay");
+}
+
+// Snapshot mode: nothing is written until told; `hullpipe_cmd snapshot` and
+// SIGUSR1 each write the last N seconds (with the calibration) to a new file.
+TEST_F(RecordTools, SnapshotsHoldTheLastSecondsWhenTold) {
+  const std::string dir = (dir_ / "snaps").string();
+  auto recorder = Start("hullpipe_record", {"-o", dir, "--snapshot-seconds", "1"});
+  PublishMaps(domain_, 60, 30, [] { return true; });  // 2 s of maps at 30 Hz
+  const std::string first = dir + "/snapshot_0001.hprec", second = dir + "/snapshot_0002.hprec";
+  EXPECT_FALSE(std::filesystem::exists(first)) << "written before it was told";
+  const std::string cmd_log = (dir_ / "cmd.log").string();
+  test::Process cmd({test::BinDir() + "/hullpipe_cmd", "snapshot", "--domain", std::to_string(domain_)}, cmd_log);
+  ASSERT_EQ(cmd.Wait(30), 0) << test::ReadFile(cmd_log);
+  WaitFor([&] { return std::filesystem::exists(first) && Log("hullpipe_record").find("snapshot (command)") != std::string::npos; }, 20);
+  ASSERT_TRUE(std::filesystem::exists(first)) << Log("hullpipe_record");
+  recorder->Signal(SIGUSR1);
+  WaitFor([&] { return Log("hullpipe_record").find("snapshot (SIGUSR1)") != std::string::npos; }, 20);
+  EXPECT_TRUE(std::filesystem::exists(second)) << Log("hullpipe_record");
+  EXPECT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
+  const RecordingReader r(first);
+  const RecordingInfo info = r.Info();
+  EXPECT_EQ(info.damage, "");
+  EXPECT_EQ(info.meta.at("snapshot_trigger"), "command");
+  const int64_t at = std::stoll(info.meta.at("snapshot_ns"));
+  std::map<std::string, int64_t> counts;
+  for (const auto& t : info.topics) counts[t.topic.name] = t.count;
+  EXPECT_EQ(counts["hullpipe/camera_info"], 2);  // kept from before the window
+  // The maps: only the last second before the trigger, some of them.
+  EXPECT_GT(counts["hullpipe/object_pixel_map"], 0);
+  EXPECT_LE(counts["hullpipe/object_pixel_map"], 2 * 31);
+  std::map<int64_t, std::string> names;
+  for (const auto& t : r.topics()) names[t.id] = t.name;
+  r.ForEach([&](const Sample& s) {
+    if (names[s.topic_id] == "hullpipe/object_pixel_map") {
+      EXPECT_GE(s.arrival_ns, at - 1'000'000'000);
+    }
+    return true;
+  });
+}
+
+// A replay started paused sends nothing until stepped; `hullpipe_cmd step`
+// releases samples, `resume` plays the rest.
+TEST_F(RecordTools, AReplayStartedPausedIsSteppedAndResumedFromTheDomain) {
+  const std::string path = (dir_ / "p.hprec").string();
+  {
+    auto recorder = Start("hullpipe_record", {"-o", path});
+    PublishMaps(domain_, 20, 0, [] { return true; });
+    EXPECT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
+  }
+  const uint32_t d2 = test::UniqueDomain();
+  dds::Participant p2(d2);
+  dds::CdrReader cdr(p2, *dds::FindKnownType("hullpipe::msg::ObjectPixelMap"), dds::QosSpec{true, false, 64});
+  auto replay = Start("hullpipe_replay", {path, "--start-paused", "--wait-readers", "1", "--no-keyboard"}, d2);
+  WaitFor([&] { return Log("hullpipe_replay").find("paused:") != std::string::npos; }, 20);
+  ASSERT_NE(Log("hullpipe_replay").find("paused:"), std::string::npos) << Log("hullpipe_replay");
+  size_t got = 0;
+  auto take = [&] { got += cdr.TakeEach([](const std::vector<uint8_t>&, int64_t) {}); };
+  auto send = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), test::BinDir() + "/hullpipe_cmd");
+    args.insert(args.end(), {"--domain", std::to_string(d2)});
+    const std::string log = (dir_ / ("cmd_" + args[1] + ".log")).string();
+    test::Process c(args, log);
+    EXPECT_EQ(c.Wait(30), 0) << test::ReadFile(log);
+  };
+  take();
+  EXPECT_EQ(got, 0u) << "played while paused";
+  send({"step", "5"});  // the two CameraInfo samples, then three maps
+  WaitFor([&] {
+    take();
+    return got >= 3;
+  }, 20);
+  EXPECT_EQ(got, 3u) << Log("hullpipe_replay");  // (the positive control of the absence above)
+  send({"resume"});
+  WaitFor([&] {
+    take();
+    return got >= 40;
+  }, 20);
+  EXPECT_EQ(got, 40u) << Log("hullpipe_replay");
+  EXPECT_EQ(replay->Wait(30), 0) << Log("hullpipe_replay");
+}
+
 TEST_F(RecordTools, RecorderKilledBySigkillLeavesARecordingThatOpens) {
   const std::string path = (dir_ / "k.hprec").string();
   dds::Participant p(domain_);

@@ -1,16 +1,24 @@
-// hullpipe_record: records a domain's DDS traffic into one SQLite file (docs/architecture.md).
+// hullpipe_record: records a domain's DDS traffic into SQLite (docs/recording.md).
 //   hullpipe_record --domain 7 -o run.hprec [--include 'hullpipe/*'] [--exclude '*/camera_image']
-//   hullpipe_record info run.hprec [--json]
+//                   [--compression zstd] [--split-size 500MB | --split-duration 60]  (-o: a directory)
+//   hullpipe_record --domain 7 -o snaps --snapshot-seconds 10     (writes on SIGUSR1 or
+//                                                                 `hullpipe_cmd snapshot`)
+//   hullpipe_record info run.hprec [--json] [--idl]
+//   hullpipe_record repair broken.hprec -o fixed.hprec
+//   hullpipe_record export run.hprec -o DIR [--topic GLOB] [--start S] [--end S]
 // Topics are discovered from the built-in DCPSPublication topic (name, type,
 // keyedness, QoS); every topic of a hullpipe type is recorded as serialized CDR
 // samples, untouched, with source and arrival timestamps (each pass's samples in
-// their writers' source-time order: a take groups them by key). Samples are committed
-// in batches (--batch-ms): a recorder killed even by SIGKILL loses at most its
-// last batch and the file still opens. SIGINT/SIGTERM stop it cleanly. What the
-// readers lost (sample lost / rejected) is counted, logged and stored in meta.
+// their writers' source-time order: a take groups them by key) and the IDL text of
+// its type. Samples are committed in batches (--batch-ms): a recorder killed even
+// by SIGKILL loses at most its last batch and the file still opens (`repair`
+// recovers a file cut short). SIGINT/SIGTERM stop it cleanly. What the readers
+// lost (sample lost / rejected) is counted, logged and stored in meta per topic.
+#include <csignal>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <map>
 #include <memory>
 
@@ -22,7 +30,12 @@
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/node.h"
+#include "hullpipe/dds/topics.h"
 #include "hullpipe/record/recording.h"
+#include "hullpipe/record/repair.h"
+#include "hullpipe/record/snapshot.h"
+#include "hullpipe/record/split_writer.h"
+#include "record_export.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -30,40 +43,79 @@ using namespace hullpipe::record;
 
 namespace {
 
-int Info(const std::string& path, bool json) {
+// "2026-11-23T05:01:02.345Z" for ns since the Unix epoch.
+std::string IsoTime(int64_t ns) {
+  if (ns <= 0) return "-";
+  const std::time_t secs = std::time_t(ns / 1'000'000'000);
+  std::tm tm{};
+  gmtime_r(&secs, &tm);
+  char buf[48];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
+  return fmt::format("{}.{:03d}Z", buf, int((ns / 1'000'000) % 1000));
+}
+
+int Info(const std::string& path, bool json, bool idl) {
   const RecordingReader r(path);
   const RecordingInfo info = r.Info();
+  const bool closed = !info.interrupted;
   if (json) {
     nlohmann::json j;
     j["file"] = path;
+    j["files"] = info.files;
+    j["file_bytes"] = info.file_bytes;
+    j["storage"] = "sqlite3";
+    j["format"] = info.format;
+    j["serialization"] = "cdr";
+    j["compression"] = info.compression;
+    j["start"] = IsoTime(info.first_arrival_ns);
+    j["end"] = IsoTime(info.last_arrival_ns);
     j["duration_s"] = info.duration_s();
     j["samples"] = info.samples;
     j["bytes"] = info.bytes;
+    j["stored_bytes"] = info.stored_bytes;
     j["meta"] = info.meta;
+    j["closed_cleanly"] = closed;
     j["interrupted"] = info.interrupted;
     j["damage"] = info.damage;
     j["damaged_samples"] = info.damaged_samples;
-    for (const auto& t : info.topics)
-      j["topics"].push_back({{"name", t.topic.name}, {"type", t.topic.type}, {"count", t.count}, {"bytes", t.bytes},
-                             {"keyed", t.topic.keyed}, {"reliable", t.topic.reliable},
-                             {"transient_local", t.topic.transient_local}, {"depth", t.topic.depth}});
+    for (const auto& t : info.topics) {
+      nlohmann::json tj = {{"name", t.topic.name}, {"type", t.topic.type}, {"count", t.count}, {"bytes", t.bytes},
+                           {"stored_bytes", t.stored_bytes}, {"keyed", t.topic.keyed}, {"reliable", t.topic.reliable},
+                           {"transient_local", t.topic.transient_local}, {"depth", t.topic.depth}};
+      tj["lost"] = t.lost >= 0 ? nlohmann::json(t.lost) : nlohmann::json(nullptr);
+      if (idl) tj["type_description"] = t.topic.type_description;
+      j["topics"].push_back(tj);
+    }
     std::printf("%s\n", j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     return info.damage.empty() ? 0 : 3;
   }
-  std::printf("Files:             %s\n", path.c_str());
+  std::printf("Files:             %s", path.c_str());
+  if (info.files.size() > 1) std::printf(" (%zu parts)", info.files.size());
+  std::printf("\nSize:              %.1f MiB on disk\n", double(info.file_bytes) / (1 << 20));
+  std::printf("Storage:           sqlite3, %s; serialization cdr; compression %s\n", info.format.c_str(),
+              info.compression.c_str());
+  std::printf("Start:             %s\n", IsoTime(info.first_arrival_ns).c_str());
+  std::printf("End:               %s\n", IsoTime(info.last_arrival_ns).c_str());
   std::printf("Duration:          %.3f s\n", info.duration_s());
   std::printf("Messages:          %lld\n", (long long)info.samples);
-  std::printf("Bytes:             %.1f MiB\n", double(info.bytes) / (1 << 20));
-  if (info.interrupted)
-    std::printf("Interrupted:       yes: the recorder did not close it (killed?); samples up to its last commit\n");
+  std::printf("Bytes:             %.1f MiB (%.1f MiB stored)\n", double(info.bytes) / (1 << 20),
+              double(info.stored_bytes) / (1 << 20));
+  std::printf("Closed cleanly:    %s\n",
+              closed ? "yes"
+                     : "no: the recorder did not close it (killed?); samples up to its last commit "
+                       "(`hullpipe_record repair` recovers a file cut short)");
   if (!info.damage.empty()) std::printf("DAMAGED:           %s\n", info.damage.c_str());
-  for (const auto& [k, v] : info.meta) std::printf("%-18s %s\n", (k + ":").c_str(), v.c_str());
+  for (const auto& [k, v] : info.meta)
+    if (k.rfind("lost:", 0) != 0) std::printf("%-18s %s\n", (k + ":").c_str(), v.c_str());
   std::printf("Topic information:\n");
-  for (const auto& t : info.topics)
-    std::printf("  %-28s | %-34s | %7lld msgs | %9.1f KiB | %s%s, depth %d\n", t.topic.name.c_str(),
-                t.topic.type.c_str(), (long long)t.count, double(t.bytes) / 1024,
+  for (const auto& t : info.topics) {
+    std::printf("  %-28s | %-34s | %7lld msgs | %9.1f KiB | %s%s, depth %d | lost %s\n", t.topic.name.c_str(),
+                t.topic.type.c_str(), (long long)t.count, double(t.stored_bytes) / 1024,
                 t.topic.reliable ? "reliable" : "best-effort", t.topic.transient_local ? ", transient-local" : "",
-                t.topic.depth);
+                t.topic.depth, t.lost >= 0 ? std::to_string(t.lost).c_str() : "?");
+    if (idl) std::printf("%s\n", t.topic.type_description.empty() ? "    (no IDL: recorded before format 3)"
+                                                                  : t.topic.type_description.c_str());
+  }
   if (!info.damage.empty()) {
     std::fprintf(stderr, "%s: damaged: %s\n", path.c_str(), info.damage.c_str());
     return 3;
@@ -71,17 +123,125 @@ int Info(const std::string& path, bool json) {
   return 0;
 }
 
+int RepairCmd(const std::string& in, const std::string& out) {
+  const RepairReport rep = Repair(in, out);
+  spdlog::info("{} -> {}: {} samples of {} topics recovered ({} pages, {} log frames); {} rows failed their CRC, "
+               "{} ran into a missing page, {} belonged to a lost topic; the input was {}",
+               in, out, rep.samples, rep.topics, rep.pages, rep.wal_frames, rep.bad_samples, rep.incomplete_samples,
+               rep.orphan_samples, rep.was_closed ? "closed" : "not closed (interrupted)");
+  if (rep.topics == 0) {
+    spdlog::error("{}: no topic recovered; {} holds nothing to replay", in, out);
+    return 3;
+  }
+  return 0;
+}
+
+volatile std::sig_atomic_t g_snapshot_signals = 0;
+void OnSigusr1(int) { g_snapshot_signals = g_snapshot_signals + 1; }
+
+// Where recorded samples go: one file, a split recording, or the snapshot window.
+class Output {
+ public:
+  virtual ~Output() = default;
+  virtual int64_t AddTopic(const TopicInfo& t) = 0;
+  virtual void Append(const Sample& s) = 0;
+  virtual void Commit() = 0;
+  virtual void SetMeta(const std::string& k, const std::string& v) = 0;
+  virtual int64_t samples_committed() const = 0;
+};
+
+template <typename W>
+class WriterOutput : public Output {
+ public:
+  template <typename... A>
+  explicit WriterOutput(A&&... a) : w_(std::forward<A>(a)...) {}
+  int64_t AddTopic(const TopicInfo& t) override { return w_.AddTopic(t); }
+  void Append(const Sample& s) override { w_.Append(s); }
+  void Commit() override { w_.Commit(); }
+  void SetMeta(const std::string& k, const std::string& v) override { w_.SetMeta(k, v); }
+  int64_t samples_committed() const override { return w_.samples_committed(); }
+
+ private:
+  W w_;
+};
+
+// Snapshot mode: the window in memory; Write() puts it in DIR/snapshot_NNNN.hprec.
+class SnapshotOutput : public Output {
+ public:
+  SnapshotOutput(const std::string& dir, const SnapshotOptions& o, const WriterOptions& w)
+      : dir_(dir), buffer_(o), writer_options_(w) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir_, ec);
+    if (ec || !std::filesystem::is_directory(dir_)) throw RecordingError(dir_ + ": cannot create the directory");
+  }
+  int64_t AddTopic(const TopicInfo& t) override {
+    TopicInfo mine = t;
+    mine.id = int64_t(buffer_.topics().size()) + 1;  // the ids a new file gives, in this order
+    buffer_.AddTopic(mine);
+    return mine.id;
+  }
+  void Append(const Sample& s) override { buffer_.Add(s); }
+  void Commit() override {}
+  void SetMeta(const std::string& k, const std::string& v) override { meta_[k] = v; }
+  int64_t samples_committed() const override { return written_; }
+  // Writes the last seconds before now; returns the file.
+  std::string Write(const std::string& trigger) {
+    buffer_.TrimTo(NowNs());
+    std::string path;
+    for (;;) {  // never overwrite: the next free number
+      path = (std::filesystem::path(dir_) / fmt::format("snapshot_{:04d}.hprec", ++count_)).string();
+      if (!std::filesystem::exists(path)) break;
+    }
+    const auto samples = buffer_.Contents();
+    RecordingWriter w(path, writer_options_);
+    for (const auto& [k, v] : meta_) w.SetMeta(k, v);
+    w.SetMeta("snapshot_trigger", trigger);
+    w.SetMeta("snapshot_ns", std::to_string(NowNs()));
+    for (const auto& t : buffer_.topics()) w.AddTopic(t);
+    for (const auto& s : samples) w.Append(s);
+    w.Commit();
+    written_ += int64_t(samples.size());
+    spdlog::info("snapshot ({}): {} samples, {:.1f} MiB, {:.2f} s, in {}", trigger, samples.size(),
+                 double(buffer_.bytes()) / (1 << 20),
+                 samples.empty() ? 0.0 : double(samples.back().arrival_ns - samples.front().arrival_ns) * 1e-9, path);
+    return path;
+  }
+
+ private:
+  std::string dir_;
+  SnapshotBuffer buffer_;
+  WriterOptions writer_options_;
+  std::map<std::string, std::string> meta_;
+  int count_ = 0;
+  int64_t written_ = 0;
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"hullpipe_record: record a domain's DDS traffic (serialized) into SQLite"};
   CommonOptions common;
   AddCommonOptions(app, common);
-  std::string out;
+  std::string out, compression = "none";
   std::vector<std::string> include, exclude;
   double duration = 0, batch_ms = 100;
   int depth = 256;
-  app.add_option("-o,--output", out, "Recording file to create (never overwritten)");
+  WriterOptions wo;
+  SplitOptions so;
+  SnapshotOptions snap;
+  snap.seconds = 0;
+  app.add_option("-o,--output", out,
+                 "Recording to create (never overwritten): a file, or a directory with --split-* and --snapshot-*");
+  app.add_option("--compression", compression, "Sample compression: none or zstd")->capture_default_str();
+  app.add_option("--zstd-level", wo.zstd_level, "zstd level, 1 (fast) to 19 (small)")->capture_default_str();
+  app.add_option("--split-size", so.max_bytes, "Start a new part at this size (e.g. 500MB, 1GiB; 0: never)")
+      ->transform(CLI::AsSizeValue(true));
+  app.add_option("--split-duration", so.max_duration_s, "Start a new part every this many seconds (0: never)");
+  app.add_option("--snapshot-seconds", snap.seconds,
+                 "Snapshot mode: keep the last S seconds in memory; write them on SIGUSR1 or `hullpipe_cmd snapshot`");
+  app.add_option("--snapshot-bytes", snap.max_bytes, "Snapshot mode: at most this much in memory (e.g. 2GiB)")
+      ->transform(CLI::AsSizeValue(true))
+      ->capture_default_str();
   app.add_option("--include", include, "Record only topics matching these globs (default: all)");
   app.add_option("--exclude", exclude, "Do not record topics matching these globs");
   app.add_option("--duration", duration, "Stop after this many seconds (0: until SIGINT)");
@@ -89,19 +249,53 @@ int main(int argc, char** argv) {
   app.add_option("--depth", depth, "Reader history depth per instance (large: nothing overwritten)")
       ->capture_default_str();
   std::string info_path;
-  bool info_json = false;
-  auto* info = app.add_subcommand("info", "Topics, types, counts, sizes and duration of a recording");
-  info->add_option("file", info_path, "Recording")->required();
+  bool info_json = false, info_idl = false;
+  auto* info = app.add_subcommand("info", "Dates, size, format, topics, types, counts, losses of a recording (never "
+                                          "modifies it)");
+  info->add_option("recording", info_path, "Recording (file or split directory)")->required();
   info->add_flag("--json", info_json, "One JSON object");
+  info->add_flag("--idl", info_idl, "Print each topic's IDL text as recorded");
+  std::string repair_in, repair_out;
+  auto* repair = app.add_subcommand("repair", "Recover what a killed recorder or a cut file holds into a new recording");
+  repair->add_option("file", repair_in, "Damaged recording (its -wal beside it is read too)")->required();
+  repair->add_option("-o,--output", repair_out, "New recording (never overwritten)")->required();
+  ExportOptions eo;
+  auto* exp = app.add_subcommand("export", "Maps as PNG, images and hull views as video, reports and stats as "
+                                           "CSV, any topic as JSON lines");
+  AddExportOptions(exp, eo);
   CLI11_PARSE(app, argc, argv);
   try {
-    if (*info) return Info(info_path, info_json);
-    if (out.empty()) throw std::runtime_error("give -o FILE (or the info subcommand)");
+    if (*info) return Info(info_path, info_json, info_idl);
+    if (*repair) return RepairCmd(repair_in, repair_out);
+    if (*exp) return Export(eo, common);
+    if (out.empty()) throw std::runtime_error("give -o FILE (or the info, repair or export subcommand)");
+    wo.compression = ParseCompression(compression);
+    so.writer = wo;
+    so.Check();
+    const bool split = so.max_bytes > 0 || so.max_duration_s > 0, snapshot = snap.seconds != 0;
+    if (split && snapshot) throw std::invalid_argument("--snapshot-seconds goes without --split-size/--split-duration");
+    if (snapshot) snap.Check();
+    std::unique_ptr<Output> rec;
+    SnapshotOutput* snapshots = nullptr;
+    if (snapshot) {
+      auto o = std::make_unique<SnapshotOutput>(out, snap, wo);
+      snapshots = o.get();
+      rec = std::move(o);
+      std::signal(SIGUSR1, OnSigusr1);
+    } else if (split) {
+      rec = std::make_unique<WriterOutput<SplitWriter>>(out, so);
+    } else {
+      rec = std::make_unique<WriterOutput<RecordingWriter>>(out, wo);
+    }
     auto participant = StartNode("record", common);
-    RecordingWriter rec(out);
-    rec.SetMeta("created_ns", std::to_string(NowNs()));
-    rec.SetMeta("domain", std::to_string(common.domain));
+    rec->SetMeta("created_ns", std::to_string(NowNs()));
+    rec->SetMeta("domain", std::to_string(common.domain));
+    // Snapshot commands from the domain (hullpipe_cmd snapshot).
+    std::unique_ptr<Reader<hullpipe_msg_RecordCommand>> commands;
+    if (snapshots) commands = std::make_unique<Reader<hullpipe_msg_RecordCommand>>(*participant);
+    int snapshot_signals_seen = 0;
     WaitSet ws(*participant);
+    if (commands) Check(dds_waitset_attach(ws.handle(), commands->condition(), 0), "dds_waitset_attach");
     Entity pubs(Check(dds_create_reader(participant->handle(), DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr),
                       "dds_create_reader(DCPSPublication)"));
     Entity pubs_cond(Check(dds_create_readcondition(pubs.handle(), DDS_ANY_STATE), "dds_create_readcondition"));
@@ -143,6 +337,7 @@ int main(int argc, char** argv) {
           t.name = name;
           t.type = type;
           t.keyed = kt->keyed;
+          t.type_description = IdlText();
           dds_reliability_kind_t rel = DDS_RELIABILITY_RELIABLE;
           dds_duration_t blocking;
           dds_durability_kind_t dur = DDS_DURABILITY_VOLATILE;
@@ -157,7 +352,7 @@ int main(int argc, char** argv) {
           t.transient_local = dur != DDS_DURABILITY_VOLATILE;
           t.depth = hist == DDS_HISTORY_KEEP_LAST ? hdepth : depth;
           Recorded r;
-          r.id = rec.AddTopic(t);
+          r.id = rec->AddTopic(t);
           r.reader = std::make_unique<CdrReader>(*participant, *kt, QosSpec{t.reliable, t.transient_local, depth});
           Check(dds_waitset_attach(ws.handle(), r.reader->condition(), 0), "dds_waitset_attach");
           spdlog::info("recording {} ({}{})", name, t.reliable ? "reliable" : "best-effort",
@@ -189,14 +384,25 @@ int main(int argc, char** argv) {
                        [](const Sample& a, const Sample& b) { return a.source_ns < b.source_ns; });
       for (size_t k = 1; k < taken.size(); ++k)  // arrival order = source order within the pass
         taken[k].arrival_ns = std::max(taken[k].arrival_ns, taken[k - 1].arrival_ns);
-      for (const Sample& s : taken) rec.Append(s);
+      for (const Sample& s : taken) rec->Append(s);
     };
     while (!StopRequested() && !(duration > 0 && MonotonicSeconds() - t_start > duration)) {
       ws.Wait(0.05);
       discover();
       take_all();
+      if (snapshots) {
+        std::string trigger;
+        if (g_snapshot_signals != snapshot_signals_seen) {
+          snapshot_signals_seen = g_snapshot_signals;
+          trigger = "SIGUSR1";
+        }
+        commands->TakeEach([&](const hullpipe_msg_RecordCommand& c, const dds_sample_info_t&) {
+          if (c.command == hullpipe_msg_RECORD_COMMAND_SNAPSHOT) trigger = "command";
+        });
+        if (!trigger.empty()) snapshots->Write(trigger);
+      }
       if ((MonotonicSeconds() - last_commit) * 1e3 >= batch_ms) {
-        rec.Commit();
+        rec->Commit();
         last_commit = MonotonicSeconds();
         uint64_t lost = 0;
         for (const auto& [name, r] : topics) lost += r.reader->Lost();
@@ -212,13 +418,14 @@ int main(int argc, char** argv) {
     uint64_t lost = 0;
     for (const auto& [name, r] : topics) {
       lost += r.reader->Lost();
-      rec.SetMeta("lost:" + name, std::to_string(r.reader->Lost()));
+      rec->SetMeta("lost:" + name, std::to_string(r.reader->Lost()));
       spdlog::info("{}: {} samples", name, r.count);
     }
-    rec.SetMeta("lost_total", std::to_string(lost));
-    rec.SetMeta("stopped_ns", std::to_string(NowNs()));
-    rec.Commit();
-    spdlog::info("stopped: {} samples in {}, {} lost", rec.samples_committed(), out, lost);
+    rec->SetMeta("lost_total", std::to_string(lost));
+    rec->SetMeta("stopped_ns", std::to_string(NowNs()));
+    rec->Commit();
+    spdlog::info("stopped: {} samples {} {}, {} lost", rec->samples_committed(),
+                 snapshots ? "written in snapshots to" : "in", out, lost);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

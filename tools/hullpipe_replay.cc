@@ -2,17 +2,22 @@
 // (docs/architecture.md), each topic with its original QoS, so a late-joining node still gets
 // the transient-local CameraInfo.
 //   hullpipe_replay run.hprec --domain 8 [--rate 0.5] [--loop] [--start-offset 2.0]
+//                   [--end 8.0 | --duration 6.0] [--start-paused]
 //                   [--include 'hullpipe/object_pixel_map'] [--wait-readers 2]
+// A recording is a file or a split recording's directory (docs/recording.md).
 // Timing: the original arrival times divided by --rate; --rate 0 publishes as
 // fast as the readers take it (each sample waits for its readers' acknowledgement).
 // Topics: by default only what the nodes consume (calibration, maps, images, head
 // poses, scene commands), so a replay into live nodes does not mix a recorded
 // run's outputs (views, tiles, NodeStats) with theirs; --all-topics plays all.
 // Keys on a terminal: space pauses and resumes, s steps one sample while paused,
-// q quits. Samples are written byte for byte as recorded (dds_writecdr).
+// ] and [ double and halve the rate, 0 seeks to the start, q quits. The same from
+// the domain: `hullpipe_cmd pause|resume|step N|seek S|rate X` (RecordCommand).
+// Samples are written byte for byte as recorded (dds_writecdr).
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <map>
 #include <memory>
 #include <set>
@@ -25,6 +30,7 @@
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/node.h"
+#include "hullpipe/dds/topics.h"
 #include "hullpipe/record/player.h"
 
 using namespace hullpipe;
@@ -37,7 +43,7 @@ namespace {
 // the terminal on destruction.
 class Keyboard {
  public:
-  explicit Keyboard(PlayerControl* control) : control_(control) {
+  Keyboard(PlayerControl* control, double rate) : control_(control), rate_(rate > 0 ? rate : 1) {
     if (!isatty(STDIN_FILENO)) return;
     tcgetattr(STDIN_FILENO, &saved_);
     termios raw = saved_;
@@ -55,6 +61,13 @@ class Keyboard {
           std::fprintf(stderr, control_->paused ? "[paused: space resumes, s steps]\n" : "[playing]\n");
         } else if (c == 's') {
           ++control_->steps;
+        } else if (c == ']' || c == '[') {
+          rate_ = std::clamp(c == ']' ? rate_ * 2 : rate_ / 2, PlayerOptions::kMinRate, PlayerOptions::kMaxRate);
+          control_->new_rate = rate_;
+          std::fprintf(stderr, "[rate %g]\n", rate_);
+        } else if (c == '0') {
+          control_->seek_s = 0;
+          std::fprintf(stderr, "[from the start]\n");
         } else if (c == 'q') {
           control_->stop = true;
         }
@@ -69,28 +82,62 @@ class Keyboard {
 
  private:
   PlayerControl* control_;
+  double rate_;
   termios saved_{};
   bool active_ = false;
   std::atomic<bool> done_{false};
   std::thread thread_;
 };
 
-// Sets `stop` and joins on scope exit, also when an exception leaves main's body.
-class StopWatcher {
+// Sets `stop` on SIGINT/SIGTERM and applies RecordCommands from the domain
+// (pause, resume, step, seek, rate); sets `stop` and joins on scope exit, also
+// when an exception leaves main's body.
+class Steering {
  public:
-  explicit StopWatcher(PlayerControl* control) : control_(control), thread_([this] {
-    while (!control_->stop.load()) {
-      if (StopRequested()) control_->stop = true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-  }) {}
-  ~StopWatcher() {
+  Steering(PlayerControl* control, const Participant& participant)
+      : control_(control), commands_(participant), thread_([this] {
+          while (!control_->stop.load()) {
+            if (StopRequested()) control_->stop = true;
+            commands_.TakeEach([&](const hullpipe_msg_RecordCommand& c, const dds_sample_info_t&) { Apply(c); });
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+          }
+        }) {}
+  ~Steering() {
     control_->stop = true;
     thread_.join();
   }
+  int64_t ignored() const { return ignored_; }
 
  private:
+  void Apply(const hullpipe_msg_RecordCommand& c) {
+    switch (c.command) {
+      case hullpipe_msg_RECORD_COMMAND_PAUSE: control_->paused = true; break;
+      case hullpipe_msg_RECORD_COMMAND_RESUME: control_->paused = false; break;
+      case hullpipe_msg_RECORD_COMMAND_STEP:
+        if (c.value >= 1 && c.value <= 1e6) control_->steps += int(c.value);
+        else return Ignore(c, "step count out of [1, 1e6]");
+        break;
+      case hullpipe_msg_RECORD_COMMAND_SEEK:
+        if (c.value >= 0 && c.value <= PlayerOptions::kMaxStartOffsetS) control_->seek_s = c.value;
+        else return Ignore(c, "seek out of [0, 1e6] s");
+        break;
+      case hullpipe_msg_RECORD_COMMAND_RATE:
+        if (c.value == 0 || (c.value >= PlayerOptions::kMinRate && c.value <= PlayerOptions::kMaxRate))
+          control_->new_rate = c.value;
+        else return Ignore(c, "rate not 0 or in [0.001, 1000]");
+        break;
+      case hullpipe_msg_RECORD_COMMAND_SNAPSHOT: return;  // the recorder's
+      default: return Ignore(c, "unknown command");
+    }
+    spdlog::info("command {} (value {}) applied", int(c.command), c.value);
+  }
+  void Ignore(const hullpipe_msg_RecordCommand& c, const char* why) {
+    ++ignored_;
+    spdlog::warn("RecordCommand {} (command {}, value {}) ignored: {}", c.command_seq, int(c.command), c.value, why);
+  }
   PlayerControl* control_;
+  Reader<hullpipe_msg_RecordCommand> commands_;
+  std::atomic<int64_t> ignored_{0};
   std::thread thread_;
 };
 
@@ -116,6 +163,11 @@ int main(int argc, char** argv) {
   app.add_flag("--loop", po.loop, "Start over at the end");
   app.add_option("--max-loops", po.max_loops, "With --loop: stop after this many passes");
   app.add_option("--start-offset", po.start_offset_s, "Skip this many seconds (transient-local state still sent)");
+  double duration = 0;
+  bool start_paused = false;
+  app.add_option("--end", po.end_offset_s, "Stop at this many seconds after the recording's start");
+  app.add_option("--duration", duration, "Stop after this many seconds of the recording (from --start-offset)");
+  app.add_flag("--start-paused", start_paused, "Start paused (space, or hullpipe_cmd resume/step, goes on)");
   app.add_option("--include", po.include, "Replay only topics matching these globs (default: the nodes' inputs)");
   app.add_flag("--all-topics", all_topics, "Replay every topic, the recorded nodes' outputs too");
   app.add_option("--exclude", po.exclude, "Do not replay topics matching these globs");
@@ -129,6 +181,12 @@ int main(int argc, char** argv) {
   app.add_flag("!--no-keyboard", keyboard, "Ignore the terminal (no pause/step keys)");
   CLI11_PARSE(app, argc, argv);
   try {
+    if (duration != 0) {
+      if (po.end_offset_s > 0) throw std::invalid_argument("give --end or --duration, not both");
+      if (!(duration > 0 && duration <= PlayerOptions::kMaxStartOffsetS))
+        throw std::invalid_argument("--duration must be in (0, 1e6] s");
+      po.end_offset_s = po.start_offset_s + duration;
+    }
     po.Check();
     if (wait_readers < 0 || wait_readers > 1000) throw std::invalid_argument("--wait-readers must be in [0, 1000]");
     for (const auto& [flag, v] : {std::pair<const char*, double>{"--wait-timeout", wait_timeout},
@@ -159,6 +217,12 @@ int main(int argc, char** argv) {
       writers[t.id] = std::make_unique<CdrWriter>(*participant, *kt, QosSpec{t.reliable, t.transient_local, t.depth});
     }
     if (writers.empty()) throw std::runtime_error(path + ": no topic to replay (--include, --all-topics)");
+    // Samples of a type whose IDL differs from this build's may not deserialize:
+    // said before playing (recordings before format 3 carry no IDL).
+    for (const auto& t : rec.topics())
+      if (writers.count(t.id) && !t.type_description.empty() && t.type_description != IdlText())
+        spdlog::warn("{}: recorded by a build with other IDL for {} (hullpipe_record info --idl shows it); samples "
+                     "this build cannot read are refused and counted", t.name, t.type);
     std::vector<std::string> kept;
     for (const auto& t : rec.topics())
       if (writers.count(t.id)) kept.push_back(t.name);
@@ -181,9 +245,11 @@ int main(int argc, char** argv) {
       std::this_thread::sleep_for(std::chrono::duration<double>(settle));
     }
     PlayerControl control;
-    const StopWatcher stopper(&control);
+    control.paused = start_paused;
+    if (start_paused) spdlog::info("paused: space or `hullpipe_cmd resume` plays, s or `hullpipe_cmd step` steps");
+    const Steering steering(&control, *participant);
     std::unique_ptr<Keyboard> keys;
-    if (keyboard) keys = std::make_unique<Keyboard>(&control);
+    if (keyboard) keys = std::make_unique<Keyboard>(&control, po.rate);
     uint64_t refused = 0;
     std::set<std::string> refused_topics;  // one line per topic; all counted
     const PlayStats st = Play(rec, po, [&](const TopicInfo& t, const Sample& s) {

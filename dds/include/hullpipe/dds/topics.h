@@ -29,6 +29,7 @@ HULLPIPE_TOPIC(VirtualMesh, "hullpipe/virtual_mesh", true, false, 1)
 HULLPIPE_TOPIC(SceneCommand, "hullpipe/scene_command", true, true, 8)
 HULLPIPE_TOPIC(HeadPose, "hullpipe/head_pose", false, false, 1)
 HULLPIPE_TOPIC(CaptureTimeline, "hullpipe/capture_timeline", true, true, 1)
+HULLPIPE_TOPIC(RecordCommand, "hullpipe/record_command", true, false, 8)
 
 #undef HULLPIPE_TOPIC
 

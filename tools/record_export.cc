@@ -1,0 +1,323 @@
+#include "record_export.h"
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <set>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+#include <spdlog/spdlog.h>
+
+#include "hullpipe/dds/cdr.h"
+#include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/topics.h"
+#include "hullpipe/record/recording.h"
+
+namespace hullpipe::record {
+namespace {
+
+using nlohmann::json;
+using namespace hullpipe::dds;
+
+json Vec(const hullpipe_msg_Vec3& v) { return {v.x, v.y, v.z}; }
+template <size_t N>
+json Arr(const double (&a)[N]) {
+  return std::vector<double>(a, a + N);
+}
+
+// What one topic's export wrote.
+struct Counts {
+  int64_t samples = 0, undecodable = 0, pngs = 0, video_frames = 0, csv_rows = 0, json_lines = 0;
+};
+
+std::string FileName(const std::string& topic) {
+  std::string s = topic;
+  for (char& c : s)
+    if (c == '/') c = '_';
+  return s;
+}
+
+class Exporter {
+ public:
+  Exporter(const ExportOptions& o, const Participant& p) : o_(o), participant_(p) {}
+
+  // Decodes `s` of topic `t`, writes what its type exports; false if it did not decode.
+  bool Add(const TopicInfo& t, const Sample& s, Counts* c) {
+    const KnownType* kt = FindKnownType(t.type);
+    if (!kt) return false;
+    auto& w = writers_[t.type];
+    if (!w) w = std::make_unique<CdrWriter>(participant_, *kt, QosSpec{t.reliable, t.transient_local, t.depth});
+    json j = {{"topic", t.name}, {"arrival_ns", s.arrival_ns}, {"source_ns", s.source_ns}};
+    bool ok = false;
+    try {
+      ok = Decode(t, s, *w, &j, c);
+    } catch (const std::exception& e) {  // MessageError and friends: a sample the nodes would refuse
+      j["error"] = e.what();
+      ok = false;
+    }
+    if (o_.jsonl) {
+      auto& f = jsonl_[t.name];
+      if (!f) f = std::make_unique<std::ofstream>(std::filesystem::path(o_.out) / (FileName(t.name) + ".jsonl"));
+      *f << j.dump(-1, ' ', false, json::error_handler_t::replace) << '\n';
+      ++c->json_lines;
+    }
+    return ok;
+  }
+
+  void Finish(std::map<std::string, Counts>* counts) {
+    for (auto& [name, v] : videos_) v.release();
+    for (auto& [name, f] : jsonl_) f->flush();
+    (void)counts;
+  }
+
+ private:
+  template <typename T, typename F>
+  bool With(const CdrWriter& w, const Sample& s, F&& f) {
+    T m{};
+    if (!w.Decode(s.data, &m)) return false;
+    struct Free {
+      T* m;
+      ~Free() { dds_sample_free(m, TopicTraits<T>::Descriptor(), DDS_FREE_CONTENTS); }
+    } free_it{&m};
+    f(m);
+    return true;
+  }
+
+  void Frame(const std::string& name, const cv::Mat& bgr, Counts* c) {
+    auto& v = videos_[name];
+    if (!v.isOpened()) {
+      const std::string path = (std::filesystem::path(o_.out) / (name + ".mp4")).string();
+      if (!v.open(path, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), o_.video_fps, bgr.size()))
+        throw std::runtime_error(path + ": cannot open a video writer");
+      video_size_[name] = bgr.size();
+    }
+    if (bgr.size() != video_size_[name]) return;  // a size change mid-stream: not written (counted by frames)
+    v.write(bgr);
+    ++c->video_frames;
+  }
+
+  std::ofstream& Csv(const std::string& name, const char* header) {
+    auto& f = csv_[name];
+    if (!f) {
+      f = std::make_unique<std::ofstream>(std::filesystem::path(o_.out) / (name + ".csv"));
+      *f << header << '\n';
+    }
+    return *f;
+  }
+
+  bool Decode(const TopicInfo& t, const Sample& s, const CdrWriter& w, json* j, Counts* c) {
+    const std::string& type = t.type;
+    if (type == "hullpipe::msg::CameraInfo")
+      return With<hullpipe_msg_CameraInfo>(w, s, [&](const auto& m) {
+        (*j)["camera_id"] = m.camera_id, (*j)["width"] = m.width, (*j)["height"] = m.height;
+        (*j)["K"] = Arr(m.K), (*j)["distortion"] = Arr(m.distortion);
+        (*j)["cam_from_world_rotation"] = Arr(m.cam_from_world_rotation);
+        (*j)["cam_from_world_translation"] = Arr(m.cam_from_world_translation);
+        (*j)["workspace_min"] = Arr(m.workspace_min), (*j)["workspace_max"] = Arr(m.workspace_max);
+      });
+    if (type == "hullpipe::msg::ObjectPixelMap")
+      return With<hullpipe_msg_ObjectPixelMap>(w, s, [&](const auto& m) {
+        (*j)["camera_id"] = m.camera_id, (*j)["frame_seq"] = m.frame_seq, (*j)["capture_time_ns"] = m.capture_time_ns;
+        (*j)["width"] = m.width, (*j)["height"] = m.height, (*j)["runs"] = m.runs._length;
+        const cv::Mat map = MapFromMsg(m);
+        (*j)["object_pixels"] = cv::countNonZero(map);
+        if (o_.media) {
+          const auto dir = std::filesystem::path(o_.out) / "maps" / ("cam" + std::to_string(m.camera_id));
+          std::filesystem::create_directories(dir);
+          char name[32];
+          std::snprintf(name, sizeof name, "%08llu.png", (unsigned long long)m.frame_seq);
+          if (cv::imwrite((dir / name).string(), map)) ++c->pngs;
+        }
+      });
+    if (type == "hullpipe::msg::CameraImage")
+      return With<hullpipe_msg_CameraImage>(w, s, [&](const auto& m) {
+        (*j)["camera_id"] = m.camera_id, (*j)["frame_seq"] = m.frame_seq, (*j)["capture_time_ns"] = m.capture_time_ns;
+        (*j)["width"] = m.width, (*j)["height"] = m.height, (*j)["encoding"] = m.encoding;
+        (*j)["bytes"] = m.data._length;
+        const cv::Mat bgr = ImageFromMsg(m);
+        if (o_.media) Frame("images_cam" + std::to_string(m.camera_id), bgr, c);
+      });
+    if (type == "hullpipe::msg::ViewPose")
+      return With<hullpipe_msg_ViewPose>(w, s, [&](const auto& m) {
+        const NovelView v = ViewFromMsg(m);
+        (*j)["pose_seq"] = m.pose_seq, (*j)["frame_seq"] = m.frame_seq, (*j)["stamp_ns"] = m.stamp_ns;
+        (*j)["width"] = v.width, (*j)["height"] = v.height, (*j)["fx"] = v.fx, (*j)["fy"] = v.fy;
+        (*j)["cx"] = v.cx, (*j)["cy"] = v.cy, (*j)["run_id"] = m.run_id;
+        (*j)["world_from_eye_rotation"] = Arr(m.world_from_eye_rotation);
+        (*j)["world_from_eye_translation"] = Arr(m.world_from_eye_translation);
+      });
+    if (type == "hullpipe::msg::HullView")
+      return With<hullpipe_msg_HullView>(w, s, [&](const auto& m) {
+        const HullTile tile = TileFromMsg(m);
+        (*j)["node_id"] = m.node_id, (*j)["tile_index"] = m.tile_index, (*j)["tile_count"] = m.tile_count;
+        (*j)["rect"] = {m.x, m.y, m.width, m.height}, (*j)["pose_seq"] = m.pose_seq, (*j)["frame_seq"] = m.frame_seq;
+        (*j)["capture_time_ns"] = m.capture_time_ns, (*j)["planes"] = m.planes, (*j)["render_ms"] = m.render_ms;
+        if (o_.media) AddTile(tile, c);
+      });
+    if (type == "hullpipe::msg::VirtualObjectState")
+      return With<hullpipe_msg_VirtualObjectState>(w, s, [&](const auto& m) {
+        const VirtualObjectSample o = VirtualObjectFromMsg(m);
+        (*j)["object_id"] = o.object_id, (*j)["frame_seq"] = o.frame_seq, (*j)["sim_time"] = o.sim_time;
+        (*j)["radius"] = o.radius, (*j)["position"] = Vec(m.position), (*j)["velocity"] = Vec(m.velocity);
+        (*j)["colliding"] = o.colliding;
+      });
+    if (type == "hullpipe::msg::CollisionReport")
+      return With<hullpipe_msg_CollisionReport>(w, s, [&](const auto& m) {
+        (*j)["object_id"] = m.object_id, (*j)["frame_seq"] = m.frame_seq, (*j)["capture_time_ns"] = m.capture_time_ns;
+        (*j)["triangles"] = m.triangle_ids._length, (*j)["collision_points"] = m.collision_points._length;
+        (*j)["has_response"] = m.has_response, (*j)["cp_obj"] = Vec(m.cp_obj), (*j)["cp_hull"] = Vec(m.cp_hull);
+        (*j)["v_rec"] = Vec(m.v_rec), (*j)["d_rec"] = m.d_rec, (*j)["n_hull"] = Vec(m.n_hull);
+        if (o_.media) {
+          auto& f = Csv("collision_report",
+                        "arrival_ns,object_id,frame_seq,capture_time_ns,triangles,collision_points,has_response,"
+                        "cp_obj_x,cp_obj_y,cp_obj_z,cp_hull_x,cp_hull_y,cp_hull_z,v_rec_x,v_rec_y,v_rec_z,d_rec,"
+                        "n_hull_x,n_hull_y,n_hull_z");
+          f << s.arrival_ns << ',' << m.object_id << ',' << m.frame_seq << ',' << m.capture_time_ns << ','
+            << m.triangle_ids._length << ',' << m.collision_points._length << ',' << int(m.has_response);
+          for (const auto& v : {m.cp_obj, m.cp_hull, m.v_rec}) f << ',' << v.x << ',' << v.y << ',' << v.z;
+          f << ',' << m.d_rec << ',' << m.n_hull.x << ',' << m.n_hull.y << ',' << m.n_hull.z << '\n';
+          ++c->csv_rows;
+        }
+      });
+    if (type == "hullpipe::msg::NodeStats")
+      return With<hullpipe_msg_NodeStats>(w, s, [&](const auto& m) {
+        const nodes::NodeStatsSample st = NodeStatsFromMsg(m);
+        (*j)["node"] = st.name, (*j)["host"] = st.host, (*j)["fps"] = st.fps, (*j)["backend"] = st.backend;
+        (*j)["latency_ms_p50"] = st.latency_ms_p50, (*j)["latency_ms_p95"] = st.latency_ms_p95;
+        (*j)["frames_in"] = st.frames_in, (*j)["frames_out"] = st.frames_out, (*j)["dropped"] = st.dropped;
+        (*j)["rejected"] = st.rejected, (*j)["final_report"] = st.final_report;
+        for (const auto& [name, g] : st.stages)
+          (*j)["stages"][name] = {{"ms_mean", g.ms_mean}, {"ms_p50", g.ms_p50}, {"ms_p95", g.ms_p95}, {"count", g.count}};
+        if (o_.media) {
+          auto& f = Csv("node_stats",
+                        "arrival_ns,node,host,fps,latency_ms_p50,latency_ms_p95,frames_in,frames_out,dropped,"
+                        "rejected,final_report,backend");
+          f << s.arrival_ns << ',' << st.name << ',' << st.host << ',' << st.fps << ',' << st.latency_ms_p50 << ','
+            << st.latency_ms_p95 << ',' << st.frames_in << ',' << st.frames_out << ',' << st.dropped << ','
+            << st.rejected << ',' << int(st.final_report) << ",\"" << st.backend << "\"\n";
+          ++c->csv_rows;
+        }
+      });
+    if (type == "hullpipe::msg::VirtualMesh")
+      return With<hullpipe_msg_VirtualMesh>(w, s, [&](const auto& m) {
+        const VirtualMeshSample mesh = VirtualMeshFromMsg(m);
+        (*j)["object_id"] = mesh.object_id, (*j)["kind"] = mesh.kind, (*j)["frame_seq"] = mesh.frame_seq;
+        (*j)["vertices"] = mesh.draw.vertices.size(), (*j)["triangles"] = mesh.draw.triangles.size();
+        int colliding = 0;
+        for (auto flag : mesh.draw.colliding) colliding += flag != 0;
+        (*j)["colliding_triangles"] = colliding, (*j)["clearance"] = mesh.clearance;
+      });
+    if (type == "hullpipe::msg::SceneCommand")
+      return With<hullpipe_msg_SceneCommand>(w, s, [&](const auto& m) {
+        (*j)["command_seq"] = m.command_seq, (*j)["stamp_ns"] = m.stamp_ns, (*j)["command"] = m.command;
+        (*j)["value"] = m.value;
+      });
+    if (type == "hullpipe::msg::HeadPose")
+      return With<hullpipe_msg_HeadPose>(w, s, [&](const auto& m) {
+        (void)HeadPoseFromMsg(m);
+        (*j)["tracker_id"] = m.tracker_id, (*j)["stamp_ns"] = m.stamp_ns;
+        (*j)["world_from_eye_rotation"] = Arr(m.world_from_eye_rotation);
+        (*j)["world_from_eye_translation"] = Arr(m.world_from_eye_translation);
+      });
+    return false;
+  }
+
+  // Hull views: the tiles of one pose, pasted into one frame once all arrived.
+  void AddTile(const HullTile& t, Counts* c) {
+    auto& set = pending_[t.pose_seq];
+    set.push_back(t);
+    if (int(set.size()) < int(t.tile_count)) return;
+    cv::Rect all;
+    for (const auto& x : set) all |= x.rect;
+    cv::Mat frame(all.br().y, all.br().x, CV_8UC3, cv::Scalar::all(0));
+    for (const auto& x : set) x.colour.copyTo(frame(x.rect));
+    Frame("hull_view", frame, c);
+    pending_.erase(t.pose_seq);
+    // Poses that never completed (a recon node's tile lost): dropped after 64 newer ones.
+    while (!pending_.empty() && pending_.begin()->first + 64 < t.pose_seq) pending_.erase(pending_.begin());
+  }
+
+  const ExportOptions& o_;
+  const Participant& participant_;
+  std::map<std::string, std::unique_ptr<CdrWriter>> writers_;
+  std::map<std::string, std::unique_ptr<std::ofstream>> jsonl_, csv_;
+  std::map<std::string, cv::VideoWriter> videos_;
+  std::map<std::string, cv::Size> video_size_;
+  std::map<uint64_t, std::vector<HullTile>> pending_;
+};
+
+}  // namespace
+
+void AddExportOptions(CLI::App* sub, ExportOptions& o) {
+  sub->add_option("recording", o.recording, "Recording (file or split directory)")->required();
+  sub->add_option("-o,--output", o.out, "Directory to create (never overwritten)")->required();
+  sub->add_option("--topic", o.topics, "Export only topics matching these globs (default: all)");
+  sub->add_option("--start", o.start_s, "From this many seconds after the recording's start");
+  sub->add_option("--end", o.end_s, "Up to this many seconds after the recording's start (0: its end)");
+  sub->add_flag("!--no-jsonl", o.jsonl, "No JSON lines");
+  sub->add_flag("!--no-media", o.media, "No PNG, video or CSV");
+  sub->add_option("--fps", o.video_fps, "Frame rate of the videos")->capture_default_str();
+  sub->fallthrough();
+}
+
+int Export(const ExportOptions& o, const dds::CommonOptions& common) {
+  if (!(o.start_s >= 0 && o.start_s <= 1e6)) throw std::invalid_argument("--start must be in [0, 1e6] s");
+  if (!(o.end_s == 0 || (o.end_s > o.start_s && o.end_s <= 1e6)))
+    throw std::invalid_argument("--end must be 0 or after --start, at most 1e6 s");
+  if (!(o.video_fps > 0 && o.video_fps <= 1000)) throw std::invalid_argument("--fps must be in (0, 1000]");
+  const RecordingReader rec(o.recording);
+  if (std::filesystem::exists(o.out)) throw std::runtime_error(o.out + ": exists; exports are never overwritten");
+  std::vector<int64_t> ids;
+  std::map<int64_t, const TopicInfo*> by_id;
+  for (const auto& t : rec.topics())
+    if (TopicSelected(o.topics, {}, t.name)) {
+      ids.push_back(t.id);
+      by_id[t.id] = &t;
+    }
+  if (ids.empty()) throw std::runtime_error(o.recording + ": no topic matches --topic");
+  std::filesystem::create_directories(o.out);
+  auto participant = StartNode("export", common);
+  Exporter ex(o, *participant);
+  std::map<std::string, Counts> counts;
+  for (const auto& [id, t] : by_id) counts[t->name];
+  const int64_t first = rec.FirstArrivalNs().value_or(0);
+  const int64_t from = first + int64_t(o.start_s * 1e9), to = o.end_s > 0 ? first + int64_t(o.end_s * 1e9) : INT64_MAX;
+  std::set<std::string> reported;
+  rec.ForEach([&](const Sample& s) {
+    if (StopRequested()) return false;
+    if (s.arrival_ns < from) return true;
+    if (s.arrival_ns > to) return false;
+    const TopicInfo& t = *by_id.at(s.topic_id);
+    Counts& c = counts[t.name];
+    ++c.samples;
+    if (!ex.Add(t, s, &c)) {
+      ++c.undecodable;
+      if (reported.insert(t.name).second)
+        spdlog::warn("{}: a sample at {} ns does not decode as {} (further ones counted)", t.name, s.arrival_ns, t.type);
+    }
+    return true;
+  }, ids);
+  ex.Finish(&counts);
+  json summary;
+  summary["recording"] = o.recording;
+  int64_t undecodable = 0;
+  for (const auto& [name, c] : counts) {
+    summary["topics"][name] = {{"samples", c.samples},   {"undecodable", c.undecodable}, {"pngs", c.pngs},
+                               {"video_frames", c.video_frames}, {"csv_rows", c.csv_rows},
+                               {"json_lines", c.json_lines}};
+    spdlog::info("{}: {} samples -> {} PNG, {} video frames, {} CSV rows, {} JSON lines{}", name, c.samples, c.pngs,
+                 c.video_frames, c.csv_rows, c.json_lines,
+                 c.undecodable ? fmt::format(" ({} did not decode)", c.undecodable) : "");
+    undecodable += c.undecodable;
+  }
+  std::ofstream(std::filesystem::path(o.out) / "export.json") << summary.dump(1) << '\n';
+  if (StopRequested()) {
+    spdlog::error("export stopped by a signal before the end; {} is incomplete", o.out);
+    return 1;
+  }
+  return undecodable ? 3 : 0;
+}
+
+}  // namespace hullpipe::record

@@ -1,0 +1,34 @@
+// `hullpipe_record export` (docs/recording.md): a recording's samples as files people
+// look at — maps as PNG, colour images and hull views as video, collision
+// reports and node stats as CSV, every selected topic as JSON lines (echo-style).
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "hullpipe/dds/node.h"
+
+namespace hullpipe::record {
+
+struct ExportOptions {
+  std::string recording;             ///< File or split directory.
+  std::string out;                   ///< Directory to create (never overwritten).
+  std::vector<std::string> topics;   ///< Globs; none: every topic.
+  double start_s = 0, end_s = 0;     ///< Seconds after the recording's start; end 0: its end.
+  bool jsonl = true, media = true;   ///< JSON lines; PNG/video/CSV.
+  double video_fps = 50;             ///< Frame rate written into the videos.
+};
+
+/// --topic, --start, --end, --no-jsonl, --no-media, --fps and the positionals.
+void AddExportOptions(CLI::App* sub, ExportOptions& o);
+
+/// Writes the export and `out/export.json` (what was written per topic: samples,
+/// PNGs, video frames, CSV rows, JSON lines). Decoding needs a DDS participant (a
+/// writer's sertype); it joins `common.domain` but publishes nothing. Returns the
+/// exit code: 0, 3 if some samples did not decode (counted, each topic named once).
+int Export(const ExportOptions& o, const dds::CommonOptions& common);
+
+}  // namespace hullpipe::record
