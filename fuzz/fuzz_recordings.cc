@@ -1,9 +1,13 @@
 // libFuzzer: recording files (record/recording.h) as `hullpipe_record info` and
 // `hullpipe_replay` open them: the reader, Info (quick_check and every row's
-// CRC), and every sample in arrival order. A bad file must end in
-// RecordingError naming the file, never a crash or another exception.
+// CRC), and every sample in arrival order; then `hullpipe_record repair`'s page
+// salvage of the same bytes. A bad file must end in RecordingError naming the
+// file, never a crash or another exception.
+#include <cstdio>
+
 #include "fuzz_util.h"
 #include "hullpipe/record/recording.h"
+#include "hullpipe/record/repair.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   hullpipe::fuzz::InputFile file(data, size, ".hullrec");
@@ -18,5 +22,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     });
   } catch (const hullpipe::record::RecordingError&) {
   }
+  const std::string repaired = file.path() + ".repaired";
+  std::remove(repaired.c_str());
+  try {
+    hullpipe::record::Repair(file.path(), repaired);
+  } catch (const hullpipe::record::RecordingError&) {
+  }
+  std::remove(repaired.c_str());
+  std::remove((repaired + "-wal").c_str());
+  std::remove((repaired + "-shm").c_str());
   return 0;
 }

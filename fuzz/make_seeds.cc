@@ -51,7 +51,12 @@ int main(int argc, char** argv) {
     const auto& types = KnownTypes();
     fs::create_directories(out / "fuzz_recordings");
     fs::remove(out / "fuzz_recordings" / "seed.hullrec");
+    fs::remove(out / "fuzz_recordings" / "seed_zstd.hullrec");
     record::RecordingWriter rec((out / "fuzz_recordings" / "seed.hullrec").string());
+    // The same samples zstd-compressed, so the fuzzer reaches the decoder.
+    record::WriterOptions zstd;
+    zstd.compression = record::Compression::kZstd;
+    record::RecordingWriter rec_zstd((out / "fuzz_recordings" / "seed_zstd.hullrec").string(), zstd);
     for (size_t i = 0; i < types.size(); ++i) {
       const auto it = samples.find(types[i].type_name);
       if (it == samples.end()) {
@@ -65,10 +70,14 @@ int main(int argc, char** argv) {
       topic.name = types[i].topic_name, topic.type = types[i].type_name, topic.keyed = types[i].keyed;
       topic.reliable = types[i].qos.reliable, topic.transient_local = types[i].qos.transient_local;
       topic.depth = types[i].qos.depth;
+      topic.type_description = IdlText();
       const int64_t id = rec.AddTopic(topic);
       rec.Append({id, int64_t(i) * 1'000'000, 1'000'000'000 + int64_t(i) * 1'000'000, it->second});
+      rec_zstd.AddTopic(topic);
+      rec_zstd.Append({id, int64_t(i) * 1'000'000, 1'000'000'000 + int64_t(i) * 1'000'000, it->second});
     }
     rec.Commit();
+    rec_zstd.Commit();
     // Maps: a silhouette of the sphere fixture, and the all-empty map.
     for (const auto& [name, map] : {std::pair{"sphere", sphere.map}, {"empty", cv::Mat(cv::Mat::zeros(48, 64, CV_8UC1))}}) {
       const auto runs = RunLengthEncode(map);
