@@ -29,7 +29,7 @@ echo "== sanitize: ASan + UBSan build (clang-14)"
 cmake -S . -B build-asan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=address,undefined -DHULLPIPE_FUZZ=ON -DHULLPIPE_WERROR=OFF >/dev/null
 cmake --build build-asan --target "${CORE_TESTS[@]}" record_tests "${FUZZERS[@]}" fuzz_make_seeds
 ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -L core
-ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -R '^(Recording|Player)\.'
+ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -R '^(Recording|RecordingStorage|Player)\.'
 
 echo "== sanitize: fuzzing, ${FUZZ_SECONDS} s per target"
 FUZZ_SECONDS="$FUZZ_SECONDS" RIG="$RIG" bash scripts/fuzz.sh

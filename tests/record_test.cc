@@ -588,6 +588,12 @@ TEST_F(RecordTools, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   EXPECT_LT(j["stored_bytes"].get<int64_t>(), j["bytes"].get<int64_t>());
   EXPECT_NE(j["start"].get<std::string>().find("T"), std::string::npos);
   for (const auto& t : j["topics"]) EXPECT_EQ(t["lost"], 0) << t["name"];
+  // Each topic carries the IDL text of its type.
+  const std::string idl_log = (dir_ / "split_idl.json").string();
+  test::Process idl({test::BinDir() + "/hullpipe_record", "info", set, "--json", "--idl"}, idl_log);
+  ASSERT_EQ(idl.Wait(20), 0) << test::ReadFile(idl_log);
+  for (const auto& t : nlohmann::json::parse(test::ReadFile(idl_log))["topics"])
+    EXPECT_EQ(t["type_description"], dds::IdlText()) << t["name"];
   // Export: every map a PNG and a JSON line.
   const std::string out = (dir_ / "export").string();
   const std::string export_log = (dir_ / "export.log").string();
@@ -721,6 +727,20 @@ TEST_F(RecordTools, RecorderKilledBySigkillLeavesARecordingThatOpens) {
   // Everything but the last, uncommitted batch (50 ms, ~10 samples; allow 3x).
   EXPECT_GT(info.samples, int64_t(seq) - 40) << seq;
   EXPECT_LE(info.samples, int64_t(seq));
+  EXPECT_TRUE(info.interrupted);
+  // `repair` copies what the file and its log hold into a new recording, marked
+  // interrupted; repairing into an existing file is refused.
+  const std::string fixed = (dir_ / "k_fixed.hprec").string();
+  const std::string log = (dir_ / "repair.log").string();
+  test::Process repair({test::BinDir() + "/hullpipe_record", "repair", path, "-o", fixed}, log);
+  ASSERT_EQ(repair.Wait(30), 0) << test::ReadFile(log);
+  const RecordingInfo repaired = RecordingReader(fixed).Info();
+  EXPECT_GE(repaired.samples, info.samples);
+  EXPECT_TRUE(repaired.interrupted);
+  EXPECT_EQ(repaired.damage, "");
+  test::Process again({test::BinDir() + "/hullpipe_record", "repair", path, "-o", fixed}, log);
+  EXPECT_EQ(again.Wait(30), 1);
+  EXPECT_NE(test::ReadFile(log).find("never overwritten"), std::string::npos) << test::ReadFile(log);
 }
 
 TEST_F(RecordTools, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
@@ -857,12 +877,20 @@ TEST_F(RecordTools, BadRecordingsEndInOneLineAndANonZeroExit) {
   const std::string flipped = (dir_ / "flipped.hprec").string();
   std::ofstream(flipped, std::ios::binary) << bytes;
   cases["bit flips"] = {flipped, "damaged"};
+  int n = 0;
   for (const auto& [what, file] : cases) {
-    for (const std::string exe : {"hullpipe_replay", "hullpipe_record"}) {
+    for (const std::string exe : {"hullpipe_replay", "hullpipe_record", "export", "repair"}) {
       std::vector<std::string> args = {file.first, "--no-keyboard", "--linger", "0"};
       if (exe == "hullpipe_record") args = {"info", file.first};
+      // A bad recording exported or repaired: one line naming it, non-zero, never
+      // a crash (a repair that recovers no topic exits 3).
+      const std::string out = (dir_ / ("out" + std::to_string(++n))).string();
+      if (exe == "export") args = {"export", file.first, "-o", out, "--domain", std::to_string(domain_)};
+      if (exe == "repair") args = {"repair", file.first, "-o", out + ".hprec"};
+      if (what == "bit flips" && exe == "repair") continue;  // repairs (below)
       const std::string log_path = (dir_ / (exe + "_bad.log")).string();
-      std::vector<std::string> argv = {test::BinDir() + "/" + exe};
+      std::vector<std::string> argv = {test::BinDir() + "/" +
+                                       (exe == "export" || exe == "repair" ? std::string("hullpipe_record") : exe)};
       argv.insert(argv.end(), args.begin(), args.end());
       test::Process run(argv, log_path);
       const int rc = run.Wait(30);
@@ -872,6 +900,26 @@ TEST_F(RecordTools, BadRecordingsEndInOneLineAndANonZeroExit) {
       EXPECT_NE(log.find(file.first), std::string::npos) << what << ", " << exe << ": " << log;
     }
   }
+  // The bit-flipped file repairs: the rows whose CRC checks, none changed.
+  const std::string fixed = (dir_ / "flipped_fixed.hprec").string();
+  const std::string log = (dir_ / "flipped_repair.log").string();
+  test::Process repair({test::BinDir() + "/hullpipe_record", "repair", flipped, "-o", fixed}, log);
+  ASSERT_EQ(repair.Wait(30), 0) << test::ReadFile(log);
+  const RecordingReader r(fixed);
+  EXPECT_EQ(r.Info().damage, "");
+  int64_t kept = 0;
+  r.ForEach([&](const Sample& s) {
+    const int k = int(s.arrival_ns / 1'000'000) - 1;
+    for (size_t i = 0; i < s.data.size(); ++i)
+      if (s.data[i] != uint8_t(k * 31 + int(i) * 7)) {
+        ADD_FAILURE() << "a changed sample was repaired: " << k;
+        break;
+      }
+    ++kept;
+    return true;
+  });
+  EXPECT_GT(kept, 150);
+  EXPECT_LE(kept, 200);
 }
 
 // SIGINT during a long gap between samples ends the replay within a second.

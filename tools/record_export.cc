@@ -300,6 +300,9 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
     return true;
   }, ids);
   ex.Finish(&counts);
+  if (rec.damaged_samples() > 0)
+    spdlog::error("{}: {} damaged sample(s) skipped (CRC-32 mismatch, a bad frame or an unknown topic); "
+                  "`hullpipe_record info` says more", o.recording, rec.damaged_samples());
   json summary;
   summary["recording"] = o.recording;
   int64_t undecodable = 0;
@@ -317,7 +320,7 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
     spdlog::error("export stopped by a signal before the end; {} is incomplete", o.out);
     return 1;
   }
-  return undecodable ? 3 : 0;
+  return undecodable || rec.damaged_samples() > 0 ? 3 : 0;
 }
 
 }  // namespace hullpipe::record

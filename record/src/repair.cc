@@ -222,6 +222,8 @@ const std::string& Str(const std::vector<Value>& r, size_t i) { return std::get<
 
 RepairReport Repair(const std::string& in, const std::string& out) {
   std::error_code ec;
+  if (std::filesystem::is_directory(in, ec))
+    throw RecordingError(in + ": a directory; repair each part of a split recording into a new directory");
   if (!std::filesystem::is_regular_file(in, ec) && !std::filesystem::is_regular_file(in + "-wal", ec))
     throw RecordingError(in + ": no such file");
   if (std::filesystem::exists(out, ec)) throw RecordingError(out + ": exists; recordings are never overwritten");

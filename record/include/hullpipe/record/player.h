@@ -1,4 +1,4 @@
-// Playing a recording (docs/architecture.md): which samples, when, how often — without any
+// Playing a recording (docs/recording.md): which samples, when, how often — without any
 // transport. `hullpipe_replay` hands each sample to a DDS writer; tests hand them
 // to a vector (like rosbag2's player, which takes a reader object).
 #pragma once
