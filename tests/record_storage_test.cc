@@ -49,6 +49,22 @@ std::vector<Sample> ReadAll(const RecordingReader& r) {
   return out;
 }
 
+// Writes a CameraInfo then n - 1 maps of the stream to a new recording at
+// `path`, committing every `commit_every`; returns what was written.
+std::vector<Sample> WriteStream(const std::string& path, Compression c, int n, int commit_every) {
+  WriterOptions o;
+  o.compression = c;
+  RecordingWriter w(path, o);
+  const int64_t info = w.AddTopic(kInfoTopic), map = w.AddTopic(kMapTopic);
+  std::vector<Sample> written{StreamSample(info, 0)};
+  for (int k = 1; k < n; ++k) written.push_back(StreamSample(map, k));
+  for (size_t k = 0; k < written.size(); ++k) {
+    w.Append(written[k]);
+    if (int(k) % commit_every == commit_every - 1) w.Commit();
+  }
+  return written;
+}
+
 void ExpectSame(const std::vector<Sample>& a, const std::vector<Sample>& b) {
   ASSERT_EQ(a.size(), b.size());
   for (size_t i = 0; i < a.size(); ++i) {
@@ -67,16 +83,7 @@ TEST(RecordingStorage, ZstdRoundTripsByteForByte) {
   std::vector<Sample> written;
   for (const Compression c : {Compression::kNone, Compression::kZstd}) {
     const std::string path = (dir / (std::string(CompressionName(c)) + ".hprec")).string();
-    {
-      WriterOptions o;
-      o.compression = c;
-      RecordingWriter w(path, o);
-      const int64_t info = w.AddTopic(kInfoTopic), map = w.AddTopic(kMapTopic);
-      written.clear();
-      written.push_back(StreamSample(info, 0));
-      for (int k = 1; k < 200; ++k) written.push_back(StreamSample(map, k));
-      for (const auto& s : written) w.Append(s);
-    }
+    written = WriteStream(path, c, 200, 1000);
     const RecordingReader r(path);
     ExpectSame(ReadAll(r), written);
     const RecordingInfo info = r.Info();
@@ -236,19 +243,7 @@ TEST(RecordingStorage, AFileCutAtAnyByteOpensRepairsAndReplaysWhatItHolds) {
   std::vector<Sample> written;
   for (const Compression c : {Compression::kNone, Compression::kZstd}) {
     const std::string whole = (dir / (std::string("whole_") + CompressionName(c) + ".hprec")).string();
-    {
-      WriterOptions o;
-      o.compression = c;
-      RecordingWriter w(whole, o);
-      const int64_t info = w.AddTopic(kInfoTopic), map = w.AddTopic(kMapTopic);
-      written.clear();
-      written.push_back(StreamSample(info, 0));
-      for (int k = 1; k < 120; ++k) written.push_back(StreamSample(map, k));
-      for (size_t k = 0; k < written.size(); ++k) {
-        w.Append(written[k]);
-        if (k % 10 == 9) w.Commit();
-      }
-    }
+    written = WriteStream(whole, c, 120, 10);
     for (const auto& s : written) original[s.arrival_ns] = s;
     const std::string bytes = Bytes(whole);
     // Every 1/97th of the file, and 40 random cuts.

@@ -15,6 +15,7 @@
 #include <random>
 #include <map>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -266,8 +267,9 @@ struct FakeClock : PlayerClock {
   void SleepFor(double s) override { t += s; }
 };
 
-TEST(Player, TimingRateOffsetLoopAndFilters) {
-  const auto dir = test::TempDir("player");
+// The players' recording: a CameraInfo at 0 s (fill 1), then a map every 0.5 s
+// to 2 s (fills 1..4).
+std::string WritePlayerRecording(const std::filesystem::path& dir) {
   const std::string path = (dir / "p.hprec").string();
   {
     RecordingWriter w(path);
@@ -276,6 +278,12 @@ TEST(Player, TimingRateOffsetLoopAndFilters) {
     w.Append(MakeSample(info, 0, 1));
     for (int k = 1; k <= 4; ++k) w.Append(MakeSample(maps, int64_t(k) * 500'000'000, uint8_t(k)));  // every 0.5 s
   }
+  return path;
+}
+
+TEST(Player, TimingRateOffsetLoopAndFilters) {
+  const auto dir = test::TempDir("player");
+  const std::string path = WritePlayerRecording(dir);
   const RecordingReader r(path);
   struct Played {
     std::string topic;
@@ -330,14 +338,7 @@ TEST(Player, TimingRateOffsetLoopAndFilters) {
 // and the keyboard ask for), against the recording's own timing.
 TEST(Player, EndSeekAndRateChanges) {
   const auto dir = test::TempDir("player_seek");
-  const std::string path = (dir / "p.hprec").string();
-  {
-    RecordingWriter w(path);
-    const int64_t info = w.AddTopic({0, "hullpipe/camera_info", "T", true, true, true, 1, ""});
-    const int64_t maps = w.AddTopic({0, "hullpipe/object_pixel_map", "T", true, true, false, 4, ""});
-    w.Append(MakeSample(info, 0, 1));
-    for (int k = 1; k <= 4; ++k) w.Append(MakeSample(maps, int64_t(k) * 500'000'000, uint8_t(k)));  // every 0.5 s
-  }
+  const std::string path = WritePlayerRecording(dir);
   const RecordingReader r(path);
   struct Played {
     uint8_t fill;
@@ -614,6 +615,16 @@ TEST_F(RecordTools, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   int n = 0;
   for (std::string line; std::getline(lines, line); ++n) EXPECT_EQ(nlohmann::json::parse(line)["width"], 64);
   EXPECT_EQ(n, 40);
+  // echo: the same JSON lines on stdout (the log on stderr).
+  const std::string echo_log = (dir_ / "echo.log").string();
+  test::Process echo({test::BinDir() + "/hullpipe_record", "echo", set, "--topic", "hullpipe/object_pixel_map",
+                      "--domain", std::to_string(test::UniqueDomain())}, echo_log);
+  ASSERT_EQ(echo.Wait(60), 0) << test::ReadFile(echo_log);
+  std::istringstream echoed(test::ReadFile(echo_log));
+  int lines_echoed = 0;
+  for (std::string line; std::getline(echoed, line);)
+    if (!line.empty() && line[0] == '{') lines_echoed += nlohmann::json::parse(line)["topic"] == "hullpipe/object_pixel_map";
+  EXPECT_EQ(lines_echoed, 40);
   // The directory replays as one recording.
   const uint32_t d2 = test::UniqueDomain();
   dds::Participant p2(d2);

@@ -6,6 +6,7 @@
 //   hullpipe_record info run.hprec [--json] [--idl]
 //   hullpipe_record repair broken.hprec -o fixed.hprec
 //   hullpipe_record export run.hprec -o DIR [--topic GLOB] [--start S] [--end S]
+//   hullpipe_record echo run.hprec [--topic GLOB] [--start S] [--end S]     (JSON lines on stdout)
 // Topics are discovered from the built-in DCPSPublication topic (name, type,
 // keyedness, QoS); every topic of a hullpipe type is recorded as serialized CDR
 // samples, untouched, with source and arrival timestamps (each pass's samples in
@@ -25,6 +26,7 @@
 #include <CLI/CLI.hpp>
 #include <dds/dds.h>
 #include <nlohmann/json.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/geometry/conventions.h"
@@ -186,7 +188,8 @@ class SnapshotOutput : public Output {
   int64_t samples_committed() const override { return written_; }
   // Writes the last seconds before now; returns the file.
   std::string Write(const std::string& trigger) {
-    buffer_.TrimTo(NowNs());
+    const int64_t now = NowNs();  // the window ends here, as snapshot_ns says
+    buffer_.TrimTo(now);
     std::string path;
     for (;;) {  // never overwrite: the next free number
       path = (std::filesystem::path(dir_) / fmt::format("snapshot_{:04d}.hprec", ++count_)).string();
@@ -196,7 +199,7 @@ class SnapshotOutput : public Output {
     RecordingWriter w(path, writer_options_);
     for (const auto& [k, v] : meta_) w.SetMeta(k, v);
     w.SetMeta("snapshot_trigger", trigger);
-    w.SetMeta("snapshot_ns", std::to_string(NowNs()));
+    w.SetMeta("snapshot_ns", std::to_string(now));
     for (const auto& t : buffer_.topics()) w.AddTopic(t);
     for (const auto& s : samples) w.Append(s);
     w.Commit();
@@ -263,11 +266,21 @@ int main(int argc, char** argv) {
   auto* exp = app.add_subcommand("export", "Maps as PNG, images and hull views as video, reports and stats as "
                                            "CSV, any topic as JSON lines");
   AddExportOptions(exp, eo);
+  ExportOptions echo_options;
+  echo_options.echo = true;
+  echo_options.media = false;
+  auto* echo = app.add_subcommand("echo", "Every selected sample as one JSON line on stdout");
+  AddExportOptions(echo, echo_options, true);
   CLI11_PARSE(app, argc, argv);
   try {
     if (*info) return Info(info_path, info_json, info_idl);
     if (*repair) return RepairCmd(repair_in, repair_out);
     if (*exp) return Export(eo, common);
+    if (*echo) {
+      spdlog::set_default_logger(spdlog::stderr_color_mt("echo"));  // stdout carries the samples,
+      std::setvbuf(stdout, nullptr, _IOLBF, 0);                      // whole lines at a time
+      return Export(echo_options, common);
+    }
     if (out.empty()) throw std::runtime_error("give -o FILE (or the info, repair or export subcommand)");
     wo.compression = ParseCompression(compression);
     so.writer = wo;

@@ -57,7 +57,10 @@ class Exporter {
       j["error"] = e.what();
       ok = false;
     }
-    if (o_.jsonl) {
+    if (o_.echo) {
+      std::printf("%s\n", j.dump(-1, ' ', false, json::error_handler_t::replace).c_str());
+      ++c->json_lines;
+    } else if (o_.jsonl) {
       auto& f = jsonl_[t.name];
       if (!f) f = std::make_unique<std::ofstream>(std::filesystem::path(o_.out) / (FileName(t.name) + ".jsonl"));
       *f << j.dump(-1, ' ', false, json::error_handler_t::replace) << '\n';
@@ -250,16 +253,17 @@ class Exporter {
 
 }  // namespace
 
-void AddExportOptions(CLI::App* sub, ExportOptions& o) {
+void AddExportOptions(CLI::App* sub, ExportOptions& o, bool echo) {
   sub->add_option("recording", o.recording, "Recording (file or split directory)")->required();
-  sub->add_option("-o,--output", o.out, "Directory to create (never overwritten)")->required();
-  sub->add_option("--topic", o.topics, "Export only topics matching these globs (default: all)");
+  sub->add_option("--topic", o.topics, "Only topics matching these globs (default: all)");
   sub->add_option("--start", o.start_s, "From this many seconds after the recording's start");
   sub->add_option("--end", o.end_s, "Up to this many seconds after the recording's start (0: its end)");
+  sub->fallthrough();
+  if (echo) return;
+  sub->add_option("-o,--output", o.out, "Directory to create (never overwritten)")->required();
   sub->add_flag("!--no-jsonl", o.jsonl, "No JSON lines");
   sub->add_flag("!--no-media", o.media, "No PNG, video or CSV");
   sub->add_option("--fps", o.video_fps, "Frame rate of the videos")->capture_default_str();
-  sub->fallthrough();
 }
 
 int Export(const ExportOptions& o, const dds::CommonOptions& common) {
@@ -268,7 +272,8 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
     throw std::invalid_argument("--end must be 0 or after --start, at most 1e6 s");
   if (!(o.video_fps > 0 && o.video_fps <= 1000)) throw std::invalid_argument("--fps must be in (0, 1000]");
   const RecordingReader rec(o.recording);
-  if (std::filesystem::exists(o.out)) throw std::runtime_error(o.out + ": exists; exports are never overwritten");
+  if (!o.echo && std::filesystem::exists(o.out))
+    throw std::runtime_error(o.out + ": exists; exports are never overwritten");
   std::vector<int64_t> ids;
   std::map<int64_t, const TopicInfo*> by_id;
   for (const auto& t : rec.topics())
@@ -277,7 +282,7 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
       by_id[t.id] = &t;
     }
   if (ids.empty()) throw std::runtime_error(o.recording + ": no topic matches --topic");
-  std::filesystem::create_directories(o.out);
+  if (!o.echo) std::filesystem::create_directories(o.out);
   auto participant = StartNode("export", common);
   Exporter ex(o, *participant);
   std::map<std::string, Counts> counts;
@@ -315,7 +320,7 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
                  c.undecodable ? fmt::format(" ({} did not decode)", c.undecodable) : "");
     undecodable += c.undecodable;
   }
-  std::ofstream(std::filesystem::path(o.out) / "export.json") << summary.dump(1) << '\n';
+  if (!o.echo) std::ofstream(std::filesystem::path(o.out) / "export.json") << summary.dump(1) << '\n';
   if (StopRequested()) {
     spdlog::error("export stopped by a signal before the end; {} is incomplete", o.out);
     return 1;
