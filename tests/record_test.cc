@@ -1,4 +1,4 @@
-// Recording and replaying DDS traffic (docs/architecture.md). The recording library and the
+// Recording and replaying DDS traffic (docs/recording.md). The recording library and the
 // player alone (no transport: a fake clock and a vector as the sink), then the
 // tools as processes, each test on its own DDS domain on loopback: a replay is
 // byte-identical to what was recorded and late joiners get the transient-local

@@ -290,11 +290,13 @@ int main(int argc, char** argv) {
     if (snapshot) snap.Check();
     std::unique_ptr<Output> rec;
     SnapshotOutput* snapshots = nullptr;
+    // SIGUSR1 writes a snapshot; outside snapshot mode it is logged and ignored
+    // (its default action would end the recorder without closing the file).
+    std::signal(SIGUSR1, OnSigusr1);
     if (snapshot) {
       auto o = std::make_unique<SnapshotOutput>(out, snap, wo);
       snapshots = o.get();
       rec = std::move(o);
-      std::signal(SIGUSR1, OnSigusr1);
     } else if (split) {
       rec = std::make_unique<WriterOutput<SplitWriter>>(out, so);
     } else {
@@ -403,6 +405,10 @@ int main(int argc, char** argv) {
       ws.Wait(0.05);
       discover();
       take_all();
+      if (!snapshots && g_snapshot_signals != snapshot_signals_seen) {
+        snapshot_signals_seen = g_snapshot_signals;
+        spdlog::warn("SIGUSR1 ignored: it writes a snapshot in snapshot mode (--snapshot-seconds) only");
+      }
       if (snapshots) {
         std::string trigger;
         if (g_snapshot_signals != snapshot_signals_seen) {
