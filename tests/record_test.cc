@@ -379,6 +379,25 @@ TEST(Player, EndSeekAndRateChanges) {
   ASSERT_EQ(p.size(), 5u);
   EXPECT_NEAR(p[2].at - p[1].at, 0.25, 1e-9);
   EXPECT_NEAR(p[4].at - p[1].at, 0.75, 1e-9);
+  // Twice as fast from 0.75 s, half-way through the gap before the map of 1.0 s:
+  // the rest of that gap (0.25 s of recording) takes 0.125 s.
+  {
+    struct RateClock : FakeClock {
+      PlayerControl* control = nullptr;
+      void SleepFor(double dt) override {
+        const bool before = t < 100.75;
+        FakeClock::SleepFor(dt);
+        if (before && t >= 100.75) control->new_rate = 2.0;
+      }
+    } clock;
+    PlayerControl control;
+    clock.control = &control;
+    std::vector<double> at;
+    Play(r, o, [&](const TopicInfo&, const Sample&) { at.push_back(clock.t - 100.0); }, &control, &clock);
+    ASSERT_EQ(at.size(), 5u);
+    EXPECT_NEAR(at[2], 0.875, kSleepSliceS / 2 + 1e-9);  // the request is seen within a sleep slice
+    EXPECT_NEAR(at[3] - at[2], 0.25, 1e-9);
+  }
   // A rate out of bounds is refused and counted; the timing stays.
   std::tie(p, st) = play(o, [](const Sample& s, PlayerControl& c) {
     if (s.arrival_ns == 500'000'000) c.new_rate = 1e9;

@@ -112,10 +112,10 @@ PlayStats Play(const RecordingReader& rec, const PlayerOptions& o,
         stopped = true;
         return false;
       }
-      if (rate > 0) {
+      for (bool first_wait = true; rate > 0; first_wait = false) {
         const double due = wall0 + double(s.arrival_ns - t0) * 1e-9 / rate;
         double now = clock->Now();
-        if (due <= now) stats.max_lateness_s = std::max(stats.max_lateness_s, now - due);
+        if (first_wait && due <= now) stats.max_lateness_s = std::max(stats.max_lateness_s, now - due);
         // In slices, so a stop, seek or rate request is honoured within
         // kSleepSliceS of any gap.
         while (due > now && !control->stop.load() && control->seek_s.load() < 0 && control->new_rate.load() < 0) {
@@ -126,10 +126,9 @@ PlayStats Play(const RecordingReader& rec, const PlayerOptions& o,
           stopped = true;
           return false;
         }
-        if (control->seek_s.load() >= 0 || control->new_rate.load() >= 0) {
-          if (take_requests(s.arrival_ns)) return false;
-          // A new rate: this sample is due now.
-        }
+        if (control->seek_s.load() < 0 && control->new_rate.load() < 0) break;  // due
+        if (take_requests(s.arrival_ns)) return false;
+        // A new rate mid-gap: the rest of the gap at the new rate (the loop again).
       }
       sink(topic, s);
       ++stats.samples;
