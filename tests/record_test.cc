@@ -398,6 +398,13 @@ TEST(Player, EndSeekAndRateChanges) {
     EXPECT_NEAR(at[2], 0.875, kSleepSliceS / 2 + 1e-9);  // the request is seen within a sleep slice
     EXPECT_NEAR(at[3] - at[2], 0.25, 1e-9);
   }
+  // The position a relative seek counts from: the last sample played.
+  {
+    PlayerControl control;
+    FakeClock clock;
+    Play(r, o, [](const TopicInfo&, const Sample&) {}, &control, &clock);
+    EXPECT_NEAR(control.position_s.load(), 2.0, 1e-9);
+  }
   // A rate out of bounds is refused and counted; the timing stays.
   std::tie(p, st) = play(o, [](const Sample& s, PlayerControl& c) {
     if (s.arrival_ns == 500'000'000) c.new_rate = 1e9;

@@ -242,9 +242,11 @@ int main(int argc, char** argv) {
   app.add_option("--split-duration", so.max_duration_s, "Start a new part every this many seconds (0: never)");
   app.add_option("--snapshot-seconds", snap.seconds,
                  "Snapshot mode: keep the last S seconds in memory; write them on SIGUSR1 or `hullpipe_cmd snapshot`");
-  app.add_option("--snapshot-bytes", snap.max_bytes, "Snapshot mode: at most this much in memory (e.g. 2GiB)")
-      ->transform(CLI::AsSizeValue(true))
-      ->capture_default_str();
+  auto* snapshot_bytes =
+      app.add_option("--snapshot-bytes", snap.max_bytes,
+                     "Snapshot mode: at most this much in memory (e.g. 2GiB); alone: the last this-many bytes")
+          ->transform(CLI::AsSizeValue(true))
+          ->capture_default_str();
   app.add_option("--include", include, "Record only topics matching these globs (default: all)");
   app.add_option("--exclude", exclude, "Do not record topics matching these globs");
   app.add_option("--duration", duration, "Stop after this many seconds (0: until SIGINT)");
@@ -285,6 +287,8 @@ int main(int argc, char** argv) {
     wo.compression = ParseCompression(compression);
     so.writer = wo;
     so.Check();
+    // --snapshot-bytes alone: a window by size (as long as an hour of traffic).
+    if (snapshot_bytes->count() > 0 && snap.seconds == 0) snap.seconds = 3600;
     const bool split = so.max_bytes > 0 || so.max_duration_s > 0, snapshot = snap.seconds != 0;
     if (split && snapshot) throw std::invalid_argument("--snapshot-seconds goes without --split-size/--split-duration");
     if (snapshot) snap.Check();

@@ -11,7 +11,8 @@
 // poses, scene commands), so a replay into live nodes does not mix a recorded
 // run's outputs (views, tiles, NodeStats) with theirs; --all-topics plays all.
 // Keys on a terminal: space pauses and resumes, s steps one sample while paused,
-// ] and [ double and halve the rate, 0 seeks to the start, q quits. The same from
+// ] and [ double and halve the rate, . and , seek 5 s forward and back, 0 seeks
+// to the start, q quits. The same from
 // the domain: `hullpipe_cmd pause|resume|step N|seek S|rate X` (RecordCommand).
 // Samples are written byte for byte as recorded (dds_writecdr).
 #include <termios.h>
@@ -68,6 +69,10 @@ class Keyboard {
         } else if (c == '0') {
           control_->seek_s = 0;
           std::fprintf(stderr, "[from the start]\n");
+        } else if (c == ',' || c == '.') {
+          const double to = std::max(0.0, control_->position_s.load() + (c == '.' ? 5.0 : -5.0));
+          control_->seek_s = to;
+          std::fprintf(stderr, "[seek %.1f s]\n", to);
         } else if (c == 'q') {
           control_->stop = true;
         }

@@ -132,6 +132,7 @@ PlayStats Play(const RecordingReader& rec, const PlayerOptions& o,
       }
       sink(topic, s);
       ++stats.samples;
+      control->position_s = double(s.arrival_ns - first_ns) * 1e-9;
       return true;
     }, selected);
     if (stopped || control->stop.load()) break;

@@ -49,6 +49,9 @@ struct PlayerControl {
   /// ignored and counted in PlayStats::refused_requests). Timing continues from the
   /// next sample at the new rate.
   std::atomic<double> new_rate{-1};
+  /// Set by Play: seconds after the recording's first sample of the last sample
+  /// played (for a relative seek: the keyboard's 5-s steps).
+  std::atomic<double> position_s{0};
 };
 
 /// Where the player's time comes from (monotonic seconds); tests pass a fake.
