@@ -4,6 +4,10 @@
 // sequential write rate; compression ratio and CPU per topic. No DDS: what the
 // storage costs, apart from transport.
 //   record_bench --dir /tmp --recording run.hprec [--mib 512]
+// With --publish N: publishes N 1-MiB camera images of four cameras on --domain,
+// each frameset acknowledged before the next (lossless), for a running hullpipe_record to take
+// (scripts/record_bench.sh runs the recorder and reads its info).
+//   record_bench --publish 512 --domain 7
 #include <fcntl.h>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -17,6 +21,10 @@
 #include <CLI/CLI.hpp>
 #include <zstd.h>
 
+#include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/node.h"
+#include "hullpipe/dds/topics.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/record/recording.h"
 
 using namespace hullpipe::record;
@@ -95,6 +103,38 @@ Row Write(const std::string& dir, const std::string& what, const std::vector<Sam
   return r;
 }
 
+// Publishes n 1-MiB BGR images (604x579), each acknowledged before the next.
+int Publish(int n, uint32_t domain) {
+  hullpipe::dds::CommonOptions common;
+  common.domain = domain;
+  auto participant = hullpipe::dds::StartNode("record_bench", common);
+  hullpipe::dds::Writer<hullpipe_msg_CameraImage> writer(*participant);
+  const double until = Now() + 20;
+  while (writer.MatchedReaders() == 0 && Now() < until) usleep(20'000);
+  if (writer.MatchedReaders() == 0) {
+    std::fprintf(stderr, "record_bench --publish: no reader (start hullpipe_record first)\n");
+    return 1;
+  }
+  usleep(500'000);  // the recorder's reader has matched us too
+  cv::Mat img(579, 604, CV_8UC3);
+  cv::randu(img, 0, 256);
+  const double t0 = Now();
+  // Four cameras (instances), as the rig; every 4th sample waits for the
+  // acknowledgements, so at most a frameset is in flight (the writer keeps the
+  // last 4 per camera: nothing is overwritten before the recorder has it).
+  for (int i = 0; i < n && !hullpipe::dds::StopRequested(); ++i) {
+    img.at<cv::Vec3b>(0, 0)[0] = uint8_t(i);
+    writer.Write(hullpipe::dds::MakeImageMessage(uint32_t(i % 4 + 1), uint64_t(i / 4 + 1), hullpipe::NowNs(), img, 0).msg);
+    if (i % 4 == 3 || i == n - 1)
+      hullpipe::dds::Check(dds_wait_for_acks(writer.handle(), DDS_SECS(10)), "dds_wait_for_acks");
+  }
+  const double t1 = Now();
+  const double mb = double(n) * double(img.total() * 3) / 1e6;
+  std::printf("published %d samples of %.3f MB in %.2f s: %.0f MB/s acknowledged\n", n,
+              double(img.total() * 3) / 1e6, t1 - t0, mb / (t1 - t0));
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -105,7 +145,12 @@ int main(int argc, char** argv) {
   app.add_option("--recording", recording, "A recording of the rig (its samples are written again)");
   app.add_option("--mib", mib, "MiB per 1 MiB-sample row")->capture_default_str();
   app.add_option("--repeats", repeats, "Runs per row (median)")->capture_default_str();
+  int publish = 0;
+  uint32_t domain = 0;
+  app.add_option("--publish", publish, "Publish this many 1-MiB images for a running recorder instead");
+  app.add_option("--domain", domain, "DDS domain for --publish");
   CLI11_PARSE(app, argc, argv);
+  if (publish > 0) return Publish(publish, domain);
   auto median = [&](const std::function<Row()>& f) {
     std::vector<Row> rows;
     for (int i = 0; i < repeats; ++i) rows.push_back(f());
