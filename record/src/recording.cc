@@ -410,7 +410,6 @@ std::unique_ptr<RecordingReader::Part> RecordingReader::OpenPart(const std::stri
 void RecordingReader::ForEach(const std::function<bool(const Sample&)>& f,
                               const std::optional<std::vector<int64_t>>& topic_ids) const {
   Sample s;
-  std::vector<uint8_t> stored;
   for (const auto& p : parts_) {
     // The topic filter runs in SQL, so a replay of one topic reads no other's data.
     std::string where;
