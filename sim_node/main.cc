@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
                  "Largest |capture time - reference time| of a frameset's maps, ms (0: half the slowest camera's "
                  "frame period)")
       ->capture_default_str();
+  bool every_frameset = false;
+  app.add_flag("--every-frameset", every_frameset,
+               "Step every complete frameset in order, not only the newest (deterministic replays of a recording)");
   CLI11_PARSE(app, argc, argv);
   try {
     const SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path);
@@ -57,6 +60,7 @@ int main(int argc, char** argv) {
     nodes::SystemClock clock;
     nodes::SimController sim(config, clock, input.assembler(), writers);
     sim.set_stop(StopRequestFlag());  // SIGINT ends a long step too
+    sim.set_every_frameset(every_frameset);
     NodeReporter reporter(*participant, "sim", sim.counters(), common.run_id);
     input.SetCounters(&sim.counters());
     while (!StopRequested()) {

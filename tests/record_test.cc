@@ -786,8 +786,10 @@ TEST_F(RecordTools, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
   {
     auto recorder = Start("hullpipe_record", {"-o", path, "--exclude", "hullpipe/camera_image"});
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    // --max-lag 60: a loaded machine delays frames rather than skipping them, so
+    // the recording holds all 50 framesets.
     auto capture = Start("capture_node", {"--synthetic", "--synthetic-scene", "sphere", "--frames", "50",
-                                          "--wait-readers", "1", "--wait-timeout", "20"});
+                                          "--wait-readers", "1", "--wait-timeout", "20", "--max-lag", "60"});
     ASSERT_EQ(capture->Wait(60), 0) << Log("capture_node");
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     ASSERT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
@@ -796,10 +798,10 @@ TEST_F(RecordTools, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
     const uint32_t d = test::UniqueDomain();
     dds::Participant p(d);
     dds::Reader<hullpipe_msg_CollisionReport> reports(p);
-    auto sim = Start("sim_node", {}, d);
-    // Half speed (12.5 framesets/s): sim_node takes the newest frameset, so one it
-    // cannot step in time (a loaded CI machine: 48 of 50 once at full speed) is
-    // passed over, and the two runs would differ by that, not by the replay.
+    // --every-frameset: every frameset stepped in order, however busy the machine
+    // (without it sim_node takes the newest and, loaded, passes over some).
+    auto sim = Start("sim_node", {"--every-frameset"}, d);
+    // Half speed: the history (4 framesets) then spans 320 ms of a stalled sim_node.
     auto replay = Start("hullpipe_replay", {path, "--wait-readers", "1", "--rate", "0.5", "--no-keyboard"}, d);
     // Taken as they come (the topic keeps the last 16 per object).
     std::map<uint64_t, std::vector<Eigen::Vector3d>> out;  // frame -> collision points

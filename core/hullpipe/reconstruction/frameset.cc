@@ -285,6 +285,14 @@ std::optional<uint64_t> FramesetAssembler::NewestComplete() const {
   return std::nullopt;
 }
 
+std::optional<uint64_t> FramesetAssembler::OldestComplete() const {
+  const int reference = ReferenceId();
+  if (reference < 0) return std::nullopt;
+  for (const Sample& s : cams_.at(reference).samples)
+    if (s.seq > taken_up_to_ && Evaluate(s).state == State::kComplete) return s.seq;
+  return std::nullopt;
+}
+
 bool FramesetAssembler::IsComplete(uint64_t seq) const {
   const int reference = ReferenceId();
   if (reference < 0 || seq <= taken_up_to_) return false;
@@ -348,6 +356,12 @@ void FramesetAssembler::Prune() {
 
 std::optional<Frameset> FramesetAssembler::TakeNewest() {
   const auto seq = NewestComplete();
+  if (!seq) return std::nullopt;
+  return Take(*seq);
+}
+
+std::optional<Frameset> FramesetAssembler::TakeOldest() {
+  const auto seq = OldestComplete();
   if (!seq) return std::nullopt;
   return Take(*seq);
 }

@@ -128,6 +128,11 @@ class FramesetAssembler {
   std::optional<Frameset> Take(uint64_t seq);
   /// Take(NewestComplete()).
   std::optional<Frameset> TakeNewest();
+  /// Id of the oldest complete frameset not yet taken, if any.
+  std::optional<uint64_t> OldestComplete() const;
+  /// Take(OldestComplete()): a consumer that steps every frameset in order
+  /// (a deterministic replay) passes over none that is still in the history.
+  std::optional<Frameset> TakeOldest();
   /// True if frameset seq can no longer be built (at or before the newest taken).
   bool IsGone(uint64_t seq) const { return seq <= taken_up_to_; }
 

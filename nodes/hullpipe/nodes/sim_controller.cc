@@ -34,7 +34,7 @@ void SimController::RejectCommand(uint64_t command_seq, const std::string& why) 
 
 int SimController::Step() {
   int stepped = 0;
-  while (auto fs = assembler_.TakeNewest()) {
+  while (auto fs = every_frameset_ ? assembler_.TakeOldest() : assembler_.TakeNewest()) {
     StepOne(*fs);
     ++stepped;
   }

@@ -56,6 +56,11 @@ class SimController {
   int Step();
   /// The flag a long step polls between substeps (nullptr: never stops).
   void set_stop(StopFlag stop) { stop_ = stop; }
+  /// Step every complete frameset in order, oldest first, instead of the newest
+  /// only: a replay into sim_node then gives the same steps however busy the
+  /// machine, as long as sim_node falls no more than the history (4 framesets)
+  /// behind (sim_node --every-frameset).
+  void set_every_frameset(bool every) { every_frameset_ = every; }
 
   const VirtualScene& scene() const { return scene_; }
   NodeCounters& counters() { return counters_; }
@@ -68,6 +73,7 @@ class SimController {
   void StepOne(const Frameset& fs);
   FramesetAssembler& assembler_;
   SimSink& sink_;
+  bool every_frameset_ = false;
   VirtualScene scene_;
   NodeCounters counters_;
   std::vector<bool> part_colliding_;  // payload parts colliding in the last frame

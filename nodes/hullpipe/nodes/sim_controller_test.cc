@@ -39,6 +39,25 @@ TEST(Sim, StepsByTheFramesSourceTimeAndPublishesEachBody) {
   EXPECT_EQ(sim.counters().frames_out(), 2u);
 }
 
+// Three complete framesets waiting: the default steps the newest only (live use:
+// never fall behind); --every-frameset steps all three, oldest first (replays).
+TEST(Sim, EveryFramesetStepsEachCompleteFramesetInOrder) {
+  for (const bool every : {false, true}) {
+    FakeClock clock;
+    FramesetAssembler assembler(6, false);
+    test::TinyRig rig;
+    rig.Calibrate(assembler);
+    SimRecorder sink;
+    SimController sim(SceneConfig{}, clock, assembler, sink);
+    sim.set_every_frameset(every);
+    for (uint64_t seq = 1; seq <= 3; ++seq) rig.AddFrame(assembler, seq, clock.WallNs());
+    EXPECT_EQ(sim.Step(), every ? 3 : 1);
+    ASSERT_EQ(sink.states.size(), every ? 3u : 1u);
+    EXPECT_EQ(sink.states.front().frame_seq, every ? 1u : 3u);
+    EXPECT_EQ(sink.states.back().frame_seq, 3u);
+  }
+}
+
 TEST(Sim, SpacingCommandsAreValidatedAndCounted) {
   FakeClock clock;
   FramesetAssembler assembler(6, false);
