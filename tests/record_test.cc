@@ -619,8 +619,8 @@ TEST_F(RecordTools, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   const std::string idl_log = (dir_ / "split_idl.json").string();
   test::Process idl({test::BinDir() + "/hullpipe_record", "info", set, "--json", "--idl"}, idl_log);
   ASSERT_EQ(idl.Wait(20), 0) << test::ReadFile(idl_log);
-  for (const auto& t : nlohmann::json::parse(test::ReadFile(idl_log))["topics"])
-    EXPECT_EQ(t["type_description"], dds::IdlText()) << t["name"];
+  const auto with_idl = nlohmann::json::parse(test::ReadFile(idl_log));  // (kept: the loop reads into it)
+  for (const auto& t : with_idl["topics"]) EXPECT_EQ(t["type_description"], dds::IdlText()) << t["name"];
   // Export: every map a PNG and a JSON line.
   const std::string out = (dir_ / "export").string();
   const std::string export_log = (dir_ / "export.log").string();
