@@ -69,10 +69,10 @@ class Exporter {
     return ok;
   }
 
-  void Finish(std::map<std::string, Counts>* counts) {
+  // Closes the videos and flushes the JSON lines.
+  void Finish() {
     for (auto& [name, v] : videos_) v.release();
     for (auto& [name, f] : jsonl_) f->flush();
-    (void)counts;
   }
 
  private:
@@ -96,7 +96,7 @@ class Exporter {
         throw std::runtime_error(path + ": cannot open a video writer");
       video_size_[name] = bgr.size();
     }
-    if (bgr.size() != video_size_[name]) return;  // a size change mid-stream: not written (counted by frames)
+    if (bgr.size() != video_size_[name]) return;  // a size change mid-stream: not written, not counted
     v.write(bgr);
     ++c->video_frames;
   }
@@ -304,7 +304,7 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
     }
     return true;
   }, ids);
-  ex.Finish(&counts);
+  ex.Finish();
   if (rec.damaged_samples() > 0)
     spdlog::error("{}: {} damaged sample(s) skipped (CRC-32 mismatch, a bad frame or an unknown topic); "
                   "`hullpipe_record info` says more", o.recording, rec.damaged_samples());

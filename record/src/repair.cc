@@ -120,6 +120,7 @@ struct Pages {
   std::map<uint32_t, std::string_view> page;  // newest image of each page
   std::unique_ptr<Mapped> db_file, wal_file;
   std::string_view db, wal;
+  int64_t wal_frames = 0;  ///< Log frames of the current salt, taken.
 };
 
 // The cell at `ptr` on leaf page `pg`: its rowid and its whole payload
@@ -208,6 +209,7 @@ Pages LoadPages(const std::string& in) {
       const uint8_t* fh = w + off;
       if (Be(fh + 8, 4) != salt1 || Be(fh + 12, 4) != salt2) break;  // a frame of an older log
       ps.page[Be(fh, 4)] = ps.wal.substr(off + 24, ps.page_size);
+      ++ps.wal_frames;
     }
   }
   return ps;
@@ -230,7 +232,7 @@ RepairReport Repair(const std::string& in, const std::string& out) {
   const Pages ps = LoadPages(in);
   RepairReport report;
   report.pages = int64_t(ps.page.size());
-  if (ps.wal.size() > 32) report.wal_frames = int64_t((ps.wal.size() - 32) / (24 + ps.page_size));
+  report.wal_frames = ps.wal_frames;
 
   std::map<std::string, std::string> meta;
   std::map<int64_t, TopicInfo> topics;  // by the input's id
