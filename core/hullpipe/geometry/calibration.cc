@@ -10,7 +10,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 #include <libxml/parser.h>
+#include <opencv2/imgproc.hpp>
+#include <spdlog/spdlog.h>
 #include <yaml-cpp/yaml.h>
+#include <Eigen/Dense>
 
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/util/yaml_keys.h"
@@ -57,7 +60,10 @@ cv::Mat ReadMatrix(const cv::FileStorage& fs_in, const std::string& path, const 
 // cy alone would drop the skew and take a singular K). Bounds: fx, fy in
 // [0.01, 10^4] x width (a horizontal field of view between 179.4 and 0.006
 // degrees), the principal point inside the image.
-void SetIntrinsics(const std::vector<double>& k, const std::string& path, const std::string& key, Camera* c) {
+}  // namespace
+
+void SetCameraIntrinsics(const std::vector<double>& k, double offset, const std::string& path, const std::string& key,
+                         Camera* c) {
   auto bad = [&](const std::string& what) {
     throw CalibrationError(path + ": camera " + std::to_string(c->id) + ": key '" + key + "' " + what);
   };
@@ -81,8 +87,14 @@ void SetIntrinsics(const std::vector<double>& k, const std::string& path, const 
         std::to_string(c->width) + "x" + std::to_string(c->height) + " image");
   c->fx = fx;
   c->fy = fy;
-  c->cx = k[2] + kOpenCvToHullpipePixelOffset;
-  c->cy = k[5] + kOpenCvToHullpipePixelOffset;
+  c->cx = k[2] + offset;
+  c->cy = k[5] + offset;
+}
+
+namespace {
+
+void SetIntrinsics(const std::vector<double>& k, const std::string& path, const std::string& key, Camera* c) {
+  SetCameraIntrinsics(k, kOpenCvToHullpipePixelOffset, path, key, c);
 }
 
 // Image size of a video or image file; {0,0} if it cannot be read.
@@ -124,8 +136,34 @@ Rig LoadUtrechtDir(const fs::path& dir) {
                                        size.height);
     rig.cameras.push_back(std::move(rc));
   }
+  // The layout's world: the calibration board is the floor, z = 0, and z points
+  // down (the Utrecht rig) -- or up, if the cameras' image-up says so (a z-up
+  // calibration in this layout used to load with its workspace capped on the
+  // wrong side of the floor). The workspace ends 2 cm beyond the floor.
+  const Eigen::Vector3d up = DeriveUp(rig.Cameras(), 30.0);
   rig.workspace = DefaultWorkspace(rig.Cameras());
-  rig.workspace.max.z() = std::min(rig.workspace.max.z(), 0.02);
+  rig.world.floor = RigWorld::Floor::kPlane;
+  rig.world.floor_height = 0;
+  rig.world.up_stated = rig.world.floor_stated = rig.world.orbit_stated = true;
+  if (up == Eigen::Vector3d(0, 0, -1)) {
+    rig.world.up = up;
+    rig.workspace.max.z() = std::min(rig.workspace.max.z(), 0.02);
+  } else if (up == Eigen::Vector3d(0, 0, 1)) {
+    rig.world.up = up;
+    rig.workspace.min.z() = std::max(rig.workspace.min.z(), -0.02);
+    rig.notes.push_back(dir.string() + ": the cameras say z points up in this calibration (the Utrecht rig's points "
+                                       "down): floor z = 0 with up +z");
+  } else {
+    rig.world.up = up;
+    rig.world.floor = RigWorld::Floor::kUnderHull;
+    rig.world.floor_stated = false;
+    rig.notes.push_back(dir.string() + ": the cameras' image-up is not along z; the board plane is not taken as the "
+                                       "floor (floor under the first hull, workspace not capped)");
+  }
+  if (rig.workspace.empty())
+    throw CalibrationError(dir.string() + ": the workspace is empty after the floor cap: the cameras see nothing "
+                                          "on the floor's side (check the calibration's signs)");
+  for (const auto& n : rig.notes) spdlog::warn("{}", n);
   return rig;
 }
 
@@ -164,7 +202,7 @@ Rig LoadYamlRig(const fs::path& file) {
     throw CalibrationError(path + ": " + e.what());
   }
   if (!root.IsMap()) throw CalibrationError(path + ": not a YAML map with key 'cameras'");
-  RejectUnknownKeys(root, path, "", {"cameras", "workspace"});
+  RejectUnknownKeys(root, path, "", {"cameras", "workspace", "world"});
   if (!root["cameras"] || !root["cameras"].IsSequence())
     throw CalibrationError(path + ": missing key 'cameras' (a list)");
   if (root["cameras"].size() > size_t(Rig::kMaxCameras))
@@ -172,6 +210,7 @@ Rig LoadYamlRig(const fs::path& file) {
                            " cameras; at most " + std::to_string(Rig::kMaxCameras));
   Rig rig;
   rig.source = path;
+  std::vector<std::pair<int, double>> repaired;  // camera id, ||R R^T - I||
   const fs::path base = file.parent_path();
   auto resolve = [&](const YAML::Node& n) -> std::string {
     if (!n) return {};
@@ -185,7 +224,7 @@ Rig LoadYamlRig(const fs::path& file) {
     if (!cam.IsMap()) throw CalibrationError(path + ": camera " + std::to_string(index + 1) + " is not a map");
     RejectUnknownKeys(cam, path, "camera " + std::to_string(index + 1) + ": ",
                       {"id", "width", "height", "K", "distortion", "R", "t", "background", "frames", "masks",
-                       "tracked", "latency"});
+                       "tracked", "latency", "mask_threshold", "mask_channel"});
     RigCamera rc;
     Camera& c = rc.camera;
     try {
@@ -205,7 +244,12 @@ Rig LoadYamlRig(const fs::path& file) {
     std::copy(d.begin(), d.end(), c.distortion.begin());
     const auto r = ReadList(cam, path, "R", 9, true);
     const auto t = ReadList(cam, path, "t", 3, true);
-    for (int i = 0; i < 9; ++i) c.cam_from_world.rotation(i / 3, i % 3) = r[i];
+    Eigen::Matrix3d rot;
+    for (int i = 0; i < 9; ++i) rot(i / 3, i % 3) = r[i];
+    double rot_error = 0;
+    c.cam_from_world.rotation =
+        NearestRotation(rot, path + ": camera " + std::to_string(c.id) + ": key 'R'", &rot_error);
+    if (rot_error > 1e-12) repaired.push_back({c.id, rot_error});
     c.cam_from_world.translation = Eigen::Vector3d(t[0], t[1], t[2]);
     try {
       c.Check();
@@ -225,10 +269,36 @@ Rig LoadYamlRig(const fs::path& file) {
       if (!(rc.latency_s >= 0 && rc.latency_s <= 10))
         throw CalibrationError(path + ": camera " + std::to_string(c.id) + ": key 'latency' must be seconds in [0, 10]");
     }
+    if (const YAML::Node m = cam["mask_threshold"]) {
+      rc.mask_threshold = m.as<int>(-1);
+      if (rc.mask_threshold < 1 || rc.mask_threshold > 255)
+        throw CalibrationError(path + ": camera " + std::to_string(c.id) +
+                               ": key 'mask_threshold' must be an integer in [1, 255]");
+    }
+    if (const YAML::Node m = cam["mask_channel"]) {
+      const std::string name = m.as<std::string>("?");
+      for (auto ch : {RigCamera::MaskChannel::kLuma, RigCamera::MaskChannel::kAlpha, RigCamera::MaskChannel::kRed,
+                      RigCamera::MaskChannel::kGreen, RigCamera::MaskChannel::kBlue})
+        if (MaskChannelName(ch) == name) rc.mask_channel = ch;
+      if (rc.mask_channel == RigCamera::MaskChannel::kUnset)
+        throw CalibrationError(path + ": camera " + std::to_string(c.id) + ": key 'mask_channel' must be one of luma, "
+                                                                            "alpha, red, green, blue");
+    }
     rig.cameras.push_back(std::move(rc));
     ++index;
   }
-  rig.workspace = DefaultWorkspace(rig.Cameras());
+  if (!repaired.empty()) {
+    std::string ids;
+    double worst = 0;
+    for (const auto& [id, e] : repaired) {
+      ids += (ids.empty() ? "" : ", ") + std::to_string(id);
+      worst = std::max(worst, e);
+    }
+    char b[64];
+    std::snprintf(b, sizeof b, "%.1e", worst);
+    rig.notes.push_back(path + ": the rotations of camera(s) " + ids + " are orthonormal only to " + b +
+                        " (printed decimals): took the nearest rotations (SVD)");
+  }
   if (const YAML::Node ws = root["workspace"]) {
     if (!ws.IsMap()) throw CalibrationError(path + ": key 'workspace' must be a map {min: [x,y,z], max: [x,y,z]}");
     RejectUnknownKeys(ws, path, "workspace: ", {"min", "max"});
@@ -237,6 +307,47 @@ Rig LoadYamlRig(const fs::path& file) {
     rig.workspace.max = Eigen::Vector3d(hi[0], hi[1], hi[2]);
     if (rig.workspace.empty()) throw CalibrationError(path + ": workspace min must be <= max");
   }
+  if (const YAML::Node w = root["world"]) {
+    if (!w.IsMap()) throw CalibrationError(path + ": key 'world' must be a map {up, floor, orbit_radius, orbit_height}");
+    RejectUnknownKeys(w, path, "world: ", {"up", "floor", "orbit_radius", "orbit_height"});
+    if (w["up"]) {
+      const auto u = ReadList(w, path, "up", 3, true);
+      rig.world.up = Eigen::Vector3d(u[0], u[1], u[2]);
+      if (!rig.world.up.allFinite() || rig.world.up.norm() < 1e-9)
+        throw CalibrationError(path + ": world: key 'up' must be a finite non-zero vector");
+      rig.world.up.normalize();
+      rig.world.up_stated = true;
+    }
+    if (const YAML::Node f = w["floor"]) {
+      const std::string text = f.as<std::string>("");
+      if (text == "hull") {
+        rig.world.floor = RigWorld::Floor::kUnderHull;
+      } else if (text == "none") {
+        rig.world.floor = RigWorld::Floor::kNone;
+      } else {
+        rig.world.floor = RigWorld::Floor::kPlane;
+        rig.world.floor_height = f.as<double>(std::nan(""));
+        if (!std::isfinite(rig.world.floor_height))
+          throw CalibrationError(path + ": world: key 'floor' must be metres along up, 'hull' or 'none'");
+      }
+      rig.world.floor_stated = true;
+    }
+    for (const char* key : {"orbit_radius", "orbit_height"}) {
+      if (!w[key]) continue;
+      const double v = w[key].as<double>(std::nan(""));
+      const bool radius = std::string(key) == "orbit_radius";
+      if (!std::isfinite(v) || (radius && !(v > 0)))
+        throw CalibrationError(path + ": world: key '" + key + "' must be " + (radius ? "> 0 m" : "finite metres"));
+      (radius ? rig.world.orbit_radius : rig.world.orbit_height) = v;
+      rig.world.orbit_stated = true;
+    }
+  }
+  try {
+    CompleteRig(&rig);
+  } catch (const std::invalid_argument& e) {
+    throw CalibrationError(path + ": " + e.what());
+  }
+  for (const auto& n : rig.notes) spdlog::warn("{}", n);
   return rig;
 }
 
@@ -322,6 +433,89 @@ Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width,
   return c;
 }
 
+Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& r, const std::string& where, double* error) {
+  if (!r.allFinite()) throw CalibrationError(where + ": the rotation is not finite");
+  const double e = (r * r.transpose() - Eigen::Matrix3d::Identity()).norm();
+  const double det = r.determinant();
+  if (error) *error = e;
+  if (e > kRotationRepairTolerance || std::abs(det - 1) > kRotationRepairTolerance) {
+    char b[160];
+    std::snprintf(b, sizeof b, ": not a rotation (||R R^T - I|| = %.3g, det %.4g; within %.0e of one is repaired)", e,
+                  det, kRotationRepairTolerance);
+    throw CalibrationError(where + b);
+  }
+  if (e <= 1e-12 && std::abs(det - 1) <= 1e-12) return r;  // a rotation to machine precision: as it is
+  // The nearest rotation (Frobenius), U V^T of r's SVD, as r (r^T r)^(-1/2): r
+  // is within 1e-3 of a rotation, so r^T r is near I and its eigenvalues near 1.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(r.transpose() * r);
+  const Eigen::Matrix3d inv_sqrt =
+      eig.eigenvectors() * eig.eigenvalues().cwiseSqrt().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+  return r * inv_sqrt;  // det +1 as det r > 0
+}
+
+void CompleteRig(Rig* rig) {
+  const auto cams = rig->Cameras();
+  if (rig->workspace.empty()) rig->workspace = DefaultWorkspace(cams);
+  if (!rig->world.up_stated) {
+    try {
+      rig->world.up = DeriveUp(cams);
+    } catch (const std::invalid_argument& e) {
+      rig->notes.push_back(rig->source + ": up not derived (" + e.what() + "); taking (0, 0, 1)");
+      rig->world.up = Eigen::Vector3d(0, 0, 1);
+    }
+  }
+  if (!rig->world.orbit_stated) {
+    Aabb common = CommonViewWorkspace(cams);
+    if (common.empty()) {
+      common = rig->workspace;
+      rig->notes.push_back(rig->source + ": the cameras share no view: the orbit frames the workspace");
+    }
+    rig->world.orbit_radius = FramingRadius(common);
+    rig->world.orbit_height = 0.25 * rig->world.orbit_radius;
+  }
+  rig->world.Check();
+}
+
+std::string MaskChannelName(RigCamera::MaskChannel c) {
+  switch (c) {
+    case RigCamera::MaskChannel::kLuma: return "luma";
+    case RigCamera::MaskChannel::kAlpha: return "alpha";
+    case RigCamera::MaskChannel::kRed: return "red";
+    case RigCamera::MaskChannel::kGreen: return "green";
+    case RigCamera::MaskChannel::kBlue: return "blue";
+    case RigCamera::MaskChannel::kUnset: break;
+  }
+  return "unset";
+}
+
+cv::Mat MaskToObjectPixelMap(const cv::Mat& mask, const RigCamera& rc) {
+  const std::string who = "camera " + std::to_string(rc.camera.id) + ": mask: ";
+  if (mask.empty()) throw std::invalid_argument(who + "empty image");
+  cv::Mat m = mask;
+  if (m.depth() == CV_16U) m.convertTo(m, CV_8U, 1.0 / 257);
+  if (m.depth() != CV_8U) throw std::invalid_argument(who + "must be 8 or 16 bit per channel");
+  using Ch = RigCamera::MaskChannel;
+  const int n = m.channels();
+  cv::Mat one;
+  if (n == 1) {
+    one = m;
+  } else if (n == 3 || n == 4) {
+    Ch ch = rc.mask_channel;
+    if (ch == Ch::kUnset) {
+      if (n == 4)
+        throw std::invalid_argument(who + "has 4 channels (BGRA): say which holds the mask (mask_channel: alpha or "
+                                          "luma)");
+      ch = Ch::kLuma;
+    }
+    if (ch == Ch::kAlpha && n != 4) throw std::invalid_argument(who + "mask_channel alpha, but it has no alpha");
+    if (ch == Ch::kLuma) cv::cvtColor(m, one, n == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+    else cv::extractChannel(m, one, ch == Ch::kBlue ? 0 : ch == Ch::kGreen ? 1 : ch == Ch::kRed ? 2 : 3);
+  } else {
+    throw std::invalid_argument(who + "has " + std::to_string(n) + " channels; 1, 3 or 4 are read");
+  }
+  return one >= rc.mask_threshold;
+}
+
 bool RigCamera::IsLiveSpec(const std::string& spec) {
   return spec.rfind("v4l2:", 0) == 0 || spec.find("://") != std::string::npos;
 }
@@ -344,6 +538,7 @@ Rig LoadRig(const std::string& path) {
 
 void WriteRigYaml(const Rig& rig, const std::string& path) {
   YAML::Emitter out;
+  out.SetDoublePrecision(17);  // round trips to the last bit
   out << YAML::BeginMap << YAML::Key << "cameras" << YAML::Value << YAML::BeginSeq;
   for (const auto& rc : rig.cameras) {
     const Camera& c = rc.camera;
@@ -366,6 +561,9 @@ void WriteRigYaml(const Rig& rig, const std::string& path) {
     if (!rc.masks.empty()) out << YAML::Key << "masks" << YAML::Value << rc.masks;
     if (rc.latency_s != 0) out << YAML::Key << "latency" << YAML::Value << rc.latency_s;
     if (!rc.tracked.empty()) out << YAML::Key << "tracked" << YAML::Value << rc.tracked;
+    if (rc.mask_threshold != 128) out << YAML::Key << "mask_threshold" << YAML::Value << rc.mask_threshold;
+    if (rc.mask_channel != RigCamera::MaskChannel::kUnset)
+      out << YAML::Key << "mask_channel" << YAML::Value << MaskChannelName(rc.mask_channel);
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
@@ -375,6 +573,17 @@ void WriteRigYaml(const Rig& rig, const std::string& path) {
     out << YAML::Key << "workspace" << YAML::Value << YAML::BeginMap;
     out << YAML::Key << "min" << YAML::Value << YAML::Flow << std::vector<double>{a.x(), a.y(), a.z()};
     out << YAML::Key << "max" << YAML::Value << YAML::Flow << std::vector<double>{b.x(), b.y(), b.z()};
+    out << YAML::EndMap;
+  }
+  {
+    const RigWorld& w = rig.world;
+    out << YAML::Key << "world" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "up" << YAML::Value << YAML::Flow << std::vector<double>{w.up.x(), w.up.y(), w.up.z()};
+    out << YAML::Key << "floor" << YAML::Value;
+    if (w.floor == RigWorld::Floor::kPlane) out << w.floor_height;
+    else out << (w.floor == RigWorld::Floor::kNone ? "none" : "hull");
+    out << YAML::Key << "orbit_radius" << YAML::Value << w.orbit_radius;
+    out << YAML::Key << "orbit_height" << YAML::Value << w.orbit_height;
     out << YAML::EndMap;
   }
   out << YAML::EndMap;

@@ -16,6 +16,23 @@
 //            background: cam1/background.avi      # video or image; relative to the file
 //            frames: cam1/video.avi               # video, or printf pattern of images
 //            masks: cam1/mask_%04d.png            # optional: ready-made object-pixel maps
+//            mask_threshold: 128                  # object iff the mask value >= this (1..255)
+//            mask_channel: luma                   # luma | alpha | red | green | blue (colour masks)
+//        world:                                   # optional; derived from the cameras where absent
+//          up: [0, 0, -1]                         # world up (gravity along -up)
+//          floor: 0.0                             # plane up . x = floor; or "hull" (under the first
+//                                                 # hull) or "none"
+//          orbit_radius: 3.0                      # viewer's orbit around the hull, metres
+//          orbit_height: 0.7                      # eye height above the hull's centre, metres
+//        workspace: {min: [x, y, z], max: [x, y, z]}
+// Image sequences (frames, background, masks as printf patterns such as
+// img_%04d.png): the first file may be numbered 0 to 4 (OpenCV's image-sequence
+// reader looks for the first of those), the numbers must then run on without a
+// gap, and a frame's index (capture_node --frames, vh_eval --frame) counts
+// positions in the sequence from 0, not the numbers in the names. docs/rigs.md.
+// Rotations: a rotation orthonormal only to kRotationRepairTolerance (printed
+// decimals) is replaced by the nearest rotation (SVD) and the correction logged
+// once per rig (Rig::notes); anything farther from a rotation is refused.
 // Errors: CalibrationError with the file and the missing/bad key named.
 #pragma once
 
@@ -25,6 +42,7 @@
 
 #include "hullpipe/geometry/aabb.h"
 #include "hullpipe/geometry/camera.h"
+#include "hullpipe/geometry/rig_world.h"
 
 namespace hullpipe {
 
@@ -33,6 +51,27 @@ class CalibrationError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+/// Largest ||R R^T - I||_F (and |det R - 1|) accepted as a rotation and repaired
+/// to the nearest one: 1e-3, a thousand times what six printed decimals leave and
+/// well below anything that is not meant as a rotation (a reflection, a scaled or
+/// transposed-wrong matrix is off by more than 0.1).
+inline constexpr double kRotationRepairTolerance = 1e-3;
+
+/// The nearest rotation to `r` (SVD: U V^T, det +1) when r is within
+/// kRotationRepairTolerance of one; *error gets ||R R^T - I||_F. Throws
+/// CalibrationError("<where>: ... not a rotation ...") otherwise, or when r is
+/// not finite. Exact rotations come back unchanged.
+Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& r, const std::string& where, double* error = nullptr);
+
+/// Sets c's fx, fy, cx, cy from a row-major 3x3 K (c's id, width, height set),
+/// adding `offset` to the principal point (kOpenCvToHullpipePixelOffset for
+/// files with pixel centres at integers, 0 for COLMAP's and hullpipe's). Throws
+/// CalibrationError("<path>: camera N: key '<key>' ...") for skew (hullpipe's
+/// camera has none: refused, not dropped), a last row other than (0 0 1), fx or
+/// fy outside [0.01, 10^4] x width, a principal point outside the image.
+void SetCameraIntrinsics(const std::vector<double>& k, double offset, const std::string& path,
+                         const std::string& key, Camera* c);
 
 /// Reads one Utrecht-style config.xml into a Camera: converts mm -> m and OpenCV
 /// pixel centres -> hullpipe (+0.5). width/height must be supplied (from the video).
@@ -58,6 +97,15 @@ struct RigCamera {
   /// frame's source time) giving its pose per frame; empty: a fixed camera. YAML
   /// key `tracked`.
   std::string tracked;
+  /// Ready-made masks: a pixel is object iff its value (after taking the channel)
+  /// is >= mask_threshold, in [1, 255]. YAML key `mask_threshold`; default 128
+  /// (published masks are 0/255, and some carry background values up to ~25).
+  int mask_threshold = 128;
+  /// Which channel of a colour mask holds it: luma (BGR to grey), alpha, red,
+  /// green, blue; a one-channel mask is itself. A 4-channel mask needs it said
+  /// (luma or alpha), as either could be meant. YAML key `mask_channel`.
+  enum class MaskChannel { kUnset, kLuma, kAlpha, kRed, kGreen, kBlue };
+  MaskChannel mask_channel = MaskChannel::kUnset;
   /// True if `frames` is a live source rather than a file.
   bool live() const { return IsLiveSpec(frames); }
   /// True for "v4l2:N" and URLs ("scheme://...").
@@ -75,6 +123,14 @@ struct Rig {
   /// DefaultWorkspace of the cameras. For the Utrecht layout the floor (z = 0, the
   /// plane of the calibration board; z points down) bounds it: max z = 0.02.
   Aabb workspace;
+  /// Up, floor and orbit (rig_world.h): stated under `world:`, else derived
+  /// (up from the cameras, floor under the first hull, an orbit framing the
+  /// workspace). The Utrecht layout states its own: the calibration board is the
+  /// floor (z = 0) and z points down, or up if the cameras say so.
+  RigWorld world;
+  /// What loading changed or assumed, one line each (repaired rotations, a
+  /// z-up Utrecht calibration); also logged once as a warning.
+  std::vector<std::string> notes;
   std::vector<Camera> Cameras() const;
 };
 
@@ -83,7 +139,23 @@ struct Rig {
 /// its size from the background image/video, else CalibrationError. YAML rig
 /// files: unknown keys are refused (named), at most Rig::kMaxCameras cameras, and
 /// each camera's `K` is checked as ReadOpenCvCameraConfig checks CameraMatrix.
+/// Without a stated workspace: DefaultWorkspace of the cameras.
 Rig LoadRig(const std::string& path);
+
+/// Fills what the rig file did not state: workspace (DefaultWorkspace), world
+/// up (DeriveUp), orbit (FramingRadius of CommonViewWorkspace, what every camera
+/// sees; height 0.25 x radius).
+/// Used by LoadRig and by the importers.
+void CompleteRig(Rig* rig);
+
+/// The text of a mask channel ("luma"...) and back (nullopt if unknown).
+std::string MaskChannelName(RigCamera::MaskChannel c);
+
+/// Turns one ready-made mask image (1, 3 or 4 channels, 8 or 16 bit) into an
+/// object-pixel map (CV_8UC1, 0/255) by rc's channel and threshold. Throws
+/// std::invalid_argument naming the camera when the channel is not said for a
+/// 4-channel mask, or the image has another channel count or depth.
+cv::Mat MaskToObjectPixelMap(const cv::Mat& mask, const RigCamera& rc);
 
 /// Writes a rig as a generic YAML rig file (paths written as given). Used by tools
 /// and tests to round-trip calibrations.

@@ -15,17 +15,34 @@ BallSimulation::BallSimulation(SceneConfig config) : config_(std::move(config)) 
     s.radius = b.radius;
     bodies_.push_back(s);
     next_throw_.push_back(0.0);
-    Throw(i);
+    waiting_.push_back(0);
+    Throw(i, nullptr);
   }
 }
 
-void BallSimulation::Throw(size_t i) {
+void BallSimulation::Throw(size_t i, const VolumeQuery* hull) {
   const BallConfig& b = config_.balls[i];
   BodyState& s = bodies_[i];
-  s.position = b.start;
+  Eigen::Vector3d start = b.start, target = b.target;
+  if (b.relative_to_hull) {
+    // Offsets from the hull's box centre: no hull yet, no throw (parked far
+    // below, motionless, and tried again next substep).
+    waiting_[i] = !hull || hull->hull_box().empty();
+    if (waiting_[i]) {
+      s.position = b.start;  // parked at the offset, motionless, not simulated
+      s.velocity.setZero();
+      s.colliding = false;
+      next_throw_[i] = time_;
+      return;
+    }
+    const Eigen::Vector3d centre = hull->hull_box().Center();
+    start += centre;
+    target += centre;
+  }
+  s.position = start;
   // Ballistic: start + v T + g T^2 / 2 = target.
   const double T = b.flight_time;
-  s.velocity = (b.target - b.start) / T - 0.5 * config_.gravity * T;
+  s.velocity = (target - start) / T - 0.5 * config_.gravity * T;
   s.colliding = false;
   next_throw_[i] = b.rethrow_period > 0 ? time_ + b.rethrow_period : 1e300;
 }
@@ -53,11 +70,20 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
   const double g_norm = config_.gravity.norm();
   const Eigen::Vector3d g_hat = g_norm > 0 ? Eigen::Vector3d(config_.gravity / g_norm)
                                            : Eigen::Vector3d::UnitZ();
+  if (config_.floor_under_hull && hull && !hull->hull_box().empty()) {
+    // The floor under the first hull: its lowest point along -gravity.
+    double lowest = -1e300;
+    for (const auto& p : hull->hull_box().Corners()) lowest = std::max(lowest, g_hat.dot(p));
+    config_.floor = lowest;
+    config_.has_floor = true;
+    config_.floor_under_hull = false;
+  }
   for (int k = 0; k < substeps; ++k) {
     ThrowIfStopped(stop, "the balls' step");
     time_ += h;
     for (size_t i = 0; i < bodies_.size(); ++i) {
-      if (time_ >= next_throw_[i]) Throw(i);
+      if (time_ >= next_throw_[i]) Throw(i, hull);
+      if (waiting_[i]) continue;  // no hull to throw at yet
       BodyState& s = bodies_[i];
       const Eigen::Vector3d previous = s.position;
       s.velocity += config_.gravity * h;

@@ -46,11 +46,12 @@ class BallSimulation {
   const SceneConfig& config() const { return config_; }
 
  private:
-  void Throw(size_t i);
+  void Throw(size_t i, const VolumeQuery* hull);
   SceneConfig config_;
   std::vector<TriangleMesh> meshes_;  // body frame
   std::vector<BodyState> bodies_;
   std::vector<double> next_throw_;
+  std::vector<char> waiting_;  // a hull-relative ball not thrown yet: no hull so far
   double time_ = 0;
 };
 

@@ -10,7 +10,29 @@
 
 namespace hullpipe {
 
+void SceneConfig::PlaceInWorld(const RigWorld& world) {
+  if (frame != Frame::kStage) return;
+  const Eigen::Matrix3d r = StageFrame(world, Aabb{}).rotation;  // axes only
+  gravity = r * gravity;
+  for (auto& b : balls) {
+    b.start = r * b.start;
+    b.target = r * b.target;
+    b.relative_to_hull = true;
+  }
+  const Eigen::Vector3d up = world.up.normalized();
+  // Floor along g_hat = -up: g_hat . x = floor.
+  has_floor = world.floor == RigWorld::Floor::kPlane;  // under the hull: once a hull is seen
+  floor = world.floor == RigWorld::Floor::kPlane ? -world.floor_height : 0.0;
+  floor_under_hull = world.floor == RigWorld::Floor::kUnderHull;
+  if (gravity.norm() > 0 && std::abs(gravity.normalized().dot(up) + 1) > 1e-9)
+    throw std::invalid_argument("scene: frame stage: gravity must point down the stage's z axis");
+  frame = Frame::kWorld;
+}
+
 void SceneConfig::Check() const {
+  if (frame == Frame::kStage && (cloth || particles || payload || light))
+    throw std::invalid_argument("scene: frame stage places balls only: cloth, particles, payload and light are in "
+                                "world coordinates (use frame: world)");
   if (!gravity.allFinite()) throw std::invalid_argument("scene: gravity must be finite");
   if (!(max_substep >= kMinSubstepS && max_substep <= kMaxSubstepS))
     throw std::invalid_argument("scene: max_substep must be in [1e-4, 0.1] s");
@@ -150,8 +172,20 @@ SceneConfig LoadSceneConfig(const std::string& path) {
     // default ball unasked.
     Keys(root, path, "",
          {"gravity", "floor", "collision", "response", "max_substep", "balls", "cloth", "particles", "payload",
-          "light"},
+          "light", "frame"},
          {"balls"});
+    if (const YAML::Node f = root["frame"]) {
+      const std::string frame = f.as<std::string>("?");
+      if (frame != "world" && frame != "stage")
+        throw std::runtime_error(path + ": 'frame' must be world or stage, not " + frame);
+      cfg.frame = frame == "stage" ? SceneConfig::Frame::kStage : SceneConfig::Frame::kWorld;
+      if (cfg.frame == SceneConfig::Frame::kStage) {
+        cfg.gravity = Eigen::Vector3d(0, 0, -9.81);
+        if (root["floor"])
+          throw std::runtime_error(path + ": 'floor' with frame stage: the stage's floor is the rig's (rig file "
+                                          "world: floor)");
+      }
+    }
     cfg.gravity = Vec3(root, path, "gravity", cfg.gravity);
     if (root["floor"]) {
       if (root["floor"].IsNull()) {

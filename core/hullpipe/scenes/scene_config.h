@@ -38,6 +38,16 @@
 //      bias: 0.02, ambient: 0.45, hull_diffuse: 0.5}   # read by render_node
 //   balls: []                       # no balls
 //
+// Scenes for any rig (`frame: stage`): the balls' start and target are offsets
+// in metres from the centre of the hull's box at each throw (so they reach
+// whoever is there), along the rig's stage axes (rig_world.h StageFrame: z up,
+// x and y horizontal); gravity is in the same axes (default [0, 0, -9.81]); the
+// floor is the rig's (`world: floor`: a plane, under the first hull, or none), so
+// `floor` is refused. A ball waits for a hull before its first throw. Cloth,
+// particles, payload and light stay in world coordinates: refused in a stage
+// scene (their geometry is the world's). sim_node --rig gives the world;
+// SceneConfig::PlaceInWorld applies it.
+//
 // Checked where read (LoadSceneConfig): the file is a non-empty map; every key
 // is one of the above (a misspelt key is an error naming it, never ignored);
 // `balls` is required (`[]` for none), and so are a ball's radius, start and
@@ -52,6 +62,7 @@
 
 #include <Eigen/Core>
 
+#include "hullpipe/geometry/rig_world.h"
 #include "hullpipe/scenes/cloth.h"
 #include "hullpipe/scenes/lighting.h"
 #include "hullpipe/collision/collision.h"
@@ -70,6 +81,9 @@ struct BallConfig {
   double restitution = 0.7;
   double rethrow_period = 4.0;
   int subdivisions = 2;
+  /// start and target are world-frame offsets from the hull box's centre at each
+  /// throw (a `frame: stage` scene, after PlaceInWorld); false: world points.
+  bool relative_to_hull = false;
 };
 
 /// Scene settings; see the file format above.
@@ -88,6 +102,16 @@ struct SceneConfig {
   std::optional<ParticleConfig> particles;  ///< The particle stream, if any.
   std::optional<PayloadConfig> payload;     ///< The payload spacing task, if any.
   std::optional<LightConfig> light;         ///< A virtual light casting shadows (render_node).
+  /// `frame`: world (the rig's coordinates) or stage (see above).
+  enum class Frame { kWorld, kStage } frame = Frame::kWorld;
+  /// The floor goes under the first hull the scene sees (its lowest point along
+  /// -gravity); set by PlaceInWorld for a rig whose floor is `hull`.
+  bool floor_under_hull = false;
+  /// A stage scene: turns its stage-axis vectors into the world's with `world`
+  /// (stage axes of StageFrame), takes the rig's floor and marks the balls as
+  /// hull-relative; frame becomes kWorld. A world scene: unchanged. Throws
+  /// std::invalid_argument if the stage gravity is not along -z.
+  void PlaceInWorld(const RigWorld& world);
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
 };

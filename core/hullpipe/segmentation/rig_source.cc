@@ -1,5 +1,6 @@
 #include "hullpipe/segmentation/rig_source.h"
 
+#include <filesystem>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -24,6 +25,30 @@
 
 namespace hullpipe {
 namespace {
+
+// The file of number `n` of a printf-style mask pattern ("mask_%04d.png"): one
+// integer conversion; a pattern without one names a single file for every frame.
+// Only "%d" or "%0Nd" (N <= 9) is expanded (no printf on a file's text).
+std::string MaskFile(const std::string& pattern, int n) {
+  const size_t p = pattern.find('%');
+  if (p == std::string::npos) return pattern;
+  size_t q = p + 1;
+  int width = 0;
+  if (q < pattern.size() && pattern[q] == '0') ++q;
+  if (q < pattern.size() && pattern[q] >= '1' && pattern[q] <= '9') width = pattern[q++] - '0';
+  if (q >= pattern.size() || pattern[q] != 'd') return pattern;  // not a number conversion: a literal name
+  std::string num = std::to_string(n);
+  if (int(num.size()) < width) num.insert(0, size_t(width) - num.size(), '0');
+  return pattern.substr(0, p) + num + pattern.substr(q + 1);
+}
+
+// Masks number from the first of 0..4 that exists, as OpenCV's image sequences
+// (the frames) do, so mask k goes with frame k.
+int FirstMaskNumber(const std::string& pattern) {
+  for (int n = 0; n <= 4; ++n)
+    if (std::filesystem::exists(MaskFile(pattern, n))) return n;
+  return 0;
+}
 
 bool Selected(const std::vector<int>& ids, int id) {
   return ids.empty() || std::find(ids.begin(), ids.end(), id) != ids.end();
@@ -185,6 +210,7 @@ class VideoRig final : public RigSource {
       cam.camera = rc.camera;
       cam.frames_spec = rc.frames;
       cam.masks_spec = rc.masks;
+      cam.mask_format = rc;
       cam.latency_ns = int64_t(rc.latency_s * 1e9);
       if (!rc.tracked.empty()) cam.track = LoadPoseTrack(rc.tracked);
       cam.live = rc.live();
@@ -228,7 +254,7 @@ class VideoRig final : public RigSource {
         c.ended = true;
         continue;
       }
-      if (!c.masks_spec.empty()) c.masks.grab();
+      // (masks are read by number: nothing to skip)
       ++alive;
     }
     if (!CheckEnds(alive)) return false;
@@ -281,7 +307,9 @@ class VideoRig final : public RigSource {
   struct Cam {
     Camera camera;
     std::string frames_spec, masks_spec;
-    cv::VideoCapture frames, masks;
+    cv::VideoCapture frames;
+    int mask_first = 0;      ///< Number of the first mask file (0..4, as OpenCV's image sequences).
+    RigCamera mask_format;   ///< Its mask_threshold and mask_channel.
     BackgroundModel background;
     bool ended = false;
     int64_t declared_frames = 0;  ///< The container's frame count (0: unknown).
@@ -319,14 +347,22 @@ class VideoRig final : public RigSource {
     f->read_ms[i] = (t_segment - t_read) * 1e3;
     cv::Mat map;
     if (!c.masks_spec.empty()) {
-      cv::Mat m;
-      if (c.masks.read(m) && !m.empty()) {
-        if (m.channels() == 3) cv::cvtColor(m, m, cv::COLOR_BGR2GRAY);
-        if (m.size() == img.size()) map = m > 0;
+      // Read as stored (cv::IMREAD_UNCHANGED): an RGBA mask keeps its alpha.
+      const std::string file = MaskFile(c.masks_spec, c.mask_first + int(index_));
+      const cv::Mat m = cv::imread(file, cv::IMREAD_UNCHANGED);
+      std::string why = m.empty() ? "unreadable (" + file + ")" : "";
+      if (!m.empty() && m.size() != img.size())
+        why = "of the wrong size (" + std::to_string(m.cols) + "x" + std::to_string(m.rows) + ", " + file + ")";
+      if (why.empty()) {
+        try {
+          map = MaskToObjectPixelMap(m, c.mask_format);
+        } catch (const std::invalid_argument& e) {
+          why = std::string(e.what()) + " (" + file + ")";
+        }
       }
       if (map.empty()) {
-        errors->push_back("camera " + std::to_string(c.camera.id) + ": mask of frame " +
-                            std::to_string(index_) + " unreadable or of the wrong size; skipped");
+        errors->push_back("camera " + std::to_string(c.camera.id) + ": mask of frame " + std::to_string(index_) +
+                          " " + why + "; skipped");
         return;
       }
     } else {
@@ -484,7 +520,7 @@ class VideoRig final : public RigSource {
       c.frames = OpenCapture(c.frames_spec);
       if (!c.frames.isOpened())
         throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": cannot open " + c.frames_spec);
-      if (!c.masks_spec.empty()) c.masks = cv::VideoCapture(c.masks_spec, cv::CAP_IMAGES);
+      if (!c.masks_spec.empty()) c.mask_first = FirstMaskNumber(c.masks_spec);
       c.ended = false;
       const double declared = c.frames.get(cv::CAP_PROP_FRAME_COUNT);
       c.declared_frames = std::isfinite(declared) && declared > 0 && declared < 1e9 ? int64_t(declared) : 0;
