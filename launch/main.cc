@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
@@ -97,7 +98,22 @@ int main(int argc, char** argv) {
                  "(0: the first capture node announces one)")
       ->check(hullpipe::FiniteRange(0.0, 600.0))
       ->capture_default_str();
+  std::vector<std::string> up_flag;
+  std::string floor_flag;
+  double orbit_radius = 0, orbit_height = std::nan("");
+  app.add_option("--up", up_flag, "World up for render_node (default: the rig's world)")->delimiter(',')->expected(3);
+  app.add_option("--floor", floor_flag, "Floor for render_node: metres along up, hull or none (default: the rig's)");
+  app.add_option("--orbit-radius", orbit_radius, "render_node's orbit radius, metres (default: the rig's)")
+      ->check(hullpipe::FiniteRange(0.01, 1000.0));
+  app.add_option("--orbit-height", orbit_height, "render_node's eye height above the hull centre, metres")
+      ->check(hullpipe::FiniteRange(-1000.0, 1000.0));
   CLI11_PARSE(app, argc, argv);
+  // render_node's world flags, after what ${world} gives it (the rig's world).
+  std::vector<std::string> world_args;
+  if (!up_flag.empty()) world_args.insert(world_args.end(), {"--up", up_flag[0] + "," + up_flag[1] + "," + up_flag[2]});
+  if (!floor_flag.empty()) world_args.insert(world_args.end(), {"--floor", floor_flag});
+  if (orbit_radius > 0) world_args.insert(world_args.end(), {"--orbit-radius", std::to_string(orbit_radius)});
+  if (std::isfinite(orbit_height)) world_args.insert(world_args.end(), {"--orbit-height", std::to_string(orbit_height)});
   if (rig.empty() == !synthetic) {
     std::fprintf(stderr, "give exactly one of --rig DIR or --synthetic\n");
     return 2;
@@ -195,6 +211,10 @@ int main(int argc, char** argv) {
     if (g_stop) break;
     std::vector<std::string> args;
     for (const auto& a : spec.args) {
+      if (a == "${world}") {  // the rig's world for render and sim (none with --synthetic)
+        if (!synthetic) args.insert(args.end(), {"--rig", fs::absolute(rig).string()});
+        continue;
+      }
       if (a == "${source}") {
         if (synthetic) {
           args.push_back("--synthetic");
@@ -206,6 +226,7 @@ int main(int argc, char** argv) {
         args.push_back(Substitute(a, vars));
       }
     }
+    if (spec.exec == "render_node") args.insert(args.end(), world_args.begin(), world_args.end());
     if (spec.exec == "render_node" && !head_poses.empty()) {
       args.insert(args.end(), {"--view", "file", "--head-poses", fs::absolute(head_poses).string()});
     }

@@ -11,6 +11,7 @@
 #include <opencv2/videoio.hpp>
 #include <spdlog/spdlog.h>
 
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
@@ -167,7 +168,15 @@ int main(int argc, char** argv) {
                  "Tracked head poses, CSV t,x,y,z,qw,qx,qy,qz (world_from_eye, OpenCV eye frame; t in seconds "
                  "from the first frame)");
   app.add_option("--scene", scene_path, "Scene file: render_node uses its `light` (shadows); sim_node the rest");
-  app.add_option("--up", up, "World up vector (Utrecht rig: 0,0,-1)")->delimiter(',')->expected(3);
+  auto* up_opt = app.add_option("--up", up, "World up vector (default: the rig's; Utrecht rig: 0,0,-1)")
+                     ->delimiter(',')
+                     ->expected(3);
+  std::string rig_path, floor_text;
+  app.add_option("--rig", rig_path,
+                 "Rig directory or YAML rig file: its world (up, floor, orbit) unless the flags say otherwise "
+                 "(default: the Utrecht rig's world)");
+  app.add_option("--floor", floor_text, "Floor: metres along up (plane up . x = H), 'hull' (under the first hull) or "
+                                        "'none' (default: the rig's; Utrecht: 0)");
   app.add_option("--window", window, "Show the output in a window: auto (where a display exists), on, off")
       ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
   double skew_tolerance_ms = 0;
@@ -185,6 +194,28 @@ int main(int argc, char** argv) {
                                       : nodes::RenderOptions::View::kOrbit;
     if (!head_poses.empty()) o.track = LoadPoseTrack(head_poses);
     if (!scene_path.empty()) o.light = LoadSceneConfig(scene_path).light;
+    if (!rig_path.empty()) {
+      const RigWorld w = LoadRig(rig_path).world;
+      if (!up_opt->count()) up = {w.up.x(), w.up.y(), w.up.z()};
+      o.floor = w.floor;
+      o.floor_height = w.floor_height;
+      if (!app.get_option("--orbit-radius")->count()) o.orbit_radius = w.orbit_radius;
+      if (!app.get_option("--orbit-height")->count()) o.orbit_height = w.orbit_height;
+    }
+    if (!floor_text.empty()) {
+      if (floor_text == "hull" || floor_text == "none") {
+        o.floor = floor_text == "hull" ? RigWorld::Floor::kUnderHull : RigWorld::Floor::kNone;
+      } else {
+        try {
+          size_t used = 0;
+          o.floor_height = std::stod(floor_text, &used);
+          if (used != floor_text.size()) throw std::invalid_argument("");
+        } catch (const std::exception&) {
+          throw std::invalid_argument("--floor must be metres along up, 'hull' or 'none', not '" + floor_text + "'");
+        }
+        o.floor = RigWorld::Floor::kPlane;
+      }
+    }
     if (orbit_centre.size() == 3) o.orbit_centre = Eigen::Vector3d(orbit_centre[0], orbit_centre[1], orbit_centre[2]);
     o.up = Eigen::Vector3d(up[0], up[1], up[2]);
     o.Check();

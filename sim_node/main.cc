@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
@@ -37,6 +38,10 @@ int main(int argc, char** argv) {
   AddRunIdOption(app, common);
   std::string scene_path;
   app.add_option("--scene", scene_path, "Scene file (YAML); default: one ball");
+  std::string rig_path;
+  app.add_option("--rig", rig_path,
+                 "Rig directory or YAML rig file whose world (up, floor) places a `frame: stage` scene (default: the "
+                 "Utrecht rig's world: up -z, floor z = 0)");
   double skew_tolerance_ms = 0;
   app.add_option("--skew-tolerance", skew_tolerance_ms,
                  "Largest |capture time - reference time| of a frameset's maps, ms (0: half the slowest camera's "
@@ -47,7 +52,11 @@ int main(int argc, char** argv) {
                "Step every complete frameset in order, not only the newest (deterministic replays of a recording)");
   CLI11_PARSE(app, argc, argv);
   try {
-    const SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path);
+    SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path);
+    RigWorld world;  // the Utrecht rig's: up -z, the floor z = 0
+    world.floor = RigWorld::Floor::kPlane;
+    if (!rig_path.empty()) world = LoadRig(rig_path).world;
+    config.PlaceInWorld(world);
     auto participant = StartNode("sim", common);
     WaitSet ws(*participant);
     FramesetInput input(*participant, ws, kFramesetHistory, false);

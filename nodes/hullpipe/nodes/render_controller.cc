@@ -23,6 +23,7 @@ void RenderOptions::Check() const {
   if (!(end_grace >= 0 && end_grace <= 60)) bad("end grace must be in [0, 60] s");
   if (!(std::isfinite(orbit_radius) && orbit_radius > 0)) bad("--orbit-radius must be > 0 m");
   if (!std::isfinite(orbit_height)) bad("--orbit-height must be finite");
+  if (!std::isfinite(floor_height)) bad("--floor must be finite");
   if (!(std::isfinite(orbit_period) && orbit_period > 0)) bad("--orbit-period must be > 0 s");
   if (orbit_centre && !orbit_centre->allFinite()) bad("--orbit-centre must be finite");
   if (!up.allFinite() || up.norm() < 1e-9) bad("--up must be a finite non-zero vector");
@@ -47,6 +48,10 @@ RenderController::RenderController(RenderOptions options, const Clock& clock, Fr
     centre_known_ = true;
   }
   comp_.floor_normal = orbit_.up;
+  comp_.draw_floor = o_.floor != RigWorld::Floor::kNone;
+  comp_.floor_offset = o_.floor == RigWorld::Floor::kPlane ? o_.floor_height : 0.0;
+  floor_known_ = o_.floor != RigWorld::Floor::kUnderHull;
+  if (!floor_known_) comp_.draw_floor = false;  // until the first hull
   last_new_frame_s_ = clock_.Now();
 }
 
@@ -135,7 +140,23 @@ void RenderController::IssuePoses() {
     // The frameset's hull: for the orbit centre until it is known, and for the
     // light's shadow map (one VolumeQuery, one hull box, for both).
     std::shared_ptr<const VolumeQuery> hull;
-    if (o_.light || !centre_known_) hull = std::make_shared<const VolumeQuery>(fset->maps, assembler_.workspace());
+    if (o_.light || !centre_known_ || !floor_known_ || !floor_checked_)
+      hull = std::make_shared<const VolumeQuery>(fset->maps, assembler_.workspace());
+    if (hull && !hull->hull_box().empty() && (!floor_known_ || !floor_checked_)) {
+      double lowest = 1e300;
+      for (const auto& p : hull->hull_box().Corners()) lowest = std::min(lowest, orbit_.up.dot(p));
+      if (!floor_known_) {
+        comp_.floor_offset = lowest;
+        comp_.draw_floor = true;
+        floor_known_ = true;
+        spdlog::info("floor under the first hull: up . x = {:.3f} m", lowest);
+      } else if (comp_.draw_floor && lowest < comp_.floor_offset - 0.05) {
+        spdlog::warn("the hull's box reaches {:.2f} m below the rig's floor (up . x = {:.3f} m): the floor hides that "
+                     "part; is the rig's world right? (hullpipe_rig check; world: floor: hull puts it under the hull)",
+                     comp_.floor_offset - lowest, comp_.floor_offset);
+      }
+      floor_checked_ = true;
+    }
     if (!centre_known_ && !hull->hull_box().empty()) {
       orbit_.centre = hull->hull_box().Center();
       centre_known_ = true;

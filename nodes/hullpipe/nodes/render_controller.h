@@ -27,6 +27,7 @@
 #include "hullpipe/nodes/run_filter.h"
 #include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/geometry/rig_world.h"
 #include "hullpipe/scenes/lighting.h"
 
 namespace hullpipe::nodes {
@@ -46,6 +47,11 @@ struct RenderOptions {
   double orbit_radius = 3.0, orbit_height = 0.7, orbit_period = 12.0;
   std::optional<Eigen::Vector3d> orbit_centre;  ///< Default: the first hull box's centre.
   Eigen::Vector3d up{0, 0, -1};                 ///< World up (Utrecht rig: z down).
+  /// The floor drawn (rig_world.h): the plane up . x = floor_height, under the
+  /// first hull (its box's lowest point along up), or none. Default: the Utrecht
+  /// rig's, z = 0.
+  RigWorld::Floor floor = RigWorld::Floor::kPlane;
+  double floor_height = 0;
   enum class View { kOrbit, kFile, kTopic } view = View::kOrbit;
   PoseTrack track;                   ///< For View::kFile.
   std::optional<LightConfig> light;  ///< The scene's light (shadows), if any.
@@ -147,6 +153,8 @@ class RenderController {
   PeerLiveness recon_liveness_;
   RunFilter runs_;
   OrbitPath orbit_;
+  bool floor_known_ = true;    // false until the first hull places a floor under it
+  bool floor_checked_ = false;  // the first hull's box compared with the floor
   bool centre_known_ = false;
   CompositeOptions comp_;
   std::optional<Rigid3d> tracked_;
