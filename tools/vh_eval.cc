@@ -6,11 +6,16 @@
 // runs the plane sweep on synthetic scenes with exact maps and reports, per
 // configuration, time per frame and depth error against the exact hull (see
 // vh_eval_sweep.h).
-//   vh_eval reprojection --rig DIR --frame K [--json] [--step M] [--all-frames]
+//   vh_eval reprojection --rig DIR --frame K [--json] [--all-frames] [--method exact|march --step M]
+//   vh_eval reprojection --synthetic N [--width W --height H]
 // builds the hull of frame K by volume querying and prints, per camera, the IoU
 // between the hull's reprojection and that camera's object-pixel map (iou_all),
 // and the same with the hull built from the other cameras only
-// (iou_leave_one_out). With --all-frames: mean and worst over every frame.
+// (iou_leave_one_out), and the seconds the frame took. The reprojection is exact
+// (ray–hull intervals, ReprojectHullExact) unless --method march. With
+// --all-frames: mean and worst over every frame. --synthetic N: one frame of a
+// synthetic figure seen by N dome cameras with exact maps (the timing case of a
+// 20-camera rig).
 #include <cstdio>
 #include <iostream>
 
@@ -22,6 +27,8 @@
 
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/evaluation/reprojection.h"
+#include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/util/cli_range.h"
 #include "hullpipe/segmentation/rig_source.h"
 #include "vh_eval_collision.h"
 #include "vh_eval_sweep.h"
@@ -35,21 +42,37 @@ struct CameraIoU {
   double all, loo;
 };
 
-std::vector<CameraIoU> EvaluateFrame(const RigSource& src, const RigFrame& f, double step) {
-  std::vector<CameraMap> views;
-  for (size_t i = 0; i < src.cameras().size(); ++i) views.push_back({src.cameras()[i], f.maps[i]});
-  const VolumeQuery all(views, src.workspace());
+int g_threads = 2;
+
+std::vector<CameraIoU> EvaluateViews(const std::vector<CameraMap>& views, const Aabb& workspace, double step,
+                                     bool exact) {
+  const VolumeQuery all(views, workspace);
   std::vector<CameraIoU> out;
+  if (exact) {
+    for (size_t i = 0; i < views.size(); ++i) {
+      const Reprojection r = ReprojectHullExact(all, i, g_threads);
+      out.push_back({views[i].camera.id, MaskIoU(r.all, views[i].map), MaskIoU(r.leave_one_out, views[i].map)});
+    }
+    return out;
+  }
   for (size_t i = 0; i < views.size(); ++i) {
     std::vector<int> others;
     for (size_t j = 0; j < views.size(); ++j)
       if (j != i) others.push_back(int(j));
     const VolumeQuery loo = all.Subset(others);
     const Camera& cam = views[i].camera;
-    out.push_back({cam.id, MaskIoU(ReprojectHull(all, cam, step), views[i].map),
-                   MaskIoU(ReprojectHull(loo, cam, step), views[i].map)});
+    out.push_back({cam.id, MaskIoU(ReprojectHull(all, cam, step, g_threads), views[i].map),
+                   MaskIoU(ReprojectHull(loo, cam, step, g_threads), views[i].map)});
   }
   return out;
+}
+
+bool g_exact = true;
+
+std::vector<CameraIoU> EvaluateFrame(const RigSource& src, const RigFrame& f, double step) {
+  std::vector<CameraMap> views;
+  for (size_t i = 0; i < src.cameras().size(); ++i) views.push_back({src.cameras()[i], f.maps[i]});
+  return EvaluateViews(views, src.workspace(), step, g_exact);
 }
 
 }  // namespace
@@ -100,9 +123,22 @@ int main(int argc, char** argv) {
   bool json = false, all_frames = false;
   double step = 0.005;
   std::string save_worst;
-  rep->add_option("--rig", rig, "Rig directory or YAML rig file")->required();
+  auto* rig_opt = rep->add_option("--rig", rig, "Rig directory or YAML rig file");
+  int synthetic = 0, syn_w = 1024, syn_h = 768;
+  std::string method = "exact";
+  rep->add_option("--synthetic", synthetic, "Instead of a rig: a synthetic figure seen by N dome cameras")
+      ->check(CLI::Range(2, 64))
+      ->excludes(rig_opt);
+  rep->add_option("--width", syn_w, "--synthetic: image width")->check(CLI::Range(16, 4096))->capture_default_str();
+  rep->add_option("--height", syn_h, "--synthetic: image height")->check(CLI::Range(16, 4096))->capture_default_str();
+  rep->add_option("--method", method, "exact (ray–hull intervals) or march (--step)")
+      ->check(CLI::IsMember({"exact", "march"}))
+      ->capture_default_str();
+  rep->add_option("--threads", g_threads, "Threads")->check(CLI::Range(1, 256))->capture_default_str();
   rep->add_option("--frame", frame, "Frame index (0-based)")->capture_default_str();
-  rep->add_option("--step", step, "Ray-marching step, metres")->capture_default_str();
+  rep->add_option("--step", step, "--method march: ray-marching step, metres")
+      ->check(hullpipe::FiniteRange(1e-4, 1.0))
+      ->capture_default_str();
   rep->add_flag("--json", json, "Print one JSON object");
   rep->add_flag("--all-frames", all_frames, "Evaluate every frame; report mean and worst per camera");
   rep->add_option("--save-worst", save_worst, "With --all-frames: PNG of the worst frame's reprojections");
@@ -126,7 +162,32 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
+  g_exact = method == "exact";
   try {
+    if (synthetic > 0) {
+      const SyntheticScene scene = NamedScene("figure", 0.5);
+      const auto cams = DomeCameras(synthetic, 3.0, Eigen::Vector3d(0, 0, -1.0), syn_w, syn_h, 1.0);
+      std::vector<CameraMap> views;
+      for (const auto& c : cams) views.push_back({c, RenderExactMap(c, scene)});
+      Aabb ws;
+      ws.min = Eigen::Vector3d(-2, -2, -2.5);
+      ws.max = Eigen::Vector3d(2, 2, 0.05);
+      const double t0 = MonotonicSeconds();
+      const auto res = EvaluateViews(views, ws, step, g_exact);
+      const double seconds = MonotonicSeconds() - t0;
+      nlohmann::json j = {{"synthetic_cameras", synthetic}, {"width", syn_w}, {"height", syn_h},
+                          {"method", method}, {"threads", g_threads}, {"seconds", seconds}};
+      for (const auto& r : res) j["cameras"].push_back({{"id", r.id}, {"iou_all", r.all}, {"iou_leave_one_out", r.loo}});
+      if (json) {
+        std::cout << j.dump(2) << std::endl;
+      } else {
+        std::printf("%d synthetic cameras %dx%d, %s: %.2f s\n%-8s %10s %20s\n", synthetic, syn_w, syn_h,
+                    method.c_str(), seconds, "camera", "iou_all", "iou_leave_one_out");
+        for (const auto& r : res) std::printf("%-8d %10.3f %20.3f\n", r.id, r.all, r.loo);
+      }
+      return 0;
+    }
+    if (rig.empty()) throw std::invalid_argument("give --rig DIR or --synthetic N");
     auto src = OpenVideoRig(rig, {});
     RigFrame f;
     nlohmann::json j;
@@ -142,7 +203,8 @@ int main(int argc, char** argv) {
       j["seconds"] = MonotonicSeconds() - t0;
       for (const auto& r : res) j["cameras"].push_back({{"id", r.id}, {"iou_all", r.all}, {"iou_leave_one_out", r.loo}});
       if (!json) {
-        std::printf("frame %d\n%-8s %10s %20s\n", frame, "camera", "iou_all", "iou_leave_one_out");
+        std::printf("frame %d (%s, %.2f s)\n%-8s %10s %20s\n", frame, method.c_str(), double(j["seconds"]), "camera",
+                    "iou_all", "iou_leave_one_out");
         for (const auto& r : res) std::printf("%-8d %10.3f %20.3f\n", r.id, r.all, r.loo);
       }
     } else {
@@ -179,7 +241,8 @@ int main(int argc, char** argv) {
               std::vector<int> others;
               for (size_t jx = 0; jx < views.size(); ++jx)
                 if (jx != i) others.push_back(int(jx));
-              const cv::Mat rep_loo = ReprojectHull(all.Subset(others), views[i].camera, step);
+              const cv::Mat rep_loo = g_exact ? ReprojectHullExact(all, i, g_threads).leave_one_out
+                                              : ReprojectHull(all.Subset(others), views[i].camera, step, g_threads);
               std::vector<cv::Mat> ch = {rep_loo, views[i].map, views[i].map & rep_loo};
               cv::Mat vis;
               cv::merge(ch, vis);  // blue: hull only, green: map only, white/cyan: both
