@@ -257,7 +257,7 @@ TEST(RigImport, OpenCvMulticalibReadsBackInMillimetresAndEitherPoseDirection) {
   const RigReport report = CheckRig(wrong.Cameras(), wrong.workspace, wrong.world);
   bool hinted = false;
   for (const auto& w : report.warnings) hinted |= w.find("world_from_camera") != std::string::npos;
-  EXPECT_TRUE(hinted) << "no warning names the pose-direction trap";
+  EXPECT_TRUE(hinted) << "no warning names the pose-direction trap; " << report.warnings.size() << " warnings: " << (report.warnings.empty() ? "" : report.warnings[0]);
   const RigReport right = CheckRig(cams, DefaultWorkspace(cams), wrong.world);
   EXPECT_TRUE(right.warnings.empty()) << right.warnings.front();  // control: the right rig warns of nothing
 }

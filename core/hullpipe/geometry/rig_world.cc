@@ -118,7 +118,14 @@ Rigid3d StageFrame(const RigWorld& world, const Aabb& workspace) {
 
 RigReport CheckRig(const std::vector<Camera>& cameras, const Aabb& workspace, const RigWorld& world) {
   RigReport r;
-  r.workspace_centre = workspace.empty() ? LookAtPoint(cameras) : workspace.Center();
+  // The centre of what every camera sees within the workspace (the workspace's
+  // own centre when that is empty).
+  Aabb seen = CommonViewWorkspace(cameras);
+  if (!seen.empty() && !workspace.empty()) {
+    seen.min = seen.min.cwiseMax(workspace.min);
+    seen.max = seen.max.cwiseMin(workspace.max);
+  }
+  r.workspace_centre = !seen.empty() ? seen.Center() : workspace.empty() ? LookAtPoint(cameras) : workspace.Center();
   if (workspace.empty())
     r.warnings.push_back("the cameras share no view (no point is in front of all of them and inside every image): "
                          "a visual hull of all of them is empty");
@@ -158,6 +165,17 @@ RigReport CheckRig(const std::vector<Camera>& cameras, const Aabb& workspace, co
                                 "as OpenCV's, or a workspace stated in other units?)"
                               : ""));
   }
+  // The point nearest every optical axis: cameras that look at something look
+  // at it; most not seeing it means their poses or axes are the wrong way.
+  int blind_to_look_at = 0;
+  for (const auto& c : cameras) {
+    const auto uv = c.Project(look_at);
+    blind_to_look_at += !(uv && c.InImage(*uv));
+  }
+  if (cameras.size() >= 3 && 2 * blind_to_look_at > int(cameras.size()))
+    r.warnings.push_back(std::to_string(blind_to_look_at) + " of " + std::to_string(cameras.size()) +
+                         " cameras do not see the point nearest all their optical axes " + Vec(look_at) +
+                         ": a world_from_camera pose read as cam_from_world, or OpenGL axes taken as OpenCV's?");
   // Scale: a capture space is metres to tens of metres across.
   double spread = 0;
   for (const auto& a : cameras)
@@ -179,7 +197,8 @@ RigReport CheckRig(const std::vector<Camera>& cameras, const Aabb& workspace, co
                            " degrees from the cameras' mean image-up " + Vec(derived) +
                            ": is the world z-up where the file says z-down (or the other way)?");
   } catch (const std::invalid_argument&) {
-    r.warnings.push_back("the cameras' image-ups cancel out: up cannot be checked against them");
+    r.warnings.push_back("the cameras' image-ups cancel out (cameras rolled every way, or a world_from_camera pose "
+                         "read as cam_from_world?): up cannot be checked against them");
   }
   return r;
 }

@@ -75,6 +75,7 @@ struct CameraReport {
 /// the workspace centre, a floor above a camera, an up far from the cameras').
 struct RigReport {
   std::vector<CameraReport> cameras;
+  /// Centre of what every camera sees inside the workspace (else the workspace's).
   Eigen::Vector3d workspace_centre = Eigen::Vector3d::Zero();
   std::vector<std::string> warnings;
 };
