@@ -1,5 +1,8 @@
 #include "hullpipe/nodes/peer_liveness.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include <limits>
 #include <stdexcept>
 
@@ -15,13 +18,26 @@ void PeerLiveness::Expect(const std::string& peer, double now) {
 }
 
 void PeerLiveness::Heard(const std::string& peer, double now, bool final_report) {
+  const auto it = heard_.find(peer);
+  if (it != heard_.end() && std::isfinite(it->second) && now > it->second && !final_report) {
+    auto& g = gaps_[peer];
+    g.push_back(now - it->second);
+    if (g.size() > 16) g.erase(g.begin());
+  }
   heard_[peer] = final_report ? -std::numeric_limits<double>::infinity() : now;
   silent_.try_emplace(peer, false);
 }
 
+double PeerLiveness::ThresholdFor(const std::string& peer) const {
+  const auto g = gaps_.find(peer);
+  if (g == gaps_.end() || g->second.empty()) return silence_s_;
+  const double longest = *std::max_element(g->second.begin(), g->second.end());
+  return std::clamp(3.0 * longest, silence_s_, 10.0 * silence_s_);
+}
+
 bool PeerLiveness::Alive(const std::string& peer, double now) const {
   const auto it = heard_.find(peer);
-  return it != heard_.end() && now - it->second <= silence_s_;
+  return it != heard_.end() && now - it->second <= ThresholdFor(peer);
 }
 
 std::vector<PeerLiveness::Change> PeerLiveness::Update(double now) {

@@ -2,6 +2,12 @@
 // twice a second): the one liveness rule of render_node (which notices a silent
 // recon node) and recon_node (whose lowest live node adopts a silent peer's
 // tile). A peer that sent its final report is gone at once.
+//
+// Load stretches a peer's report gaps (a 20-camera rig on a busy machine made a
+// recon node's reports 1 s apart and render declared it silent, to hear it again
+// 0.06 s later): each peer's threshold is therefore the larger of silence_s and
+// 3x the longest of its last 16 report gaps, capped at 10 x silence_s. A peer
+// that really stops is still declared silent, at most 10 x silence_s later.
 #pragma once
 
 #include <map>
@@ -31,12 +37,15 @@ class PeerLiveness {
   /// Times each peer fell silent.
   const std::map<std::string, int>& outages() const { return outages_; }
   double silence_s() const { return silence_s_; }
+  /// The threshold in force for `peer` now (silence_s until gaps are seen).
+  double ThresholdFor(const std::string& peer) const;
 
  private:
   double silence_s_;
   std::map<std::string, double> heard_;   // peer -> last heard (-inf after a final report)
   std::map<std::string, bool> silent_;    // peer -> silent at the last Update
   std::map<std::string, int> outages_;
+  std::map<std::string, std::vector<double>> gaps_;  // peer -> its last 16 report gaps
 };
 
 }  // namespace hullpipe::nodes
