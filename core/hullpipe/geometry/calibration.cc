@@ -287,18 +287,7 @@ Rig LoadYamlRig(const fs::path& file) {
     rig.cameras.push_back(std::move(rc));
     ++index;
   }
-  if (!repaired.empty()) {
-    std::string ids;
-    double worst = 0;
-    for (const auto& [id, e] : repaired) {
-      ids += (ids.empty() ? "" : ", ") + std::to_string(id);
-      worst = std::max(worst, e);
-    }
-    char b[64];
-    std::snprintf(b, sizeof b, "%.1e", worst);
-    rig.notes.push_back(path + ": the rotations of camera(s) " + ids + " are orthonormal only to " + b +
-                        " (printed decimals): took the nearest rotations (SVD)");
-  }
+  if (!repaired.empty()) rig.notes.push_back(RepairedRotationsNote(path, repaired));
   if (const YAML::Node ws = root["workspace"]) {
     if (!ws.IsMap()) throw CalibrationError(path + ": key 'workspace' must be a map {min: [x,y,z], max: [x,y,z]}");
     RejectUnknownKeys(ws, path, "workspace: ", {"min", "max"});
@@ -431,6 +420,19 @@ Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width,
     throw CalibrationError(path + ": " + e.what());
   }
   return c;
+}
+
+std::string RepairedRotationsNote(const std::string& source, const std::vector<std::pair<int, double>>& repaired) {
+  std::string ids;
+  double worst = 0;
+  for (const auto& [id, e] : repaired) {
+    ids += (ids.empty() ? "" : ", ") + std::to_string(id);
+    worst = std::max(worst, e);
+  }
+  char b[64];
+  std::snprintf(b, sizeof b, "%.1e", worst);
+  return source + ": the rotations of camera(s) " + ids + " are orthonormal only to " + b +
+         " (printed decimals): took the nearest rotations (SVD)";
 }
 
 Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& r, const std::string& where, double* error) {

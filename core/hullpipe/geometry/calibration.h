@@ -64,6 +64,10 @@ inline constexpr double kRotationRepairTolerance = 1e-3;
 /// not finite. Exact rotations come back unchanged.
 Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& r, const std::string& where, double* error = nullptr);
 
+/// The one line logged for a rig whose rotations were repaired: the cameras
+/// (id, ||R R^T - I||) and the worst error, "<source>: the rotations of ...".
+std::string RepairedRotationsNote(const std::string& source, const std::vector<std::pair<int, double>>& repaired);
+
 /// Sets c's fx, fy, cx, cy from a row-major 3x3 K (c's id, width, height set),
 /// adding `offset` to the principal point (kOpenCvToHullpipePixelOffset for
 /// files with pixel centres at integers, 0 for COLMAP's and hullpipe's). Throws

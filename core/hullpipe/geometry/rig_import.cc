@@ -86,18 +86,7 @@ Rig Finish(Rig rig, const std::vector<std::pair<int, double>>& repaired) {
       throw CalibrationError(rig.source + ": " + e.what());
     }
   }
-  if (!repaired.empty()) {
-    std::string ids;
-    double worst = 0;
-    for (const auto& [id, e] : repaired) {
-      ids += (ids.empty() ? "" : ", ") + std::to_string(id);
-      worst = std::max(worst, e);
-    }
-    char b[48];
-    std::snprintf(b, sizeof b, "%.1e", worst);
-    rig.notes.push_back(rig.source + ": the rotations of camera(s) " + ids + " are orthonormal only to " + b +
-                        " (printed decimals): took the nearest rotations (SVD)");
-  }
+  if (!repaired.empty()) rig.notes.push_back(RepairedRotationsNote(rig.source, repaired));
   try {
     CompleteRig(&rig);
   } catch (const std::invalid_argument& e) {
