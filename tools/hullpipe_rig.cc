@@ -59,7 +59,7 @@ void PrintCheck(const hullpipe::Rig& rig) {
     std::printf("%-6d %-26s %-26s %7.1f° %7.1f° %s\n", c.id, V(c.centre).c_str(), V(c.view_dir).c_str(), c.hfov_deg,
                 c.vfov_deg, c.sees_centre ? "yes" : "NO");
   std::printf("workspace: min %s  max %s\n", V(rig.workspace.min).c_str(), V(rig.workspace.max).c_str());
-  const hullpipe::Aabb common = hullpipe::CommonViewWorkspace(cams);
+  const hullpipe::Aabb& common = r.common_view;
   if (!common.empty())
     std::printf("seen by every camera: min %s  max %s\n", V(common.min).c_str(), V(common.max).c_str());
   std::printf("workspace centre (of what every camera sees in it): %s\n", V(r.workspace_centre).c_str());

@@ -98,7 +98,8 @@ std::optional<Eigen::Vector2d> Camera::Project(const Eigen::Vector3d& X_world) c
   if (!(xc.z() > 1e-9)) return std::nullopt;
   const Eigen::Vector2d xn(xc.x() / xc.z(), xc.y() / xc.z());
   if (xn.squaredNorm() > MaxValidRadius2()) return std::nullopt;
-  const Eigen::Vector2d xd = Distort(xn);
+  // Distort with zero coefficients is the identity, bit for bit: skipped.
+  const Eigen::Vector2d xd = HasDistortion() ? Distort(xn) : xn;
   return Eigen::Vector2d(fx * xd.x() + cx, fy * xd.y() + cy);
 }
 

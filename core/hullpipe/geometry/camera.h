@@ -31,6 +31,13 @@ struct Camera {
   /// (non-positive size or focal length, non-finite values, non-orthonormal R).
   void Check() const;
 
+  /// True if any distortion coefficient is non-zero (else a pure pinhole).
+  bool HasDistortion() const {
+    for (double d : distortion)
+      if (d != 0.0) return true;
+    return false;
+  }
+
   /// 3x3 intrinsic matrix K (hullpipe pixel convention).
   Eigen::Matrix3d K() const;
 

@@ -25,6 +25,11 @@ namespace {
 // points may be tens of MB): anything past this is refused, not read.
 constexpr std::uintmax_t kMaxFileBytes = 256ull << 20;
 
+// A line of a COLMAP text file that holds no data: blank or a # comment.
+bool IsCommentOrBlank(const std::string& line) {
+  return line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos;
+}
+
 std::string ReadText(const fs::path& p) {
   std::error_code ec;
   const auto size = fs::file_size(p, ec);
@@ -175,7 +180,7 @@ void ReadColmapText(const fs::path& dir, std::map<uint32_t, ColmapCamera>* cams,
     int n = 0;
     while (std::getline(in, line)) {
       ++n;
-      if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      if (IsCommentOrBlank(line)) continue;
       std::istringstream ls(line);
       uint32_t id;
       ColmapCamera c;
@@ -198,7 +203,7 @@ void ReadColmapText(const fs::path& dir, std::map<uint32_t, ColmapCamera>* cams,
   int n = 0;
   while (std::getline(in, line)) {
     ++n;
-    if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    if (IsCommentOrBlank(line)) continue;
     std::istringstream ls(line);
     ColmapImage im;
     if (!(ls >> im.id >> im.q[0] >> im.q[1] >> im.q[2] >> im.q[3] >> im.t[0] >> im.t[1] >> im.t[2] >> im.camera >>
@@ -378,15 +383,13 @@ Rig ImportNerf(const std::string& path, const ImportOptions& o) {
       const double v = num(std::array<const char*, 5>{"k1", "k2", "p1", "p2", "k3"}[size_t(k)]);
       c.distortion[size_t(k)] = std::isfinite(v) ? v : 0.0;
     }
-    for (const char* key : {"k4", "camera_model"})
-      if (fr.contains(key) || j.contains(key)) {
-        const auto& v = fr.contains(key) ? fr[key] : j[key];
-        if (std::string(key) == "k4" ? (v.is_number() && v.get<double>() != 0)
-                                     : (v.is_string() && v.get<std::string>() != "OPENCV" &&
-                                        v.get<std::string>() != "PINHOLE"))
-          throw CalibrationError(where + ": camera model " + v.dump() +
-                                 " is not hullpipe's (a pinhole with OpenCV's k1 k2 p1 p2 k3)");
-      }
+    // Models other than hullpipe's: a fisheye's k4, or a camera_model that says so.
+    const double k4 = num("k4");
+    const nlohmann::json model = fr.contains("camera_model") ? fr["camera_model"] : j.value("camera_model", nlohmann::json());
+    const bool other_model = model.is_string() && model.get<std::string>() != "OPENCV" && model.get<std::string>() != "PINHOLE";
+    if (other_model || (std::isfinite(k4) && k4 != 0))
+      throw CalibrationError(where + ": camera model " + (other_model ? model.dump() : "with k4 (a fisheye)") +
+                             " is not hullpipe's (a pinhole with OpenCV's k1 k2 p1 p2 k3)");
     const nlohmann::json m = fr.value("transform_matrix", nlohmann::json());
     if (!m.is_array() || m.size() < 3)
       throw CalibrationError(where + ": key 'transform_matrix' must be a 4x4 (or 3x4) list of rows");

@@ -94,6 +94,19 @@ double FramingRadius(const Aabb& box, double hfov_deg) {
   return 1.1 * half_diagonal / std::tan(0.5 * hfov_deg * kPi / 180.0);
 }
 
+Eigen::Matrix3d StageAxes(const Eigen::Vector3d& up_in) {
+  const Eigen::Vector3d up = up_in.normalized();
+  int axis = 0;
+  up.cwiseAbs().minCoeff(&axis);
+  const Eigen::Vector3d unit = Eigen::Vector3d::Unit(axis);
+  const Eigen::Vector3d x = (unit - unit.dot(up) * up).normalized();
+  Eigen::Matrix3d r;
+  r.col(0) = x;
+  r.col(1) = up.cross(x);
+  r.col(2) = up;
+  return r;
+}
+
 Rigid3d StageFrame(const RigWorld& world, const Aabb& workspace) {
   const Eigen::Vector3d up = world.up.normalized();
   const Eigen::Vector3d centre = workspace.empty() ? Eigen::Vector3d::Zero() : workspace.Center();
@@ -104,14 +117,8 @@ Rigid3d StageFrame(const RigWorld& world, const Aabb& workspace) {
     floor_h = up.dot(workspace.Corners()[0]);
     for (const auto& p : workspace.Corners()) floor_h = std::min(floor_h, up.dot(p));
   }
-  int axis = 0;
-  up.cwiseAbs().minCoeff(&axis);
-  Eigen::Vector3d x = Eigen::Vector3d::Unit(axis);
-  x = (x - x.dot(up) * up).normalized();
   Rigid3d world_from_stage;
-  world_from_stage.rotation.col(0) = x;
-  world_from_stage.rotation.col(1) = up.cross(x);
-  world_from_stage.rotation.col(2) = up;
+  world_from_stage.rotation = StageAxes(up);
   world_from_stage.translation = centre - (up.dot(centre) - floor_h) * up;
   return world_from_stage;
 }
@@ -120,7 +127,8 @@ RigReport CheckRig(const std::vector<Camera>& cameras, const Aabb& workspace, co
   RigReport r;
   // The centre of what every camera sees within the workspace (the workspace's
   // own centre when that is empty).
-  Aabb seen = CommonViewWorkspace(cameras);
+  r.common_view = CommonViewWorkspace(cameras);
+  Aabb seen = r.common_view;
   if (!seen.empty() && !workspace.empty()) {
     seen.min = seen.min.cwiseMax(workspace.min);
     seen.max = seen.max.cwiseMin(workspace.max);

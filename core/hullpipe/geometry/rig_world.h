@@ -56,6 +56,10 @@ Aabb CommonViewWorkspace(const std::vector<Camera>& cameras);
 /// frames `box` with a 10% margin: 1.1 * half-diagonal / tan(hfov/2).
 double FramingRadius(const Aabb& box, double hfov_deg = 60.0);
 
+/// The stage's axes for an up vector: z along up, x the world axis most
+/// perpendicular to it projected onto the floor, y = z x x (columns; a rotation).
+Eigen::Matrix3d StageAxes(const Eigen::Vector3d& up);
+
 /// The world's "stage" frame, for scenes placed relative to the rig (scene key
 /// `frame: stage`): origin on the floor (or the workspace's bottom) below the
 /// workspace's centre, z along up, x the world axis most perpendicular to up
@@ -75,6 +79,8 @@ struct CameraReport {
 /// the workspace centre, a floor above a camera, an up far from the cameras').
 struct RigReport {
   std::vector<CameraReport> cameras;
+  /// What every camera sees (CommonViewWorkspace; empty if nothing).
+  Aabb common_view;
   /// Centre of what every camera sees inside the workspace (else the workspace's).
   Eigen::Vector3d workspace_centre = Eigen::Vector3d::Zero();
   std::vector<std::string> warnings;

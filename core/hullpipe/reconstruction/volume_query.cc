@@ -83,8 +83,7 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
     f.fx = float(c.fx), f.fy = float(c.fy), f.cx = float(c.cx), f.cy = float(c.cy);
     f.k1 = float(c.distortion[0]), f.k2 = float(c.distortion[1]);
     f.p1 = float(c.distortion[2]), f.p2 = float(c.distortion[3]), f.k3 = float(c.distortion[4]);
-    f.distorted = false;
-    for (double d : c.distortion) f.distorted |= d != 0.0;
+    f.distorted = c.HasDistortion();
     const double r2 = c.MaxValidRadius2();
     f.r2max = r2 > 1e30 ? std::numeric_limits<float>::max() : float(r2);
     f.width = c.width, f.height = c.height;

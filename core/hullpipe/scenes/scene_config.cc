@@ -12,7 +12,7 @@ namespace hullpipe {
 
 void SceneConfig::PlaceInWorld(const RigWorld& world) {
   if (frame != Frame::kStage) return;
-  const Eigen::Matrix3d r = StageFrame(world, Aabb{}).rotation;  // axes only
+  const Eigen::Matrix3d r = StageAxes(world.up);
   gravity = r * gravity;
   for (auto& b : balls) {
     b.start = r * b.start;

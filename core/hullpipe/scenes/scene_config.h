@@ -108,7 +108,7 @@ struct SceneConfig {
   /// -gravity); set by PlaceInWorld for a rig whose floor is `hull`.
   bool floor_under_hull = false;
   /// A stage scene: turns its stage-axis vectors into the world's with `world`
-  /// (stage axes of StageFrame), takes the rig's floor and marks the balls as
+  /// (StageAxes of its up), takes the rig's floor and marks the balls as
   /// hull-relative; frame becomes kWorld. A world scene: unchanged. Throws
   /// std::invalid_argument if the stage gravity is not along -z.
   void PlaceInWorld(const RigWorld& world);
