@@ -153,8 +153,8 @@ struct SilhouetteWalker {
         out->push_back({seg_start, b, vote});
         seg_start = b;
         s = b;
-        vote = At(O + s * D, &uv, &safe);
-        if (vote != next) vote = next;  // at the boundary itself: take the far side's vote
+        At(O + s * D, &uv, &safe);  // where the walk goes on from
+        vote = next;                // the far side's vote, also at the boundary itself
         continue;
       }
       s += ds;
@@ -175,22 +175,20 @@ struct TileClassifier {
     const Camera* camera;
     cv::Mat sum;  // integral image of map != 0 (CV_32S, (h+1) x (w+1))
     const SilhouetteWalker* walker;  // its distance transform
-    bool distorted;
+    /// Margin (px) around the sampled projection: 2 where this camera or the
+    /// tile's is distorted (the projection bends between the samples), else 0.
+    double margin;
   };
-  bool margin_ = false;          // the tile's camera is distorted
-  bool any_distorted_ = false;  // one of the others is
+  bool distorted = false;  // the tile's camera or one of the others: sample 27 points, not 8
   std::vector<Other> others;
   const Camera* camera;
   double z_near, z_far;
   Aabb workspace, hull_box;
+  int required_seen = 1;  // of the query with the tile's camera (VolumeQuery::required_seen)
 
   enum class Kind { kEmpty, kFull, kMixed };
 
-  Kind Classify(int c0, int r0, int c1, int r1) const { return Classify(c0, r0, c1, r1, z_near, z_far); }
-
   Kind Classify(int c0, int r0, int c1, int r1, double zn, double zf) const {
-    // The frustum's corners and edge midpoints (a distorted camera's tile edges
-    // bend a little: a 2-px margin below covers it).
     // The frustum is convex: with pinholes its 8 corners bound its projection;
     // a distorted camera also gets the edge and face midpoints (27 points). The
     // centre comes first, for the disk test.
@@ -203,12 +201,11 @@ struct TileClassifier {
       return Eigen::Vector3d(O + z * (world_from_cam * Eigen::Vector3d(xn.x(), xn.y(), 1.0)));
     };
     pts.push_back(point(0.5 * (c0 + c1), 0.5 * (r0 + r1), 0.5 * (zn + zf)));
-    const bool fine = margin_ || any_distorted_;
     for (double u : {double(c0), 0.5 * (c0 + c1), double(c1)})
       for (double v : {double(r0), 0.5 * (r0 + r1), double(r1)})
         for (double z : {zn, 0.5 * (zn + zf), zf}) {
           const bool corner = u != 0.5 * (c0 + c1) && v != 0.5 * (r0 + r1) && z != 0.5 * (zn + zf);
-          if (fine || corner) pts.push_back(point(u, v, z));
+          if (distorted || corner) pts.push_back(point(u, v, z));
         }
     // Outside the hull's box (which the workspace holds): nothing to meet.
     Aabb cell;
@@ -217,6 +214,7 @@ struct TileClassifier {
     bool all_full = true;
     for (const auto& p : pts) all_full &= workspace.Contains(p);
     std::vector<Eigen::Vector2d> uvs(pts.size());
+    int seeing = 0;  // other cameras whose image the cell's projection may touch
     for (const Other& o : others) {
       double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
       bool projects = true;
@@ -236,28 +234,35 @@ struct TileClassifier {
         const Eigen::Vector2d c = uvs[0];
         double radius = 0;
         for (const auto& uv : uvs) radius = std::max(radius, (uv - c).norm());
-        radius += margin_ || o.distorted ? 2.0 : 0.0;  // bent edges where a camera is distorted
+        radius += o.margin;
         const int col = int(std::floor(c.x())), row = int(std::floor(c.y()));
         if (c.x() - radius >= 0 && c.y() - radius >= 0 && c.x() + radius <= o.camera->width &&
             c.y() + radius <= o.camera->height && o.walker->distance.at<float>(row, col) - 1.42 >= radius) {
           if (!o.walker->map->at<uint8_t>(row, col)) return Kind::kEmpty;
+          ++seeing;
           continue;  // all object in this camera
         }
       }
-      // A distorted camera (this one or the tile's) bends the projection a
-      // little between the sampled points: 2 px of margin; none for pinholes.
-      const double m = margin_ || o.distorted ? 2.0 : 0.0;
+      const double m = o.margin;
       const int x0 = int(std::floor(u0 - m)), y0 = int(std::floor(v0 - m));
       const int x1 = int(std::floor(u1 + m)) + 1, y1 = int(std::floor(v1 + m)) + 1;
       const bool inside = projects && x0 >= 0 && y0 >= 0 && x1 <= o.camera->width && y1 <= o.camera->height;
       if (!inside) {
         all_full = false;
+        // Wholly off its image (a cell that does not project at all may still
+        // cross into view): this camera cannot see any of the cell.
+        const bool off = projects && (x1 <= 0 || y1 <= 0 || x0 >= o.camera->width || y0 >= o.camera->height);
+        seeing += !off;
         continue;
       }
+      ++seeing;
       const int count = o.sum.at<int>(y1, x1) - o.sum.at<int>(y0, x1) - o.sum.at<int>(y1, x0) + o.sum.at<int>(y0, x0);
       if (count == 0) return Kind::kEmpty;  // background under the whole tile's rays: vetoed
       all_full &= count == (x1 - x0) * (y1 - y0);
     }
+    // Too few cameras see any of it to make a point inside (kUnknown's
+    // min_seen, counting the tile's own camera, which sees all of it).
+    if (seeing + 1 < required_seen) return Kind::kEmpty;
     return all_full ? Kind::kFull : Kind::kMixed;
   }
 };
@@ -284,9 +289,9 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
   };
   TileClassifier tiles;
   tiles.camera = &camera;
-  tiles.margin_ = std::any_of(camera.distortion.begin(), camera.distortion.end(), [](double d) { return d != 0; });
   tiles.workspace = q.workspace();
   tiles.hull_box = box;
+  tiles.required_seen = q.required_seen();
   tiles.z_near = 1e300;
   tiles.z_far = 0;
   for (const auto& corner : box.Corners()) {
@@ -294,67 +299,179 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
     tiles.z_near = std::min(tiles.z_near, z);
     tiles.z_far = std::max(tiles.z_far, z);
   }
-  const bool tiled = tiles.z_near > 1e-3 && q.options().out_of_view != OutOfView::kOutside;
+  // A camera inside the hull box (a dome camera in a loose box): the cells start
+  // at kNearDepth in front of it, so a hull within 0.1 mm of a camera's centre
+  // is not looked for (a camera is not inside the object).
+  constexpr double kNearDepth = 1e-4;
+  tiles.z_near = std::max(tiles.z_near, kNearDepth);
+  const bool tiled = tiles.z_far > tiles.z_near && q.options().out_of_view != OutOfView::kOutside;
   for (int c : others) {
     cv::Mat sum;
     cv::integral(q.views()[size_t(c)].map != 0, sum, CV_32S);
     const Camera& oc = q.views()[size_t(c)].camera;
-    const bool distorted = std::any_of(oc.distortion.begin(), oc.distortion.end(), [](double d) { return d != 0; });
-    tiles.others.push_back({&oc, sum / 255, &walkers[tiles.others.size()], distorted});
-    tiles.any_distorted_ |= distorted;
+    const bool bent = camera.HasDistortion() || oc.HasDistortion();
+    tiles.others.push_back({&oc, sum / 255, &walkers[tiles.others.size()], bent ? 2.0 : 0.0});
+    tiles.distorted |= bent;
   }
+  // Where each other camera can see at all: a pinhole camera sees only inside
+  // its frustum (five half-spaces: in front, and within its image widened by
+  // 1e-6 px), so it is cut out of each ray in closed form. Parts of a ray fewer
+  // other cameras see than a point needs (kUnknown's min_seen, the tile's own
+  // camera counted) are dropped before any walk: otherwise a ray through a region
+  // no other camera sees keeps its pieces, unvetoed, through every camera's walk.
+  // Plane k holds O + s D where at_o(k) + s n.row(k) D >= 0 (at_o: the planes'
+  // values at this camera's centre O, the same for every ray).
+  struct Frustum {
+    bool bounded = false;  // false (a distorted camera): may see the whole ray
+    Eigen::Matrix<double, 5, 3> n;
+    Eigen::Matrix<double, 5, 1> at_o;
+  };
+  std::vector<Frustum> frusta;
+  for (int c : others) {
+    const Camera& oc = q.views()[size_t(c)].camera;
+    Frustum f;
+    f.bounded = !oc.HasDistortion();
+    const Eigen::Matrix3d R = oc.cam_from_world.rotation;
+    const Eigen::Vector3d t = oc.cam_from_world.translation;
+    constexpr double m = 1e-6;  // px beyond the image: conservative by a hair
+    // Rows over camera coordinates (x, y, z): n_cam . X_cam + e >= 0.
+    const Eigen::Matrix<double, 5, 3> n_cam =
+        (Eigen::Matrix<double, 5, 3>() << 0, 0, 1,           //
+         oc.fx, 0, oc.cx + m,                                //
+         -oc.fx, 0, oc.width + m - oc.cx,                    //
+         0, oc.fy, oc.cy + m,                                //
+         0, -oc.fy, oc.height + m - oc.cy)
+            .finished();
+    f.n = n_cam * R;
+    f.at_o = f.n * O + n_cam * t;
+    f.at_o(0) -= 1e-9;
+    frusta.push_back(f);
+  }
+  const int seeing_needed = q.required_seen() - 1;
+  // Where on O + s D, s in [s0, s1], each other camera may see ([a, b], empty
+  // when b <= a).
+  auto visible_intervals = [&](const Eigen::Vector3d& D, double s0, double s1,
+                               std::vector<std::pair<double, double>>* iv) {
+    iv->clear();
+    for (const Frustum& f : frusta) {
+      double a = s0, b = s1;
+      if (f.bounded) {
+        const Eigen::Matrix<double, 5, 1> rate = f.n * D;
+        for (int k = 0; k < 5 && a < b; ++k) {  // at_o + s rate >= 0
+          if (rate(k) > 0)
+            a = std::max(a, -f.at_o(k) / rate(k));
+          else if (rate(k) < 0)
+            b = std::min(b, -f.at_o(k) / rate(k));
+          else if (f.at_o(k) < 0)
+            b = a;
+        }
+      }
+      iv->push_back({a, b});
+    }
+  };
+  // The parts of the ray that at least seeing_needed other cameras may see, as
+  // pieces (the whole of [s0, s1] when one camera's vote is enough).
+  auto seen_pieces = [&](const std::vector<std::pair<double, double>>& iv, double s0, double s1,
+                         std::vector<Piece>* pieces, std::vector<std::pair<double, int>>* events) {
+    pieces->clear();
+    if (seeing_needed <= 0) {
+      pieces->push_back({s0, s1, 0, 0});
+      return;
+    }
+    events->clear();
+    for (const auto& [a, b] : iv)
+      if (b > a) events->push_back({a, +1}), events->push_back({b, -1});
+    std::sort(events->begin(), events->end());
+    int count = 0;
+    double start = 0;
+    for (const auto& [sv, delta] : *events) {
+      const int before = count;
+      count += delta;
+      if (before < seeing_needed && count >= seeing_needed) start = sv;
+      if (before >= seeing_needed && count < seeing_needed && sv > start) {
+        if (!pieces->empty() && pieces->back().s1 >= start)
+          pieces->back().s1 = sv;
+        else
+          pieces->push_back({start, sv, 0, 0});
+      }
+    }
+  };
   // One pixel: its ray walked across every other camera.
   // `first`: the camera that emptied the last ray walked, tried first (a
   // neighbouring ray is usually emptied by the same camera).
-  auto pixel = [&](int r, int col, std::vector<Piece>& pieces, std::vector<Piece>& next,
-                   std::vector<VoteSegment>& segs, size_t& first) {
-    {
-      {
-        const Eigen::Vector3d D = camera.PixelRayWorld({col + 0.5, r + 0.5});
-        double s0 = 0, s1 = 1e9;
-        if (!box.ClipRay(O, D, &s0, &s1) || !(s1 > s0)) return;
-        if (!q.workspace().ClipRay(O, D, &s0, &s1) || !(s1 > s0)) return;
-        pieces.assign(1, {s0, s1, 0, 0});
-        for (size_t n = 0; n < walkers.size(); ++n) {
-          const size_t wi = n == 0 ? first : (n <= first ? n - 1 : n);
-          const SilhouetteWalker& w = walkers[wi];
-          // This camera's votes over the span still alive; each piece is cut by them.
-          w.Walk(O, D, pieces.front().s0, pieces.back().s1, &segs);
-          next.clear();
-          size_t k = 0;
-          for (const Piece& p : pieces) {
-            while (k < segs.size() && segs[k].s1 <= p.s0) ++k;
-            for (size_t j = k; j < segs.size() && segs[j].s0 < p.s1; ++j) {
-              const VoteSegment& sg = segs[j];
-              if (q.Vetoes(sg.vote)) continue;
-              const double a = std::max(p.s0, sg.s0), b = std::min(p.s1, sg.s1);
-              if (!(b > a)) continue;
-              const Piece np{a, b, p.object + (sg.vote == Vote::kObject), p.unseen + (sg.vote == Vote::kUnseen)};
-              if (!next.empty() && next.back().s1 == a && next.back().object == np.object &&
-                  next.back().unseen == np.unseen)
-                next.back().s1 = b;
-              else
-                next.push_back(np);
-            }
-          }
-          pieces.swap(next);
-          if (pieces.empty()) {
-            first = wi;
-            break;
-          }
+  struct Scratch {
+    std::vector<Piece> pieces, next;
+    std::vector<VoteSegment> segs;
+    std::vector<std::pair<double, int>> events;
+    std::vector<std::pair<double, double>> visible;
+    std::vector<char> walked;
+    size_t first = 0;
+  };
+  auto pixel = [&](int r, int col, Scratch& sc) {
+    std::vector<Piece>& pieces = sc.pieces;
+    std::vector<Piece>& next = sc.next;
+    const Eigen::Vector3d D = camera.PixelRayWorld({col + 0.5, r + 0.5});
+    double s0 = 0, s1 = 1e9;
+    if (!box.ClipRay(O, D, &s0, &s1) || !(s1 > s0)) return;
+    if (!q.workspace().ClipRay(O, D, &s0, &s1) || !(s1 > s0)) return;
+    visible_intervals(D, s0, s1, &sc.visible);
+    seen_pieces(sc.visible, s0, s1, &pieces, &sc.events);
+    if (pieces.empty()) return;
+    sc.walked.assign(walkers.size(), 0);
+    size_t& first = sc.first;
+    std::vector<VoteSegment>& segs = sc.segs;
+    for (size_t n = 0; n < walkers.size(); ++n) {
+      const size_t wi = n == 0 ? first : (n <= first ? n - 1 : n);
+      const SilhouetteWalker& w = walkers[wi];
+      // This camera's votes over the span still alive; each piece is cut by them.
+      w.Walk(O, D, pieces.front().s0, pieces.back().s1, &segs);
+      next.clear();
+      size_t k = 0;
+      for (const Piece& p : pieces) {
+        while (k < segs.size() && segs[k].s1 <= p.s0) ++k;
+        for (size_t j = k; j < segs.size() && segs[j].s0 < p.s1; ++j) {
+          const VoteSegment& sg = segs[j];
+          if (q.Vetoes(sg.vote)) continue;
+          const double a = std::max(p.s0, sg.s0), b = std::min(p.s1, sg.s1);
+          if (!(b > a)) continue;
+          const Piece np{a, b, p.object + (sg.vote == Vote::kObject), p.unseen + (sg.vote == Vote::kUnseen)};
+          if (!next.empty() && next.back().s1 == a && next.back().object == np.object &&
+              next.back().unseen == np.unseen)
+            next.back().s1 = b;
+          else
+            next.push_back(np);
         }
-        if (pieces.empty()) return;
-        bool in_loo = false;
-        for (const Piece& p : pieces) in_loo |= loo.Accepts(p.object, p.unseen);
-        if (in_loo) out.leave_one_out.at<uint8_t>(r, col) = 255;
-        // Camera `index` sees its own ray as one pixel: its map's.
-        const Vote own = own_map.at<uint8_t>(r, col) ? Vote::kObject : Vote::kBackground;
-        if (q.Vetoes(own)) return;
-        bool in_all = false;
-        for (const Piece& p : pieces) in_all |= q.Accepts(p.object + 1, p.unseen);
-        if (in_all) out.all.at<uint8_t>(r, col) = 255;
+      }
+      pieces.swap(next);
+      // A piece that too few of the cameras still to walk can see, with the
+      // object votes it has, cannot become inside: dropped now, not after every
+      // walk (a sliver at a frustum's edge otherwise keeps every walk going).
+      sc.walked[wi] = 1;
+      if (seeing_needed > 0) {
+        next.clear();
+        for (const Piece& p : pieces) {
+          int could = p.object;
+          for (size_t c = 0; c < walkers.size() && could < seeing_needed; ++c)
+            could += !sc.walked[c] && sc.visible[c].first < p.s1 && sc.visible[c].second > p.s0;
+          if (could >= seeing_needed) next.push_back(p);
+        }
+        pieces.swap(next);
+      }
+      if (pieces.empty()) {
+        first = wi;
+        break;
       }
     }
+    if (pieces.empty()) return;
+    bool in_loo = false;
+    for (const Piece& p : pieces) in_loo |= loo.Accepts(p.object, p.unseen);
+    if (in_loo) out.leave_one_out.at<uint8_t>(r, col) = 255;
+    // Camera `index` sees its own ray as one pixel: its map's.
+    const Vote own = own_map.at<uint8_t>(r, col) ? Vote::kObject : Vote::kBackground;
+    if (q.Vetoes(own)) return;
+    bool in_all = false;
+    for (const Piece& p : pieces) in_all |= q.Accepts(p.object + 1, p.unseen);
+    if (in_all) out.all.at<uint8_t>(r, col) = 255;
   };
   // Cells of camera `index`'s frustum (a tile of pixels times a depth range),
   // from 32-px tiles over the hull box's depths, split until each is empty, full
@@ -370,10 +487,8 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
     double z0, z1;
   };
   auto tile_rows = [&](int ty0, int ty1) {
-    std::vector<Piece> pieces, next;
-    std::vector<VoteSegment> segs;
+    Scratch scratch;
     std::vector<Cell> stack;
-    size_t first = 0;
     for (int ty = ty0; ty < ty1; ++ty)
       for (int tx = 0; tx < tiles_x; ++tx) {
         stack.assign(1, {cv::Rect(tx * kTile, ty * kTile, std::min(kTile, camera.width - tx * kTile),
@@ -414,7 +529,7 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
       }
     for (int r = ty0 * kTile; r < std::min(camera.height, ty1 * kTile); ++r)
       for (int col = 0; col < camera.width; ++col)
-        if (need.at<uint8_t>(r, col) && !decided.at<uint8_t>(r, col)) pixel(r, col, pieces, next, segs, first);
+        if (need.at<uint8_t>(r, col) && !decided.at<uint8_t>(r, col)) pixel(r, col, scratch);
   };
   ForEachRowBand(tiles_y, threads, [&](int r0, int r1, int) { tile_rows(r0, r1); });
   return out;

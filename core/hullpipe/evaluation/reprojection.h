@@ -28,12 +28,15 @@ struct Reprojection {
 /// hull. Each other camera's votes along the ray are found by walking its
 /// projection with steps as long as the map's distance transform allows (a
 /// uniform region in a few steps), quarter-pixel steps near a change of vote and
-/// each change bisected (to 2^-24 of a step); like RayCameraSegments with lens
+/// each change bisected (to 2^-14 of a step); like RayCameraSegments with lens
 /// distortion, a pixel corner the projection cuts by less than ~0.25 px can be
 /// missed. Both images in one pass: each ray is cut by the other cameras in turn
 /// (stopping as soon as nothing is left), and camera `index` itself, whose vote
 /// along its own ray is its map's pixel, is added last for `all`. Only rays
-/// through the leave-one-out hull's box are walked. threads >= 1.
+/// through the leave-one-out hull's box are walked, and of them only the parts
+/// that enough pinhole cameras' frusta hold to make a point inside (the
+/// query's required_seen(), camera `index` counted; cut in closed form, a
+/// distorted camera's frustum taken as everything). threads >= 1.
 Reprojection ReprojectHullExact(const VolumeQuery& query, size_t index, int threads = 2);
 
 /// Intersection over union of two CV_8UC1 masks of one size (non-zero = set).
