@@ -16,6 +16,12 @@
 // --all-frames: mean and worst over every frame. --synthetic N: one frame of a
 // synthetic figure seen by N dome cameras with exact maps (the timing case of a
 // 20-camera rig).
+//   vh_eval held-out --rig DIR [--stride S --first F --max-frames N] [--images DIR --image-frame K]
+// holds out each camera in turn, renders the textured hull of the others from
+// its pose and compares with its real image inside its map (PSNR, SSIM, IoU), for
+// each texturing variant (vh_eval_held_out.h).
+//   vh_eval segmentation --rig DIR [--stride S ...]
+// the same measure for each segmentation setting and the adaptive background.
 #include <cstdio>
 #include <iostream>
 
@@ -31,6 +37,7 @@
 #include "hullpipe/util/cli_range.h"
 #include "hullpipe/segmentation/rig_source.h"
 #include "vh_eval_collision.h"
+#include "vh_eval_held_out.h"
 #include "vh_eval_sweep.h"
 
 using namespace hullpipe;
@@ -42,15 +49,21 @@ struct CameraIoU {
   double all, loo;
 };
 
-int g_threads = 2;
+// How `vh_eval reprojection` reprojects: exact (ReprojectHullExact) or marched
+// at `step` metres; threads for either.
+struct ReprojectOptions {
+  bool exact = true;
+  double step = 0.005;
+  int threads = 2;
+};
 
-std::vector<CameraIoU> EvaluateViews(const std::vector<CameraMap>& views, const Aabb& workspace, double step,
-                                     bool exact) {
+std::vector<CameraIoU> EvaluateViews(const std::vector<CameraMap>& views, const Aabb& workspace,
+                                     const ReprojectOptions& o) {
   const VolumeQuery all(views, workspace);
   std::vector<CameraIoU> out;
-  if (exact) {
+  if (o.exact) {
     for (size_t i = 0; i < views.size(); ++i) {
-      const Reprojection r = ReprojectHullExact(all, i, g_threads);
+      const Reprojection r = ReprojectHullExact(all, i, o.threads);
       out.push_back({views[i].camera.id, MaskIoU(r.all, views[i].map), MaskIoU(r.leave_one_out, views[i].map)});
     }
     return out;
@@ -61,18 +74,25 @@ std::vector<CameraIoU> EvaluateViews(const std::vector<CameraMap>& views, const 
       if (j != i) others.push_back(int(j));
     const VolumeQuery loo = all.Subset(others);
     const Camera& cam = views[i].camera;
-    out.push_back({cam.id, MaskIoU(ReprojectHull(all, cam, step, g_threads), views[i].map),
-                   MaskIoU(ReprojectHull(loo, cam, step, g_threads), views[i].map)});
+    out.push_back({cam.id, MaskIoU(ReprojectHull(all, cam, o.step, o.threads), views[i].map),
+                   MaskIoU(ReprojectHull(loo, cam, o.step, o.threads), views[i].map)});
   }
   return out;
 }
 
-bool g_exact = true;
-
-std::vector<CameraIoU> EvaluateFrame(const RigSource& src, const RigFrame& f, double step) {
+std::vector<CameraIoU> EvaluateFrame(const RigSource& src, const RigFrame& f, const ReprojectOptions& o) {
   std::vector<CameraMap> views;
   for (size_t i = 0; i < src.cameras().size(); ++i) views.push_back({src.cameras()[i], f.maps[i]});
-  return EvaluateViews(views, src.workspace(), step, g_exact);
+  return EvaluateViews(views, src.workspace(), o);
+}
+
+// One evaluated frame: its per-camera rows into j["cameras"], and (unless
+// json) the header line and the table on stdout.
+void ReportFrame(const std::vector<CameraIoU>& res, const std::string& header, bool json, nlohmann::json* j) {
+  for (const auto& r : res) (*j)["cameras"].push_back({{"id", r.id}, {"iou_all", r.all}, {"iou_leave_one_out", r.loo}});
+  if (json) return;
+  std::printf("%s\n%-8s %10s %20s\n", header.c_str(), "camera", "iou_all", "iou_leave_one_out");
+  for (const auto& r : res) std::printf("%-8d %10.3f %20.3f\n", r.id, r.all, r.loo);
 }
 
 }  // namespace
@@ -121,7 +141,7 @@ int main(int argc, char** argv) {
   std::string rig;
   int frame = 200;
   bool json = false, all_frames = false;
-  double step = 0.005;
+  ReprojectOptions ro;
   std::string save_worst;
   auto* rig_opt = rep->add_option("--rig", rig, "Rig directory or YAML rig file");
   int synthetic = 0, syn_w = 1024, syn_h = 768;
@@ -134,20 +154,46 @@ int main(int argc, char** argv) {
   rep->add_option("--method", method, "exact (ray–hull intervals) or march (--step)")
       ->check(CLI::IsMember({"exact", "march"}))
       ->capture_default_str();
-  rep->add_option("--threads", g_threads, "Threads")->check(CLI::Range(1, 256))->capture_default_str();
+  rep->add_option("--threads", ro.threads, "Threads")->check(CLI::Range(1, 256))->capture_default_str();
   rep->add_option("--frame", frame, "Frame index (0-based)")->capture_default_str();
-  rep->add_option("--step", step, "--method march: ray-marching step, metres")
+  rep->add_option("--step", ro.step, "--method march: ray-marching step, metres")
       ->check(hullpipe::FiniteRange(1e-4, 1.0))
       ->capture_default_str();
   rep->add_flag("--json", json, "Print one JSON object");
   rep->add_flag("--all-frames", all_frames, "Evaluate every frame; report mean and worst per camera");
   rep->add_option("--save-worst", save_worst, "With --all-frames: PNG of the worst frame's reprojections");
+  HeldOutEvalOptions ho;
+  auto* held = app.add_subcommand("held-out", "Rendering error from each held-out camera's pose, per texturing variant");
+  auto* seg = app.add_subcommand("segmentation", "Held-out rendering error per segmentation setting");
+  for (auto* sub : {held, seg}) {
+    sub->add_option("--rig", ho.rig, "Rig directory or YAML rig file")->required();
+    sub->add_option("--stride", ho.stride, "Evaluate every S-th frame")->check(CLI::Range(1, 1000000))->capture_default_str();
+    sub->add_option("--first", ho.first, "First frame evaluated (0-based)")->check(CLI::Range(0, 100000000))->capture_default_str();
+    sub->add_option("--max-frames", ho.max_frames, "At most this many frames (0: to the end)")
+        ->check(CLI::Range(0, 100000000))
+        ->capture_default_str();
+    sub->add_option("--threads", ho.threads, "Threads")->check(CLI::Range(1, 256))->capture_default_str();
+    sub->add_flag("--json", ho.json, "Print one JSON object");
+  }
+  auto* images = held->add_option("--images", ho.images_dir,
+                                   "Write figures (JPEG) of the --image-frame frames into this directory")
+                     ->check(CLI::ExistingDirectory);
+  held->add_option("--image-frame", ho.image_frames, "Frames to draw (with --images)")->needs(images);
+  images->needs(held->get_option("--image-frame"));
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   if (collision->parsed()) {
     try {
       return RunCollisionEval(co);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "vh_eval: %s\n", e.what());
+      return 1;
+    }
+  }
+  if (held->parsed() || seg->parsed()) {
+    try {
+      return held->parsed() ? RunHeldOutEval(ho) : RunSegmentationEval(ho);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "vh_eval: %s\n", e.what());
       return 1;
@@ -162,7 +208,7 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  g_exact = method == "exact";
+  ro.exact = method == "exact";
   try {
     if (synthetic > 0) {
       const SyntheticScene scene = NamedScene("figure", 0.5);
@@ -173,18 +219,15 @@ int main(int argc, char** argv) {
       ws.min = Eigen::Vector3d(-2, -2, -2.5);
       ws.max = Eigen::Vector3d(2, 2, 0.05);
       const double t0 = MonotonicSeconds();
-      const auto res = EvaluateViews(views, ws, step, g_exact);
+      const auto res = EvaluateViews(views, ws, ro);
       const double seconds = MonotonicSeconds() - t0;
       nlohmann::json j = {{"synthetic_cameras", synthetic}, {"width", syn_w}, {"height", syn_h},
-                          {"method", method}, {"threads", g_threads}, {"seconds", seconds}};
-      for (const auto& r : res) j["cameras"].push_back({{"id", r.id}, {"iou_all", r.all}, {"iou_leave_one_out", r.loo}});
-      if (json) {
-        std::cout << j.dump(2) << std::endl;
-      } else {
-        std::printf("%d synthetic cameras %dx%d, %s: %.2f s\n%-8s %10s %20s\n", synthetic, syn_w, syn_h,
-                    method.c_str(), seconds, "camera", "iou_all", "iou_leave_one_out");
-        for (const auto& r : res) std::printf("%-8d %10.3f %20.3f\n", r.id, r.all, r.loo);
-      }
+                          {"method", method}, {"threads", ro.threads}, {"seconds", seconds}};
+      char header[160];
+      std::snprintf(header, sizeof header, "%d synthetic cameras %dx%d, %s: %.2f s", synthetic, syn_w, syn_h,
+                    method.c_str(), seconds);
+      ReportFrame(res, header, json, &j);
+      if (json) std::cout << j.dump(2) << std::endl;
       return 0;
     }
     if (rig.empty()) throw std::invalid_argument("give --rig DIR or --synthetic N");
@@ -197,16 +240,14 @@ int main(int argc, char** argv) {
       for (size_t i = 0; i < f.maps.size(); ++i)
         if (f.maps[i].empty()) throw std::runtime_error("frame " + std::to_string(frame) + " unreadable in a camera");
       const double t0 = MonotonicSeconds();
-      const auto res = EvaluateFrame(*src, f, step);
+      const auto res = EvaluateFrame(*src, f, ro);
+      const double seconds = MonotonicSeconds() - t0;
       j["frame"] = frame;
-      j["step_m"] = step;
-      j["seconds"] = MonotonicSeconds() - t0;
-      for (const auto& r : res) j["cameras"].push_back({{"id", r.id}, {"iou_all", r.all}, {"iou_leave_one_out", r.loo}});
-      if (!json) {
-        std::printf("frame %d (%s, %.2f s)\n%-8s %10s %20s\n", frame, method.c_str(), double(j["seconds"]), "camera",
-                    "iou_all", "iou_leave_one_out");
-        for (const auto& r : res) std::printf("%-8d %10.3f %20.3f\n", r.id, r.all, r.loo);
-      }
+      j["step_m"] = ro.step;
+      j["seconds"] = seconds;
+      char header[96];
+      std::snprintf(header, sizeof header, "frame %d (%s, %.2f s)", frame, method.c_str(), seconds);
+      ReportFrame(res, header, json, &j);
     } else {
       struct Acc {
         double sum_all = 0, sum_loo = 0, min_all = 1, min_loo = 1;
@@ -220,7 +261,7 @@ int main(int argc, char** argv) {
         for (const auto& m : f.maps) ok &= !m.empty();
         if (!ok) continue;
         ++evaluated;
-        const auto res = EvaluateFrame(*src, f, step);
+        const auto res = EvaluateFrame(*src, f, ro);
         double frame_min = 2;
         for (const auto& r : res) {
           Acc& a = acc[r.id];
@@ -241,8 +282,8 @@ int main(int argc, char** argv) {
               std::vector<int> others;
               for (size_t jx = 0; jx < views.size(); ++jx)
                 if (jx != i) others.push_back(int(jx));
-              const cv::Mat rep_loo = g_exact ? ReprojectHullExact(all, i, g_threads).leave_one_out
-                                              : ReprojectHull(all.Subset(others), views[i].camera, step, g_threads);
+              const cv::Mat rep_loo = ro.exact ? ReprojectHullExact(all, i, ro.threads).leave_one_out
+                                               : ReprojectHull(all.Subset(others), views[i].camera, ro.step, ro.threads);
               std::vector<cv::Mat> ch = {rep_loo, views[i].map, views[i].map & rep_loo};
               cv::Mat vis;
               cv::merge(ch, vis);  // blue: hull only, green: map only, white/cyan: both

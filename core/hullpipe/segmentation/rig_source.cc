@@ -367,6 +367,7 @@ class VideoRig final : public RigSource {
       }
     } else {
       map = c.background.Segment(img, options_.segmentation);
+      if (options_.follow_files) c.background.Follow(img, map, options_.background_rate);
     }
     f->images[i] = img;
     f->maps[i] = map;

@@ -79,6 +79,11 @@ struct VideoRigOptions {
   /// Live cameras: the background model follows slow lighting change outside
   /// object pixels at this rate per frame (BackgroundModel::Follow), [0, 1]; 0: fixed.
   double background_rate = 0.05;
+  /// Video and image files too: follow the background at background_rate (the
+  /// adaptive model). Off by default: a recorded rig's background was taken
+  /// just before its video, and the held-out table in docs/benchmarks.md
+  /// ("Segmentation settings") measures what following costs or buys there.
+  bool follow_files = false;
   /// Live cameras: the input ends when no camera delivered a frame for this long, seconds.
   double live_timeout_s = 5;
   /// Polled while learning a live background (which waits for frames): true aborts.
