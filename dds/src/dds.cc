@@ -2,9 +2,14 @@
 
 #include <dds/ddsi/ddsi_serdata.h>
 
+#include <pthread.h>
+#include <signal.h>
+
 #include <csignal>
 #include <cstddef>
 #include <cstring>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include <spdlog/spdlog.h>
@@ -115,11 +120,33 @@ void RequestStop() { g_stop.store(true); }
 StopFlag StopRequestFlag() { return &g_stop; }
 
 void InstallStopHandler() {
-  struct sigaction sa = {};
-  sa.sa_handler = OnSignal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  static std::once_flag once;
+  std::call_once(once, [] {
+    // A handler for any thread that leaves the signals unblocked (one started
+    // before this call)...
+    struct sigaction sa = {};
+    sa.sa_handler = OnSignal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
+    // ...and, for every thread started after it (DDS's, OpenCV's, the GL
+    // driver's inherit this mask), delivery to one thread that waits for
+    // nothing else. A signal the kernel hands to a thread parked in a raw
+    // futex inside an uninstrumented library is otherwise held back by
+    // ThreadSanitizer's deferred delivery until that thread wakes, which may
+    // be never.
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    if (pthread_sigmask(SIG_BLOCK, &set, nullptr) != 0) return;  // the handler alone still works
+    std::thread([set] {
+      for (;;) {
+        int sig = 0;
+        if (sigwait(&set, &sig) == 0) g_stop.store(true);
+      }
+    }).detach();
+  });
 }
 
 }  // namespace hullpipe::dds

@@ -184,7 +184,11 @@ bool StopRequested();
 void RequestStop();
 /// The same request as a flag that core loops poll (util/interrupt.h).
 StopFlag StopRequestFlag();
-/// Installs SIGINT and SIGTERM handlers that call RequestStop (async-signal-safe).
+/// Makes SIGINT and SIGTERM call RequestStop: blocks both in the calling thread
+/// (so in every thread it starts later) and takes them in one thread of its own
+/// with sigwait; a handler covers threads started earlier. Call it before any
+/// other thread starts (StartNode does); a second call does nothing. Child
+/// processes must reset their signal mask (launch's Process does).
 void InstallStopHandler();
 
 }  // namespace hullpipe::dds
