@@ -101,12 +101,22 @@ std::vector<Face> ClipPolytope(const std::vector<Face>& faces, const Eigen::Vect
 
 Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& maps,
                      const Aabb& workspace) {
-  if (workspace.empty() || cameras.size() != maps.size()) return {};
+  if (cameras.size() != maps.size()) return {};
+  std::vector<cv::Rect> rects;
+  for (const cv::Mat& m : maps) {
+    CV_Assert(m.type() == CV_8UC1);
+    rects.push_back(cv::boundingRect(m));  // the object pixels' bounding rectangle
+  }
+  return HullBoundingBox(cameras, rects, workspace);
+}
+
+Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::Rect>& object_rects,
+                     const Aabb& workspace) {
+  if (workspace.empty() || cameras.size() != object_rects.size()) return {};
   std::vector<Face> poly = BoxFaces(workspace);
   for (size_t i = 0; i < cameras.size() && !poly.empty(); ++i) {
     const Camera& cam = cameras[i];
-    CV_Assert(maps[i].type() == CV_8UC1);
-    const cv::Rect r = cv::boundingRect(maps[i]);  // the object pixels' bounding rectangle
+    const cv::Rect& r = object_rects[i];
     if (r.area() == 0) return {};
     // Undistorted extremes of the rectangle's border, in normalized coordinates.
     double a0 = 1e300, a1 = -1e300, b0 = 1e300, b1 = -1e300;

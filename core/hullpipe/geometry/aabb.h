@@ -56,4 +56,10 @@ Aabb DefaultWorkspace(const std::vector<Camera>& cameras);
 Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& maps,
                      const Aabb& workspace);
 
+/// The same from each map's object-pixel bounding rectangle (cv::boundingRect of
+/// maps[i]; an empty rectangle: no object pixel), for callers that bound many
+/// subsets of one set of cameras and so find each rectangle once.
+Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::Rect>& object_rects,
+                     const Aabb& workspace);
+
 }  // namespace hullpipe

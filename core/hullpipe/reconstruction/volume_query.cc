@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <limits>
+#include <set>
 #include <stdexcept>
 #include <string>
+
+#include <opencv2/imgproc.hpp>
 
 namespace hullpipe {
 
@@ -30,23 +33,31 @@ bool SeesWholeBox(const Camera& c, const Aabb& box) {
 // is in T and its pyramid is added; repeat until none is added. X lies in that
 // final box for some S ⊆ T, so the union of the final boxes is conservative.
 // Cameras that see the whole workspace join every S (they always vote).
-Aabb UnknownPolicyHullBox(const std::vector<Camera>& cams, const std::vector<cv::Mat>& maps, const Aabb& workspace,
+Aabb UnknownPolicyHullBox(const std::vector<Camera>& cams, const std::vector<cv::Rect>& rects, const Aabb& workspace,
                           int m) {
   const size_t n = cams.size();
   Aabb out;
   std::vector<int> pick(n, 0);
   std::fill(pick.end() - m, pick.end(), 1);  // the first combination in next_permutation order
   int subsets = 0;
+  // Camera sets already grown from: the growth from a set is the same whatever
+  // subset it started from, so each is followed once (many subsets grow into the
+  // same few sets).
+  std::set<std::vector<char>> followed;
   do {
     if (++subsets > 4096) return workspace;  // too many cameras for the exact union: stay conservative
     std::vector<char> in(pick.begin(), pick.end());
     Aabb box;
     for (;;) {
+      if (!followed.insert(in).second) {
+        box = Aabb{};  // its final box is in `out` already
+        break;
+      }
       std::vector<Camera> sc;
-      std::vector<cv::Mat> sm;
+      std::vector<cv::Rect> sr;
       for (size_t i = 0; i < n; ++i)
-        if (in[i]) sc.push_back(cams[i]), sm.push_back(maps[i]);
-      box = HullBoundingBox(sc, sm, workspace);
+        if (in[i]) sc.push_back(cams[i]), sr.push_back(rects[i]);
+      box = HullBoundingBox(sc, sr, workspace);
       if (box.empty()) break;
       bool added = false;
       for (size_t i = 0; i < n; ++i)
@@ -70,7 +81,7 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
   const int n = int(views_.size());
   required_seen_ = options_.out_of_view == OutOfView::kOutside ? n : std::min(options_.min_seen, n);
   std::vector<Camera> cams;
-  std::vector<cv::Mat> maps;
+  std::vector<cv::Rect> rects;  // each map's object pixels' bounding rectangle, found once
   for (const auto& v : views_) {
     const Camera& c = v.camera;
     if (v.map.type() != CV_8UC1 || v.map.cols != c.width || v.map.rows != c.height)
@@ -91,13 +102,13 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
     f.step = v.map.step[0];
     fast_.push_back(f);
     cams.push_back(c);
-    maps.push_back(v.map);
+    rects.push_back(cv::boundingRect(v.map));
   }
   if (options_.out_of_view == OutOfView::kOutside) {
-    hull_box_ = HullBoundingBox(cams, maps, workspace_);
+    hull_box_ = HullBoundingBox(cams, rects, workspace_);
     return;
   }
-  hull_box_ = UnknownPolicyHullBox(cams, maps, workspace_, required_seen_);
+  hull_box_ = UnknownPolicyHullBox(cams, rects, workspace_, required_seen_);
 }
 
 Vote VolumeQuery::VoteOf(size_t i, const Eigen::Vector3d& X) const {
