@@ -46,6 +46,7 @@ Eigen::Vector2d Camera::Distort(const Eigen::Vector2d& xn) const {
 
 Eigen::Vector2d Camera::Undistort(const Eigen::Vector2d& xd) const {
   const auto& [k1, k2, p1, p2, k3] = distortion;
+  if (!HasDistortion()) return xd;  // what the iteration below returns at once
   // Newton's method on Distort(x) = xd with the analytic Jacobian, from x = xd.
   // Quadratic convergence: ~1e-15 in a few steps even near the edge of the valid
   // radius, where OpenCV's fixed-point iteration is still 1e-5 px off.
