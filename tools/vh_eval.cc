@@ -12,7 +12,7 @@
 // between the hull's reprojection and that camera's object-pixel map (iou_all),
 // and the same with the hull built from the other cameras only
 // (iou_leave_one_out), and the seconds the frame took. The reprojection is exact
-// (ray–hull intervals, ReprojectHullExact) unless --method march. With
+// (ray–hull intervals, ExactReprojector) unless --method march. With
 // --all-frames: mean and worst over every frame. --synthetic N: one frame of a
 // synthetic figure seen by N dome cameras with exact maps (the timing case of a
 // 20-camera rig).
@@ -23,6 +23,7 @@
 //   vh_eval segmentation --rig DIR [--stride S ...]
 // the same measure for each segmentation setting and the adaptive background.
 #include <cstdio>
+#include <memory>
 #include <iostream>
 
 #include <CLI/CLI.hpp>
@@ -49,7 +50,7 @@ struct CameraIoU {
   double all, loo;
 };
 
-// How `vh_eval reprojection` reprojects: exact (ReprojectHullExact) or marched
+// How `vh_eval reprojection` reprojects: exact (ExactReprojector) or marched
 // at `step` metres; threads for either.
 struct ReprojectOptions {
   bool exact = true;
@@ -62,8 +63,9 @@ std::vector<CameraIoU> EvaluateViews(const std::vector<CameraMap>& views, const 
   const VolumeQuery all(views, workspace);
   std::vector<CameraIoU> out;
   if (o.exact) {
+    const ExactReprojector reprojector(all, o.threads);
     for (size_t i = 0; i < views.size(); ++i) {
-      const Reprojection r = ReprojectHullExact(all, i, o.threads);
+      const Reprojection r = reprojector.Reproject(i, o.threads);
       out.push_back({views[i].camera.id, MaskIoU(r.all, views[i].map), MaskIoU(r.leave_one_out, views[i].map)});
     }
     return out;
@@ -278,11 +280,13 @@ int main(int argc, char** argv) {
             for (size_t i = 0; i < src->cameras().size(); ++i) views.push_back({src->cameras()[i], f.maps[i]});
             const VolumeQuery all(views, src->workspace());
             std::vector<cv::Mat> tiles;
+            std::unique_ptr<ExactReprojector> reprojector;
+            if (ro.exact) reprojector = std::make_unique<ExactReprojector>(all, ro.threads);
             for (size_t i = 0; i < views.size(); ++i) {
               std::vector<int> others;
               for (size_t jx = 0; jx < views.size(); ++jx)
                 if (jx != i) others.push_back(int(jx));
-              const cv::Mat rep_loo = ro.exact ? ReprojectHullExact(all, i, ro.threads).leave_one_out
+              const cv::Mat rep_loo = ro.exact ? reprojector->Reproject(i, ro.threads).leave_one_out
                                                : ReprojectHull(all.Subset(others), views[i].camera, ro.step, ro.threads);
               std::vector<cv::Mat> ch = {rep_loo, views[i].map, views[i].map & rep_loo};
               cv::Mat vis;

@@ -1,7 +1,12 @@
 #include "hullpipe/evaluation/reprojection.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -9,6 +14,9 @@
 
 #include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/util/parallel.h"
+#include "hullpipe/geometry/conventions.h"
+#include <cstdio>
+#include <cstdlib>
 
 namespace hullpipe {
 
@@ -67,31 +75,54 @@ cv::Mat ReprojectHull(const VolumeQuery& q, const Camera& camera, double step, i
 
 namespace {
 
+// camera.Project(X), inlined for a pinhole camera (`pinhole`: !HasDistortion();
+// the same arithmetic, as a pinhole's valid radius is unbounded and its
+// distortion the identity). False where X does not project.
+inline bool ProjectTo(const Camera& camera, bool pinhole, const Eigen::Vector3d& X, Eigen::Vector2d* uv) {
+  if (!pinhole) {
+    const auto p = camera.Project(X);
+    if (p) *uv = *p;
+    return p.has_value();
+  }
+  const Eigen::Vector3d xc = camera.cam_from_world * X;
+  if (!(xc.z() > 1e-9)) return false;
+  *uv = Eigen::Vector2d(camera.fx * (xc.x() / xc.z()) + camera.cx, camera.fy * (xc.y() / xc.z()) + camera.cy);
+  return true;
+}
+
 // One camera's object-pixel map prepared for walking rays across it: per pixel,
 // the distance (px, centre to centre) to the nearest pixel of the other vote, so
 // a walk crosses a uniform region in a few long steps instead of pixel by pixel.
 struct SilhouetteWalker {
   const Camera* camera = nullptr;
   const cv::Mat* map = nullptr;
+  bool pinhole = false;  // !camera->HasDistortion()
   cv::Mat distance;  // CV_32FC1
 
-  SilhouetteWalker(const Camera& c, const cv::Mat& m) : camera(&c), map(&m) {
+  SilhouetteWalker(const Camera& c, const cv::Mat& m) : camera(&c), map(&m), pinhole(!c.HasDistortion()) {}
+
+  // Computes `distance` (before any At or Walk).
+  void Prepare() {
     cv::Mat to_background, to_object;
-    cv::distanceTransform(m != 0, to_background, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-    cv::distanceTransform(m == 0, to_object, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    cv::distanceTransform(*map != 0, to_background, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    cv::distanceTransform(*map == 0, to_object, cv::DIST_L2, cv::DIST_MASK_PRECISE);
     distance = to_background + to_object;  // each pixel has one of them zero
   }
 
-  // The vote at X, and `safe`: how far (px) its projection can move and keep it;
-  // -1 where the point does not project (behind the camera, beyond the lens's
-  // valid radius).
+  // `safe` where a point does not project (behind the camera, beyond the lens's
+  // valid radius). Any other value, negative ones included (a pixel beside one of
+  // the other vote), is a projection's.
+  static constexpr double kNotProjecting = -std::numeric_limits<double>::infinity();
+  static bool Projects(double safe) { return safe != kNotProjecting; }
+
+  // The vote at X, and `safe`: how far (px) its projection can move and keep it
+  // (kNotProjecting where it does not project).
   Vote At(const Eigen::Vector3d& X, Eigen::Vector2d* uv, double* safe) const {
-    const auto p = camera->Project(X);
-    if (!p) {
-      *safe = -1;
+    if (!ProjectTo(*camera, pinhole, X, uv)) {
+      *safe = kNotProjecting;
       return Vote::kUnseen;
     }
-    *uv = *p;
+    const Eigen::Vector2d* p = uv;
     const double u = p->x(), v = p->y(), w = camera->width, h = camera->height;
     if (!camera->InImage(*p)) {
       const double du = std::max({0.0, -u, u - w}), dv = std::max({0.0, -v, v - h});
@@ -106,28 +137,89 @@ struct SilhouetteWalker {
     return map->at<uint8_t>(row, col) ? Vote::kObject : Vote::kBackground;
   }
 
+  // A pinhole camera: where on O + s D, s in [s0, s1), the vote first differs
+  // from `vote`, found exactly: the projection is a straight segment, so its
+  // vote changes only where it crosses a pixel line u = k or v = k (the image's
+  // border among them); each crossing is solved in closed form in s and the
+  // vote taken between consecutive crossings. uv0, uv1: the projections at s0,
+  // s1 (both in front of the camera). Returns 1 with *at and *far (the vote
+  // beyond) at the first change, 0 if there is none, -1 if the step crosses
+  // more than 64 lines (the caller steps shorter).
+  int FirstChange(const Eigen::Vector3d& O, const Eigen::Vector3d& D, double s0, double s1,
+                  const Eigen::Vector2d& uv0, const Eigen::Vector2d& uv1, Vote vote, double* at, Vote* far) const {
+    const Eigen::Vector3d P = camera->cam_from_world * O, Q = camera->cam_from_world.rotation * D;
+    std::array<double, 66> cuts;
+    size_t n = 0;
+    cuts[n++] = s0;
+    // u(s) = fx (P.x + s Q.x) / (P.z + s Q.z) + cx = k  <=>  s = (a P.z - P.x) / (Q.x - a Q.z), a = (k - cx) / fx.
+    auto add_lines = [&](double w0, double w1, double f, double c, double p, double q) {
+      const double lo = std::min(w0, w1), hi = std::max(w0, w1);
+      for (double k = std::floor(lo) + 1; k <= hi; k += 1) {
+        if (n + 1 >= cuts.size()) return false;
+        const double a = (k - c) / f;
+        const double den = q - a * Q.z();
+        if (den == 0) continue;
+        const double sk = (a * P.z() - p) / den;
+        if (sk > s0 && sk < s1) cuts[n++] = sk;
+      }
+      return true;
+    };
+    if (!add_lines(uv0.x(), uv1.x(), camera->fx, camera->cx, P.x(), Q.x()) ||
+        !add_lines(uv0.y(), uv1.y(), camera->fy, camera->cy, P.y(), Q.y()))
+      return -1;
+    std::sort(cuts.begin() + 1, cuts.begin() + long(n));
+    cuts[n] = s1;
+    for (size_t i = 0; i < n; ++i) {
+      if (!(cuts[i + 1] > cuts[i])) continue;
+      Eigen::Vector2d uv_m;
+      double safe_m;
+      // Between two crossings the projection stays in one pixel (or off the
+      // image): one vote. At s0 itself a point on a line may round to the pixel
+      // behind the walk; the change is then at s0.
+      const Vote v = At(O + (0.5 * (cuts[i] + cuts[i + 1])) * D, &uv_m, &safe_m);
+      if (v != vote) {
+        *at = cuts[i];
+        *far = v;
+        return 1;
+      }
+    }
+    return 0;
+  }
+
   // Camera's votes along O + s D, s in [lo, hi]: sorted, covering, merged.
-  // Long steps while the projection stays `safe`, quarter-pixel steps near a
-  // change of vote, each change bisected to 2^-14 of its step (1.5e-5 px).
+  // A pinhole camera: steps as long as the map's distance transform allows
+  // (checked exactly: the projection is a straight segment from the centre of
+  // the safe disk), and where that is under 4 px, 4-px steps scanned pixel by
+  // pixel (FirstChange): every change of vote found, in closed form. A distorted
+  // camera: quarter-pixel steps near a change, each bisected to 2^-14 of its
+  // step (1.5e-5 px; a pixel corner cut by under ~0.25 px can be missed).
   void Walk(const Eigen::Vector3d& O, const Eigen::Vector3d& D, double lo, double hi,
             std::vector<VoteSegment>* out) const {
     out->clear();
-    constexpr double kMinStepPx = 0.25;
+    constexpr double kMinStepPx = 0.25, kScanPx = 4.0;
     Eigen::Vector2d uv, uv_next;
     double safe = 0, safe_next = 0;
     double s = lo;
     Vote vote = At(O + s * D, &uv, &safe);
     double seg_start = lo;
     const double span = hi - lo;
+    auto change_at = [&](double at, Vote far) {
+      if (at > seg_start) out->push_back({seg_start, at, vote});
+      seg_start = at;
+      s = at;
+      At(O + s * D, &uv, &safe);  // where the walk goes on from
+      vote = far;                 // the far side's vote, also at the boundary itself
+    };
     while (s < hi) {
-      // The step in s that moves the projection about max(safe, 1/4) px.
-      const double want_px = std::max(safe, kMinStepPx);
+      const bool scan = pinhole && Projects(safe);
+      // The step in s that moves the projection about max(safe, 1/4 or 4) px.
+      const double want_px = std::max(safe, scan ? kScanPx : kMinStepPx);
       double ds;
-      if (safe < 0) {
+      if (!Projects(safe)) {
         ds = 1e-3 * span;  // not projecting here: small fixed steps
       } else {
         // Pinhole speed of the projection along the ray (distortion changes it
-        // little; the chord check below keeps the step safe either way).
+        // little; the checks below keep the step safe either way).
         const Eigen::Vector3d a = camera->cam_from_world * (O + s * D), b = camera->cam_from_world.rotation * D;
         const double iz2 = 1.0 / (a.z() * a.z());
         const double speed = std::hypot(camera->fx * (b.x() * a.z() - a.x() * b.z()) * iz2,
@@ -135,11 +227,38 @@ struct SilhouetteWalker {
         ds = speed > 0 ? want_px / speed : span;
       }
       ds = std::min(std::max(ds, 1e-9 * std::max(1.0, span)), hi - s);
-      // The chord may not leave the safe disk: shrink until it does not.
       Vote next = At(O + (s + ds) * D, &uv_next, &safe_next);
-      for (int k = 0; k < 30 && safe >= kMinStepPx && next != vote; ++k) {
-        ds *= 0.5;
-        next = At(O + (s + ds) * D, &uv_next, &safe_next);
+      if (scan && Projects(safe_next)) {
+        // Within the safe disk: one vote all the way.
+        if ((uv_next - uv).norm() <= safe && next == vote) {
+          s += ds, uv = uv_next, safe = safe_next;
+          continue;
+        }
+        double at = 0;
+        Vote far = next;
+        int found = FirstChange(O, D, s, s + ds, uv, uv_next, vote, &at, &far);
+        for (int k = 0; k < 30 && found == -1; ++k) {
+          // Too many lines (the projection sped up along the step): shorter.
+          ds *= 0.25;
+          next = At(O + (s + ds) * D, &uv_next, &safe_next);
+          far = next;
+          found = FirstChange(O, D, s, s + ds, uv, uv_next, vote, &at, &far);
+        }
+        if (found == 1) {
+          change_at(at, far);
+          continue;
+        }
+        if (found == 0 && next == vote) {
+          s += ds, uv = uv_next, safe = safe_next;
+          continue;
+        }
+        // Else rounding left the end's vote unexplained: bisected below.
+      } else {
+        // The chord may not leave the safe disk: shrink until its end agrees.
+        for (int k = 0; k < 30 && safe >= kMinStepPx && next != vote; ++k) {
+          ds *= 0.5;
+          next = At(O + (s + ds) * D, &uv_next, &safe_next);
+        }
       }
       if (next != vote) {
         // A change within this step: bisect for it.
@@ -150,11 +269,7 @@ struct SilhouetteWalker {
           double safe_m;
           (At(O + m * D, &uv_m, &safe_m) == vote ? a : b) = m;
         }
-        out->push_back({seg_start, b, vote});
-        seg_start = b;
-        s = b;
-        At(O + s * D, &uv, &safe);  // where the walk goes on from
-        vote = next;                // the far side's vote, also at the boundary itself
+        change_at(b, next);
         continue;
       }
       s += ds;
@@ -173,27 +288,45 @@ struct SilhouetteWalker {
 struct TileClassifier {
   struct Other {
     const Camera* camera;
-    cv::Mat sum;  // integral image of map != 0 (CV_32S, (h+1) x (w+1))
+    const cv::Mat* sum;  // integral image of map != 0 (CV_32S, (h+1) x (w+1))
     const SilhouetteWalker* walker;  // its distance transform
     /// Margin (px) around the sampled projection: 2 where this camera or the
     /// tile's is distorted (the projection bends between the samples), else 0.
     double margin;
+    bool pinhole;  // camera->HasDistortion() is false
+
+    bool Project(const Eigen::Vector3d& X, Eigen::Vector2d* uv) const { return ProjectTo(*camera, pinhole, X, uv); }
   };
   bool distorted = false;  // the tile's camera or one of the others: sample 27 points, not 8
   std::vector<Other> others;
   const Camera* camera;
   double z_near, z_far;
   Aabb workspace, hull_box;
-  int required_seen = 1;  // of the query with the tile's camera (VolumeQuery::required_seen)
+  // Other cameras that must see a point of the cell for it to be inside: where
+  // the tile's own map has an object pixel, one fewer than the whole query needs
+  // (VolumeQuery::required_seen, the tile's camera counted, for `all`); where it
+  // has none, `all` is empty there and only the leave-one-out hull, without the
+  // tile's camera, is looked for (its required_seen).
+  int others_needed_own_object = 0, others_needed_own_background = 1;
+  cv::Mat own_sum;  // integral image of the tile's camera's map != 0
 
   enum class Kind { kEmpty, kFull, kMixed };
 
-  Kind Classify(int c0, int r0, int c1, int r1, double zn, double zf) const {
+  // `hint`: the other camera that emptied the caller's last empty cell, tried
+  // first (neighbouring cells are mostly emptied by the same camera); updated.
+  Kind Classify(int c0, int r0, int c1, int r1, double zn, double zf, size_t* hint) const {
     // The frustum is convex: with pinholes its 8 corners bound its projection;
     // a distorted camera also gets the edge and face midpoints (27 points). The
     // centre comes first, for the disk test.
-    std::vector<Eigen::Vector3d> pts;
-    pts.reserve(28);
+    struct Points {
+      std::array<Eigen::Vector3d, 28> p;
+      size_t n = 0;
+      void push_back(const Eigen::Vector3d& x) { p[n++] = x; }
+      size_t size() const { return n; }
+      const Eigen::Vector3d& operator[](size_t k) const { return p[k]; }
+      const Eigen::Vector3d* begin() const { return p.data(); }
+      const Eigen::Vector3d* end() const { return p.data() + n; }
+    } pts;
     const Eigen::Vector3d O = camera->Center();
     const Eigen::Matrix3d world_from_cam = camera->cam_from_world.rotation.transpose();
     auto point = [&](double u, double v, double z) {
@@ -213,20 +346,22 @@ struct TileClassifier {
     if (!cell.Intersects(hull_box)) return Kind::kEmpty;
     bool all_full = true;
     for (const auto& p : pts) all_full &= workspace.Contains(p);
-    std::vector<Eigen::Vector2d> uvs(pts.size());
+    std::array<Eigen::Vector2d, 28> uvs;
     int seeing = 0;  // other cameras whose image the cell's projection may touch
-    for (const Other& o : others) {
+    for (size_t n = 0; n < others.size(); ++n) {
+      const size_t oi = n == 0 ? *hint : (n <= *hint ? n - 1 : n);
+      const Other& o = others[oi];
       double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
       bool projects = true;
       for (size_t k = 0; k < pts.size() && projects; ++k) {
-        const auto uv = o.camera->Project(pts[k]);
-        if (!uv) {
+        Eigen::Vector2d uv;
+        if (!o.Project(pts[k], &uv)) {
           projects = false;
           break;
         }
-        uvs[k] = *uv;
-        u0 = std::min(u0, uv->x()), v0 = std::min(v0, uv->y());
-        u1 = std::max(u1, uv->x()), v1 = std::max(v1, uv->y());
+        uvs[k] = uv;
+        u0 = std::min(u0, uv.x()), v0 = std::min(v0, uv.y());
+        u1 = std::max(u1, uv.x()), v1 = std::max(v1, uv.y());
       }
       // The disk around the cell centre's projection (pts[0]) that holds the
       // whole projection: uniform if the distance transform says so there.
@@ -238,7 +373,10 @@ struct TileClassifier {
         const int col = int(std::floor(c.x())), row = int(std::floor(c.y()));
         if (c.x() - radius >= 0 && c.y() - radius >= 0 && c.x() + radius <= o.camera->width &&
             c.y() + radius <= o.camera->height && o.walker->distance.at<float>(row, col) - 1.42 >= radius) {
-          if (!o.walker->map->at<uint8_t>(row, col)) return Kind::kEmpty;
+          if (!o.walker->map->at<uint8_t>(row, col)) {
+            *hint = oi;
+            return Kind::kEmpty;
+          }
           ++seeing;
           continue;  // all object in this camera
         }
@@ -256,20 +394,56 @@ struct TileClassifier {
         continue;
       }
       ++seeing;
-      const int count = o.sum.at<int>(y1, x1) - o.sum.at<int>(y0, x1) - o.sum.at<int>(y1, x0) + o.sum.at<int>(y0, x0);
-      if (count == 0) return Kind::kEmpty;  // background under the whole tile's rays: vetoed
+      const int count = o.sum->at<int>(y1, x1) - o.sum->at<int>(y0, x1) - o.sum->at<int>(y1, x0) + o.sum->at<int>(y0, x0);
+      if (count == 0) {  // background under the whole tile's rays: vetoed
+        *hint = oi;
+        return Kind::kEmpty;
+      }
       all_full &= count == (x1 - x0) * (y1 - y0);
     }
     // Too few cameras see any of it to make a point inside (kUnknown's
-    // min_seen, counting the tile's own camera, which sees all of it).
-    if (seeing + 1 < required_seen) return Kind::kEmpty;
+    // min_seen; the tile's own camera, which sees all of it, counted only where
+    // its map has object pixels).
+    const int own = own_sum.at<int>(r1, c1) - own_sum.at<int>(r0, c1) - own_sum.at<int>(r1, c0) + own_sum.at<int>(r0, c0);
+    if (seeing < (own > 0 ? others_needed_own_object : others_needed_own_background)) return Kind::kEmpty;
     return all_full ? Kind::kFull : Kind::kMixed;
   }
 };
 
 }  // namespace
 
+struct ExactReprojector::Impl {
+  std::vector<SilhouetteWalker> walkers;  // per camera of the query
+  std::vector<cv::Mat> sums;              // per camera: integral image of map != 0 (CV_32S)
+};
+
+ExactReprojector::ExactReprojector(const VolumeQuery& query, int threads) : q_(query) {
+  if (threads < 1) throw std::invalid_argument("ExactReprojector: threads must be >= 1");
+  auto impl = std::make_unique<Impl>();
+  const size_t n = q_.size();
+  impl->walkers.reserve(n);
+  for (size_t c = 0; c < n; ++c) impl->walkers.push_back(SilhouetteWalker(q_.views()[c].camera, q_.views()[c].map));
+  impl->sums.resize(n);
+  ForEachRowBand(int(n), threads, [&](int c0, int c1, int) {
+    for (int c = c0; c < c1; ++c) {
+      impl->walkers[size_t(c)].Prepare();
+      cv::integral(q_.views()[size_t(c)].map != 0, impl->sums[size_t(c)], CV_32S);
+      impl->sums[size_t(c)] /= 255;
+    }
+  });
+  impl_ = std::move(impl);
+}
+
+ExactReprojector::~ExactReprojector() = default;
+
 Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads) {
+  return ExactReprojector(q, threads).Reproject(index, threads);
+}
+
+Reprojection ExactReprojector::Reproject(size_t index, int threads) const {
+  if (index >= q_.size()) throw std::out_of_range("ExactReprojector::Reproject: no camera " + std::to_string(index));
+  if (threads < 1) throw std::invalid_argument("ExactReprojector::Reproject: threads must be >= 1");
+  const VolumeQuery& q = q_;
   const Camera& camera = q.views()[index].camera;
   const cv::Mat& own_map = q.views()[index].map;
   Reprojection out{cv::Mat(camera.height, camera.width, CV_8UC1, cv::Scalar(0)),
@@ -277,11 +451,13 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
   std::vector<int> others;
   for (size_t c = 0; c < q.size(); ++c)
     if (c != index) others.push_back(int(c));
+  const double TS = MonotonicSeconds();
   const VolumeQuery loo = q.Subset(others);
+  if (getenv("REPDBG")) fprintf(stderr, "subset %.3f s\n", MonotonicSeconds()-TS);
   const Aabb box = loo.hull_box();
   if (box.empty()) return out;
-  std::vector<SilhouetteWalker> walkers;
-  for (int c : others) walkers.emplace_back(q.views()[size_t(c)].camera, q.views()[size_t(c)].map);
+  std::vector<const SilhouetteWalker*> walkers;
+  for (int c : others) walkers.push_back(&impl_->walkers[size_t(c)]);
   const Eigen::Vector3d O = camera.Center();
   struct Piece {
     double s0, s1;
@@ -291,7 +467,10 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
   tiles.camera = &camera;
   tiles.workspace = q.workspace();
   tiles.hull_box = box;
-  tiles.required_seen = q.required_seen();
+  tiles.others_needed_own_object = q.required_seen() - 1;
+  tiles.others_needed_own_background = loo.required_seen();
+  cv::integral(own_map != 0, tiles.own_sum, CV_32S);
+  tiles.own_sum /= 255;
   tiles.z_near = 1e300;
   tiles.z_far = 0;
   for (const auto& corner : box.Corners()) {
@@ -306,11 +485,10 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
   tiles.z_near = std::max(tiles.z_near, kNearDepth);
   const bool tiled = tiles.z_far > tiles.z_near && q.options().out_of_view != OutOfView::kOutside;
   for (int c : others) {
-    cv::Mat sum;
-    cv::integral(q.views()[size_t(c)].map != 0, sum, CV_32S);
     const Camera& oc = q.views()[size_t(c)].camera;
     const bool bent = camera.HasDistortion() || oc.HasDistortion();
-    tiles.others.push_back({&oc, sum / 255, &walkers[tiles.others.size()], bent ? 2.0 : 0.0});
+    tiles.others.push_back(
+        {&oc, &impl_->sums[size_t(c)], walkers[tiles.others.size()], bent ? 2.0 : 0.0, !oc.HasDistortion()});
     tiles.distorted |= bent;
   }
   // Where each other camera can see at all: a pinhole camera sees only inside
@@ -347,7 +525,6 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
     f.at_o(0) -= 1e-9;
     frusta.push_back(f);
   }
-  const int seeing_needed = q.required_seen() - 1;
   // Where on O + s D, s in [s0, s1], each other camera may see ([a, b], empty
   // when b <= a).
   auto visible_intervals = [&](const Eigen::Vector3d& D, double s0, double s1,
@@ -371,16 +548,18 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
   };
   // The parts of the ray that at least seeing_needed other cameras may see, as
   // pieces (the whole of [s0, s1] when one camera's vote is enough).
-  auto seen_pieces = [&](const std::vector<std::pair<double, double>>& iv, double s0, double s1,
+  // Appended to *pieces.
+  auto seen_pieces = [&](const std::vector<std::pair<double, double>>& iv, double s0, double s1, int seeing_needed,
                          std::vector<Piece>* pieces, std::vector<std::pair<double, int>>* events) {
-    pieces->clear();
     if (seeing_needed <= 0) {
       pieces->push_back({s0, s1, 0, 0});
       return;
     }
     events->clear();
-    for (const auto& [a, b] : iv)
+    for (const auto& [a0, b0] : iv) {
+      const double a = std::max(a0, s0), b = std::min(b0, s1);
       if (b > a) events->push_back({a, +1}), events->push_back({b, -1});
+    }
     std::sort(events->begin(), events->end());
     int count = 0;
     double start = 0;
@@ -396,35 +575,69 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
       }
     }
   };
-  // One pixel: its ray walked across every other camera.
+  // One pixel: its ray walked across every other camera, over the depths
+  // [z0, z1] of `depths` (camera `index`'s z; sorted, disjoint) only: the
+  // depths where its cells stayed mixed.
   // `first`: the camera that emptied the last ray walked, tried first (a
   // neighbouring ray is usually emptied by the same camera).
   struct Scratch {
     std::vector<Piece> pieces, next;
-    std::vector<VoteSegment> segs;
+    std::vector<std::pair<double, double>> spans;  // the depths as ray parameters s
+    std::vector<VoteSegment> segs, span_segs;
     std::vector<std::pair<double, int>> events;
     std::vector<std::pair<double, double>> visible;
     std::vector<char> walked;
     size_t first = 0;
   };
-  auto pixel = [&](int r, int col, Scratch& sc) {
+  auto pixel = [&](int r, int col, const std::vector<std::pair<double, double>>& depths, Scratch& sc) {
     std::vector<Piece>& pieces = sc.pieces;
     std::vector<Piece>& next = sc.next;
     const Eigen::Vector3d D = camera.PixelRayWorld({col + 0.5, r + 0.5});
     double s0 = 0, s1 = 1e9;
     if (!box.ClipRay(O, D, &s0, &s1) || !(s1 > s0)) return;
     if (!q.workspace().ClipRay(O, D, &s0, &s1) || !(s1 > s0)) return;
+    // Camera `index` sees its own ray as one pixel: its map's. Where that is
+    // background, `all` is empty and the leave-one-out hull needs its own count
+    // of the other cameras (TileClassifier's rule).
+    const Vote own = own_map.at<uint8_t>(r, col) ? Vote::kObject : Vote::kBackground;
+    const int seeing_needed =
+        own == Vote::kObject ? tiles.others_needed_own_object : tiles.others_needed_own_background;
     visible_intervals(D, s0, s1, &sc.visible);
-    seen_pieces(sc.visible, s0, s1, &pieces, &sc.events);
+    // Depth z along this ray is s times its direction's z in camera `index`.
+    const double dz = (camera.cam_from_world.rotation * D).z();
+    if (!(dz > 0)) return;
+    pieces.clear();
+    sc.spans.clear();
+    for (const auto& [z0, z1] : depths) {
+      const double a = std::max(s0, z0 / dz), b = std::min(s1, z1 / dz);
+      if (!(b > a)) continue;
+      const size_t before = pieces.size();
+      seen_pieces(sc.visible, a, b, seeing_needed, &pieces, &sc.events);
+      if (pieces.size() > before) sc.spans.push_back({a, b});
+    }
     if (pieces.empty()) return;
     sc.walked.assign(walkers.size(), 0);
     size_t& first = sc.first;
     std::vector<VoteSegment>& segs = sc.segs;
     for (size_t n = 0; n < walkers.size(); ++n) {
       const size_t wi = n == 0 ? first : (n <= first ? n - 1 : n);
-      const SilhouetteWalker& w = walkers[wi];
-      // This camera's votes over the span still alive; each piece is cut by them.
-      w.Walk(O, D, pieces.front().s0, pieces.back().s1, &segs);
+      const SilhouetteWalker& w = *walkers[wi];
+      // This camera's votes over each span's pieces still alive (sorted, so
+      // segs is too); each piece is cut by them.
+      segs.clear();
+      {
+        size_t k = 0;
+        for (const auto& [a, b] : sc.spans) {
+          while (k < pieces.size() && pieces[k].s1 <= a) ++k;
+          if (k == pieces.size()) break;
+          size_t e = k;
+          while (e + 1 < pieces.size() && pieces[e + 1].s0 < b) ++e;
+          if (pieces[k].s0 >= b) continue;
+          w.Walk(O, D, pieces[k].s0, pieces[e].s1, &sc.span_segs);
+          segs.insert(segs.end(), sc.span_segs.begin(), sc.span_segs.end());
+          k = e + 1;
+        }
+      }
       next.clear();
       size_t k = 0;
       for (const Piece& p : pieces) {
@@ -466,8 +679,6 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
     bool in_loo = false;
     for (const Piece& p : pieces) in_loo |= loo.Accepts(p.object, p.unseen);
     if (in_loo) out.leave_one_out.at<uint8_t>(r, col) = 255;
-    // Camera `index` sees its own ray as one pixel: its map's.
-    const Vote own = own_map.at<uint8_t>(r, col) ? Vote::kObject : Vote::kBackground;
     if (q.Vetoes(own)) return;
     bool in_all = false;
     for (const Piece& p : pieces) in_all |= q.Accepts(p.object + 1, p.unseen);
@@ -481,35 +692,45 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
   constexpr int kTile = 32;
   const int tiles_x = (camera.width + kTile - 1) / kTile, tiles_y = (camera.height + kTile - 1) / kTile;
   cv::Mat decided(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
-  cv::Mat need(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
   struct Cell {
     cv::Rect rect;
     double z0, z1;
   };
+  // A one-pixel cell left mixed: its pixel and depths, walked after the rest.
+  struct Leaf {
+    int r, col;
+    double z0, z1;
+    bool operator<(const Leaf& o) const {
+      return r != o.r ? r < o.r : col != o.col ? col < o.col : z0 < o.z0;
+    }
+  };
   auto tile_rows = [&](int ty0, int ty1) {
     Scratch scratch;
     std::vector<Cell> stack;
+    std::vector<Leaf> leaves;
+    size_t hint = 0;
     for (int ty = ty0; ty < ty1; ++ty)
       for (int tx = 0; tx < tiles_x; ++tx) {
         stack.assign(1, {cv::Rect(tx * kTile, ty * kTile, std::min(kTile, camera.width - tx * kTile),
                                   std::min(kTile, camera.height - ty * kTile)),
                          tiles.z_near, tiles.z_far});
-        while (!stack.empty()) {
-          const Cell cell = stack.back();
-          stack.pop_back();
+        bool any_full = false;  // in this tile: else nothing in it is decided yet
+        for (size_t head = 0; head < stack.size(); ++head) {
+          const Cell cell = stack[head];
           const cv::Rect& t = cell.rect;
-          if (cv::countNonZero(decided(t)) == t.area()) continue;
+          if (any_full && cv::countNonZero(decided(t)) == t.area()) continue;
           if (t.width <= 1 && t.height <= 1) {
-            need.at<uint8_t>(t.y, t.x) = 1;  // walked below, unless a full cell decides it first
+            leaves.push_back({t.y, t.x, cell.z0, cell.z1});  // walked below, unless a full cell decides it first
             continue;
           }
           const auto kind = !tiled ? TileClassifier::Kind::kMixed
-                                   : tiles.Classify(t.x, t.y, t.x + t.width, t.y + t.height, cell.z0, cell.z1);
+                                   : tiles.Classify(t.x, t.y, t.x + t.width, t.y + t.height, cell.z0, cell.z1, &hint);
           if (kind == TileClassifier::Kind::kEmpty) continue;
           if (kind == TileClassifier::Kind::kFull) {
             out.leave_one_out(t).setTo(255);
             out.all(t).setTo(255, own_map(t));
             decided(t).setTo(1);
+            any_full = true;
             continue;
           }
           // Split the depth where the cell is deeper than it is wide (in metres at its near depth).
@@ -527,11 +748,24 @@ Reprojection ReprojectHullExact(const VolumeQuery& q, size_t index, int threads)
             if (sub.area() > 0) stack.push_back({sub, cell.z0, cell.z1});
         }
       }
-    for (int r = ty0 * kTile; r < std::min(camera.height, ty1 * kTile); ++r)
-      for (int col = 0; col < camera.width; ++col)
-        if (need.at<uint8_t>(r, col) && !decided.at<uint8_t>(r, col)) pixel(r, col, scratch);
+    // Each pixel's mixed depths, sorted and merged where they touch.
+    std::sort(leaves.begin(), leaves.end());
+    std::vector<std::pair<double, double>> depths;
+    for (size_t i = 0; i < leaves.size();) {
+      const int r = leaves[i].r, col = leaves[i].col;
+      depths.clear();
+      for (; i < leaves.size() && leaves[i].r == r && leaves[i].col == col; ++i) {
+        if (!depths.empty() && leaves[i].z0 <= depths.back().second)
+          depths.back().second = std::max(depths.back().second, leaves[i].z1);
+        else
+          depths.push_back({leaves[i].z0, leaves[i].z1});
+      }
+      if (!decided.at<uint8_t>(r, col)) pixel(r, col, depths, scratch);
+    }
   };
-  ForEachRowBand(tiles_y, threads, [&](int r0, int r1, int) { tile_rows(r0, r1); });
+  const double T0 = MonotonicSeconds();
+  ForEachRowDynamic(tiles_y, threads, [&](int r, int) { tile_rows(r, r + 1); });
+  if (getenv("REPDBG")) fprintf(stderr, "cam %zu: %.2f s, walked %d of %d, loo %d all %d own %d\n", index, MonotonicSeconds()-T0, -1, camera.width*camera.height, cv::countNonZero(out.leave_one_out), cv::countNonZero(out.all), cv::countNonZero(own_map));
   return out;
 }
 
