@@ -14,9 +14,6 @@
 
 #include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/util/parallel.h"
-#include "hullpipe/geometry/conventions.h"
-#include <cstdio>
-#include <cstdlib>
 
 namespace hullpipe {
 
@@ -293,9 +290,10 @@ struct TileClassifier {
     /// Margin (px) around the sampled projection: 2 where this camera or the
     /// tile's is distorted (the projection bends between the samples), else 0.
     double margin;
-    bool pinhole;  // camera->HasDistortion() is false
 
-    bool Project(const Eigen::Vector3d& X, Eigen::Vector2d* uv) const { return ProjectTo(*camera, pinhole, X, uv); }
+    bool Project(const Eigen::Vector3d& X, Eigen::Vector2d* uv) const {
+      return ProjectTo(*camera, walker->pinhole, X, uv);
+    }
   };
   bool distorted = false;  // the tile's camera or one of the others: sample 27 points, not 8
   std::vector<Other> others;
@@ -308,7 +306,7 @@ struct TileClassifier {
   // has none, `all` is empty there and only the leave-one-out hull, without the
   // tile's camera, is looked for (its required_seen).
   int others_needed_own_object = 0, others_needed_own_background = 1;
-  cv::Mat own_sum;  // integral image of the tile's camera's map != 0
+  const cv::Mat* own_sum = nullptr;  // integral image of the tile's camera's map != 0
 
   enum class Kind { kEmpty, kFull, kMixed };
 
@@ -404,7 +402,8 @@ struct TileClassifier {
     // Too few cameras see any of it to make a point inside (kUnknown's
     // min_seen; the tile's own camera, which sees all of it, counted only where
     // its map has object pixels).
-    const int own = own_sum.at<int>(r1, c1) - own_sum.at<int>(r0, c1) - own_sum.at<int>(r1, c0) + own_sum.at<int>(r0, c0);
+    const int own =
+        own_sum->at<int>(r1, c1) - own_sum->at<int>(r0, c1) - own_sum->at<int>(r1, c0) + own_sum->at<int>(r0, c0);
     if (seeing < (own > 0 ? others_needed_own_object : others_needed_own_background)) return Kind::kEmpty;
     return all_full ? Kind::kFull : Kind::kMixed;
   }
@@ -451,9 +450,7 @@ Reprojection ExactReprojector::Reproject(size_t index, int threads) const {
   std::vector<int> others;
   for (size_t c = 0; c < q.size(); ++c)
     if (c != index) others.push_back(int(c));
-  const double TS = MonotonicSeconds();
   const VolumeQuery loo = q.Subset(others);
-  if (getenv("REPDBG")) fprintf(stderr, "subset %.3f s\n", MonotonicSeconds()-TS);
   const Aabb box = loo.hull_box();
   if (box.empty()) return out;
   std::vector<const SilhouetteWalker*> walkers;
@@ -469,8 +466,7 @@ Reprojection ExactReprojector::Reproject(size_t index, int threads) const {
   tiles.hull_box = box;
   tiles.others_needed_own_object = q.required_seen() - 1;
   tiles.others_needed_own_background = loo.required_seen();
-  cv::integral(own_map != 0, tiles.own_sum, CV_32S);
-  tiles.own_sum /= 255;
+  tiles.own_sum = &impl_->sums[index];
   tiles.z_near = 1e300;
   tiles.z_far = 0;
   for (const auto& corner : box.Corners()) {
@@ -487,15 +483,15 @@ Reprojection ExactReprojector::Reproject(size_t index, int threads) const {
   for (int c : others) {
     const Camera& oc = q.views()[size_t(c)].camera;
     const bool bent = camera.HasDistortion() || oc.HasDistortion();
-    tiles.others.push_back(
-        {&oc, &impl_->sums[size_t(c)], walkers[tiles.others.size()], bent ? 2.0 : 0.0, !oc.HasDistortion()});
+    tiles.others.push_back({&oc, &impl_->sums[size_t(c)], walkers[tiles.others.size()], bent ? 2.0 : 0.0});
     tiles.distorted |= bent;
   }
   // Where each other camera can see at all: a pinhole camera sees only inside
   // its frustum (five half-spaces: in front, and within its image widened by
   // 1e-6 px), so it is cut out of each ray in closed form. Parts of a ray fewer
-  // other cameras see than a point needs (kUnknown's min_seen, the tile's own
-  // camera counted) are dropped before any walk: otherwise a ray through a region
+  // other cameras see than a point needs (kUnknown's min_seen; camera `index`
+  // counted only where its pixel is object, TileClassifier's rule) are dropped
+  // before any walk: otherwise a ray through a region
   // no other camera sees keeps its pieces, unvetoed, through every camera's walk.
   // Plane k holds O + s D where at_o(k) + s n.row(k) D >= 0 (at_o: the planes'
   // values at this camera's centre O, the same for every ray).
@@ -687,8 +683,10 @@ Reprojection ExactReprojector::Reproject(size_t index, int threads) const {
   // Cells of camera `index`'s frustum (a tile of pixels times a depth range),
   // from 32-px tiles over the hull box's depths, split until each is empty, full
   // or one pixel wide: the tile in four where it is wider than the depth range is
-  // deep, else the depth range in two. Only pixels that no full cell decided and
-  // whose one-pixel cells stayed mixed are walked, once each, after the rest.
+  // deep, else the depth range in two. Cells are taken in the order made (coarse
+  // first), so a full cell decides its pixels before their finer cells come up.
+  // Only pixels that no full cell decided and whose one-pixel cells stayed mixed
+  // are walked, once each, over those cells' depths, after the row's tiles.
   constexpr int kTile = 32;
   const int tiles_x = (camera.width + kTile - 1) / kTile, tiles_y = (camera.height + kTile - 1) / kTile;
   cv::Mat decided(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
@@ -704,50 +702,50 @@ Reprojection ExactReprojector::Reproject(size_t index, int threads) const {
       return r != o.r ? r < o.r : col != o.col ? col < o.col : z0 < o.z0;
     }
   };
-  auto tile_rows = [&](int ty0, int ty1) {
+  // One row of tiles.
+  auto tile_row = [&](int ty) {
     Scratch scratch;
-    std::vector<Cell> stack;
+    std::vector<Cell> queue;
     std::vector<Leaf> leaves;
     size_t hint = 0;
-    for (int ty = ty0; ty < ty1; ++ty)
-      for (int tx = 0; tx < tiles_x; ++tx) {
-        stack.assign(1, {cv::Rect(tx * kTile, ty * kTile, std::min(kTile, camera.width - tx * kTile),
-                                  std::min(kTile, camera.height - ty * kTile)),
-                         tiles.z_near, tiles.z_far});
-        bool any_full = false;  // in this tile: else nothing in it is decided yet
-        for (size_t head = 0; head < stack.size(); ++head) {
-          const Cell cell = stack[head];
-          const cv::Rect& t = cell.rect;
-          if (any_full && cv::countNonZero(decided(t)) == t.area()) continue;
-          if (t.width <= 1 && t.height <= 1) {
-            leaves.push_back({t.y, t.x, cell.z0, cell.z1});  // walked below, unless a full cell decides it first
-            continue;
-          }
-          const auto kind = !tiled ? TileClassifier::Kind::kMixed
-                                   : tiles.Classify(t.x, t.y, t.x + t.width, t.y + t.height, cell.z0, cell.z1, &hint);
-          if (kind == TileClassifier::Kind::kEmpty) continue;
-          if (kind == TileClassifier::Kind::kFull) {
-            out.leave_one_out(t).setTo(255);
-            out.all(t).setTo(255, own_map(t));
-            decided(t).setTo(1);
-            any_full = true;
-            continue;
-          }
-          // Split the depth where the cell is deeper than it is wide (in metres at its near depth).
-          const double width_m = std::max(t.width, t.height) * cell.z0 / camera.fx;
-          if (tiled && cell.z1 - cell.z0 > 2 * width_m) {
-            const double zm = 0.5 * (cell.z0 + cell.z1);
-            stack.push_back({t, zm, cell.z1});
-            stack.push_back({t, cell.z0, zm});
-            continue;
-          }
-          const int hw = std::max(1, t.width / 2), hh = std::max(1, t.height / 2);
-          for (const cv::Rect& sub : {cv::Rect(t.x, t.y, hw, hh), cv::Rect(t.x + hw, t.y, t.width - hw, hh),
-                                      cv::Rect(t.x, t.y + hh, hw, t.height - hh),
-                                      cv::Rect(t.x + hw, t.y + hh, t.width - hw, t.height - hh)})
-            if (sub.area() > 0) stack.push_back({sub, cell.z0, cell.z1});
+    for (int tx = 0; tx < tiles_x; ++tx) {
+      queue.assign(1, {cv::Rect(tx * kTile, ty * kTile, std::min(kTile, camera.width - tx * kTile),
+                                std::min(kTile, camera.height - ty * kTile)),
+                       tiles.z_near, tiles.z_far});
+      bool any_full = false;  // in this tile: else nothing in it is decided yet
+      for (size_t head = 0; head < queue.size(); ++head) {
+        const Cell cell = queue[head];
+        const cv::Rect& t = cell.rect;
+        if (any_full && cv::countNonZero(decided(t)) == t.area()) continue;
+        if (t.width <= 1 && t.height <= 1) {
+          leaves.push_back({t.y, t.x, cell.z0, cell.z1});  // walked below, unless a full cell decides it first
+          continue;
         }
+        const auto kind = !tiled ? TileClassifier::Kind::kMixed
+                                 : tiles.Classify(t.x, t.y, t.x + t.width, t.y + t.height, cell.z0, cell.z1, &hint);
+        if (kind == TileClassifier::Kind::kEmpty) continue;
+        if (kind == TileClassifier::Kind::kFull) {
+          out.leave_one_out(t).setTo(255);
+          out.all(t).setTo(255, own_map(t));
+          decided(t).setTo(1);
+          any_full = true;
+          continue;
+        }
+        // Split the depth where the cell is deeper than it is wide (in metres at its near depth).
+        const double width_m = std::max(t.width, t.height) * cell.z0 / camera.fx;
+        if (tiled && cell.z1 - cell.z0 > 2 * width_m) {
+          const double zm = 0.5 * (cell.z0 + cell.z1);
+          queue.push_back({t, zm, cell.z1});
+          queue.push_back({t, cell.z0, zm});
+          continue;
+        }
+        const int hw = std::max(1, t.width / 2), hh = std::max(1, t.height / 2);
+        for (const cv::Rect& sub : {cv::Rect(t.x, t.y, hw, hh), cv::Rect(t.x + hw, t.y, t.width - hw, hh),
+                                    cv::Rect(t.x, t.y + hh, hw, t.height - hh),
+                                    cv::Rect(t.x + hw, t.y + hh, t.width - hw, t.height - hh)})
+          if (sub.area() > 0) queue.push_back({sub, cell.z0, cell.z1});
       }
+    }
     // Each pixel's mixed depths, sorted and merged where they touch.
     std::sort(leaves.begin(), leaves.end());
     std::vector<std::pair<double, double>> depths;
@@ -763,9 +761,7 @@ Reprojection ExactReprojector::Reproject(size_t index, int threads) const {
       if (!decided.at<uint8_t>(r, col)) pixel(r, col, depths, scratch);
     }
   };
-  const double T0 = MonotonicSeconds();
-  ForEachRowDynamic(tiles_y, threads, [&](int r, int) { tile_rows(r, r + 1); });
-  if (getenv("REPDBG")) fprintf(stderr, "cam %zu: %.2f s, walked %d of %d, loo %d all %d own %d\n", index, MonotonicSeconds()-T0, -1, camera.width*camera.height, cv::countNonZero(out.leave_one_out), cv::countNonZero(out.all), cv::countNonZero(own_map));
+  ForEachRowDynamic(tiles_y, threads, [&](int ty, int) { tile_row(ty); });
   return out;
 }
 
