@@ -11,6 +11,11 @@
 //       prints each camera's centre, viewing direction and field of view, the
 //       workspace and which cameras see its centre, the world, and warns about what
 //       looks wrong; exit 0 (warnings are not errors), 1 if the rig cannot be read.
+//   hullpipe_rig synthesize -o DIR [--cameras N] [--size WxH] [--frames N] [--fps F]
+//       [--format colmap|yaml] [--noise S] [--k1 K]
+//       writes a rig that is not the Utrecht one (synthetic_rig.h): the synthetic
+//       figure filmed by N cameras as videos, calibrated in a z-up world of its own,
+//       as a COLMAP text model (import it like any COLMAP rig) or a rig file.
 // Exit 0 when done; 1 with one line on error.
 #include <cmath>
 #include <cstdio>
@@ -19,6 +24,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "hullpipe/evaluation/synthetic_rig.h"
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/rig_import.h"
 #include "hullpipe/geometry/rig_world.h"
@@ -107,8 +113,34 @@ int main(int argc, char** argv) {
   auto* check = app.add_subcommand("check", "Print what a rig is and warn about what looks wrong");
   check->add_option("rig", in, "Rig directory or YAML rig file")->required();
   check->add_option("--write", out, "Also write the rig with its derived world and workspace stated");
+  hullpipe::SyntheticRigFilesOptions so;
+  std::string size = "644x486";
+  auto* synth = app.add_subcommand("synthesize", "Write a z-up rig of the synthetic figure: videos and a calibration");
+  synth->add_option("-o,--out", out, "Directory to write (videos/, sparse/0/ or rig.yaml)")->required();
+  synth->add_option("--cameras", so.cameras, "Cameras on the ring [3, 16]")->capture_default_str();
+  synth->add_option("--size", size, "Image size WxH")->capture_default_str();
+  synth->add_option("--frames", so.frames, "Video length in frames")->capture_default_str();
+  synth->add_option("--fps", so.fps, "Frames per second")->capture_default_str();
+  synth->add_option("--format", so.format, "colmap (text model) | yaml (rig file)")
+      ->check(CLI::IsMember({"colmap", "yaml"}))
+      ->capture_default_str();
+  synth->add_option("--noise", so.noise_sigma, "Sensor noise sigma, grey levels")->capture_default_str();
+  synth->add_option("--k1", so.k1, "Radial distortion k1 of every camera")->capture_default_str();
+  synth->add_option("--threads", so.threads, "Cameras rendered in parallel")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
+    if (synth->parsed()) {
+      char x = 0;
+      if (std::sscanf(size.c_str(), "%d%c%d", &so.width, &x, &so.height) != 3 || x != 'x')
+        throw std::invalid_argument("--size must be WxH, not '" + size + "'");
+      const hullpipe::SyntheticRigFiles f = hullpipe::WriteSyntheticRigFiles(so, out);
+      const Eigen::Vector3d at = f.world_from_figure.translation;
+      std::printf("%s: %zu cameras, %d frames of %dx%d at %g fps; the figure stands at (%.2f, %.2f, %.2f) m, z up\n",
+                  out.c_str(), f.cameras.size(), so.frames, so.width, so.height, so.fps, at.x(), at.y(), at.z());
+      std::printf("calibration: %s\nframes: %s/%s\nbackground: %s/%s\n", f.calibration.c_str(), out.c_str(),
+                  f.frames_pattern.c_str(), out.c_str(), f.background_pattern.c_str());
+      return 0;
+    }
     if (latency != -1 && !(latency >= 0 && latency <= 10)) throw std::invalid_argument("--latency must be in [0, 10] s");
     if (import->parsed()) {
       io.poses_world_from_camera = poses == "world_from_camera";
