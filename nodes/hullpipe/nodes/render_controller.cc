@@ -156,6 +156,7 @@ void RenderController::IssuePoses() {
                      comp_.floor_offset - lowest, comp_.floor_offset);
       }
       floor_checked_ = true;
+      first_hull_box_ = hull->hull_box();
     }
     if (!centre_known_ && !hull->hull_box().empty()) {
       orbit_.centre = hull->hull_box().Center();
@@ -321,6 +322,21 @@ nlohmann::json RenderController::StatsJson() const {
   j["recon_outages"] = recon_liveness_.outages();  // times each recon node fell silent
   j["hull_pixel_fraction_mean"] =
       counters_.frames_out() ? hull_fraction_sum_ / double(counters_.frames_out()) : 0.0;
+  // The world drawn (docs/rigs.md): up, the floor as drawn (null: none, or not
+  // yet placed under a hull), the orbit, and the first hull's box in world
+  // metres, from which a reader sees whether the person stands on the floor.
+  {
+    const auto vec = [](const Eigen::Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); };
+    nlohmann::json w;
+    w["up"] = vec(orbit_.up);
+    w["floor"] = o_.floor == RigWorld::Floor::kPlane ? "plane" : o_.floor == RigWorld::Floor::kNone ? "none" : "hull";
+    w["floor_height"] = comp_.draw_floor && floor_known_ ? nlohmann::json(comp_.floor_offset) : nlohmann::json();
+    w["orbit_radius"] = orbit_.radius;
+    w["orbit_centre"] = vec(orbit_.centre);
+    if (!first_hull_box_.empty())
+      w["first_hull_box"] = {{"min", vec(first_hull_box_.min)}, {"max", vec(first_hull_box_.max)}};
+    j["world"] = w;
+  }
   for (const auto& [id, c] : min_clearance_) {
     const auto pc = part_collisions_.find(id);
     j["payload"][std::to_string(id)] = {{"min_clearance_mm", c * 1e3},

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "hullpipe/geometry/aabb.h"
 #include "hullpipe/geometry/head_pose.h"
 #include "hullpipe/nodes/clock.h"
 #include "hullpipe/nodes/latency_budget.h"
@@ -113,8 +114,9 @@ class RenderController {
   /// render_node then exits 3, as capture_node does for its own cameras.
   std::string IncompleteInput() const;
 
-  /// stats.json: the view, counts, outages, payload clearances and every node's
-  /// newest report (this node's own under "render").
+  /// stats.json: the view, counts, outages, payload clearances, the world drawn
+  /// (up, floor, orbit, the first hull's box) and every node's newest report
+  /// (this node's own under "render").
   nlohmann::json StatsJson() const;
   /// The end-of-run table, one row per node, then the latency budget.
   std::string Table() const;
@@ -155,6 +157,7 @@ class RenderController {
   OrbitPath orbit_;
   bool floor_known_ = true;    // false until the first hull places a floor under it
   bool floor_checked_ = false;  // the first hull's box compared with the floor
+  Aabb first_hull_box_;         // that box (world metres), for stats.json's "world"
   bool centre_known_ = false;
   CompositeOptions comp_;
   std::optional<Rigid3d> tracked_;

@@ -394,6 +394,44 @@ TEST_F(Render, TimesTheBudgetsStages) {
   EXPECT_NEAR(st.at("transport_tile").Percentile(50), 3.0, 1e-3);
 }
 
+// floor: hull (docs/rigs.md): no floor is drawn until the first hull, then the
+// plane up . x = the lowest point of that hull's box; stats.json states it with
+// the box, so a run shows whether the person stands on the floor.
+TEST_F(Render, FloorUnderTheFirstHullIsStatedWithItsBox) {
+  RenderOptions o = Options();
+  o.floor = RigWorld::Floor::kUnderHull;
+  RenderController r(o, clock_, assembler_, sink_);
+  nlohmann::json w = r.StatsJson()["world"];
+  EXPECT_TRUE(w["floor_height"].is_null()) << w.dump();  // no hull yet: no floor
+  EXPECT_FALSE(w.contains("first_hull_box"));
+  EXPECT_EQ(w["floor"], "hull");
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  w = r.StatsJson()["world"];
+  ASSERT_TRUE(w.contains("first_hull_box")) << w.dump();
+  const Eigen::Vector3d up(w["up"][0], w["up"][1], w["up"][2]);
+  EXPECT_NEAR((up - o.up.normalized()).norm(), 0, 1e-12);
+  Aabb box;
+  for (int k = 0; k < 3; ++k) box.min[k] = w["first_hull_box"]["min"][k], box.max[k] = w["first_hull_box"]["max"][k];
+  double lowest = 1e300;
+  for (const auto& c : box.Corners()) lowest = std::min(lowest, up.dot(c));
+  ASSERT_FALSE(w["floor_height"].is_null());
+  EXPECT_DOUBLE_EQ(w["floor_height"].get<double>(), lowest);
+  // The hull holds the sphere, so its box reaches at least the sphere's lowest
+  // point along up, and not far below it (two cameras: a few centimetres).
+  const double sphere_lowest = up.dot(hullpipe::test::kSphereCentre) - hullpipe::test::kSphereRadius;
+  EXPECT_LE(lowest, sphere_lowest + 1e-9);
+  EXPECT_GT(lowest, sphere_lowest - 0.3);
+  // A stated floor plane is drawn from the start at its height.
+  o.floor = RigWorld::Floor::kPlane;
+  o.floor_height = 0.25;
+  RenderController stated(o, clock_, assembler_, sink_);
+  EXPECT_EQ(stated.StatsJson()["world"]["floor_height"], 0.25);
+  o.floor = RigWorld::Floor::kNone;
+  RenderController none(o, clock_, assembler_, sink_);
+  EXPECT_TRUE(none.StatsJson()["world"]["floor_height"].is_null());
+}
+
 TEST_F(Render, StatsJsonSchema) {
   RenderController r(Options(), clock_, assembler_, sink_);
   rig_.AddFrame(assembler_, 1, clock_.WallNs() - 40'000'000);  // captured 40 ms ago
@@ -415,7 +453,7 @@ TEST_F(Render, StatsJsonSchema) {
   const nlohmann::json j = r.StatsJson();
   for (const char* key : {"view", "frames_composited", "last_frame_seq", "collision_frames_drawn",
                           "collision_reports_with_points", "meshes_drawn", "lit_frames", "recon_outages",
-                          "hull_pixel_fraction_mean", "nodes"})
+                          "hull_pixel_fraction_mean", "world", "nodes"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["view"]["width"], 64);
   EXPECT_EQ(j["frames_composited"], 1);
