@@ -457,7 +457,17 @@ Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& r, const std::string& whe
 
 void CompleteRig(Rig* rig) {
   const auto cams = rig->Cameras();
-  if (rig->workspace.empty()) rig->workspace = DefaultWorkspace(cams);
+  if (rig->workspace.empty()) {
+    // What every camera sees (paper §3.2: the hull lies in every view). Outside
+    // it fewer cameras vote: in front of a ring camera, which cannot rule out
+    // what it sees at every angle, the camera opposite sees the person behind,
+    // and a kUnknown hull's box reaches out to the cameras (docs/rigs.md).
+    rig->workspace = CommonViewWorkspace(cams);
+    if (rig->workspace.empty()) {
+      rig->workspace = DefaultWorkspace(cams);
+      rig->notes.push_back(rig->source + ": the cameras share no view: the workspace is the box around them");
+    }
+  }
   if (!rig->world.up_stated) {
     try {
       rig->world.up = DeriveUp(cams);

@@ -123,8 +123,9 @@ struct Rig {
   std::string source;  ///< Path it was loaded from.
   std::vector<RigCamera> cameras;
   /// World box (metres) outside which nothing is real object. Generic rig files may
-  /// give it as `workspace: {min: [x,y,z], max: [x,y,z]}`; otherwise
-  /// DefaultWorkspace of the cameras. For the Utrecht layout the floor (z = 0, the
+  /// give it as `workspace: {min: [x,y,z], max: [x,y,z]}`; otherwise the box of
+  /// what every camera sees (CommonViewWorkspace), or DefaultWorkspace of the
+  /// cameras where they share no view. For the Utrecht layout the floor (z = 0, the
   /// plane of the calibration board; z points down) bounds it: max z = 0.02.
   Aabb workspace;
   /// Up, floor and orbit (rig_world.h): stated under `world:`, else derived
@@ -143,10 +144,13 @@ struct Rig {
 /// its size from the background image/video, else CalibrationError. YAML rig
 /// files: unknown keys are refused (named), at most Rig::kMaxCameras cameras, and
 /// each camera's `K` is checked as ReadOpenCvCameraConfig checks CameraMatrix.
-/// Without a stated workspace: DefaultWorkspace of the cameras.
+/// Without a stated workspace: CompleteRig's.
 Rig LoadRig(const std::string& path);
 
-/// Fills what the rig file did not state: workspace (DefaultWorkspace), world
+/// Fills what the rig file did not state: workspace (CommonViewWorkspace: what
+/// every camera sees; in the box around a ring's cameras a kUnknown hull's box
+/// reaches out to the cameras; DefaultWorkspace with a note where the cameras
+/// share no view), world
 /// up (DeriveUp), orbit (FramingRadius of CommonViewWorkspace, what every camera
 /// sees; height 0.25 x radius).
 /// Used by LoadRig and by the importers.

@@ -14,6 +14,7 @@
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/collision/triangle_query.h"
+#include "hullpipe/geometry/rig_world.h"
 #include "hullpipe/testing/fixtures.h"
 
 namespace hullpipe {
@@ -55,6 +56,72 @@ TEST_F(SphereHull, HullBoxContainsTheSphereAndIsTight) {
   EXPECT_TRUE((box.max.array() >= (kCentre.array() + kRadius)).all()) << box.max.transpose();
   // Four cameras carve the pyramids' intersection to well under twice the sphere.
   EXPECT_LT((box.max - box.min).maxCoeff(), 4 * kRadius);
+}
+
+// A standing capsule in a ring of 6 cameras (three opposite pairs, as labs set
+// them up), under both policies, with and without lens distortion. The hull's
+// box must hold every hull point (conservative) and lie within two leaves of
+// the octree search (leaf: the workspace's largest side / 128, 4.5 cm here; a
+// leaf's projected rectangle reaches past its outline by up to about another)
+// plus the 2-cm sampling step of the hull's own box found here by brute force.
+// The pyramid boxes it starts from are metres wider under kUnknown (each pair of
+// cameras meets along the line between them): a box not tightened fails this.
+TEST(HullBox, TightToTheHullsOwnBoxOnARingAndConservative) {
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Capsule({0.3, -0.2, -0.2}, {0.3, -0.2, -1.5}, 0.15));
+  for (const double k1 : {0.0, -0.3}) {
+    Distortion d{};
+    d[0] = k1;
+    const auto cams = RingCameras(6, 3.0, 1.6, {0.3, -0.2, -0.9}, 240, 180, 1.1, d);
+    const Aabb workspace = CommonViewWorkspace(cams);
+    ASSERT_FALSE(workspace.empty());
+    for (const OutOfView policy : {OutOfView::kUnknown, OutOfView::kOutside}) {
+      SCOPED_TRACE(std::string(k1 ? "distorted, " : "pinhole, ") +
+                   (policy == OutOfView::kUnknown ? "kUnknown" : "kOutside"));
+      VolumeQueryOptions o;
+      o.out_of_view = policy;
+      const VolumeQuery q(test::ExactViews(cams, scene), workspace, o);
+      const Aabb& box = q.hull_box();
+      ASSERT_FALSE(box.empty());
+      // The hull's own box by brute force: every 2 cm of the workspace.
+      Aabb sampled;
+      const double step = 0.02;
+      for (double x = workspace.min.x(); x <= workspace.max.x(); x += step)
+        for (double y = workspace.min.y(); y <= workspace.max.y(); y += step)
+          for (double z = workspace.min.z(); z <= workspace.max.z(); z += step) {
+            const Eigen::Vector3d p(x, y, z);
+            if (!q.Inside(p)) continue;
+            sampled.Extend(p);
+            ASSERT_TRUE(box.Contains(p)) << p.transpose() << " is inside the hull but not in its box";
+          }
+      ASSERT_FALSE(sampled.empty());
+      const double slack = 2 * (workspace.max - workspace.min).maxCoeff() / 128 + step + 1e-9;
+      EXPECT_LT((sampled.min - box.min).maxCoeff(), slack) << box.min.transpose() << " vs " << sampled.min.transpose();
+      EXPECT_LT((box.max - sampled.max).maxCoeff(), slack) << box.max.transpose() << " vs " << sampled.max.transpose();
+    }
+  }
+}
+
+// Why a rig's derived workspace is what every camera sees (CompleteRig). In
+// the box around a ring's cameras, a cell in front of a camera cannot be ruled
+// out by that camera (it sees the cell at every angle), the camera opposite
+// sees it on object pixels (their line runs through the person) and the others
+// see it at most in part, at the edge of their views: kUnknown keeps it, and
+// the hull's box reaches out to the cameras. In what every camera sees, the box
+// is the person's, and the whole person is still inside.
+TEST(Workspace, WhatEveryCameraSeesKeepsARingsHullBoxToThePerson) {
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Capsule({0.3, -0.2, -0.2}, {0.3, -0.2, -1.5}, 0.15));
+  const auto cams = RingCameras(6, 3.0, 1.6, {0.3, -0.2, -0.9}, 240, 180, 1.1);
+  const auto views = test::ExactViews(cams, scene);
+  const VolumeQuery around(views, DefaultWorkspace(cams)), common(views, CommonViewWorkspace(cams));
+  EXPECT_GT((around.hull_box().max - around.hull_box().min).head<2>().maxCoeff(), 4.0)
+      << "positive control: the box reaches out to the cameras, 3 m from the capsule";
+  // The capsule is 0.3 m wide and 1.6 m tall; its box within two leaves (2 x 4.5 cm).
+  const Eigen::Vector3d size = common.hull_box().max - common.hull_box().min;
+  EXPECT_LT(size.head<2>().maxCoeff(), 0.3 + 0.09) << size.transpose();
+  EXPECT_LT(size.z(), 1.6 + 0.09) << size.transpose();
+  for (double z = -0.1; z >= -1.6; z -= 0.05) EXPECT_TRUE(common.Inside({0.3, -0.2, z})) << z;
 }
 
 TEST(HullBox, EmptyMapGivesEmptyBox) {
