@@ -336,6 +336,65 @@ TEST(EndToEnd, CurtainOnTheRealRig) {
   RunScene("curtain", true, 30);
 }
 
+// Another rig, the way a lab brings one (docs/rigs.md, "Another rig"): videos
+// and a COLMAP model of 6 cameras in a z-up world of its own (hullpipe_rig
+// synthesize), imported, checked and run by the five processes with the demo
+// scene. The person must stand upright on the floor drawn under them, where the
+// calibration's world has them (feet at z = 0.03 m, head at 1.69 m, axis through
+// (1.5, -0.8): synthetic_rig.h), and the demo's ball must reach them.
+TEST(EndToEnd, AZUpRigFromAColmapModelShowsThePersonUprightOnTheFloorAndTheBallReachesThem) {
+  const auto dir = test::TempDir("other_rig");
+  const std::string rig = (dir / "rig").string(), yaml = (dir / "rig" / "rig.yaml").string();
+  test::Process synth({test::BinDir() + "/hullpipe_rig", "synthesize", "-o", rig, "--cameras", "6", "--size",
+                       "320x240", "--frames", "75", "--fps", "25"},
+                      (dir / "synth.log").string());
+  ASSERT_EQ(synth.Wait(120), 0) << test::ReadFile((dir / "synth.log").string());
+  test::Process import({test::BinDir() + "/hullpipe_rig", "import", "--from", "colmap", rig + "/sparse/0", "-o", yaml,
+                        "--frames", "videos/cam{id}.avi", "--background", "videos/cam{id}_background.avi"},
+                       (dir / "import.log").string());
+  ASSERT_EQ(import.Wait(60), 0) << test::ReadFile((dir / "import.log").string());
+  const std::string report = test::ReadFile((dir / "import.log").string());
+  EXPECT_NE(report.find("up    0.000    0.000    1.000 (derived"), std::string::npos) << report;
+  EXPECT_NE(report.find("no warnings"), std::string::npos) << report;
+  // Capture paced at 10 fps so that a busy 2-core machine composites enough of
+  // the 75 framesets (render takes the newest; at 25 fps it skips most).
+  std::ofstream(dir / "paced.yaml")
+      << test::LocalDescriptionWith(test::kCaptureWaitArg, "--fps, \"10\", " + test::kCaptureWaitArg);
+  const auto out = dir / "run";
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--rig", yaml, "--frames", "75", "--out", out.string(),
+                        "--description", (dir / "paced.yaml").string(), "--scene",
+                        std::string(HULLPIPE_SOURCE_DIR) + "/scenes/ball.yaml", "--domain",
+                        std::to_string(test::UniqueDomain())},
+                       (dir / "launch.log").string());
+  ASSERT_EQ(launch.Wait(180), 0) << test::ReadFile((dir / "launch.log").string());
+  const auto j = nlohmann::json::parse(test::ReadFile((out / "stats.json").string()));
+  EXPECT_GE(j["frames_composited"].get<int>(), 5);
+  for (const char* node : {"capture", "recon0", "recon1", "sim", "render"})
+    EXPECT_EQ(j["nodes"][node]["rejected"].get<int>(), 0) << node;
+  EXPECT_GE(j["collision_reports_with_points"].get<int>(), 1) << "the ball never reached the person\n" << j.dump(2);
+  const auto& w = j["world"];
+  EXPECT_EQ(w["up"], nlohmann::json::array({0.0, 0.0, 1.0})) << w.dump();
+  EXPECT_EQ(w["floor"], "hull");
+  ASSERT_TRUE(w.contains("first_hull_box")) << w.dump();
+  ASSERT_FALSE(w["floor_height"].is_null());
+  const Eigen::Vector3d lo(w["first_hull_box"]["min"][0], w["first_hull_box"]["min"][1], w["first_hull_box"]["min"][2]);
+  const Eigen::Vector3d hi(w["first_hull_box"]["max"][0], w["first_hull_box"]["max"][1], w["first_hull_box"]["max"][2]);
+  const Eigen::Vector3d size = hi - lo;
+  // Tolerances: the hull is segmented from noisy MJPG frames by 6 cameras at
+  // 320x240 (a pixel is ~1.5 cm at 3 m) and is larger than the figure where no
+  // camera carves (a few cm on the box); 10 cm on the floor and 15 cm on the
+  // height and the axis tell a person standing there from one lying, floating,
+  // upside down or elsewhere.
+  EXPECT_NEAR(w["floor_height"].get<double>(), 0.03, 0.10) << "the floor is not under their feet";
+  EXPECT_NEAR(lo.z(), w["floor_height"].get<double>(), 1e-9);
+  EXPECT_NEAR(hi.z(), 1.69, 0.15) << "not a 1.7-m person standing on the floor";
+  EXPECT_GT(size.z(), 1.5 * std::max(size.x(), size.y())) << "not upright";
+  EXPECT_NEAR(0.5 * (lo.x() + hi.x()), 1.5, 0.15);
+  EXPECT_NEAR(0.5 * (lo.y() + hi.y()), -0.8, 0.15);
+  const std::string log = test::ReadFile((dir / "launch.log").string());
+  EXPECT_EQ(log.find("below the rig's floor"), std::string::npos) << log;
+}
+
 // Faults (docs/architecture.md): kill one recon node mid-run with SIGKILL. render_node
 // notices within a second, the other recon node renders the orphaned tile too,
 // so compositing goes on; when the killed node is restarted the split resumes.
