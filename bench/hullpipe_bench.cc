@@ -247,6 +247,26 @@ int main(int argc, char** argv) {
   std::printf("|%s|%s|%s|%s|\n", std::string(30, '-').c_str(), std::string(36, '-').c_str(),
               std::string(11, '-').c_str(), std::string(30, '-').c_str());
 
+  {
+    // The volume query's set-up, which finds the hull's box (the pyramids'
+    // box, then tightened by the octree search), against the pyramids alone.
+    std::vector<Camera> cams;
+    std::vector<cv::Mat> maps;
+    for (const auto& v : views) cams.push_back(v.camera), maps.push_back(v.map);
+    const Aabb pyramids = HullBoundingBox(cams, maps, src->workspace());
+    auto size_note = [](const Aabb& b) {
+      char note[64];
+      const Eigen::Vector3d s = b.max - b.min;
+      std::snprintf(note, sizeof note, "box %.2f x %.2f x %.2f m", s.x(), s.y(), s.z());
+      return std::string(note);
+    };
+    const std::string cfg = std::to_string(cams.size()) + " cameras";
+    Row("hull box: pyramids only", cfg, MedianMs(repeats * 3, [&] { (void)HullBoundingBox(cams, maps, src->workspace()); }),
+        size_note(pyramids));
+    Row("volume query set-up + box", cfg, MedianMs(repeats * 3, [&] { (void)VolumeQuery(views, src->workspace()); }),
+        size_note(q.hull_box()));
+  }
+
   if (!synthetic) {
     // Segmentation of one 644x486 camera frame (the capture node does 4 per frame).
     const Rig r = LoadRig(rig);

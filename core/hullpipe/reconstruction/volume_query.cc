@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <map>
+#include <optional>
 #include <limits>
 #include <queue>
 #include <set>
@@ -74,27 +77,63 @@ Aabb UnknownPolicyHullBox(const std::vector<Camera>& cams, const std::vector<cv:
   return out;
 }
 
+// A distorted camera's pinhole twin and how far its lens moves a point: over
+// the pinhole image of its picture (the undistorted image border's box, in
+// pinhole pixels) no point moves by more than `shift` px along either axis.
+// Sampled on a 17x17 grid and the border every 8 px; the displacement field is
+// smooth, so `shift` takes 10% and 1 px over the largest sample.
+struct LensBound {
+  Camera pinhole;
+  double shift = 0;
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;  // pinhole pixels
+  explicit LensBound(const Camera& c) : pinhole(c) {
+    pinhole.distortion = Distortion{};
+    auto to_pinhole = [&](double u, double v) {
+      const Eigen::Vector2d xn = c.Undistort({(u - c.cx) / c.fx, (v - c.cy) / c.fy});
+      return Eigen::Vector2d(c.fx * xn.x() + c.cx, c.fy * xn.y() + c.cy);
+    };
+    auto visit = [&](double u, double v) {
+      const Eigen::Vector2d p = to_pinhole(u, v);
+      x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
+      shift = std::max({shift, std::abs(p.x() - u), std::abs(p.y() - v)});
+    };
+    for (double u = 0; u < c.width + 8; u += 8) visit(std::min(u, double(c.width)), 0), visit(std::min(u, double(c.width)), c.height);
+    for (double v = 0; v < c.height + 8; v += 8) visit(0, std::min(v, double(c.height))), visit(c.width, std::min(v, double(c.height)));
+    for (int i = 0; i <= 16; ++i)
+      for (int j = 0; j <= 16; ++j) {
+        const Eigen::Vector2d p(x0 + (x1 - x0) * i / 16, y0 + (y1 - y0) * j / 16);
+        const Eigen::Vector2d xd = c.Distort({(p.x() - c.cx) / c.fx, (p.y() - c.cy) / c.fy});
+        shift = std::max({shift, std::abs(c.fx * xd.x() + c.cx - p.x()), std::abs(c.fy * xd.y() + c.cy - p.y())});
+      }
+    shift = 1.1 * shift + 1.0;
+  }
+};
+
 // Tightens a conservative hull box to within a small cell of the hull's own box
-// (docs/rigs.md: a ring of cameras leaves the pyramid boxes metres wide, as two
-// opposite cameras' pyramids meet along the line between them). A cell of the
-// box is proven empty, holding no hull point, when
+// (docs/rigs.md: on a ring of cameras the kUnknown pyramid boxes are metres
+// wide, as two opposite cameras' pyramids meet along the line between them). A
+// cell of the box is proven empty, holding no hull point, when
 //   - a camera that sees all of it has no object pixel under its projection
 //     (the integral image of its map): that camera votes background throughout;
 //   - kOutside: a camera sees none of it (its projection lies off the image);
 //   - kUnknown: fewer than required_seen cameras may see any of it.
 // The projection is bounded by the cell's 8 corners: exact for a pinhole camera
-// when all are in front, the cell being convex. Through a distorted lens the
-// projection is bounded by its edges' images, which bend out of the corners'
-// rectangle by about c * span^2 (span: the rectangle's larger side in px;
-// measured c <= 7.5e-4 for k1 from -0.5 to 0.3 and the Utrecht lenses:
-// 2.7 px at 64 px, 0.76 px at 32 px, 0.19 px at 16 px). A distorted camera
-// therefore decides only cells spanning at most 32 px, with a margin of
-// 0.5 + span^2 / 400 px (three times the largest bend measured).
+// when all are in front, the cell being convex. A distorted camera bounds it two
+// ways, and takes the intersection:
+//   - its pinhole twin's corner rectangle grown by the most the lens moves a
+//     point (LensBound), where that rectangle lies in the pinhole image of the
+//     picture;
+//   - for cells whose distorted corners span at most 32 px, their rectangle
+//     grown by 0.5 + span^2 / 400 px: the cell's edges' images bend out of it by
+//     about c * span^2, measured c <= 7.5e-4 for k1 from -0.5 to 0.3 and the
+//     Utrecht lenses (2.7 px at 64 px, 0.76 px at 32, 0.19 px at 16): the margin
+//     is three times the largest bend measured.
 // For each face of the box a best-first search pops the cell that reaches
 // farthest out through that face: an empty cell is dropped; a cell no larger
-// than a leaf (the box's largest side / 128, at least 5 mm) ends the search,
+// than a leaf (the box's largest side / 64, at least 5 mm) ends the search,
 // its far side bounding the hull there. Every hull point lies in a cell not yet
-// dropped, so the result stays conservative. An empty hull gives an empty box.
+// dropped, so the result stays conservative. Cells are classified once for all
+// six searches. An empty hull gives an empty box.
 Aabb TightenHullBox(const std::vector<CameraMap>& views, const std::vector<cv::Rect>& rects, const Aabb& box,
                     bool outside_vetoes, int required_seen) {
   if (box.empty()) return box;
@@ -102,38 +141,64 @@ Aabb TightenHullBox(const std::vector<CameraMap>& views, const std::vector<cv::R
   // Integral images of each map within its object pixels' bounding rectangle
   // (none outside it): 0 under a rectangle iff it holds no object pixel.
   std::vector<cv::Mat> sums(n);
-  for (size_t i = 0; i < n; ++i)
+  std::vector<std::optional<LensBound>> lenses(n);
+  for (size_t i = 0; i < n; ++i) {
     if (rects[i].area() > 0) cv::integral(views[i].map(rects[i]), sums[i], CV_32S);
-  const double leaf = std::max(5e-3, (box.max - box.min).maxCoeff() / 128);
+    if (views[i].camera.HasDistortion()) lenses[i].emplace(views[i].camera);
+  }
+  const double leaf = std::max(5e-3, (box.max - box.min).maxCoeff() / 64);
   size_t hint = 0;  // the camera that emptied the last empty cell, tried first (neighbours share it)
-  auto empty = [&](const Aabb& cell) {
-    const std::vector<Eigen::Vector3d> pts = cell.Corners();
+  // The corners' pixel rectangle [u0, u1] x [v0, v1]; false if one is not in front (or, distorted, not projectable).
+  struct Rect {
+    double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
+    double span() const { return std::max(u1 - u0, v1 - v0); }
+  };
+  auto corners_rect = [](const Camera& cam, const std::array<Eigen::Vector3d, 8>& pts, Rect* r) {
+    for (const auto& X : pts) {
+      const auto uv = cam.Project(X);
+      if (!uv) return false;
+      r->u0 = std::min(r->u0, uv->x()), r->v0 = std::min(r->v0, uv->y());
+      r->u1 = std::max(r->u1, uv->x()), r->v1 = std::max(r->v1, uv->y());
+    }
+    return true;
+  };
+  auto classify = [&](const Aabb& cell) {
+    std::array<Eigen::Vector3d, 8> pts;
+    for (int k = 0; k < 8; ++k)
+      pts[size_t(k)] = {k & 1 ? cell.max.x() : cell.min.x(), k & 2 ? cell.max.y() : cell.min.y(),
+                        k & 4 ? cell.max.z() : cell.min.z()};
     int seeing = 0;
     for (size_t j = 0; j < n; ++j) {
       const size_t i = j == 0 ? hint : (j <= hint ? j - 1 : j);
       const Camera& cam = views[i].camera;
-      const bool distorted = cam.HasDistortion();
-      double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
-      bool projects = true;
-      for (size_t k = 0; k < pts.size() && projects; ++k) {
-        const auto uv = cam.Project(pts[k]);
-        if (!uv) {
-          projects = false;
-          break;
+      // A conservative rectangle of the cell's projection, or none: the camera
+      // may see some of the cell and vetoes none of it.
+      Rect r;
+      bool bounded = false;
+      if (!lenses[i]) {
+        bounded = corners_rect(cam, pts, &r);
+      } else {
+        const LensBound& lens = *lenses[i];
+        Rect p;
+        if (corners_rect(lens.pinhole, pts, &p) && p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 &&
+            p.v1 <= lens.y1) {
+          r = {p.u0 - lens.shift, p.v0 - lens.shift, p.u1 + lens.shift, p.v1 + lens.shift};
+          bounded = true;
         }
-        u0 = std::min(u0, uv->x()), v0 = std::min(v0, uv->y());
-        u1 = std::max(u1, uv->x()), v1 = std::max(v1, uv->y());
+        Rect d;
+        if ((!bounded || p.span() <= 32) && corners_rect(cam, pts, &d) && d.span() <= 32) {
+          const double m = 0.5 + d.span() * d.span() / 400;
+          const Rect g{d.u0 - m, d.v0 - m, d.u1 + m, d.v1 + m};
+          r = bounded ? Rect{std::max(r.u0, g.u0), std::max(r.v0, g.v0), std::min(r.u1, g.u1), std::min(r.v1, g.v1)} : g;
+          bounded = true;
+        }
       }
-      // A cell partly behind the camera or beyond its valid radius: it may see
-      // some of it, and vetoes none of it.
-      const double span = std::max(u1 - u0, v1 - v0);
-      if (!projects || (distorted && span > 32)) {
+      if (!bounded) {
         ++seeing;
         continue;
       }
-      const double m = distorted ? 0.5 + span * span / 400 : 0.0;
-      const int x0 = int(std::floor(u0 - m)), y0 = int(std::floor(v0 - m));
-      const int x1 = int(std::floor(u1 + m)) + 1, y1 = int(std::floor(v1 + m)) + 1;
+      const int x0 = int(std::floor(r.u0)), y0 = int(std::floor(r.v0));
+      const int x1 = int(std::floor(r.u1)) + 1, y1 = int(std::floor(r.v1)) + 1;
       if (x1 <= 0 || y1 <= 0 || x0 >= cam.width || y0 >= cam.height) {  // sees none of it
         if (outside_vetoes) return hint = i, true;
         continue;
@@ -141,14 +206,25 @@ Aabb TightenHullBox(const std::vector<CameraMap>& views, const std::vector<cv::R
       ++seeing;
       if (x0 < 0 || y0 < 0 || x1 > cam.width || y1 > cam.height) continue;  // sees part of it
       // Object pixels under [x0, x1) x [y0, y1), counted within the rectangle.
-      const cv::Rect& r = rects[i];
-      const int a0 = std::clamp(x0 - r.x, 0, r.width), a1 = std::clamp(x1 - r.x, 0, r.width);
-      const int b0 = std::clamp(y0 - r.y, 0, r.height), b1 = std::clamp(y1 - r.y, 0, r.height);
+      const cv::Rect& o = rects[i];
+      const int a0 = std::clamp(x0 - o.x, 0, o.width), a1 = std::clamp(x1 - o.x, 0, o.width);
+      const int b0 = std::clamp(y0 - o.y, 0, o.height), b1 = std::clamp(y1 - o.y, 0, o.height);
       const cv::Mat& s = sums[i];
       if (a0 == a1 || b0 == b1 || s.at<int>(b1, a1) - s.at<int>(b0, a1) - s.at<int>(b1, a0) + s.at<int>(b0, a0) == 0)
         return hint = i, true;
     }
     return seeing < required_seen;
+  };
+  // Cells are made by halving, so one cell has the same bits whichever search
+  // made it: classified once.
+  std::map<std::array<double, 6>, bool> known;
+  auto empty = [&](const Aabb& c) {
+    const std::array<double, 6> key{c.min.x(), c.min.y(), c.min.z(), c.max.x(), c.max.y(), c.max.z()};
+    const auto it = known.find(key);
+    if (it != known.end()) return it->second;
+    const bool e = classify(c);
+    known.emplace(key, e);
+    return e;
   };
   struct Item {
     double reach;
