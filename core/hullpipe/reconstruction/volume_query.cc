@@ -77,23 +77,21 @@ Aabb UnknownPolicyHullBox(const std::vector<Camera>& cams, const std::vector<cv:
   return out;
 }
 
-// A distorted camera's pinhole twin and how far its lens moves a point: over
-// the pinhole image of its picture (the undistorted image border's box, in
-// pinhole pixels) no point moves by more than `shift` px along either axis.
-// Sampled on a 17x17 grid and the border every 8 px; the displacement field is
-// smooth, so `shift` takes 10% and 1 px over the largest sample.
+// A distorted camera's pinhole projection and how far its lens moves a point:
+// over the pinhole image of its picture (the undistorted image border's box, in
+// pinhole pixels), within the distortion's valid radius, no point moves by more
+// than `shift` px along either axis. Sampled on a 17x17 grid and the border
+// every 8 px; the displacement field is smooth, so `shift` takes 10% and 1 px
+// over the largest sample.
 struct LensBound {
-  Camera pinhole;
+  const Camera* camera;
+  double r2max;  // Camera::MaxValidRadius2: beyond it a point does not project
   double shift = 0;
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;  // pinhole pixels
-  explicit LensBound(const Camera& c) : pinhole(c) {
-    pinhole.distortion = Distortion{};
-    auto to_pinhole = [&](double u, double v) {
-      const Eigen::Vector2d xn = c.Undistort({(u - c.cx) / c.fx, (v - c.cy) / c.fy});
-      return Eigen::Vector2d(c.fx * xn.x() + c.cx, c.fy * xn.y() + c.cy);
-    };
+  explicit LensBound(const Camera& c) : camera(&c), r2max(c.MaxValidRadius2()) {
     auto visit = [&](double u, double v) {
-      const Eigen::Vector2d p = to_pinhole(u, v);
+      const Eigen::Vector2d xn = c.Undistort({(u - c.cx) / c.fx, (v - c.cy) / c.fy});
+      const Eigen::Vector2d p(c.fx * xn.x() + c.cx, c.fy * xn.y() + c.cy);
       x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
       shift = std::max({shift, std::abs(p.x() - u), std::abs(p.y() - v)});
     };
@@ -101,11 +99,21 @@ struct LensBound {
     for (double v = 0; v < c.height + 8; v += 8) visit(0, std::min(v, double(c.height))), visit(c.width, std::min(v, double(c.height)));
     for (int i = 0; i <= 16; ++i)
       for (int j = 0; j <= 16; ++j) {
-        const Eigen::Vector2d p(x0 + (x1 - x0) * i / 16, y0 + (y1 - y0) * j / 16);
-        const Eigen::Vector2d xd = c.Distort({(p.x() - c.cx) / c.fx, (p.y() - c.cy) / c.fy});
-        shift = std::max({shift, std::abs(c.fx * xd.x() + c.cx - p.x()), std::abs(c.fy * xd.y() + c.cy - p.y())});
+        const Eigen::Vector2d xn((x0 + (x1 - x0) * i / 16 - c.cx) / c.fx, (y0 + (y1 - y0) * j / 16 - c.cy) / c.fy);
+        if (xn.squaredNorm() > r2max) continue;
+        const Eigen::Vector2d xd = c.Distort(xn);
+        shift = std::max({shift, std::abs(c.fx * (xd.x() - xn.x())), std::abs(c.fy * (xd.y() - xn.y()))});
       }
     shift = 1.1 * shift + 1.0;
+  }
+  /// The pinhole pixel of X, or nullopt if X is not in front or beyond the valid
+  /// radius (the disk is convex: a cell whose corners are all inside it is too).
+  std::optional<Eigen::Vector2d> Pinhole(const Eigen::Vector3d& X) const {
+    const Eigen::Vector3d xc = camera->cam_from_world * X;
+    if (!(xc.z() > 1e-9)) return std::nullopt;
+    const Eigen::Vector2d xn(xc.x() / xc.z(), xc.y() / xc.z());
+    if (xn.squaredNorm() > r2max) return std::nullopt;
+    return Eigen::Vector2d(camera->fx * xn.x() + camera->cx, camera->fy * xn.y() + camera->cy);
   }
 };
 
@@ -120,9 +128,9 @@ struct LensBound {
 // The projection is bounded by the cell's 8 corners: exact for a pinhole camera
 // when all are in front, the cell being convex. A distorted camera bounds it two
 // ways, and takes the intersection:
-//   - its pinhole twin's corner rectangle grown by the most the lens moves a
-//     point (LensBound), where that rectangle lies in the pinhole image of the
-//     picture;
+//   - its pinhole corner rectangle grown by the most the lens moves a point
+//     (LensBound), where that rectangle lies in the pinhole image of the
+//     picture and every corner within the valid radius;
 //   - for cells whose distorted corners span at most 32 px, their rectangle
 //     grown by 0.5 + span^2 / 400 px: the cell's edges' images bend out of it by
 //     about c * span^2, measured c <= 7.5e-4 for k1 from -0.5 to 0.3 and the
@@ -153,9 +161,9 @@ Aabb TightenHullBox(const std::vector<CameraMap>& views, const std::vector<cv::R
     double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
     double span() const { return std::max(u1 - u0, v1 - v0); }
   };
-  auto corners_rect = [](const Camera& cam, const std::array<Eigen::Vector3d, 8>& pts, Rect* r) {
+  auto corners_rect = [](const auto& project, const std::array<Eigen::Vector3d, 8>& pts, Rect* r) {
     for (const auto& X : pts) {
-      const auto uv = cam.Project(X);
+      const auto uv = project(X);
       if (!uv) return false;
       r->u0 = std::min(r->u0, uv->x()), r->v0 = std::min(r->v0, uv->y());
       r->u1 = std::max(r->u1, uv->x()), r->v1 = std::max(r->v1, uv->y());
@@ -176,17 +184,18 @@ Aabb TightenHullBox(const std::vector<CameraMap>& views, const std::vector<cv::R
       Rect r;
       bool bounded = false;
       if (!lenses[i]) {
-        bounded = corners_rect(cam, pts, &r);
+        bounded = corners_rect([&](const Eigen::Vector3d& X) { return cam.Project(X); }, pts, &r);
       } else {
         const LensBound& lens = *lenses[i];
         Rect p;
-        if (corners_rect(lens.pinhole, pts, &p) && p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 &&
+        if (corners_rect([&](const Eigen::Vector3d& X) { return lens.Pinhole(X); }, pts, &p) && p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 &&
             p.v1 <= lens.y1) {
           r = {p.u0 - lens.shift, p.v0 - lens.shift, p.u1 + lens.shift, p.v1 + lens.shift};
           bounded = true;
         }
         Rect d;
-        if ((!bounded || p.span() <= 32) && corners_rect(cam, pts, &d) && d.span() <= 32) {
+        if ((!bounded || p.span() <= 32) &&
+            corners_rect([&](const Eigen::Vector3d& X) { return cam.Project(X); }, pts, &d) && d.span() <= 32) {
           const double m = 0.5 + d.span() * d.span() / 400;
           const Rect g{d.u0 - m, d.v0 - m, d.u1 + m, d.v1 + m};
           r = bounded ? Rect{std::max(r.u0, g.u0), std::max(r.v0, g.v0), std::min(r.u1, g.u1), std::min(r.v1, g.v1)} : g;
