@@ -138,7 +138,7 @@ struct LensBound {
 //     is three times the largest bend measured.
 // For each face of the box a best-first search pops the cell that reaches
 // farthest out through that face: an empty cell is dropped; a cell no larger
-// than a leaf (the box's largest side / 64, at least 5 mm) ends the search,
+// than a leaf (the box's largest side / 64, within [5 mm, 2 cm]) ends the search,
 // its far side bounding the hull there. Every hull point lies in a cell not yet
 // dropped, so the result stays conservative. Cells are classified once for all
 // six searches. An empty hull gives an empty box.
@@ -154,7 +154,7 @@ Aabb TightenHullBox(const std::vector<CameraMap>& views, const std::vector<cv::R
     if (rects[i].area() > 0) cv::integral(views[i].map(rects[i]), sums[i], CV_32S);
     if (views[i].camera.HasDistortion()) lenses[i].emplace(views[i].camera);
   }
-  const double leaf = std::max(5e-3, (box.max - box.min).maxCoeff() / 64);
+  const double leaf = std::clamp((box.max - box.min).maxCoeff() / 64, 5e-3, 0.02);
   size_t hint = 0;  // the camera that emptied the last empty cell, tried first (neighbours share it)
   // The corners' pixel rectangle [u0, u1] x [v0, v1]; false if one is not in front (or, distorted, not projectable).
   struct Rect {

@@ -61,7 +61,7 @@ TEST_F(SphereHull, HullBoxContainsTheSphereAndIsTight) {
 // A standing capsule in a ring of 6 cameras (three opposite pairs, as labs set
 // them up), under both policies, with and without lens distortion. The hull's
 // box must hold every hull point (conservative) and lie within two leaves of
-// the octree search (leaf: the workspace's largest side / 64, 5 cm here; a
+// the octree search (leaf: at most the workspace's largest side / 64 and 2 cm; a
 // leaf's projected rectangle reaches past its outline by up to about another)
 // plus the 2-cm sampling step of the hull's own box found here by brute force.
 // The pyramid boxes it starts from are metres wider under kUnknown (each pair of
@@ -95,7 +95,8 @@ TEST(HullBox, TightToTheHullsOwnBoxOnARingAndConservative) {
             ASSERT_TRUE(box.Contains(p)) << p.transpose() << " is inside the hull but not in its box";
           }
       ASSERT_FALSE(sampled.empty());
-      const double slack = 2 * (workspace.max - workspace.min).maxCoeff() / 64 + step + 1e-9;
+      const double leaf = std::min((workspace.max - workspace.min).maxCoeff() / 64, 0.02);
+      const double slack = 2 * leaf + step + 1e-9;
       EXPECT_LT((sampled.min - box.min).maxCoeff(), slack) << box.min.transpose() << " vs " << sampled.min.transpose();
       EXPECT_LT((box.max - sampled.max).maxCoeff(), slack) << box.max.transpose() << " vs " << sampled.max.transpose();
     }
@@ -119,10 +120,10 @@ TEST(Workspace, WhatEveryCameraSeesKeepsARingsHullBoxToThePerson) {
       << "positive control: the box reaches out to the cameras, 3 m from the capsule";
   // The capsule is 0.3 m wide and 1.6 m tall; its hull, seen from three
   // directions, a hexagonal prism up to 0.3 / cos 30° = 0.35 m across; the box
-  // within two leaves of that (2 x 5 cm).
+  // within two leaves of that (2 x 2 cm).
   const Eigen::Vector3d size = common.hull_box().max - common.hull_box().min;
-  EXPECT_LT(size.head<2>().maxCoeff(), 0.35 + 0.1) << size.transpose();
-  EXPECT_LT(size.z(), 1.6 + 0.1) << size.transpose();
+  EXPECT_LT(size.head<2>().maxCoeff(), 0.35 + 0.04) << size.transpose();
+  EXPECT_LT(size.z(), 1.6 + 0.04) << size.transpose();
   for (double z = -0.1; z >= -1.6; z -= 0.05) EXPECT_TRUE(common.Inside({0.3, -0.2, z})) << z;
 }
 
