@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <optional>
-#include <limits>
 #include <queue>
 #include <set>
 #include <stdexcept>
@@ -156,11 +156,12 @@ Aabb TightenHullBox(const std::vector<CameraMap>& views, const std::vector<cv::R
   }
   const double leaf = std::clamp((box.max - box.min).maxCoeff() / 64, 5e-3, 0.02);
   size_t hint = 0;  // the camera that emptied the last empty cell, tried first (neighbours share it)
-  // The corners' pixel rectangle [u0, u1] x [v0, v1]; false if one is not in front (or, distorted, not projectable).
+  // A pixel rectangle [u0, u1] x [v0, v1].
   struct Rect {
     double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
     double span() const { return std::max(u1 - u0, v1 - v0); }
   };
+  // Grows *r over the projections of the corners; false if one does not project.
   auto corners_rect = [](const auto& project, const std::array<Eigen::Vector3d, 8>& pts, Rect* r) {
     for (const auto& X : pts) {
       const auto uv = project(X);

@@ -83,11 +83,14 @@ class VolumeQuery {
   size_t size() const { return views_.size(); }
   const std::vector<CameraMap>& views() const { return views_; }
   const Aabb& workspace() const { return workspace_; }
-  /// Conservative box of the hull (every inside point is in it). kOutside: the
-  /// intersection of all cameras' silhouette pyramids (empty if some map is empty).
-  /// kUnknown: the intersection of the pyramids of the cameras that see the whole
-  /// workspace (they always vote), within the union of each camera's own
-  /// pyramid box (an inside point is an object point of at least one camera).
+  /// Conservative box of the hull (every inside point is in it), world metres.
+  /// Started from the silhouette pyramids -- kOutside: the intersection of all
+  /// cameras' pyramids (empty if some map is empty); kUnknown: the union, over
+  /// the required_seen()-subsets of cameras grown by those that see their whole
+  /// box, of those boxes -- then tightened by a best-first octree search per face
+  /// that drops cells a camera proves empty (volume_query.cc, TightenHullBox):
+  /// within about two leaves (1/64 of the start box, 5 mm to 2 cm) of the hull's
+  /// own box. Empty when the hull is. Paper §3.2; docs/rigs.md.
   const Aabb& hull_box() const { return hull_box_; }
 
   /// True iff X (world metres) lies in the workspace and the cameras' votes make
