@@ -30,7 +30,8 @@
 #include "hullpipe/gl/gl_triangle_query.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
-#include "hullpipe/segmentation/rig_source.h"
+#include "hullpipe/evaluation/synthetic_source.h"
+#include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/segmentation/segmentation.h"
 #include "hullpipe/reconstruction/texture.h"
 
@@ -87,11 +88,11 @@ BackendInput MakeBackendInput(int cameras) {
 }
 
 int BackendTable(const std::string& which, int repeats, int gl_device) {
-  std::unique_ptr<gl::SweepBackend> cpu, gpu;
+  std::unique_ptr<SweepBackend> cpu, gpu;
   if (which != "gl") cpu = gl::MakeSweepBackend("cpu", 1, 6);
   std::optional<gl::EglContext> tri_ctx;
   if (which != "cpu") {
-    gl::BackendOptions o;
+    BackendOptions o;
     o.name = "gl";
     o.refine = 6;
     o.gl_device = gl_device;
@@ -103,12 +104,12 @@ int BackendTable(const std::string& which, int repeats, int gl_device) {
     }
   }
   std::printf("backend table: %u hardware threads, CPU backend 1 thread; GL: %s\n",
-              std::thread::hardware_concurrency(), gpu ? gpu->gl_info()->Summary().c_str() : "not run");
+              std::thread::hardware_concurrency(), gpu ? gpu->GlSummary().c_str() : "not run");
   std::printf("frame = upload + visibility maps (4..16 x 80 px, 48 planes) + sweep (refine 6) + texture; median of %d\n\n",
               repeats);
   std::printf("| view      | cams | planes | CPU sweep ms | CPU frame ms | GL sweep ms | GL frame ms | frame CPU/GL |\n");
   std::printf("|-----------|------|--------|--------------|--------------|-------------|-------------|--------------|\n");
-  auto frame = [&](gl::SweepBackend& b, const BackendInput& in, const VolumeQuery& q, const NovelView& view,
+  auto frame = [&](SweepBackend& b, const BackendInput& in, const VolumeQuery& q, const NovelView& view,
                    const std::vector<double>& depths, double* sweep_ms) {
     std::vector<Camera> cams;
     for (const auto& im : in.images) cams.push_back(im.camera);

@@ -12,7 +12,8 @@
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/nodes/capture_controller.h"
-#include "hullpipe/segmentation/rig_source.h"
+#include "hullpipe/evaluation/synthetic_source.h"
+#include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/cli_range.h"
 
 using namespace hullpipe;
@@ -156,7 +157,7 @@ int main(int argc, char** argv) {
     for (size_t i = 0; i < camera_ids.size(); ++i) name += (i ? "," : "-") + std::to_string(camera_ids[i]);
     CaptureWriters writers(*participant, jpeg_quality, name);
     Reader<hullpipe_msg_CaptureTimeline> timelines(*participant);
-    nodes::SystemClock clock;
+    SystemClock clock;
     nodes::CaptureController capture(co, clock, *source, writers);
     auto hear_timelines = [&] {
       timelines.TakeEach([&](const hullpipe_msg_CaptureTimeline& m, const dds_sample_info_t&) {

@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
   app.add_option("--tile", tile_spec, "This node's tile i/N of the view (horizontal bands)")->capture_default_str();
   app.add_option("--backend", backend_name, "Sweep backend: cpu|gl|auto")
       ->check(CLI::IsMember({"cpu", "gl", "auto"}))->capture_default_str();
-  gl::BackendOptions bo;
+  BackendOptions bo;
   app.add_option("--gl-method", bo.gl_method,
                  "GL sweep: march (compute-shader ray march, refinement on the GPU) or stencil (the paper's "
                  "stencil counting)")
@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
     bo.name = backend_name;
     bo.threads = o.threads;
     bo.refine = o.refine;
-    std::unique_ptr<gl::SweepBackend> backend = gl::MakeSweepBackend(bo);
+    std::unique_ptr<SweepBackend> backend = gl::MakeSweepBackend(bo);
     backend->set_stop(StopRequestFlag());  // SIGINT ends a long sweep too
     spdlog::info("tile {}/{}, backend {} ({})", o.tile, o.tile_count, backend->Name(), backend->reason());
     WaitSet ws(*participant);
@@ -93,7 +93,7 @@ int main(int argc, char** argv) {
     Reader<hullpipe_msg_NodeStats> peer_stats(*participant);
     ws.Attach(pose_reader);
     TileWriter tiles(*participant);
-    nodes::SystemClock clock;
+    SystemClock clock;
     o.run_id = common.run_id;
     nodes::ReconController recon(o, clock, input.assembler(), *backend, tiles);
     NodeReporter reporter(*participant, name, recon.counters(), common.run_id);

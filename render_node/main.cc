@@ -245,7 +245,7 @@ int main(int argc, char** argv) {
     spdlog::info("run id {}{}", RunIdText(o.run_id), common.run_id ? "" : " (its own: no --run-id given)");
     Outputs outputs(pose_writer, o.run_id, out_dir, video_fps, png_every, window == "on" || (window == "auto" && have_display),
                     save_depth);
-    nodes::SystemClock clock;
+    SystemClock clock;
     nodes::RenderController render(o, clock, input.assembler(), outputs);
     NodeReporter reporter(*participant, "render", render.counters(), o.run_id);
     input.SetCounters(&render.counters());

@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
     Reader<hullpipe_msg_SceneCommand> command_reader(*participant);
     ws.Attach(command_reader);
     SimWriters writers(*participant);
-    nodes::SystemClock clock;
+    SystemClock clock;
     nodes::SimController sim(config, clock, input.assembler(), writers);
     sim.set_stop(StopRequestFlag());  // SIGINT ends a long step too
     sim.set_every_frameset(every_frameset);

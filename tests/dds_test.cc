@@ -169,7 +169,7 @@ TEST(Convert, HeadPoseRoundTripAndBadRotation) {
 // stats.json empty (nlohmann-json threw at the end of the run): rejected at the
 // wire now, one line, counted.
 TEST(Convert, NodeStatsWithBadTextIsRejected) {
-  nodes::NodeStatsSample s;
+  NodeStatsSample s;
   s.name = "recon0";
   s.stages["sweep"] = {1.0, 2.0};
   s.backend = "cpu";
@@ -193,12 +193,12 @@ TEST(Convert, NodeStatsWithBadTextIsRejected) {
 // The latency budget needs each stage's median, p95 and count, and the host
 // (which stamps cross hosts): all of them cross the wire.
 TEST(Convert, NodeStatsCarriesEachStagesPercentilesAndTheHost) {
-  nodes::NodeStatsSample s;
+  NodeStatsSample s;
   s.name = "recon1";
   s.host = "lab-pc-2";
   s.stages["sweep"] = {12.5, 11.0, 20.0, 321};
   s.stages["transport_map"] = {1.5, 1.0, 3.0, 1284};
-  const nodes::NodeStatsSample back = NodeStatsFromMsg(MakeNodeStatsMessage(s, 1).msg);
+  const NodeStatsSample back = NodeStatsFromMsg(MakeNodeStatsMessage(s, 1).msg);
   EXPECT_EQ(back.host, "lab-pc-2");
   ASSERT_EQ(back.stages.size(), 2u);
   const auto& st = back.stages.at("sweep");

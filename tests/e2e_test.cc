@@ -23,7 +23,8 @@
 #include "hullpipe/geometry/head_pose.h"
 #include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
-#include "hullpipe/segmentation/rig_source.h"
+#include "hullpipe/evaluation/synthetic_source.h"
+#include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/percentile.h"
 #include "test_util.h"
 

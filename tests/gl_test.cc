@@ -195,9 +195,9 @@ TEST_F(Gl, BackendChoice) {
   }
   const auto g = MakeSweepBackend("gl");
   EXPECT_NE(g->Name().find("gl march"), std::string::npos);
-  ASSERT_NE(g->gl_info(), nullptr);
-  EXPECT_FALSE(g->gl_info()->vendor.empty());
-  EXPECT_NE(g->gl_info()->version.find("4."), std::string::npos) << g->gl_info()->version;
+  ASSERT_NE(GlInfoOf(*g), nullptr);
+  EXPECT_FALSE(GlInfoOf(*g)->vendor.empty());
+  EXPECT_NE(GlInfoOf(*g)->version.find("4."), std::string::npos) << GlInfoOf(*g)->version;
   BackendOptions o;
   o.name = "gl";
   o.gl_method = "stencil";

@@ -186,7 +186,7 @@ class Exporter {
       });
     if (type == "hullpipe::msg::NodeStats")
       return With<hullpipe_msg_NodeStats>(w, s, [&](const auto& m) {
-        const nodes::NodeStatsSample st = NodeStatsFromMsg(m);
+        const NodeStatsSample st = NodeStatsFromMsg(m);
         (*j)["node"] = st.name, (*j)["host"] = st.host, (*j)["fps"] = st.fps, (*j)["backend"] = st.backend;
         (*j)["latency_ms_p50"] = st.latency_ms_p50, (*j)["latency_ms_p95"] = st.latency_ms_p95;
         (*j)["frames_in"] = st.frames_in, (*j)["frames_out"] = st.frames_out, (*j)["dropped"] = st.dropped;

@@ -13,7 +13,8 @@
 
 #include "hullpipe/evaluation/held_out_rendering.h"
 #include "hullpipe/geometry/conventions.h"
-#include "hullpipe/segmentation/rig_source.h"
+#include "hullpipe/evaluation/synthetic_source.h"
+#include "hullpipe/segmentation/video_rig.h"
 
 namespace hullpipe {
 namespace {

@@ -7,7 +7,7 @@
 #include <opencv2/core/utils/logger.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/dds/convert.h"
+#include "hullpipe/dds/node_stats_convert.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/util/run_id.h"
 
@@ -54,7 +54,7 @@ std::unique_ptr<Participant> StartNode(const std::string& node_name, const Commo
   return std::make_unique<Participant>(o.domain);
 }
 
-NodeReporter::NodeReporter(const Participant& p, std::string name, const nodes::NodeCounters& counters,
+NodeReporter::NodeReporter(const Participant& p, std::string name, const NodeCounters& counters,
                            uint64_t run_id)
     : writer_(p), name_(std::move(name)), counters_(counters), run_id_(run_id) {}
 
@@ -69,7 +69,7 @@ void NodeReporter::Publish(bool final_report) {
   const double now = counters_.clock().Now();
   if (final_sent_ || (!final_report && now - last_publish_s_ < 0.5)) return;
   last_publish_s_ = now;
-  nodes::NodeStatsSample s = counters_.Snapshot(name_, final_report);
+  NodeStatsSample s = counters_.Snapshot(name_, final_report);
   s.run_id = run_id_;
   writer_.Write(MakeNodeStatsMessage(s, counters_.clock().WallNs()).msg);
   if (final_report) final_sent_ = true;

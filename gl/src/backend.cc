@@ -11,28 +11,6 @@
 namespace hullpipe::gl {
 namespace {
 
-class CpuBackend final : public SweepBackend {
- public:
-  CpuBackend(int threads, int refine) : threads_(threads), refine_(refine) {}
-  void BeginFrameset(const VolumeQuery&, const std::vector<CameraImage>&) override {}
-  cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d, const cv::Rect& tile,
-                SweepStats* stats) override {
-    return PlaneSweepCpu(q, v, d, tile, stats, threads_, refine_, stop());
-  }
-  HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
-                            const PlaneSweepOptions& sweep) override {
-    return ComputeHullVisibility(q, cams, width, sweep, refine_, threads_, stop());
-  }
-  cv::Mat Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
-                  const std::vector<CameraImage>& images, const HullVisibility* vis) override {
-    return TextureHull(depth, tile, view, images, {}, vis, stop());
-  }
-  std::string Name() const override { return "cpu"; }
-
- private:
-  int threads_, refine_;
-};
-
 class GlBackend final : public SweepBackend {
  public:
   GlBackend(EglContext ctx, bool stencil, int threads, int refine)
@@ -82,7 +60,8 @@ class GlBackend final : public SweepBackend {
   std::string Name() const override {
     return std::string("gl ") + (stencil_ ? "stencil" : "march") + " (" + ctx_.renderer() + ")";
   }
-  const GlInfo* gl_info() const override { return &ctx_.info(); }
+  std::string GlSummary() const override { return ctx_.info().Summary(); }
+  const GlInfo& info() const { return ctx_.info(); }
 
  private:
   EglContext ctx_;
@@ -95,20 +74,10 @@ class GlBackend final : public SweepBackend {
 
 }  // namespace
 
-void BackendOptions::Check() const {
-  if (name != "cpu" && name != "gl" && name != "auto")
-    throw std::invalid_argument("--backend: unknown backend '" + name + "' (cpu, gl or auto)");
-  if (gl_method != "march" && gl_method != "stencil")
-    throw std::invalid_argument("--gl-method: unknown method '" + gl_method + "' (march or stencil)");
-  if (refine < 0) throw std::invalid_argument("--refine: refine iterations must be >= 0");
-  if (threads < 1) throw std::invalid_argument("--threads: must be >= 1");
-  if (gl_device < -1) throw std::invalid_argument("--gl-device: must be >= 0 (or -1 to pick)");
-}
-
 std::unique_ptr<SweepBackend> MakeSweepBackend(const BackendOptions& o) {
   o.Check();
   auto cpu = [&](const std::string& why) {
-    auto b = std::make_unique<CpuBackend>(o.threads, o.refine);
+    auto b = MakeCpuSweepBackend(o.threads, o.refine);
     b->set_reason(why);
     return b;
   };
@@ -138,6 +107,11 @@ std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int thre
   o.threads = threads;
   o.refine = refine;
   return MakeSweepBackend(o);
+}
+
+const GlInfo* GlInfoOf(const SweepBackend& backend) {
+  const auto* gl = dynamic_cast<const GlBackend*>(&backend);
+  return gl ? &gl->info() : nullptr;
 }
 
 }  // namespace hullpipe::gl

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "hullpipe/pipeline/messages.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 
 namespace hullpipe {
@@ -17,18 +18,6 @@ struct VirtualSphere {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   double radius = 0.1;
   bool colliding = false;  ///< Drawn red when true.
-};
-
-/// A virtual triangle mesh or point set to draw (world metres): the cloth, the
-/// payload parts, the particles.
-struct VirtualMeshDraw {
-  std::vector<Eigen::Vector3d> vertices;
-  std::vector<Eigen::Vector3i> triangles;  ///< Empty: draw the vertices as points.
-  /// Per triangle (or per point when there are no triangles): drawn red when 1.
-  /// Empty: none colliding.
-  std::vector<uint8_t> colliding;
-  cv::Vec3b colour{200, 200, 200};  ///< BGR when not colliding.
-  double point_radius = 0.005;      ///< Radius of drawn points, metres.
 };
 
 /// Compositing settings.

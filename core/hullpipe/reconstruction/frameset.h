@@ -30,6 +30,7 @@
 
 #include "hullpipe/geometry/aabb.h"
 #include "hullpipe/geometry/camera.h"
+#include "hullpipe/pipeline/node_stats.h"
 #include "hullpipe/reconstruction/texture.h"
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/util/latency_stats.h"
@@ -48,18 +49,6 @@ struct Frameset {
   /// AddMap/AddImage, the node's wall clock ns; 0: none known). A frameset that
   /// waited for a later sample to decide a nearest frame became complete after it.
   int64_t last_arrival_ns = 0;
-};
-
-/// Per camera: how well its samples found partners (NodeStats, stats.json).
-struct CameraSkewReport {
-  int camera_id = 0;
-  double skew_ms_p50 = 0, skew_ms_p95 = 0, skew_ms_max = 0;  ///< |capture time - t_ref| over framesets taken.
-  uint64_t frames = 0;         ///< Samples received.
-  uint64_t unpartnered = 0;    ///< Samples that left the history without belonging to a complete frameset.
-  uint64_t pauses = 0;         ///< Gaps of more than kPausePeriods frame periods (and kPauseMinS) in its capture times.
-  uint64_t restarts = 0;       ///< Its capture source restarted (a new writer, or frame numbers starting over).
-  uint64_t clock_offsets = 0;  ///< Episodes of kOffsetFramesets framesets in a row out of tolerance.
-  double period_ms = 0;        ///< Measured frame period (median of recent capture-time steps); 0 until known.
 };
 
 /// Collects maps (and images) into framesets by capture time.

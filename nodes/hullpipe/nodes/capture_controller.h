@@ -21,9 +21,9 @@
 
 #include "hullpipe/geometry/aabb.h"
 #include "hullpipe/geometry/camera.h"
-#include "hullpipe/nodes/clock.h"
-#include "hullpipe/nodes/node_counters.h"
-#include "hullpipe/segmentation/rig_source.h"
+#include "hullpipe/pipeline/clock.h"
+#include "hullpipe/pipeline/node_counters.h"
+#include "hullpipe/capture/rig_source.h"
 
 namespace hullpipe::nodes {
 

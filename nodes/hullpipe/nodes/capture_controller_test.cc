@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/reconstruction/volume_query.h"
 

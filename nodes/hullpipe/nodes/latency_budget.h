@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/pipeline/node_counters.h"
 
 namespace hullpipe::nodes {
 

@@ -33,7 +33,7 @@ void ReconOptions::Check() const {
 }
 
 ReconController::ReconController(ReconOptions options, const Clock& clock, FramesetAssembler& assembler,
-                                 gl::SweepBackend& backend, ReconSink& sink)
+                                 SweepBackend& backend, ReconSink& sink)
     : o_(std::move(options)),
       clock_(clock),
       assembler_(assembler),
@@ -44,8 +44,8 @@ ReconController::ReconController(ReconOptions options, const Clock& clock, Frame
       runs_(o_.run_id),
       adopted_(size_t(o_.tile_count), false) {
   query_options_.out_of_view = o_.out_of_view;
-  const gl::GlInfo* gl = backend_.gl_info();
-  counters_.SetBackend(gl ? backend_.Name() + " | " + gl->Summary() : backend_.Name());
+  const std::string gl = backend_.GlSummary();
+  counters_.SetBackend(gl.empty() ? backend_.Name() : backend_.Name() + " | " + gl);
   // Every peer counts as heard at the start: none is adopted before it had
   // `failover` s to report.
   for (int k = 0; k < o_.tile_count; ++k)
@@ -123,7 +123,7 @@ int ReconController::Step() {
     published += Render(pose, *fs);
   }
   counters_.SetDropped(assembler_.dropped() + poses_dropped_);
-  counters_.SetAssembly(assembler_);
+  counters_.SetAssembly(assembler_.SkewReports(), assembler_.dropped_for_skew());
   counters_.SetRejected(assembler_.rejected() + rejected_ + malformed_input_);
   return published;
 }

@@ -14,14 +14,14 @@
 #include <string>
 #include <vector>
 
-#include "hullpipe/gl/backend.h"
-#include "hullpipe/nodes/clock.h"
-#include "hullpipe/nodes/messages.h"
-#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/pipeline/clock.h"
+#include "hullpipe/pipeline/messages.h"
+#include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/nodes/peer_liveness.h"
 #include "hullpipe/nodes/run_filter.h"
 #include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/sweep_backend.h"
 #include "hullpipe/reconstruction/volume_query.h"
 
 namespace hullpipe::nodes {
@@ -55,7 +55,7 @@ class ReconSink {
 class ReconController {
  public:
   ReconController(ReconOptions options, const Clock& clock, FramesetAssembler& assembler,
-                  gl::SweepBackend& backend, ReconSink& sink);
+                  SweepBackend& backend, ReconSink& sink);
   /// A ViewPose of run `run_id`: render frameset frame_seq (0: the newest
   /// complete) from `view`; its tile carries the run id back. A pose of another
   /// run is ignored (counted in runs().ignored(); one warning per run).
@@ -92,7 +92,7 @@ class ReconController {
   ReconOptions o_;
   const Clock& clock_;
   FramesetAssembler& assembler_;
-  gl::SweepBackend& backend_;
+  SweepBackend& backend_;
   ReconSink& sink_;
   NodeCounters counters_;
   PeerLiveness peers_;

@@ -27,7 +27,7 @@ class Recon : public ::testing::Test {
   FakeClock clock_;
   FramesetAssembler assembler_{8, true};
   test::TinyRig rig_;
-  std::unique_ptr<gl::SweepBackend> cpu_ = gl::MakeSweepBackend("cpu", 1, 0);
+  std::unique_ptr<SweepBackend> cpu_ = MakeCpuSweepBackend(1, 0);
   TileRecorder sink_;
 };
 

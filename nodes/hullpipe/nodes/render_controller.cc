@@ -284,7 +284,7 @@ int RenderController::Step() {
     done_ = true;
   }
   counters_.SetRejected(rejected_ + malformed_input_ + assembler_.rejected());
-  counters_.SetAssembly(assembler_);
+  counters_.SetAssembly(assembler_.SkewReports(), assembler_.dropped_for_skew());
   return composited;
 }
 

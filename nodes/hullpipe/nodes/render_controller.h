@@ -20,10 +20,10 @@
 
 #include "hullpipe/geometry/aabb.h"
 #include "hullpipe/geometry/head_pose.h"
-#include "hullpipe/nodes/clock.h"
+#include "hullpipe/pipeline/clock.h"
 #include "hullpipe/nodes/latency_budget.h"
-#include "hullpipe/nodes/messages.h"
-#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/pipeline/messages.h"
+#include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/nodes/peer_liveness.h"
 #include "hullpipe/nodes/run_filter.h"
 #include "hullpipe/reconstruction/frameset.h"

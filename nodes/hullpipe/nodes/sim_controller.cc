@@ -39,7 +39,7 @@ int SimController::Step() {
     ++stepped;
   }
   counters_.SetDropped(assembler_.dropped());
-  counters_.SetAssembly(assembler_);
+  counters_.SetAssembly(assembler_.SkewReports(), assembler_.dropped_for_skew());
   counters_.SetRejected(assembler_.rejected() + commands_rejected_ + malformed_input_);
   return stepped;
 }

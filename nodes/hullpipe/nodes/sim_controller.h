@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "hullpipe/nodes/clock.h"
-#include "hullpipe/nodes/messages.h"
-#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/pipeline/clock.h"
+#include "hullpipe/pipeline/messages.h"
+#include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/scenes/virtual_scene.h"
 

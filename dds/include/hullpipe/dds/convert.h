@@ -1,11 +1,12 @@
 // Conversion between hullpipe's core types and its DDS messages, with validation
 // of everything that arrives from outside: a sample of the wrong size, a bad
 // encoding or non-finite numbers raise MessageError (the node logs, counts it as
-// rejected and goes on).
+// rejected and goes on). Library hullpipe_dds: it links the core types it
+// converts (cameras, views, maps); the Cyclone wrapper beneath it
+// (hullpipe_dds_base: dds.h, cdr.h, node.h) links none.
 #pragma once
 
 #include <cstdint>
-#include <stdexcept>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,52 +16,17 @@
 #include "hullpipe.h"
 #include "hullpipe/geometry/aabb.h"
 #include "hullpipe/geometry/camera.h"
-#include "hullpipe/reconstruction/compositor.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
-#include "hullpipe/nodes/messages.h"
-#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/dds/node_stats_convert.h"
+#include "hullpipe/dds/owned_sample.h"
+#include "hullpipe/pipeline/messages.h"
 
 namespace hullpipe::dds {
-
-/// A received sample that cannot be used; what() says why in one line.
-class MessageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 /// Fills a CameraInfo from a camera and the rig's workspace (may be empty).
 hullpipe_msg_CameraInfo CameraToMsg(const Camera& camera, const Aabb& workspace);
 /// Validated Camera from a CameraInfo; *workspace (optional) gets its box.
 Camera CameraFromMsg(const hullpipe_msg_CameraInfo& msg, Aabb* workspace = nullptr);
-
-/// An outgoing sample that owns the buffers its sequences point at. Move-only
-/// (moving keeps the heap buffers, so the pointers stay valid).
-template <typename Msg>
-struct OwnedSample {
-  Msg msg{};
-  std::vector<uint8_t> bytes;
-  std::vector<uint32_t> words;
-  std::vector<float> floats;
-  std::vector<hullpipe_msg_Vec3> vec3s;
-  std::vector<hullpipe_msg_StageTiming> stages;
-  std::vector<hullpipe_msg_CameraSkew> cameras;
-  std::vector<std::string> strings;  ///< Reserved before use: their c_str() stay put.
-  OwnedSample() = default;
-  OwnedSample(const OwnedSample&) = delete;
-  OwnedSample& operator=(const OwnedSample&) = delete;
-  OwnedSample(OwnedSample&&) = default;
-  OwnedSample& operator=(OwnedSample&&) = default;
-};
-
-/// Points an outgoing message's sequence (idlc's _maximum/_length/_buffer/
-/// _release) at a vector's elements, without copying and without handing
-/// Cyclone ownership: the vector must outlive the write.
-template <typename Seq, typename T>
-void Borrow(Seq* seq, std::vector<T>& v) {
-  seq->_buffer = v.data();
-  seq->_length = seq->_maximum = uint32_t(v.size());
-  seq->_release = false;
-}
 
 /// ObjectPixelMap of one camera's map (CV_8UC1), run-length encoded.
 /// cam_from_world: a tracked camera's pose at this frame (nullptr: a fixed camera).
@@ -110,14 +76,4 @@ hullpipe_msg_VirtualObjectState VirtualObjectToMsg(const VirtualObjectSample& s)
 VirtualObjectSample VirtualObjectFromMsg(const hullpipe_msg_VirtualObjectState& msg);
 /// CollisionReport of one object's step.
 OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const CollisionReportSample& r);
-/// NodeStats of a node's report.
-OwnedSample<hullpipe_msg_NodeStats> MakeNodeStatsMessage(const nodes::NodeStatsSample& s, int64_t stamp_ns);
-/// The report in a NodeStats sample (a missing stage name becomes "?"). Throws
-/// MessageError for an empty node name, a name or stage name over 64 bytes, a
-/// backend over 512, any of them not valid UTF-8 (or with NUL), or over 64 stages.
-nodes::NodeStatsSample NodeStatsFromMsg(const hullpipe_msg_NodeStats& msg);
-
-inline hullpipe_msg_Vec3 ToMsg(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
-inline Eigen::Vector3d FromMsg(const hullpipe_msg_Vec3& v) { return {v.x, v.y, v.z}; }
-
 }  // namespace hullpipe::dds

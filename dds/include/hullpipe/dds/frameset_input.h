@@ -8,7 +8,7 @@
 
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
-#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/reconstruction/frameset.h"
 
 namespace hullpipe::dds {
@@ -33,7 +33,7 @@ class FramesetInput {
   /// "transport_map" and "transport_image", docs/latency.md): the take's time
   /// less the sample's DDS source timestamp, both CLOCK_REALTIME, the second on
   /// the writer's host. nullptr (the default): not recorded.
-  void SetCounters(nodes::NodeCounters* counters) { counters_ = counters; }
+  void SetCounters(NodeCounters* counters) { counters_ = counters; }
   /// Malformed samples plus the assembler's rejections.
   uint64_t rejected() const { return malformed() + assembler_.rejected(); }
   /// Samples that could not be decoded (they never reached the assembler),
@@ -51,7 +51,7 @@ class FramesetInput {
   std::unique_ptr<Reader<hullpipe_msg_CameraImage>> images_;
   FramesetAssembler assembler_;
   uint64_t malformed_ = 0;
-  nodes::NodeCounters* counters_ = nullptr;
+  NodeCounters* counters_ = nullptr;
 };
 
 }  // namespace hullpipe::dds

@@ -10,7 +10,7 @@
 
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
-#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/pipeline/node_counters.h"
 
 namespace hullpipe::dds {
 
@@ -39,7 +39,7 @@ std::unique_ptr<Participant> StartNode(const std::string& node_name, const Commo
 /// a second and, once, a final report (at the latest when destroyed).
 class NodeReporter {
  public:
-  NodeReporter(const Participant& participant, std::string node_name, const nodes::NodeCounters& counters,
+  NodeReporter(const Participant& participant, std::string node_name, const NodeCounters& counters,
                uint64_t run_id = 0);
   ~NodeReporter();
   NodeReporter(const NodeReporter&) = delete;
@@ -51,7 +51,7 @@ class NodeReporter {
  private:
   Writer<hullpipe_msg_NodeStats> writer_;
   std::string name_;
-  const nodes::NodeCounters& counters_;
+  const NodeCounters& counters_;
   uint64_t run_id_ = 0;
   double last_publish_s_ = -1e9;
   bool final_sent_ = false;

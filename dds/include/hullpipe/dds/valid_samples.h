@@ -54,7 +54,7 @@ inline std::map<std::string, std::vector<uint8_t>> ValidSampleOfEachTopic(const 
   report.collision_points = {{0, 0, -1}};
   const auto rep = MakeCollisionReportMessage(report);
   encode("hullpipe::msg::CollisionReport", &rep.msg);
-  nodes::NodeStatsSample stats;
+  NodeStatsSample stats;
   stats.name = "recon0", stats.fps = 25, stats.frames_in = 10, stats.backend = "cpu";
   stats.stages["sweep"] = {4.0, 3.5, 6.0, 120};
   stats.host = "lab-pc-1";

@@ -1,5 +1,5 @@
 // Choice of backend for recon_node and the benchmarks: the CPU reference
-// (plane_sweep.h, texture.h) or the GPU through OpenGL (gl_ray_sweep.h,
+// (reconstruction/sweep_backend.h) or the GPU through OpenGL (gl_ray_sweep.h,
 // gl_plane_sweep.h, gl_texture.h). docs/gpu.md says what `auto` picks and why.
 #pragma once
 
@@ -10,68 +10,9 @@
 #include <opencv2/core.hpp>
 
 #include "hullpipe/gl/egl_context.h"
-#include "hullpipe/reconstruction/plane_sweep.h"
-#include "hullpipe/reconstruction/texture.h"
+#include "hullpipe/reconstruction/sweep_backend.h"
 
 namespace hullpipe::gl {
-
-/// What renders a frameset's hull: sweep, visibility maps and texture.
-/// Per frameset: BeginFrameset, then any number of Sweep / Visibility / Texture
-/// calls on that frameset's query and images (which must outlive them).
-class SweepBackend {
- public:
-  virtual ~SweepBackend() = default;
-  /// Starts a frameset (the GL backend uploads its maps and images here, once).
-  virtual void BeginFrameset(const VolumeQuery& query, const std::vector<CameraImage>& images) = 0;
-  /// Same contract as PlaneSweepCpu with the backend's refinement; `query` is the
-  /// one given to BeginFrameset. stats (optional): the work and wall times
-  /// (SweepStats::sweep_ms, refine_ms; a refinement done inside the sweep's own
-  /// pass, as the GL ray march's, counts as sweep).
-  virtual cv::Mat Sweep(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
-                        const cv::Rect& tile, SweepStats* stats = nullptr) = 0;
-  /// Same contract as ComputeHullVisibility with the backend's refinement.
-  virtual HullVisibility Visibility(const VolumeQuery& query, const std::vector<Camera>& cameras, int width,
-                                    const PlaneSweepOptions& sweep) = 0;
-  /// Same contract as TextureHull; `images` are the ones given to BeginFrameset.
-  virtual cv::Mat Texture(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
-                          const std::vector<CameraImage>& images, const HullVisibility* visibility) = 0;
-  /// "cpu", "gl march (renderer)" or "gl stencil (renderer)".
-  virtual std::string Name() const = 0;
-  /// The GL implementation in use, or nullptr for the CPU backend.
-  virtual const GlInfo* gl_info() const { return nullptr; }
-  /// Why this backend was chosen (for the log): e.g. "auto: GL renderer is
-  /// software (llvmpipe ...); the CPU sweep is faster there".
-  const std::string& reason() const { return reason_; }
-  void set_reason(std::string r) { reason_ = std::move(r); }
-  /// The flag Sweep, Visibility and Texture poll (util/interrupt.h): once set they
-  /// throw Interrupted. The CPU backend polls per pixel or row, and the GL
-  /// stencil method in its CPU refinement; GL draws and dispatches, once queued,
-  /// run to their end. nullptr (the default) never stops.
-  void set_stop(StopFlag stop) { stop_ = stop; }
-  StopFlag stop() const { return stop_; }
-
- private:
-  std::string reason_;
-  StopFlag stop_ = nullptr;
-};
-
-/// How to make a backend.
-struct BackendOptions {
-  /// "cpu", "gl" or "auto". auto takes GL on a hardware renderer and the CPU on a
-  /// software one (Mesa's llvmpipe, where the CPU path is faster), and the CPU
-  /// where no GL context can be made.
-  std::string name = "auto";
-  int threads = 1;  ///< CPU threads (sweep, and the stencil method's refinement).
-  /// Depth refinement bisections after the sweep (PlaneSweepCpu; 0 = the paper's
-  /// plane-quantised depth).
-  int refine = 0;
-  /// GL sweep: "march" (compute shader ray march, refinement on the GPU) or
-  /// "stencil" (the paper's stencil counting; refinement on the CPU).
-  std::string gl_method = "march";
-  int gl_device = -1;  ///< EGL device (EglOptions::device); -1 picks.
-  /// Throws std::invalid_argument naming the bad field.
-  void Check() const;
-};
 
 /// Makes the backend `options` ask for. "gl" without a usable GL context throws
 /// std::runtime_error with one line naming what failed; "auto" then falls back to
@@ -81,5 +22,9 @@ std::unique_ptr<SweepBackend> MakeSweepBackend(const BackendOptions& options);
 
 /// Shorthand: MakeSweepBackend({name, threads, refine}).
 std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int threads = 1, int refine = 0);
+
+/// The GL implementation behind a backend made by MakeSweepBackend, or nullptr
+/// for the CPU backend.
+const GlInfo* GlInfoOf(const SweepBackend& backend);
 
 }  // namespace hullpipe::gl

@@ -1,6 +1,8 @@
 // The pipeline's samples as the node controllers see them: plain structs of
-// core types, DDS-free. dds/convert.h turns them into messages (idl/hullpipe.idl)
-// and validates what arrives.
+// OpenCV and Eigen types, DDS-free and free of every algorithm, so the DDS layer,
+// the recorder and the tools can depend on them without linking any
+// (docs/architecture.md, "Layers"). dds/convert.h turns them into messages
+// (idl/hullpipe.idl) and validates what arrives. Units: conventions.h.
 #pragma once
 
 #include <cstdint>
@@ -9,9 +11,19 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "hullpipe/reconstruction/compositor.h"
-
 namespace hullpipe {
+
+/// A virtual triangle mesh or point set to draw (world metres): the cloth, the
+/// payload parts, the particles.
+struct VirtualMeshDraw {
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<Eigen::Vector3i> triangles;  ///< Empty: draw the vertices as points.
+  /// Per triangle (or per point when there are no triangles): drawn red when 1.
+  /// Empty: none colliding.
+  std::vector<uint8_t> colliding;
+  cv::Vec3b colour{200, 200, 200};  ///< BGR when not colliding.
+  double point_radius = 0.005;      ///< Radius of drawn points, metres.
+};
 
 /// One rendered tile of the novel view (HullView).
 struct HullTile {

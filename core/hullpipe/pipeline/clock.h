@@ -8,7 +8,7 @@
 
 #include "hullpipe/geometry/conventions.h"
 
-namespace hullpipe::nodes {
+namespace hullpipe {
 
 /// Monotonic seconds (timeouts, rates) and the wall clock in ns since the Unix
 /// epoch (capture times, which cross processes and hosts).
@@ -52,4 +52,4 @@ class FakeClock final : public Clock {
   int64_t wall_offset_ns_;
 };
 
-}  // namespace hullpipe::nodes
+}  // namespace hullpipe

@@ -6,32 +6,13 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <vector>
 
-#include "hullpipe/nodes/clock.h"
-#include "hullpipe/reconstruction/frameset.h"
+#include "hullpipe/pipeline/clock.h"
+#include "hullpipe/pipeline/node_stats.h"
 #include "hullpipe/util/latency_stats.h"
 
-namespace hullpipe::nodes {
-
-/// One node's report as it travels (NodeStats), DDS-free.
-struct NodeStatsSample {
-  std::string name;
-  double fps = 0;
-  double latency_ms_p50 = 0, latency_ms_p95 = 0;
-  uint64_t frames_in = 0, frames_out = 0, dropped = 0, rejected = 0;
-  bool final_report = false;  ///< The node is stopping.
-  /// One stage's durations (docs/latency.md names each stage and what it measures).
-  struct Stage {
-    double ms_mean = 0, ms_p50 = 0, ms_p95 = 0;
-    uint64_t count = 0;  ///< Samples taken in all.
-  };
-  std::map<std::string, Stage> stages;
-  uint64_t dropped_for_skew = 0;             ///< Framesets dropped for skew (assembling nodes).
-  std::vector<CameraSkewReport> cameras;     ///< Per camera (assembling nodes; empty otherwise).
-  std::string backend;  ///< "cpu", or the GL method and GlInfo::Summary() (empty: not reported).
-  uint64_t run_id = 0;  ///< The node's --run-id (0: none given; docs/reliability.md, "run id").
-  std::string host;     ///< The node's host name (empty: not reported): which stamps cross hosts.
-};
+namespace hullpipe {
 
 class NodeCounters {
  public:
@@ -45,10 +26,11 @@ class NodeCounters {
   void SetDropped(uint64_t n) { dropped_ = n; }
   void Rejected(uint64_t n = 1) { rejected_ += n; }
   void SetRejected(uint64_t n) { rejected_ = n; }
-  /// How the node's frameset assembler paired its cameras (FramesetAssembler).
-  void SetAssembly(const FramesetAssembler& assembler) {
-    cameras_ = assembler.SkewReports();
-    dropped_for_skew_ = assembler.dropped_for_skew();
+  /// How the node's frameset assembler paired its cameras
+  /// (FramesetAssembler::SkewReports and dropped_for_skew).
+  void SetAssembly(std::vector<CameraSkewReport> cameras, uint64_t dropped_for_skew) {
+    cameras_ = std::move(cameras);
+    dropped_for_skew_ = dropped_for_skew;
   }
   /// What computes this node's work (NodeStatsSample::backend).
   void SetBackend(std::string backend) { backend_ = std::move(backend); }
@@ -108,4 +90,4 @@ class StageTimer {
   double start_;
 };
 
-}  // namespace hullpipe::nodes
+}  // namespace hullpipe

@@ -1,8 +1,8 @@
-#include "hullpipe/nodes/node_counters.h"
+#include "hullpipe/pipeline/node_counters.h"
 
 #include <unistd.h>
 
-namespace hullpipe::nodes {
+namespace hullpipe {
 
 NodeCounters::NodeCounters(const Clock& clock) : clock_(clock) {
   char host[256] = {};
@@ -41,4 +41,4 @@ NodeStatsSample NodeCounters::Snapshot(const std::string& name, bool final_repor
   return s;
 }
 
-}  // namespace hullpipe::nodes
+}  // namespace hullpipe

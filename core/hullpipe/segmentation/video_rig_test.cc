@@ -1,6 +1,6 @@
-// Rig sources: the generic YAML rig with ready-made masks or image sequences, and
-// the synthetic source's exact maps.
-#include "hullpipe/segmentation/rig_source.h"
+// The segmented rig of files: the generic YAML rig with ready-made masks or image
+// sequences, camera subsets, tracked cameras.
+#include "hullpipe/segmentation/video_rig.h"
 
 #include <fstream>
 
@@ -70,23 +70,6 @@ TEST(RigSource, CameraSubsetKeepsTheRigSize) {
   EXPECT_THROW(OpenVideoRig((dir / "rig.yaml").string(), o), std::runtime_error);
 }
 
-TEST(RigSource, SyntheticSourceGivesExactMaps) {
-  SyntheticRigOptions o;
-  o.width = 80;
-  o.height = 60;
-  o.frames = 2;
-  const auto rig = OpenSyntheticRig(o);
-  RigFrame f;
-  ASSERT_TRUE(rig->Next(&f));
-  ASSERT_EQ(f.maps.size(), 4u);
-  EXPECT_EQ(cv::countNonZero(f.maps[1] != RenderExactMap(rig->cameras()[1], AnimatedFigure(0))), 0);
-  EXPECT_GT(cv::countNonZero(f.maps[1]), 50);
-  ASSERT_TRUE(rig->Next(&f));
-  EXPECT_FALSE(rig->Next(&f));  // the input ends
-  EXPECT_TRUE(rig->Rewind());
-  EXPECT_TRUE(rig->Next(&f));
-}
-
 TEST(RigSource, ATrackedCameraOfAFileRigTakesItsPoseFromItsLog) {
   const auto dir = test::TempDir("rig_tracked");
   const std::string path = WriteImageRig(dir, true, 3);
@@ -114,32 +97,6 @@ TEST(RigSource, ATrackedCameraOfAFileRigTakesItsPoseFromItsLog) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("'tracked'"), std::string::npos) << "got: " << e.what();
   }
-}
-
-}  // namespace
-}  // namespace hullpipe
-
-namespace hullpipe {
-namespace {
-
-// --synthetic-size 100000x100000 once allocated without end: bounded, named.
-TEST(SyntheticRig, SizesAndCountsAreBounded) {
-  auto open = [](int w, int h, int cams, double fps) {
-    SyntheticRigOptions o;
-    o.width = w;
-    o.height = h;
-    o.cameras = cams;
-    o.fps = fps;
-    o.frames = 1;
-    return OpenSyntheticRig(o);
-  };
-  EXPECT_THROW(open(100000, 100000, 4, 25), std::invalid_argument);
-  EXPECT_THROW(open(4097, 240, 4, 25), std::invalid_argument);
-  EXPECT_THROW(open(320, 4, 4, 25), std::invalid_argument);
-  EXPECT_THROW(open(320, 240, 65, 25), std::invalid_argument);
-  EXPECT_THROW(open(320, 240, 4, 0), std::invalid_argument);
-  EXPECT_THROW(open(320, 240, 4, std::nan("")), std::invalid_argument);
-  EXPECT_NO_THROW(open(64, 48, 2, 25));  // control
 }
 
 }  // namespace

@@ -1,0 +1,208 @@
+#include "hullpipe/capture/camera_reader.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <deque>
+#include <filesystem>
+#include <stdexcept>
+
+#include <spdlog/spdlog.h>
+
+#include "hullpipe/geometry/calibration.h"
+#include "hullpipe/geometry/conventions.h"
+
+namespace hullpipe {
+namespace {
+
+// Live captures give up a blocking open or read after these, so a reader thread
+// notices a stop request within half a second (every process stops within a
+// second of SIGINT) and a silent stream is reported rather than waited on forever.
+constexpr int kLiveOpenTimeoutMs = 2000, kLiveReadTimeoutMs = 500;
+
+}  // namespace
+
+bool CameraSelected(const std::vector<int>& ids, int id) {
+  return ids.empty() || std::find(ids.begin(), ids.end(), id) != ids.end();
+}
+
+cv::VideoCapture OpenCameraCapture(const std::string& spec) {
+  if (spec.rfind("v4l2:", 0) == 0) {
+    int index = -1;
+    try {
+      index = std::stoi(spec.substr(5));
+    } catch (const std::exception&) {
+    }
+    if (index < 0) throw std::runtime_error("'" + spec + "': expected v4l2:<device index>");
+    return cv::VideoCapture(index, cv::CAP_V4L2);
+  }
+  if (RigCamera::IsLiveSpec(spec)) {
+    // FFmpeg probes a network stream for 5 s by default before the first frame
+    // (and again after each reopen): a camera joins within half a second instead.
+    // A user's own OPENCV_FFMPEG_CAPTURE_OPTIONS is kept.
+    setenv("OPENCV_FFMPEG_CAPTURE_OPTIONS", "analyzeduration;500000|probesize;500000|fflags;nobuffer", 0);
+    return cv::VideoCapture(spec, cv::CAP_FFMPEG,
+                            {cv::CAP_PROP_OPEN_TIMEOUT_MSEC, kLiveOpenTimeoutMs, cv::CAP_PROP_READ_TIMEOUT_MSEC,
+                             kLiveReadTimeoutMs});
+  }
+  return cv::VideoCapture(spec, cv::CAP_ANY);
+}
+
+std::string NumberedFile(const std::string& pattern, int n) {
+  const size_t p = pattern.find('%');
+  if (p == std::string::npos) return pattern;
+  size_t q = p + 1;
+  int width = 0;
+  if (q < pattern.size() && pattern[q] == '0') ++q;
+  if (q < pattern.size() && pattern[q] >= '1' && pattern[q] <= '9') width = pattern[q++] - '0';
+  if (q >= pattern.size() || pattern[q] != 'd') return pattern;  // not a number conversion: a literal name
+  std::string num = std::to_string(n);
+  if (int(num.size()) < width) num.insert(0, size_t(width) - num.size(), '0');
+  return pattern.substr(0, p) + num + pattern.substr(q + 1);
+}
+
+int FirstFileNumber(const std::string& pattern) {
+  for (int n = 0; n <= 4; ++n)
+    if (std::filesystem::exists(NumberedFile(pattern, n))) return n;
+  return 0;
+}
+
+FileCameraReader::FileCameraReader(int camera_id, std::string spec) : camera_id_(camera_id), spec_(std::move(spec)) {
+  Reopen();
+}
+
+void FileCameraReader::Reopen() {
+  capture_ = OpenCameraCapture(spec_);
+  if (!capture_.isOpened())
+    throw std::runtime_error("camera " + std::to_string(camera_id_) + ": cannot open " + spec_);
+  const double declared = capture_.get(cv::CAP_PROP_FRAME_COUNT);
+  declared_frames_ = std::isfinite(declared) && declared > 0 && declared < 1e9 ? int64_t(declared) : 0;
+  const double f = capture_.get(cv::CAP_PROP_FPS);
+  fps_ = f > 1 && f < 1000 ? f : 0;
+}
+
+bool FileCameraReader::Read(cv::Mat* image) {
+  try {
+    return capture_.read(*image) && !image->empty();
+  } catch (const cv::Exception&) {
+    return false;
+  }
+}
+
+bool FileCameraReader::Grab() {
+  try {
+    return capture_.grab();
+  } catch (const cv::Exception&) {
+    return false;
+  }
+}
+
+struct LiveCameraReader::State {
+  int id = 0;
+  std::string spec;
+  std::shared_ptr<LiveHub> hub;
+  std::deque<std::pair<int64_t, cv::Mat>> queue;
+  std::atomic<bool> stop{false}, done{false};
+};
+
+LiveCameraReader::LiveCameraReader(int camera_id, std::string spec, std::shared_ptr<LiveHub> hub)
+    : s_(std::make_shared<State>()) {
+  s_->id = camera_id;
+  s_->spec = std::move(spec);
+  s_->hub = std::move(hub);
+  thread_ = std::thread([s = s_] { Run(*s); });
+}
+
+LiveCameraReader::~LiveCameraReader() {
+  RequestStop();
+  if (s_->done)
+    thread_.join();
+  else
+    thread_.detach();
+}
+
+void LiveCameraReader::RequestStop() { s_->stop = true; }
+bool LiveCameraReader::Done() const { return s_->done; }
+
+bool LiveCameraReader::Pop(cv::Mat* image, int64_t* arrival_ns) {
+  if (s_->queue.empty()) return false;
+  *image = std::move(s_->queue.front().second);
+  *arrival_ns = s_->queue.front().first;
+  s_->queue.pop_front();
+  return true;
+}
+
+bool LiveCameraReader::HasFrame() const { return !s_->queue.empty(); }
+
+void LiveCameraReader::StopAll(const std::vector<LiveCameraReader*>& readers) {
+  for (LiveCameraReader* r : readers) r->RequestStop();
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+  for (LiveCameraReader* r : readers)
+    while (!r->Done() && std::chrono::steady_clock::now() < until)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+}
+
+void LiveCameraReader::Run(State& s) {
+  cv::VideoCapture cap;
+  bool told = false;
+  int failures = 0;
+  while (!s.stop) {
+    if (!cap.isOpened()) {
+      try {
+        cap = OpenCameraCapture(s.spec);
+      } catch (const std::exception& e) {
+        spdlog::error("camera {}: {}", s.id, e.what());
+        break;
+      }
+      if (s.stop) break;
+      if (!cap.isOpened()) {
+        if (!told) spdlog::warn("camera {}: cannot open {} yet; retrying", s.id, s.spec);
+        told = true;
+        for (int i = 0; i < 10 && !s.stop; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        continue;
+      }
+      if (told) spdlog::info("camera {}: {} opened", s.id, s.spec);
+      told = false;
+    }
+    cv::Mat img;
+    bool ok = false;
+    try {
+      ok = cap.read(img) && !img.empty();
+    } catch (const cv::Exception&) {
+      ok = false;
+    }
+    if (!ok) {
+      // A read time-out: the stream is silent. FFmpeg's context does not recover
+      // from an interrupted read, so a camera silent for two time-outs is
+      // reopened (it is found again when it resumes).
+      if (++failures >= 2) {
+        cap.release();
+        failures = 0;
+      }
+      continue;
+    }
+    failures = 0;
+    const int64_t arrival = NowNs();
+    std::lock_guard<std::mutex> lock(s.hub->mu);
+    if (s.queue.size() >= kQueue) s.queue.pop_front();
+    s.queue.emplace_back(arrival, std::move(img));
+    s.hub->cv.notify_all();
+  }
+  s.done = true;
+}
+
+std::vector<cv::Mat> ReadCalibratedFrames(int camera_id, const std::string& what, const std::string& spec, int count,
+                                          int width, int height) {
+  cv::VideoCapture cap = OpenCameraCapture(spec);
+  if (!cap.isOpened()) throw std::runtime_error("camera " + std::to_string(camera_id) + ": cannot open " + what);
+  std::vector<cv::Mat> frames;
+  cv::Mat f;
+  while (int(frames.size()) < count && cap.read(f) && !f.empty()) {
+    if (f.cols == width && f.rows == height && f.type() == CV_8UC3) frames.push_back(f.clone());
+  }
+  return frames;
+}
+
+}  // namespace hullpipe

@@ -1,0 +1,57 @@
+// Camera readers on their own: numbered files, image sequences read frame by
+// frame and reopened, a spec that does not open.
+#include "hullpipe/capture/camera_reader.h"
+
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "hullpipe/testing/fixtures.h"
+
+namespace hullpipe {
+namespace {
+
+TEST(CameraReader, NumberedFileExpandsOneIntegerConversion) {
+  EXPECT_EQ(NumberedFile("mask_%04d.png", 7), "mask_0007.png");
+  EXPECT_EQ(NumberedFile("m%d.png", 12), "m12.png");
+  EXPECT_EQ(NumberedFile("still.png", 3), "still.png");      // no conversion: one file for every frame
+  EXPECT_EQ(NumberedFile("odd_%s.png", 3), "odd_%s.png");    // not a number: a literal name
+  EXPECT_EQ(NumberedFile("wide_%012d.png", 3), "wide_%012d.png");  // over 9 digits: literal, not printf
+}
+
+TEST(CameraReader, AnImageSequenceIsReadInOrderAndReopened) {
+  const auto dir = test::TempDir("camera_reader_seq");
+  for (int k = 0; k < 3; ++k)
+    cv::imwrite((dir / cv::format("f_%02d.png", k)).string(), cv::Mat(6, 8, CV_8UC3, cv::Scalar::all(10 * k)));
+  const std::string pattern = (dir / "f_%02d.png").string();
+  EXPECT_EQ(FirstFileNumber(pattern), 0);
+  FileCameraReader reader(3, pattern);
+  cv::Mat img;
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(reader.Read(&img)) << k;
+    EXPECT_EQ(img.size(), cv::Size(8, 6));
+    EXPECT_EQ(img.at<cv::Vec3b>(0, 0)[0], 10 * k);
+  }
+  EXPECT_FALSE(reader.Read(&img));  // the end
+  reader.Reopen();
+  ASSERT_TRUE(reader.Read(&img));
+  EXPECT_EQ(img.at<cv::Vec3b>(0, 0)[0], 0);  // the first frame again
+  // Frames of the calibrated size only.
+  EXPECT_EQ(ReadCalibratedFrames(3, "frames", pattern, 10, 8, 6).size(), 3u);
+  EXPECT_EQ(ReadCalibratedFrames(3, "frames", pattern, 10, 9, 6).size(), 0u);
+}
+
+TEST(CameraReader, ASpecThatDoesNotOpenNamesTheCamera) {
+  try {
+    FileCameraReader reader(5, "/nonexistent/video.avi");
+    ADD_FAILURE() << "opened";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("camera 5: cannot open /nonexistent/video.avi"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(OpenCameraCapture("v4l2:x"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace hullpipe

@@ -1,0 +1,48 @@
+#include "hullpipe/reconstruction/sweep_backend.h"
+
+#include <stdexcept>
+
+namespace hullpipe {
+namespace {
+
+class CpuBackend final : public SweepBackend {
+ public:
+  CpuBackend(int threads, int refine) : threads_(threads), refine_(refine) {}
+  void BeginFrameset(const VolumeQuery&, const std::vector<CameraImage>&) override {}
+  cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d, const cv::Rect& tile,
+                SweepStats* stats) override {
+    return PlaneSweepCpu(q, v, d, tile, stats, threads_, refine_, stop());
+  }
+  HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
+                            const PlaneSweepOptions& sweep) override {
+    return ComputeHullVisibility(q, cams, width, sweep, refine_, threads_, stop());
+  }
+  cv::Mat Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
+                  const std::vector<CameraImage>& images, const HullVisibility* vis) override {
+    return TextureHull(depth, tile, view, images, {}, vis, stop());
+  }
+  std::string Name() const override { return "cpu"; }
+
+ private:
+  int threads_, refine_;
+};
+
+}  // namespace
+
+void BackendOptions::Check() const {
+  if (name != "cpu" && name != "gl" && name != "auto")
+    throw std::invalid_argument("--backend: unknown backend '" + name + "' (cpu, gl or auto)");
+  if (gl_method != "march" && gl_method != "stencil")
+    throw std::invalid_argument("--gl-method: unknown method '" + gl_method + "' (march or stencil)");
+  if (refine < 0) throw std::invalid_argument("--refine: refine iterations must be >= 0");
+  if (threads < 1) throw std::invalid_argument("--threads: must be >= 1");
+  if (gl_device < -1) throw std::invalid_argument("--gl-device: must be >= 0 (or -1 to pick)");
+}
+
+std::unique_ptr<SweepBackend> MakeCpuSweepBackend(int threads, int refine) {
+  if (threads < 1) throw std::invalid_argument("--threads: must be >= 1");
+  if (refine < 0) throw std::invalid_argument("--refine: refine iterations must be >= 0");
+  return std::make_unique<CpuBackend>(threads, refine);
+}
+
+}  // namespace hullpipe
