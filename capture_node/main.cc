@@ -3,16 +3,13 @@
 // CameraInfo once (transient-local), then per frame an ObjectPixelMap and a
 // CameraImage per camera under one frame sequence number. Parses flags, opens
 // the source and connects DDS to a CaptureController (nodes/capture_controller.h).
-#include <chrono>
-#include <thread>
-
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/node.h"
-#include "hullpipe/nodes/capture_controller.h"
 #include "hullpipe/evaluation/synthetic_source.h"
+#include "hullpipe/nodes/capture_controller.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/cli_range.h"
 

@@ -60,11 +60,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--pose-timeout", o.pose_timeout, "Drop a pose whose frameset has not arrived after this many s")
       ->capture_default_str();
-  double skew_tolerance_ms = 0;
-  app.add_option("--skew-tolerance", skew_tolerance_ms,
-                 "Largest |capture time - reference time| of a frameset's maps, ms (0: half the slowest camera's "
-                 "frame period)")
-      ->capture_default_str();
+  FramesetOptions frameset_options;
+  AddFramesetOptions(app, frameset_options);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -85,10 +82,7 @@ int main(int argc, char** argv) {
     backend->set_stop(StopRequestFlag());  // SIGINT ends a long sweep too
     spdlog::info("tile {}/{}, backend {} ({})", o.tile, o.tile_count, backend->Name(), backend->reason());
     WaitSet ws(*participant);
-    FramesetInput input(*participant, ws, kFramesetHistory, /*with_images=*/true);
-    if (!(skew_tolerance_ms >= 0 && skew_tolerance_ms <= 1000))
-      throw std::invalid_argument("--skew-tolerance must be in [0, 1000] ms");
-    input.assembler().SetTolerance(skew_tolerance_ms * 1e-3);
+    FramesetInput input(*participant, ws, kFramesetHistory, /*with_images=*/true, frameset_options);
     Reader<hullpipe_msg_ViewPose> pose_reader(*participant);
     Reader<hullpipe_msg_NodeStats> peer_stats(*participant);
     ws.Attach(pose_reader);

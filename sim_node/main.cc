@@ -42,11 +42,8 @@ int main(int argc, char** argv) {
   app.add_option("--rig", rig_path,
                  "Rig directory or YAML rig file whose world (up, floor) places a `frame: stage` scene (default: the "
                  "Utrecht rig's world: up -z, floor z = 0)");
-  double skew_tolerance_ms = 0;
-  app.add_option("--skew-tolerance", skew_tolerance_ms,
-                 "Largest |capture time - reference time| of a frameset's maps, ms (0: half the slowest camera's "
-                 "frame period)")
-      ->capture_default_str();
+  FramesetOptions frameset_options;
+  AddFramesetOptions(app, frameset_options);
   bool every_frameset = false;
   app.add_flag("--every-frameset", every_frameset,
                "Step every complete frameset in order, not only the newest (deterministic replays of a recording)");
@@ -59,10 +56,7 @@ int main(int argc, char** argv) {
     config.PlaceInWorld(world);
     auto participant = StartNode("sim", common);
     WaitSet ws(*participant);
-    FramesetInput input(*participant, ws, kFramesetHistory, false);
-    if (!(skew_tolerance_ms >= 0 && skew_tolerance_ms <= 1000))
-      throw std::invalid_argument("--skew-tolerance must be in [0, 1000] ms");
-    input.assembler().SetTolerance(skew_tolerance_ms * 1e-3);
+    FramesetInput input(*participant, ws, kFramesetHistory, false, frameset_options);
     Reader<hullpipe_msg_SceneCommand> command_reader(*participant);
     ws.Attach(command_reader);
     SimWriters writers(*participant);

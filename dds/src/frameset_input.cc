@@ -4,12 +4,24 @@
 
 #include <spdlog/spdlog.h>
 
+#include "hullpipe/util/cli_range.h"
+
 #include "hullpipe/dds/convert.h"
 
 namespace hullpipe::dds {
 
-FramesetInput::FramesetInput(const Participant& p, const WaitSet& ws, size_t max_pending, bool with_images)
+void AddFramesetOptions(CLI::App& app, FramesetOptions& options) {
+  app.add_option("--skew-tolerance", options.skew_tolerance_ms,
+                 "Largest |capture time - reference time| of a frameset's maps, ms (0: half the slowest camera's "
+                 "frame period)")
+      ->check(FiniteRange(0.0, 1000.0))
+      ->capture_default_str();
+}
+
+FramesetInput::FramesetInput(const Participant& p, const WaitSet& ws, size_t max_pending, bool with_images,
+                             const FramesetOptions& options)
     : info_(p), maps_(p), assembler_(max_pending, with_images) {
+  assembler_.SetTolerance(options.skew_tolerance_ms * 1e-3);
   ws.Attach(info_);
   ws.Attach(maps_);
   if (with_images) {

@@ -9,6 +9,35 @@
 
 namespace hullpipe::nodes {
 
+void RenderOptions::ApplyWorld(const RigWorld* rig, const WorldFlags& flags) {
+  if (rig) {
+    up = rig->up;
+    floor = rig->floor;
+    floor_height = rig->floor_height;
+    orbit_radius = rig->orbit_radius;
+    orbit_height = rig->orbit_height;
+  }
+  if (flags.up) up = *flags.up;
+  if (flags.orbit_radius) orbit_radius = *flags.orbit_radius;
+  if (flags.orbit_height) orbit_height = *flags.orbit_height;
+  if (flags.floor.empty()) return;
+  if (flags.floor == "hull" || flags.floor == "none") {
+    floor = flags.floor == "hull" ? RigWorld::Floor::kUnderHull : RigWorld::Floor::kNone;
+    return;
+  }
+  size_t used = 0;
+  double h = 0;
+  try {
+    h = std::stod(flags.floor, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != flags.floor.size() || !std::isfinite(h))
+    throw std::invalid_argument("--floor must be metres along up, 'hull' or 'none', not '" + flags.floor + "'");
+  floor = RigWorld::Floor::kPlane;
+  floor_height = h;
+}
+
 void RenderOptions::Check() const {
   auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
   if (width < 1 || width > 8192) bad("--width must be 1..8192 pixels");

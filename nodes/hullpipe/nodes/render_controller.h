@@ -33,6 +33,14 @@
 
 namespace hullpipe::nodes {
 
+/// render_node's world flags as given on its command line; unset ones come
+/// from the rig's world (RenderOptions::ApplyWorld).
+struct WorldFlags {
+  std::optional<Eigen::Vector3d> up;  ///< --up
+  std::string floor;                  ///< --floor: "" (the rig's), metres along up, "hull" or "none"
+  std::optional<double> orbit_radius, orbit_height;  ///< --orbit-radius, --orbit-height
+};
+
 /// render_node's settings (its flags). Lengths in metres, times in seconds.
 struct RenderOptions {
   int width = 320, height = 240;  ///< Novel view, pixels (1..8192).
@@ -62,6 +70,11 @@ struct RenderOptions {
   uint64_t run_id = 0;
   /// Throws std::invalid_argument naming the flag that is out of range.
   void Check() const;
+  /// Resolves up, floor and orbit: the rig's world (rig_world.h; nullptr: keep
+  /// these defaults, the Utrecht rig's world: up -z, the floor z = 0), then each
+  /// flag that was given over it. Throws std::invalid_argument naming --floor
+  /// when its text is not metres, 'hull' or 'none'.
+  void ApplyWorld(const RigWorld* rig, const WorldFlags& flags);
 };
 
 /// Where render's outputs go (ViewPose messages; the video, PNGs and window).

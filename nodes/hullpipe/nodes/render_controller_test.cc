@@ -1,8 +1,11 @@
 #include "hullpipe/nodes/render_controller.h"
 
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 #include "hullpipe/geometry/rigid3.h"
+#include "hullpipe/nodes/render_flags.h"
 #include "hullpipe/nodes/test_rig.h"
 
 namespace hullpipe::nodes {
@@ -479,6 +482,111 @@ TEST_F(Render, StatsJsonSchema) {
   EXPECT_NEAR(j["latency_budget"]["end_to_end_ms"]["p50"].get<double>(), 50.0, 1e-3);
   EXPECT_NE(r.Table().find("recon0"), std::string::npos);
   EXPECT_NE(r.Table().find("latency budget"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hullpipe::nodes
+
+namespace hullpipe::nodes {
+namespace {
+
+// render_node's world: the rig's, each flag given over it; the Utrecht rig's
+// without a rig.
+TEST(RenderOptions, TheWorldIsTheRigsWithTheFlagsOverIt) {
+  RenderOptions none;
+  none.ApplyWorld(nullptr, {});
+  EXPECT_EQ(none.up, Eigen::Vector3d(0, 0, -1));
+  EXPECT_EQ(none.floor, RigWorld::Floor::kPlane);
+  EXPECT_EQ(none.floor_height, 0);
+
+  RigWorld rig;
+  rig.up = Eigen::Vector3d(0, 0, 1);
+  rig.floor = RigWorld::Floor::kUnderHull;
+  rig.orbit_radius = 5;
+  rig.orbit_height = 1.5;
+  RenderOptions o;
+  o.ApplyWorld(&rig, {});
+  EXPECT_EQ(o.up, rig.up);
+  EXPECT_EQ(o.floor, RigWorld::Floor::kUnderHull);
+  EXPECT_EQ(o.orbit_radius, 5);
+  EXPECT_EQ(o.orbit_height, 1.5);
+
+  WorldFlags f;
+  f.up = Eigen::Vector3d(0, 1, 0);
+  f.orbit_radius = 2;
+  f.floor = "-0.25";
+  o.ApplyWorld(&rig, f);
+  EXPECT_EQ(o.up, Eigen::Vector3d(0, 1, 0));
+  EXPECT_EQ(o.orbit_radius, 2);
+  EXPECT_EQ(o.orbit_height, 1.5);  // not given: the rig's
+  EXPECT_EQ(o.floor, RigWorld::Floor::kPlane);
+  EXPECT_EQ(o.floor_height, -0.25);
+  f.floor = "none";
+  o.ApplyWorld(&rig, f);
+  EXPECT_EQ(o.floor, RigWorld::Floor::kNone);
+  for (const char* bad : {"low", "1m", "nan", ""}) {
+    f.floor = bad;
+    if (f.floor.empty()) continue;  // (empty: the rig's)
+    try {
+      o.ApplyWorld(&rig, f);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("--floor"), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace hullpipe::nodes
+
+namespace hullpipe::nodes {
+namespace {
+
+// Parses render_node's flags as its main does (CLI11), then resolves them.
+RenderFlags Parse(std::vector<std::string> args, bool have_display = false) {
+  CLI::App app;
+  RenderFlags flags;
+  flags.Register(app);
+  std::reverse(args.begin(), args.end());  // CLI11 takes them in reverse
+  app.parse(args);
+  flags.Resolve(have_display);
+  return flags;
+}
+
+TEST(RenderFlags, ParsedAndResolvedOnce) {
+  const RenderFlags d = Parse({});
+  EXPECT_EQ(d.options.up, Eigen::Vector3d(0, 0, -1));  // the Utrecht rig's world
+  EXPECT_EQ(d.options.orbit_radius, 3.0);
+  EXPECT_FALSE(d.outputs.show);
+  EXPECT_TRUE(Parse({}, /*have_display=*/true).outputs.show);
+  EXPECT_FALSE(Parse({"--window", "off"}, true).outputs.show);
+
+  const RenderFlags f = Parse({"--up", "0,1,0", "--floor", "none", "--orbit-radius", "4.5", "--out", "/tmp/x",
+                               "--png-every", "10", "--width", "64", "--orbit-centre", "1,2,3"});
+  EXPECT_EQ(f.options.up, Eigen::Vector3d(0, 1, 0));
+  EXPECT_EQ(f.options.floor, RigWorld::Floor::kNone);
+  EXPECT_EQ(f.options.orbit_radius, 4.5);
+  EXPECT_EQ(f.options.orbit_height, 0.7);
+  EXPECT_EQ(f.outputs.out_dir, "/tmp/x");
+  EXPECT_EQ(f.outputs.png_every, 10);
+  EXPECT_EQ(f.options.width, 64);
+  ASSERT_TRUE(f.options.orbit_centre.has_value());
+  EXPECT_EQ(*f.options.orbit_centre, Eigen::Vector3d(1, 2, 3));
+
+  // Refusals name the flag: at the parse, or when resolving.
+  EXPECT_THROW(Parse({"--video-fps", "nan"}), CLI::ValidationError);
+  EXPECT_THROW(Parse({"--view", "sky"}), CLI::ValidationError);
+  for (const auto& [args, flag] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--view", "file"}, "--head-poses"},
+           {{"--floor", "low"}, "--floor"},
+           {{"--width", "0"}, "--width"}}) {
+    try {
+      Parse(args);
+      ADD_FAILURE() << flag << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(flag), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace

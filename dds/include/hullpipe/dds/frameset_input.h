@@ -6,6 +6,8 @@
 
 #include <memory>
 
+#include <CLI/CLI.hpp>
+
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/pipeline/node_counters.h"
@@ -19,11 +21,23 @@ namespace hullpipe::dds {
 /// and a busy receiver's backlog — still find theirs.
 constexpr size_t kFramesetHistory = 24;
 
+/// What every frameset-assembling node (recon, sim, render) takes on its
+/// command line, registered once (AddFramesetOptions).
+struct FramesetOptions {
+  /// Largest |capture time - reference time| of a frameset's maps, ms, [0, 1000]
+  /// (0: half the slowest camera's frame period; FramesetAssembler::SetTolerance).
+  double skew_tolerance_ms = 0;
+};
+
+/// Adds --skew-tolerance, checked as it is parsed (before any participant starts).
+void AddFramesetOptions(CLI::App& app, FramesetOptions& options);
+
 class FramesetInput {
  public:
   /// Creates the readers and attaches them to `waitset`. max_pending and
-  /// with_images as FramesetAssembler's.
-  FramesetInput(const Participant& participant, const WaitSet& waitset, size_t max_pending, bool with_images);
+  /// with_images as FramesetAssembler's; the assembler takes options' tolerance.
+  FramesetInput(const Participant& participant, const WaitSet& waitset, size_t max_pending, bool with_images,
+                const FramesetOptions& options = {});
 
   /// Takes every available CameraInfo, map and image sample into the assembler.
   void Poll();

@@ -1,0 +1,82 @@
+#include "hullpipe/nodes/render_flags.h"
+
+#include <optional>
+#include <stdexcept>
+
+#include "hullpipe/geometry/calibration.h"
+#include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/util/cli_range.h"
+
+namespace hullpipe::nodes {
+
+void RenderFlags::Register(CLI::App& app) {
+  RenderOptions& o = options;
+  app.add_option("--out", outputs.out_dir, "Output directory (video, PNGs, stats.json)")->capture_default_str();
+  app.add_option("--frames", o.max_frames, "Stop after compositing the frameset with this sequence number");
+  app.add_option("--width", o.width, "Novel view width")->capture_default_str();
+  app.add_option("--height", o.height, "Novel view height")->capture_default_str();
+  app.add_option("--hfov", o.hfov_deg, "Horizontal field of view, degrees")->capture_default_str();
+  app.add_option("--tiles", o.tiles, "Recon tiles per frame (number of recon nodes)")->capture_default_str();
+  app.add_option("--max-in-flight", o.max_in_flight, "Poses rendered concurrently")->capture_default_str();
+  app.add_option("--png-every", outputs.png_every, "Write every K-th composited frame as PNG (0: none)")
+      ->check(CLI::Range(0, 1000000));
+  app.add_flag("--save-depth", outputs.save_depth,
+               "With each PNG, the hull's depth (frame_N_depth.tiff, float eye z in metres) and its view (views.csv: "
+               "K, world_from_eye)");
+  app.add_option("--video-fps", outputs.video_fps, "Frame rate written into the video")
+      ->check(FiniteRange(1.0, 1000.0))
+      ->capture_default_str();
+  app.add_option("--idle-timeout", o.idle_timeout, "Stop when no new frameset came for this many s")
+      ->capture_default_str();
+  app.add_option("--tile-timeout", o.tile_timeout, "Give up on a pose's missing tiles after this many s")
+      ->capture_default_str();
+  app.add_option("--orbit-centre", orbit_centre_, "Orbit centre x,y,z in world metres (default: hull box centre)")
+      ->delimiter(',')
+      ->expected(3);
+  radius_opt_ = app.add_option("--orbit-radius", orbit_radius_, "Orbit radius, metres (default: the rig's; 3)");
+  height_opt_ =
+      app.add_option("--orbit-height", orbit_height_, "Eye height above the centre, metres (default: the rig's; 0.7)");
+  app.add_option("--orbit-period", o.orbit_period, "Seconds per turn (frame time)")->capture_default_str();
+  app.add_option("--view", view,
+                 "Viewpoint: orbit (scripted), file (--head-poses CSV), topic (HeadPose from a tracker; "
+                 "the orbit until the first arrives)")
+      ->check(CLI::IsMember({"orbit", "file", "topic"}))
+      ->capture_default_str();
+  app.add_option("--head-poses", head_poses,
+                 "Tracked head poses, CSV t,x,y,z,qw,qx,qy,qz (world_from_eye, OpenCV eye frame; t in seconds "
+                 "from the first frame)");
+  app.add_option("--scene", scene, "Scene file: render_node uses its `light` (shadows); sim_node the rest");
+  up_opt_ = app.add_option("--up", up_, "World up vector (default: the rig's; Utrecht rig: 0,0,-1)")
+                ->delimiter(',')
+                ->expected(3);
+  app.add_option("--rig", rig,
+                 "Rig directory or YAML rig file: its world (up, floor, orbit) unless the flags say otherwise "
+                 "(default: the Utrecht rig's world)");
+  app.add_option("--floor", world_.floor,
+                 "Floor: metres along up (plane up . x = H), 'hull' (under the first hull) or 'none' (default: the "
+                 "rig's; Utrecht: 0)");
+  app.add_option("--window", window, "Show the output in a window: auto (where a display exists), on, off")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
+}
+
+void RenderFlags::Resolve(bool have_display) {
+  RenderOptions& o = options;
+  if ((view == "file") != !head_poses.empty())
+    throw std::invalid_argument("--view file goes with --head-poses FILE");
+  o.view = view == "file" ? RenderOptions::View::kFile
+           : view == "topic" ? RenderOptions::View::kTopic
+                             : RenderOptions::View::kOrbit;
+  if (!head_poses.empty()) o.track = LoadPoseTrack(head_poses);
+  if (!scene.empty()) o.light = LoadSceneConfig(scene).light;
+  if (up_opt_ && up_opt_->count()) world_.up = Eigen::Vector3d(up_[0], up_[1], up_[2]);
+  if (radius_opt_ && radius_opt_->count()) world_.orbit_radius = orbit_radius_;
+  if (height_opt_ && height_opt_->count()) world_.orbit_height = orbit_height_;
+  const std::optional<RigWorld> rig_world = rig.empty() ? std::nullopt : std::optional<RigWorld>(LoadRig(rig).world);
+  o.ApplyWorld(rig_world ? &*rig_world : nullptr, world_);
+  if (orbit_centre_.size() == 3) o.orbit_centre = Eigen::Vector3d(orbit_centre_[0], orbit_centre_[1], orbit_centre_[2]);
+  outputs.show = window == "on" || (window == "auto" && have_display);
+  o.Check();
+}
+
+}  // namespace hullpipe::nodes
