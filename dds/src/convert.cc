@@ -105,13 +105,15 @@ std::optional<Rigid3d> MapPoseFromMsg(const hullpipe_msg_ObjectPixelMap& m) {
   return pose;
 }
 
-cv::Mat MapFromMsg(const hullpipe_msg_ObjectPixelMap& m) {
+cv::Mat MapFromMsg(const hullpipe_msg_ObjectPixelMap& m) { return DecodedMapFromMsg(m).map; }
+
+DecodedMap DecodedMapFromMsg(const hullpipe_msg_ObjectPixelMap& m) {
   if (m.encoding != hullpipe_msg_MAP_ENCODING_RLE)
     throw MessageError("ObjectPixelMap of camera " + std::to_string(m.camera_id) +
                        ": unknown encoding " + std::to_string(int(m.encoding)));
   try {
-    return RunLengthDecode(m.runs._buffer, m.runs._length, int(std::min(m.width, kMaxSide + 1)),
-                           int(std::min(m.height, kMaxSide + 1)));
+    return RunLengthDecodeMap(m.runs._buffer, m.runs._length, int(std::min(m.width, kMaxSide + 1)),
+                              int(std::min(m.height, kMaxSide + 1)));
   } catch (const MapDecodeError& e) {
     throw MessageError("ObjectPixelMap of camera " + std::to_string(m.camera_id) + ": " + e.what());
   }

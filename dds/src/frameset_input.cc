@@ -57,10 +57,21 @@ void FramesetInput::Poll() {
       const uint64_t rejected_before = assembler_.rejected();
       if (counters_) counters_->StageSince("transport_map", info.source_timestamp);
       // The writer's handle tells a restarted capture node from a live one; the
-      // arrival time, on this host's clock, checks the capture host's clock.
-      if (!assembler_.AddMap(int(m.camera_id), m.frame_seq, m.capture_time_ns, int(m.camera_count), MapFromMsg(m),
-                             &why, m.source_time, info.publication_handle, NowNs(), MapPoseFromMsg(m)) &&
-          assembler_.rejected() > rejected_before)
+      // arrival time, on this node's clock, checks the capture host's clock. The
+      // runs are decoded once, with the object pixels' rectangle they give.
+      DecodedMap decoded = DecodedMapFromMsg(m);
+      MapSample sample;
+      sample.camera_id = int(m.camera_id);
+      sample.seq = m.frame_seq;
+      sample.capture_time_ns = m.capture_time_ns;
+      sample.camera_count = int(m.camera_count);
+      sample.map = std::move(decoded.map);
+      sample.object_rect = decoded.bounds;
+      sample.source_time_s = m.source_time;
+      sample.source_id = info.publication_handle;
+      sample.arrival_ns = counters_ ? counters_->clock().WallNs() : NowNs();
+      sample.cam_from_world = MapPoseFromMsg(m);
+      if (!assembler_.AddMap(std::move(sample), &why) && assembler_.rejected() > rejected_before)
         spdlog::warn("rejected: {}", why);
     } catch (const MessageError& e) {
       Reject(e.what());
@@ -71,7 +82,8 @@ void FramesetInput::Poll() {
       try {
         if (counters_) counters_->StageSince("transport_image", info.source_timestamp);
         // (Images and maps come from different writers: only maps name the sender.)
-        assembler_.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m), nullptr, 0, NowNs());
+        assembler_.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m), nullptr, 0,
+                            counters_ ? counters_->clock().WallNs() : NowNs());
       } catch (const MessageError& e) {
         Reject(e.what());
       }

@@ -146,24 +146,27 @@ bool FramesetAssembler::CheckMapSize(int camera_id, int width, int height, std::
   return true;
 }
 
-bool FramesetAssembler::AddMap(int camera_id, uint64_t seq, int64_t t, int camera_count, cv::Mat map,
-                               std::string* why, double source_time_s, uint64_t source_id, int64_t arrival_ns,
-                               std::optional<Rigid3d> cam_from_world) {
-  if (map.type() != CV_8UC1 || map.empty())
+bool FramesetAssembler::AddMap(MapSample m, std::string* why) {
+  const int camera_id = m.camera_id;
+  if (m.map.type() != CV_8UC1 || m.map.empty())
     return Reject(why, "map of camera " + std::to_string(camera_id) + " is not a CV_8UC1 image");
-  if (!CheckMapSize(camera_id, map.cols, map.rows, why)) return false;
-  if (camera_count < 1 || camera_count > 64)
+  if (!CheckMapSize(camera_id, m.map.cols, m.map.rows, why)) return false;
+  if (m.camera_count < 1 || m.camera_count > 64)
     return Reject(why, "map of camera " + std::to_string(camera_id) + " states " +
-                           std::to_string(camera_count) + " cameras");
-  expected_ = camera_count;
-  Sample* s = Slot(camera_id, seq, t, source_id, why);
+                           std::to_string(m.camera_count) + " cameras");
+  if (m.object_rect && (*m.object_rect & cv::Rect(0, 0, m.map.cols, m.map.rows)) != *m.object_rect)
+    return Reject(why, "map of camera " + std::to_string(camera_id) + ": its object rectangle is outside the map");
+  expected_ = m.camera_count;
+  const int64_t t = m.capture_time_ns;
+  Sample* s = Slot(camera_id, m.seq, t, m.source_id, why);
   if (!s) return false;
   s->t_ns = t;  // the map's capture time is authoritative
-  s->source_time_s = source_time_s;
-  s->map = std::move(map);
-  s->cam_from_world = cam_from_world;
-  s->map_arrival_ns = arrival_ns;
-  if (arrival_ns != 0) CheckClock(camera_id, cams_[camera_id], t, arrival_ns);
+  s->source_time_s = m.source_time_s;
+  s->map = std::move(m.map);
+  s->object_rect = m.object_rect;
+  s->cam_from_world = m.cam_from_world;
+  s->map_arrival_ns = m.arrival_ns;
+  if (m.arrival_ns != 0) CheckClock(camera_id, cams_[camera_id], t, m.arrival_ns);
   return true;
 }
 
@@ -317,7 +320,7 @@ std::optional<Frameset> FramesetAssembler::Take(uint64_t seq) {
     const_cast<Sample*>(s)->partnered = true;
     Camera camera = cameras_.at(id);
     if (s->cam_from_world) camera.cam_from_world = *s->cam_from_world;  // a tracked camera's pose of this frame
-    f.maps.push_back({camera, s->map});
+    f.maps.push_back({camera, s->map, s->object_rect});
     if (!s->image.empty()) f.images.push_back({camera, s->image});
     f.skew_ns.push_back(s->t_ns - it->t_ns);
     f.last_arrival_ns = std::max({f.last_arrival_ns, s->map_arrival_ns, want_images_ ? s->image_arrival_ns : 0});

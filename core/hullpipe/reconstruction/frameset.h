@@ -51,6 +51,25 @@ struct Frameset {
   int64_t last_arrival_ns = 0;
 };
 
+/// One camera's map as it arrives at an assembling node (an ObjectPixelMap).
+struct MapSample {
+  int camera_id = 0;
+  uint64_t seq = 0;              ///< The camera's frame_seq (orders this camera's frames).
+  int64_t capture_time_ns = 0;   ///< Its capture time on the shared clock (CLOCK_REALTIME ns).
+  int camera_count = 0;          ///< Cameras in a frameset (the rig's size), [1, 64].
+  cv::Mat map;                   ///< CV_8UC1, the camera's calibrated size, non-zero = object.
+  /// The map's object pixels' bounding rectangle when already known (decoding
+  /// its runs gives it: DecodedMap), so the volume query does not scan the map
+  /// again for it; nullopt: found when needed.
+  std::optional<cv::Rect> object_rect;
+  double source_time_s = 0;      ///< The frame's time in its source's timeline.
+  uint64_t source_id = 0;        ///< Who sent it (the DDS writer; 0: unknown): a new one is a restart.
+  int64_t arrival_ns = 0;        ///< When it arrived, on this node's wall clock (0: unknown).
+  /// A tracked camera's pose at this frame, used for it in the frameset instead
+  /// of the calibration's (paper §5: the head-mounted camera).
+  std::optional<Rigid3d> cam_from_world;
+};
+
 /// Collects maps (and images) into framesets by capture time.
 class FramesetAssembler {
  public:
@@ -75,27 +94,19 @@ class FramesetAssembler {
   double tolerance_s() const;
   static constexpr double kDefaultPeriodS = 0.04;
 
-  /// Adds one camera's map. seq: the camera's frame_seq (orders this camera's
-  /// frames); capture_time_ns: its capture time on the shared clock; camera_count:
-  /// how many cameras a frameset has (the rig's size); source_id: who sent it (the
-  /// DDS writer; 0: unknown) — a camera whose sender changes was restarted. A map of a
+  /// Adds one camera's map (MapSample says what each field is). A map of a
   /// camera with no calibration yet is parked in the camera's history and checked
   /// when the calibration arrives; if it leaves the history first it counts as
   /// rejected — and moves to dropped if the camera's CameraInfo comes later (a
-  /// start-up race, not bad input). Returns false (and counts a rejection, *why says
-  /// why) if the map is not CV_8UC1, its size differs from the calibration or
-  /// camera_count is out of [1, 64]; false (counted as dropped) if the sample is
-  /// older than the camera's newest and not far enough back to be a restart.
-  /// cam_from_world: a tracked camera's pose at this frame, used for it in the
-  /// frameset instead of the calibration's (paper §5: the head-mounted camera).
-  /// arrival_ns: when it arrived, on this node's clock (0: unknown); a camera
-  /// whose capture times disagree with their arrival — stamped in the future by
-  /// more than the tolerance, or later than the other cameras' by more than
-  /// max(tolerance, kClockCheckMinS) — has a clock off (logged once per episode,
-  /// counted in clock_offsets).
-  bool AddMap(int camera_id, uint64_t seq, int64_t capture_time_ns, int camera_count, cv::Mat map,
-              std::string* why = nullptr, double source_time_s = 0, uint64_t source_id = 0, int64_t arrival_ns = 0,
-              std::optional<Rigid3d> cam_from_world = std::nullopt);
+  /// start-up race, not bad input). Returns false (and counts a rejection, *why
+  /// says why) if the map is not CV_8UC1, its size differs from the calibration,
+  /// camera_count is out of [1, 64] or object_rect lies outside the map; false
+  /// (counted as dropped) if the sample is older than the camera's newest and not
+  /// far enough back to be a restart. A camera whose capture times disagree with
+  /// their arrival — stamped in the future by more than the tolerance, or later
+  /// than the other cameras' by more than max(tolerance, kClockCheckMinS) — has a
+  /// clock off (logged once per episode, counted in clock_offsets).
+  bool AddMap(MapSample sample, std::string* why = nullptr);
   /// Whether a map of width x height fits camera_id's calibration (true while the
   /// camera has none yet). Checked before a received map is decoded, so a map
   /// claiming 16384x16384 pixels for a 644x486 camera costs no 268-MB decode;
@@ -184,6 +195,7 @@ class FramesetAssembler {
     int64_t t_ns = 0;
     double source_time_s = 0;
     cv::Mat map, image;
+    std::optional<cv::Rect> object_rect;    ///< MapSample::object_rect.
     std::optional<Rigid3d> cam_from_world;  ///< A tracked camera's pose of this frame.
     int64_t map_arrival_ns = 0, image_arrival_ns = 0;  ///< Node wall clock ns (0: unknown).
     bool partnered = false;  ///< Member of a complete frameset.

@@ -20,10 +20,11 @@ class Assembler : public ::testing::Test {
 TEST_F(Assembler, CompletesWhenAllCamerasArrived) {
   FramesetAssembler a(4);
   for (const auto& c : cams_) a.SetCamera(c);
-  EXPECT_TRUE(a.AddMap(1, 7, 100, 3, Map(), nullptr, 0.28));  // the reference camera's source time counts
-  EXPECT_TRUE(a.AddMap(2, 7, 100, 3, Map()));
+  EXPECT_TRUE(a.AddMap(MapSample{.camera_id = 1, .seq = 7, .capture_time_ns = 100, .camera_count = 3, .map = Map(),
+      .source_time_s = 0.28}));  // the reference camera's source time counts
+  EXPECT_TRUE(a.AddMap(MapSample{.camera_id = 2, .seq = 7, .capture_time_ns = 100, .camera_count = 3, .map = Map()}));
   EXPECT_FALSE(a.IsComplete(7));
-  EXPECT_TRUE(a.AddMap(3, 7, 100, 3, Map()));
+  EXPECT_TRUE(a.AddMap(MapSample{.camera_id = 3, .seq = 7, .capture_time_ns = 100, .camera_count = 3, .map = Map()}));
   ASSERT_TRUE(a.IsComplete(7));
   const auto f = a.Take(7);
   ASSERT_TRUE(f);
@@ -31,18 +32,22 @@ TEST_F(Assembler, CompletesWhenAllCamerasArrived) {
   EXPECT_DOUBLE_EQ(f->source_time_s, 0.28);
   EXPECT_EQ(f->capture_time_ns, 100);
   EXPECT_TRUE(a.IsGone(7));
-  EXPECT_FALSE(a.AddMap(1, 6, 90, 3, Map()));  // older than what was taken: dropped
+  EXPECT_FALSE(a.AddMap(MapSample{.camera_id = 1, .seq = 6, .capture_time_ns = 90, .camera_count = 3,
+      .map = Map()}));  // older than what was taken: dropped
   EXPECT_EQ(a.dropped(), 1u);
 }
 
 TEST_F(Assembler, ARestartedCaptureIsTakenNotDropped) {
   FramesetAssembler a(4);
   for (const auto& c : cams_) a.SetCamera(c);
-  for (int c = 1; c <= 3; ++c) a.AddMap(c, 500, 100, 3, Map());
+  for (int c = 1; c <= 3; ++c) a.AddMap(MapSample{.camera_id = c, .seq = 500, .capture_time_ns = 100,
+      .camera_count = 3, .map = Map()});
   ASSERT_TRUE(a.Take(500));
-  EXPECT_FALSE(a.AddMap(1, 490, 90, 3, Map()));  // merely late: dropped
+  EXPECT_FALSE(a.AddMap(MapSample{.camera_id = 1, .seq = 490, .capture_time_ns = 90, .camera_count = 3,
+      .map = Map()}));  // merely late: dropped
   EXPECT_EQ(a.restarts(), 0u);
-  for (int c = 1; c <= 3; ++c) EXPECT_TRUE(a.AddMap(c, 1, 200, 3, Map()));  // frame numbers start over
+  for (int c = 1; c <= 3; ++c) EXPECT_TRUE(a.AddMap(MapSample{.camera_id = c, .seq = 1, .capture_time_ns = 200,
+      .camera_count = 3, .map = Map()}));  // frame numbers start over
   EXPECT_EQ(a.restarts(), 1u);
   EXPECT_TRUE(a.IsComplete(1));
   EXPECT_TRUE(a.TakeNewest());
@@ -52,7 +57,8 @@ TEST_F(Assembler, LatestWinsWithBoundedMemory) {
   FramesetAssembler a(2);
   for (const auto& c : cams_) a.SetCamera(c);
   for (uint64_t s = 1; s <= 10; ++s)
-    for (int id = 1; id <= 3; ++id) a.AddMap(id, s, int64_t(s), 3, Map());
+    for (int id = 1; id <= 3; ++id) a.AddMap(MapSample{.camera_id = id, .seq = s, .capture_time_ns = int64_t(s),
+        .camera_count = 3, .map = Map()});
   EXPECT_EQ(a.NewestComplete(), 10u);
   const auto f = a.TakeNewest();
   ASSERT_TRUE(f);
@@ -71,7 +77,8 @@ TEST_F(Assembler, CountsCompleteFramesetsWhateverTheConsumerTakes) {
   const int64_t period = 40'000'000;  // 25 fps
   for (uint64_t s = 1; s <= 6; ++s)
     for (int id = 1; id <= 3; ++id)
-      if (!(id == 3 && (s == 2 || s == 3))) a.AddMap(id, s, int64_t(s) * period, 3, Map());  // camera 3 misses 2, 3
+      if (!(id == 3 && (s == 2 || s == 3))) a.AddMap(MapSample{.camera_id = id, .seq = s,
+          .capture_time_ns = int64_t(s) * period, .camera_count = 3, .map = Map()});  // camera 3 misses 2, 3
   ASSERT_TRUE(a.Take(6));  // the newest only: 1..5 passed over
   EXPECT_EQ(a.reference_frames(), 6u);
   // 1, 4, 5 and 6 complete; 2 and 3 have camera 3's nearest a period away, outside
@@ -82,14 +89,15 @@ TEST_F(Assembler, CountsCompleteFramesetsWhateverTheConsumerTakes) {
 
 TEST_F(Assembler, MapsBeforeCameraInfoAreParkedThenChecked) {
   FramesetAssembler a(4);
-  EXPECT_TRUE(a.AddMap(1, 1, 0, 3, Map()));
-  EXPECT_TRUE(a.AddMap(2, 1, 0, 3, Map()));
-  EXPECT_TRUE(a.AddMap(3, 1, 0, 3, cv::Mat(5, 5, CV_8UC1)));  // wrong size, unknown yet
+  EXPECT_TRUE(a.AddMap(MapSample{.camera_id = 1, .seq = 1, .capture_time_ns = 0, .camera_count = 3, .map = Map()}));
+  EXPECT_TRUE(a.AddMap(MapSample{.camera_id = 2, .seq = 1, .capture_time_ns = 0, .camera_count = 3, .map = Map()}));
+  EXPECT_TRUE(a.AddMap(MapSample{.camera_id = 3, .seq = 1, .capture_time_ns = 0, .camera_count = 3,
+      .map = cv::Mat(5, 5, CV_8UC1)}));  // wrong size, unknown yet
   EXPECT_FALSE(a.IsComplete(1));
   for (const auto& c : cams_) a.SetCamera(c);
   EXPECT_EQ(a.rejected(), 1u);  // camera 3's map did not fit its calibration
   EXPECT_FALSE(a.IsComplete(1));
-  EXPECT_TRUE(a.AddMap(3, 1, 0, 3, Map()));
+  EXPECT_TRUE(a.AddMap(MapSample{.camera_id = 3, .seq = 1, .capture_time_ns = 0, .camera_count = 3, .map = Map()}));
   EXPECT_TRUE(a.IsComplete(1));
 }
 
@@ -120,7 +128,8 @@ TEST_F(Assembler, ACameraWhoseInputEndedEarlyIsNamed) {
     for (int cam = 1; cam <= 3; ++cam) {
       if (cam == 2 && f > 40) continue;  // camera 2's video was cut at frame 40
       if (cam == 3 && f > 80) continue;  // camera 3 ends 0.8 s before camera 1: a live stream's end, not early
-      a.AddMap(cam, f, int64_t(f) * period + cam * 1000, 3, Map());
+      a.AddMap(MapSample{.camera_id = cam, .seq = f, .capture_time_ns = int64_t(f) * period + cam * 1000,
+          .camera_count = 3, .map = Map()});
     }
   const auto early = a.EndedEarly();
   ASSERT_EQ(early.size(), 1u);
@@ -130,7 +139,8 @@ TEST_F(Assembler, ACameraWhoseInputEndedEarlyIsNamed) {
   // A calibrated camera that sent nothing ended early too.
   FramesetAssembler silent(4);
   for (const auto& c : cams_) silent.SetCamera(c);
-  for (uint64_t f = 1; f <= 10; ++f) silent.AddMap(1, f, int64_t(f) * period, 3, Map());
+  for (uint64_t f = 1; f <= 10; ++f) silent.AddMap(MapSample{.camera_id = 1, .seq = f,
+      .capture_time_ns = int64_t(f) * period, .camera_count = 3, .map = Map()});
   ASSERT_EQ(silent.EndedEarly().size(), 2u);
   EXPECT_EQ(silent.EndedEarly()[1].camera_id, 3);
 }
@@ -138,12 +148,15 @@ TEST_F(Assembler, ACameraWhoseInputEndedEarlyIsNamed) {
 TEST_F(Assembler, UnknownCameraIsRejectedWhenItsFrameIsEvicted) {
   FramesetAssembler a(1);  // history of 3 samples per camera
   for (const auto& c : cams_) a.SetCamera(c);
-  for (uint64_t s = 1; s <= 4; ++s) a.AddMap(99, s, int64_t(s), 3, Map());  // no CameraInfo for camera 99
+  for (uint64_t s = 1; s <= 4; ++s) a.AddMap(MapSample{.camera_id = 99, .seq = s, .capture_time_ns = int64_t(s),
+      .camera_count = 3, .map = Map()});  // no CameraInfo for camera 99
   EXPECT_EQ(a.rejected(), 1u);  // its first map left the history
   std::string why;
-  EXPECT_FALSE(a.AddMap(1, 3, 0, 3, cv::Mat(24, 31, CV_8UC1), &why));
+  EXPECT_FALSE(a.AddMap(MapSample{.camera_id = 1, .seq = 3, .capture_time_ns = 0, .camera_count = 3,
+      .map = cv::Mat(24, 31, CV_8UC1)}, &why));
   EXPECT_NE(why.find("calibration says 32x24"), std::string::npos) << why;
-  EXPECT_FALSE(a.AddMap(1, 3, 0, 0, Map(), &why));  // camera_count out of range
+  EXPECT_FALSE(a.AddMap(MapSample{.camera_id = 1, .seq = 3, .capture_time_ns = 0, .camera_count = 0,
+      .map = Map()}, &why));  // camera_count out of range
 }
 
 TEST_F(Assembler, MapsEvictedBeforeALateCameraInfoAreDroppedNotRejected) {
@@ -153,7 +166,8 @@ TEST_F(Assembler, MapsEvictedBeforeALateCameraInfoAreDroppedNotRejected) {
   FramesetAssembler a(1);
   a.SetCamera(cams_[0]);
   a.SetCamera(cams_[1]);
-  for (uint64_t s = 1; s <= 4; ++s) a.AddMap(3, s, int64_t(s), 3, Map());  // camera 3's calibration is late
+  for (uint64_t s = 1; s <= 4; ++s) a.AddMap(MapSample{.camera_id = 3, .seq = s, .capture_time_ns = int64_t(s),
+      .camera_count = 3, .map = Map()});  // camera 3's calibration is late
   EXPECT_EQ(a.rejected(), 1u);
   const uint64_t dropped = a.dropped();
   a.SetCamera(cams_[2]);  // id 3 arrives
@@ -164,7 +178,8 @@ TEST_F(Assembler, MapsEvictedBeforeALateCameraInfoAreDroppedNotRejected) {
 TEST_F(Assembler, ImagesCanBeRequired) {
   FramesetAssembler a(4, true);
   for (const auto& c : cams_) a.SetCamera(c);
-  for (int id = 1; id <= 3; ++id) a.AddMap(id, 1, 0, 3, Map());
+  for (int id = 1; id <= 3; ++id) a.AddMap(MapSample{.camera_id = id, .seq = 1, .capture_time_ns = 0,
+      .camera_count = 3, .map = Map()});
   EXPECT_FALSE(a.IsComplete(1));
   for (int id = 1; id <= 3; ++id) a.AddImage(id, 1, 0, cv::Mat(12, 16, CV_8UC3, cv::Scalar(1, 2, 3)));
   ASSERT_TRUE(a.IsComplete(1));
@@ -218,7 +233,8 @@ std::vector<Shot> Interleave(const std::vector<std::vector<Shot>>& streams, unsi
 class TimedAssembler : public Assembler {
  protected:
   void Add(FramesetAssembler& a, const Shot& s, uint64_t source = 0) {
-    a.AddMap(s.camera, s.seq, s.t_ns, 3, Map(), nullptr, 0, source);
+    a.AddMap(MapSample{.camera_id = s.camera, .seq = s.seq, .capture_time_ns = s.t_ns, .camera_count = 3, .map = Map(),
+        .source_time_s = 0, .source_id = source});
   }
   // Feeds every shot, taking each frameset as soon as it is complete (oldest
   // first, as recon does when poses name them); returns reference seq -> skews.
@@ -324,8 +340,9 @@ TEST_F(TimedAssembler, ARestartedCameraIsFollowed) {
   int taken = 0;
   for (size_t i = 0; i < 60; ++i)
     for (int c = 0; c < 3; ++c) {
-      ASSERT_TRUE(a.AddMap(c + 1, streams[c][i].seq, streams[c][i].t_ns, 3, Map(), nullptr, 0,
-                           c == 1 && i >= 30 ? 2 : 1));
+      ASSERT_TRUE(a.AddMap(MapSample{.camera_id = c + 1, .seq = streams[c][i].seq,
+          .capture_time_ns = streams[c][i].t_ns, .camera_count = 3, .map = Map(), .source_time_s = 0,
+          .source_id = c == 1 && i >= 30 ? 2u : 1u}));
       if (auto f = a.TakeNewest()) ++taken;
     }
   EXPECT_EQ(taken, 60);
@@ -359,7 +376,8 @@ TEST_F(TimedAssembler, CaptureTimesThatDisagreeWithArrivalNameTheCamera) {
       for (int c = 0; c < 3; ++c) {
         const Shot& s = streams[c][i];
         const double delay_ms = c == 2 ? camera3_delay_ms : 5.0 + c;
-        a.AddMap(s.camera, s.seq, s.t_ns, 3, Map(), nullptr, 0, 0, s.t_ns + int64_t(delay_ms * kMs));
+        a.AddMap(MapSample{.camera_id = s.camera, .seq = s.seq, .capture_time_ns = s.t_ns, .camera_count = 3,
+            .map = Map(), .source_time_s = 0, .source_id = 0, .arrival_ns = s.t_ns + int64_t(delay_ms * kMs)});
       }
     const auto r = a.SkewReports();
     // 20 ms later than the others is transport and processing (< 50 ms): the control.

@@ -320,7 +320,7 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
     f.step = v.map.step[0];
     fast_.push_back(f);
     cams.push_back(c);
-    rects.push_back(cv::boundingRect(v.map));
+    rects.push_back(v.object_rect ? *v.object_rect & cv::Rect(0, 0, c.width, c.height) : cv::boundingRect(v.map));
   }
   const bool outside = options_.out_of_view == OutOfView::kOutside;
   hull_box_ = outside ? HullBoundingBox(cams, rects, workspace_)

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -20,6 +21,10 @@ namespace hullpipe {
 struct CameraMap {
   Camera camera;
   cv::Mat map;
+  /// The map's object pixels' bounding rectangle if already known (decoding its
+  /// runs gives it: segmentation/object_pixel_map.h, DecodedMap); nullopt:
+  /// VolumeQuery scans the map for it. It must be the exact rectangle.
+  std::optional<cv::Rect> object_rect;
 };
 
 namespace detail {

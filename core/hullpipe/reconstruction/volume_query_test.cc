@@ -1,19 +1,15 @@
-// Volume query, hull box, CPU plane sweep and triangle query against exact
-// ground truth: an analytic sphere seen by ring cameras with exact maps.
+// Volume query (paper §3.2) and the hull box against exact ground truth: an
+// analytic sphere and a capsule seen by ring cameras with exact maps, the box
+// against the hull's brute-force box, a map's known object rectangle against a
+// scan of the map.
 #include "hullpipe/reconstruction/volume_query.h"
 
 #include <cmath>
-#include <cstring>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
-#include "hullpipe/scenes/scene_config.h"
-#include "hullpipe/scenes/ball.h"
-#include "hullpipe/collision/collision.h"
-#include "hullpipe/geometry/conventions.h"
-#include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/evaluation/synthetic.h"
-#include "hullpipe/collision/triangle_query.h"
 #include "hullpipe/geometry/rig_world.h"
 #include "hullpipe/testing/fixtures.h"
 
@@ -125,6 +121,34 @@ TEST(Workspace, WhatEveryCameraSeesKeepsARingsHullBoxToThePerson) {
   EXPECT_LT(size.head<2>().maxCoeff(), 0.35 + 0.04) << size.transpose();
   EXPECT_LT(size.z(), 1.6 + 0.04) << size.transpose();
   for (double z = -0.1; z >= -1.6; z -= 0.05) EXPECT_TRUE(common.Inside({0.3, -0.2, z})) << z;
+}
+
+// A map's object rectangle known from its runs (DecodedMap, the frameset
+// assembler) gives the same hull box as scanning the map, distorted or not; a
+// wrong rectangle changes the box (the positive control that the rectangle is
+// used at all).
+TEST(HullBox, AKnownObjectRectangleGivesTheSameBoxAsAScan) {
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Capsule({0.3, -0.2, -0.2}, {0.3, -0.2, -1.5}, 0.15));
+  Distortion d{};
+  d[0] = -0.2;
+  const auto cams = RingCameras(6, 3.0, 1.6, {0.3, -0.2, -0.9}, 240, 180, 1.1, d);
+  const Aabb workspace = CommonViewWorkspace(cams);
+  std::vector<CameraMap> views = test::ExactViews(cams, scene), known = views, wrong = views;
+  for (size_t i = 0; i < views.size(); ++i) {
+    known[i].object_rect = cv::boundingRect(views[i].map);
+    wrong[i].object_rect = cv::Rect(known[i].object_rect->x, known[i].object_rect->y, 1, 1);
+  }
+  for (const OutOfView policy : {OutOfView::kUnknown, OutOfView::kOutside}) {
+    VolumeQueryOptions o;
+    o.out_of_view = policy;
+    const Aabb scanned = VolumeQuery(views, workspace, o).hull_box();
+    const Aabb given = VolumeQuery(known, workspace, o).hull_box();
+    EXPECT_EQ(given.min, scanned.min);
+    EXPECT_EQ(given.max, scanned.max);
+    const Aabb changed = VolumeQuery(wrong, workspace, o).hull_box();
+    EXPECT_FALSE(changed.min == scanned.min && changed.max == scanned.max);
+  }
 }
 
 TEST(HullBox, EmptyMapGivesEmptyBox) {

@@ -1,5 +1,6 @@
 #include "hullpipe/segmentation/object_pixel_map.h"
 
+#include <algorithm>
 #include <cstring>
 #include <string>
 
@@ -44,7 +45,7 @@ std::vector<uint32_t> RunLengthEncode(const cv::Mat& map) {
   return runs;
 }
 
-cv::Mat RunLengthDecode(const uint32_t* runs, size_t count, int width, int height) {
+DecodedMap RunLengthDecodeMap(const uint32_t* runs, size_t count, int width, int height) {
   if (width <= 0 || height <= 0 || width > 16384 || height > 16384)
     throw MapDecodeError("object-pixel map size " + std::to_string(width) + "x" +
                          std::to_string(height) + " is out of range");
@@ -54,15 +55,38 @@ cv::Mat RunLengthDecode(const uint32_t* runs, size_t count, int width, int heigh
   if (sum != total)
     throw MapDecodeError("object-pixel map runs sum to " + std::to_string(sum) +
                          " pixels, expected " + std::to_string(total));
-  cv::Mat map(height, width, CV_8UC1);
-  uint8_t* out = map.ptr<uint8_t>(0);  // freshly allocated: continuous
+  DecodedMap d;
+  d.map.create(height, width, CV_8UC1);
+  uint8_t* const base = d.map.ptr<uint8_t>(0);  // freshly allocated: continuous
+  uint8_t* out = base;
   uint8_t value = 0;
+  const auto w = uint64_t(width);
+  uint64_t x0 = w, y0 = uint64_t(height), x1 = 0, y1 = 0;  // inclusive bounds
   for (size_t i = 0; i < count; ++i) {
     std::fill(out, out + runs[i], value);
+    if (value && runs[i] > 0) {
+      // Object pixels [s, e] in row-major order: rows s / w .. e / w. A run over
+      // more than one row reaches the last column of its first row and the
+      // first column of its last: it spans every column.
+      const auto s = uint64_t(out - base), e = s + runs[i] - 1;
+      const uint64_t rs = s / w, re = e / w;
+      y0 = std::min(y0, rs), y1 = std::max(y1, re);
+      if (rs == re) {
+        x0 = std::min(x0, s % w), x1 = std::max(x1, e % w);
+      } else {
+        x0 = 0, x1 = w - 1;
+      }
+      d.object_pixels += int64_t(runs[i]);
+    }
     out += runs[i];
     value = value ? 0 : 255;
   }
-  return map;
+  if (d.object_pixels > 0) d.bounds = cv::Rect(int(x0), int(y0), int(x1 - x0 + 1), int(y1 - y0 + 1));
+  return d;
+}
+
+cv::Mat RunLengthDecode(const uint32_t* runs, size_t count, int width, int height) {
+  return RunLengthDecodeMap(runs, count, width, height).map;
 }
 
 cv::Mat RunLengthDecode(const std::vector<uint32_t>& runs, int width, int height) {

@@ -24,6 +24,18 @@ class MapDecodeError : public std::runtime_error {
 /// first run may be 0). Run lengths are uint32. The runs sum to width*height.
 std::vector<uint32_t> RunLengthEncode(const cv::Mat& map);
 
+/// A map decoded from its runs, with what the runs give for free.
+struct DecodedMap {
+  cv::Mat map;               ///< CV_8UC1, object = 255.
+  cv::Rect bounds;           ///< The object pixels' bounding rectangle (empty if none): cv::boundingRect(map).
+  int64_t object_pixels = 0; ///< Object pixels in all.
+};
+
+/// Decodes runs into a map of the given size with its bounding rectangle and
+/// object-pixel count, found from the runs (no second pass over the pixels).
+/// Throws MapDecodeError as RunLengthDecode.
+DecodedMap RunLengthDecodeMap(const uint32_t* runs, size_t count, int width, int height);
+
 /// Decodes runs into a CV_8UC1 map of the given size (object = 255).
 /// Throws MapDecodeError if the runs do not sum to width*height, or the size is
 /// non-positive or larger than 16384 on a side.

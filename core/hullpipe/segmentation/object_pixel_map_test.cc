@@ -72,3 +72,37 @@ TEST(ObjectPixelMap, BadRunsAreRejected) {
 
 }  // namespace
 }  // namespace hullpipe
+
+namespace hullpipe {
+namespace {
+
+// The bounding rectangle and count found from the runs equal OpenCV's scan of
+// the decoded map, on random maps of sparse blobs and long runs over rows, on
+// one-pixel maps and on empty and full ones.
+TEST(ObjectPixelMap, DecodingGivesTheExactBoundingRectangle) {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 400; ++trial) {
+    const int w = 1 + int(rng() % 50), h = 1 + int(rng() % 30);
+    cv::Mat map(h, w, CV_8UC1, cv::Scalar(0));
+    const int kind = trial % 4;
+    if (kind == 0) {  // a few small blobs
+      for (int b = 0; b < 1 + int(rng() % 3); ++b)
+        cv::circle(map, {int(rng() % w), int(rng() % h)}, int(rng() % 4), cv::Scalar(255), -1);
+    } else if (kind == 1) {  // one run crossing rows
+      const int s = int(rng() % (w * h)), len = 1 + int(rng() % (2 * w + 1));
+      for (int i = s; i < std::min(w * h, s + len); ++i) map.at<uint8_t>(i / w, i % w) = 255;
+    } else if (kind == 2) {  // one pixel
+      map.at<uint8_t>(int(rng() % h), int(rng() % w)) = 255;
+    } else if (trial % 8 == 3) {
+      map.setTo(255);  // full
+    }  // else empty
+    const auto runs = RunLengthEncode(map);
+    const DecodedMap d = RunLengthDecodeMap(runs.data(), runs.size(), w, h);
+    ASSERT_EQ(cv::countNonZero(d.map != map), 0) << trial;
+    EXPECT_EQ(d.bounds, cv::boundingRect(map)) << w << "x" << h << " trial " << trial;
+    EXPECT_EQ(d.object_pixels, cv::countNonZero(map)) << trial;
+  }
+}
+
+}  // namespace
+}  // namespace hullpipe

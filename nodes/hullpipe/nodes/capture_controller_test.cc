@@ -253,8 +253,9 @@ TEST(Capture, ATrackedCameraSendsItsPoseAndTheHullUsesIt) {
     }
     PublishTimes PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count,
                               const cv::Mat& map, const cv::Mat&, const Rigid3d* pose) override {
-      a.AddMap(int(id), seq, t_ns, int(count), map.clone(), nullptr, source_time_s, 0, 0,
-               pose ? std::optional<Rigid3d>(*pose) : std::nullopt);
+      a.AddMap(MapSample{.camera_id = int(id), .seq = seq, .capture_time_ns = t_ns, .camera_count = int(count),
+          .map = map.clone(), .source_time_s = source_time_s, .source_id = 0, .arrival_ns = 0,
+          .cam_from_world = pose ? std::optional<Rigid3d>(*pose) : std::nullopt});
       return {};
     }
     void AnnounceTimeline(int64_t, double) override {}

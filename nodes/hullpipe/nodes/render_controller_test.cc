@@ -288,10 +288,12 @@ TEST_F(Render, ACameraWhoseInputEndedEarlyIsNamedOnceTheInputEnded) {
   const int64_t t0 = clock_.WallNs();
   for (uint64_t f = 1; f <= 60; ++f) {
     const auto& v = rig_.views[0];
-    assembler_.AddMap(v.camera.id, f, t0 + int64_t(f) * 40'000'000, 2, v.map.clone());
+    assembler_.AddMap(MapSample{.camera_id = v.camera.id, .seq = f, .capture_time_ns = t0 + int64_t(f) * 40'000'000,
+        .camera_count = 2, .map = v.map.clone()});
     if (f <= 10) {
       const auto& w = rig_.views[1];
-      assembler_.AddMap(w.camera.id, f, t0 + int64_t(f) * 40'000'000, 2, w.map.clone());
+      assembler_.AddMap(MapSample{.camera_id = w.camera.id, .seq = f, .capture_time_ns = t0 + int64_t(f) * 40'000'000,
+          .camera_count = 2, .map = w.map.clone()});
     }
   }
   r.Step();

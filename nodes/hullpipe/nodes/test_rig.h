@@ -27,7 +27,8 @@ struct TinyRig {
                 int64_t arrival_ns = 0) const {
     const int64_t t = capture_ns + int64_t(seq);
     for (const auto& v : views) {
-      a.AddMap(v.camera.id, seq, t, int(views.size()), v.map.clone(), nullptr, double(seq) / 25.0, 0, arrival_ns);
+      a.AddMap(MapSample{.camera_id = v.camera.id, .seq = seq, .capture_time_ns = t, .camera_count = int(views.size()),
+          .map = v.map.clone(), .source_time_s = double(seq) / 25.0, .source_id = 0, .arrival_ns = arrival_ns});
       if (images)
         a.AddImage(v.camera.id, seq, t, cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 120, 150)), nullptr, 0, arrival_ns);
     }

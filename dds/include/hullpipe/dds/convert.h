@@ -20,6 +20,7 @@
 #include "hullpipe/dds/node_stats_convert.h"
 #include "hullpipe/dds/owned_sample.h"
 #include "hullpipe/pipeline/messages.h"
+#include "hullpipe/segmentation/object_pixel_map.h"
 
 namespace hullpipe::dds {
 
@@ -39,6 +40,9 @@ OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint
 std::optional<Rigid3d> MapPoseFromMsg(const hullpipe_msg_ObjectPixelMap& msg);
 /// Decoded map (CV_8UC1 0/255). Throws MessageError on a bad encoding or size.
 cv::Mat MapFromMsg(const hullpipe_msg_ObjectPixelMap& msg);
+/// Decoded map with its object pixels' bounding rectangle and count, found from
+/// the runs. Throws MessageError on a bad encoding or size.
+DecodedMap DecodedMapFromMsg(const hullpipe_msg_ObjectPixelMap& msg);
 
 /// CameraImage of a BGR image, raw (jpeg_quality <= 0) or JPEG.
 OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint64_t frame_seq,

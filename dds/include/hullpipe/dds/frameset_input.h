@@ -46,7 +46,9 @@ class FramesetInput {
   /// Where each map's and image's transport time goes (the budget's
   /// "transport_map" and "transport_image", docs/latency.md): the take's time
   /// less the sample's DDS source timestamp, both CLOCK_REALTIME, the second on
-  /// the writer's host. nullptr (the default): not recorded.
+  /// the writer's host. The counters' clock also stamps each sample's arrival
+  /// (the assembler's clock check). nullptr (the default): not recorded, and
+  /// arrivals stamped with the system clock.
   void SetCounters(NodeCounters* counters) { counters_ = counters; }
   /// Malformed samples plus the assembler's rejections.
   uint64_t rejected() const { return malformed() + assembler_.rejected(); }
