@@ -46,8 +46,8 @@ int main(int argc, char** argv) {
     PayloadConfig config;
     if (!scene_path.empty()) {
       const SceneConfig sc = LoadSceneConfig(scene_path);
-      if (!sc.payload) throw std::runtime_error(scene_path + ": no payload section");
-      config = *sc.payload;
+      if (!sc.Find<PayloadConfig>()) throw std::runtime_error(scene_path + ": no payload section");
+      config = *sc.Find<PayloadConfig>();
     }
     std::vector<PipePose> motion;
     double needed = std::nan("");

@@ -1,8 +1,5 @@
-// The hybrid scenes against exact synthetic hulls: the cloth curtain
-// pushed by a capsule (no vertex left inside), particles falling on a sphere (none
-// left inside, none tunnelling through a thin plate), and a ball bouncing off a
-// box face whose hull face is exact (outgoing direction against the exact
-// reflection).
+// Head-pose logs (the tracked viewpoint, paper §3): poses interpolated between
+// samples, bad files refused naming the file.
 #include <cmath>
 
 #include <Eigen/Geometry>

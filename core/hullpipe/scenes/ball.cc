@@ -132,4 +132,35 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
   }
 }
 
+void BallsElement::Output(double, uint64_t, ElementOutput* out) {
+  for (const BodyState& b : sim_.bodies()) {
+    VirtualObjectSample s;
+    s.object_id = uint32_t(b.id);
+    s.sim_time = sim_.time();
+    s.radius = b.radius;
+    s.position = b.position;
+    s.velocity = b.velocity;
+    s.colliding = b.colliding;
+    out->states.push_back(s);
+
+    CollisionReportSample r;
+    r.object_id = uint32_t(b.id);
+    if (b.colliding) {
+      ++out->colliding_bodies;
+      for (int t : b.last_collision.triangle_ids) r.triangle_ids.push_back(uint32_t(t));
+      r.collision_points = b.last_collision.collision_points;
+    }
+    r.has_response = b.colliding && b.last_response.has_value();
+    if (r.has_response) {
+      const CollisionResponse& resp = *b.last_response;
+      r.cp_obj = resp.cp_obj;
+      r.cp_hull = resp.cp_hull;
+      r.v_rec = resp.v_rec;
+      r.d_rec = resp.d_rec;
+      r.n_hull = resp.n_hull;
+    }
+    out->reports.push_back(std::move(r));
+  }
+}
+
 }  // namespace hullpipe

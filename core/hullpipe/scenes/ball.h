@@ -13,6 +13,7 @@
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/scenes/scene_element.h"
 #include "hullpipe/util/interrupt.h"
 
 namespace hullpipe {
@@ -53,6 +54,20 @@ class BallSimulation {
   std::vector<double> next_throw_;
   std::vector<char> waiting_;  // a hull-relative ball not thrown yet: no hull so far
   double time_ = 0;
+};
+
+/// The balls as a scene element (scene_element.h): each ball published as a
+/// VirtualObjectState and a CollisionReport (§4.1 triangles and points, §4.2
+/// response) every step.
+class BallsElement final : public SceneElement {
+ public:
+  explicit BallsElement(const SceneConfig& config) : sim_(config) {}
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override { sim_.Step(dt, hull, stop); }
+  void Output(double source_time_s, uint64_t frame_seq, ElementOutput* out) override;
+  const BallSimulation& simulation() const { return sim_; }
+
+ private:
+  BallSimulation sim_;
 };
 
 }  // namespace hullpipe

@@ -1,5 +1,6 @@
-// Volume query, hull box, CPU plane sweep and triangle query against exact
-// ground truth: an analytic sphere seen by ring cameras with exact maps.
+// Thrown balls (paper §4) against exact synthetic hulls: a bounce off the
+// hull, deterministic; a fast ball not tunnelling through a thin hull; a bounce
+// off a box face whose hull face is exact, against the exact reflection.
 #include "hullpipe/reconstruction/volume_query.h"
 
 #include <cmath>

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/scenes/scene_yaml.h"
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/collision/hull_surface.h"
 
@@ -176,6 +178,63 @@ ClothStepStats ClothSimulation::Step(double dt, const VolumeQuery* hull, StopFla
     for (size_t i = 0; i < x_.size(); ++i)
       if (inv_mass_[i] > 0 && hull->Inside(x_[i])) ++stats.vertices_left_inside;
   return stats;
+}
+
+// ---- The curtain as a scene element (scene_element.h).
+
+void ClothConfig::CheckIn(const SceneConfig& scene) const {
+  Check();
+  if (!(scene.gravity.norm() > 0)) throw std::invalid_argument("scene: a cloth needs non-zero gravity");
+}
+
+namespace {
+
+class ClothElement final : public SceneElement {
+ public:
+  ClothElement(const ClothConfig& config, const Eigen::Vector3d& gravity) : sim_(config, gravity) {}
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override { sim_.Step(dt, hull, stop); }
+  void Output(double, uint64_t, ElementOutput* out) override {
+    VirtualMeshSample m;
+    m.object_id = uint32_t(sim_.config().id);
+    m.kind = kMeshCloth;
+    const TriangleMesh mesh = sim_.Mesh();
+    m.draw.vertices = mesh.vertices;
+    m.draw.triangles = mesh.triangles;
+    m.draw.colliding = sim_.colliding();
+    m.draw.colour = cv::Vec3b(150, 90, 60);
+    out->meshes.push_back(std::move(m));
+  }
+
+ private:
+  ClothSimulation sim_;
+};
+
+}  // namespace
+
+std::unique_ptr<SceneElement> ClothConfig::Make(const SceneConfig& scene) const {
+  return std::make_unique<ClothElement>(*this, scene.gravity);
+}
+
+std::shared_ptr<const SceneElementConfig> ReadClothSection(const YAML::Node& n, const std::string& path) {
+  using namespace scene_yaml;
+  Keys(n, path, "cloth",
+       {"id", "rod_a", "rod_b", "length", "nx", "ny", "iterations", "damping", "max_substep", "clearance",
+        "max_search", "max_pixel_size"},
+       {"rod_a", "rod_b", "length"});
+  auto c = std::make_shared<ClothConfig>();
+  Get(n, "id", &c->id);
+  c->rod_a = Vec3(n, path, "rod_a", c->rod_a);
+  c->rod_b = Vec3(n, path, "rod_b", c->rod_b);
+  Get(n, "length", &c->length);
+  Get(n, "nx", &c->nx);
+  Get(n, "ny", &c->ny);
+  Get(n, "iterations", &c->iterations);
+  Get(n, "damping", &c->damping);
+  Get(n, "max_substep", &c->max_substep);
+  Get(n, "clearance", &c->clearance);
+  Get(n, "max_search", &c->max_search);
+  Get(n, "max_pixel_size", &c->collision.max_pixel_size);
+  return c;
 }
 
 }  // namespace hullpipe

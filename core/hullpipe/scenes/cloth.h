@@ -27,12 +27,14 @@
 #include "hullpipe/collision/triangle_query.h"
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/scenes/limits.h"
+#include "hullpipe/scenes/scene_element.h"
 #include "hullpipe/util/interrupt.h"
 
 namespace hullpipe {
 
-/// Settings of a cloth curtain (scene file key `cloth`).
-struct ClothConfig {
+/// Settings of a cloth curtain (scene file key `cloth`; a scene element:
+/// scene_element.h).
+struct ClothConfig final : SceneElementConfig {
   int id = 100;                                   ///< Object id in messages.
   Eigen::Vector3d rod_a{0.0, -0.6, -1.8};         ///< Rod ends, world metres (top corners).
   Eigen::Vector3d rod_b{0.0, 0.6, -1.8};
@@ -46,7 +48,19 @@ struct ClothConfig {
   TriangleQueryOptions collision{0.01, 0, 16};    ///< Viewports of the cloth's triangles (1 cm pixels).
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
+
+  std::string Key() const override { return "cloth"; }
+  std::string Describe() const override { return "a curtain"; }
+  /// Check(), and a non-zero gravity (the curtain needs a down direction).
+  void CheckIn(const SceneConfig& scene) const override;
+  /// A ClothSimulation under the scene's gravity, published as a VirtualMesh
+  /// of kind cloth with its colliding triangles.
+  std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const override;
 };
+
+/// Reads a scene file's `cloth` section (keys as ClothConfig's; rod_a, rod_b and
+/// length required). Throws std::runtime_error naming the file and key.
+std::shared_ptr<const SceneElementConfig> ReadClothSection(const YAML::Node& section, const std::string& path);
 
 /// What a cloth step did (FCL-style result).
 struct ClothStepStats {

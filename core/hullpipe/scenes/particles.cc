@@ -6,6 +6,8 @@
 #include <optional>
 #include <stdexcept>
 
+#include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/scenes/scene_yaml.h"
 #include "hullpipe/scenes/cloth.h"
 #include "hullpipe/collision/hull_surface.h"
 
@@ -133,6 +135,62 @@ ParticleStepStats ParticleSystem::Step(double dt, const VolumeQuery* hull, StopF
       if (box->Contains(x) && hull->Inside(x)) ++stats.left_inside;
   stats.query_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return stats;
+}
+
+// ---- The particle stream as a scene element (scene_element.h).
+
+void ParticleConfig::CheckIn(const SceneConfig&) const { Check(); }
+
+namespace {
+
+class ParticlesElement final : public SceneElement {
+ public:
+  ParticlesElement(const ParticleConfig& config, const SceneConfig& scene)
+      : system_(config, scene.gravity, scene.has_floor, scene.floor) {}
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override { system_.Step(dt, hull, stop); }
+  void Output(double, uint64_t, ElementOutput* out) override {
+    VirtualMeshSample m;
+    m.object_id = uint32_t(system_.config().id);
+    m.kind = kMeshParticles;
+    m.draw.vertices = system_.positions();
+    m.draw.colliding = system_.touching();
+    m.draw.colour = cv::Vec3b(230, 160, 60);
+    m.draw.point_radius = system_.config().radius;
+    out->meshes.push_back(std::move(m));
+  }
+
+ private:
+  ParticleSystem system_;
+};
+
+}  // namespace
+
+std::unique_ptr<SceneElement> ParticleConfig::Make(const SceneConfig& scene) const {
+  return std::make_unique<ParticlesElement>(*this, scene);
+}
+
+std::shared_ptr<const SceneElementConfig> ReadParticlesSection(const YAML::Node& n, const std::string& path) {
+  using namespace scene_yaml;
+  Keys(n, path, "particles",
+       {"id", "emitter", "emitter_radius", "velocity", "velocity_jitter", "rate", "max_particles", "lifetime",
+        "restitution", "friction", "radius", "clearance", "max_substep", "seed"},
+       {"emitter", "velocity"});
+  auto c = std::make_shared<ParticleConfig>();
+  Get(n, "id", &c->id);
+  c->emitter = Vec3(n, path, "emitter", c->emitter);
+  Get(n, "emitter_radius", &c->emitter_radius);
+  c->velocity = Vec3(n, path, "velocity", c->velocity);
+  Get(n, "velocity_jitter", &c->velocity_jitter);
+  Get(n, "rate", &c->rate);
+  Get(n, "max_particles", &c->max_particles);
+  Get(n, "lifetime", &c->lifetime);
+  Get(n, "restitution", &c->restitution);
+  Get(n, "friction", &c->friction);
+  Get(n, "radius", &c->radius);
+  Get(n, "clearance", &c->clearance);
+  Get(n, "max_substep", &c->max_substep);
+  Get(n, "seed", &c->seed);
+  return c;
 }
 
 }  // namespace hullpipe

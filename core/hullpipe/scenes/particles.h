@@ -23,12 +23,14 @@
 
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/scenes/limits.h"
+#include "hullpipe/scenes/scene_element.h"
 #include "hullpipe/util/interrupt.h"
 
 namespace hullpipe {
 
-/// Settings of a particle stream (scene file key `particles`).
-struct ParticleConfig {
+/// Settings of a particle stream (scene file key `particles`; a scene element:
+/// scene_element.h).
+struct ParticleConfig final : SceneElementConfig {
   int id = 200;                                 ///< Object id in messages.
   Eigen::Vector3d emitter{0.3, 0.0, -2.2};      ///< Emitter centre, world metres.
   double emitter_radius = 0.05;                 ///< Particles start on a disc of this radius.
@@ -46,7 +48,18 @@ struct ParticleConfig {
   uint32_t seed = 7;                            ///< Emission is deterministic given the seed.
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
+
+  std::string Key() const override { return "particles"; }
+  std::string Describe() const override { return "particles"; }
+  void CheckIn(const SceneConfig& scene) const override;
+  /// A ParticleSystem under the scene's gravity and floor, published as a
+  /// VirtualMesh point set of kind particles with the touching ones.
+  std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const override;
 };
+
+/// Reads a scene file's `particles` section (keys as ParticleConfig's; emitter
+/// and velocity required). Throws std::runtime_error naming the file and key.
+std::shared_ptr<const SceneElementConfig> ReadParticlesSection(const YAML::Node& section, const std::string& path);
 
 /// What a particle step did.
 struct ParticleStepStats {

@@ -1,8 +1,6 @@
-// The hybrid scenes against exact synthetic hulls: the cloth curtain
-// pushed by a capsule (no vertex left inside), particles falling on a sphere (none
-// left inside, none tunnelling through a thin plate), and a ball bouncing off a
-// box face whose hull face is exact (outgoing direction against the exact
-// reflection).
+// The particle stream against exact synthetic hulls: particles falling on a
+// sphere (none left inside, some sliding off) and fast ones meeting a thin plate
+// (none tunnelling through).
 #include <cmath>
 
 #include <Eigen/Geometry>

@@ -6,6 +6,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/scenes/scene_yaml.h"
 #include "hullpipe/util/csv.h"
 
 namespace hullpipe {
@@ -273,6 +275,76 @@ SpacingSweepResult SweepSpacing(const PayloadConfig& config, const std::vector<V
   }
   res.smallest_free = hi;
   return res;
+}
+
+// ---- The payload task as a scene element (scene_element.h).
+
+void PayloadConfig::CheckIn(const SceneConfig&) const { Check(); }
+
+namespace {
+
+class PayloadElement final : public SceneElement {
+ public:
+  explicit PayloadElement(const PayloadConfig& config) : config_(config) {}
+  void Step(double, const VolumeQuery* hull, StopFlag) override { frame_ = EvaluatePayload(config_, hull); }
+  void Output(double source_time_s, uint64_t frame_seq, ElementOutput* out) override {
+    colliding_.resize(frame_.parts.size(), false);
+    for (size_t k = 0; k < frame_.parts.size(); ++k) {
+      VirtualMeshSample m;
+      m.object_id = uint32_t(config_.first_id + int(k));
+      m.kind = kMeshPart;
+      const TriangleMesh mesh = frame_.parts[k].Mesh();
+      m.draw.vertices = mesh.vertices;
+      m.draw.triangles = mesh.triangles;
+      const bool hit = frame_.collisions[k].colliding() || frame_.clearance[k].colliding;
+      // A part in collision is drawn red whole (§5.2); the PMT grey, the others green.
+      m.draw.colliding.assign(mesh.triangles.size(), hit ? 1 : 0);
+      m.draw.colour = k == 0 ? cv::Vec3b(160, 160, 160) : cv::Vec3b(90, 170, 90);
+      m.clearance = frame_.clearance[k].distance;
+      out->meshes.push_back(std::move(m));
+      if (hit != colliding_[k])
+        out->events.push_back({source_time_s, frame_seq, frame_.parts[k].name, hit, config_.spacing});
+      colliding_[k] = hit;
+    }
+  }
+  bool SetSpacing(double spacing_m) override {
+    PayloadConfig c = config_;
+    c.spacing = spacing_m;
+    c.Check();
+    config_ = c;
+    return true;
+  }
+
+ private:
+  PayloadConfig config_;
+  PayloadFrame frame_;
+  std::vector<bool> colliding_;  // parts colliding in the last output
+};
+
+}  // namespace
+
+std::unique_ptr<SceneElement> PayloadConfig::Make(const SceneConfig&) const {
+  return std::make_unique<PayloadElement>(*this);
+}
+
+std::shared_ptr<const SceneElementConfig> ReadPayloadSection(const YAML::Node& n, const std::string& path) {
+  using namespace scene_yaml;
+  Keys(n, path, "payload",
+       {"first_id", "pmt_centre", "pmt_half", "axis", "direction", "spacing", "a_half", "shaft_radius",
+        "shaft_length", "max_clearance", "max_pixel_size"});
+  auto c = std::make_shared<PayloadConfig>();
+  Get(n, "first_id", &c->first_id);
+  c->pmt_centre = Vec3(n, path, "pmt_centre", c->pmt_centre);
+  c->pmt_half = Vec3(n, path, "pmt_half", c->pmt_half);
+  Get(n, "axis", &c->axis);
+  Get(n, "direction", &c->direction);
+  Get(n, "spacing", &c->spacing);
+  c->a_half = Vec3(n, path, "a_half", c->a_half);
+  Get(n, "shaft_radius", &c->shaft_radius);
+  Get(n, "shaft_length", &c->shaft_length);
+  Get(n, "max_clearance", &c->max_clearance);
+  Get(n, "max_pixel_size", &c->collision.max_pixel_size);
+  return c;
 }
 
 }  // namespace hullpipe

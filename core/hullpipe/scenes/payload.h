@@ -24,6 +24,7 @@
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/reconstruction/volume_query.h"
+#include "hullpipe/scenes/scene_element.h"
 
 namespace hullpipe {
 
@@ -43,8 +44,9 @@ struct PayloadPart {
   Aabb Bounds() const;
 };
 
-/// Settings of the task (scene file key `payload`).
-struct PayloadConfig {
+/// Settings of the task (scene file key `payload`; a scene element:
+/// scene_element.h).
+struct PayloadConfig final : SceneElementConfig {
   int first_id = 300;                                  ///< Object ids: PMT, payload A, shaft.
   Eigen::Vector3d pmt_centre{0.35, -0.35, -0.9};       ///< PMT box centre, world metres.
   Eigen::Vector3d pmt_half{0.15, 0.15, 0.15};          ///< PMT box half extents.
@@ -60,7 +62,20 @@ struct PayloadConfig {
   void Check() const;
   /// The parts at the current spacing: PMT, payload A, A's shaft.
   std::vector<PayloadPart> Parts() const;
+
+  std::string Key() const override { return "payload"; }
+  std::string Describe() const override { return "the payload task"; }
+  void CheckIn(const SceneConfig& scene) const override;
+  /// The task evaluated each step (EvaluatePayload): each part published as a
+  /// VirtualMesh of kind part (id first_id + k, drawn red whole while it
+  /// collides) with its clearance, and each part's collision starting or ending
+  /// as an event. Takes SetSpacing.
+  std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const override;
 };
+
+/// Reads a scene file's `payload` section (keys as PayloadConfig's). Throws
+/// std::runtime_error naming the file and key.
+std::shared_ptr<const SceneElementConfig> ReadPayloadSection(const YAML::Node& section, const std::string& path);
 
 /// Clearance of one part from the hull (FCL-style distance result).
 struct ClearanceResult {

@@ -1,8 +1,6 @@
-// The hybrid scenes against exact synthetic hulls: the cloth curtain
-// pushed by a capsule (no vertex left inside), particles falling on a sphere (none
-// left inside, none tunnelling through a thin plate), and a ball bouncing off a
-// box face whose hull face is exact (outgoing direction against the exact
-// reflection).
+// The payload spacing task (paper §5.2): the spacing sweep's known answer on a
+// synthetic motion, a part's clearance from an exact sphere hull, and the
+// spacing changed while running.
 #include <cmath>
 
 #include <Eigen/Geometry>
@@ -84,11 +82,11 @@ TEST(PayloadTask, ClearanceOfABoxFromASphereHull) {
 TEST(PayloadTask, SpacingChangesWhileRunningAndBadValuesAreRefused) {
   SceneConfig cfg;
   cfg.balls.clear();
-  cfg.payload = PayloadConfig{};
+  cfg.Set(PayloadConfig{});
   VirtualScene scene(cfg);
   scene.SetSpacing(0.2);
   EXPECT_DOUBLE_EQ(scene.payload()->spacing, 0.2);
-  EXPECT_DOUBLE_EQ(scene.config().payload->spacing, 0.2);  // one copy of the settings
+  EXPECT_DOUBLE_EQ(scene.config().Find<PayloadConfig>()->spacing, 0.2);  // one copy of the settings
   EXPECT_THROW(scene.SetSpacing(-1), std::invalid_argument);
   EXPECT_THROW(scene.SetSpacing(std::nan("")), std::invalid_argument);
   EXPECT_DOUBLE_EQ(scene.payload()->spacing, 0.2);  // unchanged

@@ -6,6 +6,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "hullpipe/scenes/limits.h"
+#include "hullpipe/scenes/scene_yaml.h"
 #include "hullpipe/util/yaml_keys.h"
 
 namespace hullpipe {
@@ -30,18 +32,19 @@ void SceneConfig::PlaceInWorld(const RigWorld& world) {
 }
 
 void SceneConfig::Check() const {
-  if (frame == Frame::kStage && (cloth || particles || payload || light))
-    throw std::invalid_argument("scene: frame stage places balls only: cloth, particles, payload and light are in "
-                                "world coordinates (use frame: world)");
+  if (frame == Frame::kStage && (!elements.empty() || light)) {
+    std::string which;
+    for (const auto& e : elements) which += (which.empty() ? "" : ", ") + e->Key();
+    if (light) which += (which.empty() ? "" : ", ") + std::string("light");
+    throw std::invalid_argument("scene: frame stage places balls only: " + which +
+                                " are in world coordinates (use frame: world)");
+  }
   if (!gravity.allFinite()) throw std::invalid_argument("scene: gravity must be finite");
   if (!(max_substep >= kMinSubstepS && max_substep <= kMaxSubstepS))
     throw std::invalid_argument("scene: max_substep must be in [1e-4, 0.1] s");
   collision.Check();
-  if (cloth) cloth->Check();
-  if (particles) particles->Check();
-  if (payload) payload->Check();
+  for (const auto& e : elements) e->CheckIn(*this);
   if (light) light->Check();
-  if (cloth && !(gravity.norm() > 0)) throw std::invalid_argument("scene: a cloth needs non-zero gravity");
   for (const auto& b : balls) {
     if (!(b.radius > 0)) throw std::invalid_argument("scene: ball radius must be > 0");
     if (!b.start.allFinite() || !b.target.allFinite())
@@ -55,93 +58,10 @@ void SceneConfig::Check() const {
 }
 
 namespace {
-Eigen::Vector3d Vec3(const YAML::Node& n, const std::string& path, const char* key,
-                     const Eigen::Vector3d& fallback) {
-  if (!n[key]) return fallback;
-  const auto v = n[key].as<std::vector<double>>();
-  if (v.size() != 3) throw std::runtime_error(path + ": '" + key + "' must have 3 numbers");
-  return {v[0], v[1], v[2]};
-}
-template <typename T>
-void Get(const YAML::Node& n, const char* key, T* out) {
-  if (n[key]) *out = n[key].as<T>();
-}
 
-// A section must be a map with only the keys this build reads (a misspelt key
-// would otherwise be ignored and its default used without a word) and the ones
-// it cannot do without.
-void Keys(const YAML::Node& n, const std::string& path, const std::string& section,
-          std::initializer_list<const char*> known, std::initializer_list<const char*> required = {}) {
-  const std::string where = section.empty() ? "" : section + ".";
-  if (!n.IsMap()) throw std::runtime_error(path + ": '" + section + "' must be a map of keys");
-  if (const auto key = FirstUnknownKey(n, known))
-    throw std::runtime_error(path + ": unknown key '" + where + *key + "' (known: " + KeyList(known) + ")");
-  for (const char* k : required)
-    if (!n[k]) throw std::runtime_error(path + ": key '" + where + k + "' is missing");
-}
-
-ClothConfig ParseCloth(const YAML::Node& n, const std::string& path) {
-  Keys(n, path, "cloth",
-       {"id", "rod_a", "rod_b", "length", "nx", "ny", "iterations", "damping", "max_substep", "clearance",
-        "max_search", "max_pixel_size"},
-       {"rod_a", "rod_b", "length"});
-  ClothConfig c;
-  Get(n, "id", &c.id);
-  c.rod_a = Vec3(n, path, "rod_a", c.rod_a);
-  c.rod_b = Vec3(n, path, "rod_b", c.rod_b);
-  Get(n, "length", &c.length);
-  Get(n, "nx", &c.nx);
-  Get(n, "ny", &c.ny);
-  Get(n, "iterations", &c.iterations);
-  Get(n, "damping", &c.damping);
-  Get(n, "max_substep", &c.max_substep);
-  Get(n, "clearance", &c.clearance);
-  Get(n, "max_search", &c.max_search);
-  Get(n, "max_pixel_size", &c.collision.max_pixel_size);
-  return c;
-}
-
-ParticleConfig ParseParticles(const YAML::Node& n, const std::string& path) {
-  Keys(n, path, "particles",
-       {"id", "emitter", "emitter_radius", "velocity", "velocity_jitter", "rate", "max_particles", "lifetime",
-        "restitution", "friction", "radius", "clearance", "max_substep", "seed"},
-       {"emitter", "velocity"});
-  ParticleConfig c;
-  Get(n, "id", &c.id);
-  c.emitter = Vec3(n, path, "emitter", c.emitter);
-  Get(n, "emitter_radius", &c.emitter_radius);
-  c.velocity = Vec3(n, path, "velocity", c.velocity);
-  Get(n, "velocity_jitter", &c.velocity_jitter);
-  Get(n, "rate", &c.rate);
-  Get(n, "max_particles", &c.max_particles);
-  Get(n, "lifetime", &c.lifetime);
-  Get(n, "restitution", &c.restitution);
-  Get(n, "friction", &c.friction);
-  Get(n, "radius", &c.radius);
-  Get(n, "clearance", &c.clearance);
-  Get(n, "max_substep", &c.max_substep);
-  Get(n, "seed", &c.seed);
-  return c;
-}
-
-PayloadConfig ParsePayload(const YAML::Node& n, const std::string& path) {
-  Keys(n, path, "payload",
-       {"first_id", "pmt_centre", "pmt_half", "axis", "direction", "spacing", "a_half", "shaft_radius",
-        "shaft_length", "max_clearance", "max_pixel_size"});
-  PayloadConfig c;
-  Get(n, "first_id", &c.first_id);
-  c.pmt_centre = Vec3(n, path, "pmt_centre", c.pmt_centre);
-  c.pmt_half = Vec3(n, path, "pmt_half", c.pmt_half);
-  Get(n, "axis", &c.axis);
-  Get(n, "direction", &c.direction);
-  Get(n, "spacing", &c.spacing);
-  c.a_half = Vec3(n, path, "a_half", c.a_half);
-  Get(n, "shaft_radius", &c.shaft_radius);
-  Get(n, "shaft_length", &c.shaft_length);
-  Get(n, "max_clearance", &c.max_clearance);
-  Get(n, "max_pixel_size", &c.collision.max_pixel_size);
-  return c;
-}
+using scene_yaml::Get;
+using scene_yaml::Keys;
+using scene_yaml::Vec3;
 
 LightConfig ParseLight(const YAML::Node& n, const std::string& path) {
   Keys(n, path, "light",
@@ -170,10 +90,12 @@ SceneConfig LoadSceneConfig(const std::string& path) {
       throw std::runtime_error(path + ": not a scene (empty, or not a YAML map of keys)");
     // 'balls' is required (balls: [] for none): a file without it would get the
     // default ball unasked.
-    Keys(root, path, "",
-         {"gravity", "floor", "collision", "response", "max_substep", "balls", "cloth", "particles", "payload",
-          "light", "frame"},
-         {"balls"});
+    std::vector<std::string> known = {"gravity", "floor", "collision", "response", "max_substep", "balls",
+                                      "light", "frame"};
+    for (const auto& kind : SceneElementKinds()) known.push_back(kind.key);
+    if (const auto key = FirstUnknownKey(root, known))
+      throw std::runtime_error(path + ": unknown key '" + *key + "' (known: " + KeyList(known) + ")");
+    if (!root["balls"]) throw std::runtime_error(path + ": key 'balls' is missing");
     if (const YAML::Node f = root["frame"]) {
       const std::string frame = f.as<std::string>("?");
       if (frame != "world" && frame != "stage")
@@ -227,9 +149,8 @@ SceneConfig LoadSceneConfig(const std::string& path) {
         ++index;
       }
     }
-    if (root["cloth"]) cfg.cloth = ParseCloth(root["cloth"], path);
-    if (root["particles"]) cfg.particles = ParseParticles(root["particles"], path);
-    if (root["payload"]) cfg.payload = ParsePayload(root["payload"], path);
+    for (const auto& kind : SceneElementKinds())
+      if (const YAML::Node section = root[kind.key]) cfg.elements.push_back(kind.read(section, path));
     if (root["light"]) cfg.light = ParseLight(root["light"], path);
   } catch (const YAML::Exception& e) {
     throw std::runtime_error(path + ": " + e.what());

@@ -1,5 +1,7 @@
 // Scene files (paper §4–§5): the schema of every hybrid scene sim_node and
-// render_node read. The balls' simulation is ball.h: balls thrown under gravity
+// render_node read. The scene-wide settings and the balls are here; every other
+// element (cloth, particles, payload) is a registered kind of scene element
+// (scene_element.h, scene_elements.cc) read from its own section. The balls' simulation is ball.h: balls thrown under gravity
 // that collide with the visual hull and the floor. Collision detection is the paper's (§4.1: box test,
 // then each triangle volume-queried in its own viewport); the response is §4.2's:
 // the ball moves by D_rec along V_rec (plus 1 mm) so its deepest collision point
@@ -56,18 +58,17 @@
 // particles) in [1e-4, 0.1] s (limits.h); the rest as each Config::Check says.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
-#include "hullpipe/geometry/rig_world.h"
-#include "hullpipe/scenes/cloth.h"
-#include "hullpipe/scenes/lighting.h"
 #include "hullpipe/collision/collision.h"
-#include "hullpipe/scenes/particles.h"
-#include "hullpipe/scenes/payload.h"
+#include "hullpipe/geometry/rig_world.h"
+#include "hullpipe/scenes/lighting.h"
+#include "hullpipe/scenes/scene_element.h"
 
 namespace hullpipe {
 
@@ -98,9 +99,10 @@ struct SceneConfig {
   /// Longest integration step (s), limits tunnelling; in [kMinSubstepS, kMaxSubstepS].
   double max_substep = 0.01;
   std::vector<BallConfig> balls{BallConfig{}};
-  std::optional<ClothConfig> cloth;         ///< The curtain, if any.
-  std::optional<ParticleConfig> particles;  ///< The particle stream, if any.
-  std::optional<PayloadConfig> payload;     ///< The payload spacing task, if any.
+  /// Every other element (cloth, particles, payload, ...), in the order of
+  /// SceneElementKinds(), at most one of each kind. Shared and immutable: a
+  /// change replaces the element's settings (Set).
+  std::vector<std::shared_ptr<const SceneElementConfig>> elements;
   std::optional<LightConfig> light;         ///< A virtual light casting shadows (render_node).
   /// `frame`: world (the rig's coordinates) or stage (see above).
   enum class Frame { kWorld, kStage } frame = Frame::kWorld;
@@ -112,8 +114,26 @@ struct SceneConfig {
   /// hull-relative; frame becomes kWorld. A world scene: unchanged. Throws
   /// std::invalid_argument if the stage gravity is not along -z.
   void PlaceInWorld(const RigWorld& world);
-  /// Throws std::invalid_argument naming the bad field.
+  /// Throws std::invalid_argument naming the bad field (a stage scene with an
+  /// element or a light, an element's own CheckIn).
   void Check() const;
+  /// The element of settings type C (ClothConfig, ...), or nullptr.
+  template <typename C>
+  const C* Find() const {
+    for (const auto& e : elements)
+      if (const auto* c = dynamic_cast<const C*>(e.get())) return c;
+    return nullptr;
+  }
+  /// Puts `config` in place of the element of its type, or adds it.
+  template <typename C>
+  void Set(C config) {
+    for (auto& e : elements)
+      if (dynamic_cast<const C*>(e.get())) {
+        e = std::make_shared<C>(std::move(config));
+        return;
+      }
+    elements.push_back(std::make_shared<C>(std::move(config)));
+  }
 };
 
 /// Reads a scene file. Throws std::runtime_error naming the file and key.

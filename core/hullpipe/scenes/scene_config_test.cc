@@ -1,8 +1,6 @@
-// The hybrid scenes against exact synthetic hulls: the cloth curtain
-// pushed by a capsule (no vertex left inside), particles falling on a sphere (none
-// left inside, none tunnelling through a thin plate), and a ball bouncing off a
-// box face whose hull face is exact (outgoing direction against the exact
-// reflection).
+// Scene files and the scene element registry: every shipped scene loads, bad
+// files name the file and key, every registered kind is read from its section,
+// stepped and published.
 #include <cmath>
 
 #include <Eigen/Geometry>
@@ -68,6 +66,50 @@ TEST(SceneFiles, BadFilesNameTheKey) {
   const std::string ok = dir + "/scene_ok.yaml";
   std::ofstream(ok) << ball;
   EXPECT_EQ(LoadSceneConfig(ok).balls.size(), 1u);
+}
+
+}  // namespace
+}  // namespace hullpipe
+
+namespace hullpipe {
+namespace {
+
+// Every registered kind (scene_elements.cc) is read from its own section, in
+// the registry's order, stepped with the balls and published with its meshes;
+// an unknown section is refused naming every known key, the kinds' among them.
+TEST(SceneElements, EveryRegisteredKindIsReadSteppedAndPublished) {
+  const std::string path = ::testing::TempDir() + "elements.yaml";
+  std::ofstream(path) << "balls: [{radius: 0.1, start: [1, 0, -1], target: [0, 0, -1]}]\n"
+                         "payload: {spacing: 0.2}\n"
+                         "particles: {emitter: [0.3, 0, -2.2], velocity: [0, 0, 0.5], rate: 100}\n"
+                         "cloth: {rod_a: [0, -0.6, -1.8], rod_b: [0, 0.6, -1.8], length: 1.2}\n";
+  const SceneConfig cfg = LoadSceneConfig(path);
+  ASSERT_EQ(cfg.elements.size(), SceneElementKinds().size());
+  for (size_t i = 0; i < cfg.elements.size(); ++i) EXPECT_EQ(cfg.elements[i]->Key(), SceneElementKinds()[i].key);
+  ASSERT_NE(cfg.Find<PayloadConfig>(), nullptr);
+  EXPECT_EQ(cfg.Find<PayloadConfig>()->spacing, 0.2);
+  VirtualScene scene(cfg);
+  EXPECT_EQ(scene.Describe().rfind("1 ball(s), a curtain, particles, the payload task", 0), 0u) << scene.Describe();
+  scene.Step(0.1, nullptr);
+  const ElementOutput out = scene.Output(0.1, 7);
+  EXPECT_EQ(out.states.size(), 1u);   // the ball
+  EXPECT_EQ(out.reports.size(), 1u);
+  ASSERT_EQ(out.meshes.size(), 5u);   // the curtain, the particles, three payload parts
+  EXPECT_EQ(out.meshes[0].kind, kMeshCloth);
+  EXPECT_EQ(out.meshes[1].kind, kMeshParticles);
+  EXPECT_GT(out.meshes[1].draw.vertices.size(), 0u);  // emitted in 0.1 s at 100/s
+  for (size_t k = 2; k < 5; ++k) EXPECT_EQ(out.meshes[k].kind, kMeshPart);
+  EXPECT_TRUE(out.events.empty());  // no hull: nothing collides
+
+  std::ofstream(path) << "balls: []\ncurtain: {}\n";
+  try {
+    LoadSceneConfig(path);
+    ADD_FAILURE() << "an unknown section was accepted";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("unknown key 'curtain'"), std::string::npos) << what;
+    for (const auto& kind : SceneElementKinds()) EXPECT_NE(what.find(kind.key), std::string::npos) << what;
+  }
 }
 
 }  // namespace

@@ -1,29 +1,44 @@
 #include "hullpipe/scenes/virtual_scene.h"
 
+#include <sstream>
 #include <stdexcept>
 
 namespace hullpipe {
 
-VirtualScene::VirtualScene(const SceneConfig& config) : config_(config), balls_(config) {
-  if (config_.cloth) cloth_.emplace(*config_.cloth, config_.gravity);
-  if (config_.particles) particles_.emplace(*config_.particles, config_.gravity, config_.has_floor, config_.floor);
+VirtualScene::VirtualScene(const SceneConfig& config) : config_(config) {
+  config_.Check();
+  auto balls = std::make_unique<BallsElement>(config_);
+  balls_ = balls.get();
+  elements_.push_back(std::move(balls));
+  for (const auto& e : config_.elements) elements_.push_back(e->Make(config_));
 }
 
-SceneStepStats VirtualScene::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
-  SceneStepStats st;
-  balls_.Step(dt, hull, stop);
-  if (cloth_) st.cloth = cloth_->Step(dt, hull, stop);
-  if (particles_) st.particles = particles_->Step(dt, hull, stop);
-  if (config_.payload) st.payload = EvaluatePayload(*config_.payload, hull);
-  return st;
+void VirtualScene::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
+  for (auto& e : elements_) e->Step(dt, hull, stop);
+}
+
+ElementOutput VirtualScene::Output(double source_time_s, uint64_t frame_seq) {
+  ElementOutput out;
+  for (auto& e : elements_) e->Output(source_time_s, frame_seq, &out);
+  return out;
 }
 
 void VirtualScene::SetSpacing(double spacing_m) {
-  if (!config_.payload) throw std::invalid_argument("this scene has no payload task");
-  PayloadConfig c = *config_.payload;
+  const PayloadConfig* current = payload();
+  if (!current) throw std::invalid_argument("this scene has no payload task");
+  PayloadConfig c = *current;
   c.spacing = spacing_m;
   c.Check();
-  config_.payload = c;
+  for (auto& e : elements_) e->SetSpacing(spacing_m);
+  config_.Set(std::move(c));
+}
+
+std::string VirtualScene::Describe() const {
+  std::string s = std::to_string(config_.balls.size()) + " ball(s)";
+  for (const auto& e : config_.elements) s += ", " + e->Describe();
+  std::ostringstream g;
+  g << ", gravity [" << config_.gravity.x() << ", " << config_.gravity.y() << ", " << config_.gravity.z() << "]";
+  return s + g.str();
 }
 
 }  // namespace hullpipe

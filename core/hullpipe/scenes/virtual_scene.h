@@ -1,47 +1,46 @@
-// Everything sim_node simulates against the visual hull (paper §4–§5):
-// the thrown balls (ball.h), an optional cloth curtain (cloth.h), an
-// optional particle stream (particles.h) and the optional payload spacing task
-// (payload.h), stepped together, deterministically, frame by frame.
+// Everything sim_node simulates against the visual hull (paper §4–§5): the
+// thrown balls (ball.h) and every other element of the scene file (cloth,
+// particles, the payload task: scene_element.h), stepped together,
+// deterministically, frame by frame.
 #pragma once
 
-#include <optional>
+#include <memory>
+#include <string>
+#include <vector>
 
-#include "hullpipe/scenes/scene_config.h"
 #include "hullpipe/scenes/ball.h"
+#include "hullpipe/scenes/payload.h"
+#include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/scenes/scene_element.h"
 
 namespace hullpipe {
-
-/// What one step did, per part of the scene.
-struct SceneStepStats {
-  ClothStepStats cloth;
-  ParticleStepStats particles;
-  std::optional<PayloadFrame> payload;  ///< The task's collisions and clearances.
-};
 
 class VirtualScene {
  public:
   /// Throws std::invalid_argument if the config fails Check().
   explicit VirtualScene(const SceneConfig& config);
-  /// Advances every part by dt seconds against `hull` (nullptr: none). Throws
-  /// Interrupted (util/interrupt.h) between substeps once `stop` is set; the
-  /// scene is then part-way through the step (good only for stopping).
-  SceneStepStats Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr);
-  const BallSimulation& balls() const { return balls_; }
-  const ClothSimulation* cloth() const { return cloth_ ? &*cloth_ : nullptr; }
-  const ParticleSystem* particles() const { return particles_ ? &*particles_ : nullptr; }
+  /// Advances every element, balls first, by dt seconds against `hull`
+  /// (nullptr: none). Throws Interrupted (util/interrupt.h) once `stop` is
+  /// set; the scene is then part-way through the step (good only for stopping).
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr);
+  /// What every element gives to publish after the last step, balls first
+  /// (their frame_seq and capture_time_ns left for the caller).
+  ElementOutput Output(double source_time_s, uint64_t frame_seq);
+  const BallSimulation& balls() const { return balls_->simulation(); }
   /// The payload task's settings, if any (spacing as last set; config() agrees).
-  const std::optional<PayloadConfig>& payload() const { return config_.payload; }
+  const PayloadConfig* payload() const { return config_.Find<PayloadConfig>(); }
   /// Changes the PMT-to-payload-A spacing while running (paper §5.2). Throws
   /// std::invalid_argument (nothing changes) if there is no payload task or the
   /// spacing fails PayloadConfig::Check().
   void SetSpacing(double spacing_m);
   const SceneConfig& config() const { return config_; }
+  /// "2 ball(s), a curtain, gravity [0, 0, 9.81]": what the scene holds, for the log.
+  std::string Describe() const;
 
  private:
   SceneConfig config_;
-  BallSimulation balls_;
-  std::optional<ClothSimulation> cloth_;
-  std::optional<ParticleSystem> particles_;
+  std::vector<std::unique_ptr<SceneElement>> elements_;  ///< The balls first.
+  BallsElement* balls_ = nullptr;
 };
 
 }  // namespace hullpipe

@@ -8,6 +8,7 @@
 #include <initializer_list>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <yaml-cpp/yaml.h>
 
@@ -27,6 +28,22 @@ inline std::optional<std::string> FirstUnknownKey(const YAML::Node& map, std::in
 inline std::string KeyList(std::initializer_list<const char*> known) {
   std::string list;
   for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+  return list;
+}
+
+/// FirstUnknownKey for a list of keys made at run time (a registry's).
+inline std::optional<std::string> FirstUnknownKey(const YAML::Node& map, const std::vector<std::string>& known) {
+  for (const auto& kv : map) {
+    const std::string key = kv.first.as<std::string>("?");
+    if (std::find(known.begin(), known.end(), key) == known.end()) return key;
+  }
+  return std::nullopt;
+}
+
+/// KeyList for a list of keys made at run time.
+inline std::string KeyList(const std::vector<std::string>& known) {
+  std::string list;
+  for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
   return list;
 }
 

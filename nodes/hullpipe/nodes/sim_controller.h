@@ -1,9 +1,10 @@
 // sim_node's run-time logic (paper §4–§5): each new frameset's visual hull steps
-// the virtual scene (balls, cloth, particles, payload task) by the frames' source
-// time, so a run or a replay is deterministic given its inputs; it publishes each
-// body's state and collision report (§4.1 points, §4.2 response), the cloth,
-// particle and payload meshes, and logs each payload part's collisions as they
-// start and end. Scene commands change the payload spacing while it runs.
+// the virtual scene (its elements: balls, cloth, particles, payload task;
+// scenes/scene_element.h) by the frames' source time, so a run or a replay is
+// deterministic given its inputs; it publishes what each element gives (each
+// body's state and collision report, §4.1 points and §4.2 response; meshes) and
+// logs each part's collisions as they start and end. Scene commands change the
+// payload spacing while it runs.
 // DDS-free; tests drive it with a FakeClock.
 #pragma once
 
@@ -26,15 +27,6 @@ class SimSink {
   virtual void PublishState(const VirtualObjectSample& state) = 0;
   virtual void PublishReport(const CollisionReportSample& report) = 0;
   virtual void PublishMesh(const VirtualMeshSample& mesh) = 0;
-};
-
-/// A payload part's collision starting or ending (the §5.2 task's log).
-struct PartCollisionEvent {
-  double source_time_s = 0;
-  uint64_t frame_seq = 0;
-  std::string part;
-  bool starts = false;
-  double spacing_m = 0;
 };
 
 class SimController {
@@ -76,7 +68,6 @@ class SimController {
   bool every_frameset_ = false;
   VirtualScene scene_;
   NodeCounters counters_;
-  std::vector<bool> part_colliding_;  // payload parts colliding in the last frame
   std::vector<PartCollisionEvent> part_events_;
   uint64_t collisions_ = 0, commands_rejected_ = 0, malformed_input_ = 0;
   double last_source_time_ = -1;

@@ -67,7 +67,7 @@ TEST(Sim, SpacingCommandsAreValidatedAndCounted) {
   EXPECT_EQ(plain.commands_rejected(), 1u);
 
   SceneConfig with_payload;
-  with_payload.payload = PayloadConfig{};
+  with_payload.Set(PayloadConfig{});
   SimController sim(with_payload, clock, assembler, sink);
   EXPECT_FALSE(sim.SetSpacing(std::nan(""), 2));
   EXPECT_FALSE(sim.SetSpacing(-1.0, 3));

@@ -1,0 +1,92 @@
+// One interface for everything sim_node simulates against the visual hull
+// (paper §4–§5): a kind of scene element is its settings (read from its section
+// of a scene file, checked, turned into a simulation) and the simulation (a step
+// against a frameset's hull, then what to publish: states, collision reports,
+// meshes, log lines). The balls, the cloth curtain, the particle stream and the
+// payload task are such kinds; a new kind is one module that implements these
+// two classes and one line in scene_elements.cc (docs/architecture.md, "Adding
+// a scene element").
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hullpipe/pipeline/messages.h"
+#include "hullpipe/reconstruction/volume_query.h"
+#include "hullpipe/util/interrupt.h"
+
+namespace YAML {
+class Node;
+}
+
+namespace hullpipe {
+
+struct SceneConfig;
+
+/// A part's collision starting or ending in a step (the payload task's log, §5.2).
+struct PartCollisionEvent {
+  double source_time_s = 0;
+  uint64_t frame_seq = 0;
+  std::string part;
+  bool starts = false;
+  double spacing_m = 0;  ///< The payload spacing at the time (0 for other kinds).
+};
+
+/// What an element gives sim_node to publish after a step. The samples'
+/// frame_seq and capture_time_ns are the caller's to fill (the frameset's).
+struct ElementOutput {
+  std::vector<VirtualObjectSample> states;     ///< Spheres (VirtualObjectState).
+  std::vector<CollisionReportSample> reports;  ///< §4.1 points and §4.2 response per body.
+  std::vector<VirtualMeshSample> meshes;       ///< Meshes and point sets to draw (VirtualMesh).
+  std::vector<PartCollisionEvent> events;      ///< Collisions starting or ending.
+  uint64_t colliding_bodies = 0;               ///< Rigid bodies (balls) colliding this step.
+};
+
+/// A running element of the scene. Deterministic: the same steps against the
+/// same hulls give the same outputs.
+class SceneElement {
+ public:
+  virtual ~SceneElement() = default;
+  /// Advances by dt seconds (source time) against `hull` (nullptr: no hull this
+  /// step). Throws Interrupted (util/interrupt.h) once `stop` is set; the
+  /// element is then part-way through the step (good only for stopping).
+  virtual void Step(double dt, const VolumeQuery* hull, StopFlag stop) = 0;
+  /// Appends what the last step gives to publish; source_time_s and frame_seq
+  /// are the frameset's (for events).
+  virtual void Output(double source_time_s, uint64_t frame_seq, ElementOutput* out) = 0;
+  /// Sets the payload spacing (SceneCommand SET_SPACING, metres); false when the
+  /// element has no spacing. Throws std::invalid_argument (nothing changes) for a
+  /// value it refuses.
+  virtual bool SetSpacing(double /*spacing_m*/) { return false; }
+};
+
+/// One element's settings as its scene-file section gives them. Immutable once
+/// read: a change (a new spacing) makes a new one.
+class SceneElementConfig {
+ public:
+  virtual ~SceneElementConfig() = default;
+  /// The section's key in a scene file ("cloth").
+  virtual std::string Key() const = 0;
+  /// For the log: "a curtain".
+  virtual std::string Describe() const = 0;
+  /// Throws std::invalid_argument naming the bad field (the scene-wide settings,
+  /// gravity for instance, may be needed).
+  virtual void CheckIn(const SceneConfig& scene) const = 0;
+  /// The running element, in the scene's world (gravity, floor).
+  virtual std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const = 0;
+};
+
+/// A kind of element: the key of its section and how to read one. `read`
+/// throws std::runtime_error naming the file (`path`) and the key.
+struct SceneElementKind {
+  std::string key;
+  std::function<std::shared_ptr<const SceneElementConfig>(const YAML::Node& section, const std::string& path)> read;
+};
+
+/// Every kind a scene file may hold besides its balls, in the order their
+/// sections are read (scene_elements.cc: the one registration per kind).
+const std::vector<SceneElementKind>& SceneElementKinds();
+
+}  // namespace hullpipe

@@ -1,0 +1,49 @@
+// Reading a scene file's sections (scene_config.h): the helpers every element
+// kind's reader shares, so each section names its keys once and refuses
+// misspelt ones the same way. Included by the scenes module's sources only.
+#pragma once
+
+#include <initializer_list>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <yaml-cpp/yaml.h>
+
+#include "hullpipe/util/yaml_keys.h"
+
+namespace hullpipe::scene_yaml {
+
+/// n[key] as 3 numbers, or `fallback` when absent. Throws std::runtime_error
+/// naming the file and key when it is not 3 numbers (YAML::Exception when not
+/// numbers: LoadSceneConfig prefixes the file).
+inline Eigen::Vector3d Vec3(const YAML::Node& n, const std::string& path, const char* key,
+                            const Eigen::Vector3d& fallback) {
+  if (!n[key]) return fallback;
+  const auto v = n[key].as<std::vector<double>>();
+  if (v.size() != 3) throw std::runtime_error(path + ": '" + key + "' must have 3 numbers");
+  return {v[0], v[1], v[2]};
+}
+
+/// *out = n[key] when present.
+template <typename T>
+void Get(const YAML::Node& n, const char* key, T* out) {
+  if (n[key]) *out = n[key].as<T>();
+}
+
+/// A section must be a map with only the keys this build reads (a misspelt key
+/// would otherwise be ignored and its default used without a word) and the ones
+/// it cannot do without. Throws std::runtime_error naming the file and the key
+/// (as "section.key").
+inline void Keys(const YAML::Node& n, const std::string& path, const std::string& section,
+                 std::initializer_list<const char*> known, std::initializer_list<const char*> required = {}) {
+  const std::string where = section.empty() ? "" : section + ".";
+  if (!n.IsMap()) throw std::runtime_error(path + ": '" + section + "' must be a map of keys");
+  if (const auto key = FirstUnknownKey(n, known))
+    throw std::runtime_error(path + ": unknown key '" + where + *key + "' (known: " + KeyList(known) + ")");
+  for (const char* k : required)
+    if (!n[k]) throw std::runtime_error(path + ": key '" + where + k + "' is missing");
+}
+
+}  // namespace hullpipe::scene_yaml
