@@ -521,6 +521,18 @@ TEST_F(CaptureFiles, ACameraWithNoFramesIsAnError) {
   EXPECT_LE(PublishedFrames(log), 0) << log;
 }
 
+// A camera's video that is not there ends the node before its first frame
+// with one line naming the camera and the file (camera_reader.h).
+TEST_F(CaptureFiles, AMissingVideoNamesTheCameraAndTheFile) {
+  std::filesystem::remove(rig_ / "cam3" / "video.avi");
+  auto node = Start("capture_node", {"--rig", rig_.string(), "--fast"});
+  EXPECT_EQ(node->Wait(30), 1);
+  const std::string log = test::ReadFile(log_);
+  EXPECT_NE(log.find("camera 3: cannot open"), std::string::npos) << log;
+  EXPECT_NE(log.find("cam3/video.avi"), std::string::npos) << log;
+  EXPECT_LE(PublishedFrames(log), 0) << log;
+}
+
 TEST_F(CaptureFiles, CalibrationMissingAKeyIsAOneLineError) {
   const auto cfg = rig_ / "cam3" / "config.xml";
   std::string text = test::ReadFile(cfg.string());

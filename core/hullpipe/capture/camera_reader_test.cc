@@ -1,5 +1,5 @@
 // Camera readers on their own: numbered files, image sequences read frame by
-// frame and reopened, a spec that does not open.
+// frame and reopened, a malformed device spec.
 #include "hullpipe/capture/camera_reader.h"
 
 #include <filesystem>
@@ -42,15 +42,17 @@ TEST(CameraReader, AnImageSequenceIsReadInOrderAndReopened) {
   EXPECT_EQ(ReadCalibratedFrames(3, "frames", pattern, 10, 9, 6).size(), 0u);
 }
 
-TEST(CameraReader, ASpecThatDoesNotOpenNamesTheCamera) {
+// (A file that does not open is a capture node test,
+// CaptureFiles.AMissingVideoNamesTheCameraAndTheFile: OpenCV's probing of every
+// backend for a missing file leaks inside libusb, which the sanitizer build of
+// this test would report.)
+TEST(CameraReader, AMalformedV4l2SpecIsRefused) {
   try {
-    FileCameraReader reader(5, "/nonexistent/video.avi");
+    OpenCameraCapture("v4l2:x");
     ADD_FAILURE() << "opened";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("camera 5: cannot open /nonexistent/video.avi"), std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected v4l2:<device index>"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(OpenCameraCapture("v4l2:x"), std::runtime_error);
 }
 
 }  // namespace
