@@ -133,7 +133,7 @@ int main(int argc, char** argv) {
                                                      : 0)}};
   ctx.synthetic = synthetic;
   if (!synthetic) ctx.rig = fs::absolute(rig).string();
-  ctx.parent_args = world_args;
+  ctx.parent_args = std::move(world_args);
   if (!head_poses.empty())
     ctx.parent_args.insert(ctx.parent_args.end(), {"--view", "file", "--head-poses", fs::absolute(head_poses).string()});
   ctx.domain = domain;

@@ -10,6 +10,8 @@
 
 namespace hullpipe::dds {
 
+int64_t FramesetInput::ArrivalNs() const { return counters_ ? counters_->clock().WallNs() : NowNs(); }
+
 void AddFramesetOptions(CLI::App& app, FramesetOptions& options) {
   app.add_option("--skew-tolerance", options.skew_tolerance_ms,
                  "Largest |capture time - reference time| of a frameset's maps, ms (0: half the slowest camera's "
@@ -69,7 +71,7 @@ void FramesetInput::Poll() {
       sample.object_rect = decoded.bounds;
       sample.source_time_s = m.source_time;
       sample.source_id = info.publication_handle;
-      sample.arrival_ns = counters_ ? counters_->clock().WallNs() : NowNs();
+      sample.arrival_ns = ArrivalNs();
       sample.cam_from_world = MapPoseFromMsg(m);
       if (!assembler_.AddMap(std::move(sample), &why) && assembler_.rejected() > rejected_before)
         spdlog::warn("rejected: {}", why);
@@ -82,8 +84,7 @@ void FramesetInput::Poll() {
       try {
         if (counters_) counters_->StageSince("transport_image", info.source_timestamp);
         // (Images and maps come from different writers: only maps name the sender.)
-        assembler_.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m), nullptr, 0,
-                            counters_ ? counters_->clock().WallNs() : NowNs());
+        assembler_.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m), nullptr, 0, ArrivalNs());
       } catch (const MessageError& e) {
         Reject(e.what());
       }

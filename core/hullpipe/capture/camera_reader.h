@@ -88,6 +88,7 @@ class LiveCameraReader {
   LiveCameraReader& operator=(const LiveCameraReader&) = delete;
   /// Asks the thread to stop; it notices within a read time-out (0.5 s).
   void RequestStop();
+  /// The thread has ended (stopped, or a malformed spec).
   bool Done() const;
   /// Under the hub's mutex: takes the oldest queued frame and its arrival time.
   bool Pop(cv::Mat* image, int64_t* arrival_ns);

@@ -93,9 +93,7 @@ SceneConfig LoadSceneConfig(const std::string& path) {
     std::vector<std::string> known = {"gravity", "floor", "collision", "response", "max_substep", "balls",
                                       "light", "frame"};
     for (const auto& kind : SceneElementKinds()) known.push_back(kind.key);
-    if (const auto key = FirstUnknownKey(root, known))
-      throw std::runtime_error(path + ": unknown key '" + *key + "' (known: " + KeyList(known) + ")");
-    if (!root["balls"]) throw std::runtime_error(path + ": key 'balls' is missing");
+    Keys(root, path, "", known, {"balls"});
     if (const YAML::Node f = root["frame"]) {
       const std::string frame = f.as<std::string>("?");
       if (frame != "world" && frame != "stage")

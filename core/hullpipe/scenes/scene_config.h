@@ -1,8 +1,9 @@
 // Scene files (paper §4–§5): the schema of every hybrid scene sim_node and
 // render_node read. The scene-wide settings and the balls are here; every other
 // element (cloth, particles, payload) is a registered kind of scene element
-// (scene_element.h, scene_elements.cc) read from its own section. The balls' simulation is ball.h: balls thrown under gravity
-// that collide with the visual hull and the floor. Collision detection is the paper's (§4.1: box test,
+// (scene_element.h, scene_elements.cc) read from its own section. The balls'
+// simulation is ball.h: balls thrown under gravity that collide with the visual
+// hull and the floor. Collision detection is the paper's (§4.1: box test,
 // then each triangle volume-queried in its own viewport); the response is §4.2's:
 // the ball moves by D_rec along V_rec (plus 1 mm) so its deepest collision point
 // CP_obj reaches the hull's surface at CP_hull, and its velocity is reflected about

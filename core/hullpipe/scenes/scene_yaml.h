@@ -36,8 +36,9 @@ void Get(const YAML::Node& n, const char* key, T* out) {
 /// would otherwise be ignored and its default used without a word) and the ones
 /// it cannot do without. Throws std::runtime_error naming the file and the key
 /// (as "section.key").
+/// `known` may be made at run time (the top level adds the registered kinds).
 inline void Keys(const YAML::Node& n, const std::string& path, const std::string& section,
-                 std::initializer_list<const char*> known, std::initializer_list<const char*> required = {}) {
+                 const std::vector<std::string>& known, std::initializer_list<const char*> required = {}) {
   const std::string where = section.empty() ? "" : section + ".";
   if (!n.IsMap()) throw std::runtime_error(path + ": '" + section + "' must be a map of keys");
   if (const auto key = FirstUnknownKey(n, known))

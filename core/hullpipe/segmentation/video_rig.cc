@@ -135,7 +135,6 @@ class VideoRig final : public RigSource {
     RigCamera mask_format;   ///< Its mask_threshold and mask_channel.
     BackgroundModel background;
     bool ended = false;
-    int64_t declared_frames = 0;  ///< The container's frame count (0: unknown).
     bool live = false;
     int64_t latency_ns = 0;
     std::unique_ptr<LiveCameraReader> reader;
@@ -302,10 +301,11 @@ class VideoRig final : public RigSource {
       for (const Cam& c : cams_) {
         // Containers' counts are estimates (the rig's 426-frame videos declare
         // 428): short by more than max(5 frames, 1%) is a truncated file.
-        const int64_t slack = std::max<int64_t>(5, c.declared_frames / 100);
-        if (c.declared_frames > 0 && index_ + slack < c.declared_frames) {
+        const int64_t declared = c.frames->declared_frames();  // 0: unknown
+        const int64_t slack = std::max<int64_t>(5, declared / 100);
+        if (declared > 0 && index_ + slack < declared) {
           incomplete_ = "camera " + std::to_string(c.camera.id) + ": " + c.frames_spec + " ends after frame " +
-                        std::to_string(index_) + " of the " + std::to_string(c.declared_frames) +
+                        std::to_string(index_) + " of the " + std::to_string(declared) +
                         " its container declares (truncated or damaged)";
           break;
         }
@@ -334,7 +334,6 @@ class VideoRig final : public RigSource {
         c.frames = std::make_unique<FileCameraReader>(c.camera.id, c.frames_spec);
       if (!c.masks_spec.empty()) c.mask_first = FirstFileNumber(c.masks_spec);
       c.ended = false;
-      c.declared_frames = c.frames->declared_frames();
       if (c.frames->fps() > 0) fps_ = c.frames->fps();
     }
   }

@@ -27,6 +27,8 @@ struct RenderOutputOptions {
 
 class RenderOutputs {
  public:
+  /// Creates options.out_dir (std::filesystem::filesystem_error if it cannot).
+  /// The video is opened with the first frame.
   explicit RenderOutputs(RenderOutputOptions options);
   /// The `count`-th composited frame (CV_8UC3) of frameset frame_seq, as
   /// RenderSink::WriteFrame: appended to the video, written as PNG when due
@@ -36,6 +38,7 @@ class RenderOutputs {
                   const cv::Mat& hull_depth, double path_time_s);
   /// Finishes the video.
   void Close() { video_.release(); }
+  /// out_dir/hullpipe.mp4.
   std::string video_path() const;
   int64_t video_frames() const { return video_frames_; }
   /// Output files that could not be written (the video, PNGs, depth TIFFs), and the first.

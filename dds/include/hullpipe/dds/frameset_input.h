@@ -62,6 +62,8 @@ class FramesetInput {
 
  private:
   void Reject(const char* what);
+  /// Now on the node's clock (the counters'), else the system's: a sample's arrival.
+  int64_t ArrivalNs() const;
   Reader<hullpipe_msg_CameraInfo> info_;
   Reader<hullpipe_msg_ObjectPixelMap> maps_;
   std::unique_ptr<Reader<hullpipe_msg_CameraImage>> images_;

@@ -5,9 +5,6 @@
 
 #include <memory>
 #include <string>
-#include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/reconstruction/sweep_backend.h"
