@@ -22,9 +22,10 @@ set(rules
   "core/hullpipe/collision|util pipeline geometry reconstruction collision"
   "core/hullpipe/evaluation|util pipeline geometry capture reconstruction evaluation"
   "core/hullpipe/segmentation|util pipeline geometry capture reconstruction segmentation"
-  "core/hullpipe/scenes|util pipeline geometry reconstruction collision scenes"
+  "core/hullpipe/models|util pipeline geometry reconstruction collision models"
+  "core/hullpipe/scenes|util pipeline geometry reconstruction collision models scenes"
   "gl|util pipeline geometry reconstruction collision gl"
-  "nodes|util pipeline geometry capture reconstruction collision segmentation scenes nodes"
+  "nodes|util pipeline geometry capture reconstruction collision segmentation models scenes nodes"
   "record|util record"
   "launch/hullpipe|util launch")
 # The DDS wrapper (hullpipe_dds_base) sits on the pipeline's types alone; the

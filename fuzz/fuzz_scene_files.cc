@@ -9,7 +9,7 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   hullpipe::fuzz::InputFile file(data, size, "_scene.yaml");
   try {
-    hullpipe::LoadSceneConfig(file.path()).Check();
+    hullpipe::LoadSceneConfig(file.path(), hullpipe::SceneLoadOptions{false}).Check();
   } catch (const std::runtime_error&) {
   }
   return 0;

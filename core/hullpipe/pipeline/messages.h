@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -48,6 +49,43 @@ struct VirtualMeshSample {
   int64_t capture_time_ns = 0;
   VirtualMeshDraw draw;    ///< Vertices (world metres), triangles, colliding flags, colour.
   double clearance = -1;   ///< Least distance from the hull, metres (< 0: not measured).
+};
+
+/// One part of a CAD model in the scene (ModelPart), sent once: its geometry in
+/// its body frame and what the file calls it (paper §5: the engine's parts).
+struct ModelPartSample {
+  uint32_t object_id = 0;   ///< model_id + part_index.
+  uint32_t model_id = 0;    ///< The model's first part's object id.
+  uint32_t part_index = 0, part_count = 1;
+  std::string name;         ///< The file's node name.
+  std::string file;         ///< The scene's model file.
+  std::vector<Eigen::Vector3f> vertices;   ///< Body frame metres.
+  std::vector<Eigen::Vector3i> triangles;  ///< CCW seen from outside.
+  cv::Vec3b colour{180, 180, 180};         ///< BGR: the material's base colour.
+};
+
+/// How near the hull a part is (PART_CONTACT_*).
+enum PartContact : uint8_t { kPartClear = 0, kPartNear = 1, kPartColliding = 2 };
+
+/// One part's state after a step (ModelState.parts).
+struct PartStateSample {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();        ///< world_from_body translation, metres.
+  Eigen::Vector4d orientation{1, 0, 0, 0};                   ///< world_from_body rotation, quaternion w x y z.
+  uint8_t contact = kPartClear;                              ///< PartContact.
+  double clearance = -1;  ///< Least distance from the hull, metres (< 0: not measured).
+};
+
+/// One model's parts after a step against a frameset (ModelState), with what
+/// the step cost (§4.1 through the hierarchy).
+struct ModelStateSample {
+  uint32_t model_id = 0;
+  uint64_t frame_seq = 0;
+  int64_t capture_time_ns = 0;
+  uint64_t triangles = 0;          ///< In the model.
+  uint64_t boxes_tested = 0;       ///< Hierarchy boxes tested against the hull.
+  uint64_t triangles_queried = 0;  ///< Triangles volume-queried.
+  double query_ms = 0;             ///< Collision and clearance time, milliseconds.
+  std::vector<PartStateSample> parts;  ///< In part_index order.
 };
 
 /// One virtual sphere's state after the step against a frameset

@@ -117,6 +117,126 @@ struct LensBound {
   }
 };
 
+}  // namespace
+
+namespace detail {
+
+// The cell rule of the hull box search (TightenHullBox's comment), kept for
+// VolumeQuery::ProvesEmpty.
+class CellProver {
+ public:
+  CellProver(const std::vector<CameraMap>& views, std::vector<cv::Rect> rects, bool outside_vetoes,
+             int required_seen)
+      : views_(views), rects_(std::move(rects)), outside_vetoes_(outside_vetoes), required_seen_(required_seen) {
+    const size_t n = views.size();
+    // Integral images of each map within its object pixels' bounding rectangle
+    // (none outside it): 0 under a rectangle iff it holds no object pixel.
+    sums_.resize(n);
+    lenses_.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      if (rects_[i].area() > 0) cv::integral(views[i].map(rects_[i]), sums_[i], CV_32S);
+      if (views[i].camera.HasDistortion()) lenses_[i].emplace(views[i].camera);
+    }
+  }
+  // True if no hull point lies in `cell`. *hint: the camera tried first, set to
+  // the one that proved it (neighbouring cells share it).
+  bool Empty(const Aabb& cell, size_t* hint) const;
+
+ private:
+  std::vector<CameraMap> views_;  // shares the maps
+  std::vector<cv::Rect> rects_;
+  bool outside_vetoes_;
+  int required_seen_;
+  std::vector<cv::Mat> sums_;
+  std::vector<std::optional<LensBound>> lenses_;
+};
+
+bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
+  const auto& views = views_;
+  const auto& rects = rects_;
+  const auto& sums = sums_;
+  const auto& lenses = lenses_;
+  const bool outside_vetoes = outside_vetoes_;
+  const int required_seen = required_seen_;
+  const size_t n = views.size();
+  size_t& hint = *hint_io;
+  if (hint >= n) hint = 0;
+  // A pixel rectangle [u0, u1] x [v0, v1].
+  struct Rect {
+    double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
+    double span() const { return std::max(u1 - u0, v1 - v0); }
+  };
+  // Grows *r over the projections of the corners; false if one does not project.
+  auto corners_rect = [](const auto& project, const std::array<Eigen::Vector3d, 8>& pts, Rect* r) {
+    for (const auto& X : pts) {
+      const auto uv = project(X);
+      if (!uv) return false;
+      r->u0 = std::min(r->u0, uv->x()), r->v0 = std::min(r->v0, uv->y());
+      r->u1 = std::max(r->u1, uv->x()), r->v1 = std::max(r->v1, uv->y());
+    }
+    return true;
+  };
+  std::array<Eigen::Vector3d, 8> pts;
+  for (int k = 0; k < 8; ++k)
+    pts[size_t(k)] = {k & 1 ? cell.max.x() : cell.min.x(), k & 2 ? cell.max.y() : cell.min.y(),
+                      k & 4 ? cell.max.z() : cell.min.z()};
+  int seeing = 0;
+  for (size_t j = 0; j < n; ++j) {
+    const size_t i = j == 0 ? hint : (j <= hint ? j - 1 : j);
+    const Camera& cam = views[i].camera;
+    // A conservative rectangle of the cell's projection, or none: the camera
+    // may see some of the cell and vetoes none of it.
+    Rect r;
+    bool bounded = false;
+    if (!lenses[i]) {
+      bounded = corners_rect([&](const Eigen::Vector3d& X) { return cam.Project(X); }, pts, &r);
+    } else {
+      const LensBound& lens = *lenses[i];
+      Rect p;
+      if (corners_rect([&](const Eigen::Vector3d& X) { return lens.Pinhole(X); }, pts, &p) && p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 &&
+          p.v1 <= lens.y1) {
+        r = {p.u0 - lens.shift, p.v0 - lens.shift, p.u1 + lens.shift, p.v1 + lens.shift};
+        bounded = true;
+      }
+      Rect d;
+      if ((!bounded || p.span() <= 32) &&
+          corners_rect([&](const Eigen::Vector3d& X) { return cam.Project(X); }, pts, &d) && d.span() <= 32) {
+        const double m = 0.5 + d.span() * d.span() / 400;
+        const Rect g{d.u0 - m, d.v0 - m, d.u1 + m, d.v1 + m};
+        r = bounded ? Rect{std::max(r.u0, g.u0), std::max(r.v0, g.v0), std::min(r.u1, g.u1), std::min(r.v1, g.v1)} : g;
+        bounded = true;
+      }
+    }
+    if (!bounded) {
+      ++seeing;
+      continue;
+    }
+    // Clamped in floating point first: a corner far outside a distorted view
+    // can project to ~1e11 px, past int.
+    constexpr double kFar = 1e7;
+    const int x0 = int(std::floor(std::clamp(r.u0, -kFar, kFar))), y0 = int(std::floor(std::clamp(r.v0, -kFar, kFar)));
+    const int x1 = int(std::floor(std::clamp(r.u1, -kFar, kFar))) + 1, y1 = int(std::floor(std::clamp(r.v1, -kFar, kFar))) + 1;
+    if (x1 <= 0 || y1 <= 0 || x0 >= cam.width || y0 >= cam.height) {  // sees none of it
+      if (outside_vetoes) return hint = i, true;
+      continue;
+    }
+    ++seeing;
+    if (x0 < 0 || y0 < 0 || x1 > cam.width || y1 > cam.height) continue;  // sees part of it
+    // Object pixels under [x0, x1) x [y0, y1), counted within the rectangle.
+    const cv::Rect& o = rects[i];
+    const int a0 = std::clamp(x0 - o.x, 0, o.width), a1 = std::clamp(x1 - o.x, 0, o.width);
+    const int b0 = std::clamp(y0 - o.y, 0, o.height), b1 = std::clamp(y1 - o.y, 0, o.height);
+    const cv::Mat& s = sums[i];
+    if (a0 == a1 || b0 == b1 || s.at<int>(b1, a1) - s.at<int>(b0, a1) - s.at<int>(b1, a0) + s.at<int>(b0, a0) == 0)
+      return hint = i, true;
+  }
+  return seeing < required_seen;
+}
+
+}  // namespace detail
+
+namespace {
+
 // Tightens a conservative hull box to within a small cell of the hull's own box
 // (docs/rigs.md: on a ring of cameras the kUnknown pyramid boxes are metres
 // wide, as two opposite cameras' pyramids meet along the line between them). A
@@ -142,89 +262,10 @@ struct LensBound {
 // its far side bounding the hull there. Every hull point lies in a cell not yet
 // dropped, so the result stays conservative. Cells are classified once for all
 // six searches. An empty hull gives an empty box.
-Aabb TightenHullBox(const std::vector<CameraMap>& views, const std::vector<cv::Rect>& rects, const Aabb& box,
-                    bool outside_vetoes, int required_seen) {
+Aabb TightenHullBox(const detail::CellProver& prover, const Aabb& box) {
   if (box.empty()) return box;
-  const size_t n = views.size();
-  // Integral images of each map within its object pixels' bounding rectangle
-  // (none outside it): 0 under a rectangle iff it holds no object pixel.
-  std::vector<cv::Mat> sums(n);
-  std::vector<std::optional<LensBound>> lenses(n);
-  for (size_t i = 0; i < n; ++i) {
-    if (rects[i].area() > 0) cv::integral(views[i].map(rects[i]), sums[i], CV_32S);
-    if (views[i].camera.HasDistortion()) lenses[i].emplace(views[i].camera);
-  }
   const double leaf = std::clamp((box.max - box.min).maxCoeff() / 64, 5e-3, 0.02);
-  size_t hint = 0;  // the camera that emptied the last empty cell, tried first (neighbours share it)
-  // A pixel rectangle [u0, u1] x [v0, v1].
-  struct Rect {
-    double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
-    double span() const { return std::max(u1 - u0, v1 - v0); }
-  };
-  // Grows *r over the projections of the corners; false if one does not project.
-  auto corners_rect = [](const auto& project, const std::array<Eigen::Vector3d, 8>& pts, Rect* r) {
-    for (const auto& X : pts) {
-      const auto uv = project(X);
-      if (!uv) return false;
-      r->u0 = std::min(r->u0, uv->x()), r->v0 = std::min(r->v0, uv->y());
-      r->u1 = std::max(r->u1, uv->x()), r->v1 = std::max(r->v1, uv->y());
-    }
-    return true;
-  };
-  auto classify = [&](const Aabb& cell) {
-    std::array<Eigen::Vector3d, 8> pts;
-    for (int k = 0; k < 8; ++k)
-      pts[size_t(k)] = {k & 1 ? cell.max.x() : cell.min.x(), k & 2 ? cell.max.y() : cell.min.y(),
-                        k & 4 ? cell.max.z() : cell.min.z()};
-    int seeing = 0;
-    for (size_t j = 0; j < n; ++j) {
-      const size_t i = j == 0 ? hint : (j <= hint ? j - 1 : j);
-      const Camera& cam = views[i].camera;
-      // A conservative rectangle of the cell's projection, or none: the camera
-      // may see some of the cell and vetoes none of it.
-      Rect r;
-      bool bounded = false;
-      if (!lenses[i]) {
-        bounded = corners_rect([&](const Eigen::Vector3d& X) { return cam.Project(X); }, pts, &r);
-      } else {
-        const LensBound& lens = *lenses[i];
-        Rect p;
-        if (corners_rect([&](const Eigen::Vector3d& X) { return lens.Pinhole(X); }, pts, &p) && p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 &&
-            p.v1 <= lens.y1) {
-          r = {p.u0 - lens.shift, p.v0 - lens.shift, p.u1 + lens.shift, p.v1 + lens.shift};
-          bounded = true;
-        }
-        Rect d;
-        if ((!bounded || p.span() <= 32) &&
-            corners_rect([&](const Eigen::Vector3d& X) { return cam.Project(X); }, pts, &d) && d.span() <= 32) {
-          const double m = 0.5 + d.span() * d.span() / 400;
-          const Rect g{d.u0 - m, d.v0 - m, d.u1 + m, d.v1 + m};
-          r = bounded ? Rect{std::max(r.u0, g.u0), std::max(r.v0, g.v0), std::min(r.u1, g.u1), std::min(r.v1, g.v1)} : g;
-          bounded = true;
-        }
-      }
-      if (!bounded) {
-        ++seeing;
-        continue;
-      }
-      const int x0 = int(std::floor(r.u0)), y0 = int(std::floor(r.v0));
-      const int x1 = int(std::floor(r.u1)) + 1, y1 = int(std::floor(r.v1)) + 1;
-      if (x1 <= 0 || y1 <= 0 || x0 >= cam.width || y0 >= cam.height) {  // sees none of it
-        if (outside_vetoes) return hint = i, true;
-        continue;
-      }
-      ++seeing;
-      if (x0 < 0 || y0 < 0 || x1 > cam.width || y1 > cam.height) continue;  // sees part of it
-      // Object pixels under [x0, x1) x [y0, y1), counted within the rectangle.
-      const cv::Rect& o = rects[i];
-      const int a0 = std::clamp(x0 - o.x, 0, o.width), a1 = std::clamp(x1 - o.x, 0, o.width);
-      const int b0 = std::clamp(y0 - o.y, 0, o.height), b1 = std::clamp(y1 - o.y, 0, o.height);
-      const cv::Mat& s = sums[i];
-      if (a0 == a1 || b0 == b1 || s.at<int>(b1, a1) - s.at<int>(b0, a1) - s.at<int>(b1, a0) + s.at<int>(b0, a0) == 0)
-        return hint = i, true;
-    }
-    return seeing < required_seen;
-  };
+  size_t hint = 0;
   // Cells are made by halving, so one cell has the same bits whichever search
   // made it: classified once.
   std::map<std::array<double, 6>, bool> known;
@@ -232,7 +273,7 @@ Aabb TightenHullBox(const std::vector<CameraMap>& views, const std::vector<cv::R
     const std::array<double, 6> key{c.min.x(), c.min.y(), c.min.z(), c.max.x(), c.max.y(), c.max.z()};
     const auto it = known.find(key);
     if (it != known.end()) return it->second;
-    const bool e = classify(c);
+    const bool e = prover.Empty(c, &hint);
     known.emplace(key, e);
     return e;
   };
@@ -325,7 +366,8 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
   const bool outside = options_.out_of_view == OutOfView::kOutside;
   hull_box_ = outside ? HullBoundingBox(cams, rects, workspace_)
                       : UnknownPolicyHullBox(cams, rects, workspace_, required_seen_);
-  hull_box_ = TightenHullBox(views_, rects, hull_box_, outside, required_seen_);
+  prover_ = std::make_shared<const detail::CellProver>(views_, rects, outside, required_seen_);
+  hull_box_ = TightenHullBox(*prover_, hull_box_);
 }
 
 Vote VolumeQuery::VoteOf(size_t i, const Eigen::Vector3d& X) const {
@@ -357,6 +399,12 @@ bool VolumeQuery::Inside(const Eigen::Vector3d& X) const {
     }
   }
   return Accepts(object, unseen);
+}
+
+bool VolumeQuery::ProvesEmpty(const Aabb& box, size_t* hint) const {
+  if (box.empty() || !box.Intersects(hull_box_) || !box.Intersects(workspace_)) return true;
+  size_t local = 0;
+  return prover_->Empty(box, hint ? hint : &local);
 }
 
 VolumeQuery VolumeQuery::Subset(const std::vector<int>& indices) const {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -39,6 +40,7 @@ struct FastCamera {
   const uint8_t* data;
   size_t step;
 };
+class CellProver;  // volume_query.cc: the hull box search's rule for empty cells
 }  // namespace detail
 
 /// What a camera says of a point it cannot see: behind it (z <= 0), outside its
@@ -103,6 +105,17 @@ class VolumeQuery {
   /// kUnknown, no camera says background and at least required_seen() see it.
   bool Inside(const Eigen::Vector3d& X_world) const;
 
+  /// True if no point of `box` (world metres) can be inside the hull: it misses
+  /// hull_box() or the workspace, or one camera that sees all of it has no
+  /// object pixel under its projection (the same rule that tightens hull_box():
+  /// volume_query.cc, TightenHullBox), or (kOutside) a camera sees none of it,
+  /// or (kUnknown) fewer than required_seen() cameras can see any of it.
+  /// Conservative: false does not mean a hull point is there. `hint` (optional,
+  /// in/out): the camera tried first, set to the one that proved the box empty
+  /// (neighbouring boxes tend to share it). Thread-safe. Paper §4.1 (the
+  /// bounding-box test), applied to a hierarchy's boxes.
+  bool ProvesEmpty(const Aabb& box, size_t* hint = nullptr) const;
+
   /// Camera i's verdict on X (world metres), in double precision.
   Vote VoteOf(size_t i, const Eigen::Vector3d& X_world) const;
 
@@ -157,6 +170,7 @@ class VolumeQuery {
   int required_seen_ = 1;
   Aabb hull_box_;
   std::vector<detail::FastCamera> fast_;
+  std::shared_ptr<const detail::CellProver> prover_;
 };
 
 }  // namespace hullpipe

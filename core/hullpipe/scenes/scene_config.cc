@@ -82,7 +82,7 @@ LightConfig ParseLight(const YAML::Node& n, const std::string& path) {
 
 }  // namespace
 
-SceneConfig LoadSceneConfig(const std::string& path) {
+SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& load) {
   SceneConfig cfg;
   try {
     const YAML::Node root = YAML::LoadFile(path);
@@ -148,7 +148,7 @@ SceneConfig LoadSceneConfig(const std::string& path) {
       }
     }
     for (const auto& kind : SceneElementKinds())
-      if (const YAML::Node section = root[kind.key]) cfg.elements.push_back(kind.read(section, path));
+      if (const YAML::Node section = root[kind.key]) cfg.elements.push_back(kind.read(section, path, load));
     if (root["light"]) cfg.light = ParseLight(root["light"], path);
   } catch (const YAML::Exception& e) {
     throw std::runtime_error(path + ": " + e.what());

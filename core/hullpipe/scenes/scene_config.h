@@ -137,7 +137,9 @@ struct SceneConfig {
   }
 };
 
-/// Reads a scene file. Throws std::runtime_error naming the file and key.
-SceneConfig LoadSceneConfig(const std::string& path);
+/// Reads a scene file (and, unless `load` says not to, the model files it
+/// names). Throws std::runtime_error naming the file and key (a ModelError,
+/// model_import.h, for a bad model file).
+SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& load = {});
 
 }  // namespace hullpipe

@@ -41,6 +41,8 @@ struct ElementOutput {
   std::vector<CollisionReportSample> reports;  ///< §4.1 points and §4.2 response per body.
   std::vector<VirtualMeshSample> meshes;       ///< Meshes and point sets to draw (VirtualMesh).
   std::vector<PartCollisionEvent> events;      ///< Collisions starting or ending.
+  std::vector<ModelPartSample> model_parts;    ///< CAD model geometry (ModelPart): given once, by the first Output.
+  std::vector<ModelStateSample> model_states;  ///< CAD models' part states (ModelState).
   uint64_t colliding_bodies = 0;               ///< Rigid bodies (balls) colliding this step.
 };
 
@@ -78,11 +80,21 @@ class SceneElementConfig {
   virtual std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const = 0;
 };
 
+/// How much of a scene file to load.
+struct SceneLoadOptions {
+  /// Import the model files a `models` section names (model_scene.h). False:
+  /// read and check the section's keys only (render_node, which needs the
+  /// light, and gets the models' geometry from sim_node; the scene fuzzer).
+  bool import_models = true;
+};
+
 /// A kind of element: the key of its section and how to read one. `read`
 /// throws std::runtime_error naming the file (`path`) and the key.
 struct SceneElementKind {
   std::string key;
-  std::function<std::shared_ptr<const SceneElementConfig>(const YAML::Node& section, const std::string& path)> read;
+  std::function<std::shared_ptr<const SceneElementConfig>(const YAML::Node& section, const std::string& path,
+                                                          const SceneLoadOptions& load)>
+      read;
 };
 
 /// Every kind a scene file may hold besides its balls, in the order their

@@ -1,6 +1,7 @@
 // The registry of scene element kinds (scene_element.h): one line per kind.
 // A new kind is its module (settings, reader, simulation) and a line here.
 #include "hullpipe/scenes/cloth.h"
+#include "hullpipe/scenes/model_scene.h"
 #include "hullpipe/scenes/particles.h"
 #include "hullpipe/scenes/payload.h"
 #include "hullpipe/scenes/scene_element.h"
@@ -9,9 +10,10 @@ namespace hullpipe {
 
 const std::vector<SceneElementKind>& SceneElementKinds() {
   static const std::vector<SceneElementKind> kinds = {
-      {"cloth", ReadClothSection},
-      {"particles", ReadParticlesSection},
-      {"payload", ReadPayloadSection},
+      {"cloth", [](const auto& n, const auto& path, const auto&) { return ReadClothSection(n, path); }},
+      {"particles", [](const auto& n, const auto& path, const auto&) { return ReadParticlesSection(n, path); }},
+      {"payload", [](const auto& n, const auto& path, const auto&) { return ReadPayloadSection(n, path); }},
+      {"models", ReadModelsSection},
   };
   return kinds;
 }

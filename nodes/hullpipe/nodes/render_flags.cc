@@ -68,7 +68,7 @@ void RenderFlags::Resolve(bool have_display) {
            : view == "topic" ? RenderOptions::View::kTopic
                              : RenderOptions::View::kOrbit;
   if (!head_poses.empty()) o.track = LoadPoseTrack(head_poses);
-  if (!scene.empty()) o.light = LoadSceneConfig(scene).light;
+  if (!scene.empty()) o.light = LoadSceneConfig(scene, SceneLoadOptions{false}).light;
   if (up_opt_ && up_opt_->count()) world_.up = Eigen::Vector3d(up_[0], up_[1], up_[2]);
   if (radius_opt_ && radius_opt_->count()) world_.orbit_radius = orbit_radius_;
   if (height_opt_ && height_opt_->count()) world_.orbit_height = orbit_height_;

@@ -1,0 +1,357 @@
+#include "hullpipe/scenes/model_scene.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include <Eigen/Geometry>
+#include <yaml-cpp/yaml.h>
+
+#include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/scenes/scene_yaml.h"
+
+namespace hullpipe {
+
+void ModelEntry::Check() const {
+  if (!(scale > 0 && std::isfinite(scale))) throw std::invalid_argument("models: scale must be > 0");
+  if (!position.allFinite()) throw std::invalid_argument("models: position must be finite");
+  if (!std::isfinite(yaw_deg)) throw std::invalid_argument("models: yaw_deg must be finite");
+  if (first_id < 0) throw std::invalid_argument("models: first_id must be >= 0");
+  if (!(warn_distance >= 0 && warn_distance <= 1)) throw std::invalid_argument("models: warn_distance must be in [0, 1] m");
+  if (!(max_clearance > 0 && max_clearance <= 1 && max_clearance >= warn_distance))
+    throw std::invalid_argument("models: max_clearance must be in (0, 1] m and >= warn_distance");
+  if (!(max_pixel_size >= 1e-4 && max_pixel_size <= 0.1))
+    throw std::invalid_argument("models: max_pixel_size must be in [1e-4, 0.1] m");
+}
+
+std::string ModelsConfig::Describe() const {
+  std::ostringstream s;
+  for (size_t k = 0; k < models.size(); ++k) {
+    const auto& m = models[k];
+    s << (k ? ", " : "") << "model " << m.file;
+    if (m.imported)
+      s << " (" << m.imported->parts.size() << " parts, " << m.imported->triangles() << " triangles; skipped "
+        << m.imported->counts.lines_and_points << " line/point primitives, " << m.imported->counts.degenerate_triangles
+        << " degenerate triangles)";
+  }
+  return s.str();
+}
+
+void ModelsConfig::CheckIn(const SceneConfig&) const {
+  int64_t triangles = 0;
+  for (const auto& m : models) {
+    m.Check();
+    if (m.imported) triangles += m.imported->triangles();
+  }
+  if (triangles > kMaxSceneModelTriangles)
+    throw std::invalid_argument("models: " + std::to_string(triangles) + " triangles in all, over the cap of " +
+                                std::to_string(kMaxSceneModelTriangles) + " per scene");
+  // Object ids may not overlap between models.
+  for (size_t a = 0; a < models.size(); ++a)
+    for (size_t b = a + 1; b < models.size(); ++b) {
+      if (!models[a].imported || !models[b].imported) continue;
+      const int64_t a0 = models[a].first_id, a1 = a0 + int64_t(models[a].imported->parts.size());
+      const int64_t b0 = models[b].first_id, b1 = b0 + int64_t(models[b].imported->parts.size());
+      if (a0 < b1 && b0 < a1) throw std::invalid_argument("models: the object ids of " + models[a].file + " and " +
+                                                          models[b].file + " overlap (first_id)");
+    }
+}
+
+Rigid3d ModelPlacement(const ModelEntry& e, const Eigen::Vector3d& world_up, const Aabb& file_box) {
+  const Eigen::Vector3d up = world_up.norm() > 0 ? Eigen::Vector3d(world_up.normalized()) : Eigen::Vector3d::UnitZ();
+  const Eigen::Matrix3d align = Eigen::Quaterniond::FromTwoVectors(e.up_file.normalized(), up).toRotationMatrix();
+  const Eigen::Matrix3d yaw = Eigen::AngleAxisd(e.yaw_deg * M_PI / 180.0, up).toRotationMatrix();
+  Rigid3d T;
+  T.rotation = yaw * align;
+  // The anchor in the scaled file frame.
+  Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
+  if (e.anchor != ModelEntry::Anchor::kOrigin && !file_box.empty()) {
+    anchor = e.scale * file_box.Center();
+    if (e.anchor == ModelEntry::Anchor::kBottom) {
+      // The centre of the box's face lowest along the world's up.
+      const Eigen::Vector3d up_body = T.rotation.transpose() * up;
+      const Eigen::Vector3d half = 0.5 * e.scale * (file_box.max - file_box.min);
+      anchor -= Eigen::Vector3d(up_body.cwiseAbs().cwiseProduct(half).cwiseProduct(up_body.cwiseSign()));
+    }
+  }
+  T.translation = e.position - T.rotation * anchor;
+  return T;
+}
+
+std::vector<ScenePart> PlaceModel(const ImportedModel& model, const ModelEntry& e, const Eigen::Vector3d& world_up) {
+  Aabb file_box;
+  for (const auto& p : model.parts)
+    for (const auto& v : p.vertices) file_box.Extend(v.cast<double>());
+  const Rigid3d T = ModelPlacement(e, world_up, file_box);
+  std::vector<ScenePart> parts;
+  parts.reserve(model.parts.size());
+  for (const auto& ip : model.parts) {
+    ScenePart p;
+    p.name = ip.name;
+    p.colour = ip.colour;
+    p.world_from_body = T;
+    p.body.reserve(ip.vertices.size());
+    p.mesh.vertices.reserve(ip.vertices.size());
+    for (const auto& v : ip.vertices) {
+      const Eigen::Vector3d b = e.scale * v.cast<double>();
+      p.body.push_back(b.cast<float>());
+      p.mesh.vertices.push_back(T * b);
+    }
+    p.mesh.triangles = ip.triangles;
+    p.bvh = TriangleBvh(p.mesh);
+    parts.push_back(std::move(p));
+  }
+  return parts;
+}
+
+namespace {
+
+Eigen::Vector4d Quaternion(const Eigen::Matrix3d& r) {
+  const Eigen::Quaterniond q(r);
+  return {q.w(), q.x(), q.y(), q.z()};
+}
+
+class ModelsElement final : public SceneElement {
+ public:
+  ModelsElement(const ModelsConfig& config, const Eigen::Vector3d& world_up) {
+    for (const auto& e : config.models) {
+      if (!e.imported) throw std::invalid_argument("models: " + e.file + " was not imported");
+      Model m;
+      m.entry = e;
+      m.parts = PlaceModel(*e.imported, e, world_up);
+      m.colliding.assign(m.parts.size(), false);
+      m.state.parts.resize(m.parts.size());
+      for (size_t k = 0; k < m.parts.size(); ++k) {
+        m.state.parts[k].position = m.parts[k].world_from_body.translation;
+        m.state.parts[k].orientation = Quaternion(m.parts[k].world_from_body.rotation);
+        m.triangles += m.parts[k].mesh.triangles.size();
+      }
+      m.results.resize(m.parts.size());
+      models_.push_back(std::move(m));
+    }
+    threads_ = int(std::max(1u, std::thread::hardware_concurrency()));
+  }
+
+  void Step(double, const VolumeQuery* hull, StopFlag stop) override {
+    for (Model& m : models_) {
+      const auto t0 = std::chrono::steady_clock::now();
+      BvhQueryStats stats;
+      stats.triangles_in_scene = int64_t(m.triangles);
+      for (auto& r : m.results) r = {};
+      if (hull) StepModel(m, *hull, stop, &stats);
+      m.state.triangles = uint64_t(stats.triangles_in_scene);
+      m.state.boxes_tested = uint64_t(stats.boxes_tested);
+      m.state.triangles_queried = uint64_t(stats.triangles_queried);
+      m.state.query_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    }
+  }
+
+  void Output(double source_time_s, uint64_t frame_seq, ElementOutput* out) override {
+    for (Model& m : models_) {
+      const uint32_t id0 = uint32_t(m.entry.first_id);
+      if (!geometry_sent_) {
+        for (size_t k = 0; k < m.parts.size(); ++k) {
+          ModelPartSample g;
+          g.object_id = id0 + uint32_t(k);
+          g.model_id = id0;
+          g.part_index = uint32_t(k);
+          g.part_count = uint32_t(m.parts.size());
+          g.name = m.parts[k].name;
+          g.file = m.entry.file;
+          g.vertices = m.parts[k].body;
+          g.triangles = m.parts[k].mesh.triangles;
+          g.colour = m.parts[k].colour;
+          out->model_parts.push_back(std::move(g));
+        }
+      }
+      m.state.model_id = id0;
+      out->model_states.push_back(m.state);
+      for (size_t k = 0; k < m.parts.size(); ++k) {
+        const bool hit = m.state.parts[k].contact == kPartColliding;
+        if (hit) {
+          CollisionReportSample r;
+          r.object_id = id0 + uint32_t(k);
+          for (int t : m.results[k].triangle_ids) r.triangle_ids.push_back(uint32_t(t));
+          r.collision_points = m.results[k].collision_points;
+          out->reports.push_back(std::move(r));
+        }
+        if (hit != m.colliding[k]) out->events.push_back({source_time_s, frame_seq, m.parts[k].name, hit, 0.0});
+        m.colliding[k] = hit;
+      }
+    }
+    geometry_sent_ = true;
+  }
+
+ private:
+  struct Model {
+    ModelEntry entry;
+    std::vector<ScenePart> parts;
+    std::vector<bool> colliding;  // in the last output
+    std::vector<CollisionResult> results;
+    ModelStateSample state;
+    size_t triangles = 0;
+  };
+
+  void StepModel(Model& m, const VolumeQuery& hull, StopFlag stop, BvhQueryStats* stats) {
+    const TriangleQueryOptions options{m.entry.max_pixel_size, 0, 32};
+    // Every part's surviving triangles, queried in one batch.
+    std::vector<Triangle> tris;
+    std::vector<std::pair<int, int>> owner;  // (part, triangle id)
+    for (size_t k = 0; k < m.parts.size(); ++k) {
+      const ScenePart& p = m.parts[k];
+      if (!p.bvh.empty() && !p.bvh.nodes()[0].box.Intersects(hull.hull_box())) {
+        ++stats->boxes_tested;
+        continue;
+      }
+      int64_t boxes = 0;
+      for (int id : p.bvh.Candidates(hull, Rigid3d{}, true, &boxes)) {
+        const Eigen::Vector3i& t = p.mesh.triangles[size_t(id)];
+        Triangle tri{p.mesh.vertices[size_t(t[0])], p.mesh.vertices[size_t(t[1])], p.mesh.vertices[size_t(t[2])]};
+        Aabb tb;
+        tb.Extend(tri.a), tb.Extend(tri.b), tb.Extend(tri.c);
+        if (!tb.Intersects(hull.hull_box())) continue;
+        tris.push_back(tri);
+        owner.emplace_back(int(k), id);
+      }
+      stats->boxes_tested += boxes;
+    }
+    ThrowIfStopped(stop, "the models' step");
+    stats->triangles_queried += int64_t(tris.size());
+    const std::vector<TriangleQueryResult> rs = QueryTrianglesCpu(hull, tris, options, threads_);
+    for (size_t i = 0; i < rs.size(); ++i) {
+      CollisionResult& r = m.results[size_t(owner[i].first)];
+      ++r.triangles_queried;
+      r.pixels_tested += rs[i].pixels_tested;
+      if (rs[i].collision_points.empty()) continue;
+      r.triangle_ids.push_back(owner[i].second);
+      r.collision_points.insert(r.collision_points.end(), rs[i].collision_points.begin(), rs[i].collision_points.end());
+      r.point_triangles.insert(r.point_triangles.end(), rs[i].collision_points.size(), owner[i].second);
+    }
+    ThrowIfStopped(stop, "the models' step");
+    for (size_t k = 0; k < m.parts.size(); ++k) {
+      PartStateSample& s = m.state.parts[k];
+      if (m.results[k].colliding()) {
+        s.contact = kPartColliding;
+        s.clearance = 0;
+        continue;
+      }
+      const ScenePart& p = m.parts[k];
+      const PartClearance c = HullToPartClearance(hull, p.mesh, p.bvh, Rigid3d{}, m.entry.max_clearance);
+      s.clearance = c.distance;
+      s.contact = m.entry.warn_distance > 0 && c.distance < m.entry.warn_distance ? kPartNear : kPartClear;
+    }
+  }
+
+  std::vector<Model> models_;
+  bool geometry_sent_ = false;
+  int threads_ = 1;
+};
+
+Eigen::Vector3d Axis(const std::string& s, const std::string& path) {
+  static const std::vector<std::pair<std::string, Eigen::Vector3d>> axes = {
+      {"+x", Eigen::Vector3d::UnitX()},  {"x", Eigen::Vector3d::UnitX()},  {"-x", -Eigen::Vector3d::UnitX()},
+      {"+y", Eigen::Vector3d::UnitY()},  {"y", Eigen::Vector3d::UnitY()},  {"-y", -Eigen::Vector3d::UnitY()},
+      {"+z", Eigen::Vector3d::UnitZ()},  {"z", Eigen::Vector3d::UnitZ()},  {"-z", -Eigen::Vector3d::UnitZ()}};
+  for (const auto& [name, v] : axes)
+    if (name == s) return v;
+  throw std::runtime_error(path + ": 'models.up' must be one of +x -x +y -y +z -z, not " + s);
+}
+
+std::string LowerExtension(const std::string& file) {
+  const size_t dot = file.rfind('.');
+  if (dot == std::string::npos || file.find('/', dot) != std::string::npos) return "";
+  std::string e = file.substr(dot + 1);
+  for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return e;
+}
+
+}  // namespace
+
+std::unique_ptr<SceneElement> ModelsConfig::Make(const SceneConfig& scene) const {
+  const Eigen::Vector3d up = scene.gravity.norm() > 0 ? Eigen::Vector3d(-scene.gravity.normalized())
+                                                      : Eigen::Vector3d(0, 0, -1);
+  return std::make_unique<ModelsElement>(*this, up);
+}
+
+std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& n, const std::string& path,
+                                                            const SceneLoadOptions& load) {
+  using namespace scene_yaml;
+  if (!n.IsSequence() || n.size() == 0) throw std::runtime_error(path + ": 'models' must be a list of model entries");
+  auto c = std::make_shared<ModelsConfig>();
+  const std::string dir = path.find('/') == std::string::npos ? "" : path.substr(0, path.rfind('/') + 1);
+  int next_id = 1000;
+  int64_t triangles = 0;
+  for (size_t k = 0; k < n.size(); ++k) {
+    const YAML::Node m = n[k];
+    const std::string where = "models[" + std::to_string(k) + "]";
+    Keys(m, path, where,
+         {"file", "units", "scale", "up", "anchor", "position", "yaw_deg", "motion", "first_id", "warn_distance",
+          "max_clearance", "max_pixel_size"},
+         {"file"});
+    ModelEntry e;
+    e.file = m["file"].as<std::string>();
+    e.path = !e.file.empty() && e.file[0] == '/' ? e.file : dir + e.file;
+    const std::string ext = LowerExtension(e.file);
+    const bool metres_by_spec = ext == "gltf" || ext == "glb";
+    if (m["units"] && m["scale"]) throw std::runtime_error(path + ": '" + where + "': give units or scale, not both");
+    if (m["units"]) {
+      const std::string u = m["units"].as<std::string>();
+      if (u == "m") e.scale = 1;
+      else if (u == "cm") e.scale = 0.01;
+      else if (u == "mm") e.scale = 0.001;
+      else if (u == "in") e.scale = 0.0254;
+      else throw std::runtime_error(path + ": '" + where + ".units' must be m, cm, mm or in, not " + u);
+    } else if (m["scale"]) {
+      e.scale = m["scale"].as<double>();
+    } else if (!metres_by_spec) {
+      throw std::runtime_error(path + ": '" + where + "': " + e.file +
+                               " carries no units (only glTF is metres by its specification): give units (m, cm, "
+                               "mm, in) or scale");
+    }
+    e.up_file = (ext == "stl" || ext == "ply") ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
+    if (m["up"]) e.up_file = Axis(m["up"].as<std::string>(), path);
+    if (m["anchor"]) {
+      const std::string a = m["anchor"].as<std::string>();
+      if (a == "origin") e.anchor = ModelEntry::Anchor::kOrigin;
+      else if (a == "centre" || a == "center") e.anchor = ModelEntry::Anchor::kCentre;
+      else if (a == "bottom") e.anchor = ModelEntry::Anchor::kBottom;
+      else throw std::runtime_error(path + ": '" + where + ".anchor' must be origin, centre or bottom, not " + a);
+    }
+    e.position = Vec3(m, path, "position", e.position);
+    Get(m, "yaw_deg", &e.yaw_deg);
+    if (m["motion"]) {
+      const std::string mo = m["motion"].as<std::string>();
+      if (mo == "dynamic")
+        throw std::runtime_error(path + ": '" + where + ".motion: dynamic' is not supported yet (static parts only)");
+      if (mo != "static") throw std::runtime_error(path + ": '" + where + ".motion' must be static, not " + mo);
+    }
+    e.first_id = next_id;
+    Get(m, "first_id", &e.first_id);
+    Get(m, "warn_distance", &e.warn_distance);
+    Get(m, "max_clearance", &e.max_clearance);
+    Get(m, "max_pixel_size", &e.max_pixel_size);
+    try {
+      e.Check();
+    } catch (const std::invalid_argument& x) {
+      throw std::runtime_error(path + ": '" + where + "': " + x.what());
+    }
+    if (load.import_models) {
+      ImportLimits limits;
+      limits.max_file_bytes = kMaxModelFileBytes;
+      limits.max_triangles = kMaxSceneModelTriangles - triangles;
+      if (limits.max_triangles < 1)
+        throw std::runtime_error(path + ": '" + where + "': the scene's models already hold the cap of " +
+                                 std::to_string(kMaxSceneModelTriangles) + " triangles");
+      e.imported = std::make_shared<const ImportedModel>(ImportModel(e.path, limits));
+      triangles += e.imported->triangles();
+      next_id = e.first_id + int(e.imported->parts.size());
+    }
+    c->models.push_back(std::move(e));
+  }
+  return c;
+}
+
+}  // namespace hullpipe

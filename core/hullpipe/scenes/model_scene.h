@@ -1,0 +1,112 @@
+// A lab's own CAD models in the scene (paper §5: "a virtual model of a car
+// engine", the payload's "CAD models of the PMT"), collided with the visual hull
+// part by part (§4.1 through a bounding volume hierarchy per part:
+// models/part_bvh.h) with each part's clearance from the hull (§4.5), drawn
+// amber when the hull comes within warn_distance and red on contact. A part is
+// one node of the file (models/model_import.h). Geometry is published once
+// (ModelPart), each frameset only the parts' poses and contact states
+// (ModelState).
+//
+// Scene file (docs/models.md), a list; world metres, the world of the rig:
+//   models:
+//     - file: /usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb
+//       units: mm            # m | cm | mm | in; or scale: (metres per file unit).
+//                            # glTF is metres by its spec (units: m by default);
+//                            # STL, OBJ, PLY and others carry none: required.
+//       up: +y               # the file's up axis (+x -x +y -y +z -z); default +y
+//                            # (glTF's by its spec), +z for STL and PLY
+//       anchor: bottom       # the point put at `position`: origin (default), centre
+//                            # (of the model's box) or bottom (centre of its lowest face)
+//       position: [0.3, 0.1, 0.0]
+//       yaw_deg: 90          # turn about the world's up after the up axis is aligned
+//       motion: static       # static only (dynamic parts are not supported yet)
+//       first_id: 1000       # object ids: first_id + part index (default 1000, then
+//                            # each model after the last id of the one before)
+//       warn_distance: 0.05  # amber within this of the hull, metres (0: never amber)
+//       max_clearance: 0.1   # clearance measured up to this, metres (>= warn_distance)
+//       max_pixel_size: 0.004  # the triangle query's viewport pixel, metres
+// The world's up is -gravity. Caps (refused naming the cap): a file over 256 MiB,
+// more than 5,000,000 triangles in the scene's models together, an import that
+// takes more than 4 GiB of memory or 60 s.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hullpipe/geometry/mesh.h"
+#include "hullpipe/geometry/rigid3.h"
+#include "hullpipe/models/model_import.h"
+#include "hullpipe/models/part_bvh.h"
+#include "hullpipe/scenes/scene_element.h"
+
+namespace hullpipe {
+
+/// Scene-wide caps on models (docs/models.md).
+constexpr int64_t kMaxSceneModelTriangles = 5'000'000;
+constexpr int64_t kMaxModelFileBytes = int64_t(256) << 20;
+
+/// One part ready to collide. A static part collides in the world: its mesh
+/// and hierarchy are built there once; `body` keeps the vertices in the
+/// model's frame (metres) to send once, world_from_body places them.
+struct ScenePart {
+  std::string name;
+  TriangleMesh mesh;         ///< World metres (static parts).
+  TriangleBvh bvh;           ///< Over `mesh`.
+  std::vector<Eigen::Vector3f> body;  ///< The vertices in the body frame, metres.
+  cv::Vec3b colour;          ///< BGR.
+  Rigid3d world_from_body;   ///< The model's placement.
+};
+
+/// One `models` entry.
+struct ModelEntry {
+  std::string file;          ///< As written in the scene file.
+  std::string path;          ///< Resolved against the scene file's folder.
+  double scale = 1.0;        ///< Metres per file unit.
+  Eigen::Vector3d up_file = Eigen::Vector3d::UnitY();  ///< The file's up axis.
+  enum class Anchor { kOrigin, kCentre, kBottom } anchor = Anchor::kOrigin;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< World metres.
+  double yaw_deg = 0;
+  int first_id = 1000;
+  double warn_distance = 0.05;
+  double max_clearance = 0.1;
+  double max_pixel_size = 0.004;
+  /// The file as imported (null when the scene was read without importing).
+  std::shared_ptr<const ImportedModel> imported;
+  /// Throws std::invalid_argument naming the bad key.
+  void Check() const;
+};
+
+/// The `models` section (a scene element: scene_element.h).
+struct ModelsConfig final : SceneElementConfig {
+  std::vector<ModelEntry> models;
+  std::string Key() const override { return "models"; }
+  std::string Describe() const override;
+  void CheckIn(const SceneConfig& scene) const override;
+  /// Each frameset: the hierarchy of every part descended against the hull,
+  /// the surviving triangles of all parts queried in one batch on the CPU
+  /// across threads, each part's clearance; outputs each model's ModelState,
+  /// its ModelParts once, and collisions starting and ending as events.
+  /// Throws std::invalid_argument if the models were not imported.
+  std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const override;
+};
+
+/// Reads a scene file's `models` section and (load.import_models) imports each
+/// file (ImportModel: in a bounded child process) and places it. Throws
+/// std::runtime_error naming the scene file and key, or ModelError naming the
+/// model file.
+std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& section, const std::string& path,
+                                                            const SceneLoadOptions& load);
+
+/// The world_from_file transform of an entry: scale, up axis onto the world's up
+/// (-gravity), yaw about it, anchor onto position. `file_box`: the model's box in
+/// file units and frame.
+Rigid3d ModelPlacement(const ModelEntry& entry, const Eigen::Vector3d& world_up, const Aabb& file_box);
+
+/// Turns an imported model into placed parts with their hierarchies (metres;
+/// the body frame is the file's, scaled).
+std::vector<ScenePart> PlaceModel(const ImportedModel& model, const ModelEntry& entry, const Eigen::Vector3d& world_up);
+
+}  // namespace hullpipe
