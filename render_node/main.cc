@@ -63,12 +63,16 @@ int main(int argc, char** argv) {
     Reader<hullpipe_msg_NodeStats> stats_reader(*participant);
     Reader<hullpipe_msg_VirtualMesh> mesh_reader(*participant);
     Reader<hullpipe_msg_HeadPose> head_reader(*participant);
+    Reader<hullpipe_msg_ModelPart> part_reader(*participant);
+    Reader<hullpipe_msg_ModelState> model_reader(*participant);
     Writer<hullpipe_msg_ViewPose> pose_writer(*participant);
     ws.Attach(tile_reader);
     ws.Attach(state_reader);
     ws.Attach(report_reader);
     ws.Attach(stats_reader);
     ws.Attach(mesh_reader);
+    ws.Attach(part_reader);
+    ws.Attach(model_reader);
     // Poses carry this run's id and tiles echo it (nodes/run_filter.h): without
     // --run-id, render's own random one still tells its tiles from a replay's.
     o.run_id = common.run_id ? common.run_id : NewRunId();
@@ -108,6 +112,8 @@ int main(int argc, char** argv) {
       take(state_reader, [&](const hullpipe_msg_VirtualObjectState& m) { render.OnObjectState(VirtualObjectFromMsg(m)); });
       take(head_reader, [&](const hullpipe_msg_HeadPose& m) { render.OnHeadPose(HeadPoseFromMsg(m)); });
       take(mesh_reader, [&](const hullpipe_msg_VirtualMesh& m) { render.OnMesh(VirtualMeshFromMsg(m)); });
+      take(part_reader, [&](const hullpipe_msg_ModelPart& m) { render.OnModelPart(ModelPartFromMsg(m)); });
+      take(model_reader, [&](const hullpipe_msg_ModelState& m) { render.OnModelState(ModelStateFromMsg(m)); });
       take(report_reader, [&](const hullpipe_msg_CollisionReport& m) { render.OnCollisionReport(m.collision_points._length > 0); });
       take_stats();
       render.SetMalformedInput(input.malformed());

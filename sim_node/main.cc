@@ -9,6 +9,7 @@
 #include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/nodes/sim_controller.h"
+#include "hullpipe/scenes/model_scene.h"
 #include "hullpipe/scenes/scene_config.h"
 
 using namespace hullpipe;
@@ -18,15 +19,19 @@ namespace {
 
 class SimWriters final : public nodes::SimSink {
  public:
-  explicit SimWriters(const Participant& p) : states_(p), reports_(p), meshes_(p) {}
+  explicit SimWriters(const Participant& p) : states_(p), reports_(p), meshes_(p), parts_(p), models_(p) {}
   void PublishState(const VirtualObjectSample& s) override { states_.Write(VirtualObjectToMsg(s)); }
   void PublishReport(const CollisionReportSample& r) override { reports_.Write(MakeCollisionReportMessage(r).msg); }
   void PublishMesh(const VirtualMeshSample& m) override { meshes_.Write(MakeVirtualMeshMessage(m).msg); }
+  void PublishModelPart(const ModelPartSample& p) override { parts_.Write(MakeModelPartMessage(p).msg); }
+  void PublishModelState(const ModelStateSample& s) override { models_.Write(MakeModelStateMessage(s).msg); }
 
  private:
   Writer<hullpipe_msg_VirtualObjectState> states_;
   Writer<hullpipe_msg_CollisionReport> reports_;
   Writer<hullpipe_msg_VirtualMesh> meshes_;
+  Writer<hullpipe_msg_ModelPart> parts_;
+  Writer<hullpipe_msg_ModelState> models_;
 };
 
 }  // namespace
@@ -44,6 +49,12 @@ int main(int argc, char** argv) {
                  "Utrecht rig's world: up -z, floor z = 0)");
   FramesetOptions frameset_options;
   AddFramesetOptions(app, frameset_options);
+  int model_threads = 1;
+  app.add_option("--model-threads", model_threads,
+                 "Threads for the CAD models' triangle query and clearances (0: every core; default 1, as the other "
+                 "nodes share this machine's cores)")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
   bool every_frameset = false;
   app.add_flag("--every-frameset", every_frameset,
                "Step every complete frameset in order, not only the newest (deterministic replays of a recording)");
@@ -54,6 +65,11 @@ int main(int argc, char** argv) {
     world.floor = RigWorld::Floor::kPlane;
     if (!rig_path.empty()) world = LoadRig(rig_path).world;
     config.PlaceInWorld(world);
+    if (const auto* models = config.Find<ModelsConfig>()) {
+      ModelsConfig m = *models;
+      m.threads = model_threads;
+      config.Set(std::move(m));
+    }
     auto participant = StartNode("sim", common);
     WaitSet ws(*participant);
     FramesetInput input(*participant, ws, kFramesetHistory, false, frameset_options);

@@ -150,6 +150,61 @@ TEST(Convert, VirtualMeshRoundTripAndMalformed) {
   EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
 }
 
+TEST(Convert, ModelPartAndStateRoundTripAndMalformed) {
+  ModelPartSample p;
+  p.object_id = 1003;
+  p.model_id = 1000;
+  p.part_index = 3;
+  p.part_count = 5;
+  p.name = "crankshaft";
+  p.file = "engine.glb";
+  p.vertices = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}};
+  p.triangles = {{0, 1, 2}};
+  p.colour = {1, 2, 3};
+  auto s = MakeModelPartMessage(p);
+  const ModelPartSample back = ModelPartFromMsg(s.msg);
+  EXPECT_EQ(back.name, "crankshaft");
+  EXPECT_EQ(back.file, "engine.glb");
+  EXPECT_EQ(back.vertices, p.vertices);
+  EXPECT_EQ(back.triangles, p.triangles);
+  EXPECT_EQ(back.colour, p.colour);
+  s.words[2] = 3;  // index past the vertices
+  EXPECT_THROW(ModelPartFromMsg(s.msg), MessageError);
+  s.words[2] = 2;
+  s.msg.object_id = 7;  // not model_id + part_index
+  EXPECT_THROW(ModelPartFromMsg(s.msg), MessageError);
+  s.msg.object_id = 1003;
+  s.msg.part_index = 5;  // past part_count
+  EXPECT_THROW(ModelPartFromMsg(s.msg), MessageError);
+  s.msg.part_index = 3;
+  s.floats[1] = std::numeric_limits<float>::infinity();
+  EXPECT_THROW(ModelPartFromMsg(s.msg), MessageError);
+
+  ModelStateSample st;
+  st.model_id = 1000;
+  st.frame_seq = 4;
+  st.triangles = 110336;
+  st.boxes_tested = 900;
+  st.triangles_queried = 1200;
+  st.query_ms = 5.5;
+  st.parts.push_back({{0.3, 0.6, -0.4}, {1, 0, 0, 0}, kPartNear, 0.031});
+  auto m = MakeModelStateMessage(st);
+  const ModelStateSample sb = ModelStateFromMsg(m.msg);
+  EXPECT_EQ(sb.triangles, 110336u);
+  ASSERT_EQ(sb.parts.size(), 1u);
+  EXPECT_EQ(sb.parts[0].contact, kPartNear);
+  EXPECT_DOUBLE_EQ(sb.parts[0].clearance, 0.031);
+  EXPECT_EQ(sb.parts[0].position, st.parts[0].position);
+  m.part_states[0].contact = 9;
+  EXPECT_THROW(ModelStateFromMsg(m.msg), MessageError);
+  m.part_states[0].contact = 0;
+  m.part_states[0].orientation[0] = 2;  // not a unit quaternion
+  EXPECT_THROW(ModelStateFromMsg(m.msg), MessageError);
+  m.part_states[0].orientation[0] = 1;
+  m.msg.query_ms = -1;
+  EXPECT_THROW(ModelStateFromMsg(m.msg), MessageError);
+}
+
 TEST(Convert, HeadPoseRoundTripAndBadRotation) {
   Rigid3d X;
   X.rotation = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();

@@ -41,7 +41,8 @@ const std::vector<KnownType>& KnownTypes() {
       Make<hullpipe_msg_CameraInfo>(),   Make<hullpipe_msg_ObjectPixelMap>(),     Make<hullpipe_msg_CameraImage>(),
       Make<hullpipe_msg_ViewPose>(),     Make<hullpipe_msg_HullView>(),           Make<hullpipe_msg_VirtualObjectState>(),
       Make<hullpipe_msg_CollisionReport>(), Make<hullpipe_msg_NodeStats>(),       Make<hullpipe_msg_VirtualMesh>(),
-      Make<hullpipe_msg_SceneCommand>(), Make<hullpipe_msg_HeadPose>()};
+      Make<hullpipe_msg_SceneCommand>(), Make<hullpipe_msg_HeadPose>(),          Make<hullpipe_msg_ModelPart>(),
+      Make<hullpipe_msg_ModelState>()};
   return types;
 }
 

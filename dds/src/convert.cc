@@ -419,3 +419,124 @@ OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const Colli
 }
 
 }  // namespace hullpipe::dds
+
+namespace hullpipe::dds {
+
+namespace {
+constexpr size_t kMaxPartVertices = 2000000;
+constexpr size_t kMaxModelParts = 1000000;
+}  // namespace
+
+OwnedSample<hullpipe_msg_ModelPart> MakeModelPartMessage(const ModelPartSample& p) {
+  if (p.vertices.size() > kMaxPartVertices) throw MessageError("ModelPart: more than 2000000 vertices");
+  OwnedSample<hullpipe_msg_ModelPart> s;
+  s.strings.reserve(2);
+  s.strings.push_back(p.name);
+  s.strings.push_back(p.file);
+  s.floats.reserve(p.vertices.size() * 3);
+  for (const auto& v : p.vertices)
+    for (int k = 0; k < 3; ++k) s.floats.push_back(v[k]);
+  s.words.reserve(p.triangles.size() * 3);
+  for (const auto& t : p.triangles)
+    for (int k = 0; k < 3; ++k) {
+      if (t[k] < 0 || size_t(t[k]) >= p.vertices.size()) throw MessageError("ModelPart: index out of range");
+      s.words.push_back(uint32_t(t[k]));
+    }
+  auto& m = s.msg;
+  m.object_id = p.object_id;
+  m.model_id = p.model_id;
+  m.part_index = p.part_index;
+  m.part_count = p.part_count;
+  m.name = const_cast<char*>(s.strings[0].c_str());
+  m.file = const_cast<char*>(s.strings[1].c_str());
+  Borrow(&m.vertices, s.floats);
+  Borrow(&m.triangles, s.words);
+  for (int k = 0; k < 3; ++k) m.colour[k] = p.colour[k];
+  return s;
+}
+
+ModelPartSample ModelPartFromMsg(const hullpipe_msg_ModelPart& m) {
+  const std::string who = "ModelPart " + std::to_string(m.object_id) + ": ";
+  if (m.part_count == 0 || m.part_index >= m.part_count) throw MessageError(who + "part_index past part_count");
+  if (uint64_t(m.model_id) + m.part_index != m.object_id) throw MessageError(who + "object_id is not model_id + part_index");
+  if (m.vertices._length % 3 != 0 || m.vertices._length / 3 > kMaxPartVertices)
+    throw MessageError(who + "vertex floats not a multiple of 3 or too many");
+  if (m.triangles._length % 3 != 0) throw MessageError(who + "triangle indices not a multiple of 3");
+  ModelPartSample p;
+  p.object_id = m.object_id;
+  p.model_id = m.model_id;
+  p.part_index = m.part_index;
+  p.part_count = m.part_count;
+  p.name = m.name ? m.name : "";
+  p.file = m.file ? m.file : "";
+  const size_t nv = m.vertices._length / 3, nt = m.triangles._length / 3;
+  p.vertices.resize(nv);
+  for (size_t i = 0; i < nv; ++i) {
+    const float* v = m.vertices._buffer + 3 * i;
+    if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
+      throw MessageError(who + "vertex " + std::to_string(i) + " not finite");
+    p.vertices[i] = Eigen::Vector3f(v[0], v[1], v[2]);
+  }
+  p.triangles.resize(nt);
+  for (size_t t = 0; t < nt; ++t) {
+    const uint32_t* ix = m.triangles._buffer + 3 * t;
+    if (ix[0] >= nv || ix[1] >= nv || ix[2] >= nv)
+      throw MessageError(who + "triangle " + std::to_string(t) + " indexes past the vertices");
+    p.triangles[t] = Eigen::Vector3i(int(ix[0]), int(ix[1]), int(ix[2]));
+  }
+  p.colour = cv::Vec3b(m.colour[0], m.colour[1], m.colour[2]);
+  return p;
+}
+
+OwnedSample<hullpipe_msg_ModelState> MakeModelStateMessage(const ModelStateSample& st) {
+  OwnedSample<hullpipe_msg_ModelState> s;
+  s.part_states.reserve(st.parts.size());
+  for (const auto& p : st.parts) {
+    hullpipe_msg_PartState q{};
+    q.position = ToMsg(p.position);
+    for (int k = 0; k < 4; ++k) q.orientation[k] = p.orientation[k];
+    q.contact = p.contact;
+    q.clearance = p.clearance;
+    s.part_states.push_back(q);
+  }
+  auto& m = s.msg;
+  m.model_id = st.model_id;
+  m.frame_seq = st.frame_seq;
+  m.capture_time_ns = st.capture_time_ns;
+  m.triangles = st.triangles;
+  m.boxes_tested = st.boxes_tested;
+  m.triangles_queried = st.triangles_queried;
+  m.query_ms = st.query_ms;
+  Borrow(&m.parts, s.part_states);
+  return s;
+}
+
+ModelStateSample ModelStateFromMsg(const hullpipe_msg_ModelState& m) {
+  const std::string who = "ModelState " + std::to_string(m.model_id) + ": ";
+  if (m.parts._length > kMaxModelParts) throw MessageError(who + "too many parts");
+  if (!std::isfinite(m.query_ms) || m.query_ms < 0) throw MessageError(who + "query_ms not a finite time");
+  ModelStateSample st;
+  st.model_id = m.model_id;
+  st.frame_seq = m.frame_seq;
+  st.capture_time_ns = m.capture_time_ns;
+  st.triangles = m.triangles;
+  st.boxes_tested = m.boxes_tested;
+  st.triangles_queried = m.triangles_queried;
+  st.query_ms = m.query_ms;
+  st.parts.resize(m.parts._length);
+  for (size_t k = 0; k < st.parts.size(); ++k) {
+    const hullpipe_msg_PartState& q = m.parts._buffer[k];
+    PartStateSample& p = st.parts[k];
+    p.position = FromMsg(q.position);
+    p.orientation = Eigen::Vector4d(q.orientation[0], q.orientation[1], q.orientation[2], q.orientation[3]);
+    if (!p.position.allFinite() || !p.orientation.allFinite() || std::abs(p.orientation.norm() - 1) > 1e-6)
+      throw MessageError(who + "part " + std::to_string(k) + " pose not finite or its quaternion not unit");
+    if (q.contact > hullpipe_msg_PART_CONTACT_COLLIDING)
+      throw MessageError(who + "part " + std::to_string(k) + " has unknown contact " + std::to_string(q.contact));
+    p.contact = q.contact;
+    p.clearance = std::isfinite(q.clearance) ? q.clearance : -1;
+  }
+  return st;
+}
+
+}  // namespace hullpipe::dds

@@ -82,6 +82,11 @@ ImportedModel ImportModelFromMemory(const void* data, size_t size, const std::st
 /// which bound ("exceeded the 4 GiB memory bound"), or the signal that ended it.
 ImportedModel ImportModel(const std::string& path, const ImportLimits& limits = {});
 
+/// Whether ImportModel bounds the child's memory: false in sanitizer builds,
+/// whose shadow memory leaves no room for an address-space limit (the CPU
+/// time and wall clock bounds still hold).
+bool ImportBoundsMemory();
+
 /// The child's result on the pipe: a versioned binary layout.
 std::string SerializeModel(const ImportedModel& model);
 /// Reads SerializeModel's bytes back. Throws ModelError (naming `name`) on any

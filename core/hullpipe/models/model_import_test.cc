@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -270,7 +271,12 @@ TEST(ModelImportBadFiles, CountsClaimingBillionsAreBounded) {
   ImportLimits limits;
   limits.max_memory_bytes = int64_t(512) << 20;
   limits.max_seconds = 20;
-  ExpectRefused((dir / "billions.ply").string(), "", limits);
+  if (ImportBoundsMemory()) {
+    // Assimp reserves the claimed vertices: the memory bound stops it, named.
+    ExpectRefused((dir / "billions.ply").string(), "512 MiB memory bound", limits);
+  } else {
+    std::fprintf(stderr, "sanitizer build: the memory bound is not applied, billions.ply not imported\n");
+  }
   // The caps are refused naming them.
   Write(dir / "box.obj", Obj(1));
   limits.max_triangles = 5;
@@ -278,6 +284,23 @@ TEST(ModelImportBadFiles, CountsClaimingBillionsAreBounded) {
   limits = {};
   limits.max_file_bytes = 10;
   ExpectRefused((dir / "box.obj").string(), "file size cap", limits);
+}
+
+// Debian's assimp-testmodels ships broken glTF files of its own: each is
+// refused on one line naming the file and what is wrong.
+TEST(ModelImportBadFiles, DebiansBrokenSamples) {
+  const std::string root = "/usr/share/assimp/models/glTF2/";
+  if (!fs::exists(root + "RecursiveNodes")) GTEST_SKIP() << "assimp-testmodels missing (scripts/setup.sh installs it)";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"RecursiveNodes/RecursiveNodes.gltf", "recursive reference"},
+      {"IndexOutOfRange/IndexOutOfRange.gltf", "indices out of range"},
+      {"IndexOutOfRange/AllIndicesOutOfRange.gltf", "indices out of range"},
+      {"MissingBin/BoxTextured.gltf", "BoxTextured0.bin"},
+      {"BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb", "not finite"},
+      {"TestNoRootNode/NoScene.gltf", ""},
+      {"TestNoRootNode/SceneWithoutNodes.gltf", "no triangles"},
+  };
+  for (const auto& [file, what] : cases) ExpectRefused(root + file, what);
 }
 
 TEST(ModelImport, SerializedResultRoundTripsAndLiesAreRefused) {

@@ -155,11 +155,13 @@ double TriangleBvh::Distance(const TriangleMesh& mesh, const Eigen::Vector3d& p,
   if (nodes_.empty()) return bound;
   double best2 = bound * bound;
   bool found = false;
-  std::vector<int> stack{0};
-  stack.reserve(64);
-  while (!stack.empty()) {
-    const Node& node = nodes_[size_t(stack.back())];
-    stack.pop_back();
+  // Median splits keep the depth under 64 for any mesh that fits in memory;
+  // the stack holds at most one pending sibling per level.
+  int stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[size_t(stack[--top])];
     if (BoxDistance2(node.box, p) >= best2) continue;
     if (node.count > 0) {
       for (int k = node.first; k < node.first + node.count; ++k) {
@@ -178,8 +180,9 @@ double TriangleBvh::Distance(const TriangleMesh& mesh, const Eigen::Vector3d& p,
     // Nearer child last (popped first).
     const int l = node.left, r = node.left + 1;
     const bool left_nearer = BoxDistance2(nodes_[size_t(l)].box, p) <= BoxDistance2(nodes_[size_t(r)].box, p);
-    stack.push_back(left_nearer ? r : l);
-    stack.push_back(left_nearer ? l : r);
+    if (top + 2 > 128) throw std::logic_error("TriangleBvh::Distance: hierarchy deeper than its stack");
+    stack[top++] = left_nearer ? r : l;
+    stack[top++] = left_nearer ? l : r;
   }
   return found ? std::sqrt(best2) : bound;
 }
@@ -241,26 +244,11 @@ Aabb IntersectBoxes(const Aabb& a, const Aabb& b) {
 }
 }  // namespace
 
-PartClearance HullToPartClearance(const VolumeQuery& q, const TriangleMesh& mesh, const TriangleBvh& bvh,
-                                  const Rigid3d& T, double max_clearance, double step) {
-  PartClearance r;
-  r.distance = max_clearance;
-  if (bvh.empty() || !(max_clearance > 0) || !(step > 0)) return r;
-  const Rigid3d body_from_world = T.Inverse();
-  Aabb region = TransformBox(T, bvh.nodes()[0].box);
-  region.min -= Eigen::Vector3d::Constant(max_clearance);
-  region.max += Eigen::Vector3d::Constant(max_clearance);
-  region = IntersectBoxes(region, q.hull_box());
-  if (region.empty() || q.ProvesEmpty(region)) return r;
-  double best = max_clearance;
-  Eigen::Vector3d best_p = Eigen::Vector3d::Zero();
-  bool found = false;
-  auto sample = [&](const Eigen::Vector3d& p) {
-    if (!q.Inside(p)) return;
-    const double d = bvh.Distance(mesh, body_from_world * p, best);
-    if (d < best) best = d, best_p = p, found = true;
-  };
-  // Coarse grid in blocks of 4x4x4 samples: a block the cameras prove empty is skipped whole.
+HullSamples SampleHull(const VolumeQuery& q, const Aabb& region_in, double step) {
+  HullSamples out;
+  out.step = step;
+  const Aabb region = IntersectBoxes(region_in, q.hull_box());
+  if (region.empty() || !(step > 0) || q.ProvesEmpty(region)) return out;
   const Eigen::Vector3d size = region.max - region.min;
   const int nx = int(std::floor(size.x() / step)) + 1, ny = int(std::floor(size.y() / step)) + 1,
             nz = int(std::floor(size.z() / step)) + 1;
@@ -274,30 +262,75 @@ PartClearance HullToPartClearance(const VolumeQuery& q, const TriangleMesh& mesh
         block.max = region.min + Eigen::Vector3d(std::min(bx + kBlock - 1, nx - 1), std::min(by + kBlock - 1, ny - 1),
                                                  std::min(bz + kBlock - 1, nz - 1)) * step;
         if (q.ProvesEmpty(block, &hint)) continue;
-        // Nothing in the block can beat the best: its box is farther from the part's box.
         for (int k = bz; k < std::min(bz + kBlock, nz); ++k)
           for (int j = by; j < std::min(by + kBlock, ny); ++j)
-            for (int i = bx; i < std::min(bx + kBlock, nx); ++i) sample(region.min + Eigen::Vector3d(i, j, k) * step);
+            for (int i = bx; i < std::min(bx + kBlock, nx); ++i) {
+              const Eigen::Vector3d p = region.min + Eigen::Vector3d(i, j, k) * step;
+              if (q.Inside(p)) out.points.push_back(p);
+            }
       }
+  return out;
+}
+
+PartClearance HullToPartClearance(const VolumeQuery& q, const TriangleMesh& mesh, const TriangleBvh& bvh,
+                                  const Rigid3d& T, double max_clearance, const HullSamples& coarse,
+                                  double refine_below) {
+  PartClearance r;
+  r.distance = max_clearance;
+  if (bvh.empty() || !(max_clearance > 0)) return r;
+  const Rigid3d body_from_world = T.Inverse();
+  Aabb region = TransformBox(T, bvh.nodes()[0].box);
+  region.min -= Eigen::Vector3d::Constant(max_clearance);
+  region.max += Eigen::Vector3d::Constant(max_clearance);
+  double best = max_clearance;
+  Eigen::Vector3d best_p = Eigen::Vector3d::Zero();
+  bool found = false;
+  auto distance = [&](const Eigen::Vector3d& p) {
+    const double d = bvh.Distance(mesh, body_from_world * p, best);
+    if (d < best) best = d, best_p = p, found = true;
+  };
+  // Nearest to the part's box first: once the box alone is farther than the
+  // best found, no later sample can beat it.
+  const Aabb part_box = TransformBox(T, bvh.nodes()[0].box);
+  std::vector<std::pair<double, const Eigen::Vector3d*>> near;
+  for (const Eigen::Vector3d& p : coarse.points)
+    if (region.Contains(p)) near.emplace_back(BoxDistance2(part_box, p), &p);
+  std::sort(near.begin(), near.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [d2, p] : near) {
+    if (d2 >= best * best) break;
+    distance(*p);
+  }
   if (!found) return r;
-  double h = step;
-  for (int level = 0; level < 3; ++level) {
+  double h = coarse.step;
+  for (int level = 0; level < 3 && best < refine_below; ++level) {
     Aabb window;
-    window.min = best_p - Eigen::Vector3d::Constant(2 * h);
-    window.max = best_p + Eigen::Vector3d::Constant(2 * h);
+    window.min = best_p - Eigen::Vector3d::Constant(h);
+    window.max = best_p + Eigen::Vector3d::Constant(h);
     window = IntersectBoxes(window, q.hull_box());
-    h /= 5;
+    h /= 4;
     if (window.empty()) break;
     const Eigen::Vector3d ws = window.max - window.min;
     const int mx = int(std::floor(ws.x() / h)) + 1, my = int(std::floor(ws.y() / h)) + 1, mz = int(std::floor(ws.z() / h)) + 1;
     for (int k = 0; k < mz; ++k)
       for (int j = 0; j < my; ++j)
-        for (int i = 0; i < mx; ++i) sample(window.min + Eigen::Vector3d(i, j, k) * h);
+        for (int i = 0; i < mx; ++i) {
+          const Eigen::Vector3d p = window.min + Eigen::Vector3d(i, j, k) * h;
+          if (BoxDistance2(part_box, p) < best * best && q.Inside(p)) distance(p);
+        }
   }
   r.distance = best;
   r.hull_near = best < max_clearance;
   r.hull_point = best_p;
   return r;
+}
+
+PartClearance HullToPartClearance(const VolumeQuery& q, const TriangleMesh& mesh, const TriangleBvh& bvh,
+                                  const Rigid3d& T, double max_clearance, double step) {
+  if (bvh.empty()) return HullToPartClearance(q, mesh, bvh, T, max_clearance, HullSamples{});
+  Aabb region = TransformBox(T, bvh.nodes()[0].box);
+  region.min -= Eigen::Vector3d::Constant(max_clearance);
+  region.max += Eigen::Vector3d::Constant(max_clearance);
+  return HullToPartClearance(q, mesh, bvh, T, max_clearance, SampleHull(q, region, step));
 }
 
 }  // namespace hullpipe

@@ -97,17 +97,33 @@ struct PartClearance {
   Eigen::Vector3d hull_point = Eigen::Vector3d::Zero();  ///< The hull sample nearest the part (world).
 };
 
+/// The hull's inside points on a grid of `step` metres over `region` (world),
+/// blocks of 4x4x4 grid points the cameras prove empty skipped: the coarse
+/// samples that several parts' clearances share.
+struct HullSamples {
+  double step = 0.02;
+  std::vector<Eigen::Vector3d> points;  ///< World metres, each VolumeQuery::Inside.
+};
+HullSamples SampleHull(const VolumeQuery& query, const Aabb& region, double step = 0.02);
+
 /// Least distance from the hull of `query` to the part's triangles (moved by
-/// world_from_body) up to max_clearance: the hull is sampled on a grid of
-/// `step` metres over the part's box grown by max_clearance (cells the cameras
-/// prove empty skipped), each inside sample's exact distance to the triangles
-/// taken through the hierarchy; around the nearest sample three grids five
-/// times finer (±2 steps) refine it. The result is never below the distance of
-/// the hull (it is a distance to a hull point), and above it by at most half
-/// the finest grid's diagonal (step / 125 * sqrt(3) / 2: 0.14 mm at 2 cm),
-/// unless a hull part thinner than `step`, or more than two steps from the
-/// nearest coarse sample, lies nearer. It measures distance to the surface: a
-/// hull wholly inside a closed part is found by the triangle query, not here.
+/// world_from_body) up to max_clearance: each coarse sample within
+/// max_clearance of the part's box gets its exact distance to the triangles
+/// through the hierarchy; around the nearest, three grids four times finer
+/// (±1 step of the grid before) refine it. The result is never below the
+/// distance of the hull (it is a distance to a hull point), and above it by at
+/// most half the finest grid's diagonal (step / 64 * sqrt(3) / 2: 0.27 mm at
+/// 2 cm), unless a hull part thinner than `step`, or more than one step from
+/// the nearest coarse sample, lies nearer. It measures distance to the
+/// surface: a hull wholly inside a closed part is found by the triangle query,
+/// not here. `coarse` must cover the part's box grown by max_clearance. Only a
+/// coarse distance below `refine_below` is refined (default: every one); one
+/// above it is the coarse sample's, at most step * sqrt(3) / 2 above the
+/// hull's distance (same provisos).
+PartClearance HullToPartClearance(const VolumeQuery& query, const TriangleMesh& body_mesh, const TriangleBvh& bvh,
+                                  const Rigid3d& world_from_body, double max_clearance, const HullSamples& coarse,
+                                  double refine_below = 1e300);
+/// The same, sampling the hull itself over the part's box grown by max_clearance.
 PartClearance HullToPartClearance(const VolumeQuery& query, const TriangleMesh& body_mesh, const TriangleBvh& bvh,
                                   const Rigid3d& world_from_body, double max_clearance, double step = 0.02);
 

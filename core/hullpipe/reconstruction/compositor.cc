@@ -47,42 +47,53 @@ void DrawMeshes(const NovelView& view, const std::vector<VirtualMeshDraw>& meshe
       }
       continue;
     }
+    // Each vertex projected once (shared by ~6 triangles in a closed mesh).
+    std::vector<Eigen::Vector2d> P(e.size());
+    std::vector<double> iz(e.size());
+    for (size_t i = 0; i < e.size(); ++i) {
+      if (e[i].z() < kNear) continue;
+      iz[i] = 1.0 / e[i].z();
+      P[i] = Eigen::Vector2d(view.fx * e[i].x() * iz[i] + view.cx, view.fy * e[i].y() * iz[i] + view.cy);
+    }
     for (size_t t = 0; t < m.triangles.size(); ++t) {
       const Eigen::Vector3i& tri = m.triangles[t];
       if ((tri.array() < 0).any() || (tri.array() >= int(e.size())).any()) continue;
-      const Eigen::Vector3d a = e[size_t(tri[0])], b = e[size_t(tri[1])], c = e[size_t(tri[2])];
-      if (a.z() < kNear || b.z() < kNear || c.z() < kNear) continue;  // no near clipping: skip
-      Eigen::Vector3d n = (b - a).cross(c - a);
-      if (n.norm() < 1e-15) continue;
-      n.normalize();
-      const double shade = 0.35 + 0.65 * std::abs(n.dot(light_eye));  // two-sided
-      const cv::Vec3b col = colour_of(t, shade);
-      Eigen::Vector2d P[3];
-      double iz[3];
-      const Eigen::Vector3d* V[3] = {&a, &b, &c};
-      for (int k = 0; k < 3; ++k) {
-        iz[k] = 1.0 / V[k]->z();
-        P[k] = Eigen::Vector2d(view.fx * V[k]->x() * iz[k] + view.cx, view.fy * V[k]->y() * iz[k] + view.cy);
-      }
-      const double area = (P[1] - P[0]).x() * (P[2] - P[0]).y() - (P[1] - P[0]).y() * (P[2] - P[0]).x();
+      const size_t i0 = size_t(tri[0]), i1 = size_t(tri[1]), i2 = size_t(tri[2]);
+      if (e[i0].z() < kNear || e[i1].z() < kNear || e[i2].z() < kNear) continue;  // no near clipping: skip
+      const Eigen::Vector2d& p0 = P[i0];
+      const Eigen::Vector2d& p1 = P[i1];
+      const Eigen::Vector2d& p2 = P[i2];
+      const double area = (p1 - p0).x() * (p2 - p0).y() - (p1 - p0).y() * (p2 - p0).x();
       if (std::abs(area) < 1e-12) continue;
-      const int x0 = std::max(0, int(std::floor(std::min({P[0].x(), P[1].x(), P[2].x()}))));
-      const int x1 = std::min(view.width - 1, int(std::ceil(std::max({P[0].x(), P[1].x(), P[2].x()}))));
-      const int y0 = std::max(0, int(std::floor(std::min({P[0].y(), P[1].y(), P[2].y()}))));
-      const int y1 = std::min(view.height - 1, int(std::ceil(std::max({P[0].y(), P[1].y(), P[2].y()}))));
+      const int x0 = std::max(0, int(std::floor(std::min(p0.x(), std::min(p1.x(), p2.x())))));
+      const int x1 = std::min(view.width - 1, int(std::ceil(std::max(p0.x(), std::max(p1.x(), p2.x())))));
+      const int y0 = std::max(0, int(std::floor(std::min(p0.y(), std::min(p1.y(), p2.y())))));
+      const int y1 = std::min(view.height - 1, int(std::ceil(std::max(p0.y(), std::max(p1.y(), p2.y())))));
+      if (x0 > x1 || y0 > y1) continue;
+      const Eigen::Vector2d* V[3] = {&p0, &p1, &p2};
+      const double z3[3] = {iz[i0], iz[i1], iz[i2]};
+      bool shaded = false;
+      cv::Vec3b col;
       for (int y = y0; y <= y1; ++y)
         for (int x = x0; x <= x1; ++x) {
           const Eigen::Vector2d q(x + 0.5, y + 0.5);
           double w[3];
           for (int k = 0; k < 3; ++k) {
-            const Eigen::Vector2d& p1 = P[(k + 1) % 3];
-            const Eigen::Vector2d& p2 = P[(k + 2) % 3];
-            w[k] = ((p2 - p1).x() * (q - p1).y() - (p2 - p1).y() * (q - p1).x()) / area;
+            const Eigen::Vector2d& a1 = *V[(k + 1) % 3];
+            const Eigen::Vector2d& a2 = *V[(k + 2) % 3];
+            w[k] = ((a2 - a1).x() * (q - a1).y() - (a2 - a1).y() * (q - a1).x()) / area;
           }
           if (w[0] < 0 || w[1] < 0 || w[2] < 0) continue;
-          const double z = 1.0 / (w[0] * iz[0] + w[1] * iz[1] + w[2] * iz[2]);  // perspective-correct
+          const double z = 1.0 / (w[0] * z3[0] + w[1] * z3[1] + w[2] * z3[2]);  // perspective-correct
           float& d = depth->at<float>(y, x);
           if (float(z) >= d) continue;
+          if (!shaded) {  // only triangles that cover a pixel are shaded
+            Eigen::Vector3d n = (e[i1] - e[i0]).cross(e[i2] - e[i0]);
+            const double len = n.norm();
+            const double shade = len > 1e-15 ? 0.35 + 0.65 * std::abs(n.dot(light_eye) / len) : 0.35;  // two-sided
+            col = colour_of(t, shade);
+            shaded = true;
+          }
           d = float(z);
           out->at<cv::Vec3b>(y, x) = col;
         }

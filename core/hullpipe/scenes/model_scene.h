@@ -82,6 +82,10 @@ struct ModelEntry {
 /// The `models` section (a scene element: scene_element.h).
 struct ModelsConfig final : SceneElementConfig {
   std::vector<ModelEntry> models;
+  /// Threads of the triangle query and clearances (0: every core). One by
+  /// default: on a machine that runs the other nodes too, threads of sim_node
+  /// wait on cores those nodes hold (docs/benchmarks.md, "CAD models").
+  int threads = 1;
   std::string Key() const override { return "models"; }
   std::string Describe() const override;
   void CheckIn(const SceneConfig& scene) const override;

@@ -79,7 +79,10 @@ namespace {
 // an unknown section is refused naming every known key, the kinds' among them.
 TEST(SceneElements, EveryRegisteredKindIsReadSteppedAndPublished) {
   const std::string path = ::testing::TempDir() + "elements.yaml";
+  // A one-triangle model beside the scene file (its path is relative to it).
+  std::ofstream(::testing::TempDir() + "elements_tri.obj") << "o tri\nv 0 0 0\nv 100 0 0\nv 0 100 0\nf 1 2 3\n";
   std::ofstream(path) << "balls: [{radius: 0.1, start: [1, 0, -1], target: [0, 0, -1]}]\n"
+                         "models: [{file: elements_tri.obj, units: mm}]\n"
                          "payload: {spacing: 0.2}\n"
                          "particles: {emitter: [0.3, 0, -2.2], velocity: [0, 0, 0.5], rate: 100}\n"
                          "cloth: {rod_a: [0, -0.6, -1.8], rod_b: [0, 0.6, -1.8], length: 1.2}\n";
@@ -89,7 +92,8 @@ TEST(SceneElements, EveryRegisteredKindIsReadSteppedAndPublished) {
   ASSERT_NE(cfg.Find<PayloadConfig>(), nullptr);
   EXPECT_EQ(cfg.Find<PayloadConfig>()->spacing, 0.2);
   VirtualScene scene(cfg);
-  EXPECT_EQ(scene.Describe().rfind("1 ball(s), a curtain, particles, the payload task", 0), 0u) << scene.Describe();
+  EXPECT_EQ(scene.Describe().rfind("1 ball(s), a curtain, particles, the payload task, model elements_tri.obj", 0), 0u)
+      << scene.Describe();
   scene.Step(0.1, nullptr);
   const ElementOutput out = scene.Output(0.1, 7);
   EXPECT_EQ(out.states.size(), 1u);   // the ball
@@ -100,6 +104,11 @@ TEST(SceneElements, EveryRegisteredKindIsReadSteppedAndPublished) {
   EXPECT_GT(out.meshes[1].draw.vertices.size(), 0u);  // emitted in 0.1 s at 100/s
   for (size_t k = 2; k < 5; ++k) EXPECT_EQ(out.meshes[k].kind, kMeshPart);
   EXPECT_TRUE(out.events.empty());  // no hull: nothing collides
+  ASSERT_EQ(out.model_parts.size(), 1u);  // the model's one part, once
+  ASSERT_EQ(out.model_states.size(), 1u);
+  EXPECT_EQ(out.model_parts[0].name, "tri");
+  scene.Step(0.1, nullptr);
+  EXPECT_TRUE(scene.Output(0.2, 8).model_parts.empty()) << "geometry goes once";
 
   std::ofstream(path) << "balls: []\ncurtain: {}\n";
   try {

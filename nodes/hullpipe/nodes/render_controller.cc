@@ -5,6 +5,9 @@
 #include <limits>
 #include <stdexcept>
 
+#include "hullpipe/util/percentile.h"
+
+#include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
 
 namespace hullpipe::nodes {
@@ -121,6 +124,95 @@ void RenderController::OnMesh(VirtualMeshSample m) {
   auto& per = meshes_[m.object_id];
   per[m.frame_seq] = std::move(m);
   while (per.size() > 8) per.erase(per.begin());
+}
+
+void RenderController::OnModelPart(ModelPartSample part) {
+  ModelPartDraw& d = model_parts_[part.object_id];
+  d.part = std::move(part);
+  d.world.triangles = d.part.triangles;
+  d.world.vertices.clear();
+  d.position = Eigen::Vector3d::Constant(std::nan(""));  // moved again at its next state
+}
+
+void RenderController::OnModelState(ModelStateSample state) {
+  auto& per = model_states_[state.model_id];
+  auto& stats = model_stats_[state.model_id];
+  if (per.find(state.frame_seq) == per.end()) {
+    ++stats.framesets;
+    stats.boxes_tested += state.boxes_tested;
+    stats.triangles_queried += state.triangles_queried;
+    stats.triangles = state.triangles;
+    if (stats.query_ms.size() < 100000) stats.query_ms.push_back(float(state.query_ms));
+  }
+  per[state.frame_seq] = std::move(state);
+  while (per.size() > 8) per.erase(per.begin());
+}
+
+void RenderController::DrawModels(uint64_t frame_seq, std::vector<VirtualMeshDraw>* draws) {
+  static const cv::Vec3b kAmber(0, 170, 255);
+  for (const auto& [model_id, per] : model_states_) {
+    auto s = per.upper_bound(frame_seq);
+    if (s == per.begin()) continue;
+    --s;
+    const ModelStateSample& st = s->second;
+    for (size_t k = 0; k < st.parts.size(); ++k) {
+      const auto it = model_parts_.find(model_id + uint32_t(k));
+      if (it == model_parts_.end()) continue;  // its geometry has not come (yet)
+      ModelPartDraw& d = it->second;
+      const PartStateSample& ps = st.parts[k];
+      if (!(d.position == ps.position) || !(d.orientation == ps.orientation) || d.world.vertices.empty()) {
+        const Eigen::Matrix3d R =
+            Eigen::Quaterniond(ps.orientation[0], ps.orientation[1], ps.orientation[2], ps.orientation[3])
+                .normalized()
+                .toRotationMatrix();
+        d.world.vertices.resize(d.part.vertices.size());
+        for (size_t v = 0; v < d.part.vertices.size(); ++v)
+          d.world.vertices[v] = R * d.part.vertices[v].cast<double>() + ps.position;
+        d.position = ps.position;
+        d.orientation = ps.orientation;
+      }
+      d.world.colour = ps.contact == kPartColliding ? comp_.collide_colour
+                       : ps.contact == kPartNear   ? kAmber
+                                                   : d.part.colour;
+      draws->push_back(d.world);
+      d.frames_colliding += ps.contact == kPartColliding;
+      d.frames_near += ps.contact == kPartNear;
+      if (ps.clearance >= 0 && d.clearance_m.size() < 100000) d.clearance_m.push_back(float(ps.clearance));
+    }
+  }
+}
+
+nlohmann::json RenderController::ModelsJson() const {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& [model_id, stats] : model_stats_) {
+    nlohmann::json m;
+    m["model_id"] = model_id;
+    m["triangles"] = stats.triangles;
+    m["framesets"] = stats.framesets;
+    const double n = double(std::max<uint64_t>(stats.framesets, 1));
+    m["boxes_tested_mean"] = double(stats.boxes_tested) / n;
+    m["triangles_queried_mean"] = double(stats.triangles_queried) / n;
+    std::vector<double> q(stats.query_ms.begin(), stats.query_ms.end());
+    m["query_ms_p50"] = q.empty() ? 0.0 : Percentile(q, 50);
+    m["query_ms_p95"] = q.empty() ? 0.0 : Percentile(q, 95);
+    nlohmann::json parts = nlohmann::json::array();
+    for (const auto& [id, d] : model_parts_) {
+      if (d.part.model_id != model_id) continue;
+      if (m.find("file") == m.end()) m["file"] = d.part.file;
+      std::vector<double> c(d.clearance_m.begin(), d.clearance_m.end());
+      parts.push_back({{"object_id", id},
+                       {"name", d.part.name},
+                       {"triangles", d.part.triangles.size()},
+                       {"frames_in_collision", d.frames_colliding},
+                       {"frames_near", d.frames_near},
+                       {"clearance_mm_p50", c.empty() ? nlohmann::json() : nlohmann::json(Percentile(c, 50) * 1e3)},
+                       {"clearance_mm_min", c.empty() ? nlohmann::json()
+                                                      : nlohmann::json(*std::min_element(c.begin(), c.end()) * 1e3)}});
+    }
+    m["parts"] = parts;
+    out.push_back(m);
+  }
+  return out;
 }
 
 void RenderController::OnHeadPose(const Rigid3d& world_from_eye) { tracked_ = world_from_eye; }
@@ -247,6 +339,7 @@ void RenderController::Composite(InFlight& f) {
       if (std::find(c.begin(), c.end(), 1) != c.end()) ++part_collisions_[id];
     }
   }
+  DrawModels(f.frame_seq, &draws);
   meshes_drawn_ += draws.size();
   cv::Mat composited_depth;
   cv::Mat frame = hullpipe::Composite(f.view, depth, colour, spheres, comp_, &composited_depth, draws);
@@ -366,6 +459,7 @@ nlohmann::json RenderController::StatsJson() const {
       w["first_hull_box"] = {{"min", vec(first_hull_box_.min)}, {"max", vec(first_hull_box_.max)}};
     j["world"] = w;
   }
+  if (!model_stats_.empty()) j["models"] = ModelsJson();
   for (const auto& [id, c] : min_clearance_) {
     const auto pc = part_collisions_.find(id);
     j["payload"][std::to_string(id)] = {{"min_clearance_mm", c * 1e3},

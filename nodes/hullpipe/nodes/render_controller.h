@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cmath>
 #include <map>
 #include <memory>
 #include <optional>
@@ -106,6 +107,11 @@ class RenderController {
   void OnTile(HullTile tile, int64_t sent_ns = 0);
   void OnObjectState(const VirtualObjectSample& state);
   void OnMesh(VirtualMeshSample mesh);
+  /// A CAD model part's geometry (sent once, transient-local); a part sent
+  /// again replaces it.
+  void OnModelPart(ModelPartSample part);
+  /// A model's part poses and contact states for one frameset.
+  void OnModelState(ModelStateSample state);
   void OnHeadPose(const Rigid3d& world_from_eye);
   void OnCollisionReport(bool has_points);
   void OnNodeStats(const NodeStatsSample& stats);
@@ -159,6 +165,23 @@ class RenderController {
   };
   void IssuePoses();
   void Composite(InFlight& f);
+  // Appends the models' parts as of frame_seq to *draws (amber when near, red
+  // when colliding), and counts them into the models' statistics.
+  void DrawModels(uint64_t frame_seq, std::vector<VirtualMeshDraw>* draws);
+  nlohmann::json ModelsJson() const;
+
+  struct ModelPartDraw {
+    ModelPartSample part;
+    VirtualMeshDraw world;               // vertices moved by `pose`
+    Eigen::Vector3d position = Eigen::Vector3d::Constant(std::nan(""));
+    Eigen::Vector4d orientation = Eigen::Vector4d::Zero();
+    uint64_t frames_colliding = 0, frames_near = 0;
+    std::vector<float> clearance_m;       // per frameset drawn, while measured (at most 100,000)
+  };
+  struct ModelStats {
+    uint64_t framesets = 0, boxes_tested = 0, triangles_queried = 0, triangles = 0;
+    std::vector<float> query_ms;          // at most 100,000
+  };
 
   RenderOptions o_;
   const Clock& clock_;
@@ -177,6 +200,9 @@ class RenderController {
   std::map<uint64_t, InFlight> in_flight_;  // by pose_seq
   std::map<uint32_t, std::map<uint64_t, VirtualObjectSample>> states_;  // object -> frame -> state
   std::map<uint32_t, std::map<uint64_t, VirtualMeshSample>> meshes_;    // object -> frame -> mesh
+  std::map<uint32_t, ModelPartDraw> model_parts_;                        // object id -> part
+  std::map<uint32_t, std::map<uint64_t, ModelStateSample>> model_states_; // model -> frame -> state
+  std::map<uint32_t, ModelStats> model_stats_;                           // model -> what its steps cost
   std::map<uint32_t, double> min_clearance_;     // payload part -> least clearance, metres
   std::map<uint32_t, uint64_t> part_collisions_;  // payload part -> frames drawn colliding
   std::map<std::string, NodeStatsSample> node_stats_;

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include "hullpipe/geometry/rigid3.h"
 #include "hullpipe/nodes/render_flags.h"
 #include "hullpipe/nodes/test_rig.h"
@@ -435,6 +437,72 @@ TEST_F(Render, FloorUnderTheFirstHullIsStatedWithItsBox) {
   o.floor = RigWorld::Floor::kNone;
   RenderController none(o, clock_, assembler_, sink_);
   EXPECT_TRUE(none.StatsJson()["world"]["floor_height"].is_null());
+}
+
+// CAD model parts: geometry once, each frameset a pose and a contact state.
+// A part 2 m ahead is drawn in its base colour when clear, amber when near,
+// red when colliding; depth-tested against the hull both ways; stats.json
+// counts its frames in collision and its clearance.
+TEST_F(Render, ModelPartsAreDrawnByContactStateAndCounted) {
+  RenderOptions o = Options();
+  o.max_in_flight = 1;
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  const NovelView view = sink_.poses[0].view;
+  // A square 0.6 m across facing the eye, its body frame the eye's, 2 m ahead.
+  ModelPartSample part;
+  part.object_id = 1000;
+  part.model_id = 1000;
+  part.name = "oil filter";
+  part.file = "engine.glb";
+  part.vertices = {{-0.3f, -0.3f, 0}, {0.3f, -0.3f, 0}, {0.3f, 0.3f, 0}, {-0.3f, 0.3f, 0}};
+  part.triangles = {{0, 1, 2}, {0, 2, 3}};
+  part.colour = {200, 120, 40};
+  r.OnModelPart(part);
+  const Rigid3d body = view.world_from_eye * Rigid3d{Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 2)};
+  const Eigen::Quaterniond q(body.rotation);
+  auto state = [&](uint64_t seq, uint8_t contact, double clearance) {
+    ModelStateSample st;
+    st.model_id = 1000;
+    st.frame_seq = seq;
+    st.triangles = 2;
+    st.parts.push_back({body.translation, {q.w(), q.x(), q.y(), q.z()}, contact, clearance});
+    return st;
+  };
+  std::vector<cv::Vec3b> seen;
+  const std::vector<std::tuple<uint8_t, double, float>> steps = {
+      {kPartClear, 0.09, kNoDepth}, {kPartNear, 0.03, kNoDepth}, {kPartColliding, 0.0, kNoDepth},
+      {kPartColliding, 0.0, 1.0f}};  // last: a hull 1 m ahead hides the part
+  for (size_t k = 0; k < steps.size(); ++k) {
+    const uint64_t seq = k + 1;
+    if (k > 0) {
+      rig_.AddFrame(assembler_, seq, clock_.WallNs());
+      r.Step();
+    }
+    r.OnModelState(state(seq, std::get<0>(steps[k]), std::get<1>(steps[k])));
+    r.OnTile(WholeTile(sink_.poses.back(), std::get<2>(steps[k]), {0, 200, 0}));
+    ASSERT_EQ(r.Step(), 1);
+    seen.push_back(sink_.frames.back().second.at<cv::Vec3b>(24, 32));
+  }
+  // Clear: the base colour, shaded (blue dominates this BGR colour).
+  EXPECT_GT(seen[0][0], seen[0][2]) << seen[0];
+  // Near: amber (red and green over blue).
+  EXPECT_GT(seen[1][2], 2 * seen[1][0]) << seen[1];
+  EXPECT_GT(seen[1][1], 2 * seen[1][0]) << seen[1];
+  EXPECT_TRUE(Red(seen[2])) << seen[2];
+  EXPECT_EQ(seen[3], cv::Vec3b(0, 200, 0)) << "the hull in front hides the part";
+  const nlohmann::json j = r.StatsJson();
+  ASSERT_TRUE(j.contains("models"));
+  const auto& m = j["models"][0];
+  EXPECT_EQ(m["file"], "engine.glb");
+  EXPECT_EQ(m["framesets"], 4);
+  const auto& p = m["parts"][0];
+  EXPECT_EQ(p["name"], "oil filter");
+  EXPECT_EQ(p["frames_in_collision"], 2);
+  EXPECT_EQ(p["frames_near"], 1);
+  EXPECT_NEAR(p["clearance_mm_min"].get<double>(), 0.0, 1e-9);
+  EXPECT_LE(p["clearance_mm_p50"].get<double>(), 30.0 + 1e-9);  // of 90, 30, 0, 0 mm
 }
 
 TEST_F(Render, StatsJsonSchema) {

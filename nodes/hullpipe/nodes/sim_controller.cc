@@ -56,6 +56,13 @@ void SimController::StepOne(const Frameset& fs) {
   }
   StageTimer publish_timer(counters_, "publish");
   ElementOutput out = scene_.Output(fs.source_time_s, fs.seq);
+  for (const ModelPartSample& p : out.model_parts) sink_.PublishModelPart(p);
+  for (ModelStateSample& m : out.model_states) {
+    m.frame_seq = fs.seq;
+    m.capture_time_ns = fs.capture_time_ns;
+    counters_.Stage("models", m.query_ms);
+    sink_.PublishModelState(m);
+  }
   for (VirtualMeshSample& m : out.meshes) {
     m.frame_seq = fs.seq;
     m.capture_time_ns = fs.capture_time_ns;

@@ -20,13 +20,17 @@
 
 namespace hullpipe::nodes {
 
-/// Where sim's outputs go (VirtualObjectState, CollisionReport, VirtualMesh).
+/// Where sim's outputs go (VirtualObjectState, CollisionReport, VirtualMesh,
+/// ModelPart, ModelState).
 class SimSink {
  public:
   virtual ~SimSink() = default;
   virtual void PublishState(const VirtualObjectSample& state) = 0;
   virtual void PublishReport(const CollisionReportSample& report) = 0;
   virtual void PublishMesh(const VirtualMeshSample& mesh) = 0;
+  /// A CAD model part's geometry: once per part, before its first state.
+  virtual void PublishModelPart(const ModelPartSample& part) = 0;
+  virtual void PublishModelState(const ModelStateSample& state) = 0;
 };
 
 class SimController {

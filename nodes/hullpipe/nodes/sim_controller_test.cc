@@ -14,6 +14,10 @@ struct SimRecorder final : SimSink {
   void PublishState(const VirtualObjectSample& s) override { states.push_back(s); }
   void PublishReport(const CollisionReportSample& r) override { reports.push_back(r); }
   void PublishMesh(const VirtualMeshSample& m) override { meshes.push_back(m); }
+  void PublishModelPart(const ModelPartSample& p) override { model_parts.push_back(p); }
+  void PublishModelState(const ModelStateSample& s) override { model_states.push_back(s); }
+  std::vector<ModelPartSample> model_parts;
+  std::vector<ModelStateSample> model_states;
 };
 
 TEST(Sim, StepsByTheFramesSourceTimeAndPublishesEachBody) {

@@ -68,6 +68,19 @@ OwnedSample<hullpipe_msg_VirtualMesh> MakeVirtualMeshMessage(const VirtualMeshSa
 /// range, colliding of the right length, a known kind. Throws MessageError.
 VirtualMeshSample VirtualMeshFromMsg(const hullpipe_msg_VirtualMesh& msg);
 
+/// The message of a model part (vertices as floats). Throws MessageError past
+/// the message's limits (2,000,000 vertices, indices out of range).
+OwnedSample<hullpipe_msg_ModelPart> MakeModelPartMessage(const ModelPartSample& part);
+/// Validated part: vertex floats a multiple of 3 and finite, triangle indices
+/// in range, part_index < part_count, object_id = model_id + part_index.
+/// Throws MessageError.
+ModelPartSample ModelPartFromMsg(const hullpipe_msg_ModelPart& msg);
+/// The message of a model's state.
+OwnedSample<hullpipe_msg_ModelState> MakeModelStateMessage(const ModelStateSample& state);
+/// Validated state: finite poses with unit quaternions (to 1e-6), known
+/// contact values, at most 1,000,000 parts. Throws MessageError.
+ModelStateSample ModelStateFromMsg(const hullpipe_msg_ModelState& msg);
+
 /// A head pose message of world_from_eye (metres, OpenCV eye frame).
 hullpipe_msg_HeadPose HeadPoseToMsg(const Rigid3d& world_from_eye, uint32_t tracker_id, int64_t stamp_ns);
 /// Validated world_from_eye (finite, rotation orthonormal with det +1 to 1e-6).

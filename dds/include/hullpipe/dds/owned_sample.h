@@ -31,6 +31,7 @@ struct OwnedSample {
   std::vector<hullpipe_msg_Vec3> vec3s;
   std::vector<hullpipe_msg_StageTiming> stages;
   std::vector<hullpipe_msg_CameraSkew> cameras;
+  std::vector<hullpipe_msg_PartState> part_states;
   std::vector<std::string> strings;  ///< Reserved before use: their c_str() stay put.
   OwnedSample() = default;
   OwnedSample(const OwnedSample&) = delete;

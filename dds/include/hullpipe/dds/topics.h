@@ -23,6 +23,9 @@ HULLPIPE_TOPIC(VirtualObjectState, "hullpipe/object_state", true, false, 1)
 HULLPIPE_TOPIC(CollisionReport, "hullpipe/collision_report", true, false, 16)
 HULLPIPE_TOPIC(NodeStats, "hullpipe/node_stats", true, true, 1)
 HULLPIPE_TOPIC(VirtualMesh, "hullpipe/virtual_mesh", true, false, 1)
+// A model's geometry is sent once: transient-local, the last per part kept.
+HULLPIPE_TOPIC(ModelPart, "hullpipe/model_part", true, true, 1)
+HULLPIPE_TOPIC(ModelState, "hullpipe/model_state", true, false, 2)
 // Commands are transient-local: a sim_node whose reader matches the commander a
 // moment after the commander matched it still gets the command (hullpipe_cmd then
 // waits for its acknowledgement before it leaves).

@@ -1,0 +1,186 @@
+#include "hullpipe/scenes/model_scene.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/scenes/virtual_scene.h"
+#include "hullpipe/testing/fixtures.h"
+
+namespace hullpipe {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kEngine = "/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
+
+SceneConfig Load(const fs::path& dir, const std::string& yaml) {
+  const fs::path p = dir / "scene.yaml";
+  std::ofstream(p) << yaml;
+  return LoadSceneConfig(p.string());
+}
+
+std::string LoadError(const fs::path& dir, const std::string& yaml) {
+  try {
+    Load(dir, yaml);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// The world triangles of a scene's first model, corners sorted, rounded to 1 µm.
+std::multiset<std::vector<long>> WorldTriangles(const SceneConfig& cfg) {
+  const auto* m = cfg.Find<ModelsConfig>();
+  std::multiset<std::vector<long>> out;
+  for (const ScenePart& p : PlaceModel(*m->models[0].imported, m->models[0], -cfg.gravity.normalized())) {
+    for (const auto& t : p.mesh.triangles) {
+      std::vector<std::vector<long>> c;
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector3d& v = p.mesh.vertices[size_t(t[k])];
+        c.push_back({std::lround(v.x() * 1e6), std::lround(v.y() * 1e6), std::lround(v.z() * 1e6)});
+      }
+      std::sort(c.begin(), c.end());
+      out.insert({c[0][0], c[0][1], c[0][2], c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2]});
+    }
+  }
+  return out;
+}
+
+// One triangle, (0,0,0) (0.2,0,0) (0,0.1,0) metres, in each format with its own
+// units and up axis: placed, all give the same world triangle.
+TEST(ModelScene, UnitsUpAxisAndPoseGiveTheSameWorldTriangles) {
+  const fs::path dir = test::TempDir("model_scene_units");
+  // OBJ in millimetres, y up: the model's "up" is y, the world's is -z.
+  std::ofstream(dir / "t.obj") << "o t\nv 0 0 0\nv 200 0 0\nv 0 0 -100\nf 1 2 3\n";
+  // STL in inches, z up (STL's default here).
+  const double in = 1 / 0.0254;
+  std::ofstream(dir / "t.stl") << "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex " << 0.2 * in
+                               << " 0 0\nvertex 0 0 " << -0.1 * in << "\nendloop\nendfacet\nendsolid t\n";
+  const std::string head = "gravity: [0, 0, 9.81]\nballs: []\nmodels:\n";
+  // World up is -z. OBJ: file y -> world -z by the shortest turn (about x), which
+  // takes file z to world y: file (0, 0, -100 mm) -> world (0, -0.1, 0).
+  const auto obj = WorldTriangles(Load(dir, head + "  - {file: t.obj, units: mm, up: +y, position: [1, 2, 3]}\n"));
+  // The same triangle in inches in an STL file, told its up is y (STL's default is z).
+  const auto stl = WorldTriangles(Load(dir, head + "  - {file: t.stl, units: in, up: +y, position: [1, 2, 3]}\n"));
+  ASSERT_EQ(obj.size(), 1u);
+  const std::vector<long> want{1000000, 1900000, 3000000, 1000000, 2000000, 3000000, 1200000, 2000000, 3000000};
+  EXPECT_EQ(*obj.begin(), want);
+  EXPECT_EQ(stl, obj);
+  // yaw_deg turns about the world's up (-z): 90 degrees takes (0.2, 0, 0) off the x axis.
+  EXPECT_NE(WorldTriangles(Load(dir, head + "  - {file: t.obj, units: mm, up: +y, yaw_deg: 90, position: [1, 2, 3]}\n")),
+            obj);
+  // scale: is units' other spelling.
+  EXPECT_EQ(WorldTriangles(Load(dir, head + "  - {file: t.obj, scale: 0.001, up: +y, position: [1, 2, 3]}\n")), obj);
+  // anchor centre: the model box's centre goes to position.
+  const auto centre =
+      WorldTriangles(Load(dir, head + "  - {file: t.obj, units: mm, up: +y, anchor: centre, position: [0, 0, 0]}\n"));
+  const std::vector<long> centred{-100000, -50000, 0, -100000, 50000, 0, 100000, 50000, 0};
+  EXPECT_EQ(*centre.begin(), centred);
+}
+
+TEST(ModelScene, BadEntriesNameTheKey) {
+  const fs::path dir = test::TempDir("model_scene_bad");
+  std::ofstream(dir / "t.obj") << "o t\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  const std::string head = "balls: []\nmodels:\n";
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj}\n").find("carries no units"), std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: furlong}\n").find("models[0].units"), std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, scale: 2}\n").find("not both"), std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, up: w}\n").find("models.up"), std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, motion: dynamic}\n").find("not supported"),
+            std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, colour: red}\n").find("unknown key 'models[0].colour'"),
+            std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, warn_distance: 0.2, max_clearance: 0.1}\n")
+                .find("max_clearance"),
+            std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: absent.obj, units: m}\n").find("absent.obj"), std::string::npos);
+  EXPECT_NE(LoadError(dir, "balls: []\nmodels: {file: t.obj}\n").find("list of model entries"), std::string::npos);
+  // Two models whose ids overlap.
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, first_id: 5}\n  - {file: t.obj, units: m, first_id: 5}\n")
+                .find("overlap"),
+            std::string::npos);
+  // Read without importing (render_node): keys only, the file is not opened.
+  const fs::path p = dir / "noimport.yaml";
+  std::ofstream(p) << head << "  - {file: absent.obj, units: m}\n";
+  EXPECT_NO_THROW(LoadSceneConfig(p.string(), SceneLoadOptions{false}));
+}
+
+// The element against the synthetic figure: the part the forearm crosses is
+// red, one a few centimetres beyond the hand amber, a far one clear; its
+// collision points equal brute force (DetectCollisions of the part's world mesh).
+TEST(ModelScene, PartsTurnRedAndAmberAsTheHullComes) {
+  const fs::path dir = test::TempDir("model_scene_step");
+  // Three boxes as three OBJ objects (metres): where the figure's right forearm
+  // waves (1.5 m up), 3 cm beyond the hand's reach, and 1 m away.
+  auto box = [](std::ostream& o, const std::string& name, Eigen::Vector3d c, double h, int base) {
+    o << "o " << name << "\n";
+    for (int k = 0; k < 8; ++k)
+      o << "v " << c.x() + (k & 1 ? h : -h) << ' ' << c.y() + (k & 2 ? h : -h) << ' ' << c.z() + (k & 4 ? h : -h) << '\n';
+    const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                          {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+    for (const auto& t : f) o << "f " << base + t[0] + 1 << ' ' << base + t[1] + 1 << ' ' << base + t[2] + 1 << '\n';
+  };
+  {
+    std::ofstream o(dir / "parts.obj");
+    box(o, "crossed", {0.55, 0.0, -1.5}, 0.1, 0);
+    box(o, "beyond", {0.82, 0.0, -1.55}, 0.03, 8);
+    box(o, "far", {-1.0, 1.0, -0.5}, 0.05, 16);
+  }
+  const SceneConfig cfg =
+      Load(dir, "gravity: [0, 0, 9.81]\nballs: []\nmodels:\n  - {file: parts.obj, units: m, up: -z, "
+                "warn_distance: 0.06, max_clearance: 0.1}\n");
+  VirtualScene scene(cfg);
+  const auto cams = RingCameras(4, 3.0, 1.8, Eigen::Vector3d(0.2, 0, -1.0), 320, 240, 1.0);
+  const auto* models = cfg.Find<ModelsConfig>();
+  const auto parts = PlaceModel(*models->models[0].imported, models->models[0], -cfg.gravity.normalized());
+  ASSERT_EQ(parts.size(), 3u);
+  int red = 0, amber = 0;
+  for (int f = 0; f < 8; ++f) {
+    const VolumeQuery q = test::HullOf(AnimatedFigure(0.5 * f), cams);
+    scene.Step(0.5, &q);
+    const ElementOutput out = scene.Output(0.5 * f, uint64_t(f + 1));
+    ASSERT_EQ(out.model_states.size(), 1u);
+    const ModelStateSample& st = out.model_states[0];
+    ASSERT_EQ(st.parts.size(), 3u);
+    EXPECT_EQ(st.parts[2].contact, kPartClear);
+    EXPECT_NEAR(st.parts[2].clearance, 0.1, 1e-12);  // nothing within range
+    red += st.parts[0].contact == kPartColliding;
+    amber += st.parts[1].contact == kPartNear;
+    if (st.parts[1].contact == kPartNear) {
+      EXPECT_LT(st.parts[1].clearance, 0.06);
+    }
+    // Reports: one per colliding part, equal to brute force.
+    for (const auto& r : out.reports) {
+      const size_t k = r.object_id - 1000;
+      const CollisionResult brute = DetectCollisions(q, parts[k].mesh, TriangleQueryOptions{0.004, 0, 32});
+      EXPECT_EQ(r.collision_points, brute.collision_points);
+    }
+    EXPECT_EQ(st.triangles, 36u);
+  }
+  EXPECT_GE(red, 4);
+  EXPECT_GE(amber, 1);
+}
+
+TEST(ModelScene, TheEngineSceneLoadsAtRealSize) {
+  if (!fs::exists(kEngine)) GTEST_SKIP() << kEngine << " missing: scripts/setup.sh installs assimp-testmodels";
+  const SceneConfig cfg = LoadSceneConfig(std::string(HULLPIPE_SOURCE_DIR) + "/scenes/engine.yaml");
+  const auto* m = cfg.Find<ModelsConfig>();
+  ASSERT_NE(m, nullptr);
+  Aabb box;
+  for (const ScenePart& p : PlaceModel(*m->models[0].imported, m->models[0], -cfg.gravity.normalized()))
+    box.Extend(p.mesh.Bounds().min), box.Extend(p.mesh.Bounds().max);
+  // 743 x 273 x 268 mm (file x, y, z): its length along world x, its up
+  // (file +y, 273 mm) along world -z.
+  const Eigen::Vector3d size = box.max - box.min;
+  EXPECT_NEAR(size.x(), 0.7434, 1e-3);
+  EXPECT_NEAR(size.y(), 0.268, 1e-3);
+  EXPECT_NEAR(size.z(), 0.2730, 1e-3);
+  EXPECT_NEAR(box.max.z(), -0.42, 1e-6);  // anchor bottom at the position's height
+}
+
+}  // namespace
+}  // namespace hullpipe
