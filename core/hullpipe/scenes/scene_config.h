@@ -36,6 +36,9 @@
 //     {first_id: 300, pmt_centre: [..], pmt_half: [..], axis: 1, direction: 1,
 //      spacing: 0.14, a_half: [..], shaft_radius: 0.03, shaft_length: 0.25,
 //      max_clearance: 0.15}
+//   models:                         # optional CAD models (model_scene.h, docs/models.md)
+//     - {file: engine.glb, units: mm, up: +y, anchor: bottom, position: [..], yaw_deg: 0,
+//        warn_distance: 0.05, max_clearance: 0.1}
 //   light:                          # optional virtual light with shadows (lighting.h),
 //     {position: [..], target: [..], fov_deg: 70, map_size: 192, planes: 48, refine: 6,
 //      bias: 0.02, ambient: 0.45, hull_diffuse: 0.5}   # read by render_node

@@ -533,6 +533,13 @@ std::string RenderController::Table() const {
   for (const auto& [kind, n] : runs_.ignored())
     line("ignored %llu %s sample(s) of other runs (this run is %s)\n", (unsigned long long)n, kind.c_str(),
          RunIdText(o_.run_id).c_str());
+  // CAD models (docs/models.md): what sim's hierarchy spared per frameset.
+  for (const auto& m : ModelsJson())
+    line("model %.120s: %llu triangles, per frameset %.0f boxes tested, %.0f triangles queried, %.2f ms p50 "
+         "(%llu framesets)\n",
+         m.value("file", std::string("?")).c_str(), (unsigned long long)m["triangles"].get<uint64_t>(),
+         m["boxes_tested_mean"].get<double>(), m["triangles_queried_mean"].get<double>(),
+         m["query_ms_p50"].get<double>(), (unsigned long long)m["framesets"].get<uint64_t>());
   // Where the time from capture to composite goes (docs/latency.md).
   line("\nlatency budget (ms after capture; * on the critical path):\n");
   out += Budget().Table();

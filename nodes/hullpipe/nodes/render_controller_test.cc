@@ -503,6 +503,7 @@ TEST_F(Render, ModelPartsAreDrawnByContactStateAndCounted) {
   EXPECT_EQ(p["frames_near"], 1);
   EXPECT_NEAR(p["clearance_mm_min"].get<double>(), 0.0, 1e-9);
   EXPECT_LE(p["clearance_mm_p50"].get<double>(), 30.0 + 1e-9);  // of 90, 30, 0, 0 mm
+  EXPECT_NE(r.Table().find("model engine.glb: 2 triangles"), std::string::npos) << r.Table();
 }
 
 TEST_F(Render, StatsJsonSchema) {
