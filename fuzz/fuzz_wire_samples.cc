@@ -50,6 +50,10 @@ void Convert(const std::string& type, const void* sample) {
     VirtualObjectFromMsg(*static_cast<const hullpipe_msg_VirtualObjectState*>(sample));
   } else if (type == "hullpipe::msg::NodeStats") {
     NodeStatsFromMsg(*static_cast<const hullpipe_msg_NodeStats*>(sample));
+  } else if (type == "hullpipe::msg::ModelPart") {
+    ModelPartFromMsg(*static_cast<const hullpipe_msg_ModelPart*>(sample));
+  } else if (type == "hullpipe::msg::ModelState") {
+    ModelStateFromMsg(*static_cast<const hullpipe_msg_ModelState*>(sample));
   }
   // CollisionReport and SceneCommand: only counted or range-checked by the
   // nodes; Cyclone's deserialization above is what they rely on.

@@ -72,6 +72,17 @@ inline std::map<std::string, std::vector<uint8_t>> ValidSampleOfEachTopic(const 
   encode("hullpipe::msg::SceneCommand", &command);
   const auto head = HeadPoseToMsg(Rigid3d{}, 1, kStampNs);
   encode("hullpipe::msg::HeadPose", &head);
+  ModelPartSample part;
+  part.object_id = 1000, part.model_id = 1000, part.name = "part", part.file = "model.glb";
+  part.vertices = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}};
+  part.triangles = {{0, 1, 2}};
+  const auto mp = MakeModelPartMessage(part);
+  encode("hullpipe::msg::ModelPart", &mp.msg);
+  ModelStateSample model;
+  model.model_id = 1000, model.frame_seq = 1, model.triangles = 1;
+  model.parts.push_back({{0, 0, -1}, {1, 0, 0, 0}, kPartNear, 0.02});
+  const auto ms = MakeModelStateMessage(model);
+  encode("hullpipe::msg::ModelState", &ms.msg);
   return out;
 }
 
