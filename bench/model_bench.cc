@@ -11,7 +11,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <thread>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -144,8 +143,9 @@ int main(int argc, char** argv) {
     std::vector<double> step_ms;
     auto element = models->Make(config);
     for (const auto& q : hulls) step_ms.push_back(Ms([&] { element->Step(0.04, &q, nullptr); }));
-    std::printf("\nsim step of the engine scene (%d parts, collision + clearance, %u threads): p50 %.2f ms, max %.2f ms\n",
-                int(entry.imported->parts.size()), std::max(1u, std::thread::hardware_concurrency()), Median(step_ms),
+    std::printf("\nsim step of the engine scene (%d parts, collision + clearance, %d thread(s), as sim_node's "
+                "--model-threads): p50 %.2f ms, max %.2f ms\n",
+                int(entry.imported->parts.size()), models->threads, Median(step_ms),
                 *std::max_element(step_ms.begin(), step_ms.end()));
     std::printf("GL triangle query: not measured (no GPU machine in this run)\n");
   } catch (const std::exception& e) {
