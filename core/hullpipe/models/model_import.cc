@@ -402,6 +402,9 @@ void WriteAll(int fd, const std::string& s) {
 }
 
 [[noreturn]] void RunChild(int fd, const std::string& path, const ImportLimits& limits) {
+  // A crash in Assimp ends the child by its signal, which the parent names: the
+  // handlers the parent may have (a sanitizer's, libFuzzer's) are not the child's.
+  for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGXCPU}) ::signal(sig, SIG_DFL);
   // Bounds first: a crafted file may ask Assimp for gigabytes or loop.
 #ifndef HULLPIPE_SANITIZED
   const rlimit mem{rlim_t(limits.max_memory_bytes), rlim_t(limits.max_memory_bytes)};
