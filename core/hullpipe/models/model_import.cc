@@ -86,7 +86,14 @@ class PartBuilder {
 
  private:
   void AddPart(const aiNode& node, const aiMatrix4x4& T) {
-    std::string base = node.mName.length > 0 ? std::string(node.mName.C_Str()) : "node" + std::to_string(unnamed_++);
+    // The node's name; where the file gives none (empty, or Assimp's made-up
+    // glTF "nodes[N]"), its first mesh's name if that has one.
+    std::string base = node.mName.C_Str();
+    const bool made_up = base.empty() || base.rfind("nodes[", 0) == 0;
+    if (made_up && node.mMeshes[0] < scene_.mNumMeshes && scene_.mMeshes[node.mMeshes[0]] &&
+        scene_.mMeshes[node.mMeshes[0]]->mName.length > 0)
+      base = scene_.mMeshes[node.mMeshes[0]]->mName.C_Str();
+    if (base.empty()) base = "node" + std::to_string(unnamed_++);
     const int seen = ++names_[base];
     ImportedPart part;
     part.name = seen == 1 ? base : base + "#" + std::to_string(seen);

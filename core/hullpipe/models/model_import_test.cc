@@ -182,14 +182,16 @@ TEST(ModelImport, TheDebianEngineSample) {
   const auto m = ImportModel(kEngine);
   // 2CylinderEngine (glTF sample models): 75,730 triangles in its meshes;
   // nodes place some meshes more than once, so 121,496 are placed, of which
-  // 11,160 have zero area (skipped and counted). Assimp gives the unnamed nodes
-  // names ("nodes[80]").
+  // 11,160 have zero area (skipped and counted). Its nodes are unnamed (Assimp
+  // calls them "nodes[80]"): the parts take their meshes' names.
   EXPECT_EQ(m.triangles() + m.counts.degenerate_triangles, 121496);
   EXPECT_EQ(m.triangles(), 110336);
   EXPECT_EQ(m.parts.size(), 67u);
   std::set<std::string> names;
   for (const auto& p : m.parts) names.insert(p.name);
   EXPECT_EQ(names.size(), m.parts.size()) << "part names must be unique";
+  EXPECT_EQ(names.count("body"), 1u);
+  for (const auto& n : names) EXPECT_NE(n.rfind("nodes[", 0), 0u) << n;
 }
 
 // ---- Bad files: each class ends in one ModelError naming the file.
