@@ -9,6 +9,14 @@
 
 namespace hullpipe {
 
+void AddTriangleResult(int triangle_id, const TriangleQueryResult& r, CollisionResult* result) {
+  result->pixels_tested += r.pixels_tested;
+  if (r.collision_points.empty()) return;
+  result->triangle_ids.push_back(triangle_id);
+  result->collision_points.insert(result->collision_points.end(), r.collision_points.begin(), r.collision_points.end());
+  result->point_triangles.insert(result->point_triangles.end(), r.collision_points.size(), triangle_id);
+}
+
 CollisionResult DetectCollisions(const VolumeQuery& query, const TriangleMesh& mesh,
                                  const TriangleQueryOptions& options, const TriangleBatchQuery& batch,
                                  int threads) {
@@ -32,14 +40,7 @@ CollisionResult DetectCollisions(const VolumeQuery& query, const TriangleMesh& m
   if (tris.empty()) return result;
   const std::vector<TriangleQueryResult> rs = batch ? batch(tris) : QueryTrianglesCpu(query, tris, options, threads);
   if (rs.size() != tris.size()) throw std::logic_error("DetectCollisions: batch query returned the wrong count");
-  for (size_t k = 0; k < rs.size(); ++k) {
-    result.pixels_tested += rs[k].pixels_tested;
-    if (rs[k].collision_points.empty()) continue;
-    result.triangle_ids.push_back(ids[k]);
-    result.collision_points.insert(result.collision_points.end(), rs[k].collision_points.begin(),
-                                   rs[k].collision_points.end());
-    result.point_triangles.insert(result.point_triangles.end(), rs[k].collision_points.size(), ids[k]);
-  }
+  for (size_t k = 0; k < rs.size(); ++k) AddTriangleResult(ids[k], rs[k], &result);
   return result;
 }
 

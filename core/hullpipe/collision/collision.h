@@ -26,6 +26,11 @@ struct CollisionResult {
   bool colliding() const { return !collision_points.empty(); }
 };
 
+/// Adds one queried triangle's result to *result: its pixels tested and, when
+/// it has collision points, the triangle id, its points and their owner (the
+/// layout DetectCollisions gives). triangles_queried is the caller's.
+void AddTriangleResult(int triangle_id, const TriangleQueryResult& r, CollisionResult* result);
+
 /// Queries a batch of triangles (world metres) against the hull, results in
 /// triangle order (QueryTrianglesCpu, or gl::GlTriangleQuery::Query bound to its
 /// query and options).

@@ -2,6 +2,7 @@
 // object-pixel maps (paper §4.1: "bounding box test first").
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 #include <Eigen/Core>
@@ -24,6 +25,13 @@ struct Aabb {
     return !empty() && !o.empty() && (min.array() <= o.max.array()).all() &&
            (o.min.array() <= max.array()).all();
   }
+  /// The box common to this one and `o` (empty when they do not meet).
+  Aabb Intersection(const Aabb& o) const {
+    Aabb r;
+    r.min = min.cwiseMax(o.min);
+    r.max = max.cwiseMin(o.max);
+    return r;
+  }
   void Extend(const Eigen::Vector3d& p) {
     if (empty()) {
       min = max = p;
@@ -40,6 +48,20 @@ struct Aabb {
   bool ClipRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double* s0,
                double* s1) const;
 };
+
+/// Calls f(point) for every point min + (i, j, k) * step of a grid over `box`
+/// (world metres), i in [0, floor(size.x / step)] and likewise j, k; x fastest.
+/// Nothing for an empty box. step must be > 0.
+template <typename F>
+void ForEachGridPoint(const Aabb& box, double step, F&& f) {
+  if (box.empty()) return;
+  const Eigen::Vector3d size = box.max - box.min;
+  const int nx = int(std::floor(size.x() / step)) + 1, ny = int(std::floor(size.y() / step)) + 1,
+            nz = int(std::floor(size.z() / step)) + 1;
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) f(Eigen::Vector3d(box.min + Eigen::Vector3d(i * step, j * step, k * step)));
+}
 
 /// A workspace that surely contains what the cameras watch when nothing else is
 /// known: the box of the camera centres grown by half its largest side on every side.

@@ -241,7 +241,9 @@ ImportedModel FromScene(const aiScene* scene, const Assimp::Importer& importer, 
   return model;
 }
 
-std::string Extension(const std::string& path) {
+}  // namespace
+
+std::string ModelFileExtension(const std::string& path) {
   const size_t dot = path.rfind('.');
   const size_t slash = path.rfind('/');
   if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
@@ -249,8 +251,6 @@ std::string Extension(const std::string& path) {
   for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
   return e;
 }
-
-}  // namespace
 
 ImportedModel ImportModelInProcess(const std::string& path, const ImportLimits& limits) {
   limits.Check();
@@ -262,7 +262,7 @@ ImportedModel ImportModelInProcess(const std::string& path, const ImportLimits& 
     throw ModelError(path + ": " + std::to_string(st.st_size) + " bytes, over the file size cap of " +
                      Mb(limits.max_file_bytes) + " (models.max_file_bytes)");
   Assimp::Importer importer;
-  const std::string ext = Extension(path);
+  const std::string ext = ModelFileExtension(path);
   if (ext.empty() || !importer.IsExtensionSupported("." + ext))
     throw ModelError(path + ": '" + (ext.empty() ? std::string("(no extension)") : "." + ext) +
                      "' is not a format Assimp reads");

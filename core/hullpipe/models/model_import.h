@@ -62,6 +62,10 @@ struct ImportedModel {
   int64_t triangles() const;
 };
 
+/// A model file's extension, lower case, without the dot ("glb"); "" when it
+/// has none. Assimp picks the reader by it; scenes pick default units and up.
+std::string ModelFileExtension(const std::string& path);
+
 /// Imports `path` in this process (the child's work in ImportModel; tests and
 /// the fuzzer). Throws ModelError naming the file: unreadable, over
 /// max_file_bytes, a format Assimp does not read, a file Assimp refuses (its

@@ -187,47 +187,52 @@ double TriangleBvh::Distance(const TriangleMesh& mesh, const Eigen::Vector3d& p,
   return found ? std::sqrt(best2) : bound;
 }
 
+namespace {
+bool IsIdentity(const Rigid3d& T) {
+  return T.rotation == Eigen::Matrix3d::Identity() && T.translation == Eigen::Vector3d::Zero();
+}
+}  // namespace
+
+void GatherBvhTriangles(const VolumeQuery& query, const TriangleMesh& mesh, const TriangleBvh& bvh, const Rigid3d& T,
+                        std::vector<Triangle>* triangles, std::vector<int>* ids, BvhQueryStats* stats) {
+  const bool identity = IsIdentity(T);
+  int64_t boxes = 0;
+  const size_t before = triangles->size();
+  for (int id : bvh.Candidates(query, T, identity, &boxes)) {
+    const Eigen::Vector3i& t = mesh.triangles[size_t(id)];
+    Triangle tri{mesh.vertices[size_t(t[0])], mesh.vertices[size_t(t[1])], mesh.vertices[size_t(t[2])]};
+    if (!identity) tri = {T * tri.a, T * tri.b, T * tri.c};
+    // DetectCollisions' own test, so the queried set is a subset of its own.
+    Aabb tb;
+    tb.Extend(tri.a), tb.Extend(tri.b), tb.Extend(tri.c);
+    if (!tb.Intersects(query.hull_box())) continue;
+    triangles->push_back(tri);
+    ids->push_back(id);
+  }
+  if (stats) {
+    stats->boxes_tested += boxes;
+    stats->triangles_queried += int64_t(triangles->size() - before);
+  }
+}
+
 CollisionResult DetectCollisionsBvh(const VolumeQuery& query, const TriangleMesh& mesh, const TriangleBvh& bvh,
                                     const Rigid3d& T, const TriangleQueryOptions& options,
                                     const TriangleBatchQuery& batch, int threads, BvhQueryStats* stats) {
   options.Check();
   CollisionResult result;
-  const bool identity = T.rotation == Eigen::Matrix3d::Identity() && T.translation == Eigen::Vector3d::Zero();
-  int64_t boxes = 0;
-  const std::vector<int> ids = bvh.Candidates(query, T, identity, &boxes);
-  if (stats) {
-    stats->triangles_in_scene += int64_t(mesh.triangles.size());
-    stats->boxes_tested += boxes;
-  }
-  // DetectCollisions' own tests, so the queried set is a subset of its own.
-  const Aabb world_box = identity || bvh.empty() ? (bvh.empty() ? Aabb{} : bvh.nodes()[0].box)
-                                                 : TransformBox(T, bvh.nodes()[0].box);
+  if (stats) stats->triangles_in_scene += int64_t(mesh.triangles.size());
+  const Aabb world_box = bvh.empty()   ? Aabb{}
+                         : IsIdentity(T) ? bvh.nodes()[0].box
+                                         : TransformBox(T, bvh.nodes()[0].box);
   result.box_overlap = world_box.Intersects(query.hull_box());
   std::vector<Triangle> tris;
   std::vector<int> kept;
-  for (int id : ids) {
-    const Eigen::Vector3i& t = mesh.triangles[size_t(id)];
-    Triangle tri{mesh.vertices[size_t(t[0])], mesh.vertices[size_t(t[1])], mesh.vertices[size_t(t[2])]};
-    if (!identity) tri = {T * tri.a, T * tri.b, T * tri.c};
-    Aabb tb;
-    tb.Extend(tri.a), tb.Extend(tri.b), tb.Extend(tri.c);
-    if (!tb.Intersects(query.hull_box())) continue;
-    tris.push_back(tri);
-    kept.push_back(id);
-  }
+  GatherBvhTriangles(query, mesh, bvh, T, &tris, &kept, stats);
   result.triangles_queried = int(tris.size());
-  if (stats) stats->triangles_queried += int64_t(tris.size());
   if (tris.empty()) return result;
   const std::vector<TriangleQueryResult> rs = batch ? batch(tris) : QueryTrianglesCpu(query, tris, options, threads);
   if (rs.size() != tris.size()) throw std::logic_error("DetectCollisionsBvh: batch query returned the wrong count");
-  for (size_t k = 0; k < rs.size(); ++k) {
-    result.pixels_tested += rs[k].pixels_tested;
-    if (rs[k].collision_points.empty()) continue;
-    result.triangle_ids.push_back(kept[k]);
-    result.collision_points.insert(result.collision_points.end(), rs[k].collision_points.begin(),
-                                   rs[k].collision_points.end());
-    result.point_triangles.insert(result.point_triangles.end(), rs[k].collision_points.size(), kept[k]);
-  }
+  for (size_t k = 0; k < rs.size(); ++k) AddTriangleResult(kept[k], rs[k], &result);
   return result;
 }
 
@@ -235,19 +240,10 @@ CollisionResult DetectCollisionsBvh(const VolumeQuery& query, const TriangleMesh
 
 namespace hullpipe {
 
-namespace {
-Aabb IntersectBoxes(const Aabb& a, const Aabb& b) {
-  Aabb r;
-  r.min = a.min.cwiseMax(b.min);
-  r.max = a.max.cwiseMin(b.max);
-  return r;
-}
-}  // namespace
-
 HullSamples SampleHull(const VolumeQuery& q, const Aabb& region_in, double step) {
   HullSamples out;
   out.step = step;
-  const Aabb region = IntersectBoxes(region_in, q.hull_box());
+  const Aabb region = region_in.Intersection(q.hull_box());
   if (region.empty() || !(step > 0) || q.ProvesEmpty(region)) return out;
   const Eigen::Vector3d size = region.max - region.min;
   const int nx = int(std::floor(size.x() / step)) + 1, ny = int(std::floor(size.y() / step)) + 1,
@@ -306,17 +302,12 @@ PartClearance HullToPartClearance(const VolumeQuery& q, const TriangleMesh& mesh
     Aabb window;
     window.min = best_p - Eigen::Vector3d::Constant(h);
     window.max = best_p + Eigen::Vector3d::Constant(h);
-    window = IntersectBoxes(window, q.hull_box());
+    window = window.Intersection(q.hull_box());
     h /= 4;
     if (window.empty()) break;
-    const Eigen::Vector3d ws = window.max - window.min;
-    const int mx = int(std::floor(ws.x() / h)) + 1, my = int(std::floor(ws.y() / h)) + 1, mz = int(std::floor(ws.z() / h)) + 1;
-    for (int k = 0; k < mz; ++k)
-      for (int j = 0; j < my; ++j)
-        for (int i = 0; i < mx; ++i) {
-          const Eigen::Vector3d p = window.min + Eigen::Vector3d(i, j, k) * h;
-          if (BoxDistance2(part_box, p) < best * best && q.Inside(p)) distance(p);
-        }
+    ForEachGridPoint(window, h, [&](const Eigen::Vector3d& p) {
+      if (BoxDistance2(part_box, p) < best * best && q.Inside(p)) distance(p);
+    });
   }
   r.distance = best;
   r.hull_near = best < max_clearance;

@@ -76,6 +76,15 @@ struct BvhQueryStats {
   }
 };
 
+/// The triangles DetectCollisionsBvh queries: the hierarchy's candidates
+/// (Candidates, moved by world_from_body to world metres) whose own box meets
+/// the hull box, appended to *triangles with their mesh ids to *ids, in
+/// increasing id. *stats (optional) gets the boxes tested and the triangles
+/// appended (triangles_queried).
+void GatherBvhTriangles(const VolumeQuery& query, const TriangleMesh& body_mesh, const TriangleBvh& bvh,
+                        const Rigid3d& world_from_body, std::vector<Triangle>* triangles, std::vector<int>* ids,
+                        BvhQueryStats* stats = nullptr);
+
 /// DetectCollisions (collision.h) through the hierarchy: the same triangles
 /// with collision points and the same points, in the same order, as
 /// DetectCollisions of the mesh moved by world_from_body. `batch`: as in

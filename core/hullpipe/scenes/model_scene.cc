@@ -75,7 +75,7 @@ Rigid3d ModelPlacement(const ModelEntry& e, const Eigen::Vector3d& world_up, con
       // The centre of the box's face lowest along the world's up.
       const Eigen::Vector3d up_body = T.rotation.transpose() * up;
       const Eigen::Vector3d half = 0.5 * e.scale * (file_box.max - file_box.min);
-      anchor -= Eigen::Vector3d(up_body.cwiseAbs().cwiseProduct(half).cwiseProduct(up_body.cwiseSign()));
+      anchor -= up_body.cwiseProduct(half);  // up_body is the file's up axis: that face's centre
     }
   }
   T.translation = e.position - T.rotation * anchor;
@@ -207,36 +207,18 @@ class ModelsElement final : public SceneElement {
     const TriangleQueryOptions options{m.entry.max_pixel_size, 0, 32};
     // Every part's surviving triangles, queried in one batch.
     std::vector<Triangle> tris;
-    std::vector<std::pair<int, int>> owner;  // (part, triangle id)
-    for (size_t k = 0; k < m.parts.size(); ++k) {
-      const ScenePart& p = m.parts[k];
-      if (!p.bvh.empty() && !p.bvh.nodes()[0].box.Intersects(hull.hull_box())) {
-        ++stats->boxes_tested;
-        continue;
-      }
-      int64_t boxes = 0;
-      for (int id : p.bvh.Candidates(hull, Rigid3d{}, true, &boxes)) {
-        const Eigen::Vector3i& t = p.mesh.triangles[size_t(id)];
-        Triangle tri{p.mesh.vertices[size_t(t[0])], p.mesh.vertices[size_t(t[1])], p.mesh.vertices[size_t(t[2])]};
-        Aabb tb;
-        tb.Extend(tri.a), tb.Extend(tri.b), tb.Extend(tri.c);
-        if (!tb.Intersects(hull.hull_box())) continue;
-        tris.push_back(tri);
-        owner.emplace_back(int(k), id);
-      }
-      stats->boxes_tested += boxes;
+    std::vector<int> ids;          // the mesh triangle of each
+    std::vector<size_t> first{0};  // part k's triangles are [first[k], first[k + 1])
+    for (const ScenePart& p : m.parts) {
+      GatherBvhTriangles(hull, p.mesh, p.bvh, Rigid3d{}, &tris, &ids, stats);
+      first.push_back(tris.size());
     }
     ThrowIfStopped(stop, "the models' step");
-    stats->triangles_queried += int64_t(tris.size());
     const std::vector<TriangleQueryResult> rs = QueryTrianglesCpu(hull, tris, options, threads_);
-    for (size_t i = 0; i < rs.size(); ++i) {
-      CollisionResult& r = m.results[size_t(owner[i].first)];
-      ++r.triangles_queried;
-      r.pixels_tested += rs[i].pixels_tested;
-      if (rs[i].collision_points.empty()) continue;
-      r.triangle_ids.push_back(owner[i].second);
-      r.collision_points.insert(r.collision_points.end(), rs[i].collision_points.begin(), rs[i].collision_points.end());
-      r.point_triangles.insert(r.point_triangles.end(), rs[i].collision_points.size(), owner[i].second);
+    for (size_t k = 0; k < m.parts.size(); ++k) {
+      CollisionResult& r = m.results[k];
+      r.triangles_queried = int(first[k + 1] - first[k]);
+      for (size_t i = first[k]; i < first[k + 1]; ++i) AddTriangleResult(ids[i], rs[i], &r);
     }
     ThrowIfStopped(stop, "the models' step");
     // Clearance (§4.5): the hull sampled once over the model's box grown by the
@@ -277,14 +259,6 @@ Eigen::Vector3d Axis(const std::string& s, const std::string& path) {
   throw std::runtime_error(path + ": 'models.up' must be one of +x -x +y -y +z -z, not " + s);
 }
 
-std::string LowerExtension(const std::string& file) {
-  const size_t dot = file.rfind('.');
-  if (dot == std::string::npos || file.find('/', dot) != std::string::npos) return "";
-  std::string e = file.substr(dot + 1);
-  for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return e;
-}
-
 }  // namespace
 
 std::unique_ptr<SceneElement> ModelsConfig::Make(const SceneConfig& scene) const {
@@ -311,7 +285,7 @@ std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& n,
     ModelEntry e;
     e.file = m["file"].as<std::string>();
     e.path = !e.file.empty() && e.file[0] == '/' ? e.file : dir + e.file;
-    const std::string ext = LowerExtension(e.file);
+    const std::string ext = ModelFileExtension(e.file);
     const bool metres_by_spec = ext == "gltf" || ext == "glb";
     if (m["units"] && m["scale"]) throw std::runtime_error(path + ": '" + where + "': give units or scale, not both");
     if (m["units"]) {

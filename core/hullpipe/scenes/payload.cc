@@ -114,22 +114,9 @@ namespace {
 // Inside-hull grid samples of box `b` at spacing h; calls f(point) for each.
 template <typename F>
 void ForEachInsideSample(const VolumeQuery& q, const Aabb& b, double h, F&& f) {
-  const Eigen::Vector3d size = b.max - b.min;
-  const int nx = int(std::floor(size.x() / h)) + 1, ny = int(std::floor(size.y() / h)) + 1,
-            nz = int(std::floor(size.z() / h)) + 1;
-  for (int k = 0; k < nz; ++k)
-    for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) {
-        const Eigen::Vector3d p = b.min + Eigen::Vector3d(i * h, j * h, k * h);
-        if (q.Inside(p)) f(p);
-      }
-}
-
-Aabb Intersect(const Aabb& a, const Aabb& b) {
-  Aabb r;
-  r.min = a.min.cwiseMax(b.min);
-  r.max = a.max.cwiseMin(b.max);
-  return r;
+  ForEachGridPoint(b, h, [&](const Eigen::Vector3d& p) {
+    if (q.Inside(p)) f(p);
+  });
 }
 
 }  // namespace
@@ -140,7 +127,7 @@ ClearanceResult HullClearance(const VolumeQuery& q, const PayloadPart& part, dou
   Aabb region = part.Bounds();
   region.min -= Eigen::Vector3d::Constant(max_clearance);
   region.max += Eigen::Vector3d::Constant(max_clearance);
-  region = Intersect(region, q.hull_box());
+  region = region.Intersection(q.hull_box());
   if (region.empty()) return r;
   double best = std::numeric_limits<double>::infinity();
   Eigen::Vector3d best_p = Eigen::Vector3d::Zero();
@@ -156,7 +143,7 @@ ClearanceResult HullClearance(const VolumeQuery& q, const PayloadPart& part, dou
     window.min = best_p - Eigen::Vector3d::Constant(2 * h);
     window.max = best_p + Eigen::Vector3d::Constant(2 * h);
     h /= 5;
-    ForEachInsideSample(q, Intersect(window, q.hull_box()), h, [&](const Eigen::Vector3d& p) {
+    ForEachInsideSample(q, window.Intersection(q.hull_box()), h, [&](const Eigen::Vector3d& p) {
       const double d = part.SignedDistance(p);
       if (d < best) best = d, best_p = p;
     });
