@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -408,10 +409,14 @@ void WriteAll(int fd, const std::string& s) {
   }
 }
 
-[[noreturn]] void RunChild(int fd, const std::string& path, const ImportLimits& limits) {
+[[noreturn]] void RunChild(int fd, const std::string& path, const ImportLimits& limits, pid_t parent) {
   // A crash in Assimp ends the child by its signal, which the parent names: the
   // handlers the parent may have (a sanitizer's, libFuzzer's) are not the child's.
   for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGXCPU}) ::signal(sig, SIG_DFL);
+  // The child ends with the parent (a SIGINT to sim_node alone must not leave
+  // an import running for up to its time bound).
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (::getppid() != parent) ::_exit(0);
   // Bounds first: a crafted file may ask Assimp for gigabytes or loop.
 #ifndef HULLPIPE_SANITIZED
   const rlimit mem{rlim_t(limits.max_memory_bytes), rlim_t(limits.max_memory_bytes)};
@@ -451,6 +456,7 @@ ImportedModel ImportModel(const std::string& path, const ImportLimits& limits) {
   limits.Check();
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) throw ModelError(path + ": cannot start the importer (pipe: " + std::strerror(errno) + ")");
+  const pid_t self = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) {
     ::close(fds[0]), ::close(fds[1]);
@@ -458,7 +464,7 @@ ImportedModel ImportModel(const std::string& path, const ImportLimits& limits) {
   }
   if (pid == 0) {
     ::close(fds[0]);
-    RunChild(fds[1], path, limits);
+    RunChild(fds[1], path, limits, self);
   }
   ::close(fds[1]);
   // The result is bounded as the import is: vertices and indices of at most
