@@ -45,8 +45,8 @@ int main(int argc, char** argv) {
   app.add_option("--scene", scene_path, "Scene file (YAML); default: one ball");
   std::string rig_path;
   app.add_option("--rig", rig_path,
-                 "Rig directory or YAML rig file whose world (up, floor) places a `frame: stage` scene (default: the "
-                 "Utrecht rig's world: up -z, floor z = 0)");
+                 "Rig directory or YAML rig file whose world (up, floor) and workspace place a `frame: stage` scene "
+                 "(default: the Utrecht rig's world: up -z, floor z = 0, the stage's origin at the world's)");
   FramesetOptions frameset_options;
   AddFramesetOptions(app, frameset_options);
   int model_threads = 1;
@@ -63,8 +63,13 @@ int main(int argc, char** argv) {
     SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path);
     RigWorld world;  // the Utrecht rig's: up -z, the floor z = 0
     world.floor = RigWorld::Floor::kPlane;
-    if (!rig_path.empty()) world = LoadRig(rig_path).world;
-    config.PlaceInWorld(world);
+    Aabb workspace;  // none: a stage's origin is the world's, on the floor
+    if (!rig_path.empty()) {
+      const Rig rig = LoadRig(rig_path);
+      world = rig.world;
+      workspace = rig.workspace;
+    }
+    config.PlaceInWorld(world, workspace);
     if (const auto* models = config.Find<ModelsConfig>()) {
       ModelsConfig m = *models;
       m.threads = model_threads;

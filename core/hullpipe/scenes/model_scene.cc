@@ -10,6 +10,8 @@
 #include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
 
+#include "hullpipe/collision/collision.h"
+#include "hullpipe/collision/collision_response.h"
 #include "hullpipe/scenes/scene_config.h"
 #include "hullpipe/scenes/scene_yaml.h"
 #include "hullpipe/util/parallel.h"
@@ -26,6 +28,11 @@ void ModelEntry::Check() const {
     throw std::invalid_argument("models: max_clearance must be in (0, 1] m and >= warn_distance");
   if (!(max_pixel_size >= 1e-4 && max_pixel_size <= 0.1))
     throw std::invalid_argument("models: max_pixel_size must be in [1e-4, 0.1] m");
+  if (!(restitution >= 0 && restitution <= 1)) throw std::invalid_argument("models: restitution must be in [0, 1]");
+  if (motion == Motion::kDynamic && imported && imported->triangles() > kMaxDynamicModelTriangles)
+    throw std::invalid_argument("models: " + file + " has " + std::to_string(imported->triangles()) +
+                                " triangles, over the cap of " + std::to_string(kMaxDynamicModelTriangles) +
+                                " for motion: dynamic (use motion: static)");
 }
 
 std::string ModelsConfig::Describe() const {
@@ -61,7 +68,19 @@ void ModelsConfig::CheckIn(const SceneConfig&) const {
     }
 }
 
+std::shared_ptr<const SceneElementConfig> ModelsConfig::PlaceOnStage(const Rigid3d& world_from_stage) const {
+  auto placed = std::make_shared<ModelsConfig>(*this);
+  for (auto& m : placed->models) m.world_from_stage = world_from_stage;
+  return placed;
+}
+
 Rigid3d ModelPlacement(const ModelEntry& e, const Eigen::Vector3d& world_up, const Aabb& file_box) {
+  if (e.world_from_stage) {
+    // The same placement in the stage's frame (its up is +z), then onto the world.
+    ModelEntry in_stage = e;
+    in_stage.world_from_stage.reset();
+    return *e.world_from_stage * ModelPlacement(in_stage, Eigen::Vector3d::UnitZ(), file_box);
+  }
   const Eigen::Vector3d up = world_up.norm() > 0 ? Eigen::Vector3d(world_up.normalized()) : Eigen::Vector3d::UnitZ();
   const Eigen::Matrix3d align = Eigen::Quaterniond::FromTwoVectors(e.up_file.normalized(), up).toRotationMatrix();
   const Eigen::Matrix3d yaw = Eigen::AngleAxisd(e.yaw_deg * M_PI / 180.0, up).toRotationMatrix();
@@ -92,6 +111,7 @@ std::vector<ScenePart> PlaceModel(const ImportedModel& model, const ModelEntry& 
   for (const auto& ip : model.parts) {
     ScenePart p;
     p.name = ip.name;
+    p.dynamic = e.motion == ModelEntry::Motion::kDynamic;
     p.colour = ip.colour;
     p.world_from_body = T;
     p.body.reserve(ip.vertices.size());
@@ -99,7 +119,7 @@ std::vector<ScenePart> PlaceModel(const ImportedModel& model, const ModelEntry& 
     for (const auto& v : ip.vertices) {
       const Eigen::Vector3d b = e.scale * v.cast<double>();
       p.body.push_back(b.cast<float>());
-      p.mesh.vertices.push_back(T * b);
+      p.mesh.vertices.push_back(p.dynamic ? b : T * b);
     }
     p.mesh.triangles = ip.triangles;
     p.bvh = TriangleBvh(p.mesh);
@@ -122,33 +142,59 @@ Eigen::Vector4d Quaternion(const Eigen::Matrix3d& r) {
 
 class ModelsElement final : public SceneElement {
  public:
-  ModelsElement(const ModelsConfig& config, const Eigen::Vector3d& world_up) {
+  ModelsElement(const ModelsConfig& config, const SceneConfig& scene) : scene_(scene) {
+    const double g = scene.gravity.norm();
+    g_hat_ = g > 0 ? Eigen::Vector3d(scene.gravity / g) : Eigen::Vector3d(0, 0, 1);
     for (const auto& e : config.models) {
       if (!e.imported) throw std::invalid_argument("models: " + e.file + " was not imported");
       Model m;
       m.entry = e;
-      m.parts = PlaceModel(*e.imported, e, world_up);
+      m.parts = PlaceModel(*e.imported, e, -g_hat_);
       m.colliding.assign(m.parts.size(), false);
       m.state.parts.resize(m.parts.size());
+      m.bodies.resize(m.parts.size());
       for (size_t k = 0; k < m.parts.size(); ++k) {
-        m.state.parts[k].position = m.parts[k].world_from_body.translation;
-        m.state.parts[k].orientation = Quaternion(m.parts[k].world_from_body.rotation);
-        m.triangles += m.parts[k].mesh.triangles.size();
-        if (!m.parts[k].bvh.empty()) m.box.Extend(m.parts[k].bvh.nodes()[0].box.min), m.box.Extend(m.parts[k].bvh.nodes()[0].box.max);
+        const ScenePart& p = m.parts[k];
+        m.triangles += p.mesh.triangles.size();
+        if (!p.dynamic) continue;
+        // A dynamic part's reference point (RP_obj, §4.2) is its box's centre;
+        // its lowest point along gravity and its smallest half extent (the
+        // farthest it may move in one substep) are fixed by its orientation.
+        Body& b = m.bodies[k];
+        Aabb box;
+        for (const auto& v : p.mesh.vertices) box.Extend(v);
+        b.centre_body = box.empty() ? Eigen::Vector3d::Zero() : box.Center();
+        b.support = -1e300;
+        for (const auto& v : p.mesh.vertices) b.support = std::max(b.support, g_hat_.dot(p.world_from_body.rotation * v));
+        b.reach = box.empty() ? kMinReach : std::max(kMinReach, 0.5 * (box.max - box.min).minCoeff());
       }
       m.results.resize(m.parts.size());
+      SetPoses(m);
       models_.push_back(std::move(m));
     }
     threads_ = config.threads > 0 ? config.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   }
 
-  void Step(double, const VolumeQuery* hull, StopFlag stop) override {
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override {
+    if (scene_.floor_under_hull && hull && !hull->hull_box().empty()) {
+      // The floor under the first hull, as the balls take it (ball.h).
+      double lowest = -1e300;
+      for (const auto& p : hull->hull_box().Corners()) lowest = std::max(lowest, g_hat_.dot(p));
+      scene_.floor = lowest;
+      scene_.has_floor = true;
+      scene_.floor_under_hull = false;
+    }
     for (Model& m : models_) {
       const auto t0 = std::chrono::steady_clock::now();
       BvhQueryStats stats;
       stats.triangles_in_scene = int64_t(m.triangles);
       for (auto& r : m.results) r = {};
-      if (hull) StepModel(m, *hull, stop, &stats);
+      if (m.entry.motion == ModelEntry::Motion::kDynamic)
+        Move(m, std::clamp(dt, 0.0, 0.25), hull, stop, &stats);
+      else if (hull)
+        Detect(m, *hull, stop, &stats);
+      if (hull) Clearances(m, *hull, stop);
+      SetPoses(m);
       m.state.triangles = uint64_t(stats.triangles_in_scene);
       m.state.boxes_tested = uint64_t(stats.boxes_tested);
       m.state.triangles_queried = uint64_t(stats.triangles_queried);
@@ -183,7 +229,16 @@ class ModelsElement final : public SceneElement {
           r.object_id = id0 + uint32_t(k);
           for (int t : m.results[k].triangle_ids) r.triangle_ids.push_back(uint32_t(t));
           r.collision_points = m.results[k].collision_points;
+          if (const auto& resp = m.bodies[k].response) {
+            r.has_response = true;
+            r.cp_obj = resp->cp_obj;
+            r.cp_hull = resp->cp_hull;
+            r.v_rec = resp->v_rec;
+            r.d_rec = resp->d_rec;
+            r.n_hull = resp->n_hull;
+          }
           out->reports.push_back(std::move(r));
+          if (m.parts[k].dynamic) ++out->colliding_bodies;
         }
         if (hit != m.colliding[k]) out->events.push_back({source_time_s, frame_seq, m.parts[k].name, hit, 0.0});
         m.colliding[k] = hit;
@@ -193,24 +248,46 @@ class ModelsElement final : public SceneElement {
   }
 
  private:
+  // The least distance a dynamic part may move in one substep (its smallest
+  // half extent, but not less than this: a flat part would take no step).
+  static constexpr double kMinReach = 0.005;
+  // Substeps per step at most for a dynamic model (each queries its parts).
+  static constexpr int kMaxSubsteps = 200;
+
+  struct Body {  // a dynamic part's motion
+    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+    Eigen::Vector3d centre_body = Eigen::Vector3d::Zero();
+    double support = 0;  // max over its vertices of g_hat . (R v)
+    double reach = kMinReach;
+    std::optional<CollisionResponse> response;  // of its last colliding substep
+  };
+
   struct Model {
     ModelEntry entry;
     std::vector<ScenePart> parts;
-    std::vector<bool> colliding;  // in the last output
+    std::vector<Body> bodies;      // per part (dynamic models)
+    std::vector<bool> colliding;   // in the last output
     std::vector<CollisionResult> results;
     ModelStateSample state;
     size_t triangles = 0;
-    Aabb box;  // of every part, world
   };
 
-  void StepModel(Model& m, const VolumeQuery& hull, StopFlag stop, BvhQueryStats* stats) {
+  static void SetPoses(Model& m) {
+    for (size_t k = 0; k < m.parts.size(); ++k) {
+      m.state.parts[k].position = m.parts[k].world_from_body.translation;
+      m.state.parts[k].orientation = Quaternion(m.parts[k].world_from_body.rotation);
+    }
+  }
+
+  // Static parts (§4.1 through each part's hierarchy): every part's surviving
+  // triangles queried in one batch.
+  void Detect(Model& m, const VolumeQuery& hull, StopFlag stop, BvhQueryStats* stats) {
     const TriangleQueryOptions options{m.entry.max_pixel_size, 0, 32};
-    // Every part's surviving triangles, queried in one batch.
     std::vector<Triangle> tris;
     std::vector<int> ids;          // the mesh triangle of each
     std::vector<size_t> first{0};  // part k's triangles are [first[k], first[k + 1])
     for (const ScenePart& p : m.parts) {
-      GatherBvhTriangles(hull, p.mesh, p.bvh, Rigid3d{}, &tris, &ids, stats);
+      GatherBvhTriangles(hull, p.mesh, p.bvh, p.world_from_mesh(), &tris, &ids, stats);
       first.push_back(tris.size());
     }
     ThrowIfStopped(stop, "the models' step");
@@ -220,10 +297,91 @@ class ModelsElement final : public SceneElement {
       r.triangles_queried = int(first[k + 1] - first[k]);
       for (size_t i = first[k]; i < first[k + 1]; ++i) AddTriangleResult(ids[i], rs[i], &r);
     }
+  }
+
+  // Dynamic parts: rigid bodies under gravity on the floor, each substep's
+  // collision with the hull answered by §4.2 as the balls' is (ball.h): moved
+  // by D_rec along V_rec (plus 1 mm) so CP_obj reaches the hull's surface, the
+  // normal velocity reflected about N_hull with the restitution. Substeps are
+  // short in time (max_substep) and in space (no part moves more than its
+  // smallest half extent), at most kMaxSubsteps a step.
+  void Move(Model& m, double dt, const VolumeQuery* hull, StopFlag stop, BvhQueryStats* stats) {
+    const TriangleQueryOptions options{m.entry.max_pixel_size, 0, 32};
+    int substeps = std::max(1, int(std::ceil(dt / scene_.max_substep)));
+    const double g_norm = scene_.gravity.norm();
+    for (const Body& b : m.bodies) {
+      const double reach = (b.velocity.norm() + g_norm * dt) * dt;
+      substeps = std::max(substeps, int(std::min(double(kMaxSubsteps), std::ceil(reach / b.reach))));
+    }
+    const double h = dt / substeps;
+    const double e = m.entry.restitution;
+    for (auto& b : m.bodies) b.response.reset();
+    std::vector<bool> collided(m.parts.size(), false);
+    for (int s = 0; s < substeps; ++s) {
+      ThrowIfStopped(stop, "the models' step");
+      for (size_t k = 0; k < m.parts.size(); ++k) {
+        ScenePart& p = m.parts[k];
+        Body& b = m.bodies[k];
+        Eigen::Vector3d& t = p.world_from_body.translation;
+        const Eigen::Vector3d previous = t;
+        b.velocity += scene_.gravity * h;
+        t += b.velocity * h;
+        if (scene_.has_floor && b.support + g_hat_.dot(t) > scene_.floor) {
+          t -= (b.support + g_hat_.dot(t) - scene_.floor) * g_hat_;
+          const double vn = b.velocity.dot(g_hat_);
+          if (vn > 0) b.velocity -= (1 + e) * vn * g_hat_;
+        }
+        if (!hull || p.mesh.triangles.empty()) continue;
+        BvhQueryStats one;
+        CollisionResult c = DetectCollisionsBvh(*hull, p.mesh, p.bvh, p.world_from_body, options, {}, threads_, &one);
+        stats->boxes_tested += one.boxes_tested;
+        stats->triangles_queried += one.triangles_queried;
+        if (!c.colliding()) continue;
+        const Eigen::Vector3d rp = p.world_from_body * b.centre_body;
+        std::optional<CollisionResponse> resp;
+        if (scene_.response == SceneConfig::Response::kExact) {
+          RefineFarthestCollisionPoint(*hull, p.mesh.Transformed(p.world_from_body), rp, options, &c);
+          resp = ComputeResponse(*hull, c.collision_points, rp);
+        } else {
+          resp = ComputeResponsePaper(*hull, c.collision_points, rp);
+        }
+        Eigen::Vector3d n;
+        if (resp) {
+          n = resp->n_hull;
+          t += (resp->d_rec + 1e-3) * resp->v_rec;  // 1 mm clear of the surface
+        } else {
+          // No CP_hull (a point outside the hull by rounding): back to the
+          // previous position, pushed away from the points' centroid.
+          Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+          for (const auto& q : c.collision_points) centroid += q;
+          centroid /= double(c.collision_points.size());
+          n = rp - centroid;
+          n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized()) : Eigen::Vector3d(-g_hat_);
+          t = previous;
+        }
+        const double vn = b.velocity.dot(n);
+        if (vn < 0) b.velocity -= (1 + e) * vn * n;
+        collided[k] = true;
+        m.results[k] = std::move(c);
+        b.response = resp;
+      }
+    }
+    for (size_t k = 0; k < m.parts.size(); ++k)
+      if (!collided[k]) m.results[k] = {};
+  }
+
+  // Clearance (§4.5): the hull sampled once over the model's box grown by the
+  // range, shared by its parts; the parts spread over the threads. A part that
+  // collided is colliding, clearance 0.
+  void Clearances(Model& m, const VolumeQuery& hull, StopFlag stop) {
     ThrowIfStopped(stop, "the models' step");
-    // Clearance (§4.5): the hull sampled once over the model's box grown by the
-    // range, shared by its parts; the parts spread over the threads.
-    Aabb region = m.box;
+    Aabb region;
+    for (const ScenePart& p : m.parts) {
+      if (p.bvh.empty()) continue;
+      const Aabb box = TransformBox(p.world_from_mesh(), p.bvh.nodes()[0].box);
+      region.Extend(box.min), region.Extend(box.max);
+    }
+    if (region.empty()) return;
     region.min -= Eigen::Vector3d::Constant(m.entry.max_clearance);
     region.max += Eigen::Vector3d::Constant(m.entry.max_clearance);
     const HullSamples coarse = SampleHull(hull, region);
@@ -237,13 +395,15 @@ class ModelsElement final : public SceneElement {
       const ScenePart& p = m.parts[size_t(k)];
       // Refined where the state depends on it (near warn_distance) or the hull
       // is close; farther, the coarse grid's distance (models/part_bvh.h).
-      const PartClearance c = HullToPartClearance(hull, p.mesh, p.bvh, Rigid3d{}, m.entry.max_clearance, coarse,
-                                                  m.entry.warn_distance + kRefineMargin);
+      const PartClearance c = HullToPartClearance(hull, p.mesh, p.bvh, p.world_from_mesh(), m.entry.max_clearance,
+                                                  coarse, m.entry.warn_distance + kRefineMargin);
       s.clearance = c.distance;
       s.contact = m.entry.warn_distance > 0 && c.distance < m.entry.warn_distance ? kPartNear : kPartClear;
     });
   }
 
+  SceneConfig scene_;  // gravity, floor (set under the first hull where the rig says so), response
+  Eigen::Vector3d g_hat_;
   std::vector<Model> models_;
   bool geometry_sent_ = false;
   int threads_ = 1;
@@ -262,9 +422,7 @@ Eigen::Vector3d Axis(const std::string& s, const std::string& path) {
 }  // namespace
 
 std::unique_ptr<SceneElement> ModelsConfig::Make(const SceneConfig& scene) const {
-  const Eigen::Vector3d up = scene.gravity.norm() > 0 ? Eigen::Vector3d(-scene.gravity.normalized())
-                                                      : Eigen::Vector3d(0, 0, -1);
-  return std::make_unique<ModelsElement>(*this, up);
+  return std::make_unique<ModelsElement>(*this, scene);
 }
 
 std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& n, const std::string& path,
@@ -279,8 +437,8 @@ std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& n,
     const YAML::Node m = n[k];
     const std::string where = "models[" + std::to_string(k) + "]";
     Keys(m, path, where,
-         {"file", "units", "scale", "up", "anchor", "position", "yaw_deg", "motion", "first_id", "warn_distance",
-          "max_clearance", "max_pixel_size"},
+         {"file", "units", "scale", "up", "anchor", "position", "yaw_deg", "motion", "restitution", "first_id",
+          "warn_distance", "max_clearance", "max_pixel_size"},
          {"file"});
     ModelEntry e;
     e.file = m["file"].as<std::string>();
@@ -315,12 +473,13 @@ std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& n,
     Get(m, "yaw_deg", &e.yaw_deg);
     if (m["motion"]) {
       const std::string mo = m["motion"].as<std::string>();
-      if (mo == "dynamic")
-        throw std::runtime_error(path + ": '" + where + ".motion: dynamic' is not supported yet (static parts only)");
-      if (mo != "static") throw std::runtime_error(path + ": '" + where + ".motion' must be static, not " + mo);
+      if (mo != "static" && mo != "dynamic")
+        throw std::runtime_error(path + ": '" + where + ".motion' must be static or dynamic, not " + mo);
+      e.motion = mo == "dynamic" ? ModelEntry::Motion::kDynamic : ModelEntry::Motion::kStatic;
     }
     e.first_id = next_id;
     Get(m, "first_id", &e.first_id);
+    Get(m, "restitution", &e.restitution);
     Get(m, "warn_distance", &e.warn_distance);
     Get(m, "max_clearance", &e.max_clearance);
     Get(m, "max_pixel_size", &e.max_pixel_size);

@@ -4,6 +4,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+
+#include <Eigen/Geometry>
 
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/scenes/scene_config.h"
@@ -30,6 +33,16 @@ std::string LoadError(const fs::path& dir, const std::string& yaml) {
     return e.what();
   }
   return "";
+}
+
+// A cube of half size h centred at c, as OBJ object `name` (vertex indices from base + 1).
+void ObjCube(std::ostream& o, const std::string& name, Eigen::Vector3d c, double h, int base) {
+  o << "o " << name << "\n";
+  for (int k = 0; k < 8; ++k)
+    o << "v " << c.x() + (k & 1 ? h : -h) << ' ' << c.y() + (k & 2 ? h : -h) << ' ' << c.z() + (k & 4 ? h : -h) << '\n';
+  const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                        {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  for (const auto& t : f) o << "f " << base + t[0] + 1 << ' ' << base + t[1] + 1 << ' ' << base + t[2] + 1 << '\n';
 }
 
 // The world triangles of a scene's first model, corners sorted, rounded to 1 µm.
@@ -90,7 +103,9 @@ TEST(ModelScene, BadEntriesNameTheKey) {
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: furlong}\n").find("models[0].units"), std::string::npos);
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, scale: 2}\n").find("not both"), std::string::npos);
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, up: w}\n").find("models.up"), std::string::npos);
-  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, motion: dynamic}\n").find("not supported"),
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, motion: rolling}\n").find("models[0].motion"),
+            std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, motion: dynamic, restitution: 2}\n").find("restitution"),
             std::string::npos);
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, colour: red}\n").find("unknown key 'models[0].colour'"),
             std::string::npos);
@@ -116,19 +131,11 @@ TEST(ModelScene, PartsTurnRedAndAmberAsTheHullComes) {
   const fs::path dir = test::TempDir("model_scene_step");
   // Three boxes as three OBJ objects (metres): where the figure's right forearm
   // waves (1.5 m up), 3 cm beyond the hand's reach, and 1 m away.
-  auto box = [](std::ostream& o, const std::string& name, Eigen::Vector3d c, double h, int base) {
-    o << "o " << name << "\n";
-    for (int k = 0; k < 8; ++k)
-      o << "v " << c.x() + (k & 1 ? h : -h) << ' ' << c.y() + (k & 2 ? h : -h) << ' ' << c.z() + (k & 4 ? h : -h) << '\n';
-    const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
-                          {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
-    for (const auto& t : f) o << "f " << base + t[0] + 1 << ' ' << base + t[1] + 1 << ' ' << base + t[2] + 1 << '\n';
-  };
   {
     std::ofstream o(dir / "parts.obj");
-    box(o, "crossed", {0.55, 0.0, -1.5}, 0.1, 0);
-    box(o, "beyond", {0.82, 0.0, -1.55}, 0.03, 8);
-    box(o, "far", {-1.0, 1.0, -0.5}, 0.05, 16);
+    ObjCube(o, "crossed", {0.55, 0.0, -1.5}, 0.1, 0);
+    ObjCube(o, "beyond", {0.82, 0.0, -1.55}, 0.03, 8);
+    ObjCube(o, "far", {-1.0, 1.0, -0.5}, 0.05, 16);
   }
   const SceneConfig cfg =
       Load(dir, "gravity: [0, 0, 9.81]\nballs: []\nmodels:\n  - {file: parts.obj, units: m, up: -z, "
@@ -163,6 +170,178 @@ TEST(ModelScene, PartsTurnRedAndAmberAsTheHullComes) {
   }
   EXPECT_GE(red, 4);
   EXPECT_GE(amber, 1);
+}
+
+// The world position of a part's body-frame point after the last step.
+Eigen::Vector3d PartPoint(const PartStateSample& s, const Eigen::Vector3d& body) {
+  const Eigen::Quaterniond q(s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3]);
+  return q * body + s.position;
+}
+
+// motion: dynamic. The world is the Utrecht rig's (z down, floor z = 0). A
+// cube (10 cm) dropped from 0.5 m comes to rest on the floor, its lowest face
+// on it; the same cube static stays where it was put (the control of "falls").
+TEST(ModelScene, DynamicPartsFallAndRestOnTheFloor) {
+  const fs::path dir = test::TempDir("model_scene_dynamic_floor");
+  {
+    std::ofstream o(dir / "cube.obj");
+    ObjCube(o, "cube", {0, 0, 0}, 0.05, 0);
+  }
+  for (const std::string motion : {"dynamic", "static"}) {
+    SCOPED_TRACE(motion);
+    const SceneConfig cfg = Load(dir, "gravity: [0, 0, 9.81]\nfloor: 0\nballs: []\nmodels:\n  - {file: cube.obj, "
+                                      "units: m, up: -z, anchor: bottom, position: [0.3, 0.2, -0.5], motion: " +
+                                          motion + "}\n");
+    VirtualScene scene(cfg);
+    ElementOutput out;
+    for (int f = 0; f < 75; ++f) {  // 3 s at 25 fps, no hull
+      scene.Step(0.04, nullptr);
+      out = scene.Output(0.04 * f, uint64_t(f + 1));
+    }
+    ASSERT_EQ(out.model_states.size(), 1u);
+    const PartStateSample& s = out.model_states[0].parts[0];
+    // The body frame is the file's: the cube's bottom face centre is (0, 0, 0.05).
+    const Eigen::Vector3d bottom = PartPoint(s, {0, 0, 0.05});
+    if (motion == "dynamic") {
+      EXPECT_NEAR(bottom.z(), 0.0, 1e-3);  // on the floor: within one substep's fall at rest (g h^2)
+      EXPECT_NEAR(bottom.x(), 0.3, 1e-9);  // straight down
+      EXPECT_NEAR(bottom.y(), 0.2, 1e-9);
+    } else {
+      EXPECT_NEAR((bottom - Eigen::Vector3d(0.3, 0.2, -0.5)).norm(), 0.0, 1e-9);
+    }
+  }
+}
+
+// The hull pushes a dynamic part with §4.2's response, as it does a ball: a
+// cube dropped 0.3 m onto the flat top of a box (exact maps of 6 cameras level
+// with that top, so the hull's top is the box's to a pixel) touches it, is
+// reported colliding with a response whose N_hull points up, is never inside
+// the hull at the end of a step, and bounces to e^2 times its drop onto the
+// hull's surface (restitution e = 0.5: the rebound of a body whose speed v is
+// reflected to e v at the surface). Without the hull it falls into it (the
+// control of "never inside").
+TEST(ModelScene, TheHullBouncesADynamicPart) {
+  const fs::path dir = test::TempDir("model_scene_dynamic_hull");
+  {
+    std::ofstream o(dir / "cube.obj");
+    ObjCube(o, "cube", {0, 0, 0}, 0.05, 0);
+  }
+  const Eigen::Vector3d centre(0.1, -0.1, -1.0);
+  const double top = centre.z() - 0.3, start = top - 0.3;  // z down: the box's top, z = -1.3
+  SyntheticScene block;
+  block.shapes.push_back(Shape::Box(centre, Eigen::Vector3d::Constant(0.3)));
+  const VolumeQuery hull = test::HullOf(block, RingCameras(6, 3.0, -top, centre, 320, 240, 1.0));
+  // Substeps of 1 ms: the integrator (semi-implicit Euler) then loses v h / 2
+  // = 0.6 mm of the rebound's height, and the cube sinks at most 2.5 mm (its
+  // fall in one substep) before the response.
+  std::ostringstream yaml;
+  yaml << "gravity: [0, 0, 9.81]\nfloor: 0\nmax_substep: 0.001\nballs: []\nmodels:\n  - {file: cube.obj, units: m, "
+          "up: -z, anchor: bottom, motion: dynamic, restitution: 0.5, warn_distance: 0, max_pixel_size: 0.002, "
+          "position: ["
+       << centre.x() << ", " << centre.y() << ", " << start << "]}\n";
+  const SceneConfig cfg = Load(dir, yaml.str());
+  for (const bool with_hull : {true, false}) {
+    SCOPED_TRACE(with_hull ? "hull" : "no hull");
+    VirtualScene scene(cfg);
+    int hits = 0, responses = 0, inside = 0;
+    double surface = 0, apex = 1e9;  // z of the hull's surface at the first contact; least z after it
+    for (int f = 0; f < 40; ++f) {  // 0.8 s at 50 fps
+      scene.Step(0.02, with_hull ? &hull : nullptr);
+      const ElementOutput out = scene.Output(0.02 * f, uint64_t(f + 1));
+      const PartStateSample& s = out.model_states[0].parts[0];
+      const Eigen::Vector3d bottom = PartPoint(s, {0, 0, 0.05});  // the bottom face's centre
+      inside += hull.Inside(bottom);
+      if (s.contact == kPartColliding) {
+        ASSERT_EQ(out.reports.size(), 1u);
+        const CollisionReportSample& rep = out.reports[0];
+        EXPECT_EQ(rep.object_id, 1000u);
+        if (rep.has_response) {
+          if (responses++ == 0) surface = rep.cp_hull.z();
+          EXPECT_GT(rep.n_hull.dot(Eigen::Vector3d(0, 0, -1)), 0.99);  // up, on the box's top
+        }
+        ++hits;
+      }
+      if (responses > 0 && f < 30) apex = std::min(apex, bottom.z());  // the first rebound's top
+    }
+    if (with_hull) {
+      EXPECT_GT(hits, 0);
+      ASSERT_GT(responses, 0);
+      EXPECT_NEAR(surface, top, 0.006);  // the hull's top: the box's to a pixel (10 mm at 3 m)
+      EXPECT_EQ(inside, 0);
+      // e^2 x the drop, within 2 mm: the 2.5 mm the cube may sink before the
+      // response (0.6 mm of height back), the integrator's 0.6 mm, the apex
+      // sampled every 20 ms (0.5 mm).
+      EXPECT_NEAR(surface - apex, 0.25 * (surface - start), 0.002);
+    } else {
+      EXPECT_EQ(hits, 0);
+      EXPECT_GT(inside, 0);
+    }
+  }
+}
+
+// frame: stage. The same scene file puts the model at the same place relative
+// to the stage (StageFrame: on the floor below the workspace's centre, z up)
+// on a z-up and a z-down rig; a stage scene still refuses world-only kinds.
+TEST(ModelScene, AStageScenePlacesTheModelOnAnyRig) {
+  const fs::path dir = test::TempDir("model_scene_stage");
+  std::ofstream(dir / "t.obj") << "o t\nv 0 0 0\nv 0.2 0 0\nv 0 0.1 0.05\nf 1 2 3\n";
+  const std::string yaml = "frame: stage\nballs: []\nmodels:\n  - {file: t.obj, units: m, up: +z, yaw_deg: 30, "
+                           "position: [0.3, -0.2, 0.1]}\n";
+  std::vector<std::vector<Eigen::Vector3d>> in_stage;
+  for (const double up_z : {1.0, -1.0}) {
+    RigWorld world;
+    world.up = {0, 0, up_z};
+    world.floor = RigWorld::Floor::kPlane;
+    world.floor_height = 0.25;
+    Aabb ws;
+    ws.min = Eigen::Vector3d(-1, 2, -1);
+    ws.max = Eigen::Vector3d(1, 4, 1);
+    SceneConfig cfg = Load(dir, yaml);
+    cfg.PlaceInWorld(world, ws);
+    const Rigid3d world_from_stage = StageFrame(world, ws);
+    const auto* m = cfg.Find<ModelsConfig>();
+    ASSERT_NE(m, nullptr);
+    const auto parts = PlaceModel(*m->models[0].imported, m->models[0], -cfg.gravity.normalized());
+    ASSERT_EQ(parts.size(), 1u);
+    std::vector<Eigen::Vector3d> v;
+    for (const auto& p : parts[0].mesh.vertices) v.push_back(world_from_stage.Inverse() * p);
+    in_stage.push_back(v);
+    // The file's origin at the stage position: 0.1 m above the floor.
+    EXPECT_NEAR(world.up.dot(parts[0].mesh.vertices[0]), 0.25 + 0.1, 1e-12);
+    VirtualScene scene(cfg);  // runs
+    scene.Step(0.04, nullptr);
+  }
+  ASSERT_EQ(in_stage[0].size(), 3u);
+  // Tolerances: the file's vertices are single precision (0.2 m to 3e-9 m).
+  for (size_t k = 0; k < 3; ++k) EXPECT_NEAR((in_stage[0][k] - in_stage[1][k]).norm(), 0, 1e-7);
+  EXPECT_NEAR((in_stage[0][0] - Eigen::Vector3d(0.3, -0.2, 0.1)).norm(), 0, 1e-7);
+  // yaw 30 degrees about the stage's z from its x axis: (0.2, 0, 0) -> 0.2 (cos 30, sin 30, 0).
+  EXPECT_NEAR((in_stage[0][1] - Eigen::Vector3d(0.3 + 0.2 * std::cos(M_PI / 6), -0.2 + 0.2 * std::sin(M_PI / 6), 0.1))
+                  .norm(),
+              0, 1e-7);
+  EXPECT_NE(LoadError(dir, "frame: stage\nballs: []\nparticles: {emitter: [0, 0, 1], velocity: [0, 0, 1]}\n")
+                .find("places balls and models only"),
+            std::string::npos);
+}
+
+// A dynamic model's parts are queried every substep: over the cap, refused naming it.
+TEST(ModelScene, ADynamicModelOverTheCapIsRefused) {
+  auto big = std::make_shared<ImportedModel>();
+  big->path = "big.stl";
+  big->parts.resize(1);
+  big->parts[0].vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  big->parts[0].triangles.assign(size_t(kMaxDynamicModelTriangles) + 1, Eigen::Vector3i(0, 1, 2));
+  ModelEntry e;
+  e.file = "big.stl";
+  e.imported = big;
+  EXPECT_NO_THROW(e.Check());  // static: fine
+  e.motion = ModelEntry::Motion::kDynamic;
+  try {
+    e.Check();
+    FAIL();
+  } catch (const std::invalid_argument& x) {
+    EXPECT_NE(std::string(x.what()).find("cap of 200000"), std::string::npos) << x.what();
+  }
 }
 
 TEST(ModelScene, TheEngineSceneLoadsAtRealSize) {

@@ -12,9 +12,15 @@
 
 namespace hullpipe {
 
-void SceneConfig::PlaceInWorld(const RigWorld& world) {
+void SceneConfig::PlaceInWorld(const RigWorld& world, const Aabb& workspace) {
   if (frame != Frame::kStage) return;
   const Eigen::Matrix3d r = StageAxes(world.up);
+  const Rigid3d world_from_stage = StageFrame(world, workspace);
+  for (auto& e : elements) {
+    auto placed = e->PlaceOnStage(world_from_stage);
+    if (!placed) throw std::invalid_argument("scene: frame stage: " + e->Key() + " cannot be placed on the stage");
+    e = std::move(placed);
+  }
   gravity = r * gravity;
   for (auto& b : balls) {
     b.start = r * b.start;
@@ -32,12 +38,14 @@ void SceneConfig::PlaceInWorld(const RigWorld& world) {
 }
 
 void SceneConfig::Check() const {
-  if (frame == Frame::kStage && (!elements.empty() || light)) {
+  if (frame == Frame::kStage) {
     std::string which;
-    for (const auto& e : elements) which += (which.empty() ? "" : ", ") + e->Key();
+    for (const auto& e : elements)
+      if (!e->CanBeOnStage()) which += (which.empty() ? "" : ", ") + e->Key();
     if (light) which += (which.empty() ? "" : ", ") + std::string("light");
-    throw std::invalid_argument("scene: frame stage places balls only: " + which +
-                                " are in world coordinates (use frame: world)");
+    if (!which.empty())
+      throw std::invalid_argument("scene: frame stage places balls and models only: " + which +
+                                  " are in world coordinates (use frame: world)");
   }
   if (!gravity.allFinite()) throw std::invalid_argument("scene: gravity must be finite");
   if (!(max_substep >= kMinSubstepS && max_substep <= kMaxSubstepS))

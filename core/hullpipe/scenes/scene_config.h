@@ -49,10 +49,12 @@
 // whoever is there), along the rig's stage axes (rig_world.h StageFrame: z up,
 // x and y horizontal); gravity is in the same axes (default [0, 0, -9.81]); the
 // floor is the rig's (`world: floor`: a plane, under the first hull, or none), so
-// `floor` is refused. A ball waits for a hull before its first throw. Cloth,
-// particles, payload and light stay in world coordinates: refused in a stage
-// scene (their geometry is the world's). sim_node --rig gives the world;
-// SceneConfig::PlaceInWorld applies it.
+// `floor` is refused. A ball waits for a hull before its first throw. Models
+// are placed in the stage frame (rig_world.h StageFrame: origin on the floor
+// below the workspace's centre; model_scene.h). Cloth, particles, payload and
+// light stay in world coordinates: refused in a stage scene (their geometry is
+// the world's). sim_node --rig gives the world and the workspace;
+// SceneConfig::PlaceInWorld applies them.
 //
 // Checked where read (LoadSceneConfig): the file is a non-empty map; every key
 // is one of the above (a misspelt key is an error naming it, never ignored);
@@ -114,10 +116,13 @@ struct SceneConfig {
   /// -gravity); set by PlaceInWorld for a rig whose floor is `hull`.
   bool floor_under_hull = false;
   /// A stage scene: turns its stage-axis vectors into the world's with `world`
-  /// (StageAxes of its up), takes the rig's floor and marks the balls as
-  /// hull-relative; frame becomes kWorld. A world scene: unchanged. Throws
-  /// std::invalid_argument if the stage gravity is not along -z.
-  void PlaceInWorld(const RigWorld& world);
+  /// (StageAxes of its up), takes the rig's floor, marks the balls as
+  /// hull-relative and places the elements that can be on the stage (models)
+  /// by StageFrame(world, workspace) (an empty workspace: the stage's origin
+  /// is the world's origin on the floor); frame becomes kWorld. A world scene:
+  /// unchanged. Throws std::invalid_argument if the stage gravity is not along
+  /// -z.
+  void PlaceInWorld(const RigWorld& world, const Aabb& workspace = {});
   /// Throws std::invalid_argument naming the bad field (a stage scene with an
   /// element or a light, an element's own CheckIn).
   void Check() const;

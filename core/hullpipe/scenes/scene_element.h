@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "hullpipe/geometry/rigid3.h"
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/util/interrupt.h"
@@ -78,6 +79,14 @@ class SceneElementConfig {
   virtual void CheckIn(const SceneConfig& scene) const = 0;
   /// The running element, in the scene's world (gravity, floor).
   virtual std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const = 0;
+  /// Whether a `frame: stage` scene may hold this kind (scene_config.h); false:
+  /// its geometry is the world's, refused in a stage scene.
+  virtual bool CanBeOnStage() const { return false; }
+  /// The settings with their stage-frame geometry placed in the world by
+  /// world_from_stage (rig_world.h StageFrame); only for kinds that CanBeOnStage.
+  virtual std::shared_ptr<const SceneElementConfig> PlaceOnStage(const Rigid3d& /*world_from_stage*/) const {
+    return nullptr;
+  }
 };
 
 /// How much of a scene file to load.
