@@ -12,12 +12,14 @@ namespace hullpipe {
 namespace {
 
 // Rasterises the meshes into out/depth (eye z), depth-tested.
-void DrawMeshes(const NovelView& view, const std::vector<VirtualMeshDraw>& meshes, const Eigen::Vector3d& light,
+void DrawMeshes(const NovelView& view, const MeshDraws& meshes, const Eigen::Vector3d& light,
                 const CompositeOptions& o, cv::Mat* out, cv::Mat* depth) {
   const Rigid3d eye_from_world = view.world_from_eye.Inverse();
   const Eigen::Vector3d light_eye = eye_from_world.rotation * light;
   constexpr double kNear = 0.05;
-  for (const auto& m : meshes) {
+  for (const VirtualMeshDraw* mp : meshes) {
+    if (!mp) continue;
+    const VirtualMeshDraw& m = *mp;
     std::vector<Eigen::Vector3d> e(m.vertices.size());  // eye frame
     for (size_t i = 0; i < e.size(); ++i) e[i] = eye_from_world * m.vertices[i];
     auto colour_of = [&](size_t k, double shade) {
@@ -65,10 +67,15 @@ void DrawMeshes(const NovelView& view, const std::vector<VirtualMeshDraw>& meshe
       const Eigen::Vector2d& p2 = P[i2];
       const double area = (p1 - p0).x() * (p2 - p0).y() - (p1 - p0).y() * (p2 - p0).x();
       if (std::abs(area) < 1e-12) continue;
-      const int x0 = std::max(0, int(std::floor(std::min(p0.x(), std::min(p1.x(), p2.x())))));
-      const int x1 = std::min(view.width - 1, int(std::ceil(std::max(p0.x(), std::max(p1.x(), p2.x())))));
-      const int y0 = std::max(0, int(std::floor(std::min(p0.y(), std::min(p1.y(), p2.y())))));
-      const int y1 = std::min(view.height - 1, int(std::ceil(std::max(p0.y(), std::max(p1.y(), p2.y())))));
+      // Only pixels whose centre (x + 0.5, y + 0.5) lies in the triangle's box:
+      // most of a CAD model's triangles cover no pixel centre at all.
+      const double min_x = std::min(p0.x(), std::min(p1.x(), p2.x())), max_x = std::max(p0.x(), std::max(p1.x(), p2.x()));
+      const double min_y = std::min(p0.y(), std::min(p1.y(), p2.y())), max_y = std::max(p0.y(), std::max(p1.y(), p2.y()));
+      if (!(max_x >= 0.5 && max_y >= 0.5 && min_x <= view.width - 0.5 && min_y <= view.height - 0.5)) continue;
+      const int x0 = std::max(0, int(std::ceil(min_x - 0.5)));
+      const int x1 = std::min(view.width - 1, int(std::floor(max_x - 0.5)));
+      const int y0 = std::max(0, int(std::ceil(min_y - 0.5)));
+      const int y1 = std::min(view.height - 1, int(std::floor(max_y - 0.5)));
       if (x0 > x1 || y0 > y1) continue;
       const Eigen::Vector2d* V[3] = {&p0, &p1, &p2};
       const double z3[3] = {iz[i0], iz[i1], iz[i2]};
@@ -105,7 +112,7 @@ void DrawMeshes(const NovelView& view, const std::vector<VirtualMeshDraw>& meshe
 
 cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Mat& hull_colour,
                   const std::vector<VirtualSphere>& spheres, const CompositeOptions& o,
-                  cv::Mat* depth_out, const std::vector<VirtualMeshDraw>& meshes) {
+                  cv::Mat* depth_out, const MeshDraws& meshes) {
   CV_Assert(hull_depth.type() == CV_32FC1 && hull_colour.type() == CV_8UC3);
   CV_Assert(hull_depth.cols == view.width && hull_depth.rows == view.height);
   CV_Assert(hull_colour.size() == hull_depth.size());

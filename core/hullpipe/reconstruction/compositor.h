@@ -29,15 +29,21 @@ struct CompositeOptions {
   cv::Vec3b collide_colour{30, 30, 230};   ///< BGR when colliding (red).
 };
 
+/// The meshes to draw, by pointer: a CAD model's parts are drawn every frame
+/// from geometry the caller keeps (no copy per frame).
+using MeshDraws = std::vector<const VirtualMeshDraw*>;
+
 /// Draws the view: hull_depth (CV_32FC1 eye z, kNoDepth = none) and hull_colour
 /// (CV_8UC3), both of the view's size, with the spheres, meshes (rasterised,
 /// two-sided, flat-shaded; points as discs) and floor, depth-tested on eye z.
 /// Returns CV_8UC3 BGR of the view's size. *depth_out (optional) receives the
 /// composited eye-z depth. A mesh whose triangle indices are out of range is
-/// skipped (callers validate messages first).
+/// skipped (callers validate messages first); null pointers are skipped. A
+/// triangle is tested only at the pixel centres inside its box (most of a CAD
+/// model's triangles, smaller than a pixel, cover none).
 cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Mat& hull_colour,
                   const std::vector<VirtualSphere>& spheres, const CompositeOptions& options = {},
-                  cv::Mat* depth_out = nullptr, const std::vector<VirtualMeshDraw>& meshes = {});
+                  cv::Mat* depth_out = nullptr, const MeshDraws& meshes = {});
 
 /// The scripted head path: an orbit around `centre` (world metres) of `radius` at
 /// `height` along the up vector, one turn per `period` seconds, looking at centre.

@@ -34,7 +34,7 @@ bool ShadowMap::Shadowed(const Eigen::Vector3d& X, double bias) const {
 }
 
 ShadowMap RenderShadowMap(const LightConfig& light, const Eigen::Vector3d& up, const VolumeQuery* hull,
-                          const std::vector<VirtualSphere>& spheres, const std::vector<VirtualMeshDraw>& meshes,
+                          const std::vector<VirtualSphere>& spheres, const MeshDraws& meshes,
                           int threads) {
   light.Check();
   ShadowMap s;

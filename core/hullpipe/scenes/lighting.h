@@ -52,7 +52,7 @@ struct ShadowMap {
 /// The shadow map of the hull of `hull` (nullptr: none) and the given virtual
 /// objects, seen from the light.
 ShadowMap RenderShadowMap(const LightConfig& light, const Eigen::Vector3d& up, const VolumeQuery* hull,
-                          const std::vector<VirtualSphere>& spheres, const std::vector<VirtualMeshDraw>& meshes,
+                          const std::vector<VirtualSphere>& spheres, const MeshDraws& meshes,
                           int threads = 1);
 
 /// Lights a composited view in place: every pixel with a surface (finite depth:

@@ -148,7 +148,7 @@ void RenderController::OnModelState(ModelStateSample state) {
   while (per.size() > 8) per.erase(per.begin());
 }
 
-void RenderController::DrawModels(uint64_t frame_seq, std::vector<VirtualMeshDraw>* draws) {
+void RenderController::DrawModels(uint64_t frame_seq, MeshDraws* draws) {
   static const cv::Vec3b kAmber(0, 170, 255);
   for (const auto& [model_id, per] : model_states_) {
     auto s = per.upper_bound(frame_seq);
@@ -174,7 +174,7 @@ void RenderController::DrawModels(uint64_t frame_seq, std::vector<VirtualMeshDra
       d.world.colour = ps.contact == kPartColliding ? comp_.collide_colour
                        : ps.contact == kPartNear   ? kAmber
                                                    : d.part.colour;
-      draws->push_back(d.world);
+      draws->push_back(&d.world);
       d.frames_colliding += ps.contact == kPartColliding;
       d.frames_near += ps.contact == kPartNear;
       if (ps.clearance >= 0 && d.clearance_m.size() < 100000) d.clearance_m.push_back(float(ps.clearance));
@@ -326,12 +326,12 @@ void RenderController::Composite(InFlight& f) {
     spheres.push_back({s->second.position, s->second.radius, s->second.colliding});
     if (s->second.colliding) ++collisions_drawn_;
   }
-  std::vector<VirtualMeshDraw> draws;
+  MeshDraws draws;  // pointers into meshes_ and model_parts_, unchanged until drawn
   for (const auto& [id, per] : meshes_) {
     auto s = per.upper_bound(f.frame_seq);
     if (s == per.begin()) continue;
     --s;
-    draws.push_back(s->second.draw);
+    draws.push_back(&s->second.draw);
     if (s->second.kind == kMeshPart && s->second.clearance >= 0) {
       auto [mc, fresh] = min_clearance_.try_emplace(id, s->second.clearance);
       if (!fresh) mc->second = std::min(mc->second, s->second.clearance);

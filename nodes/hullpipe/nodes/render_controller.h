@@ -167,7 +167,7 @@ class RenderController {
   void Composite(InFlight& f);
   // Appends the models' parts as of frame_seq to *draws (amber when near, red
   // when colliding), and counts them into the models' statistics.
-  void DrawModels(uint64_t frame_seq, std::vector<VirtualMeshDraw>* draws);
+  void DrawModels(uint64_t frame_seq, MeshDraws* draws);
   nlohmann::json ModelsJson() const;
 
   struct ModelPartDraw {
