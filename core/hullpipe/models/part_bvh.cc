@@ -298,12 +298,12 @@ PartClearance HullToPartClearance(const VolumeQuery& q, const TriangleMesh& mesh
   }
   if (!found) return r;
   double h = coarse.step;
-  for (int level = 0; level < 3 && best < refine_below; ++level) {
+  for (int level = 0; level < 6 && best < refine_below; ++level) {
     Aabb window;
     window.min = best_p - Eigen::Vector3d::Constant(h);
     window.max = best_p + Eigen::Vector3d::Constant(h);
     window = window.Intersection(q.hull_box());
-    h /= 4;
+    h /= 2;
     if (window.empty()) break;
     ForEachGridPoint(window, h, [&](const Eigen::Vector3d& p) {
       if (BoxDistance2(part_box, p) < best * best && q.Inside(p)) distance(p);

@@ -118,8 +118,8 @@ HullSamples SampleHull(const VolumeQuery& query, const Aabb& region, double step
 /// Least distance from the hull of `query` to the part's triangles (moved by
 /// world_from_body) up to max_clearance: each coarse sample within
 /// max_clearance of the part's box gets its exact distance to the triangles
-/// through the hierarchy; around the nearest, three grids four times finer
-/// (±1 step of the grid before) refine it. The result is never below the
+/// through the hierarchy; around the nearest, six grids each twice as fine
+/// (±1 step of the grid before: 125 points each) refine it. The result is never below the
 /// distance of the hull (it is a distance to a hull point), and above it by at
 /// most half the finest grid's diagonal (step / 64 * sqrt(3) / 2: 0.27 mm at
 /// 2 cm), unless a hull part thinner than `step`, or more than one step from
