@@ -8,6 +8,7 @@
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
+#include "hullpipe/gl/backend.h"
 #include "hullpipe/nodes/sim_controller.h"
 #include "hullpipe/scenes/model_scene.h"
 #include "hullpipe/scenes/scene_config.h"
@@ -55,6 +56,15 @@ int main(int argc, char** argv) {
                  "nodes share this machine's cores)")
       ->check(CLI::Range(0, 256))
       ->capture_default_str();
+  std::string backend_name = "auto";
+  app.add_option("--backend", backend_name,
+                 "Triangle query of the CAD models: cpu|gl|auto (auto: GL on a hardware GPU, the CPU on a software "
+                 "renderer or without one)")
+      ->check(CLI::IsMember({"cpu", "gl", "auto"}))
+      ->capture_default_str();
+  int gl_device = -1;
+  app.add_option("--gl-device", gl_device, "EGL device index for --backend gl|auto (-1: pick)")
+      ->check(CLI::Range(-1, 64));
   bool every_frameset = false;
   app.add_flag("--every-frameset", every_frameset,
                "Step every complete frameset in order, not only the newest (deterministic replays of a recording)");
@@ -70,9 +80,12 @@ int main(int argc, char** argv) {
       workspace = rig.workspace;
     }
     config.PlaceInWorld(world, workspace);
+    std::string backend = "cpu";
     if (const auto* models = config.Find<ModelsConfig>()) {
       ModelsConfig m = *models;
       m.threads = model_threads;
+      m.query = gl::MakeTriangleQuery(backend_name, gl::EglOptions{gl_device}, &backend);
+      spdlog::info("CAD models' triangle query: {}", backend);
       config.Set(std::move(m));
     }
     auto participant = StartNode("sim", common);
@@ -85,6 +98,7 @@ int main(int argc, char** argv) {
     nodes::SimController sim(config, clock, input.assembler(), writers);
     sim.set_stop(StopRequestFlag());  // SIGINT ends a long step too
     sim.set_every_frameset(every_frameset);
+    sim.counters().SetBackend(backend);
     NodeReporter reporter(*participant, "sim", sim.counters(), common.run_id);
     input.SetCounters(&sim.counters());
     while (!StopRequested()) {

@@ -1,6 +1,8 @@
 // GL twins against their CPU references. Skips (with the reason) only where no
 // EGL display exists.
 #include <algorithm>
+#include <fstream>
+#include <tuple>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -15,6 +17,8 @@
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/collision/triangle_query.h"
+#include "hullpipe/scenes/model_scene.h"
+#include "hullpipe/scenes/virtual_scene.h"
 #include "test_util.h"
 
 namespace hullpipe::gl {
@@ -479,6 +483,70 @@ TEST_F(Gl, FiveProcessesWithTheGlBackend) {
     EXPECT_NE(backend.find("gl march"), std::string::npos) << node << ": " << backend;
     EXPECT_NE(backend.find(ctx_->renderer()), std::string::npos) << node << ": " << backend;
   }
+}
+
+// sim_node's CAD models with the GL triangle query (MakeTriangleQuery "gl")
+// against the CPU query: over frames of the synthetic figure the same parts
+// collide and their collision points agree as GL's and the CPU's triangle
+// queries do (TriangleQueryMatchesCpu: edge pixels, within 3%). "cpu" and, on
+// a software renderer, "auto" give the CPU query.
+TEST_F(Gl, CadModelsCollideTheSameWithTheGlTriangleQuery) {
+  std::string said;
+  EXPECT_FALSE(MakeTriangleQuery("cpu", {}, &said));
+  EXPECT_NE(said.find("cpu"), std::string::npos);
+  if (ctx_->IsSoftware()) {
+    EXPECT_FALSE(MakeTriangleQuery("auto", {}, &said));
+    EXPECT_NE(said.find("software"), std::string::npos) << said;
+  }
+  EXPECT_THROW(MakeTriangleQuery("vulkan"), std::invalid_argument);
+  const TriangleQueryFunction gl_query = MakeTriangleQuery("gl", {}, &said);
+  ASSERT_TRUE(gl_query) << said;
+  EXPECT_NE(said.find("gl triangle query"), std::string::npos) << said;
+
+  const auto dir = test::TempDir("gl_models");
+  {
+    // Two boxes (OBJ, metres) where the figure's right forearm waves, one far.
+    std::ofstream o(dir / "parts.obj");
+    int base = 0;
+    for (const auto& [name, c, h] : {std::tuple{"crossed", Eigen::Vector3d(0.55, 0.0, -1.5), 0.1},
+                                     std::tuple{"beside", Eigen::Vector3d(0.75, 0.0, -1.6), 0.06},
+                                     std::tuple{"far", Eigen::Vector3d(-1.0, 1.0, -0.5), 0.05}}) {
+      test::WriteObjCube(o, name, c, h, base);
+      base += 8;
+    }
+  }
+  std::ofstream(dir / "scene.yaml") << "gravity: [0, 0, 9.81]\nballs: []\nmodels:\n  - {file: parts.obj, units: m, "
+                                       "up: -z, max_pixel_size: 0.004}\n";
+  SceneConfig cpu_cfg = LoadSceneConfig((dir / "scene.yaml").string());
+  SceneConfig gl_cfg = cpu_cfg;
+  ModelsConfig m = *gl_cfg.Find<ModelsConfig>();
+  m.query = gl_query;
+  gl_cfg.Set(std::move(m));
+  VirtualScene cpu(cpu_cfg), gl(gl_cfg);
+  const auto cams = RingCameras(4, 3.0, 1.8, Eigen::Vector3d(0.2, 0, -1.0), 320, 240, 1.0);
+  size_t cpu_points = 0, gl_points = 0;
+  int colliding_frames = 0;
+  for (int f = 0; f < 8; ++f) {
+    const VolumeQuery q = test::HullOf(AnimatedFigure(0.5 * f), cams);
+    cpu.Step(0.5, &q);
+    gl.Step(0.5, &q);
+    const ElementOutput a = cpu.Output(0.5 * f, uint64_t(f + 1)), b = gl.Output(0.5 * f, uint64_t(f + 1));
+    ASSERT_EQ(a.model_states.size(), 1u);
+    ASSERT_EQ(b.model_states.size(), 1u);
+    for (size_t k = 0; k < 3; ++k)
+      EXPECT_EQ(int(a.model_states[0].parts[k].contact), int(b.model_states[0].parts[k].contact))
+          << "frame " << f << " part " << k;
+    ASSERT_EQ(a.reports.size(), b.reports.size()) << "frame " << f;
+    for (size_t r = 0; r < a.reports.size(); ++r) {
+      EXPECT_EQ(a.reports[r].object_id, b.reports[r].object_id);
+      cpu_points += a.reports[r].collision_points.size();
+      gl_points += b.reports[r].collision_points.size();
+    }
+    colliding_frames += !a.reports.empty();
+  }
+  EXPECT_GE(colliding_frames, 3) << "the figure must touch a part for the comparison to mean anything";
+  EXPECT_GT(cpu_points, 50u);
+  EXPECT_NEAR(double(gl_points), double(cpu_points), 0.03 * double(cpu_points));
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
 #include "hullpipe/gl/gl_ray_sweep.h"
+#include "hullpipe/gl/gl_triangle_query.h"
 #include "hullpipe/gl/gl_texture.h"
 
 namespace hullpipe::gl {
@@ -112,6 +113,47 @@ std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int thre
 const GlInfo* GlInfoOf(const SweepBackend& backend) {
   const auto* gl = dynamic_cast<const GlBackend*>(&backend);
   return gl ? &gl->info() : nullptr;
+}
+
+TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOptions& egl, std::string* description) {
+  auto say = [&](const std::string& s) {
+    if (description) *description = s;
+  };
+  if (name != "cpu" && name != "gl" && name != "auto")
+    throw std::invalid_argument("--backend must be cpu, gl or auto, not '" + name + "'");
+  if (name == "cpu") {
+    say("cpu (--backend cpu)");
+    return {};
+  }
+  std::string why;
+  std::optional<EglContext> ctx = EglContext::TryCreate(egl, &why);
+  if (!ctx) {
+    if (name == "gl") throw std::runtime_error("--backend gl: no GL context: " + why);
+    say("cpu (auto: no GL context: " + why + ")");
+    return {};
+  }
+  if (name == "auto" && ctx->IsSoftware()) {
+    say("cpu (auto: GL renderer is software, " + ctx->renderer() + "; the CPU triangle query is faster there)");
+    return {};
+  }
+  struct Gl {
+    EglContext ctx;
+    GlTriangleQuery query;
+  };
+  std::shared_ptr<Gl> gl;
+  const std::string summary = ctx->info().Summary();
+  try {
+    gl = std::make_shared<Gl>(Gl{std::move(*ctx), GlTriangleQuery()});  // built with the context current
+  } catch (const std::exception& e) {
+    if (name == "gl") throw std::runtime_error(std::string("--backend gl: ") + e.what());
+    say(std::string("cpu (auto: GL triangle query failed to build: ") + e.what() + ")");
+    return {};
+  }
+  say("gl triangle query (" + summary + ")");
+  return [gl](const VolumeQuery& q, const std::vector<Triangle>& tris, const TriangleQueryOptions& o) {
+    gl->ctx.MakeCurrent();
+    return gl->query.Query(q, tris, o);
+  };
 }
 
 }  // namespace hullpipe::gl

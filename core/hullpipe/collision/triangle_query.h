@@ -5,6 +5,7 @@
 // collision points in world metres.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -81,6 +82,12 @@ TriangleQueryResult QueryTriangleCpu(const VolumeQuery& query, const Eigen::Vect
 /// results in triangle order. Throws std::invalid_argument if options fail Check().
 std::vector<TriangleQueryResult> QueryTrianglesCpu(const VolumeQuery& query, const std::vector<Triangle>& triangles,
                                                    const TriangleQueryOptions& options, int threads = 1);
+
+/// A triangle query with QueryTrianglesCpu's contract run elsewhere: the GPU's
+/// (gl/backend.h MakeTriangleQuery: one pass over the batch, one readback).
+/// Empty: the CPU query.
+using TriangleQueryFunction = std::function<std::vector<TriangleQueryResult>(
+    const VolumeQuery& query, const std::vector<Triangle>& triangles, const TriangleQueryOptions& options)>;
 
 /// Point queries for particles (paper §4.1: a particle is a point, so it needs no
 /// viewport): inside[k] != 0 iff points[k] (world metres) is inside the hull

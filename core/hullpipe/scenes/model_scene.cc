@@ -173,6 +173,7 @@ class ModelsElement final : public SceneElement {
       models_.push_back(std::move(m));
     }
     threads_ = config.threads > 0 ? config.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    query_ = config.query;
   }
 
   void Step(double dt, const VolumeQuery* hull, StopFlag stop) override {
@@ -291,7 +292,11 @@ class ModelsElement final : public SceneElement {
       first.push_back(tris.size());
     }
     ThrowIfStopped(stop, "the models' step");
-    const std::vector<TriangleQueryResult> rs = QueryTrianglesCpu(hull, tris, options, threads_);
+    const std::vector<TriangleQueryResult> rs =
+        tris.empty() ? std::vector<TriangleQueryResult>{}
+        : query_     ? query_(hull, tris, options)
+                     : QueryTrianglesCpu(hull, tris, options, threads_);
+    if (rs.size() != tris.size()) throw std::runtime_error("models: the triangle query returned the wrong count");
     for (size_t k = 0; k < m.parts.size(); ++k) {
       CollisionResult& r = m.results[k];
       r.triangles_queried = int(first[k + 1] - first[k]);
@@ -333,7 +338,10 @@ class ModelsElement final : public SceneElement {
         }
         if (!hull || p.mesh.triangles.empty()) continue;
         BvhQueryStats one;
-        CollisionResult c = DetectCollisionsBvh(*hull, p.mesh, p.bvh, p.world_from_body, options, {}, threads_, &one);
+        TriangleBatchQuery batch;
+        if (query_)
+          batch = [&](const std::vector<Triangle>& batch_tris) { return query_(*hull, batch_tris, options); };
+        CollisionResult c = DetectCollisionsBvh(*hull, p.mesh, p.bvh, p.world_from_body, options, batch, threads_, &one);
         stats->boxes_tested += one.boxes_tested;
         stats->triangles_queried += one.triangles_queried;
         if (!c.colliding()) continue;
@@ -407,6 +415,7 @@ class ModelsElement final : public SceneElement {
   std::vector<Model> models_;
   bool geometry_sent_ = false;
   int threads_ = 1;
+  TriangleQueryFunction query_;
 };
 
 Eigen::Vector3d Axis(const std::string& s, const std::string& path) {

@@ -105,6 +105,9 @@ struct ModelsConfig final : SceneElementConfig {
   /// default: on a machine that runs the other nodes too, threads of sim_node
   /// wait on cores those nodes hold (docs/benchmarks.md, "CAD models").
   int threads = 1;
+  /// The triangle query of the models' collisions (sim_node --backend: the
+  /// GL one on a GPU); empty: the CPU query on `threads` threads.
+  TriangleQueryFunction query;
   std::string Key() const override { return "models"; }
   std::string Describe() const override;
   void CheckIn(const SceneConfig& scene) const override;
@@ -113,8 +116,8 @@ struct ModelsConfig final : SceneElementConfig {
   /// Each frameset: a dynamic model's parts moved in substeps (gravity, floor,
   /// and per substep their collision with the hull through the hierarchy and
   /// §4.2's response); a static model's parts' hierarchies descended against
-  /// the hull and the surviving triangles of all parts queried in one batch on
-  /// the CPU across threads; each part's clearance. Outputs each model's
+  /// the hull and the surviving triangles of all parts queried in one batch
+  /// (by `query`, else on the CPU across threads); each part's clearance. Outputs each model's
   /// ModelState, its ModelParts once, a CollisionReport per colliding part
   /// (with the response for dynamic parts), and collisions starting and ending
   /// as events.

@@ -35,16 +35,6 @@ std::string LoadError(const fs::path& dir, const std::string& yaml) {
   return "";
 }
 
-// A cube of half size h centred at c, as OBJ object `name` (vertex indices from base + 1).
-void ObjCube(std::ostream& o, const std::string& name, Eigen::Vector3d c, double h, int base) {
-  o << "o " << name << "\n";
-  for (int k = 0; k < 8; ++k)
-    o << "v " << c.x() + (k & 1 ? h : -h) << ' ' << c.y() + (k & 2 ? h : -h) << ' ' << c.z() + (k & 4 ? h : -h) << '\n';
-  const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
-                        {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
-  for (const auto& t : f) o << "f " << base + t[0] + 1 << ' ' << base + t[1] + 1 << ' ' << base + t[2] + 1 << '\n';
-}
-
 // The world triangles of a scene's first model, corners sorted, rounded to 1 µm.
 std::multiset<std::vector<long>> WorldTriangles(const SceneConfig& cfg) {
   const auto* m = cfg.Find<ModelsConfig>();
@@ -133,9 +123,9 @@ TEST(ModelScene, PartsTurnRedAndAmberAsTheHullComes) {
   // waves (1.5 m up), 3 cm beyond the hand's reach, and 1 m away.
   {
     std::ofstream o(dir / "parts.obj");
-    ObjCube(o, "crossed", {0.55, 0.0, -1.5}, 0.1, 0);
-    ObjCube(o, "beyond", {0.82, 0.0, -1.55}, 0.03, 8);
-    ObjCube(o, "far", {-1.0, 1.0, -0.5}, 0.05, 16);
+    test::WriteObjCube(o, "crossed", {0.55, 0.0, -1.5}, 0.1, 0);
+    test::WriteObjCube(o, "beyond", {0.82, 0.0, -1.55}, 0.03, 8);
+    test::WriteObjCube(o, "far", {-1.0, 1.0, -0.5}, 0.05, 16);
   }
   const SceneConfig cfg =
       Load(dir, "gravity: [0, 0, 9.81]\nballs: []\nmodels:\n  - {file: parts.obj, units: m, up: -z, "
@@ -185,7 +175,7 @@ TEST(ModelScene, DynamicPartsFallAndRestOnTheFloor) {
   const fs::path dir = test::TempDir("model_scene_dynamic_floor");
   {
     std::ofstream o(dir / "cube.obj");
-    ObjCube(o, "cube", {0, 0, 0}, 0.05, 0);
+    test::WriteObjCube(o, "cube", {0, 0, 0}, 0.05, 0);
   }
   for (const std::string motion : {"dynamic", "static"}) {
     SCOPED_TRACE(motion);
@@ -224,7 +214,7 @@ TEST(ModelScene, TheHullBouncesADynamicPart) {
   const fs::path dir = test::TempDir("model_scene_dynamic_hull");
   {
     std::ofstream o(dir / "cube.obj");
-    ObjCube(o, "cube", {0, 0, 0}, 0.05, 0);
+    test::WriteObjCube(o, "cube", {0, 0, 0}, 0.05, 0);
   }
   const Eigen::Vector3d centre(0.1, -0.1, -1.0);
   const double top = centre.z() - 0.3, start = top - 0.3;  // z down: the box's top, z = -1.3

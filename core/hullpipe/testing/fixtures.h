@@ -11,6 +11,7 @@
 #include <cmath>
 #include <limits>
 #include <filesystem>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -106,5 +107,17 @@ class SphereHull : public ::testing::Test {
   SphereHull() : query_(SphereViews(4, 320, 240, kSphereCentre, kSphereRadius), BigBox()) {}
   VolumeQuery query_;
 };
+
+/// Writes an axis-aligned cube of half size h centred at c (metres) as OBJ
+/// object `name`, its faces wound outward; its vertex indices start at base + 1
+/// (base: the vertices written before it in the same file).
+inline void WriteObjCube(std::ostream& o, const std::string& name, const Eigen::Vector3d& c, double h, int base) {
+  o << "o " << name << "\n";
+  for (int k = 0; k < 8; ++k)
+    o << "v " << c.x() + (k & 1 ? h : -h) << ' ' << c.y() + (k & 2 ? h : -h) << ' ' << c.z() + (k & 4 ? h : -h) << '\n';
+  const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                        {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  for (const auto& t : f) o << "f " << base + t[0] + 1 << ' ' << base + t[1] + 1 << ' ' << base + t[2] + 1 << '\n';
+}
 
 }  // namespace hullpipe::test

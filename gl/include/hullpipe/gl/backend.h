@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "hullpipe/collision/triangle_query.h"
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/reconstruction/sweep_backend.h"
 
@@ -23,5 +24,16 @@ std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int thre
 /// The GL implementation behind a backend made by MakeSweepBackend, or nullptr
 /// for the CPU backend.
 const GlInfo* GlInfoOf(const SweepBackend& backend);
+
+/// The triangle query of sim_node's CAD models (paper §4.1): a GlTriangleQuery
+/// on a context of its own (one pass over a batch, one readback), made current
+/// on each call (call it from one thread). `name` as BackendOptions::name:
+/// "cpu" gives an empty function (the CPU query); "gl" the GL query, or throws
+/// std::runtime_error with one line naming what failed; "auto" the GL query on
+/// a hardware renderer, empty on a software one (llvmpipe: the CPU query is
+/// faster there) or where no context can be made. *description (optional) says
+/// which and why, for the log and NodeStats.
+TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOptions& egl = {},
+                                        std::string* description = nullptr);
 
 }  // namespace hullpipe::gl
