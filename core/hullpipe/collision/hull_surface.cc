@@ -9,6 +9,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "hullpipe/reconstruction/exact_hull.h"
+#include "hullpipe/geometry/conventions.h"
 
 namespace hullpipe {
 
@@ -63,7 +64,7 @@ struct BorderEdge {
 // The border edges of `map` among pixels within `radius` of uv.
 std::vector<BorderEdge> BorderEdgesNear(const cv::Mat& map, const Eigen::Vector2d& uv, int radius) {
   std::vector<BorderEdge> edges;
-  const int cx = int(std::floor(uv.x())), cy = int(std::floor(uv.y()));
+  const int cx = FloorPixel(uv.x()), cy = FloorPixel(uv.y());
   auto obj = [&](int x, int y) { return map.at<uint8_t>(y, x) != 0; };
   for (int y = cy - radius; y <= cy + radius; ++y)
     for (int x = cx - radius; x <= cx + radius; ++x) {

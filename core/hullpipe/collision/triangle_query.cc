@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "hullpipe/util/parallel.h"
+#include "hullpipe/geometry/conventions.h"
 
 namespace hullpipe {
 
@@ -38,8 +39,8 @@ TriangleViewport MakeTriangleViewport(const Eigen::Vector3d& a, const Eigen::Vec
   if (o.fixed_viewport > 0) {
     w = h = o.fixed_viewport;
   } else {
-    w = std::clamp(int(std::ceil(eu / o.max_pixel_size)), 1, o.max_viewport);
-    h = std::clamp(int(std::ceil(ev / o.max_pixel_size)), 1, o.max_viewport);
+    w = std::clamp(CeilPixel(eu / o.max_pixel_size), 1, o.max_viewport);
+    h = std::clamp(CeilPixel(ev / o.max_pixel_size), 1, o.max_viewport);
   }
   const double su = eu > 0 ? eu / w : 1e-9, sv = ev > 0 ? ev / h : 1e-9;
   vp.width = w;

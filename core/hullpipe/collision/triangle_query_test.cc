@@ -47,6 +47,15 @@ TEST_F(SphereHull, TriangleCuttingTheHullGivesPointsOnTriangleInsideHull) {
   }
 }
 
+// A triangle far larger than any viewport: its pixel counts clamp in floating
+// point before they become ints (CeilPixel), to the largest viewport.
+TEST_F(SphereHull, AHugeTriangleGetsTheLargestViewport) {
+  TriangleQueryOptions o;
+  const auto r = QueryTriangleCpu(query_, kCentre, kCentre + Eigen::Vector3d(1e15, 0, 0),
+                                  kCentre + Eigen::Vector3d(0, 1e15, 0), o);
+  EXPECT_LE(r.pixels_tested, o.max_viewport * o.max_viewport);
+}
+
 TEST_F(SphereHull, TriangleFarAwayAndTinyAndSliver) {
   const Eigen::Vector3d off(2, 2, 0);
   EXPECT_TRUE(QueryTriangleCpu(query_, kCentre + off, kCentre + off + Eigen::Vector3d(0.1, 0, 0),

@@ -14,6 +14,7 @@
 
 #include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/util/parallel.h"
+#include "hullpipe/geometry/conventions.h"
 
 namespace hullpipe {
 
@@ -368,7 +369,7 @@ struct TileClassifier {
         double radius = 0;
         for (const auto& uv : uvs) radius = std::max(radius, (uv - c).norm());
         radius += o.margin;
-        const int col = int(std::floor(c.x())), row = int(std::floor(c.y()));
+        const int col = FloorPixel(c.x()), row = FloorPixel(c.y());
         if (c.x() - radius >= 0 && c.y() - radius >= 0 && c.x() + radius <= o.camera->width &&
             c.y() + radius <= o.camera->height && o.walker->distance.at<float>(row, col) - 1.42 >= radius) {
           if (!o.walker->map->at<uint8_t>(row, col)) {
@@ -380,8 +381,10 @@ struct TileClassifier {
         }
       }
       const double m = o.margin;
-      const int x0 = int(std::floor(u0 - m)), y0 = int(std::floor(v0 - m));
-      const int x1 = int(std::floor(u1 + m)) + 1, y1 = int(std::floor(v1 + m)) + 1;
+      // Clamped in floating point first (FloorPixel): a corner far outside a
+      // distorted camera's view can project to ~1e11 px, past int.
+      const int x0 = FloorPixel(u0 - m), y0 = FloorPixel(v0 - m);
+      const int x1 = FloorPixel(u1 + m) + 1, y1 = FloorPixel(v1 + m) + 1;
       const bool inside = projects && x0 >= 0 && y0 >= 0 && x1 <= o.camera->width && y1 <= o.camera->height;
       if (!inside) {
         all_full = false;

@@ -64,5 +64,28 @@ void Compare(const Distortion& distortion, double max_differing_fraction) {
 // uniform, so not one pixel may differ.
 TEST(ReprojectionExact, MatchesRayHullIntervalsPixelByPixel) { Compare({}, 0); }
 
+// A rig like a published 20-camera dome (1024x768, k1 = -0.04, k2 = 0.06, one
+// camera at the world's origin with the identity pose): a cell corner far
+// outside a distorted camera's view projects to ~1e11 px, which once overflowed
+// int on its way to a pixel index (SIGSEGV in the integral image). Every
+// reprojection must run, and the hull reprojects inside the camera's own map.
+TEST(ReprojectionExact, TwentyDistortedCamerasAtTheirRealSize) {
+  const Eigen::Vector3d target(0, 0, 2.2);
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Sphere(target, 0.35));
+  std::vector<Camera> cams = DomeCameras(20, 2.2, target, 1024, 768, 1.0, Distortion{-0.04, 0.06, 0, 0, 0});
+  cams[7].cam_from_world = Rigid3d{};  // at the origin, looking along +z at the sphere
+  std::vector<CameraMap> views;
+  for (const auto& c : cams) views.push_back({c, RenderExactMap(c, scene)});
+  ASSERT_GT(cv::countNonZero(views[7].map), 1000);  // the identity camera sees the sphere
+  const VolumeQuery q(views, test::BigBox());
+  const ExactReprojector reprojector(q, 1);
+  // The identity camera's reprojection crashed (SIGSEGV) before the fix; the
+  // others take minutes at this size (quarter-pixel steps in distorted views).
+  const Reprojection got = reprojector.Reproject(7, 1);
+  EXPECT_GT(cv::countNonZero(got.all), 1000);
+  EXPECT_EQ(cv::countNonZero(got.all & ~views[7].map), 0);
+}
+
 }  // namespace
 }  // namespace hullpipe

@@ -23,6 +23,9 @@
 //     the top-left pixel; pixel (col, row) covers [col, col+1) x [row, row+1) and its
 //     centre is at (col + 0.5, row + 0.5) (as COLMAP). A projected point lies on
 //     pixel (floor(u), floor(v)).
+//   * A projected coordinate becomes a pixel index through FloorPixel/CeilPixel,
+//     which clamp in floating point first: a point far outside a distorted
+//     camera's view projects to 1e11 px or more, past int.
 //   * OpenCV calibration files put pixel centres at integers; readers add 0.5 to the
 //     principal point on load (`kOpenCvToHullpipePixelOffset`).
 //   * Images are row-major, row 0 at the top. Object-pixel maps are CV_8UC1 with
@@ -34,6 +37,7 @@
 #pragma once
 
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 
@@ -47,6 +51,26 @@ inline constexpr double kMetresPerMillimetre = 1e-3;
 
 /// Depth value meaning "the ray meets no hull" (in depth images and HullView tiles).
 inline constexpr float kNoDepth = std::numeric_limits<float>::infinity();
+
+/// Beyond this many pixels from an image, every coordinate is as far as this:
+/// no image is that large, and int holds it with room for arithmetic.
+inline constexpr double kFarPixels = 1e7;
+
+/// floor(x) as an int, x clamped to [-kFarPixels, kFarPixels] in floating point
+/// first (NaN gives -kFarPixels). For projected coordinates and bounds
+/// computed from them; callers clamp to their image after.
+inline int FloorPixel(double x) {
+  if (!(x > -kFarPixels)) return -int(kFarPixels);
+  if (!(x < kFarPixels)) return int(kFarPixels);
+  return int(std::floor(x));
+}
+
+/// ceil(x) as an int, clamped as FloorPixel.
+inline int CeilPixel(double x) {
+  if (!(x > -kFarPixels)) return -int(kFarPixels);
+  if (!(x < kFarPixels)) return int(kFarPixels);
+  return int(std::ceil(x));
+}
 
 /// Nanoseconds of CLOCK_REALTIME, the clock of every timestamp on the wire.
 inline int64_t NowNs() {

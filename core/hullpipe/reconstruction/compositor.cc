@@ -36,9 +36,10 @@ void DrawMeshes(const NovelView& view, const MeshDraws& meshes, const Eigen::Vec
         const double u = view.fx * p.x() / p.z() + view.cx, v = view.fy * p.y() / p.z() + view.cy;
         const double r = std::max(0.7, view.fx * m.point_radius / p.z());
         const cv::Vec3b c = colour_of(i, 0.9);
-        for (int y = int(std::floor(v - r)); y <= int(std::ceil(v + r)); ++y)
-          for (int x = int(std::floor(u - r)); x <= int(std::ceil(u + r)); ++x) {
-            if (x < 0 || y < 0 || x >= view.width || y >= view.height) continue;
+        const int py0 = std::max(0, FloorPixel(v - r)), py1 = std::min(view.height - 1, CeilPixel(v + r));
+        const int px0 = std::max(0, FloorPixel(u - r)), px1 = std::min(view.width - 1, CeilPixel(u + r));
+        for (int y = py0; y <= py1; ++y)
+          for (int x = px0; x <= px1; ++x) {
             const double dx = x + 0.5 - u, dy = y + 0.5 - v;
             if (dx * dx + dy * dy > r * r) continue;
             float& d = depth->at<float>(y, x);
@@ -72,10 +73,10 @@ void DrawMeshes(const NovelView& view, const MeshDraws& meshes, const Eigen::Vec
       const double min_x = std::min(p0.x(), std::min(p1.x(), p2.x())), max_x = std::max(p0.x(), std::max(p1.x(), p2.x()));
       const double min_y = std::min(p0.y(), std::min(p1.y(), p2.y())), max_y = std::max(p0.y(), std::max(p1.y(), p2.y()));
       if (!(max_x >= 0.5 && max_y >= 0.5 && min_x <= view.width - 0.5 && min_y <= view.height - 0.5)) continue;
-      const int x0 = std::max(0, int(std::ceil(min_x - 0.5)));
-      const int x1 = std::min(view.width - 1, int(std::floor(max_x - 0.5)));
-      const int y0 = std::max(0, int(std::ceil(min_y - 0.5)));
-      const int y1 = std::min(view.height - 1, int(std::floor(max_y - 0.5)));
+      const int x0 = std::max(0, CeilPixel(min_x - 0.5));
+      const int x1 = std::min(view.width - 1, FloorPixel(max_x - 0.5));
+      const int y0 = std::max(0, CeilPixel(min_y - 0.5));
+      const int y1 = std::min(view.height - 1, FloorPixel(max_y - 0.5));
       if (x0 > x1 || y0 > y1) continue;
       const Eigen::Vector2d* V[3] = {&p0, &p1, &p2};
       const double z3[3] = {iz[i0], iz[i1], iz[i2]};
@@ -141,7 +142,7 @@ cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Ma
             const Eigen::Vector3d f = O + s * D;
             // Checkers of 0.5 m in the floor plane's two world axes most in it.
             const Eigen::Vector3d a = o.floor_normal.unitOrthogonal(), b = o.floor_normal.cross(a);
-            const bool odd = (int(std::floor(f.dot(a) * 2)) + int(std::floor(f.dot(b) * 2))) & 1;
+            const bool odd = (FloorPixel(f.dot(a) * 2) + FloorPixel(f.dot(b) * 2)) & 1;
             const double fade = std::exp(-0.08 * s);
             const cv::Vec3b base = odd ? cv::Vec3b(180, 180, 170) : cv::Vec3b(110, 110, 100);
             for (int k = 0; k < 3; ++k) colour[k] = cv::saturate_cast<uint8_t>(base[k] * (0.4 + 0.6 * fade));

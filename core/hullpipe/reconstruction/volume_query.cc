@@ -1,4 +1,5 @@
 #include "hullpipe/reconstruction/volume_query.h"
+#include "hullpipe/geometry/conventions.h"
 
 #include <algorithm>
 #include <array>
@@ -211,11 +212,10 @@ bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
       ++seeing;
       continue;
     }
-    // Clamped in floating point first: a corner far outside a distorted view
-    // can project to ~1e11 px, past int.
-    constexpr double kFar = 1e7;
-    const int x0 = int(std::floor(std::clamp(r.u0, -kFar, kFar))), y0 = int(std::floor(std::clamp(r.v0, -kFar, kFar)));
-    const int x1 = int(std::floor(std::clamp(r.u1, -kFar, kFar))) + 1, y1 = int(std::floor(std::clamp(r.v1, -kFar, kFar))) + 1;
+    // Clamped in floating point first (FloorPixel): a corner far outside a
+    // distorted view can project to ~1e11 px, past int.
+    const int x0 = FloorPixel(r.u0), y0 = FloorPixel(r.v0);
+    const int x1 = FloorPixel(r.u1) + 1, y1 = FloorPixel(r.v1) + 1;
     if (x1 <= 0 || y1 <= 0 || x0 >= cam.width || y0 >= cam.height) {  // sees none of it
       if (outside_vetoes) return hint = i, true;
       continue;

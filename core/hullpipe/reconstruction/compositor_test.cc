@@ -1,0 +1,64 @@
+// Composite's depth test and its pixel coverage (paper §3.3, §4: the nearest of
+// hull, virtual objects and floor wins at each pixel).
+#include "hullpipe/reconstruction/compositor.h"
+
+#include <gtest/gtest.h>
+
+#include "hullpipe/geometry/conventions.h"
+
+namespace hullpipe {
+namespace {
+
+// A view looking down +z from the origin (eye = world), 64 x 48, no hull.
+struct Fixture {
+  NovelView view = NovelView::FromFov(64, 48, 1.0, Rigid3d{});
+  cv::Mat depth = cv::Mat(48, 64, CV_32FC1, cv::Scalar(kNoDepth));
+  cv::Mat colour = cv::Mat(48, 64, CV_8UC3, cv::Scalar(0, 0, 0));
+  CompositeOptions options;
+  Fixture() { options.draw_floor = false; }
+};
+
+// A triangle covers exactly the pixels whose centres it holds, at its depth.
+TEST(Composite, ATriangleCoversThePixelCentresItHolds) {
+  Fixture f;
+  VirtualMeshDraw m;
+  m.vertices = {{-0.5, -0.5, 2}, {0.5, -0.5, 2}, {-0.5, 0.5, 2}};
+  m.triangles = {{0, 1, 2}};
+  cv::Mat depth;
+  (void)Composite(f.view, f.depth, f.colour, {}, f.options, &depth, {&m});
+  int covered = 0;
+  for (int r = 0; r < 48; ++r)
+    for (int c = 0; c < 64; ++c) {
+      const Eigen::Vector3d ray = f.view.EyeRay(c + 0.5, r + 0.5);  // eye z 1
+      const Eigen::Vector3d p = 2.0 * ray;                           // on the triangle's plane
+      const bool inside = p.x() >= -0.5 && p.y() >= -0.5 && p.x() + p.y() <= 0.0;
+      const float d = depth.at<float>(r, c);
+      if (inside) {
+        ++covered;
+        EXPECT_NEAR(d, 2.0, 1e-5) << r << "," << c;
+      } else {
+        EXPECT_EQ(d, kNoDepth) << r << "," << c;
+      }
+    }
+  EXPECT_GT(covered, 50);
+}
+
+// Vertices and points whose projections lie ~1e13 px away (just in front of
+// the eye, far to the side): pixel bounds clamp in floating point before they
+// become ints (FloorPixel), so nothing overflows; what is in view is drawn.
+TEST(Composite, FarProjectionsDoNotOverflowPixelIndices) {
+  Fixture f;
+  VirtualMeshDraw tri;
+  tri.vertices = {{-0.5, -0.5, 2}, {1e12, -0.5, 0.06}, {-0.5, 1e12, 0.06}};
+  tri.triangles = {{0, 1, 2}};
+  VirtualMeshDraw points;
+  points.vertices = {{1e12, 1e12, 0.06}, {-1e12, 0, 0.06}, {0, 0, 3}};
+  points.point_radius = 1e9;  // discs of 1e13 px
+  cv::Mat depth;
+  (void)Composite(f.view, f.depth, f.colour, {}, f.options, &depth, {&tri, &points});
+  EXPECT_GT(cv::countNonZero(depth < kNoDepth), 0);
+  EXPECT_NO_THROW((void)Composite(f.view, f.depth, f.colour, {}, CompositeOptions{}, &depth, {}));
+}
+
+}  // namespace
+}  // namespace hullpipe
