@@ -34,6 +34,7 @@
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/segmentation/segmentation.h"
 #include "hullpipe/reconstruction/texture.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
 
@@ -194,6 +195,8 @@ int BackendTable(const std::string& which, int repeats, int gl_device) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("hullpipe_bench");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_bench: per-frame algorithm timings"};
   std::string rig = HULLPIPE_RIG_DIR;
   bool synthetic = false, no_gl = false;

@@ -22,6 +22,7 @@
 #include "hullpipe/scenes/scene_config.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/percentile.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
 
@@ -55,6 +56,8 @@ TriangleMesh Subdivide(const TriangleMesh& m) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("model_bench");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"model_bench: CAD model collision and clearance against the rig's hulls"};
   std::string rig = HULLPIPE_RIG_DIR, scene = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/engine.yaml";
   int frames = 12, first = 100, stride = 20;

@@ -38,6 +38,7 @@
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/record/recording.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -309,6 +310,8 @@ Result BenchCapture(const Participant& p, launch::Process& proc, int max_frames)
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("node_bench");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"node_bench: one hullpipe node alone, fed as fast as it takes input"};
   std::string node, recording, rig, bin_dir = fs::path(argv[0]).parent_path().string(), scene;
   int frames = 0;
@@ -358,6 +361,7 @@ int main(int argc, char** argv) {
                           {"latency_ms_p50", Percentile(r.latency_ms, 50)}, {"latency_ms_p95", Percentile(r.latency_ms, 95)},
                           {"latency_ms_p99", Percentile(r.latency_ms, 99)}, {"cpu_percent", r.seconds > 0 ? 100 * r.cpu_s / r.seconds : 0},
                           {"peak_rss_mib", r.rss_mib}};
+      j["command"] = CommandLine();
       std::printf("%s\n", j.dump().c_str());
     } else {
       const std::string name = r.node + (scene.empty() ? "" : " (" + fs::path(scene).stem().string() + ")");

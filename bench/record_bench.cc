@@ -26,6 +26,7 @@
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/record/recording.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe::record;
 
@@ -138,6 +139,8 @@ int Publish(int n, uint32_t domain) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("record_bench");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"record_bench: recording storage throughput against the disk"};
   std::string dir = "/tmp", recording;
   int mib = 512, repeats = 3;

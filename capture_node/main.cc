@@ -12,6 +12,7 @@
 #include "hullpipe/nodes/capture_controller.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/cli_range.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -54,6 +55,8 @@ class CaptureWriters final : public nodes::CaptureSink {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("capture");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe capture_node: cameras -> object-pixel maps + colour images over DDS"};
   CommonOptions common;
   AddCommonOptions(app, common);

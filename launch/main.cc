@@ -24,6 +24,7 @@
 #include "hullpipe/launch/supervisor.h"
 #include "hullpipe/util/cli_range.h"
 #include "hullpipe/util/run_id.h"
+#include "hullpipe/util/logging.h"
 
 namespace fs = std::filesystem;
 
@@ -35,6 +36,8 @@ extern "C" void OnSignal(int) { g_stop = 1; }
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("hullpipe_launch");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_launch: run the five-process pipeline and stop it cleanly"};
   std::string rig, out = "out", description, scene, backend = "auto", bin_dir, dds_config;
   bool synthetic = false;

@@ -9,6 +9,7 @@
 #include "hullpipe/dds/node.h"
 #include "hullpipe/gl/backend.h"
 #include "hullpipe/nodes/recon_controller.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -29,6 +30,8 @@ class TileWriter final : public nodes::ReconSink {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("recon");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe recon_node: object-pixel maps + ViewPose -> HullView tile"};
   CommonOptions common;
   AddCommonOptions(app, common);

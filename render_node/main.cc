@@ -11,6 +11,7 @@
 #include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/nodes/render_flags.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -40,6 +41,8 @@ class Outputs final : public nodes::RenderSink {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("render");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe render_node: viewpoint, tile assembly, compositing, outputs"};
   CommonOptions common;
   AddCommonOptions(app, common);

@@ -12,6 +12,7 @@
 #include "hullpipe/nodes/sim_controller.h"
 #include "hullpipe/scenes/model_scene.h"
 #include "hullpipe/scenes/scene_config.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -38,6 +39,8 @@ class SimWriters final : public nodes::SimSink {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("sim");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe sim_node: virtual scene colliding with the visual hull"};
   CommonOptions common;
   AddCommonOptions(app, common);

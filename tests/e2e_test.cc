@@ -550,9 +550,11 @@ TEST(EndToEnd, ReprojectionIoUAndHeldOutRenderingAtFrame200) {
   if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
   const auto out = test::TempDir("vh_eval");
   test::Process rep({test::BinDir() + "/vh_eval", "reprojection", "--rig", test::RigDir(), "--frame", "200", "--json"},
-                    (out / "rep.json").string());
-  ASSERT_EQ(rep.Wait(120), 0) << test::ReadFile((out / "rep.json").string());
-  const auto r = nlohmann::json::parse(test::ReadFile((out / "rep.json").string()));
+                    (out / "rep.json").string(), {}, (out / "rep.log").string());
+  ASSERT_EQ(rep.Wait(120), 0) << test::ReadFile((out / "rep.log").string());
+  const auto r = nlohmann::json::parse(test::ReadFile((out / "rep.json").string()));  // stdout alone
+  EXPECT_EQ(r["method"], "exact");
+  EXPECT_TRUE(r["step_m"].is_null()) << "an exact run has no march step";
   ASSERT_EQ(r["cameras"].size(), 4u);
   for (const auto& c : r["cameras"]) {
     // The bar is an independent check of this rig at frame 200 with 20 mm voxels:
@@ -563,9 +565,10 @@ TEST(EndToEnd, ReprojectionIoUAndHeldOutRenderingAtFrame200) {
   }
   test::Process held({test::BinDir() + "/vh_eval", "held-out", "--rig", test::RigDir(), "--first", "200",
                       "--max-frames", "1", "--json", "--images", out.string(), "--image-frame", "200"},
-                     (out / "held.json").string());
-  ASSERT_EQ(held.Wait(120), 0) << test::ReadFile((out / "held.json").string());
-  const auto h = nlohmann::json::parse(test::ReadFile((out / "held.json").string()));
+                     (out / "held.json").string(), {}, (out / "held.log").string());
+  ASSERT_EQ(held.Wait(120), 0) << test::ReadFile((out / "held.log").string());
+  const auto h = nlohmann::json::parse(test::ReadFile((out / "held.json").string()));  // stdout alone
+  EXPECT_NE(h["command"].get<std::string>().find("vh_eval held-out"), std::string::npos);
   ASSERT_EQ(h["variants"].size(), 6u);
   for (const auto& v : h["variants"]) {
     ASSERT_EQ(v["samples"].size(), 4u) << v["variant"];
@@ -588,12 +591,43 @@ TEST(EndToEnd, ReprojectionIoUAndHeldOutRenderingAtFrame200) {
   EXPECT_TRUE(std::filesystem::exists(out / "held_out_frame200.jpg"));
 }
 
+// `--json` output stands alone on stdout even when loading logs warnings: a
+// rig whose first rotation is orthonormal only to 1e-4 (repaired, and said so
+// on stderr) gives `vh_eval reprojection --json` a stdout that parses whole,
+// naming its method and command. The same rig with an exact rotation says
+// nothing (a rotation printed to 2e-12 is not worth a warning).
+TEST(Tools, JsonOutputStandsAloneOnStdoutWhileWarningsGoToStderr) {
+  if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
+  const auto out = test::TempDir("json_alone");
+  Rig rig = LoadRig(std::filesystem::absolute(test::RigDir()).string());
+  WriteRigYaml(rig, (out / "exact.yaml").string());
+  rig.cameras[0].camera.cam_from_world.rotation(0, 1) += 1e-4;
+  WriteRigYaml(rig, (out / "rig.yaml").string());
+  for (const std::string name : {"rig", "exact"}) {
+    SCOPED_TRACE(name);
+    const std::string json = (out / (name + ".json")).string(), log = (out / (name + ".log")).string();
+    test::Process rep({test::BinDir() + "/vh_eval", "reprojection", "--rig", (out / (name + ".yaml")).string(),
+                       "--frame", "200", "--json"},
+                      json, {}, log);
+    ASSERT_EQ(rep.Wait(120), 0) << test::ReadFile(log);
+    const bool warned = test::ReadFile(log).find("orthonormal only to") != std::string::npos;
+    EXPECT_EQ(warned, name == "rig") << test::ReadFile(log);
+    nlohmann::json j;
+    ASSERT_NO_THROW(j = nlohmann::json::parse(test::ReadFile(json))) << test::ReadFile(json);
+    EXPECT_EQ(j["method"], "exact");
+    EXPECT_NE(j["command"].get<std::string>().find("vh_eval reprojection --rig"), std::string::npos);
+    EXPECT_EQ(j["cameras"].size(), 4u);
+  }
+}
+
 TEST(Tools, VhEvalSweepPrintsOneJsonObjectWithTheDocumentedFields) {
   // The smoke grid of `vh_eval sweep --json`: synthetic, so it runs anywhere.
   const auto out = test::TempDir("vh_eval_sweep");
-  test::Process eval({test::BinDir() + "/vh_eval", "sweep", "--json", "--smoke"}, (out / "sweep.json").string());
-  ASSERT_EQ(eval.Wait(120), 0) << test::ReadFile((out / "sweep.json").string());
-  const auto j = nlohmann::json::parse(test::ReadFile((out / "sweep.json").string()));
+  test::Process eval({test::BinDir() + "/vh_eval", "sweep", "--json", "--smoke"}, (out / "sweep.json").string(), {},
+                     (out / "sweep.log").string());
+  ASSERT_EQ(eval.Wait(120), 0) << test::ReadFile((out / "sweep.log").string());
+  const auto j = nlohmann::json::parse(test::ReadFile((out / "sweep.json").string()));  // stdout alone
+  EXPECT_NE(j["command"].get<std::string>().find("vh_eval sweep --json --smoke"), std::string::npos);
   ASSERT_GE(j["rows"].size(), 4u);
   double unrefined = 0, refined = 0;
   for (const auto& r : j["rows"]) {
@@ -617,9 +651,10 @@ TEST(Tools, SpacingSweepFindsTheKnownAnswerOfItsExampleMotion) {
   const auto out = test::TempDir("spacing_sweep");
   test::Process sweep({test::BinDir() + "/spacing_sweep", "--scene", std::string(HULLPIPE_SOURCE_DIR) + "/scenes/payload.yaml",
                        "--example-travel", "0.08", "--json"},
-                      (out / "sweep.json").string());
-  ASSERT_EQ(sweep.Wait(120), 0) << test::ReadFile((out / "sweep.json").string());
-  const auto j = nlohmann::json::parse(test::ReadFile((out / "sweep.json").string()));
+                      (out / "sweep.json").string(), {}, (out / "sweep.log").string());
+  ASSERT_EQ(sweep.Wait(120), 0) << test::ReadFile((out / "sweep.log").string());
+  const auto j = nlohmann::json::parse(test::ReadFile((out / "sweep.json").string()));  // stdout alone
+  EXPECT_NE(j["command"].get<std::string>().find("spacing_sweep"), std::string::npos);
   const double known = j["known_answer_m"].get<double>(), found = j["smallest_free_spacing_m"].get<double>();
   EXPECT_NEAR(known, 0.13, 1e-9);
   EXPECT_GE(found, known - 0.001) << "a spacing below the true pipe's need came out free";
@@ -661,9 +696,10 @@ TEST(Tools, VhEvalCollisionPrintsOneJsonObjectWithTheDocumentedFields) {
   // `vh_eval collision --json --smoke`: three boxes against a sphere's hull, CPU.
   const auto out = test::TempDir("vh_eval_collision");
   test::Process eval({test::BinDir() + "/vh_eval", "collision", "--json", "--smoke"},
-                     (out / "collision.json").string());
-  ASSERT_EQ(eval.Wait(120), 0) << test::ReadFile((out / "collision.json").string());
-  const auto j = nlohmann::json::parse(test::ReadFile((out / "collision.json").string()));
+                     (out / "collision.json").string(), {}, (out / "collision.log").string());
+  ASSERT_EQ(eval.Wait(120), 0) << test::ReadFile((out / "collision.log").string());
+  const auto j = nlohmann::json::parse(test::ReadFile((out / "collision.json").string()));  // stdout alone
+  EXPECT_NE(j["command"].get<std::string>().find("vh_eval collision"), std::string::npos);
   ASSERT_EQ(j["rows"].size(), 4u);
   std::set<std::string> methods;
   for (const auto& r : j["rows"]) {

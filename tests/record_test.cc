@@ -514,9 +514,11 @@ TEST_F(RecordTools, ReplayIsByteIdenticalAndLateJoinersGetCameraInfo) {
   // `hullpipe_record info --json` reports what is in the file.
   {
     const std::string info_log = (dir_ / "info.json").string();
-    test::Process info({test::BinDir() + "/hullpipe_record", "info", path, "--json"}, info_log);
-    ASSERT_EQ(info.Wait(20), 0) << test::ReadFile(info_log);
-    const auto j = nlohmann::json::parse(test::ReadFile(info_log));
+    test::Process info({test::BinDir() + "/hullpipe_record", "info", path, "--json"}, info_log, {},
+                       info_log + ".err");
+    ASSERT_EQ(info.Wait(20), 0) << test::ReadFile(info_log + ".err");
+    const auto j = nlohmann::json::parse(test::ReadFile(info_log));  // stdout alone
+    EXPECT_NE(j["command"].get<std::string>().find("hullpipe_record info"), std::string::npos);
     EXPECT_EQ(j["samples"].get<int>(), 42);
     std::map<std::string, int> counts;
     for (const auto& t : j["topics"]) counts[t["name"].get<std::string>()] = t["count"].get<int>();
@@ -823,9 +825,10 @@ TEST_F(RecordTools, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
     const std::string log = (dir_ / "node_bench.log").string();
     test::Process bench({test::BinDir() + "/node_bench", "--node", "sim", "--recording", path, "--frames", "20",
                          "--json"},
-                        log);
-    ASSERT_EQ(bench.Wait(120), 0) << test::ReadFile(log);
+                        log, {}, log + ".err");
+    ASSERT_EQ(bench.Wait(120), 0) << test::ReadFile(log + ".err");
     const std::string out = test::ReadFile(log);
+    EXPECT_TRUE(nlohmann::json::accept(out)) << "stdout must hold the JSON alone: " << out;
     EXPECT_NE(out.find("\"frames\":20"), std::string::npos) << out;
     EXPECT_NE(out.find("\"timeouts\":0"), std::string::npos) << out;
     EXPECT_NE(out.find("latency_ms_p99"), std::string::npos) << out;

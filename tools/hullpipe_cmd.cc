@@ -18,6 +18,7 @@
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/dds/topics.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe::dds;
 
@@ -52,6 +53,8 @@ int Send(const Participant& participant, const T& msg, double timeout, const std
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("hullpipe_cmd");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_cmd: change the running virtual scene, trigger a recorder's snapshot, steer a replay"};
   CommonOptions common;
   AddCommonOptions(app, common);

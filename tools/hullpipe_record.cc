@@ -22,6 +22,7 @@
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/dds/node.h"
+#include "hullpipe/util/logging.h"
 #include "record_export.h"
 #include "record_session.h"
 
@@ -30,6 +31,8 @@ using namespace hullpipe::dds;
 using namespace hullpipe::record;
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("hullpipe_record");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_record: record a domain's DDS traffic (serialized) into SQLite"};
   RecordOptions ro;
   const CommonOptions& common = ro.common;

@@ -30,6 +30,7 @@
 #include "hullpipe/dds/node.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/record/player.h"
+#include "hullpipe/util/logging.h"
 #include "replay_control.h"
 
 using namespace hullpipe;
@@ -46,6 +47,8 @@ const std::vector<std::string> kInputTopics = {"hullpipe/camera_info", "hullpipe
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("hullpipe_replay");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_replay: publish a recording with its original QoS and timing"};
   CommonOptions common;
   AddCommonOptions(app, common);

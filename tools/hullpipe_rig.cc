@@ -28,6 +28,7 @@
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/rig_import.h"
 #include "hullpipe/geometry/rig_world.h"
+#include "hullpipe/util/logging.h"
 
 namespace {
 
@@ -82,6 +83,8 @@ void PrintCheck(const hullpipe::Rig& rig) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("hullpipe_rig");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_rig: rig files"};
   app.require_subcommand(1);
   std::string in, out, frames, background, from, poses = "cam_from_world";

@@ -14,6 +14,7 @@
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/record/recording.h"
+#include "hullpipe/util/logging.h"
 
 namespace hullpipe::record {
 namespace {
@@ -320,6 +321,7 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
                  c.undecodable ? fmt::format(" ({} did not decode)", c.undecodable) : "");
     undecodable += c.undecodable;
   }
+  summary["command"] = CommandLine();
   if (!o.echo) std::ofstream(std::filesystem::path(o.out) / "export.json") << summary.dump(1) << '\n';
   if (StopRequested()) {
     spdlog::error("export stopped by a signal before the end; {} is incomplete", o.out);

@@ -16,6 +16,7 @@
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/record/repair.h"
+#include "hullpipe/util/logging.h"
 
 namespace hullpipe::record {
 
@@ -68,6 +69,7 @@ int Info(const std::string& path, bool json, bool idl) {
       if (idl) tj["type_description"] = t.topic.type_description;
       j["topics"].push_back(tj);
     }
+    j["command"] = CommandLine();
     std::printf("%s\n", j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     return info.damage.empty() ? 0 : 3;
   }

@@ -19,10 +19,13 @@
 #include "hullpipe/scenes/ball.h"
 #include "hullpipe/scenes/payload.h"
 #include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("spacing_sweep");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"spacing_sweep: smallest collision-free PMT-to-payload-A spacing for a recorded motion"};
   std::string scene_path, motion_path, save_motion;
   double travel = -1, from = 0.05, to = 0.30, step = 0.01, resolution = 0.001;
@@ -87,6 +90,7 @@ int main(int argc, char** argv) {
       for (const auto& row : r.rows)
         j["rows"].push_back({{"spacing_m", row.spacing}, {"frames_colliding", row.frames_colliding},
                              {"min_clearance_mm", row.min_clearance * 1e3}});
+      j["command"] = CommandLine();
       std::cout << j.dump(1) << "\n";
     } else {
       std::printf("%10s %17s %18s\n", "spacing cm", "frames colliding", "min clearance mm");

@@ -38,6 +38,7 @@
 #include "hullpipe/util/cli_range.h"
 #include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/segmentation/video_rig.h"
+#include "hullpipe/util/logging.h"
 #include "vh_eval_collision.h"
 #include "vh_eval_held_out.h"
 #include "vh_eval_reprojection.h"
@@ -46,6 +47,8 @@
 using namespace hullpipe;
 
 int main(int argc, char** argv) {
+  hullpipe::LogToStderr("vh_eval");  // stdout carries only what a user asked for
+  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"vh_eval: accuracy of hullpipe's visual hulls"};
   app.require_subcommand(1);
   SweepEvalOptions sw;

@@ -36,6 +36,7 @@
 #include "hullpipe/gl/gl_triangle_query.h"
 #include "hullpipe/collision/hull_surface.h"
 #include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/util/logging.h"
 
 namespace hullpipe {
 namespace {
@@ -371,6 +372,7 @@ int RunCollisionEval(const CollisionEvalOptions& o_in) {
         << r["n_hull_err_deg_p95"] << '\n';
   }
   if (o.json) {
+    out["command"] = CommandLine();
     std::cout << out.dump(1) << std::endl;
     return 0;
   }

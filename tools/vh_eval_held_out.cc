@@ -15,6 +15,7 @@
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/segmentation/video_rig.h"
+#include "hullpipe/util/logging.h"
 
 namespace hullpipe {
 namespace {
@@ -230,6 +231,7 @@ int RunHeldOutEval(const HeldOutEvalOptions& o) {
     for (int c : cameras) print(std::to_string(c), Summarise(samples[v], c));
     print("all", Summarise(samples[v]));
   }
+  j["command"] = CommandLine();
   if (o.json) std::cout << j.dump(1) << std::endl;
   return 0;
 }
@@ -278,6 +280,7 @@ int RunSegmentationEval(const HeldOutEvalOptions& o) {
                   sum.psnr_worst, sum.iou_worst, sum.psnr_covered);
     std::fflush(stdout);
   }
+  j["command"] = CommandLine();
   if (o.json) std::cout << j.dump(1) << std::endl;
   return 0;
 }

@@ -14,6 +14,7 @@
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/cli_range.h"
+#include "hullpipe/util/logging.h"
 
 namespace hullpipe {
 
@@ -115,13 +116,17 @@ int RunReprojectionEval(const ReprojectionEvalOptions& o) {
     std::snprintf(header, sizeof header, "%d synthetic cameras %dx%d, %s: %.2f s", o.synthetic, o.width, o.height,
                   o.method.c_str(), seconds);
     ReportFrame(res, header, o.json, &j);
+    j["command"] = CommandLine();
     if (o.json) std::cout << j.dump(2) << std::endl;
     return 0;
   }
   if (o.rig.empty()) throw std::invalid_argument("give --rig DIR or --synthetic N");
   auto src = OpenVideoRig(o.rig, {});
   RigFrame f;
-  nlohmann::json j;
+  // How it was made: the method, and the march's step only for the march (an
+  // exact run has none).
+  nlohmann::json j = {{"rig", o.rig}, {"method", o.method}, {"threads", ro.threads}};
+  j["step_m"] = ro.exact ? nlohmann::json(nullptr) : nlohmann::json(ro.step);
   if (!o.all_frames) {
     for (int k = 0; k <= o.frame; ++k)
       if (!src->Next(&f)) throw std::runtime_error("the rig has fewer than " + std::to_string(o.frame + 1) + " frames");
@@ -131,7 +136,6 @@ int RunReprojectionEval(const ReprojectionEvalOptions& o) {
     const auto res = EvaluateFrame(*src, f, ro);
     const double seconds = MonotonicSeconds() - t0;
     j["frame"] = o.frame;
-    j["step_m"] = ro.step;
     j["seconds"] = seconds;
     char header[96];
     std::snprintf(header, sizeof header, "frame %d (%s, %.2f s)", o.frame, o.method.c_str(), seconds);
@@ -206,6 +210,7 @@ int RunReprojectionEval(const ReprojectionEvalOptions& o) {
                     a.sum_loo / std::max(1, evaluated), a.min_loo);
     }
   }
+  j["command"] = CommandLine();
   if (o.json) std::cout << j.dump(2) << std::endl;
   return 0;
 }

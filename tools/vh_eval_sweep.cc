@@ -24,6 +24,7 @@
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/reconstruction/texture.h"
+#include "hullpipe/util/logging.h"
 
 namespace hullpipe {
 namespace {
@@ -316,6 +317,7 @@ int RunSweepEval(const SweepEvalOptions& o) {
         << double(r["wrong_outside"]) << '\t' << (bool(r["pareto"]) ? 1 : 0) << '\n';
   }
   if (o.json) {
+    out["command"] = CommandLine();
     std::cout << out.dump(1) << std::endl;
     return 0;
   }
@@ -400,7 +402,7 @@ int RunTextureEval(const TextureEvalOptions& o) {
     }
   }
   if (o.json) {
-    std::cout << nlohmann::json{{"rows", rows}}.dump(1) << std::endl;
+    std::cout << nlohmann::json{{"rows", rows}, {"command", CommandLine()}}.dump(1) << std::endl;
     return 0;
   }
   std::printf("%-8s %4s %-10s %9s %9s %9s %9s\n", "scene", "cams", "visibility", "ms", "err mean", "err p95",

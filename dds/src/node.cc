@@ -10,6 +10,7 @@
 #include "hullpipe/dds/node_stats_convert.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/util/run_id.h"
+#include "hullpipe/util/logging.h"
 
 namespace hullpipe::dds {
 
@@ -39,7 +40,7 @@ void AddRunIdOption(CLI::App& app, CommonOptions& o) {
 
 
 std::unique_ptr<Participant> StartNode(const std::string& node_name, const CommonOptions& o) {
-  spdlog::set_pattern("[%H:%M:%S.%e] [" + node_name + "] %^%l%$ %v");
+  LogToStderr(node_name);
   spdlog::set_level(spdlog::level::from_str(o.log_level));
   // Nodes report bad input themselves, one line each; OpenCV's own log would
   // repeat it in another format.

@@ -249,7 +249,7 @@ Rig LoadYamlRig(const fs::path& file) {
     double rot_error = 0;
     c.cam_from_world.rotation =
         NearestRotation(rot, path + ": camera " + std::to_string(c.id) + ": key 'R'", &rot_error);
-    if (rot_error > 1e-12) repaired.push_back({c.id, rot_error});
+    if (rot_error > kRotationNoteAbove) repaired.push_back({c.id, rot_error});
     c.cam_from_world.translation = Eigen::Vector3d(t[0], t[1], t[2]);
     try {
       c.Check();

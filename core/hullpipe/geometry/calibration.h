@@ -64,8 +64,14 @@ inline constexpr double kRotationRepairTolerance = 1e-3;
 /// not finite. Exact rotations come back unchanged.
 Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& r, const std::string& where, double* error = nullptr);
 
-/// The one line logged for a rig whose rotations were repaired: the cameras
-/// (id, ||R R^T - I||) and the worst error, "<source>: the rotations of ...".
+/// A rotation orthonormal to better than this (||R R^T - I||_F) is repaired
+/// without a note: that is what printing a rotation with 7 or more significant
+/// digits leaves (2e-12 is typical), not a calibration worth a warning.
+inline constexpr double kRotationNoteAbove = 1e-6;
+
+/// The one line logged for a rig whose rotations were repaired by more than
+/// kRotationNoteAbove: the cameras (id, ||R R^T - I||) and the worst error,
+/// "<source>: the rotations of ...".
 std::string RepairedRotationsNote(const std::string& source, const std::vector<std::pair<int, double>>& repaired);
 
 /// Sets c's fx, fy, cx, cy from a row-major 3x3 K (c's id, width, height set),

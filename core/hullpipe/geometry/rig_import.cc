@@ -74,7 +74,7 @@ void SetPose(Camera* c, const Eigen::Matrix3d& r, const Eigen::Vector3d& t, cons
              const std::string& where, std::vector<std::pair<int, double>>* repaired) {
   double e = 0;
   c->cam_from_world.rotation = NearestRotation(r, where + ": camera " + std::to_string(c->id), &e);
-  if (e > 1e-12) repaired->push_back({c->id, e});
+  if (e > kRotationNoteAbove) repaired->push_back({c->id, e});
   if (!t.allFinite()) throw CalibrationError(where + ": camera " + std::to_string(c->id) + ": translation not finite");
   c->cam_from_world.translation = t * o.scale;
 }
@@ -408,7 +408,7 @@ Rig ImportNerf(const std::string& path, const ImportOptions& o) {
     const Eigen::Matrix3d r_wc = r_wc_gl * Eigen::Vector3d(1, -1, -1).asDiagonal();
     double e = 0;
     const Eigen::Matrix3d r_cw = NearestRotation(r_wc, where + ": key 'transform_matrix'", &e).transpose();
-    if (e > 1e-12) repaired.push_back({c.id, e});
+    if (e > kRotationNoteAbove) repaired.push_back({c.id, e});
     c.cam_from_world.rotation = r_cw;
     c.cam_from_world.translation = -(r_cw * centre) * o.scale;
     rc.frames = image.string();

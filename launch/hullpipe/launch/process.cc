@@ -21,7 +21,7 @@ extern char** environ;
 namespace hullpipe::launch {
 
 Process::Process(const std::vector<std::string>& argv, const std::string& log,
-                 const std::vector<std::pair<std::string, std::string>>& env) {
+                 const std::vector<std::pair<std::string, std::string>>& env, const std::string& err_log) {
   if (argv.empty()) throw std::invalid_argument("Process: empty argv");
   // Everything the child needs is built here, before the spawn.
   std::map<std::string, std::string> vars;
@@ -43,8 +43,10 @@ Process::Process(const std::vector<std::string>& argv, const std::string& log,
   posix_spawn_file_actions_init(&actions);
   if (!log.empty()) {
     posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+    if (err_log.empty()) posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   }
+  if (!err_log.empty())
+    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   // The child starts with default signal handling and an empty mask.
   posix_spawnattr_t attr;
   posix_spawnattr_init(&attr);

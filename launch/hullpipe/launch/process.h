@@ -15,9 +15,11 @@ class Process {
  public:
   /// Starts argv[0] (searched on PATH when it has no '/') with argv, the
   /// parent's environment plus `env`, stdout and stderr to `log` (empty: the
-  /// parent's). Throws std::runtime_error naming the program if it cannot start.
+  /// parent's), or stderr to `err_log` when that is given (tests of what a
+  /// tool prints on stdout alone). Throws std::runtime_error naming the program
+  /// if it cannot start.
   Process(const std::vector<std::string>& argv, const std::string& log,
-          const std::vector<std::pair<std::string, std::string>>& env = {});
+          const std::vector<std::pair<std::string, std::string>>& env = {}, const std::string& err_log = "");
   /// SIGKILLs and reaps the child if it is still running (no orphans).
   ~Process();
   Process(const Process&) = delete;
