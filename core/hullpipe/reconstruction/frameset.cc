@@ -107,9 +107,13 @@ FramesetAssembler::Sample* FramesetAssembler::Slot(int camera_id, uint64_t seq, 
     const int64_t step = t_ns - cam.newest_t_ns;
     const double gap_s = double(step) * 1e-9;
     if (gap_s > std::max(kPausePeriods * PeriodS(cam), kPauseMinS)) {
-      ++cam.pauses;
-      spdlog::warn("camera {}: no frame for {:.2f} s of capture time (frames {}..{}); resumed", camera_id, gap_s,
-                   cam.newest_seq, seq);
+      // Said once per camera; every pause is counted (SkewReports, the
+      // end-of-run table's "pauses"): a rig that falls behind pauses every
+      // frame, and a line each buried the log (580 lines in a 30-frame run).
+      if (++cam.pauses == 1)
+        spdlog::warn("camera {}: no frame for {:.2f} s of capture time (frames {}..{}); resumed (further pauses of "
+                     "this camera are counted in the end-of-run table, not logged)",
+                     camera_id, gap_s, cam.newest_seq, seq);
     } else if (step > 0) {
       // The period is measured here, once per frame, not in every evaluation.
       cam.steps_ns.push_back(step);

@@ -4,6 +4,11 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
+
+#include <memory>
+#include <sstream>
 
 #include "hullpipe/evaluation/synthetic.h"
 
@@ -329,6 +334,26 @@ TEST_F(TimedAssembler, AMissingCameraStallsFramesetsUntilItReturnsAndIsCountedOn
   EXPECT_EQ(r[2].pauses, 1u);
   EXPECT_EQ(r[0].pauses + r[1].pauses, 0u);
   EXPECT_GT(r[0].unpartnered + a.dropped(), 0u);
+}
+
+// A camera that pauses again and again is said once in the log and counted
+// each time (a rig falling behind pauses every frame).
+TEST_F(TimedAssembler, RepeatedPausesAreLoggedOnceAndCountedEach) {
+  auto streams = Streams({20, 20, 20}, {0, 1, 2}, 300);
+  // Camera 3 pauses for a second three times.
+  for (int k = 2; k >= 0; --k) streams[2].erase(streams[2].begin() + 40 + 90 * k, streams[2].begin() + 90 + 90 * k);
+  auto lines = std::make_shared<std::ostringstream>();
+  auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(
+      std::make_shared<spdlog::logger>("capture", std::make_shared<spdlog::sinks::ostream_sink_mt>(*lines)));
+  FramesetAssembler a(6);
+  (void)Run(a, Interleave(streams, 4));
+  spdlog::set_default_logger(previous);
+  EXPECT_EQ(a.SkewReports()[2].pauses, 3u);
+  const std::string log = lines->str();
+  size_t said = 0;
+  for (size_t at = log.find("no frame for"); at != std::string::npos; at = log.find("no frame for", at + 1)) ++said;
+  EXPECT_EQ(said, 1u) << log;
 }
 
 TEST_F(TimedAssembler, ARestartedCameraIsFollowed) {
