@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/util/parallel.h"
@@ -182,6 +183,51 @@ cv::Mat ExactHullDepth(const VolumeQuery& q, const NovelView& view, const cv::Re
       }
   });
   return out;
+}
+
+std::optional<double> HullExtentAlong(const VolumeQuery& q, const Eigen::Vector3d& dir_in, double step) {
+  if (!(step > 0)) throw std::invalid_argument("HullExtentAlong: step must be > 0");
+  if (!(dir_in.norm() > 0) || !dir_in.allFinite()) throw std::invalid_argument("HullExtentAlong: dir must be non-zero");
+  const Aabb& box = q.hull_box();
+  if (box.empty()) return std::nullopt;
+  const Eigen::Vector3d dir = dir_in.normalized();
+  std::vector<std::pair<double, Eigen::Vector3d>> inside;
+  ForEachGridPoint(box, step, [&](const Eigen::Vector3d& p) {
+    if (q.Inside(p)) inside.emplace_back(dir.dot(p), p);
+  });
+  if (inside.empty()) return std::nullopt;
+  const size_t k = std::min<size_t>(32, inside.size());
+  std::partial_sort(inside.begin(), inside.begin() + long(k), inside.end(),
+                    [](const auto& a, const auto& b) { return a.first > b.first; });
+  const double span = (box.max - box.min).norm();
+  // The hull's reach along the whole line through p in direction dir.
+  auto line_reach = [&](const Eigen::Vector3d& p) {
+    double r = -1e300;
+    for (const auto& iv : RayHullIntervals(q, p - span * dir, dir, 0, 2 * span))
+      r = std::max(r, dir.dot(p) - span + iv.second);
+    return r;
+  };
+  double best = inside[0].first;
+  Eigen::Vector3d best_line = inside[0].second;
+  for (size_t i = 0; i < k; ++i) {
+    const double r = line_reach(inside[i].second);
+    if (r > best) best = r, best_line = inside[i].second;
+  }
+  // The extreme point may be a corner of the hull (where silhouette cones
+  // meet) between the lines: lines around the best one, 5 x 5 at half the
+  // spacing each time, down to step / 64.
+  const Eigen::Vector3d a = dir.unitOrthogonal(), b = dir.cross(a);
+  for (double h = step / 2; h >= step / 64; h /= 2) {
+    const Eigen::Vector3d centre = best_line;
+    for (int i = -2; i <= 2; ++i)
+      for (int j = -2; j <= 2; ++j) {
+        if (i == 0 && j == 0) continue;
+        const Eigen::Vector3d p = centre + (i * h) * a + (j * h) * b;
+        const double r = line_reach(p);
+        if (r > best) best = r, best_line = p;
+      }
+  }
+  return best;
 }
 
 }  // namespace hullpipe

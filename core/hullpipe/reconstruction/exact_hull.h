@@ -12,6 +12,7 @@
 // missed, which is documented, not exact.
 #pragma once
 
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -49,6 +50,20 @@ Intervals RayCameraIntervals(const VolumeQuery& query, size_t camera, const Eige
 
 /// Intersection of two interval sets.
 Intervals IntersectIntervals(const Intervals& a, const Intervals& b);
+
+/// How far the hull reaches along `dir` (world, any length): the largest
+/// dir_hat . x over its points, e.g. its lowest point along gravity, where a
+/// floor under the first hull goes (rig_world.h, `floor: hull`). The hull box's
+/// corner is no answer where dir is not an axis (on a rig whose up is tilted it
+/// lies below the hull by up to the box's half diagonal). The inside points of
+/// a grid of `step` metres over the hull box; the exact reach (ray–hull
+/// intervals) of the lines along dir through the 32 farthest; then lines
+/// around the best one, 5 x 5 at half the spacing each time down to step / 64
+/// (an extreme point is often a corner where silhouette cones meet). A hull
+/// point's reach, so never beyond the hull's; a farther point more than ~2
+/// steps from the best first line can be missed. nullopt when the grid holds no inside point.
+/// Throws std::invalid_argument if step <= 0 or dir is zero.
+std::optional<double> HullExtentAlong(const VolumeQuery& query, const Eigen::Vector3d& dir, double step = 0.02);
 
 /// Exact first-hit eye depth (metres) of every pixel of `tile` of the view
 /// (CV_32FC1, kNoDepth where the pixel centre's ray misses the hull), within the

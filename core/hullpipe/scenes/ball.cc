@@ -1,4 +1,5 @@
 #include "hullpipe/scenes/ball.h"
+#include "hullpipe/reconstruction/exact_hull.h"
 
 #include <algorithm>
 #include <cmath>
@@ -71,12 +72,13 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
   const Eigen::Vector3d g_hat = g_norm > 0 ? Eigen::Vector3d(config_.gravity / g_norm)
                                            : Eigen::Vector3d::UnitZ();
   if (config_.floor_under_hull && hull && !hull->hull_box().empty()) {
-    // The floor under the first hull: its lowest point along -gravity.
-    double lowest = -1e300;
-    for (const auto& p : hull->hull_box().Corners()) lowest = std::max(lowest, g_hat.dot(p));
-    config_.floor = lowest;
-    config_.has_floor = true;
-    config_.floor_under_hull = false;
+    // The floor under the first hull: its lowest point along -gravity (not the
+    // hull box's corner, which lies below the hull where up is not an axis).
+    if (const auto lowest = HullExtentAlong(*hull, g_hat)) {
+      config_.floor = *lowest;
+      config_.has_floor = true;
+      config_.floor_under_hull = false;
+    }
   }
   for (int k = 0; k < substeps; ++k) {
     ThrowIfStopped(stop, "the balls' step");

@@ -15,6 +15,7 @@
 #include "hullpipe/scenes/scene_config.h"
 #include "hullpipe/scenes/scene_yaml.h"
 #include "hullpipe/util/parallel.h"
+#include "hullpipe/reconstruction/exact_hull.h"
 
 namespace hullpipe {
 
@@ -179,11 +180,11 @@ class ModelsElement final : public SceneElement {
   void Step(double dt, const VolumeQuery* hull, StopFlag stop) override {
     if (scene_.floor_under_hull && hull && !hull->hull_box().empty()) {
       // The floor under the first hull, as the balls take it (ball.h).
-      double lowest = -1e300;
-      for (const auto& p : hull->hull_box().Corners()) lowest = std::max(lowest, g_hat_.dot(p));
-      scene_.floor = lowest;
-      scene_.has_floor = true;
-      scene_.floor_under_hull = false;
+      if (const auto lowest = HullExtentAlong(*hull, g_hat_)) {
+        scene_.floor = *lowest;
+        scene_.has_floor = true;
+        scene_.floor_under_hull = false;
+      }
     }
     for (Model& m : models_) {
       const auto t0 = std::chrono::steady_clock::now();

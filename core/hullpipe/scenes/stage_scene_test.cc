@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/scenes/virtual_scene.h"
 #include "hullpipe/testing/fixtures.h"
 
@@ -86,8 +87,11 @@ TEST(StageScene, FloorUnderTheHullAndWaitingForAHull) {
   const VolumeQuery hull = SphereHull({0, 0, 1});
   scene.Step(0.02, &hull);
   EXPECT_TRUE(scene.balls().config().has_floor);
-  // g_hat = -z: the floor g_hat . x = floor is the box's lowest z (0.7 m).
-  EXPECT_NEAR(-scene.balls().config().floor, hull.hull_box().min.z(), 1e-12);
+  // g_hat = -z: the floor g_hat . x = floor is the hull's lowest z: at or
+  // below the sphere's (0.7 m), within its box.
+  EXPECT_NEAR(-scene.balls().config().floor, -*HullExtentAlong(hull, {0, 0, -1}), 1e-12);
+  EXPECT_LE(-scene.balls().config().floor, 0.7 + 1e-9);
+  EXPECT_GE(-scene.balls().config().floor, hull.hull_box().min.z() - 1e-9);
   EXPECT_GT(scene.balls().bodies()[0].velocity.norm(), 1.0);  // thrown
   // A stage scene refuses what stays in world coordinates, naming it.
   std::ofstream(dir / "bad.yaml") << "frame: stage\nfloor: 0\nballs: []\n";

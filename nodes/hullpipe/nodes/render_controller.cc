@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "hullpipe/util/percentile.h"
+#include "hullpipe/reconstruction/exact_hull.h"
 
 #include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
@@ -263,16 +264,20 @@ void RenderController::IssuePoses() {
     std::shared_ptr<const VolumeQuery> hull;
     if (o_.light || !centre_known_ || !floor_known_ || !floor_checked_)
       hull = std::make_shared<const VolumeQuery>(fset->maps, assembler_.workspace());
-    if (hull && !hull->hull_box().empty() && (!floor_known_ || !floor_checked_)) {
-      double lowest = 1e300;
-      for (const auto& p : hull->hull_box().Corners()) lowest = std::min(lowest, orbit_.up.dot(p));
+    const std::optional<double> reach_down =
+        hull && !hull->hull_box().empty() && (!floor_known_ || !floor_checked_) ? HullExtentAlong(*hull, -orbit_.up)
+                                                                               : std::nullopt;
+    if (reach_down) {
+      // The hull's lowest point along up (not its box's corner, which lies
+      // below the hull where up is not an axis).
+      const double lowest = -*reach_down;
       if (!floor_known_) {
         comp_.floor_offset = lowest;
         comp_.draw_floor = true;
         floor_known_ = true;
         spdlog::info("floor under the first hull: up . x = {:.3f} m", lowest);
       } else if (comp_.draw_floor && lowest < comp_.floor_offset - 0.05) {
-        spdlog::warn("the hull's box reaches {:.2f} m below the rig's floor (up . x = {:.3f} m): the floor hides that "
+        spdlog::warn("the hull reaches {:.2f} m below the rig's floor (up . x = {:.3f} m): the floor hides that "
                      "part; is the rig's world right? (hullpipe_rig check; world: floor: hull puts it under the hull)",
                      comp_.floor_offset - lowest, comp_.floor_offset);
       }
