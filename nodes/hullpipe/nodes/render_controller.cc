@@ -72,6 +72,7 @@ RenderController::RenderController(RenderOptions options, const Clock& clock, Fr
       counters_(clock),
       recon_liveness_((o_.Check(), o_.recon_silence)),
       runs_(o_.run_id) {
+  tile_timeout_ = o_.tile_timeout;
   orbit_.up = o_.up.normalized();
   orbit_.radius = o_.orbit_radius;
   orbit_.height = o_.orbit_height;
@@ -101,6 +102,18 @@ void RenderController::OnTile(HullTile t, int64_t sent_ns) {
   auto it = in_flight_.find(t.pose_seq);
   if (it == in_flight_.end()) {
     ++tiles_late_;
+    // A tile for a pose given up on: the recon nodes need longer than the
+    // time-out. Wait twice what this one took from now on (docs/latency.md).
+    const auto g = given_up_sent_.find(t.pose_seq);
+    if (g != given_up_sent_.end()) {
+      const double took = clock_.Now() - g->second;
+      if (took > tile_timeout_ && tile_timeout_ < kMaxTileTimeoutS) {
+        tile_timeout_ = std::min(kMaxTileTimeoutS, 2 * took);
+        spdlog::warn("pose {}'s tile came {:.2f} s after the pose, past the tile time-out: waiting up to {:.2f} s "
+                     "from now on (--tile-timeout sets where it starts)",
+                     t.pose_seq, took, tile_timeout_);
+      }
+    }
     return;
   }
   if (t.rect.x < 0 || t.rect.y < 0 || t.rect.x + t.rect.width > it->second.view.width ||
@@ -370,10 +383,12 @@ int RenderController::Step() {
   for (auto it = in_flight_.begin(); it != in_flight_.end();) {
     InFlight& f = it->second;
     if (int(f.tiles.size()) < o_.tiles) {
-      if (clock_.Now() - f.sent_s > o_.tile_timeout) {
+      if (clock_.Now() - f.sent_s > tile_timeout_) {
         spdlog::warn("pose {} (frame {}): {} of {} tiles after {:.1f} s; dropped", it->first, f.frame_seq,
-                     f.tiles.size(), o_.tiles, o_.tile_timeout);
+                     f.tiles.size(), o_.tiles, tile_timeout_);
         counters_.Dropped();
+        given_up_sent_[it->first] = f.sent_s;
+        while (given_up_sent_.size() > 64) given_up_sent_.erase(given_up_sent_.begin());
         it = in_flight_.erase(it);
       } else {
         ++it;

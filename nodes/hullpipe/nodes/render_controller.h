@@ -50,7 +50,11 @@ struct RenderOptions {
   int max_in_flight = 2;          ///< Poses rendered at once (1..64).
   int64_t max_frames = 0;         ///< Stop after compositing this frame_seq (0: never).
   double idle_timeout = 5;        ///< End when no new frameset came for this long.
-  double tile_timeout = 1.0;      ///< Give up on a pose's missing tiles after this long.
+  /// Give up on a pose's missing tiles after this long, at first: a tile that
+  /// comes later than this for a pose already given up raises it to twice
+  /// that tile's round trip (at most kMaxTileTimeoutS), so a rig whose recon
+  /// nodes need longer (many cameras) composites at the rate it can, not none.
+  double tile_timeout = 1.0;
   double recon_silence = 1.0;     ///< A recon node without NodeStats this long is silent.
   double end_grace = 0.5;         ///< After capture's final report, time for its last samples.
   /// The scripted orbit (used until a tracked pose exists).
@@ -147,6 +151,10 @@ class RenderController {
   NodeCounters& counters() { return counters_; }
   uint64_t rejected() const { return rejected_; }
   uint64_t tiles_late() const { return tiles_late_; }
+  /// The tile time-out in force (tile_timeout, or raised by late tiles).
+  double tile_timeout() const { return tile_timeout_; }
+  /// The most the tile time-out is raised to, seconds.
+  static constexpr double kMaxTileTimeoutS = 60;
   uint64_t last_composited() const { return last_composited_; }
   size_t in_flight() const { return in_flight_.size(); }
   const PeerLiveness& recon_liveness() const { return recon_liveness_; }
@@ -208,6 +216,8 @@ class RenderController {
   std::map<std::string, NodeStatsSample> node_stats_;
   uint64_t seen_restarts_ = 0, malformed_input_ = 0;
   uint64_t pose_seq_ = 0, last_requested_ = 0, last_composited_ = 0, rejected_ = 0, tiles_late_ = 0;
+  double tile_timeout_ = 1.0;                // in force (see RenderOptions::tile_timeout)
+  std::map<uint64_t, double> given_up_sent_;  // pose_seq -> sent_s of the last poses given up
   uint64_t collisions_drawn_ = 0, collision_reports_ = 0, meshes_drawn_ = 0, lit_frames_ = 0;
   double hull_fraction_sum_ = 0;
   double first_source_time_ = 0;

@@ -133,6 +133,44 @@ TEST_F(Render, APoseWhoseTilesDoNotComeIsDroppedAfterTheTileTimeout) {
   EXPECT_TRUE(sink_.frames.empty());
 }
 
+// Recon nodes that need longer than the tile time-out (a rig of many cameras
+// on a small machine): the first pose is given up on, its tile comes 1.5 s
+// after the pose, and the time-out becomes twice that, so the next pose whose
+// tile takes as long is composited (before, every pose was dropped and render
+// composited nothing).
+TEST_F(Render, TilesThatComeLateRaiseTheTileTimeout) {
+  RenderOptions o = Options();
+  o.tiles = 1;
+  o.tile_timeout = 1.0;
+  o.max_in_flight = 1;
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  ASSERT_EQ(sink_.poses.size(), 1u);
+  clock_.Advance(1.1);
+  r.Step();
+  EXPECT_EQ(r.counters().dropped(), 1u);  // given up at 1 s
+  clock_.Advance(0.4);
+  r.OnTile(WholeTile(sink_.poses[0], 2.0f, {10, 20, 30}));  // 1.5 s after its pose
+  EXPECT_EQ(r.tiles_late(), 1u);
+  EXPECT_NEAR(r.tile_timeout(), 3.0, 1e-9);
+  rig_.AddFrame(assembler_, 2, clock_.WallNs());
+  r.Step();
+  ASSERT_EQ(sink_.poses.size(), 2u);
+  clock_.Advance(1.5);
+  r.Step();
+  EXPECT_EQ(r.in_flight(), 1u) << "still waiting at 1.5 s";
+  r.OnTile(WholeTile(sink_.poses[1], 2.0f, {10, 20, 30}));
+  EXPECT_EQ(r.Step(), 1);
+  ASSERT_EQ(sink_.frames.size(), 1u);
+  // A late tile of a pose never given up on (another run's, say) raises nothing.
+  HullTile stray = WholeTile(sink_.poses[1], 2.0f, {10, 20, 30});
+  stray.pose_seq = 999;
+  clock_.Advance(10);
+  r.OnTile(stray);
+  EXPECT_NEAR(r.tile_timeout(), 3.0, 1e-9);
+}
+
 TEST_F(Render, ATileOutsideTheViewIsRejectedAndNotComposited) {
   RenderController r(Options(), clock_, assembler_, sink_);
   rig_.AddFrame(assembler_, 1, clock_.WallNs());

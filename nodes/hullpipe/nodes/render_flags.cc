@@ -28,7 +28,9 @@ void RenderFlags::Register(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--idle-timeout", o.idle_timeout, "Stop when no new frameset came for this many s")
       ->capture_default_str();
-  app.add_option("--tile-timeout", o.tile_timeout, "Give up on a pose's missing tiles after this many s")
+  app.add_option("--tile-timeout", o.tile_timeout,
+                 "Give up on a pose's missing tiles after this many s, at first: a tile that comes later for a pose "
+                 "given up raises it to twice that tile's round trip (at most 60 s)")
       ->capture_default_str();
   app.add_option("--orbit-centre", orbit_centre_, "Orbit centre x,y,z in world metres (default: hull box centre)")
       ->delimiter(',')
