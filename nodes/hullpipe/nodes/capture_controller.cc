@@ -58,7 +58,18 @@ bool CaptureController::CatchUp(double lag_s, const char* why) {
   // Behind by more than the lag, and by two frames at least (at low rates a
   // fraction of a frame is no lag).
   if (due_now() - index_ <= std::max<int64_t>(int64_t(lag_s * rate_), lag_s > 0 ? 2 : 0)) return true;
-  spdlog::info("{}: skipping frames {}..{} to the frame due now", why, index_ + 1, due_now());
+  if (lag_s > 0 && !behind_said_ && frame_s_ > 0) {
+    // Behind the timeline (not joining it): said once, with what would keep up.
+    behind_said_ = true;
+    spdlog::warn("cannot keep the timeline's {:.1f} fps: a frame takes {:.0f} ms to read, segment and publish here "
+                 "({:.1f} fps); frames are skipped to stay on it (counted as dropped). Pace the run at what the "
+                 "machine does (capture --fps {:.1f}), or give it fewer or smaller cameras",
+                 rate_, frame_s_ * 1e3, 1.0 / frame_s_, std::max(0.1, 0.9 / frame_s_));
+  }
+  if (lag_s > 0 && behind_said_)
+    spdlog::debug("{}: skipping frames {}..{} to the frame due now", why, index_ + 1, due_now());
+  else
+    spdlog::info("{}: skipping frames {}..{} to the frame due now", why, index_ + 1, due_now());
   // (Skipping takes time too: the frame due is asked again after each.)
   while (index_ < due_now()) {
     if (!source_.Skip()) {
@@ -161,6 +172,10 @@ bool CaptureController::Step() {
     }
     ++index_;
     ++published_;
+    // What a frame costs here (read to published), smoothed: the rate this
+    // machine keeps, for the line said when the node falls behind.
+    const double took = clock_.Now() - t_read;
+    frame_s_ = frame_s_ > 0 ? 0.8 * frame_s_ + 0.2 * took : took;
     int64_t latency_from = t_ns;
     for (const int64_t c : frame_.capture_ns)
       if (c != 0) latency_from = c;  // a live frame: from its own stamp

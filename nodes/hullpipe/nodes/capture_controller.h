@@ -103,6 +103,8 @@ class CaptureController {
   /// `lag_s` (or at all, when joining). Returns false at the end of input.
   bool CatchUp(double lag_s, const char* why);
   double rate_ = 0;
+  double frame_s_ = 0;        // a frame's read-to-published time, smoothed
+  bool behind_said_ = false;  // the falling-behind line said (once)
   int64_t start_ns_ = 0;
   bool started_ = false;
   bool rejoin_ = false;  ///< An earlier timeline was adopted: skip to its frame due now.

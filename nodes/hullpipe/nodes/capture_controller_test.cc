@@ -1,9 +1,13 @@
 #include "hullpipe/nodes/capture_controller.h"
 
 #include <algorithm>
+#include <memory>
+#include <sstream>
 #include <random>
 
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/evaluation/synthetic_source.h"
@@ -72,6 +76,59 @@ TEST(Capture, PacesAtTheSourceRateAndPublishesEveryCameraPerFrame) {
 // due time to its read, the read (a source that does not split read and
 // segmentation reports it all as read), and the sink's encode and write times
 // summed over the frame's cameras.
+// A sink whose publishing takes `per_camera` seconds of the fake clock: a
+// machine too slow for the rig.
+struct SlowSink final : CaptureSink {
+  FakeClock* clock = nullptr;
+  double per_camera = 0;
+  int published = 0;
+  void PublishCameraInfo(const Camera&, const Aabb&) override {}
+  void AnnounceTimeline(int64_t, double) override {}
+  PublishTimes PublishFrame(uint32_t, uint64_t, int64_t, double, uint32_t, const cv::Mat&, const cv::Mat&,
+                            const Rigid3d*) override {
+    clock->Advance(per_camera);
+    ++published;
+    return {};
+  }
+};
+
+// A capture node that cannot keep the timeline's rate (25 fps, a frame taking
+// 150 ms) says so once, with the rate it can keep and the flag that paces it,
+// and skips the frames it cannot make, counted as dropped. A fast one says
+// nothing (the control).
+TEST(Capture, FallingBehindIsSaidOnceWithWhatWouldKeepUp) {
+  for (const double per_camera : {0.05, 0.001}) {
+    SCOPED_TRACE(per_camera);
+    FakeClock clock;
+    auto source = Synthetic(100);
+    SlowSink sink;
+    sink.clock = &clock;
+    sink.per_camera = per_camera;
+    auto lines = std::make_shared<std::ostringstream>();
+    auto previous = spdlog::default_logger();
+    spdlog::set_default_logger(
+        std::make_shared<spdlog::logger>("capture", std::make_shared<spdlog::sinks::ostream_sink_mt>(*lines)));
+    CaptureController c({}, clock, *source, sink);
+    for (int k = 0; k < 40 && c.Step(); ++k) {
+    }
+    spdlog::set_default_logger(previous);
+    const std::string log = lines->str();
+    size_t said = 0;
+    for (size_t at = log.find("cannot keep the timeline"); at != std::string::npos;
+         at = log.find("cannot keep the timeline", at + 1))
+      ++said;
+    if (per_camera > 0.01) {
+      EXPECT_EQ(said, 1u) << log;
+      EXPECT_NE(log.find("150 ms"), std::string::npos) << log;
+      EXPECT_NE(log.find("--fps 6.0"), std::string::npos) << log;  // 0.9 / 0.15 s
+      EXPECT_GT(c.counters().dropped(), 0u);
+    } else {
+      EXPECT_EQ(said, 0u) << log;
+      EXPECT_EQ(c.counters().dropped(), 0u);
+    }
+  }
+}
+
 TEST(Capture, TimesTheBudgetsStagesFromTheFramesDueTime) {
   FakeClock clock;
   auto source = Synthetic(4);
