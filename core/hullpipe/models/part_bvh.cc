@@ -240,34 +240,6 @@ CollisionResult DetectCollisionsBvh(const VolumeQuery& query, const TriangleMesh
 
 namespace hullpipe {
 
-HullSamples SampleHull(const VolumeQuery& q, const Aabb& region_in, double step) {
-  HullSamples out;
-  out.step = step;
-  const Aabb region = region_in.Intersection(q.hull_box());
-  if (region.empty() || !(step > 0) || q.ProvesEmpty(region)) return out;
-  const Eigen::Vector3d size = region.max - region.min;
-  const int nx = int(std::floor(size.x() / step)) + 1, ny = int(std::floor(size.y() / step)) + 1,
-            nz = int(std::floor(size.z() / step)) + 1;
-  constexpr int kBlock = 4;
-  size_t hint = 0;
-  for (int bz = 0; bz < nz; bz += kBlock)
-    for (int by = 0; by < ny; by += kBlock)
-      for (int bx = 0; bx < nx; bx += kBlock) {
-        Aabb block;
-        block.min = region.min + Eigen::Vector3d(bx, by, bz) * step;
-        block.max = region.min + Eigen::Vector3d(std::min(bx + kBlock - 1, nx - 1), std::min(by + kBlock - 1, ny - 1),
-                                                 std::min(bz + kBlock - 1, nz - 1)) * step;
-        if (q.ProvesEmpty(block, &hint)) continue;
-        for (int k = bz; k < std::min(bz + kBlock, nz); ++k)
-          for (int j = by; j < std::min(by + kBlock, ny); ++j)
-            for (int i = bx; i < std::min(bx + kBlock, nx); ++i) {
-              const Eigen::Vector3d p = region.min + Eigen::Vector3d(i, j, k) * step;
-              if (q.Inside(p)) out.points.push_back(p);
-            }
-      }
-  return out;
-}
-
 PartClearance HullToPartClearance(const VolumeQuery& q, const TriangleMesh& mesh, const TriangleBvh& bvh,
                                   const Rigid3d& T, double max_clearance, const HullSamples& coarse,
                                   double refine_below) {

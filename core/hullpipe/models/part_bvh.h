@@ -15,6 +15,7 @@
 #include "hullpipe/geometry/aabb.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/geometry/rigid3.h"
+#include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/reconstruction/volume_query.h"
 
 namespace hullpipe {
@@ -106,14 +107,8 @@ struct PartClearance {
   Eigen::Vector3d hull_point = Eigen::Vector3d::Zero();  ///< The hull sample nearest the part (world).
 };
 
-/// The hull's inside points on a grid of `step` metres over `region` (world),
-/// blocks of 4x4x4 grid points the cameras prove empty skipped: the coarse
-/// samples that several parts' clearances share.
-struct HullSamples {
-  double step = 0.02;
-  std::vector<Eigen::Vector3d> points;  ///< World metres, each VolumeQuery::Inside.
-};
-HullSamples SampleHull(const VolumeQuery& query, const Aabb& region, double step = 0.02);
+// HullSamples and SampleHull (the coarse samples several parts' clearances
+// share) are in reconstruction/exact_hull.h.
 
 /// Least distance from the hull of `query` to the part's triangles (moved by
 /// world_from_body) up to max_clearance: each coarse sample within

@@ -185,17 +185,52 @@ cv::Mat ExactHullDepth(const VolumeQuery& q, const NovelView& view, const cv::Re
   return out;
 }
 
+HullSamples SampleHull(const VolumeQuery& q, const Aabb& region_in, double step) {
+  HullSamples out;
+  out.step = step;
+  const Aabb region = region_in.Intersection(q.hull_box());
+  if (region.empty() || !(step > 0) || q.ProvesEmpty(region)) return out;
+  const Eigen::Vector3d size = region.max - region.min;
+  const int nx = int(std::floor(size.x() / step)) + 1, ny = int(std::floor(size.y() / step)) + 1,
+            nz = int(std::floor(size.z() / step)) + 1;
+  constexpr int kBlock = 4;
+  size_t hint = 0;
+  for (int bz = 0; bz < nz; bz += kBlock)
+    for (int by = 0; by < ny; by += kBlock)
+      for (int bx = 0; bx < nx; bx += kBlock) {
+        Aabb block;
+        block.min = region.min + Eigen::Vector3d(bx, by, bz) * step;
+        block.max = region.min + Eigen::Vector3d(std::min(bx + kBlock - 1, nx - 1), std::min(by + kBlock - 1, ny - 1),
+                                                 std::min(bz + kBlock - 1, nz - 1)) * step;
+        if (q.ProvesEmpty(block, &hint)) continue;
+        for (int k = bz; k < std::min(bz + kBlock, nz); ++k)
+          for (int j = by; j < std::min(by + kBlock, ny); ++j)
+            for (int i = bx; i < std::min(bx + kBlock, nx); ++i) {
+              const Eigen::Vector3d p = region.min + Eigen::Vector3d(i, j, k) * step;
+              if (q.Inside(p)) out.points.push_back(p);
+            }
+      }
+  return out;
+}
+
 std::optional<double> HullExtentAlong(const VolumeQuery& q, const Eigen::Vector3d& dir_in, double step) {
   if (!(step > 0)) throw std::invalid_argument("HullExtentAlong: step must be > 0");
   if (!(dir_in.norm() > 0) || !dir_in.allFinite()) throw std::invalid_argument("HullExtentAlong: dir must be non-zero");
   const Aabb& box = q.hull_box();
   if (box.empty()) return std::nullopt;
   const Eigen::Vector3d dir = dir_in.normalized();
+  // A grid of at most kMaxPoints points, whatever the box's size.
+  constexpr double kMaxPoints = 2e5;
+  const Eigen::Vector3d size = (box.max - box.min).cwiseMax(step);
+  if (size.prod() / (step * step * step) > kMaxPoints) step = std::cbrt(size.prod() / kMaxPoints);
   std::vector<std::pair<double, Eigen::Vector3d>> inside;
-  ForEachGridPoint(box, step, [&](const Eigen::Vector3d& p) {
-    if (q.Inside(p)) inside.emplace_back(dir.dot(p), p);
-  });
-  if (inside.empty()) return std::nullopt;
+  for (const Eigen::Vector3d& p : SampleHull(q, box, step).points) inside.emplace_back(dir.dot(p), p);
+  if (inside.empty()) {
+    // A hull thinner than the grid: the box's farthest corner, which holds it.
+    double corner = -1e300;
+    for (const auto& c : box.Corners()) corner = std::max(corner, dir.dot(c));
+    return corner;
+  }
   const size_t k = std::min<size_t>(32, inside.size());
   std::partial_sort(inside.begin(), inside.begin() + long(k), inside.end(),
                     [](const auto& a, const auto& b) { return a.first > b.first; });

@@ -51,17 +51,30 @@ Intervals RayCameraIntervals(const VolumeQuery& query, size_t camera, const Eige
 /// Intersection of two interval sets.
 Intervals IntersectIntervals(const Intervals& a, const Intervals& b);
 
+/// The hull's inside points on a grid of `step` metres over `region` (world),
+/// blocks of 4x4x4 grid points the cameras prove empty skipped
+/// (VolumeQuery::ProvesEmpty): the coarse samples that the CAD models' parts'
+/// clearances share (models/part_bvh.h), and HullExtentAlong's first pass.
+struct HullSamples {
+  double step = 0.02;
+  std::vector<Eigen::Vector3d> points;  ///< World metres, each VolumeQuery::Inside.
+};
+HullSamples SampleHull(const VolumeQuery& query, const Aabb& region, double step = 0.02);
+
 /// How far the hull reaches along `dir` (world, any length): the largest
 /// dir_hat . x over its points, e.g. its lowest point along gravity, where a
 /// floor under the first hull goes (rig_world.h, `floor: hull`). The hull box's
 /// corner is no answer where dir is not an axis (on a rig whose up is tilted it
 /// lies below the hull by up to the box's half diagonal). The inside points of
-/// a grid of `step` metres over the hull box; the exact reach (ray–hull
+/// a grid of `step` metres over the hull box (SampleHull; the step grows so the
+/// grid has at most 200,000 points: a hull box as large as a room costs what a
+/// person's does); the exact reach (ray–hull
 /// intervals) of the lines along dir through the 32 farthest; then lines
 /// around the best one, 5 x 5 at half the spacing each time down to step / 64
 /// (an extreme point is often a corner where silhouette cones meet). A hull
 /// point's reach, so never beyond the hull's; a farther point more than ~2
-/// steps from the best first line can be missed. nullopt when the grid holds no inside point.
+/// steps from the best first line can be missed. A hull the grid holds no
+/// inside point of: the box's farthest corner. nullopt for an empty hull box.
 /// Throws std::invalid_argument if step <= 0 or dir is zero.
 std::optional<double> HullExtentAlong(const VolumeQuery& query, const Eigen::Vector3d& dir, double step = 0.02);
 
