@@ -73,6 +73,25 @@ class GlBackend final : public SweepBackend {
   std::unique_ptr<GlTexture> texture_;
 };
 
+// The GL context a backend `name` (gl|auto) gets, or nullopt with *why saying
+// why the CPU `what` runs instead ("auto: ..."); "gl" without a context throws.
+// What the sweep and the models' triangle query both decide.
+std::optional<EglContext> ContextFor(const std::string& name, const EglOptions& egl, const std::string& what,
+                                     std::string* why) {
+  std::string failed;
+  std::optional<EglContext> ctx = EglContext::TryCreate(egl, &failed);
+  if (!ctx) {
+    if (name == "gl") throw std::runtime_error("--backend gl: no GL context: " + failed);
+    *why = "auto: no GL context (" + failed + "); the CPU " + what;
+    return std::nullopt;
+  }
+  if (name == "auto" && ctx->IsSoftware()) {
+    *why = "auto: GL renderer is software (" + ctx->renderer() + "); the CPU " + what + " is faster there";
+    return std::nullopt;
+  }
+  return ctx;
+}
+
 }  // namespace
 
 std::unique_ptr<SweepBackend> MakeSweepBackend(const BackendOptions& o) {
@@ -84,13 +103,8 @@ std::unique_ptr<SweepBackend> MakeSweepBackend(const BackendOptions& o) {
   };
   if (o.name == "cpu") return cpu("--backend cpu");
   std::string why;
-  std::optional<EglContext> ctx = EglContext::TryCreate(EglOptions{o.gl_device}, &why);
-  if (!ctx) {
-    if (o.name == "gl") throw std::runtime_error("--backend gl: no GL context: " + why);
-    return cpu("auto: no GL context (" + why + "); the CPU sweep");
-  }
-  if (o.name == "auto" && ctx->IsSoftware())
-    return cpu("auto: GL renderer is software (" + ctx->renderer() + "); the CPU sweep is faster there");
+  std::optional<EglContext> ctx = ContextFor(o.name, EglOptions{o.gl_device}, "sweep", &why);
+  if (!ctx) return cpu(why);
   const std::string summary = ctx->info().Summary();
   try {
     auto b = std::make_unique<GlBackend>(std::move(*ctx), o.gl_method == "stencil", o.threads, o.refine);
@@ -126,14 +140,9 @@ TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOption
     return {};
   }
   std::string why;
-  std::optional<EglContext> ctx = EglContext::TryCreate(egl, &why);
+  std::optional<EglContext> ctx = ContextFor(name, egl, "triangle query", &why);
   if (!ctx) {
-    if (name == "gl") throw std::runtime_error("--backend gl: no GL context: " + why);
-    say("cpu (auto: no GL context: " + why + ")");
-    return {};
-  }
-  if (name == "auto" && ctx->IsSoftware()) {
-    say("cpu (auto: GL renderer is software, " + ctx->renderer() + "; the CPU triangle query is faster there)");
+    say("cpu (" + why + ")");
     return {};
   }
   struct Gl {

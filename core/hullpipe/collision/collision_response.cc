@@ -143,4 +143,35 @@ std::optional<CollisionResponse> ComputeResponsePaper(const VolumeQuery& query,
   return r;
 }
 
+std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, const TriangleMesh& world_mesh,
+                                                    const Eigen::Vector3d& rp_obj, const TriangleQueryOptions& options,
+                                                    bool exact, double restitution, const Eigen::Vector3d& previous,
+                                                    const Eigen::Vector3d& fallback_normal, CollisionResult* c,
+                                                    Eigen::Vector3d* position, Eigen::Vector3d* velocity) {
+  std::optional<CollisionResponse> resp;
+  if (exact) {
+    RefineFarthestCollisionPoint(query, world_mesh, rp_obj, options, c);
+    resp = ComputeResponse(query, c->collision_points, rp_obj);
+  } else {
+    resp = ComputeResponsePaper(query, c->collision_points, rp_obj);
+  }
+  Eigen::Vector3d n;
+  if (resp) {
+    n = resp->n_hull;
+    *position += (resp->d_rec + 1e-3) * resp->v_rec;  // 1 mm clear of the surface
+  } else {
+    // No CP_hull (a collision point outside the hull by float rounding): back
+    // out to the previous position, pushing away from the points' centroid.
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (const auto& p : c->collision_points) centroid += p;
+    centroid /= double(c->collision_points.size());
+    n = rp_obj - centroid;
+    n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized()) : fallback_normal;
+    *position = previous;
+  }
+  const double vn = velocity->dot(n);
+  if (vn < 0) *velocity -= (1 + restitution) * vn * n;
+  return resp;
+}
+
 }  // namespace hullpipe

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "hullpipe/collision/collision.h"
 #include "hullpipe/collision/hull_surface.h"
 #include "hullpipe/reconstruction/volume_query.h"
 
@@ -80,5 +81,26 @@ std::optional<CollisionResponse> ComputeResponsePaper(const VolumeQuery& query,
                                                       const Eigen::Vector3d& rp_obj,
                                                       const std::optional<Eigen::Vector3d>& v_rec_given = std::nullopt,
                                                       const PaperResponseOptions& options = {});
+
+/// §4.2 applied to a translating rigid body (a ball, a dynamic CAD part) whose
+/// substep ended in collision *c (world metres, m/s). CP_obj (the collision
+/// point farthest from rp_obj) and then CP_hull and N_hull: exactly (`exact`:
+/// RefineFarthestCollisionPoint on world_mesh, the body's triangles in the
+/// world as *c numbers them, then ComputeResponse), or by the paper's triangle
+/// scans (ComputeResponsePaper; world_mesh unused). The body moves by D_rec
+/// along V_rec plus 1 mm, so CP_obj ends 1 mm clear of the hull's surface
+/// (*position moves by that vector: it may be any point fixed to the body, as a
+/// part's pose translation), and the part of *velocity into the hull,
+/// v . N_hull < 0, is reflected about N_hull scaled by `restitution`
+/// (v -= (1 + e) (v . N) N). Without a CP_hull (a collision point outside the
+/// hull by rounding) *position goes back to `previous` and the normal is the
+/// direction from the collision points' centroid to rp_obj, or
+/// fallback_normal (unit) where they coincide. Returns the response (nullopt in
+/// that fallback). *c gains the refined point (exact).
+std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, const TriangleMesh& world_mesh,
+                                                    const Eigen::Vector3d& rp_obj, const TriangleQueryOptions& options,
+                                                    bool exact, double restitution, const Eigen::Vector3d& previous,
+                                                    const Eigen::Vector3d& fallback_normal, CollisionResult* c,
+                                                    Eigen::Vector3d* position, Eigen::Vector3d* velocity);
 
 }  // namespace hullpipe

@@ -1,5 +1,4 @@
 #include "hullpipe/scenes/ball.h"
-#include "hullpipe/reconstruction/exact_hull.h"
 
 #include <algorithm>
 #include <cmath>
@@ -71,15 +70,7 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
   const double g_norm = config_.gravity.norm();
   const Eigen::Vector3d g_hat = g_norm > 0 ? Eigen::Vector3d(config_.gravity / g_norm)
                                            : Eigen::Vector3d::UnitZ();
-  if (config_.floor_under_hull && hull && !hull->hull_box().empty()) {
-    // The floor under the first hull: its lowest point along -gravity (not the
-    // hull box's corner, which lies below the hull where up is not an axis).
-    if (const auto lowest = HullExtentAlong(*hull, g_hat)) {
-      config_.floor = *lowest;
-      config_.has_floor = true;
-      config_.floor_under_hull = false;
-    }
-  }
+  config_.TakeFloorUnderHull(hull);
   for (int k = 0; k < substeps; ++k) {
     ThrowIfStopped(stop, "the balls' step");
     time_ += h;
@@ -102,31 +93,11 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
       if (!c.colliding()) continue;
       // Paper §4.2: move the ball by D_rec along V_rec so its deepest collision
       // point reaches the hull's surface, and reflect its velocity about N_hull.
-      std::optional<CollisionResponse> resp;
-      if (config_.response == SceneConfig::Response::kExact) {
-        RefineFarthestCollisionPoint(*hull, mesh, s.position, config_.collision, &c);
-        resp = ComputeResponse(*hull, c.collision_points, s.position);
-      } else {
-        resp = ComputeResponsePaper(*hull, c.collision_points, s.position);
-      }
-      Eigen::Vector3d n;
-      if (resp) {
-        n = resp->n_hull;
-        s.position += (resp->d_rec + 1e-3) * resp->v_rec;  // 1 mm clear of the surface
-      } else {
-        // No CP_hull (a collision point outside the hull by float rounding): back
-        // out to the previous position, pushing away from the points' centroid.
-        Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-        for (const auto& p : c.collision_points) centroid += p;
-        centroid /= double(c.collision_points.size());
-        n = s.position - centroid;
-        n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized())
-                            : (s.velocity.norm() > 1e-9 ? Eigen::Vector3d(-s.velocity.normalized())
-                                                        : Eigen::Vector3d(-g_hat));
-        s.position = previous;
-      }
-      const double vn = s.velocity.dot(n);
-      if (vn < 0) s.velocity -= (1 + config_.balls[i].restitution) * vn * n;
+      const Eigen::Vector3d fallback =
+          s.velocity.norm() > 1e-9 ? Eigen::Vector3d(-s.velocity.normalized()) : Eigen::Vector3d(-g_hat);
+      const std::optional<CollisionResponse> resp = RespondAsRigidBody(
+          *hull, mesh, s.position, config_.collision, config_.response == SceneConfig::Response::kExact,
+          config_.balls[i].restitution, previous, fallback, &c, &s.position, &s.velocity);
       s.colliding = true;
       s.last_collision = std::move(c);
       s.last_response = resp;

@@ -12,10 +12,10 @@
 
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/collision/collision_response.h"
+#include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/scenes/scene_config.h"
 #include "hullpipe/scenes/scene_yaml.h"
 #include "hullpipe/util/parallel.h"
-#include "hullpipe/reconstruction/exact_hull.h"
 
 namespace hullpipe {
 
@@ -178,14 +178,7 @@ class ModelsElement final : public SceneElement {
   }
 
   void Step(double dt, const VolumeQuery* hull, StopFlag stop) override {
-    if (scene_.floor_under_hull && hull && !hull->hull_box().empty()) {
-      // The floor under the first hull, as the balls take it (ball.h).
-      if (const auto lowest = HullExtentAlong(*hull, g_hat_)) {
-        scene_.floor = *lowest;
-        scene_.has_floor = true;
-        scene_.floor_under_hull = false;
-      }
-    }
+    scene_.TakeFloorUnderHull(hull);  // as the balls take it
     for (Model& m : models_) {
       const auto t0 = std::chrono::steady_clock::now();
       BvhQueryStats stats;
@@ -323,6 +316,9 @@ class ModelsElement final : public SceneElement {
     const double e = m.entry.restitution;
     for (auto& b : m.bodies) b.response.reset();
     std::vector<bool> collided(m.parts.size(), false);
+    TriangleBatchQuery batch;  // empty: the CPU query
+    if (query_ && hull) batch = [&](const std::vector<Triangle>& tris) { return query_(*hull, tris, options); };
+    const bool exact = scene_.response == SceneConfig::Response::kExact;
     for (int s = 0; s < substeps; ++s) {
       ThrowIfStopped(stop, "the models' step");
       for (size_t k = 0; k < m.parts.size(); ++k) {
@@ -339,40 +335,16 @@ class ModelsElement final : public SceneElement {
         }
         if (!hull || p.mesh.triangles.empty()) continue;
         BvhQueryStats one;
-        TriangleBatchQuery batch;
-        if (query_)
-          batch = [&](const std::vector<Triangle>& batch_tris) { return query_(*hull, batch_tris, options); };
         CollisionResult c = DetectCollisionsBvh(*hull, p.mesh, p.bvh, p.world_from_body, options, batch, threads_, &one);
         stats->boxes_tested += one.boxes_tested;
         stats->triangles_queried += one.triangles_queried;
         if (!c.colliding()) continue;
-        const Eigen::Vector3d rp = p.world_from_body * b.centre_body;
-        std::optional<CollisionResponse> resp;
-        if (scene_.response == SceneConfig::Response::kExact) {
-          RefineFarthestCollisionPoint(*hull, p.mesh.Transformed(p.world_from_body), rp, options, &c);
-          resp = ComputeResponse(*hull, c.collision_points, rp);
-        } else {
-          resp = ComputeResponsePaper(*hull, c.collision_points, rp);
-        }
-        Eigen::Vector3d n;
-        if (resp) {
-          n = resp->n_hull;
-          t += (resp->d_rec + 1e-3) * resp->v_rec;  // 1 mm clear of the surface
-        } else {
-          // No CP_hull (a point outside the hull by rounding): back to the
-          // previous position, pushed away from the points' centroid.
-          Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-          for (const auto& q : c.collision_points) centroid += q;
-          centroid /= double(c.collision_points.size());
-          n = rp - centroid;
-          n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized()) : Eigen::Vector3d(-g_hat_);
-          t = previous;
-        }
-        const double vn = b.velocity.dot(n);
-        if (vn < 0) b.velocity -= (1 + e) * vn * n;
+        // §4.2, as for the balls (the world mesh only for the exact CP_obj).
+        const TriangleMesh world = exact ? p.mesh.Transformed(p.world_from_body) : TriangleMesh{};
+        b.response = RespondAsRigidBody(*hull, world, p.world_from_body * b.centre_body, options, exact, e, previous,
+                                        -g_hat_, &c, &t, &b.velocity);
         collided[k] = true;
         m.results[k] = std::move(c);
-        b.response = resp;
       }
     }
     for (size_t k = 0; k < m.parts.size(); ++k)

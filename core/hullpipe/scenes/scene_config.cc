@@ -6,6 +6,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/scenes/limits.h"
 #include "hullpipe/scenes/scene_yaml.h"
 #include "hullpipe/util/yaml_keys.h"
@@ -35,6 +36,19 @@ void SceneConfig::PlaceInWorld(const RigWorld& world, const Aabb& workspace) {
   if (gravity.norm() > 0 && std::abs(gravity.normalized().dot(up) + 1) > 1e-9)
     throw std::invalid_argument("scene: frame stage: gravity must point down the stage's z axis");
   frame = Frame::kWorld;
+}
+
+void SceneConfig::TakeFloorUnderHull(const VolumeQuery* hull) {
+  if (!floor_under_hull || !hull || hull->hull_box().empty()) return;
+  const double g = gravity.norm();
+  const Eigen::Vector3d g_hat = g > 0 ? Eigen::Vector3d(gravity / g) : Eigen::Vector3d::UnitZ();
+  // Its lowest point along -gravity (not the hull box's corner, which lies
+  // below the hull where up is not an axis).
+  if (const auto lowest = HullExtentAlong(*hull, g_hat)) {
+    floor = *lowest;
+    has_floor = true;
+    floor_under_hull = false;
+  }
 }
 
 void SceneConfig::Check() const {

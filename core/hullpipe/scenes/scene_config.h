@@ -123,6 +123,11 @@ struct SceneConfig {
   /// unchanged. Throws std::invalid_argument if the stage gravity is not along
   /// -z.
   void PlaceInWorld(const RigWorld& world, const Aabb& workspace = {});
+  /// A floor_under_hull scene given a hull with a box: the floor becomes
+  /// g_hat . x = the hull's lowest point along gravity (HullExtentAlong; g_hat
+  /// +z without gravity), has_floor is set and floor_under_hull cleared. Any
+  /// other call changes nothing. Each simulation calls it on its own copy.
+  void TakeFloorUnderHull(const VolumeQuery* hull);
   /// Throws std::invalid_argument naming the bad field (a stage scene with an
   /// element or a light, an element's own CheckIn).
   void Check() const;
