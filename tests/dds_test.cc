@@ -26,7 +26,8 @@ Camera TestCamera() {
 }
 
 TEST(Convert, CameraInfoRoundTrip) {
-  const Camera c = TestCamera();
+  Camera c = TestCamera();
+  c.skew = -1.47;  // K[1] on the wire
   Aabb ws;
   ws.min = Eigen::Vector3d(-1, -2, -3);
   ws.max = Eigen::Vector3d(1, 2, 0);
@@ -34,6 +35,7 @@ TEST(Convert, CameraInfoRoundTrip) {
   const Camera back = CameraFromMsg(CameraToMsg(c, ws), &back_ws);
   EXPECT_EQ(back.id, c.id);
   EXPECT_EQ(back.K(), c.K());
+  EXPECT_EQ(back.skew, -1.47);
   EXPECT_EQ(back.distortion, c.distortion);
   EXPECT_EQ(back.cam_from_world.rotation, c.cam_from_world.rotation);
   EXPECT_EQ(back_ws.max, ws.max);
@@ -48,6 +50,9 @@ TEST(Convert, BadCameraInfoIsRejected) {
   EXPECT_THROW(CameraFromMsg(m), MessageError);
   m = CameraToMsg(TestCamera(), {});
   m.cam_from_world_rotation[0] = 3;  // not a rotation
+  EXPECT_THROW(CameraFromMsg(m), MessageError);
+  m = CameraToMsg(TestCamera(), {});
+  m.K[1] = 2 * m.K[0];  // a skew larger than fx
   EXPECT_THROW(CameraFromMsg(m), MessageError);
 }
 

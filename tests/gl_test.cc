@@ -54,9 +54,14 @@ void ExpectSweepsMatch(const cv::Mat& gl, const cv::Mat& cpu, double spacing) {
   EXPECT_LE(differ, hull / 200 + 2) << differ << " of " << hull << " hull pixels differ";
 }
 
+// Without distortion, with it, and with a skewed K (0.06 fx) on top of it.
+const std::vector<std::pair<Distortion, double>> kLenses = {
+    {Distortion{}, 0.0}, {Distortion{-0.3, 0.1, 0.001, -0.001, -0.02}, 0.0},
+    {Distortion{-0.3, 0.1, 0.001, -0.001, -0.02}, 0.06}};
+
 TEST_F(Gl, PlaneSweepMatchesCpu) {
-  for (const Distortion& d : {Distortion{}, Distortion{-0.3, 0.1, 0.001, -0.001, -0.02}}) {
-    const VolumeQuery q(test::SphereViews(4, 200, 150, kCentre, 0.3, d), test::BigBox());
+  for (const auto& [d, skew] : kLenses) {
+    const VolumeQuery q(test::SphereViews(4, 200, 150, kCentre, 0.3, d, skew), test::BigBox());
     const NovelView view = NovelView::FromFov(
         160, 120, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
     PlaneSweepOptions o;
@@ -110,7 +115,9 @@ TEST_F(Gl, PlaneSweepMatchesCpuUnderBothOutOfViewRulesAndMixedResolutions) {
 }
 
 TEST_F(Gl, TriangleQueryMatchesCpu) {
-  const VolumeQuery q(test::SphereViews(4, 200, 150, kCentre, 0.3), test::BigBox());
+  for (const double skew : {0.0, 0.06}) {
+  SCOPED_TRACE("skew " + std::to_string(skew));
+  const VolumeQuery q(test::SphereViews(4, 200, 150, kCentre, 0.3, {}, skew), test::BigBox());
   // An icosphere mesh cutting through the hull: some triangles inside, some out,
   // some across the surface; plus a sub-pixel triangle.
   Rigid3d pose;
@@ -156,6 +163,7 @@ TEST_F(Gl, TriangleQueryMatchesCpu) {
   EXPECT_NEAR(double(gl_points), double(cpu_points), 0.03 * double(cpu_points));
   EXPECT_LE(gl_unmatched, int(0.03 * double(gl_points))) << "GL points that are no CPU point";
   EXPECT_EQ(got.back().collision_points.size(), 1u);  // sub-pixel triangle, centroid inside
+  }
 }
 
 TEST_F(Gl, TriangleQueryInSeveralPassesWithMorePointsThanTheFirstBuffer) {
@@ -273,14 +281,15 @@ void ExpectMarchMatches(const cv::Mat& gl, const cv::Mat& cpu, double spacing, d
 // A hard scene for the march: a sphere, a thin capsule (thinner than the plane
 // spacing, where refinement's near-miss scans and silhouette pass matter) and a
 // torus (a hole and grazing rays), under distortion.
-std::vector<CameraMap> HardViews(int w, int h, const Distortion& d) {
+std::vector<CameraMap> HardViews(int w, int h, const Distortion& d, double skew = 0) {
   SyntheticScene scene;
   scene.shapes.push_back(Shape::Sphere(kCentre, 0.22));
   scene.shapes.push_back(Shape::Capsule(kCentre + Eigen::Vector3d(-0.4, 0.3, 0.1),
                                         kCentre + Eigen::Vector3d(0.4, 0.35, -0.2), 0.012));
   scene.shapes.push_back(Shape::Torus(kCentre + Eigen::Vector3d(0.0, -0.35, 0.0), 0.15, 0.04));
   std::vector<CameraMap> views;
-  for (const auto& c : RingCameras(5, 3.0, 1.8, kCentre, w, h, 1.0, d)) views.push_back({c, RenderExactMap(c, scene)});
+  for (const auto& c : test::WithSkew(RingCameras(5, 3.0, 1.8, kCentre, w, h, 1.0, d), skew))
+    views.push_back({c, RenderExactMap(c, scene)});
   return views;
 }
 
@@ -288,11 +297,11 @@ TEST_F(Gl, RayMarchSweepMatchesCpuWithAndWithoutRefinement) {
   GlRaySweep march;
   const NovelView view = NovelView::FromFov(
       200, 150, 0.8, LookAt(kCentre + Eigen::Vector3d(2.0, 1.2, -0.5), kCentre, {0, 0, -1}));
-  for (const Distortion& d : {Distortion{}, Distortion{-0.3, 0.1, 0.001, -0.001, -0.02}}) {
+  for (const auto& [d, skew] : kLenses) {
     for (const OutOfView p : {OutOfView::kUnknown, OutOfView::kOutside}) {
       VolumeQueryOptions qo;
       qo.out_of_view = p;
-      const VolumeQuery q(HardViews(240, 180, d), test::BigBox(), qo);
+      const VolumeQuery q(HardViews(240, 180, d, skew), test::BigBox(), qo);
       march.Upload(q);
       for (const int planes : {30, 100}) {
         PlaneSweepOptions o;
@@ -301,7 +310,7 @@ TEST_F(Gl, RayMarchSweepMatchesCpuWithAndWithoutRefinement) {
         const double spacing = depths[1] - depths[0];
         for (const int refine : {0, 6}) {
           for (const cv::Rect tile : {cv::Rect(0, 0, 200, 150), TileRect(1, 2, 200, 150)}) {
-            const std::string what = "k1=" + std::to_string(d[0]) + " rule=" + std::to_string(int(p)) +
+            const std::string what = "k1=" + std::to_string(d[0]) + " skew=" + std::to_string(skew) + " rule=" + std::to_string(int(p)) +
                                      " planes=" + std::to_string(planes) + " refine=" + std::to_string(refine) +
                                      " tile y=" + std::to_string(tile.y);
             // Without refinement only silhouette rounding differs (the stencil GL
@@ -409,8 +418,8 @@ void ExpectColoursMatch(const cv::Mat& gl, const cv::Mat& cpu, double max_fracti
 // The sphere seen by four cameras with pattern images, a 200x150 view of it, its
 // default planes, and the visibility sweep's settings (recon's: 48 planes).
 struct TexturedSphere {
-  explicit TexturedSphere(const Distortion& d)
-      : views(test::SphereViews(4, 240, 180, kCentre, 0.3, d)),
+  explicit TexturedSphere(const Distortion& d, double skew = 0)
+      : views(test::SphereViews(4, 240, 180, kCentre, 0.3, d, skew)),
         q(views, test::BigBox()),
         images(PatternImages(views)),
         view(NovelView::FromFov(200, 150, 0.8,
@@ -429,7 +438,9 @@ struct TexturedSphere {
 };
 
 TEST_F(Gl, TextureMatchesCpuWithAndWithoutVisibility) {
-  const TexturedSphere t(Distortion{-0.2, 0.05, 0.001, -0.001, 0});
+  for (const double skew : {0.0, 0.06}) {
+  SCOPED_TRACE("skew " + std::to_string(skew));
+  const TexturedSphere t(Distortion{-0.2, 0.05, 0.001, -0.001, 0}, skew);
   const auto& [views, q, images, view, depths, cams, vo] = t;
   const HullVisibility vis = ComputeHullVisibility(q, cams, 80, vo, 4);
   GlTexture tex;
@@ -440,6 +451,7 @@ TEST_F(Gl, TextureMatchesCpuWithAndWithoutVisibility) {
                        "no visibility");
     ExpectColoursMatch(tex.Texture(depth, tile, view, images, {}, &vis),
                        TextureHull(depth, tile, view, images, {}, &vis), 0.005, "visibility");
+  }
   }
 }
 

@@ -12,7 +12,7 @@
 //       workspace and which cameras see its centre, the world, and warns about what
 //       looks wrong; exit 0 (warnings are not errors), 1 if the rig cannot be read.
 //   hullpipe_rig synthesize -o DIR [--cameras N] [--size WxH] [--frames N] [--fps F]
-//       [--format colmap|yaml] [--noise S] [--k1 K]
+//       [--format colmap|yaml] [--noise S] [--k1 K] [--skew PX]
 //       writes a rig that is not the Utrecht one (synthetic_rig.h): the synthetic
 //       figure filmed by N cameras as videos, calibrated in a z-up world of its own,
 //       as a COLMAP text model (import it like any COLMAP rig) or a rig file.
@@ -60,11 +60,13 @@ void PrintCheck(const hullpipe::Rig& rig) {
   const auto cams = rig.Cameras();
   const hullpipe::RigReport r = hullpipe::CheckRig(cams, rig.workspace, rig.world);
   std::printf("%s: %zu cameras\n", rig.source.c_str(), cams.size());
-  std::printf("%-6s %-26s %-26s %8s %8s %s\n", "camera", "centre (m)", "viewing direction", "hfov", "vfov",
-              "sees workspace centre");
-  for (const auto& c : r.cameras)
-    std::printf("%-6d %-26s %-26s %7.1f° %7.1f° %s\n", c.id, V(c.centre).c_str(), V(c.view_dir).c_str(), c.hfov_deg,
-                c.vfov_deg, c.sees_centre ? "yes" : "NO");
+  std::printf("%-6s %-26s %-26s %8s %8s %9s %s\n", "camera", "centre (m)", "viewing direction", "hfov", "vfov",
+              "skew (px)", "sees workspace centre");
+  for (size_t i = 0; i < r.cameras.size(); ++i) {
+    const auto& c = r.cameras[i];
+    std::printf("%-6d %-26s %-26s %7.1f° %7.1f° %9.3f %s\n", c.id, V(c.centre).c_str(), V(c.view_dir).c_str(),
+                c.hfov_deg, c.vfov_deg, i < cams.size() ? cams[i].skew : 0.0, c.sees_centre ? "yes" : "NO");
+  }
   std::printf("workspace: min %s  max %s\n", V(rig.workspace.min).c_str(), V(rig.workspace.max).c_str());
   const hullpipe::Aabb& common = r.common_view;
   if (!common.empty())
@@ -120,7 +122,7 @@ int main(int argc, char** argv) {
   std::string size = "644x486";
   auto* synth = app.add_subcommand("synthesize", "Write a z-up rig of the synthetic figure: videos and a calibration");
   synth->add_option("-o,--out", out, "Directory to write (videos/, sparse/0/ or rig.yaml)")->required();
-  synth->add_option("--cameras", so.cameras, "Cameras on the ring [3, 16]")->capture_default_str();
+  synth->add_option("--cameras", so.cameras, "Cameras on the ring [3, 64]")->capture_default_str();
   synth->add_option("--size", size, "Image size WxH")->capture_default_str();
   synth->add_option("--frames", so.frames, "Video length in frames")->capture_default_str();
   synth->add_option("--fps", so.fps, "Frames per second")->capture_default_str();
@@ -129,6 +131,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   synth->add_option("--noise", so.noise_sigma, "Sensor noise sigma, grey levels")->capture_default_str();
   synth->add_option("--k1", so.k1, "Radial distortion k1 of every camera")->capture_default_str();
+  synth->add_option("--skew", so.skew, "Skew of every camera's K in pixels (--format yaml)")->capture_default_str();
   synth->add_option("--threads", so.threads, "Cameras rendered in parallel")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {

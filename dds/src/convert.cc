@@ -49,6 +49,7 @@ Camera CameraFromMsg(const hullpipe_msg_CameraInfo& m, Aabb* ws) {
   c.fx = m.K[0];
   c.fy = m.K[4];
   c.cx = m.K[2];
+  c.skew = m.K[1];
   c.cy = m.K[5];
   for (int i = 0; i < 5; ++i) c.distortion[size_t(i)] = m.distortion[i];
   for (int i = 0; i < 9; ++i) c.cam_from_world.rotation(i / 3, i % 3) = m.cam_from_world_rotation[i];

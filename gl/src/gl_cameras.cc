@@ -32,6 +32,7 @@ void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps
     glUniformMatrix3fv(glGetUniformLocation(program, ("u_M" + i).c_str()), 1, GL_FALSE, M[c].data());
     glUniform3fv(glGetUniformLocation(program, ("u_A" + i).c_str()), 1, A[c].data());
     glUniform4f(glGetUniformLocation(program, ("u_intr" + i).c_str()), f.fx, f.fy, f.cx, f.cy);
+    glUniform1f(glGetUniformLocation(program, ("u_skew" + i).c_str()), f.skew);
     glUniform4f(glGetUniformLocation(program, ("u_k" + i).c_str()), f.k1, f.k2, f.k3,
                 f.r2max);
     glUniform4f(glGetUniformLocation(program, ("u_p" + i).c_str()), f.p1, f.p2, float(f.width),
@@ -50,6 +51,7 @@ GpuCamera PackCamera(const hullpipe::detail::FastCamera& f, const Eigen::Matrix3
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) g.m[4 * r + c] = float(M(r, c));
   for (int i = 0; i < 3; ++i) g.a[i] = float(A[i]);
+  g.a[3] = f.skew;
   g.intr[0] = f.fx, g.intr[1] = f.fy, g.intr[2] = f.cx, g.intr[3] = f.cy;
   g.k[0] = f.k1, g.k[1] = f.k2, g.k[2] = f.k3, g.k[3] = f.r2max;
   g.p[0] = f.p1, g.p[1] = f.p2, g.p[2] = float(f.width), g.p[3] = float(f.height);
@@ -72,7 +74,7 @@ void SetViewUniforms(GLuint program, const NovelView& view, cv::Point origin, co
 
 GpuCamera PackCamera(const Camera& c) {
   hullpipe::detail::FastCamera f{};
-  f.fx = float(c.fx), f.fy = float(c.fy), f.cx = float(c.cx), f.cy = float(c.cy);
+  f.fx = float(c.fx), f.fy = float(c.fy), f.cx = float(c.cx), f.cy = float(c.cy), f.skew = float(c.skew);
   f.k1 = float(c.distortion[0]), f.k2 = float(c.distortion[1]);
   f.p1 = float(c.distortion[2]), f.p2 = float(c.distortion[3]), f.k3 = float(c.distortion[4]);
   const double r2 = c.MaxValidRadius2();

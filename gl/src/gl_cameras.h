@@ -22,6 +22,7 @@ const int MAXCAM = 16;
 uniform mat3 u_M[MAXCAM];
 uniform vec3 u_A[MAXCAM];
 uniform vec4 u_intr[MAXCAM];  // fx fy cx cy
+uniform float u_skew[MAXCAM]; // K's row 0, column 1 (Camera::skew)
 uniform vec4 u_k[MAXCAM];     // k1 k2 k3 r2max
 uniform vec4 u_p[MAXCAM];     // p1 p2 width height
 uniform sampler2D u_maps[MAXCAM];
@@ -36,7 +37,7 @@ vec2 Pixel(int c, vec3 X) {
   float xy = xn.x * xn.y;
   vec2 xd = vec2(xn.x * radial + 2.0 * u_p[c].x * xy + u_p[c].y * (r2 + 2.0 * xn.x * xn.x),
                  xn.y * radial + u_p[c].x * (r2 + 2.0 * xn.y * xn.y) + 2.0 * u_p[c].y * xy);
-  vec2 uv = vec2(u_intr[c].x * xd.x + u_intr[c].z, u_intr[c].y * xd.y + u_intr[c].w);
+  vec2 uv = vec2(u_intr[c].x * xd.x + u_skew[c] * xd.y + u_intr[c].z, u_intr[c].y * xd.y + u_intr[c].w);
   if (!(uv.x >= 0.0 && uv.y >= 0.0 && uv.x < u_p[c].z && uv.y < u_p[c].w)) return vec2(-1.0);
   return uv;
 }
@@ -55,7 +56,7 @@ int VoteOf(int c, vec3 X) {
 inline const char* kCameraBufferGlsl = R"(
 struct Cam {
   vec4 m0, m1, m2;  // rows of M
-  vec4 a;           // xyz: A
+  vec4 a;           // xyz: A; w: skew (K's row 0, column 1)
   vec4 intr;        // fx fy cx cy
   vec4 k;           // k1 k2 k3 r2max
   vec4 p;           // p1 p2 width height
@@ -74,7 +75,7 @@ vec2 CamPixel(int c, vec3 X) {
   precise float xy = xn.x * xn.y;
   precise vec2 xd = vec2(xn.x * radial + 2.0 * p.x * xy + p.y * (r2 + 2.0 * xn.x * xn.x),
                          xn.y * radial + p.x * (r2 + 2.0 * xn.y * xn.y) + 2.0 * p.y * xy);
-  precise vec2 uv = vec2(intr.x * xd.x + intr.z, intr.y * xd.y + intr.w);
+  precise vec2 uv = vec2(intr.x * xd.x + cams[c].a.w * xd.y + intr.z, intr.y * xd.y + intr.w);
   if (!(uv.x >= 0.0 && uv.y >= 0.0 && uv.x < p.z && uv.y < p.w)) return vec2(-1.0);
   return uv;
 }
@@ -83,7 +84,7 @@ vec2 CamPixel(int c, vec3 X) {
 /// One camera as kCameraBufferGlsl's Cam (std430: 28 floats).
 struct GpuCamera {
   float m[12];
-  float a[4];
+  float a[4];  ///< A, then the skew
   float intr[4];
   float k[4];
   float p[4];

@@ -96,7 +96,7 @@ Vote VoteAt(const PixelCamera& pc, const Eigen::Vector3d& xc) {
   if (xn.squaredNorm() > pc.r2max) return Vote::kUnseen;
   const Camera& c = *pc.camera;
   if (pc.distorted) xn = c.Distort(xn);
-  const double u = c.fx * xn.x() + c.cx, v = c.fy * xn.y() + c.cy;
+  const double u = c.fx * xn.x() + c.skew * xn.y() + c.cx, v = c.fy * xn.y() + c.cy;
   if (!(u >= 0 && v >= 0 && u < c.width && v < c.height)) return Vote::kUnseen;
   return pc.map->at<uint8_t>(int(v), int(u)) != 0 ? Vote::kObject : Vote::kBackground;
 }

@@ -23,7 +23,7 @@ PinholeTruth UndistortToPinhole(const Camera& camera, const cv::Mat& image, cons
   t.view.width = camera.width, t.view.height = camera.height;
   t.view.fx = camera.fx, t.view.fy = camera.fy, t.view.cx = camera.cx, t.view.cy = camera.cy;
   t.view.world_from_eye = camera.cam_from_world.Inverse();
-  if (!camera.HasDistortion()) {
+  if (!camera.HasDistortion() && camera.skew == 0) {
     t.image = image.clone();
     t.map = map.clone();
     return t;
@@ -37,9 +37,9 @@ PinholeTruth UndistortToPinhole(const Camera& camera, const cv::Mat& image, cons
       const Eigen::Vector2d xn((c + 0.5 - camera.cx) / camera.fx, (r + 0.5 - camera.cy) / camera.fy);
       float u = -10, v = -10;
       if (xn.squaredNorm() < r2_max) {
-        const Eigen::Vector2d xd = camera.Distort(xn);
-        u = float(camera.fx * xd.x() + camera.cx - 0.5);
-        v = float(camera.fy * xd.y() + camera.cy - 0.5);
+        const Eigen::Vector2d uv = camera.PixelFromImagePlane(camera.Distort(xn));
+        u = float(uv.x() - 0.5);
+        v = float(uv.y() - 0.5);
       }
       mx.at<float>(r, c) = u, my.at<float>(r, c) = v;
     }

@@ -28,11 +28,12 @@ struct PinholeTruth {
 };
 
 /// Resamples `image` (CV_8UC3) and `map` (CV_8UC1) of `camera`, both of the
-/// camera's calibrated size, to its pinhole view: pinhole pixel centre (c+0.5,
-/// r+0.5) takes the distorted pixel at K·Distort(K^-1 (c+0.5, r+0.5, 1)) (hullpipe
-/// pixel centres; geometry/conventions.h). Pixels beyond the distortion's valid
-/// radius (Camera::MaxValidRadius2) are black / 0. Without distortion the
-/// result equals the input. Throws std::invalid_argument on a type or size mismatch.
+/// camera's calibrated size, to its pinhole view (fx, fy, cx, cy, no skew):
+/// pinhole pixel centre (c+0.5, r+0.5) takes the camera's pixel at
+/// K·Distort(K0^-1 (c+0.5, r+0.5, 1)), K with the camera's skew, K0 without
+/// (hullpipe pixel centres; geometry/conventions.h). Pixels beyond the
+/// distortion's valid radius (Camera::MaxValidRadius2) are black / 0. Without
+/// distortion and skew the result equals the input. Throws std::invalid_argument on a type or size mismatch.
 PinholeTruth UndistortToPinhole(const Camera& camera, const cv::Mat& image, const cv::Mat& map);
 
 /// Colour error of `rendered` against `truth` (both CV_8UC3 of one size) over the

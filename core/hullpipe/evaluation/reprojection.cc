@@ -84,7 +84,7 @@ inline bool ProjectTo(const Camera& camera, bool pinhole, const Eigen::Vector3d&
   }
   const Eigen::Vector3d xc = camera.cam_from_world * X;
   if (!(xc.z() > 1e-9)) return false;
-  *uv = Eigen::Vector2d(camera.fx * (xc.x() / xc.z()) + camera.cx, camera.fy * (xc.y() / xc.z()) + camera.cy);
+  *uv = camera.PixelFromImagePlane({xc.x() / xc.z(), xc.y() / xc.z()});
   return true;
 }
 
@@ -149,7 +149,8 @@ struct SilhouetteWalker {
     std::array<double, 66> cuts;
     size_t n = 0;
     cuts[n++] = s0;
-    // u(s) = fx (P.x + s Q.x) / (P.z + s Q.z) + cx = k  <=>  s = (a P.z - P.x) / (Q.x - a Q.z), a = (k - cx) / fx.
+    // u(s) = fx (P.x + s Q.x) / (P.z + s Q.z) + cx = k  <=>  s = (a P.z - P.x) / (Q.x - a Q.z), a = (k - cx) / fx;
+    // with skew, P.x and Q.x become P.x + (skew / fx) P.y and Q.x + (skew / fx) Q.y.
     auto add_lines = [&](double w0, double w1, double f, double c, double p, double q) {
       const double lo = std::min(w0, w1), hi = std::max(w0, w1);
       for (double k = std::floor(lo) + 1; k <= hi; k += 1) {
@@ -162,7 +163,8 @@ struct SilhouetteWalker {
       }
       return true;
     };
-    if (!add_lines(uv0.x(), uv1.x(), camera->fx, camera->cx, P.x(), Q.x()) ||
+    const double shear = camera->skew / camera->fx;
+    if (!add_lines(uv0.x(), uv1.x(), camera->fx, camera->cx, P.x() + shear * P.y(), Q.x() + shear * Q.y()) ||
         !add_lines(uv0.y(), uv1.y(), camera->fy, camera->cy, P.y(), Q.y()))
       return -1;
     std::sort(cuts.begin() + 1, cuts.begin() + long(n));
@@ -220,7 +222,8 @@ struct SilhouetteWalker {
         // little; the checks below keep the step safe either way).
         const Eigen::Vector3d a = camera->cam_from_world * (O + s * D), b = camera->cam_from_world.rotation * D;
         const double iz2 = 1.0 / (a.z() * a.z());
-        const double speed = std::hypot(camera->fx * (b.x() * a.z() - a.x() * b.z()) * iz2,
+        const double speed = std::hypot((camera->fx * (b.x() * a.z() - a.x() * b.z()) +
+                                         camera->skew * (b.y() * a.z() - a.y() * b.z())) * iz2,
                                         camera->fy * (b.y() * a.z() - a.y() * b.z()) * iz2);
         ds = speed > 0 ? want_px / speed : span;
       }
@@ -329,7 +332,7 @@ struct TileClassifier {
     const Eigen::Vector3d O = camera->Center();
     const Eigen::Matrix3d world_from_cam = camera->cam_from_world.rotation.transpose();
     auto point = [&](double u, double v, double z) {
-      const Eigen::Vector2d xn = camera->Undistort({(u - camera->cx) / camera->fx, (v - camera->cy) / camera->fy});
+      const Eigen::Vector2d xn = camera->Undistort(camera->ImagePlaneFromPixel({u, v}));
       return Eigen::Vector3d(O + z * (world_from_cam * Eigen::Vector3d(xn.x(), xn.y(), 1.0)));
     };
     pts.push_back(point(0.5 * (c0 + c1), 0.5 * (r0 + r1), 0.5 * (zn + zf)));
@@ -514,8 +517,8 @@ Reprojection ExactReprojector::Reproject(size_t index, int threads) const {
     // Rows over camera coordinates (x, y, z): n_cam . X_cam + e >= 0.
     const Eigen::Matrix<double, 5, 3> n_cam =
         (Eigen::Matrix<double, 5, 3>() << 0, 0, 1,           //
-         oc.fx, 0, oc.cx + m,                                //
-         -oc.fx, 0, oc.width + m - oc.cx,                    //
+         oc.fx, oc.skew, oc.cx + m,                          //
+         -oc.fx, -oc.skew, oc.width + m - oc.cx,             //
          0, oc.fy, oc.cy + m,                                //
          0, -oc.fy, oc.height + m - oc.cy)
             .finished();

@@ -39,6 +39,7 @@ std::vector<Camera> FigureFrameCameras(const SyntheticRigFilesOptions& o) {
     const double h = i % 2 ? 2.4 : 1.1;
     const Eigen::Vector3d eye(o.ring_radius * std::cos(a), o.ring_radius * std::sin(a), -h);
     cams.push_back(LookingCamera(i + 1, eye, target, up, o.width, o.height, 62.0 * kPi / 180, d));
+    cams.back().skew = o.skew;
   }
   return cams;
 }
@@ -86,7 +87,7 @@ void WriteColmapText(const std::vector<Camera>& cams, const fs::path& model) {
 }  // namespace
 
 void SyntheticRigFilesOptions::Check() const {
-  Require(cameras >= 3 && cameras <= 16, "cameras must be in [3, 16]");
+  Require(cameras >= 3 && cameras <= 64, "cameras must be in [3, 64]");
   Require(width >= 16 && width <= 2048 && height >= 16 && height <= 2048, "each image side must be in [16, 2048]");
   Require(frames >= 1 && frames <= 10000, "frames must be in [1, 10000]");
   Require(fps > 0 && fps <= 120, "fps must be in (0, 120]");
@@ -95,6 +96,9 @@ void SyntheticRigFilesOptions::Check() const {
   Require(k1 >= -0.5 && k1 <= 0.5, "k1 must be in [-0.5, 0.5]");
   Require(ring_radius >= 1.5 && ring_radius <= 20, "ring radius must be in [1.5, 20] m");
   Require(format == "colmap" || format == "yaml", "format must be colmap or yaml, not '" + format + "'");
+  // fx of these 62-degree cameras is 0.83 width: 0.2 fx is 0.16 width.
+  Require(std::isfinite(skew) && std::abs(skew) <= 0.16 * width, "skew must be at most 0.16 x the width in pixels");
+  Require(skew == 0 || format == "yaml", "skew needs format yaml: COLMAP's camera models have no skew");
   Require(threads >= 1 && threads <= 64, "threads must be in [1, 64]");
 }
 

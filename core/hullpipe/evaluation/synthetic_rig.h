@@ -18,7 +18,7 @@ namespace hullpipe {
 
 /// What to film and how to store it.
 struct SyntheticRigFilesOptions {
-  int cameras = 8;          ///< On a ring around the figure, heights alternating; [3, 16].
+  int cameras = 8;          ///< On a ring around the figure, heights alternating; [3, 64].
   int width = 644;          ///< Image size in pixels (the Utrecht rig's by default); each side [16, 2048].
   int height = 486;
   int frames = 150;         ///< Video length in frames [1, 10000]; the figure waves with period 4 s.
@@ -26,6 +26,9 @@ struct SyntheticRigFilesOptions {
   int background_frames = 30;  ///< Empty-scene frames per background video [1, 1000].
   double noise_sigma = 2.0;    ///< Gaussian sensor noise per channel, grey levels [0, 50] (0: none).
   double k1 = -0.04;           ///< Radial distortion of every camera (COLMAP OPENCV model), [-0.5, 0.5].
+  /// Skew of every camera, pixels (K's row 0, column 1; Camera::skew), |skew| <=
+  /// 0.2 x fx. Only with format "yaml": COLMAP's camera models have no skew.
+  double skew = 0;
   double ring_radius = 3.2;    ///< Camera distance from the figure's vertical axis, metres [1.5, 20].
   std::string format = "colmap";  ///< "colmap" (text model under sparse/0) or "yaml" (rig.yaml).
   int threads = 2;             ///< Cameras rendered in parallel [1, 64].

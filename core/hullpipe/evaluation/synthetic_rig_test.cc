@@ -36,7 +36,8 @@ void ExpectSameCamera(const Camera& a, const Camera& b) {
   EXPECT_EQ(a.id, b.id);
   EXPECT_EQ(a.width, b.width);
   EXPECT_EQ(a.height, b.height);
-  for (const auto& [x, y] : {std::pair{a.fx, b.fx}, {a.fy, b.fy}, {a.cx, b.cx}, {a.cy, b.cy}}) EXPECT_NEAR(x, y, 1e-9);
+  for (const auto& [x, y] : {std::pair{a.fx, b.fx}, {a.fy, b.fy}, {a.cx, b.cx}, {a.cy, b.cy}, {a.skew, b.skew}})
+    EXPECT_NEAR(x, y, 1e-9);
   for (int k = 0; k < 5; ++k) EXPECT_NEAR(a.distortion[size_t(k)], b.distortion[size_t(k)], 1e-12);
   EXPECT_LT((a.cam_from_world.rotation - b.cam_from_world.rotation).norm(), 1e-9);
   EXPECT_LT((a.cam_from_world.translation - b.cam_from_world.translation).norm(), 1e-9);
@@ -124,13 +125,31 @@ TEST(SyntheticRigFiles, RigFileDerivesAZUpWorldAndNamesVideosThatPlay) {
   }
 }
 
+// A skewed rig (as MATLAB's toolbox calibrates one) is written with its skew,
+// which the rig file keeps; the videos are filmed through the skewed K
+// (RenderColour follows Camera::PixelRayWorld).
+TEST(SyntheticRigFiles, ASkewedRigIsFilmedAndWrittenWithItsSkew) {
+  const auto dir = test::TempDir("synthetic_rig_skew");
+  SyntheticRigFilesOptions o = Small("yaml");
+  o.skew = 12;
+  const SyntheticRigFiles f = WriteSyntheticRigFiles(o, dir.string());
+  const Rig rig = LoadRig((dir / "rig.yaml").string());
+  ASSERT_EQ(rig.cameras.size(), 4u);
+  for (size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(rig.cameras[i].camera.skew, 12.0);
+    ExpectSameCamera(rig.cameras[i].camera, f.cameras[i]);
+  }
+}
+
 TEST(SyntheticRigFiles, OptionsCheckNamesTheField) {
   for (const auto& [set, field] : std::vector<std::pair<std::function<void(SyntheticRigFilesOptions&)>, std::string>>{
            {[](auto& o) { o.cameras = 2; }, "cameras"},
            {[](auto& o) { o.width = 8; }, "side"},
            {[](auto& o) { o.fps = 0; }, "fps"},
            {[](auto& o) { o.noise_sigma = -1; }, "noise"},
-           {[](auto& o) { o.format = "nerf"; }, "format"}}) {
+           {[](auto& o) { o.format = "nerf"; }, "format"},
+           {[](auto& o) { o.skew = 5; }, "skew needs format yaml"},
+           {[](auto& o) { o.format = "yaml", o.skew = 1e9; }, "skew must be"}}) {
     SyntheticRigFilesOptions o;
     set(o);
     try {

@@ -118,11 +118,11 @@ Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::R
     const Camera& cam = cameras[i];
     const cv::Rect& r = object_rects[i];
     if (r.area() == 0) return {};
-    // Undistorted extremes of the rectangle's border, in normalized coordinates.
+    // Undistorted extremes of the rectangle's border, in normalized coordinates
+    // (with skew the rectangle is a parallelogram there: its box holds it).
     double a0 = 1e300, a1 = -1e300, b0 = 1e300, b1 = -1e300;
     auto visit = [&](double u, double v) {
-      const Eigen::Vector2d xn =
-          cam.Undistort(Eigen::Vector2d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy));
+      const Eigen::Vector2d xn = cam.Undistort(cam.ImagePlaneFromPixel({u, v}));
       a0 = std::min(a0, xn.x());
       a1 = std::max(a1, xn.x());
       b0 = std::min(b0, xn.y());

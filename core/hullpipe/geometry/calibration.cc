@@ -55,11 +55,11 @@ cv::Mat ReadMatrix(const cv::FileStorage& fs_in, const std::string& path, const 
 }
 
 // The intrinsics K (row-major 3x3, OpenCV pixel centres) of `key` in `path`
-// into c (hullpipe pixel centres). hullpipe's pinhole has no skew and a last
-// row (0, 0, 1): any other K is refused rather than read in part (fx, fy, cx,
-// cy alone would drop the skew and take a singular K). Bounds: fx, fy in
+// into c (hullpipe pixel centres), skew included (Camera::skew). A last row
+// other than (0, 0, 1) is refused rather than read in part. Bounds: fx, fy in
 // [0.01, 10^4] x width (a horizontal field of view between 179.4 and 0.006
-// degrees), the principal point inside the image.
+// degrees), |skew| <= fx (axes at least 45 degrees apart), the principal point
+// inside the image.
 }  // namespace
 
 void SetCameraIntrinsics(const std::vector<double>& k, double offset, const std::string& path, const std::string& key,
@@ -74,19 +74,19 @@ void SetCameraIntrinsics(const std::vector<double>& k, double offset, const std:
   const double tiny = 1e-9 * std::max({1.0, std::abs(fx), std::abs(fy)});
   if (std::abs(k[3]) > tiny || std::abs(k[6]) > tiny || std::abs(k[7]) > tiny || std::abs(k[8] - 1) > 1e-9)
     bad("must be [fx s cx; 0 fy cy; 0 0 1]: its last two rows are not (0 fy cy) and (0 0 1)");
-  if (std::abs(k[1]) > tiny)
-    bad("has skew " + std::to_string(k[1]) +
-        " (row 0, column 1); hullpipe's camera model has none: calibrate with zero skew (OpenCV's calibrateCamera "
-        "does)");
   const double w = c->width, h = c->height;
   if (!(fx >= 0.01 * w && fx <= 1e4 * w && fy >= 0.01 * w && fy <= 1e4 * w))
     bad("has fx " + std::to_string(fx) + ", fy " + std::to_string(fy) + ": each must be in [0.01, 10000] x the width " +
         std::to_string(c->width) + " px (singular or implausible)");
+  if (!(std::abs(k[1]) <= fx))
+    bad("has skew " + std::to_string(k[1]) + " (row 0, column 1) larger than fx " + std::to_string(fx) +
+        ": image axes less than 45 degrees apart (implausible)");
   if (!(k[2] >= 0 && k[2] <= w && k[5] >= 0 && k[5] <= h))
     bad("has its principal point (" + std::to_string(k[2]) + ", " + std::to_string(k[5]) + ") outside the " +
         std::to_string(c->width) + "x" + std::to_string(c->height) + " image");
   c->fx = fx;
   c->fy = fy;
+  c->skew = std::abs(k[1]) > tiny ? k[1] : 0.0;  // a printed 1e-17 is zero
   c->cx = k[2] + offset;
   c->cy = k[5] + offset;
 }
@@ -559,7 +559,7 @@ void WriteRigYaml(const Rig& rig, const std::string& path) {
     out << YAML::Key << "width" << YAML::Value << c.width;
     out << YAML::Key << "height" << YAML::Value << c.height;
     out << YAML::Key << "K" << YAML::Value << YAML::Flow
-        << std::vector<double>{c.fx, 0, c.cx - kOpenCvToHullpipePixelOffset, 0, c.fy,
+        << std::vector<double>{c.fx, c.skew, c.cx - kOpenCvToHullpipePixelOffset, 0, c.fy,
                                c.cy - kOpenCvToHullpipePixelOffset, 0, 0, 1};
     out << YAML::Key << "distortion" << YAML::Value << YAML::Flow
         << std::vector<double>(c.distortion.begin(), c.distortion.end());

@@ -74,12 +74,12 @@ inline constexpr double kRotationNoteAbove = 1e-6;
 /// "<source>: the rotations of ...".
 std::string RepairedRotationsNote(const std::string& source, const std::vector<std::pair<int, double>>& repaired);
 
-/// Sets c's fx, fy, cx, cy from a row-major 3x3 K (c's id, width, height set),
-/// adding `offset` to the principal point (kOpenCvToHullpipePixelOffset for
-/// files with pixel centres at integers, 0 for COLMAP's and hullpipe's). Throws
-/// CalibrationError("<path>: camera N: key '<key>' ...") for skew (hullpipe's
-/// camera has none: refused, not dropped), a last row other than (0 0 1), fx or
-/// fy outside [0.01, 10^4] x width, a principal point outside the image.
+/// Sets c's fx, fy, cx, cy and skew from a row-major 3x3 K (c's id, width,
+/// height set), adding `offset` to the principal point (kOpenCvToHullpipePixelOffset
+/// for files with pixel centres at integers, 0 for COLMAP's and hullpipe's; the
+/// skew needs no offset). Throws CalibrationError("<path>: camera N: key '<key>'
+/// ...") for a last row other than (0 0 1), fx or fy outside [0.01, 10^4] x
+/// width, |skew| > fx, a principal point outside the image.
 void SetCameraIntrinsics(const std::vector<double>& k, double offset, const std::string& path,
                          const std::string& key, Camera* c);
 
@@ -87,8 +87,9 @@ void SetCameraIntrinsics(const std::vector<double>& k, double offset, const std:
 /// pixel centres -> hullpipe (+0.5). width/height must be supplied (from the video).
 /// Throws CalibrationError on a missing file, missing key or wrong matrix shape,
 /// an image side outside [1, Camera::kMaxSide], and a CameraMatrix that is not
-/// [fx 0 cx; 0 fy cy; 0 0 1] (skew, a wrong last row), whose fx or fy is outside
-/// [0.01, 10^4] x width (singular), or whose principal point is outside the image.
+/// [fx s cx; 0 fy cy; 0 0 1] (a wrong last row), whose fx or fy is outside
+/// [0.01, 10^4] x width (singular), whose skew s exceeds fx, or whose principal
+/// point is outside the image.
 Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width, int height);
 
 /// One camera of a rig with the paths of its inputs (empty where absent).

@@ -76,6 +76,7 @@ TEST(Calibration, YamlRigRoundTrip) {
   rig.cameras[2].tracked = "poses.csv";
   rig.workspace.min = Eigen::Vector3d(-1, -1, -2);
   rig.workspace.max = Eigen::Vector3d(1, 1, 0);
+  rig.cameras[0].camera.skew = -1.47;  // as a MATLAB-calibrated dome's
   WriteRigYaml(rig, (dir / "rig.yaml").string());
   const Rig back = LoadRig((dir / "rig.yaml").string());
   ASSERT_EQ(back.cameras.size(), 3u);
@@ -84,6 +85,7 @@ TEST(Calibration, YamlRigRoundTrip) {
     const Camera& b = back.cameras[i].camera;
     EXPECT_EQ(a.id, b.id);
     EXPECT_NEAR(a.cx, b.cx, 1e-9);
+    EXPECT_EQ(a.skew, b.skew);
     EXPECT_NEAR((a.cam_from_world.rotation - b.cam_from_world.rotation).norm(), 0, 1e-9);
     EXPECT_NEAR((a.cam_from_world.translation - b.cam_from_world.translation).norm(), 0, 1e-9);
     EXPECT_NEAR(a.distortion[2], b.distortion[2], 1e-12);
@@ -124,15 +126,15 @@ TEST(Calibration, YamlMissingKeyIsNamed) {
 
 // Only fx, fy, cx, cy were read: a skewed K lost its skew and a singular one
 // was taken. Each bad K is refused with the file and key named; the good K of
-// kConfig is the positive control.
-TEST(Calibration, SkewedSingularOrMalformedIntrinsicsAreRefused) {
+// kConfig is the positive control, and a skewed K is read with its skew.
+TEST(Calibration, SingularOrMalformedIntrinsicsAreRefusedAndSkewIsRead) {
   const auto dir = test::TempDir("calib_k");
   const std::string good = "500. 0. 320. 0. 510. 240. 0. 0. 1.";
   struct Case {
     const char* k;
     const char* says;
   };
-  for (const Case& c : std::vector<Case>{{"500. 3.5 320. 0. 510. 240. 0. 0. 1.", "has skew 3.5"},
+  for (const Case& c : std::vector<Case>{{"500. 503.5 320. 0. 510. 240. 0. 0. 1.", "larger than fx"},
                                          {"0. 0. 320. 0. 510. 240. 0. 0. 1.", "has fx 0"},
                                          {"1e-30 0. 320. 0. 1e-30 240. 0. 0. 1.", "singular"},
                                          {"500. 0. 320. 0. 510. 240. 0. 0. 0.", "last two rows"},
@@ -154,6 +156,15 @@ TEST(Calibration, SkewedSingularOrMalformedIntrinsicsAreRefused) {
   }
   std::ofstream(dir / "config.xml") << kConfig;
   EXPECT_NO_THROW(ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 640, 480));
+  {  // A skew is read as it is: the pixel-centre offset moves cx, not the skew.
+    std::string text = kConfig;
+    text.replace(text.find(good), good.size(), "500. -1.47 320. 0. 510. 240. 0. 0. 1.");
+    std::ofstream(dir / "config.xml") << text;
+    const Camera c = ReadOpenCvCameraConfig((dir / "config.xml").string(), 1, 640, 480);
+    EXPECT_NEAR(c.skew, -1.47, 1e-6);  // the file stores K as float (dt f)
+    EXPECT_EQ(c.cx, 320.5);
+    std::ofstream(dir / "config.xml") << kConfig;
+  }
   // NUL bytes in an attribute crashed OpenCV's parser (fuzz_rig_files): refused first.
   std::string nul = kConfig;
   nul.replace(nul.find("type_id=") + 8, 4, std::string(4, '\0'));
@@ -213,8 +224,8 @@ TEST(Calibration, YamlRigKeysAndBoundsAreChecked) {
   huge.replace(huge.find("width: 640"), 10, "width: 100000");
   EXPECT_NE(load("cameras:\n" + huge).find("'width', 'height' must be in [1, 16384]"), std::string::npos);
   std::string skewed = cam;
-  skewed.replace(skewed.find("[500,0,"), 7, "[500,2,");
-  EXPECT_NE(load("cameras:\n" + skewed).find("key 'K' has skew"), std::string::npos);
+  skewed.replace(skewed.find("[500,0,"), 7, "[500,900,");
+  EXPECT_NE(load("cameras:\n" + skewed).find("key 'K' has skew 900"), std::string::npos);
   EXPECT_NE(load("- just a list\n").find("not a YAML map"), std::string::npos);
 }
 

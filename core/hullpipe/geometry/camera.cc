@@ -15,6 +15,9 @@ void Camera::Check() const {
   if (!(fx > 0) || !(fy > 0) || !std::isfinite(fx) || !std::isfinite(fy))
     fail("focal lengths must be finite and positive");
   if (!std::isfinite(cx) || !std::isfinite(cy)) fail("principal point must be finite");
+  // |skew| <= fx: the image axes at least 45 degrees apart; published skews
+  // are a few pixels at fx near 1000.
+  if (!std::isfinite(skew) || !(std::abs(skew) <= fx)) fail("skew must be finite and at most fx in size");
   for (double d : distortion)
     if (!std::isfinite(d)) fail("distortion must be finite");
   const Eigen::Matrix3d& r = cam_from_world.rotation;
@@ -27,7 +30,7 @@ void Camera::Check() const {
 
 Eigen::Matrix3d Camera::K() const {
   Eigen::Matrix3d k;
-  k << fx, 0, cx, 0, fy, cy, 0, 0, 1;
+  k << fx, skew, cx, 0, fy, cy, 0, 0, 1;
   return k;
 }
 
@@ -101,12 +104,11 @@ std::optional<Eigen::Vector2d> Camera::Project(const Eigen::Vector3d& X_world) c
   if (xn.squaredNorm() > MaxValidRadius2()) return std::nullopt;
   // Distort with zero coefficients is the identity, bit for bit: skipped.
   const Eigen::Vector2d xd = HasDistortion() ? Distort(xn) : xn;
-  return Eigen::Vector2d(fx * xd.x() + cx, fy * xd.y() + cy);
+  return PixelFromImagePlane(xd);
 }
 
 Eigen::Vector3d Camera::PixelRayWorld(const Eigen::Vector2d& uv) const {
-  const Eigen::Vector2d xd((uv.x() - cx) / fx, (uv.y() - cy) / fy);
-  const Eigen::Vector2d xn = Undistort(xd);
+  const Eigen::Vector2d xn = Undistort(ImagePlaneFromPixel(uv));
   return (cam_from_world.rotation.transpose() * Eigen::Vector3d(xn.x(), xn.y(), 1.0))
       .normalized();
 }
@@ -118,6 +120,7 @@ Camera ScaledCamera(const Camera& camera, int new_width, int new_height) {
   c.width = new_width;
   c.height = new_height;
   c.fx *= sx;
+  c.skew *= sx;  // u scales by sx whatever y is
   c.fy *= sy;
   c.cx *= sx;  // continuous coordinates with +0.5 centres scale exactly
   c.cy *= sy;

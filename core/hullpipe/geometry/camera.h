@@ -1,5 +1,7 @@
 // Pinhole camera with OpenCV's 5-parameter lens distortion (Brown–Conrady:
-// k1, k2, p1, p2, k3). Frames and pixel conventions: conventions.h.
+// k1, k2, p1, p2, k3) and a skew term in K, applied after distortion as
+// Bouguet's and MATLAB's toolboxes and every decomposed 3x4 projection matrix
+// give it (docs/rigs.md). Frames and pixel conventions: conventions.h.
 #pragma once
 
 #include <array>
@@ -24,11 +26,15 @@ struct Camera {
   int width = 0, height = 0;      ///< Image size in pixels.
   double fx = 0, fy = 0;          ///< Focal lengths in pixels.
   double cx = 0, cy = 0;          ///< Principal point, hullpipe convention (+0.5).
+  /// K's row 0, column 1 in pixels: u = fx x + skew y + cx on distorted
+  /// normalized coordinates (x, y). Zero for OpenCV's and COLMAP's cameras.
+  double skew = 0;
   Distortion distortion{};        ///< OpenCV k1 k2 p1 p2 k3 (unitless, normalized coords).
   Rigid3d cam_from_world;         ///< Extrinsics: world metres -> camera-frame metres.
 
   /// Throws std::invalid_argument naming the bad field if the camera is unusable
-  /// (non-positive size or focal length, non-finite values, non-orthonormal R).
+  /// (non-positive size or focal length, non-finite values, |skew| > fx,
+  /// non-orthonormal R).
   void Check() const;
 
   /// True if any distortion coefficient is non-zero (else a pure pinhole).
@@ -38,8 +44,21 @@ struct Camera {
     return false;
   }
 
-  /// 3x3 intrinsic matrix K (hullpipe pixel convention).
+  /// 3x3 intrinsic matrix K = [fx skew cx; 0 fy cy; 0 0 1] (hullpipe pixels).
   Eigen::Matrix3d K() const;
+
+  /// K applied to distorted normalized coordinates: continuous pixel (u, v) =
+  /// (fx x + skew y + cx, fy y + cy). Exact inverse: ImagePlaneFromPixel.
+  Eigen::Vector2d PixelFromImagePlane(const Eigen::Vector2d& xd) const {
+    return {fx * xd.x() + skew * xd.y() + cx, fy * xd.y() + cy};
+  }
+
+  /// K^-1 applied to a continuous pixel: distorted normalized coordinates
+  /// y = (v - cy) / fy, x = (u - cx - skew y) / fx.
+  Eigen::Vector2d ImagePlaneFromPixel(const Eigen::Vector2d& uv) const {
+    const double y = (uv.y() - cy) / fy;
+    return {(uv.x() - cx - skew * y) / fx, y};
+  }
 
   /// Camera centre in world metres (-R^T t).
   Eigen::Vector3d Center() const;
@@ -77,7 +96,8 @@ struct Camera {
   mutable double max_valid_radius2_ = -1;  // cache; -1 = not computed
 };
 
-/// Returns the Camera scaled to a new image size (intrinsics scaled, distortion and
+/// Returns the Camera scaled to a new image size (intrinsics scaled: fx, skew
+/// and cx by the width's ratio, fy and cy by the height's; distortion and
 /// extrinsics kept): used when maps are published at reduced resolution.
 Camera ScaledCamera(const Camera& camera, int new_width, int new_height);
 

@@ -71,5 +71,52 @@ TEST(Camera, ScaledCameraProjectsProportionally) {
   EXPECT_NEAR((*half.Project(X) - *cam.Project(X) / 2).norm(), 0, 1e-9);
 }
 
+// Skew as published calibrations give it (Bouguet's and MATLAB's toolboxes, a
+// decomposed 3x4 P): K = [fx s cx; 0 fy cy; 0 0 1] applied after distortion. The
+// reference is the textbook formula, K times the homogeneous distorted point,
+// written out here apart from Camera's arithmetic. Skew 0.08 fx (26 px) so that
+// a camera that dropped it would be off by up to ~10 px in this view, not a
+// fraction of one; tolerances: double rounding (1e-9 px) and Undistort's Newton
+// iteration (1e-6 px, as the round trip above).
+TEST(Camera, ASkewedCameraProjectsAndBackProjectsExactly) {
+  for (const bool distorted : {false, true}) {
+    Camera cam = DistortedCamera();
+    if (!distorted) cam.distortion = {};
+    cam.skew = 0.08 * cam.fx;
+    cam.Check();
+    const Eigen::Matrix3d K = cam.K();
+    EXPECT_EQ(K(0, 1), cam.skew);
+    double largest_shift = 0;
+    for (double v = 0.05 * cam.height; v <= 0.95 * cam.height; v += 23.7)
+      for (double u = 0.05 * cam.width; u <= 0.95 * cam.width; u += 21.3) {
+        const Eigen::Vector2d uv(u, v);
+        const Eigen::Vector3d X = cam.Center() + 2.9 * cam.PixelRayWorld(uv);
+        const auto back = cam.Project(X);
+        ASSERT_TRUE(back.has_value());
+        EXPECT_NEAR((*back - uv).norm(), 0.0, 1e-6) << "pixel " << u << "," << v << " distorted " << distorted;
+        // The reference: K (xd, yd, 1) with xd = Distort(x / z, y / z).
+        const Eigen::Vector3d xc = cam.cam_from_world * X;
+        const Eigen::Vector2d xd = cam.Distort({xc.x() / xc.z(), xc.y() / xc.z()});
+        const Eigen::Vector3d h = K * Eigen::Vector3d(xd.x(), xd.y(), 1.0);
+        EXPECT_NEAR((*back - h.head<2>() / h.z()).norm(), 0.0, 1e-9);
+        EXPECT_NEAR((cam.ImagePlaneFromPixel(cam.PixelFromImagePlane(xd)) - xd).norm(), 0.0, 1e-15);
+        Camera no_skew = cam;
+        no_skew.skew = 0;
+        largest_shift = std::max(largest_shift, (*no_skew.Project(X) - *back).norm());
+      }
+    EXPECT_GT(largest_shift, 5.0) << "the skew must matter in this test";
+    // Scaled to half size, the skew halves with fx: projections halve exactly.
+    const Camera half = ScaledCamera(cam, cam.width / 2, cam.height / 2);
+    EXPECT_EQ(half.skew, cam.skew / 2);
+    const Eigen::Vector3d X = cam.Center() + 4.0 * cam.PixelRayWorld({100.5, 200.5});
+    EXPECT_NEAR((*half.Project(X) - *cam.Project(X) / 2).norm(), 0, 1e-9);
+  }
+  Camera bad = DistortedCamera();
+  bad.skew = 1.01 * bad.fx;
+  EXPECT_THROW(bad.Check(), std::invalid_argument);
+  bad.skew = std::nan("");
+  EXPECT_THROW(bad.Check(), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace hullpipe

@@ -65,9 +65,10 @@ std::vector<VoteSegment> RayCameraSegments(const VolumeQuery& q, size_t ci, cons
     bool distorted = false;
     for (double k : cam.distortion) distorted |= k != 0;
     if (!distorted) {
-      // u = fx x/z + cx: (fx A.x + cx A.z + s (fx B.x + cx B.z)) / (A.z + s B.z).
-      MobiusCrossings(cam.fx * A.x() + cam.cx * A.z(), cam.fx * B.x() + cam.cx * B.z(), A.z(), B.z(), s0, s1,
-                      &breaks);
+      // u = (fx x + skew y)/z + cx:
+      // (fx A.x + skew A.y + cx A.z + s (fx B.x + skew B.y + cx B.z)) / (A.z + s B.z).
+      MobiusCrossings(cam.fx * A.x() + cam.skew * A.y() + cam.cx * A.z(),
+                      cam.fx * B.x() + cam.skew * B.y() + cam.cx * B.z(), A.z(), B.z(), s0, s1, &breaks);
       MobiusCrossings(cam.fy * A.y() + cam.cy * A.z(), cam.fy * B.y() + cam.cy * B.z(), A.z(), B.z(), s0, s1,
                       &breaks);
     } else {
@@ -213,16 +214,39 @@ HullSamples SampleHull(const VolumeQuery& q, const Aabb& region_in, double step)
   return out;
 }
 
+namespace {
+// The step of a grid over `box` with at most 200,000 points, at least `step`:
+// a hull box as large as a room costs what a person's does.
+double CappedStep(const Aabb& box, double step) {
+  constexpr double kMaxPoints = 2e5;
+  const Eigen::Vector3d size = (box.max - box.min).cwiseMax(step);
+  if (size.prod() / (step * step * step) > kMaxPoints) step = std::cbrt(size.prod() / kMaxPoints);
+  return step;
+}
+}  // namespace
+
+Aabb SampledHullBox(const VolumeQuery& q, double step) {
+  if (!(step > 0)) throw std::invalid_argument("SampledHullBox: step must be > 0");
+  const Aabb& box = q.hull_box();
+  if (box.empty()) return box;
+  step = CappedStep(box, step);
+  const HullSamples s = SampleHull(q, box, step);
+  if (s.points.empty()) return box;
+  Aabb out;
+  out.min = out.max = s.points.front();
+  for (const Eigen::Vector3d& p : s.points) out.min = out.min.cwiseMin(p), out.max = out.max.cwiseMax(p);
+  out.min.array() -= step;
+  out.max.array() += step;
+  return out.Intersection(box);
+}
+
 std::optional<double> HullExtentAlong(const VolumeQuery& q, const Eigen::Vector3d& dir_in, double step) {
   if (!(step > 0)) throw std::invalid_argument("HullExtentAlong: step must be > 0");
   if (!(dir_in.norm() > 0) || !dir_in.allFinite()) throw std::invalid_argument("HullExtentAlong: dir must be non-zero");
   const Aabb& box = q.hull_box();
   if (box.empty()) return std::nullopt;
   const Eigen::Vector3d dir = dir_in.normalized();
-  // A grid of at most kMaxPoints points, whatever the box's size.
-  constexpr double kMaxPoints = 2e5;
-  const Eigen::Vector3d size = (box.max - box.min).cwiseMax(step);
-  if (size.prod() / (step * step * step) > kMaxPoints) step = std::cbrt(size.prod() / kMaxPoints);
+  step = CappedStep(box, step);
   std::vector<std::pair<double, Eigen::Vector3d>> inside;
   for (const Eigen::Vector3d& p : SampleHull(q, box, step).points) inside.emplace_back(dir.dot(p), p);
   if (inside.empty()) {

@@ -78,6 +78,19 @@ HullSamples SampleHull(const VolumeQuery& query, const Aabb& region, double step
 /// Throws std::invalid_argument if step <= 0 or dir is zero.
 std::optional<double> HullExtentAlong(const VolumeQuery& query, const Eigen::Vector3d& dir, double step = 0.02);
 
+/// The hull's own axis-aligned box (world metres): the inside points of
+/// HullExtentAlong's grid over the hull box (SampleHull, `step` grown so the
+/// grid holds at most 200,000 points), one grid step beyond them on each side,
+/// within the hull box. VolumeQuery::hull_box bounds the hull by the cameras'
+/// object rectangles and the workspace: on a rig whose axes are not the
+/// cameras' (a dome, a tilted world) some of its faces stay the workspace's,
+/// tens of centimetres off; this one is within a step of the hull, except
+/// where a part thinner than the step falls between grid points. Where the
+/// centre of what the cameras see matters (the orbit, where balls aim). A hull
+/// the grid holds no inside point of: the hull box. Empty for an empty hull box.
+/// Throws std::invalid_argument if step <= 0.
+Aabb SampledHullBox(const VolumeQuery& query, double step = 0.02);
+
 /// Exact first-hit eye depth (metres) of every pixel of `tile` of the view
 /// (CV_32FC1, kNoDepth where the pixel centre's ray misses the hull), within the
 /// hull box. The reference for the sweep's depth error. threads >= 1.

@@ -91,8 +91,8 @@ struct LensBound {
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;  // pinhole pixels
   explicit LensBound(const Camera& c) : camera(&c), r2max(c.MaxValidRadius2()) {
     auto visit = [&](double u, double v) {
-      const Eigen::Vector2d xn = c.Undistort({(u - c.cx) / c.fx, (v - c.cy) / c.fy});
-      const Eigen::Vector2d p(c.fx * xn.x() + c.cx, c.fy * xn.y() + c.cy);
+      const Eigen::Vector2d xn = c.Undistort(c.ImagePlaneFromPixel({u, v}));
+      const Eigen::Vector2d p = c.PixelFromImagePlane(xn);
       x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
       shift = std::max({shift, std::abs(p.x() - u), std::abs(p.y() - v)});
     };
@@ -100,10 +100,10 @@ struct LensBound {
     for (double v = 0; v < c.height + 8; v += 8) visit(0, std::min(v, double(c.height))), visit(c.width, std::min(v, double(c.height)));
     for (int i = 0; i <= 16; ++i)
       for (int j = 0; j <= 16; ++j) {
-        const Eigen::Vector2d xn((x0 + (x1 - x0) * i / 16 - c.cx) / c.fx, (y0 + (y1 - y0) * j / 16 - c.cy) / c.fy);
+        const Eigen::Vector2d xn = c.ImagePlaneFromPixel({x0 + (x1 - x0) * i / 16, y0 + (y1 - y0) * j / 16});
         if (xn.squaredNorm() > r2max) continue;
-        const Eigen::Vector2d xd = c.Distort(xn);
-        shift = std::max({shift, std::abs(c.fx * (xd.x() - xn.x())), std::abs(c.fy * (xd.y() - xn.y()))});
+        const Eigen::Vector2d d = c.PixelFromImagePlane(c.Distort(xn)) - c.PixelFromImagePlane(xn);
+        shift = std::max({shift, std::abs(d.x()), std::abs(d.y())});
       }
     shift = 1.1 * shift + 1.0;
   }
@@ -114,7 +114,7 @@ struct LensBound {
     if (!(xc.z() > 1e-9)) return std::nullopt;
     const Eigen::Vector2d xn(xc.x() / xc.z(), xc.y() / xc.z());
     if (xn.squaredNorm() > r2max) return std::nullopt;
-    return Eigen::Vector2d(camera->fx * xn.x() + camera->cx, camera->fy * xn.y() + camera->cy);
+    return camera->PixelFromImagePlane(xn);
   }
 };
 
@@ -350,7 +350,7 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
     detail::FastCamera f{};
     for (int i = 0; i < 9; ++i) f.r[i] = float(c.cam_from_world.rotation(i / 3, i % 3));
     for (int i = 0; i < 3; ++i) f.t[i] = float(c.cam_from_world.translation[i]);
-    f.fx = float(c.fx), f.fy = float(c.fy), f.cx = float(c.cx), f.cy = float(c.cy);
+    f.fx = float(c.fx), f.fy = float(c.fy), f.cx = float(c.cx), f.cy = float(c.cy), f.skew = float(c.skew);
     f.k1 = float(c.distortion[0]), f.k2 = float(c.distortion[1]);
     f.p1 = float(c.distortion[2]), f.p2 = float(c.distortion[3]), f.k3 = float(c.distortion[4]);
     f.distorted = c.HasDistortion();

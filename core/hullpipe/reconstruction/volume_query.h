@@ -32,7 +32,7 @@ namespace detail {
 /// A camera's projection reduced to floats for hot loops (see VolumeQuery::VoteFast).
 struct FastCamera {
   float r[9], t[3];
-  float fx, fy, cx, cy;
+  float fx, fy, cx, cy, skew;
   float k1, k2, p1, p2, k3;
   float r2max;
   bool distorted;
@@ -145,7 +145,7 @@ class VolumeQuery {
       xn = xd;
       yn = yd;
     }
-    const float u = c.fx * xn + c.cx, v = c.fy * yn + c.cy;
+    const float u = c.fx * xn + c.skew * yn + c.cx, v = c.fy * yn + c.cy;
     if (!(u >= 0.0f && v >= 0.0f && u < float(c.width) && v < float(c.height))) return Vote::kUnseen;
     return c.data[size_t(v) * c.step + size_t(u)] != 0 ? Vote::kObject : Vote::kBackground;
   }
