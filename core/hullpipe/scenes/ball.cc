@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "hullpipe/reconstruction/exact_hull.h"
+
 namespace hullpipe {
 
 BallSimulation::BallSimulation(SceneConfig config) : config_(std::move(config)) {
@@ -35,7 +37,7 @@ void BallSimulation::Throw(size_t i, const VolumeQuery* hull) {
       next_throw_[i] = time_;
       return;
     }
-    const Eigen::Vector3d centre = hull->hull_box().Center();
+    const Eigen::Vector3d centre = SampledHullBox(*hull).Center();  // the hull's own box
     start += centre;
     target += centre;
   }

@@ -295,13 +295,16 @@ void RenderController::IssuePoses() {
                      comp_.floor_offset - lowest, comp_.floor_offset);
       }
       floor_checked_ = true;
-      first_hull_box_ = hull->hull_box();
     }
+    // The first hull's own box (stats.json's "world"), not the hull box, which
+    // keeps the workspace's faces where the cameras' axes are not the world's.
+    if (first_hull_box_.empty() && hull && !hull->hull_box().empty() && (reach_down || !centre_known_))
+      first_hull_box_ = SampledHullBox(*hull);
     if (!centre_known_ && !hull->hull_box().empty()) {
-      orbit_.centre = hull->hull_box().Center();
+      orbit_.centre = first_hull_box_.Center();
       centre_known_ = true;
-      spdlog::info("orbit centre from the hull box: [{:.2f}, {:.2f}, {:.2f}] m", orbit_.centre.x(), orbit_.centre.y(),
-                   orbit_.centre.z());
+      spdlog::info("orbit centre from the first hull's box: [{:.2f}, {:.2f}, {:.2f}] m", orbit_.centre.x(),
+                   orbit_.centre.y(), orbit_.centre.z());
     }
     // The path is driven by the frames' source time, not the wall clock, so the
     // same frame is seen from the same place in every run and replay.
