@@ -61,14 +61,50 @@ std::string RigWorld::FloorText() const {
   return b;
 }
 
-Eigen::Vector3d DeriveUp(const std::vector<Camera>& cameras, double snap_deg, double* spread_deg) {
+UpEstimates EstimateUp(const std::vector<Camera>& cameras) {
+  UpEstimates e;
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (const auto& c : cameras) sum -= c.cam_from_world.rotation.row(1).transpose();  // R^T (0,-1,0)
-  if (cameras.empty() || sum.norm() < 0.2 * double(cameras.size()))
+  if (cameras.empty() || sum.norm() < 0.2 * double(cameras.size())) return e;
+  e.mean_image_up = sum.normalized();
+  // Level cameras: up is normal to every image x-axis.
+  auto normal_to = [&](const std::vector<Eigen::Vector3d>& xs) -> std::optional<Eigen::Vector3d> {
+    if (xs.size() < 2) return std::nullopt;
+    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+    for (const auto& x : xs) m += x * x.transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(m);  // ascending
+    // x-axes all near one line: the middle eigenvalue is n sin^2 of their spread
+    // (about); under 0.02 n (~16 degrees) the normal is not pinned down.
+    if (eig.eigenvalues()(1) < 0.02 * double(xs.size())) return std::nullopt;
+    Eigen::Vector3d up = eig.eigenvectors().col(0).normalized();
+    return up.dot(e.mean_image_up) < 0 ? Eigen::Vector3d(-up) : up;
+  };
+  std::vector<Eigen::Vector3d> xs;
+  for (const auto& c : cameras) xs.push_back(c.cam_from_world.rotation.row(0).transpose());
+  e.level = normal_to(xs);
+  if (e.level) {
+    const double limit = std::sin(15.0 * kPi / 180);
+    std::vector<Eigen::Vector3d> level_xs;
+    for (const auto& x : xs)
+      if (std::abs(x.dot(*e.level)) <= limit) level_xs.push_back(x);
+    if (level_xs.size() < xs.size()) {
+      const auto again = normal_to(level_xs);
+      if (again) {
+        e.level = again;
+        e.rolled = int(xs.size() - level_xs.size());
+      }
+    }
+  }
+  return e;
+}
+
+Eigen::Vector3d DeriveUp(const std::vector<Camera>& cameras, double snap_deg, double* spread_deg) {
+  const UpEstimates e = EstimateUp(cameras);
+  if (e.mean_image_up.isZero())
     throw std::invalid_argument(
         "the cameras' image-up directions cancel out (cameras rolled every way): state the world's up in the rig "
         "file (world: {up: [x, y, z]})");
-  Eigen::Vector3d up = sum.normalized();
+  Eigen::Vector3d up = e.level ? *e.level : e.mean_image_up;
   int axis = 0;
   up.cwiseAbs().maxCoeff(&axis);
   Eigen::Vector3d snapped = Eigen::Vector3d::Zero();
@@ -195,6 +231,17 @@ RigReport CheckRig(const std::vector<Camera>& cameras, const Aabb& workspace, co
     else if (spread < 0.005)
       r.warnings.push_back("the cameras are " + std::to_string(spread) +
                            " m apart: is the calibration in kilometres or arbitrary units? (import with --scale)");
+  }
+  const UpEstimates estimates = EstimateUp(cameras);
+  if (estimates.level && !estimates.mean_image_up.isZero()) {
+    const double apart = AngleDeg(*estimates.level, estimates.mean_image_up);
+    if (apart > 10)
+      r.warnings.push_back("the up at right angles to the cameras' image x-axes " + Vec(*estimates.level) +
+                           " and their mean image-up " + Vec(estimates.mean_image_up) + " are " +
+                           std::to_string(int(std::lround(apart))) +
+                           " degrees apart (cameras looking down from one side lean the mean; rolled cameras "
+                           "tilt the other): the derived up takes the first; if neither is right, state "
+                           "world: {up: [x, y, z]}");
   }
   try {
     double spread_deg = 0;

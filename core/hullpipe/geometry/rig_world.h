@@ -6,6 +6,7 @@
 // the cameras), never from one rig's habits. docs/rigs.md.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,12 +39,34 @@ struct RigWorld {
   std::string FloorText() const;
 };
 
-/// The cameras' mean image-up in the world (each camera's -y axis, R^T (0,-1,0)),
-/// normalised, and snapped to the nearest world axis when within `snap_deg`
-/// degrees of it (calibrations usually align an axis with gravity). *spread_deg,
-/// if given, gets the largest angle between one camera's image-up and the
-/// result. Throws std::invalid_argument when the cameras' image-ups cancel out
-/// (mean shorter than 0.2: cameras rolled every way; state `up` instead).
+/// Two estimates of the world's up from the cameras alone (world frame, unit).
+struct UpEstimates {
+  /// The cameras' mean image-up (each camera's -y axis, R^T (0,-1,0)),
+  /// normalised; zero where they cancel out (mean shorter than 0.2). Leans
+  /// toward the side of the room the cameras are on when they look down from
+  /// one side only.
+  Eigen::Vector3d mean_image_up = Eigen::Vector3d::Zero();
+  /// The direction at right angles to every level camera's image x-axis (R^T
+  /// (1,0,0)): cameras are mounted unrolled, so their x-axes are horizontal
+  /// whatever their tilt. The least-squares normal (smallest eigenvector of
+  /// sum x x^T), signed to agree with mean_image_up; cameras whose x-axis is
+  /// more than 15 degrees off that plane are taken as rolled and left out once.
+  /// nullopt where fewer than two cameras remain or their x-axes are all
+  /// within ~16 degrees of one line (up is then any direction in a plane).
+  std::optional<Eigen::Vector3d> level;
+  int rolled = 0;  ///< Cameras left out of `level` as rolled.
+};
+
+/// UpEstimates of `cameras`.
+UpEstimates EstimateUp(const std::vector<Camera>& cameras);
+
+/// The world's up derived from the cameras: UpEstimates::level where there is
+/// one, else the mean image-up; snapped to the nearest world axis when within
+/// `snap_deg` degrees of it (calibrations usually align an axis with gravity).
+/// *spread_deg, if given, gets the largest angle between one camera's image-up
+/// and the result. Throws std::invalid_argument when the cameras' image-ups
+/// cancel out (mean shorter than 0.2: cameras rolled every way; state `up`
+/// instead): they give up its sign.
 Eigen::Vector3d DeriveUp(const std::vector<Camera>& cameras, double snap_deg = 10.0, double* spread_deg = nullptr);
 
 /// The box of the points every camera sees (in front of it and inside its image),
