@@ -63,6 +63,10 @@ class RigSource {
     RigFrame scratch;
     return Next(&scratch);
   }
+  /// Frames in the input from the first, as the files declare them (the
+  /// fewest of any camera: a frameset needs every camera); 0 where unknown
+  /// (live cameras, image sequences, containers that do not say).
+  virtual int64_t frame_count() const { return 0; }
   /// True if frames come as the cameras deliver them (V4L2, network streams):
   /// not paced, not skippable, stamped on arrival.
   virtual bool live() const { return false; }

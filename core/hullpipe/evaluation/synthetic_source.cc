@@ -40,6 +40,7 @@ class SyntheticRig final : public RigSource {
   int rig_camera_count() const override { return options_.cameras; }
   Aabb workspace() const override { return workspace_; }
   double fps() const override { return options_.fps; }
+  int64_t frame_count() const override { return options_.frames; }
   bool Next(RigFrame* f) override {
     if (index_ >= options_.frames) return false;
     f->time_s = double(index_) / options_.fps;

@@ -68,6 +68,16 @@ class VideoRig final : public RigSource {
     LiveCameraReader::StopAll(readers);
   }
   bool live() const override { return live_; }
+  int64_t frame_count() const override {
+    if (live_) return 0;
+    int64_t n = 0;
+    for (const Cam& c : cams_) {
+      const int64_t d = c.frames ? c.frames->declared_frames() : 0;
+      if (d <= 0) return 0;
+      n = n == 0 ? d : std::min(n, d);
+    }
+    return n;
+  }
   bool Skip() override {
     if (live_) return false;
     int alive = 0;

@@ -61,10 +61,20 @@ bool CaptureController::CatchUp(double lag_s, const char* why) {
   if (lag_s > 0 && !behind_said_ && frame_s_ > 0) {
     // Behind the timeline (not joining it): said once, with what would keep up.
     behind_said_ = true;
+    // How much of a file's input that skips, where the files say how long they are.
+    int64_t total = source_.frame_count();
+    if (o_.frames > 0) total = total > 0 ? std::min(total, o_.frames) : o_.frames;
+    std::string share;
+    if (total > 0 && !o_.loop) {
+      const double kept = std::min(1.0, 1.0 / (frame_s_ * rate_));
+      const int64_t skipped = total - int64_t(std::ceil(double(total) * kept));
+      share = " This run would skip about " + std::to_string(skipped) + " of its " + std::to_string(total) +
+              " frames" + (kept < 0.5 ? " (most of its input)." : ".");
+    }
     spdlog::warn("cannot keep the timeline's {:.1f} fps: a frame takes {:.0f} ms to read, segment and publish here "
-                 "({:.1f} fps); frames are skipped to stay on it (counted as dropped). Pace the run at what the "
+                 "({:.1f} fps); frames are skipped to stay on it (counted as dropped).{} Pace the run at what the "
                  "machine does (capture --fps {:.1f}), or give it fewer or smaller cameras",
-                 rate_, frame_s_ * 1e3, 1.0 / frame_s_, std::max(0.1, 0.9 / frame_s_));
+                 rate_, frame_s_ * 1e3, 1.0 / frame_s_, share, std::max(0.1, 0.9 / frame_s_));
   }
   if (lag_s > 0 && behind_said_)
     spdlog::debug("{}: skipping frames {}..{} to the frame due now", why, index_ + 1, due_now());

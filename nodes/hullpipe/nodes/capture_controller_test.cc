@@ -94,8 +94,8 @@ struct SlowSink final : CaptureSink {
 
 // A capture node that cannot keep the timeline's rate (25 fps, a frame taking
 // 150 ms) says so once, with the rate it can keep and the flag that paces it,
-// and skips the frames it cannot make, counted as dropped. A fast one says
-// nothing (the control).
+// and how much of a file's input that skips, and skips the frames it cannot
+// make, counted as dropped. A fast one says nothing (the control).
 TEST(Capture, FallingBehindIsSaidOnceWithWhatWouldKeepUp) {
   for (const double per_camera : {0.05, 0.001}) {
     SCOPED_TRACE(per_camera);
@@ -121,6 +121,8 @@ TEST(Capture, FallingBehindIsSaidOnceWithWhatWouldKeepUp) {
       EXPECT_EQ(said, 1u) << log;
       EXPECT_NE(log.find("150 ms"), std::string::npos) << log;
       EXPECT_NE(log.find("--fps 6.0"), std::string::npos) << log;  // 0.9 / 0.15 s
+      // Said at the start, for the whole input: 100 frames at 25 fps, 6.7 made.
+      EXPECT_NE(log.find("would skip about 73 of its 100 frames (most of its input)"), std::string::npos) << log;
       EXPECT_GT(c.counters().dropped(), 0u);
     } else {
       EXPECT_EQ(said, 0u) << log;
