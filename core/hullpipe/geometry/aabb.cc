@@ -61,9 +61,35 @@ std::vector<Face> BoxFaces(const Aabb& b) {
   return faces;
 }
 
-// Keeps the part of the polytope where n.x + d >= 0.
+// Appends p unless it is (within 1e-12 m) the last point or one of `all`.
+void PushDistinct(std::vector<Eigen::Vector3d>* pts, const Eigen::Vector3d& p, bool all) {
+  constexpr double kSame2 = 1e-24;
+  if (all) {
+    for (const auto& q : *pts)
+      if ((q - p).squaredNorm() <= kSame2) return;
+  } else if (!pts->empty() && (pts->back() - p).squaredNorm() <= kSame2) {
+    return;
+  }
+  pts->push_back(p);
+}
+
+// Keeps the part of the polytope where n.x + d >= 0. Every cut edge is shared
+// by two faces and gives its point to the cap twice, and a vertex on the plane
+// comes back as its own cut: points are kept once, or a rig of many cameras
+// (5 planes each) grew its faces' loops with every plane (the hull box's set-up
+// was ~n^2 in the cameras: docs/benchmarks.md, "Many cameras").
 std::vector<Face> ClipPolytope(const std::vector<Face>& faces, const Eigen::Vector3d& n,
                                double d) {
+  bool cuts = false;  // most planes leave the polytope whole: no copy then
+  for (const Face& f : faces) {
+    for (const auto& a : f)
+      if (n.dot(a) + d < -1e-12) {
+        cuts = true;
+        break;
+      }
+    if (cuts) break;
+  }
+  if (!cuts) return faces;
   std::vector<Face> out;
   std::vector<Eigen::Vector3d> cap;
   const double eps = 1e-12;
@@ -73,13 +99,14 @@ std::vector<Face> ClipPolytope(const std::vector<Face>& faces, const Eigen::Vect
       const Eigen::Vector3d& a = f[i];
       const Eigen::Vector3d& b = f[(i + 1) % f.size()];
       const double da = n.dot(a) + d, db = n.dot(b) + d;
-      if (da >= -eps) clipped.push_back(a);
+      if (da >= -eps) PushDistinct(&clipped, a, false);
       if ((da >= -eps) != (db >= -eps)) {
         const Eigen::Vector3d p = a + (b - a) * (da / (da - db));
-        clipped.push_back(p);
-        cap.push_back(p);
+        PushDistinct(&clipped, p, false);
+        PushDistinct(&cap, p, true);
       }
     }
+    if (clipped.size() >= 2 && (clipped.front() - clipped.back()).squaredNorm() <= 1e-24) clipped.pop_back();
     if (clipped.size() >= 3) out.push_back(std::move(clipped));
   }
   if (cap.size() >= 3) {
@@ -110,54 +137,74 @@ Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::M
   return HullBoundingBox(cameras, rects, workspace);
 }
 
+ObjectPyramid MakeObjectPyramid(const Camera& cam, const cv::Rect& r) {
+  ObjectPyramid out;
+  if (r.area() == 0) {
+    out.empty = true;
+    return out;
+  }
+  // Undistorted extremes of the rectangle's border, in normalized coordinates
+  // (with skew the rectangle is a parallelogram there: its box holds it).
+  double a0 = 1e300, a1 = -1e300, b0 = 1e300, b1 = -1e300;
+  auto visit = [&](double u, double v) {
+    const Eigen::Vector2d xn = cam.Undistort(cam.ImagePlaneFromPixel({u, v}));
+    a0 = std::min(a0, xn.x());
+    a1 = std::max(a1, xn.x());
+    b0 = std::min(b0, xn.y());
+    b1 = std::max(b1, xn.y());
+  };
+  const double x0 = r.x, x1 = r.x + r.width, y0 = r.y, y1 = r.y + r.height;
+  for (double u = x0;; u = std::min(u + 4.0, x1)) {
+    visit(u, y0);
+    visit(u, y1);
+    if (u >= x1) break;
+  }
+  for (double v = y0;; v = std::min(v + 4.0, y1)) {
+    visit(x0, v);
+    visit(x1, v);
+    if (v >= y1) break;
+  }
+  // Margin for the sampling of a curved border: 1 px in normalized units.
+  const double m = 1.0 / std::min(cam.fx, cam.fy);
+  a0 -= m, a1 += m, b0 -= m, b1 += m;
+  // Half-spaces n_c . X_c >= 0 in the camera frame, then in world coordinates.
+  const Eigen::Vector3d normals_c[5] = {{1, 0, -a0}, {-1, 0, a1}, {0, 1, -b0}, {0, -1, b1}, {0, 0, 1}};
+  const Eigen::Matrix3d& R = cam.cam_from_world.rotation;
+  const Eigen::Vector3d& t = cam.cam_from_world.translation;
+  for (size_t k = 0; k < 5; ++k) {
+    out.normal[k] = R.transpose() * normals_c[k];
+    out.offset[k] = normals_c[k].dot(t) - (k == 4 ? 1e-3 : 0.0);
+  }
+  return out;
+}
+
+Aabb PyramidsBox(const std::vector<const ObjectPyramid*>& pyramids, const Aabb& workspace) {
+  if (workspace.empty()) return {};
+  for (const ObjectPyramid* p : pyramids)
+    if (p->empty) return {};
+  std::vector<Face> poly = BoxFaces(workspace);
+  for (const ObjectPyramid* p : pyramids)
+    for (size_t k = 0; k < 5; ++k) {
+      poly = ClipPolytope(poly, p->normal[k], p->offset[k]);
+      if (poly.empty()) return {};
+    }
+  Aabb box;
+  for (const auto& f : poly)
+    for (const auto& q : f) box.Extend(q);
+  return box;
+}
+
 Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::Rect>& object_rects,
                      const Aabb& workspace) {
   if (workspace.empty() || cameras.size() != object_rects.size()) return {};
-  std::vector<Face> poly = BoxFaces(workspace);
-  for (size_t i = 0; i < cameras.size() && !poly.empty(); ++i) {
-    const Camera& cam = cameras[i];
-    const cv::Rect& r = object_rects[i];
-    if (r.area() == 0) return {};
-    // Undistorted extremes of the rectangle's border, in normalized coordinates
-    // (with skew the rectangle is a parallelogram there: its box holds it).
-    double a0 = 1e300, a1 = -1e300, b0 = 1e300, b1 = -1e300;
-    auto visit = [&](double u, double v) {
-      const Eigen::Vector2d xn = cam.Undistort(cam.ImagePlaneFromPixel({u, v}));
-      a0 = std::min(a0, xn.x());
-      a1 = std::max(a1, xn.x());
-      b0 = std::min(b0, xn.y());
-      b1 = std::max(b1, xn.y());
-    };
-    const double x0 = r.x, x1 = r.x + r.width, y0 = r.y, y1 = r.y + r.height;
-    for (double u = x0;; u = std::min(u + 4.0, x1)) {
-      visit(u, y0);
-      visit(u, y1);
-      if (u >= x1) break;
-    }
-    for (double v = y0;; v = std::min(v + 4.0, y1)) {
-      visit(x0, v);
-      visit(x1, v);
-      if (v >= y1) break;
-    }
-    // Margin for the sampling of a curved border: 1 px in normalized units.
-    const double m = 1.0 / std::min(cam.fx, cam.fy);
-    a0 -= m, a1 += m, b0 -= m, b1 += m;
-    // Half-spaces n_c . X_c >= 0 in the camera frame, then in world coordinates.
-    const Eigen::Vector3d normals_c[5] = {{1, 0, -a0}, {-1, 0, a1}, {0, 1, -b0}, {0, -1, b1},
-                                          {0, 0, 1}};
-    const Eigen::Matrix3d& R = cam.cam_from_world.rotation;
-    const Eigen::Vector3d& t = cam.cam_from_world.translation;
-    for (int k = 0; k < 5; ++k) {
-      const Eigen::Vector3d n_w = R.transpose() * normals_c[k];
-      const double offset = normals_c[k].dot(t) - (k == 4 ? 1e-3 : 0.0);
-      poly = ClipPolytope(poly, n_w, offset);
-      if (poly.empty()) return {};
-    }
+  std::vector<ObjectPyramid> pyramids;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    pyramids.push_back(MakeObjectPyramid(cameras[i], object_rects[i]));
+    if (pyramids.back().empty) return {};
   }
-  Aabb box;
-  for (const auto& f : poly)
-    for (const auto& p : f) box.Extend(p);
-  return box;
+  std::vector<const ObjectPyramid*> all;
+  for (const auto& p : pyramids) all.push_back(&p);
+  return PyramidsBox(all, workspace);
 }
 
 }  // namespace hullpipe

@@ -2,6 +2,7 @@
 // object-pixel maps (paper §4.1: "bounding box test first").
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -83,5 +84,22 @@ Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::M
 /// subsets of one set of cameras and so find each rectangle once.
 Aabb HullBoundingBox(const std::vector<Camera>& cameras, const std::vector<cv::Rect>& object_rects,
                      const Aabb& workspace);
+
+/// What one camera's object-pixel rectangle can hold: five world half-spaces
+/// normal[k] . X + offset[k] >= 0 (the rectangle's four sides back-projected
+/// through the camera centre, undistorted as HullBoundingBox says, and z > 1 mm
+/// in front). `empty`: the rectangle has no pixel. Found once per camera by
+/// callers that bound many subsets of one set of cameras (the kUnknown hull
+/// box unions the boxes of every camera subset that may see a point).
+struct ObjectPyramid {
+  std::array<Eigen::Vector3d, 5> normal;
+  std::array<double, 5> offset{};
+  bool empty = false;
+};
+ObjectPyramid MakeObjectPyramid(const Camera& camera, const cv::Rect& object_rect);
+
+/// The box of the workspace intersected with the pyramids (HullBoundingBox's
+/// polytope); empty if any pyramid is, or the intersection is.
+Aabb PyramidsBox(const std::vector<const ObjectPyramid*>& pyramids, const Aabb& workspace);
 
 }  // namespace hullpipe

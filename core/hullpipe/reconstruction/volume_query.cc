@@ -43,6 +43,10 @@ Aabb UnknownPolicyHullBox(const std::vector<Camera>& cams, const std::vector<cv:
                           int m) {
   const size_t n = cams.size();
   Aabb out;
+  // Each camera's pyramid once: its rectangle's border undistorted once, not
+  // once per subset (on 20 cameras, 190 pairs each grown to a set of them).
+  std::vector<ObjectPyramid> pyramids;
+  for (size_t i = 0; i < n; ++i) pyramids.push_back(MakeObjectPyramid(cams[i], rects[i]));
   std::vector<int> pick(n, 0);
   std::fill(pick.end() - m, pick.end(), 1);  // the first combination in next_permutation order
   int subsets = 0;
@@ -59,11 +63,10 @@ Aabb UnknownPolicyHullBox(const std::vector<Camera>& cams, const std::vector<cv:
         box = Aabb{};  // its final box is in `out` already
         break;
       }
-      std::vector<Camera> sc;
-      std::vector<cv::Rect> sr;
+      std::vector<const ObjectPyramid*> sp;
       for (size_t i = 0; i < n; ++i)
-        if (in[i]) sc.push_back(cams[i]), sr.push_back(rects[i]);
-      box = HullBoundingBox(sc, sr, workspace);
+        if (in[i]) sp.push_back(&pyramids[i]);
+      box = PyramidsBox(sp, workspace);
       if (box.empty()) break;
       bool added = false;
       for (size_t i = 0; i < n; ++i)
