@@ -42,10 +42,14 @@ int main(int argc, char** argv) {
   std::string rig, out = "out", description, scene, backend = "auto", bin_dir, dds_config;
   bool synthetic = false;
   int frames = 0, width = 320, height = 240, planes = 50, domain = -1;
+  double fps = 0;
   double grace = 5.0;
   app.add_option("--rig", rig, "Rig directory or YAML rig file");
   app.add_flag("--synthetic", synthetic, "Use capture_node's built-in synthetic scene");
   app.add_option("--frames", frames, "Frames to process (0: the whole input)");
+  app.add_option("--fps", fps, "Pace every capture node at this rate, frames per second (0: the source's rate); "
+                               "a rig too large for the machine composites every frame at a rate it keeps")
+      ->check(CLI::Range(0.0, 1000.0));
   app.add_option("--out", out, "Output directory")->capture_default_str();
   app.add_option("--description", description, "Launch description YAML (default: launch/local.yaml)");
   std::string head_poses;
@@ -128,7 +132,7 @@ int main(int argc, char** argv) {
   ctx.vars = {
       {"out", out},       {"frames", std::to_string(frames)}, {"backend", backend},
       {"width", std::to_string(width)}, {"height", std::to_string(height)}, {"scene", fs::absolute(scene).string()},
-      {"planes", std::to_string(planes)},
+      {"planes", std::to_string(planes)}, {"fps", std::to_string(fps)},
       {"start_time", std::to_string(start_in > 0 ? std::chrono::duration_cast<std::chrono::nanoseconds>(
                                                        std::chrono::system_clock::now().time_since_epoch())
                                                                .count() +

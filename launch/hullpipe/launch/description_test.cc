@@ -4,6 +4,7 @@
 #include "hullpipe/launch/description.h"
 #include "hullpipe/launch/supervisor.h"
 
+#include <algorithm>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -37,6 +38,14 @@ TEST(LaunchDescription, TheShippedDescriptionsParse) {
     const LaunchDescription d = LoadLaunchDescription(std::string(HULLPIPE_SOURCE_DIR) + "/launch/" + f);
     ASSERT_FALSE(d.nodes.empty()) << f;
     EXPECT_EQ(d.nodes.front().exec, "render_node") << f;
+    // hullpipe_launch --fps paces every capture node (a rig too large for the machine).
+    for (const auto& n : d.nodes) {
+      if (n.exec != "capture_node") continue;
+      const auto at = std::find(n.args.begin(), n.args.end(), "--fps");
+      ASSERT_NE(at, n.args.end()) << f << ": " << n.name;
+      ASSERT_NE(at + 1, n.args.end());
+      EXPECT_EQ(*(at + 1), "${fps}") << f << ": " << n.name;
+    }
   }
   const LaunchDescription local = LoadLaunchDescription(std::string(HULLPIPE_SOURCE_DIR) + "/launch/local.yaml");
   ASSERT_EQ(local.nodes.size(), 5u);

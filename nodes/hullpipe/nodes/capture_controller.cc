@@ -73,7 +73,7 @@ bool CaptureController::CatchUp(double lag_s, const char* why) {
     }
     spdlog::warn("cannot keep the timeline's {:.1f} fps: a frame takes {:.0f} ms to read, segment and publish here "
                  "({:.1f} fps); frames are skipped to stay on it (counted as dropped).{} Pace the run at what the "
-                 "machine does (capture --fps {:.1f}), or give it fewer or smaller cameras",
+                 "machine does (capture_node or hullpipe_launch --fps {:.1f}), or give it fewer or smaller cameras",
                  rate_, frame_s_ * 1e3, 1.0 / frame_s_, share, std::max(0.1, 0.9 / frame_s_));
   }
   if (lag_s > 0 && behind_said_)
