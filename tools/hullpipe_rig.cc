@@ -100,10 +100,10 @@ int main(int argc, char** argv) {
                                                    "from the live camera's first frames");
   convert->add_option("--latency", latency, "Each camera's latency setting, seconds [0, 10]");
   auto* import = app.add_subcommand("import", "Convert a COLMAP, NeRF, Middlebury or OpenCV calibration");
-  import->add_option("--from", from, "colmap | nerf | middlebury | opencv-yaml")
+  import->add_option("--from", from, "colmap | nerf | middlebury | opencv-yaml | pmvs")
       ->required()
-      ->check(CLI::IsMember({"colmap", "nerf", "middlebury", "opencv-yaml"}));
-  import->add_option("in", in, "COLMAP model directory, transforms.json, *_par.txt, or OpenCV YAML file/directory")
+      ->check(CLI::IsMember({"colmap", "nerf", "middlebury", "opencv-yaml", "pmvs"}));
+  import->add_option("in", in, "COLMAP model directory, transforms.json, *_par.txt, OpenCV YAML file/directory, or PMVS directory")
       ->required();
   import->add_option("-o,--out", out, "YAML rig file to write")->required();
   import->add_option("--scale", io.scale, "Metres per unit of the file's lengths (0.001: millimetres)")

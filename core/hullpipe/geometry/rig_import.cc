@@ -1,5 +1,7 @@
 #include "hullpipe/geometry/rig_import.h"
 
+#include <Eigen/QR>
+
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -591,12 +593,85 @@ Rig ImportOpenCvYaml(const std::string& path, const ImportOptions& o) {
   return Finish(std::move(rig), repaired);
 }
 
+bool DecomposeProjection(const Eigen::Matrix<double, 3, 4>& P_in, Eigen::Matrix3d* K, Eigen::Matrix3d* R,
+                         Eigen::Vector3d* t) {
+  if (!P_in.allFinite()) return false;
+  Eigen::Matrix<double, 3, 4> P = P_in;
+  Eigen::Matrix3d M = P.leftCols<3>();
+  if (!(std::abs(M.determinant()) > 1e-12 * std::pow(M.norm(), 3))) return false;  // no camera centre
+  if (M.determinant() < 0) P = -P, M = -M;  // P is known up to scale, its sign included
+  // RQ: M = K R, K upper triangular. With J the row reversal, J M^T = Q U
+  // (QR) gives M = (J U^T J)(J Q^T).
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+  J(0, 2) = J(1, 1) = J(2, 0) = 1;
+  const Eigen::HouseholderQR<Eigen::Matrix3d> qr((J * M).transpose());
+  const Eigen::Matrix3d Q = qr.householderQ();
+  const Eigen::Matrix3d U = qr.matrixQR().triangularView<Eigen::Upper>();
+  Eigen::Matrix3d k = J * U.transpose() * J, r = J * Q.transpose();
+  // A positive diagonal in K: flip a column of K and the row of R with it.
+  for (int i = 0; i < 3; ++i)
+    if (k(i, i) < 0) k.col(i) *= -1, r.row(i) *= -1;
+  if (r.determinant() < 0) return false;  // det M > 0 and diag K > 0 make det R > 0: rounding only
+  const double s = k(2, 2);
+  *K = k / s;
+  *R = r;
+  *t = k.triangularView<Eigen::Upper>().solve(Eigen::Vector3d(P.col(3)));
+  return K->allFinite() && t->allFinite();
+}
+
+Rig ImportPmvs(const std::string& path, const ImportOptions& o) {
+  o.Check();
+  fs::path dir = path;
+  if (fs::is_directory(dir / "txt")) dir /= "txt";
+  if (!fs::is_directory(dir)) throw CalibrationError(path + ": not a directory (PMVS: <dir>/txt/*.txt)");
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".txt") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  if (files.empty()) throw CalibrationError(dir.string() + ": no camera file (*.txt with CONTOUR and a 3x4 P)");
+  if (files.size() > size_t(Rig::kMaxCameras))
+    throw CalibrationError(dir.string() + ": " + std::to_string(files.size()) + " cameras; a rig has at most " +
+                           std::to_string(Rig::kMaxCameras));
+  Rig rig;
+  rig.source = path;
+  std::vector<std::pair<int, double>> repaired;
+  for (size_t i = 0; i < files.size(); ++i) {
+    const std::string where = files[i].string();
+    std::ifstream in(files[i]);
+    std::string head;
+    if (!(in >> head) || head != "CONTOUR") throw CalibrationError(where + ": must start with CONTOUR");
+    Eigen::Matrix<double, 3, 4> P;
+    for (int k = 0; k < 12; ++k)
+      if (!(in >> P(k / 4, k % 4))) throw CalibrationError(where + ": needs 12 numbers (a 3x4 P) after CONTOUR");
+    Eigen::Matrix3d K, R;
+    Eigen::Vector3d t;
+    if (!DecomposeProjection(P, &K, &R, &t))
+      throw CalibrationError(where + ": P is singular or not finite (its left 3x3 has no inverse): not a camera");
+    RigCamera rc;
+    Camera& c = rc.camera;
+    c.id = int(i + 1);
+    const std::string stem = files[i].stem().string();
+    fs::path image;
+    for (const char* ext : {".jpg", ".ppm", ".png"})
+      if (fs::exists(dir.parent_path() / "visualize" / (stem + ext))) image = dir.parent_path() / "visualize" / (stem + ext);
+    SetSize(&c, 0, 0, o, image, where);
+    // PMVS samples images at integer pixel centres (as OpenCV).
+    SetCameraIntrinsics({K(0, 0), K(0, 1), K(0, 2), K(1, 0), K(1, 1), K(1, 2), K(2, 0), K(2, 1), K(2, 2)},
+                        kOpenCvToHullpipePixelOffset, where, "P", &c);
+    SetPose(&c, R, t, o, where, &repaired);
+    rc.frames = image.string();
+    rig.cameras.push_back(std::move(rc));
+  }
+  return Finish(std::move(rig), repaired);
+}
+
 Rig ImportRig(const std::string& format, const std::string& path, const ImportOptions& o) {
   if (format == "colmap") return ImportColmap(path, o);
   if (format == "nerf") return ImportNerf(path, o);
   if (format == "middlebury") return ImportMiddlebury(path, o);
   if (format == "opencv-yaml") return ImportOpenCvYaml(path, o);
-  throw CalibrationError("--from " + format + ": not a known format (colmap, nerf, middlebury, opencv-yaml)");
+  if (format == "pmvs") return ImportPmvs(path, o);
+  throw CalibrationError("--from " + format + ": not a known format (colmap, nerf, middlebury, opencv-yaml, pmvs)");
 }
 
 }  // namespace hullpipe

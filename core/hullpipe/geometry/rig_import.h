@@ -8,6 +8,7 @@
 //   middlebury   cam_from_world (R, t)   OpenCV        integers        metres
 //   opencv-yaml  multicalib camera_pose_i or stereo R,T: cam_from_world (ref. camera = world)
 //                                        OpenCV        integers        pattern units
+//   pmvs         P = K [R t] (3x4, any scale), decomposed       integers        scene units
 //
 // "model/scene/pattern units" are multiplied by ImportOptions::scale (metres
 // per unit). Rotations within kRotationRepairTolerance of one are repaired to the
@@ -19,6 +20,8 @@
 #pragma once
 
 #include <string>
+
+#include <Eigen/Core>
 
 #include "hullpipe/geometry/calibration.h"
 
@@ -65,7 +68,22 @@ Rig ImportMiddlebury(const std::string& path, const ImportOptions& options = {})
 /// image_height keys give the size where present.
 Rig ImportOpenCvYaml(const std::string& path, const ImportOptions& options = {});
 
-/// Dispatches on `format`: colmap, nerf, middlebury, opencv-yaml. Throws
+/// Decomposes a projection matrix P (3x4, x = P X, known up to scale and sign)
+/// into K (upper triangular, positive diagonal, K(2,2) = 1: skew included), a
+/// rotation R and t with P ~ K [R | t] (RQ decomposition). False if P is not
+/// finite or its left 3x3 is singular (no camera centre).
+bool DecomposeProjection(const Eigen::Matrix<double, 3, 4>& P, Eigen::Matrix3d* K, Eigen::Matrix3d* R,
+                         Eigen::Vector3d* t);
+
+/// PMVS/CMVS cameras (as VisualSFM and COLMAP export them, and multi-view data
+/// sets that give 3x4 projection matrices): `<dir>/txt/*.txt` (or a directory
+/// of them), each "CONTOUR" then P's 12 numbers row by row; images as
+/// `<dir>/visualize/<name>.jpg|ppm|png`. Ids 1..N in file-name order. P is
+/// decomposed (DecomposeProjection); its skew is kept. Pixel centres at integers
+/// (PMVS samples images there). Lengths in scene units (ImportOptions::scale).
+Rig ImportPmvs(const std::string& path, const ImportOptions& options = {});
+
+/// Dispatches on `format`: colmap, nerf, middlebury, opencv-yaml, pmvs. Throws
 /// CalibrationError for an unknown format.
 Rig ImportRig(const std::string& format, const std::string& path, const ImportOptions& options = {});
 

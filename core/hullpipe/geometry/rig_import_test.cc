@@ -50,6 +50,7 @@ void ExpectSameCamera(const Camera& a, const Camera& b, double tol = 1e-9) {
   EXPECT_NEAR(a.fy, b.fy, tol * a.fy);
   EXPECT_NEAR(a.cx, b.cx, tol * a.width);
   EXPECT_NEAR(a.cy, b.cy, tol * a.width);
+  EXPECT_NEAR(a.skew, b.skew, tol * a.fx);
   for (int k = 0; k < 5; ++k) EXPECT_NEAR(a.distortion[size_t(k)], b.distortion[size_t(k)], tol);
   EXPECT_LT((a.cam_from_world.rotation - b.cam_from_world.rotation).cwiseAbs().maxCoeff(), tol);
   EXPECT_LT((a.cam_from_world.translation - b.cam_from_world.translation).cwiseAbs().maxCoeff(), tol);
@@ -397,6 +398,44 @@ TEST(RigImport, SkewIsKeptAndUnsupportedModelsAreRefusedWithTheirReason) {
     FAIL();
   } catch (const CalibrationError& e) {
     EXPECT_NE(std::string(e.what()).find("OPENCV_FISHEYE is not supported"), std::string::npos) << e.what();
+  }
+}
+
+// PMVS camera files: "CONTOUR" and P = s K [R t] at any scale and sign, as
+// data sets that publish 3x4 projection matrices give them. Decomposed back to
+// the cameras (skew included, 0.01 fx here) to 1e-9 relative; P's scale, its
+// sign and the file order do not matter; a singular P is refused naming the
+// file.
+TEST(RigImport, PmvsProjectionMatricesAreDecomposedWithTheirSkew) {
+  auto cams = ZUpRig(false);
+  for (auto& c : cams) c.skew = 0.01 * c.fx * (c.id % 2 ? 1 : -1);
+  const auto dir = test::TempDir("pmvs");
+  fs::create_directories(dir / "txt");
+  fs::create_directories(dir / "visualize");
+  for (size_t i = 0; i < cams.size(); ++i) {
+    const Camera& c = cams[i];
+    Eigen::Matrix3d K = c.K();
+    K(0, 2) -= kOpenCvToHullpipePixelOffset, K(1, 2) -= kOpenCvToHullpipePixelOffset;  // PMVS: integer centres
+    Eigen::Matrix<double, 3, 4> Rt;
+    Rt << c.cam_from_world.rotation, c.cam_from_world.translation;
+    const Eigen::Matrix<double, 3, 4> P = (i % 2 ? -2.5 : 0.01) * K * Rt;
+    char name[32];
+    std::snprintf(name, sizeof name, "%08zu", i);
+    std::ofstream f(dir / "txt" / (std::string(name) + ".txt"));
+    f << "CONTOUR\n";
+    for (int r = 0; r < 3; ++r) f << G(P(r, 0)) << " " << G(P(r, 1)) << " " << G(P(r, 2)) << " " << G(P(r, 3)) << "\n";
+    cv::imwrite((dir / "visualize" / (std::string(name) + ".jpg")).string(),
+                cv::Mat(c.height, c.width, CV_8UC3, cv::Scalar(20, 40, 60)));
+  }
+  const Rig rig = ImportRig("pmvs", dir.string());
+  ExpectSameRig(cams, rig);
+  EXPECT_NE(rig.cameras[0].frames.find("visualize/00000000.jpg"), std::string::npos);
+  std::ofstream(dir / "txt" / "00000000.txt") << "CONTOUR\n1 0 0 0\n0 1 0 0\n1 0 0 0\n";
+  try {
+    ImportPmvs(dir.string());
+    FAIL();
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("00000000.txt: P is singular"), std::string::npos) << e.what();
   }
 }
 
