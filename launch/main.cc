@@ -132,13 +132,14 @@ int main(int argc, char** argv) {
   ctx.vars = {
       {"out", out},       {"frames", std::to_string(frames)}, {"backend", backend},
       {"width", std::to_string(width)}, {"height", std::to_string(height)}, {"scene", fs::absolute(scene).string()},
-      {"planes", std::to_string(planes)}, {"fps", std::to_string(fps)},
+      {"planes", std::to_string(planes)},
       {"start_time", std::to_string(start_in > 0 ? std::chrono::duration_cast<std::chrono::nanoseconds>(
                                                        std::chrono::system_clock::now().time_since_epoch())
                                                                .count() +
                                                            int64_t(start_in * 1e9)
                                                      : 0)}};
   ctx.synthetic = synthetic;
+  if (fps > 0) ctx.capture_fps = std::to_string(fps);
   if (!synthetic) ctx.rig = fs::absolute(rig).string();
   ctx.parent_args = std::move(world_args);
   if (!head_poses.empty())

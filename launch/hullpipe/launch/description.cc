@@ -112,6 +112,8 @@ std::vector<std::string> ExpandArguments(const LaunchDescription& description, s
   for (const auto& a : spec.args) {
     if (a == "${world}") {  // the rig's world for render and sim (none with --synthetic)
       if (!context.synthetic) args.insert(args.end(), {"--rig", context.rig});
+    } else if (a == "${pace}") {  // capture's --fps where the launcher was given one
+      if (!context.capture_fps.empty()) args.insert(args.end(), {"--fps", context.capture_fps});
     } else if (a == "${source}") {
       if (context.synthetic)
         args.push_back("--synthetic");

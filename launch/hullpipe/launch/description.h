@@ -56,11 +56,14 @@ struct LaunchContext {
   std::vector<std::string> parent_args;
   int domain = 0;
   std::string run_id;  ///< Hex, as --run-id takes it.
+  /// hullpipe_launch --fps as text; empty: not given (${pace} gives nothing).
+  std::string capture_fps;
 };
 
 /// The arguments of node `index` of `description`: each ${name} replaced; an
 /// argument that is exactly ${source} becomes "--rig <rig>" (or "--synthetic"),
-/// exactly ${world} becomes "--rig <rig>" (nothing with synthetic); the parent
+/// exactly ${world} becomes "--rig <rig>" (nothing with synthetic), exactly
+/// ${pace} becomes "--fps <capture_fps>" (nothing where that is empty); the parent
 /// gets context.parent_args; every node --domain and --run-id.
 std::vector<std::string> ExpandArguments(const LaunchDescription& description, size_t index,
                                          const LaunchContext& context);
