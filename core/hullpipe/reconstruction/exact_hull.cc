@@ -258,13 +258,28 @@ std::optional<double> HullExtentAlong(const VolumeQuery& q, const Eigen::Vector3
   const size_t k = std::min<size_t>(32, inside.size());
   std::partial_sort(inside.begin(), inside.begin() + long(k), inside.end(),
                     [](const auto& a, const auto& b) { return a.first > b.first; });
-  const double span = (box.max - box.min).norm();
-  // The hull's reach along the whole line through p in direction dir.
+  // The hull's reach along the line through p in direction dir: from where the
+  // line leaves the hull box back towards p in steps of step / 8, the first
+  // inside point, then bisection to 1e-7 m against the outside point a step
+  // beyond. Point queries, not the exact ray-hull intervals: these walk every
+  // camera along the whole line, and 128 lines over 20 distorted cameras took
+  // render 1.9 s at its first hull. A part beyond that point thinner than a
+  // step along dir can be missed (the reach stays a hull point's).
+  const double march = step / 8;
   auto line_reach = [&](const Eigen::Vector3d& p) {
-    double r = -1e300;
-    for (const auto& iv : RayHullIntervals(q, p - span * dir, dir, 0, 2 * span))
-      r = std::max(r, dir.dot(p) - span + iv.second);
-    return r;
+    double a = -1e300, b = 1e300;
+    if (!box.ClipRay(p, dir, &a, &b)) return -1e300;
+    for (double s = b; s >= a; s -= march) {
+      if (!q.Inside(p + s * dir)) continue;
+      double in = s, out = s + march;
+      if (s == b) return dir.dot(p) + b;  // inside at the box's face itself
+      while (out - in > 1e-7) {
+        const double mid = 0.5 * (in + out);
+        (q.Inside(p + mid * dir) ? in : out) = mid;
+      }
+      return dir.dot(p) + in;
+    }
+    return -1e300;
   };
   double best = inside[0].first;
   Eigen::Vector3d best_line = inside[0].second;

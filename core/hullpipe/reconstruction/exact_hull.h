@@ -68,12 +68,14 @@ HullSamples SampleHull(const VolumeQuery& query, const Aabb& region, double step
 /// lies below the hull by up to the box's half diagonal). The inside points of
 /// a grid of `step` metres over the hull box (SampleHull; the step grows so the
 /// grid has at most 200,000 points: a hull box as large as a room costs what a
-/// person's does); the exact reach (ray–hull
-/// intervals) of the lines along dir through the 32 farthest; then lines
-/// around the best one, 5 x 5 at half the spacing each time down to step / 64
-/// (an extreme point is often a corner where silhouette cones meet). A hull
-/// point's reach, so never beyond the hull's; a farther point more than ~2
-/// steps from the best first line can be missed. A hull the grid holds no
+/// person's does); the reach of the lines along dir through the 32 farthest
+/// (point queries from where each line leaves the hull box back in steps of
+/// step / 8, then bisection to 1e-7 m); then lines around the best one, 5 x 5 at
+/// half the spacing each time down to step / 64 (an extreme point is often a
+/// corner where silhouette cones meet). A hull point's reach, so never beyond
+/// the hull's; a farther point more than ~2 steps from the best first line, or
+/// a part thinner than step / 8 along dir beyond the point found, can be
+/// missed. A hull the grid holds no
 /// inside point of: the box's farthest corner. nullopt for an empty hull box.
 /// Throws std::invalid_argument if step <= 0 or dir is zero.
 std::optional<double> HullExtentAlong(const VolumeQuery& query, const Eigen::Vector3d& dir, double step = 0.02);
