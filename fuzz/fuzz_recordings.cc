@@ -1,7 +1,9 @@
-// libFuzzer: recording files (record/recording.h) as `hullpipe_record info` and
-// `hullpipe_replay` open them: the reader, Info (quick_check and every row's
-// CRC), and every sample in arrival order; then `hullpipe_record repair`'s page
-// salvage of the same bytes. A bad file must end in RecordingError naming the
+// libFuzzer: recording files (record/recording.h), SQLite and MCAP alike (the
+// reader picks by the magic; seeds of both), as `hullpipe_record info` and
+// `hullpipe_replay` open them: the reader, Info (quick_check or the MCAP record
+// scan and chunk CRCs, and every sample's check), and every sample in arrival
+// order; then `hullpipe_record repair` of the same bytes (SQLite's page salvage,
+// MCAP's intact chunks). A bad file must end in RecordingError naming the
 // file, never a crash or another exception.
 #include <cstdio>
 

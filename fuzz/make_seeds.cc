@@ -57,6 +57,14 @@ int main(int argc, char** argv) {
     record::WriterOptions zstd;
     zstd.compression = record::Compression::kZstd;
     record::RecordingWriter rec_zstd((out / "fuzz_recordings" / "seed_zstd.hullrec").string(), zstd);
+    // MCAP, uncompressed and lz4 chunks (the reader picks the storage by the magic,
+    // so the same target fuzzes the MCAP reader and its repair).
+    for (const char* f : {"seed.mcap", "seed_lz4.mcap"}) fs::remove(out / "fuzz_recordings" / f);
+    record::WriterOptions mcap;
+    mcap.storage = record::Storage::kMcap;
+    record::RecordingWriter rec_mcap((out / "fuzz_recordings" / "seed.mcap").string(), mcap);
+    mcap.compression = record::Compression::kLz4;
+    record::RecordingWriter rec_lz4((out / "fuzz_recordings" / "seed_lz4.mcap").string(), mcap);
     for (size_t i = 0; i < types.size(); ++i) {
       const auto it = samples.find(types[i].type_name);
       if (it == samples.end()) {
@@ -73,11 +81,14 @@ int main(int argc, char** argv) {
       topic.type_description = IdlText();
       const int64_t id = rec.AddTopic(topic);
       rec.Append({id, int64_t(i) * 1'000'000, 1'000'000'000 + int64_t(i) * 1'000'000, it->second});
-      rec_zstd.AddTopic(topic);
-      rec_zstd.Append({id, int64_t(i) * 1'000'000, 1'000'000'000 + int64_t(i) * 1'000'000, it->second});
+      for (record::RecordingWriter* w : {&rec_zstd, &rec_mcap, &rec_lz4}) {
+        w->AddTopic(topic);
+        w->Append({id, int64_t(i) * 1'000'000, 1'000'000'000 + int64_t(i) * 1'000'000, it->second});
+        if (i % 4 == 3) w->Commit();  // several chunks
+      }
     }
     rec.Commit();
-    rec_zstd.Commit();
+    for (record::RecordingWriter* w : {&rec_zstd, &rec_mcap, &rec_lz4}) w->Commit();
     // Maps: a silhouette of the sphere fixture, and the all-empty map.
     for (const auto& [name, map] : {std::pair{"sphere", sphere.map}, {"empty", cv::Mat(cv::Mat::zeros(48, 64, CV_8UC1))}}) {
       const auto runs = RunLengthEncode(map);

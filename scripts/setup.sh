@@ -9,7 +9,7 @@ PACKAGES=(
   libopencv-dev libeigen3-dev
   libegl-dev libgles-dev libgl-dev libgbm-dev libegl-mesa0 libgl1-mesa-dri
   libgtest-dev libgmock-dev libbenchmark-dev
-  libcli11-dev libspdlog-dev nlohmann-json3-dev libyaml-cpp-dev libsqlite3-dev libxml2-dev libzstd-dev
+  libcli11-dev libspdlog-dev nlohmann-json3-dev libyaml-cpp-dev libsqlite3-dev libxml2-dev libzstd-dev liblz4-dev
   libassimp-dev assimp-testmodels
   ffmpeg gnuplot-nox openssl iproute2 iceoryx linux-perf
   clang-14 libclang-rt-14-dev llvm-14
@@ -21,7 +21,22 @@ for p in "${PACKAGES[@]}"; do
     missing+=("$p")
   fi
 done
-[ ${#missing[@]} -eq 0 ] && exit 0
+# The field's own MCAP and Foxglove readers that the interoperability tests run
+# (tests/js/package.json, pinned by its lock file), from the npm registry into the
+# ignored tests/js/node_modules.
+install_npm_readers() {
+  local js
+  js="$(cd "$(dirname "$0")/.." && pwd)/tests/js"
+  if [ ! -f "$js/node_modules/.package-lock.json" ] || ! cmp -s "$js/package-lock.json" "$js/node_modules/.hullpipe-lock"; then
+    echo "hullpipe setup: installing the npm readers in tests/js" >&2
+    (cd "$js" && npm ci --no-audit --no-fund --loglevel=error >/dev/null && cp package-lock.json node_modules/.hullpipe-lock)
+  fi
+}
+
+if [ ${#missing[@]} -eq 0 ]; then
+  install_npm_readers
+  exit 0
+fi
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
@@ -29,3 +44,4 @@ echo "hullpipe setup: installing ${missing[*]}" >&2
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+install_npm_readers

@@ -21,6 +21,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/convert.h"
@@ -490,8 +491,18 @@ class RecordTools : public ::testing::Test {
   std::map<std::string, std::string> logs_;
 };
 
-TEST_F(RecordTools, ReplayIsByteIdenticalAndLateJoinersGetCameraInfo) {
-  const std::string path = (dir_ / "r.hprec").string();
+// The tools on either storage: the same tests on SQLite (.hprec) and MCAP (.mcap).
+class RecordToolsOn : public RecordTools, public ::testing::WithParamInterface<std::string> {
+ protected:
+  const std::string& Ext() const { return GetParam(); }
+};
+INSTANTIATE_TEST_SUITE_P(Storage, RecordToolsOn, ::testing::Values(std::string(".hprec"), std::string(".mcap")),
+                         [](const ::testing::TestParamInfo<std::string>& i) {
+                           return i.param == ".mcap" ? std::string("mcap") : std::string("sqlite");
+                         });
+
+TEST_P(RecordToolsOn, ReplayIsByteIdenticalAndLateJoinersGetCameraInfo) {
+  const std::string path = (dir_ / ("r" + Ext())).string();
   {
     dds::Participant p(domain_);
     dds::Writer<hullpipe_msg_CameraInfo> info(p);
@@ -596,8 +607,8 @@ void PublishMaps(uint32_t domain, int frames, double hz, const std::function<boo
 // A compressed recording split into parts: info reads it as one (counts, dates,
 // format, per-topic losses, a clean close), export round-trips the counts (a PNG
 // and a JSON line per map), and the directory replays as one recording.
-TEST_F(RecordTools, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
-  const std::string set = (dir_ / "split").string();
+TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
+  const std::string set = (dir_ / ("split" + Ext())).string();  // split.mcap: a set of MCAP parts
   {
     // 1 s of maps in parts of 0.25 s (a size split is tested on the library: these
     // maps compress to a few KiB in all).
@@ -612,7 +623,8 @@ TEST_F(RecordTools, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   EXPECT_EQ(j["samples"].get<int>(), 42);
   EXPECT_GT(j["files"].size(), 1u) << "not split";
   EXPECT_EQ(j["compression"], "zstd");
-  EXPECT_EQ(j["format"], "hullpipe-recording-3");
+  EXPECT_EQ(j["format"], Ext() == ".mcap" ? "mcap" : "hullpipe-recording-3");
+  EXPECT_EQ(j["storage"], Ext() == ".mcap" ? "mcap" : "sqlite");
   EXPECT_TRUE(j["closed_cleanly"].get<bool>());
   EXPECT_LT(j["stored_bytes"].get<int64_t>(), j["bytes"].get<int64_t>());
   EXPECT_NE(j["start"].get<std::string>().find("T"), std::string::npos);
@@ -669,11 +681,11 @@ TEST_F(RecordTools, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
 
 // Snapshot mode: nothing is written until told; `hullpipe_cmd snapshot` and
 // SIGUSR1 each write the last N seconds (with the calibration) to a new file.
-TEST_F(RecordTools, SnapshotsHoldTheLastSecondsWhenTold) {
-  const std::string dir = (dir_ / "snaps").string();
+TEST_P(RecordToolsOn, SnapshotsHoldTheLastSecondsWhenTold) {
+  const std::string dir = (dir_ / ("snaps" + Ext())).string();
   auto recorder = Start("hullpipe_record", {"-o", dir, "--snapshot-seconds", "1"});
   PublishMaps(domain_, 60, 30, [] { return true; });  // 2 s of maps at 30 Hz
-  const std::string first = dir + "/snapshot_0001.hprec", second = dir + "/snapshot_0002.hprec";
+  const std::string first = dir + "/snapshot_0001" + Ext(), second = dir + "/snapshot_0002" + Ext();
   EXPECT_FALSE(std::filesystem::exists(first)) << "written before it was told";
   const std::string cmd_log = (dir_ / "cmd.log").string();
   test::Process cmd({test::BinDir() + "/hullpipe_cmd", "snapshot", "--domain", std::to_string(domain_)}, cmd_log);
@@ -707,8 +719,8 @@ TEST_F(RecordTools, SnapshotsHoldTheLastSecondsWhenTold) {
 
 // A replay started paused sends nothing until stepped; `hullpipe_cmd step`
 // releases samples, `resume` plays the rest.
-TEST_F(RecordTools, AReplayStartedPausedIsSteppedAndResumedFromTheDomain) {
-  const std::string path = (dir_ / "p.hprec").string();
+TEST_P(RecordToolsOn, AReplayStartedPausedIsSteppedAndResumedFromTheDomain) {
+  const std::string path = (dir_ / ("p" + Ext())).string();
   {
     auto recorder = Start("hullpipe_record", {"-o", path});
     PublishMaps(domain_, 20, 0, [] { return true; });
@@ -746,8 +758,8 @@ TEST_F(RecordTools, AReplayStartedPausedIsSteppedAndResumedFromTheDomain) {
   EXPECT_EQ(replay->Wait(30), 0) << Log("hullpipe_replay");
 }
 
-TEST_F(RecordTools, RecorderKilledBySigkillLeavesARecordingThatOpens) {
-  const std::string path = (dir_ / "k.hprec").string();
+TEST_P(RecordToolsOn, RecorderKilledBySigkillLeavesARecordingThatOpens) {
+  const std::string path = (dir_ / ("k" + Ext())).string();
   dds::Participant p(domain_);
   dds::Writer<hullpipe_msg_ObjectPixelMap> maps(p);
   auto recorder = Start("hullpipe_record", {"-o", path, "--batch-ms", "50"});
@@ -769,7 +781,7 @@ TEST_F(RecordTools, RecorderKilledBySigkillLeavesARecordingThatOpens) {
   EXPECT_TRUE(info.interrupted);
   // `repair` copies what the file and its log hold into a new recording, marked
   // interrupted; repairing into an existing file is refused.
-  const std::string fixed = (dir_ / "k_fixed.hprec").string();
+  const std::string fixed = (dir_ / ("k_fixed" + Ext())).string();
   const std::string log = (dir_ / "repair.log").string();
   test::Process repair({test::BinDir() + "/hullpipe_record", "repair", path, "-o", fixed}, log);
   ASSERT_EQ(repair.Wait(30), 0) << test::ReadFile(log);
@@ -782,9 +794,9 @@ TEST_F(RecordTools, RecorderKilledBySigkillLeavesARecordingThatOpens) {
   EXPECT_NE(test::ReadFile(log).find("never overwritten"), std::string::npos) << test::ReadFile(log);
 }
 
-TEST_F(RecordTools, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
+TEST_P(RecordToolsOn, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
   // Record a synthetic run: a sphere the default ball scene's ball hits.
-  const std::string path = (dir_ / "s.hprec").string();
+  const std::string path = (dir_ / ("s" + Ext())).string();
   {
     auto recorder = Start("hullpipe_record", {"-o", path, "--exclude", "hullpipe/camera_image"});
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
@@ -1009,6 +1021,114 @@ TEST_F(RecordTools, ReplayStopsWithinASecondOfSigintInAGap) {
   replay->Signal(SIGINT);
   EXPECT_EQ(replay->Wait(5), 0) << Log("hullpipe_replay");
   EXPECT_LT(MonotonicSeconds() - t0, 1.0 * test::TimeScale());
+}
+
+// Per topic name, every sample's bytes, sorted (arrival times differ between
+// recorders; the bytes do not).
+std::map<std::string, std::vector<std::vector<uint8_t>>> SamplesByTopic(const std::string& path) {
+  const RecordingReader r(path);
+  std::map<int64_t, std::string> names;
+  for (const auto& t : r.topics()) names[t.id] = t.name;
+  std::map<std::string, std::vector<std::vector<uint8_t>>> out;
+  r.ForEach([&](const Sample& s) {
+    out[names[s.topic_id]].push_back(s.data);
+    return true;
+  });
+  for (auto& [name, v] : out) std::sort(v.begin(), v.end());
+  return out;
+}
+
+// The rig's demo recorded as MCAP (uncompressed, zstd, lz4) beside an SQLite
+// twin: readers nobody here wrote (tests/js/read_mcap.mjs: @mcap/core's stream
+// reader with CRCs checked and its indexed reader; Foxglove's OMG IDL parser and
+// CDR decoder) read every record and decode every message of every channel, the
+// counts equal to `info`'s; the decoded CameraInfo is the rig's calibration; all
+// four recordings hold the same samples byte for byte.
+TEST_F(RecordTools, TheRigsDemoAsMcapOpensInTheFieldsOwnReaders) {
+  const std::string js = std::string(HULLPIPE_SOURCE_DIR) + "/tests/js";
+  ASSERT_TRUE(std::filesystem::exists(js + "/node_modules/@mcap/core"))
+      << "the npm readers are missing: scripts/setup.sh installs them (npm ci in tests/js)";
+  const std::vector<std::pair<std::string, std::vector<std::string>>> recordings = {
+      {"demo.hprec", {}},
+      {"demo_none.mcap", {}},
+      {"demo_zstd.mcap", {"--compression", "zstd"}},
+      {"demo_lz4.mcap", {"--compression", "lz4"}}};
+  const int frames = 6;
+  const Rig rig = LoadRig(test::RigDir());
+  const size_t cams = rig.cameras.size();
+  {
+    std::vector<std::unique_ptr<test::Process>> recorders;
+    for (const auto& [name, extra] : recordings) {
+      std::vector<std::string> args = {"-o", (dir_ / name).string(), "--batch-ms", "50"};
+      args.insert(args.end(), extra.begin(), extra.end());
+      recorders.push_back(Start("hullpipe_record", args));
+    }
+    auto capture = Start("capture_node", {"--rig", test::RigDir(), "--frames", std::to_string(frames), "--wait-readers",
+                                          std::to_string(recordings.size()), "--wait-timeout", "30", "--max-lag", "60"});
+    ASSERT_EQ(capture->Wait(120), 0) << Log("capture_node");
+    // Every recorder has every map once the files say so (each readable while
+    // written: SQLite's log, MCAP's chunks without a summary).
+    auto maps_in = [&](const std::string& name) {
+      try {
+        for (const auto& t : RecordingReader((dir_ / name).string()).Info().topics)
+          if (t.topic.name == "hullpipe/object_pixel_map") return t.count;
+      } catch (const RecordingError&) {
+      }
+      return int64_t(0);
+    };
+    for (const auto& [name, extra] : recordings) {
+      WaitFor([&] { return maps_in(name) >= int64_t(frames * cams); }, 30);
+      EXPECT_EQ(maps_in(name), int64_t(frames * cams)) << name << "\n" << Log("hullpipe_record");
+    }
+    for (auto& r : recorders) EXPECT_EQ(r->Stop(), 0) << Log("hullpipe_record");
+  }
+  const auto twin = SamplesByTopic((dir_ / "demo.hprec").string());
+  ASSERT_EQ(twin.at("hullpipe/camera_image").size(), frames * cams);
+  for (const auto& [name, extra] : recordings) {
+    if (name == "demo.hprec") continue;
+    const std::string path = (dir_ / name).string();
+    EXPECT_TRUE(SamplesByTopic(path) == twin) << name << " holds other samples than its SQLite twin";
+    const std::string info_out = (dir_ / (name + ".info.json")).string();
+    test::Process info({test::BinDir() + "/hullpipe_record", "info", path, "--json"}, info_out, {}, info_out + ".err");
+    ASSERT_EQ(info.Wait(60), 0) << test::ReadFile(info_out + ".err");
+    const auto ij = nlohmann::json::parse(test::ReadFile(info_out));
+    EXPECT_EQ(ij["storage"], "mcap");
+    const std::string node_out = (dir_ / (name + ".node.json")).string();
+    test::Process node({"/usr/bin/env", "node", js + "/read_mcap.mjs", path}, node_out, {}, node_out + ".err");
+    ASSERT_EQ(node.Wait(120), 0) << test::ReadFile(node_out + ".err");
+    const auto nj = nlohmann::json::parse(test::ReadFile(node_out));  // stdout alone
+    EXPECT_EQ(nj["records"]["Message"].get<int64_t>(), ij["samples"].get<int64_t>()) << name;
+    EXPECT_EQ(nj["statistics"]["messageCount"].get<int64_t>(), ij["samples"].get<int64_t>()) << name;
+    EXPECT_EQ(nj["records"]["Header"], 1);
+    EXPECT_EQ(nj["records"]["Footer"], 1);
+    EXPECT_GT(nj["chunkIndexes"].get<int>(), 0);
+    EXPECT_TRUE(nj["ordered"].get<bool>()) << "messages out of log-time order";
+    ASSERT_EQ(nj["channels"].size(), ij["topics"].size()) << name;
+    for (const auto& t : ij["topics"]) {
+      const auto& c = nj["channels"][t["name"].get<std::string>()];
+      EXPECT_EQ(c["count"], t["count"]) << name << " " << t["name"];
+      EXPECT_EQ(c["decoded"], t["count"]) << name << " " << t["name"] << ": not every message decoded";
+      EXPECT_EQ(c["schema"], t["type"]);
+      EXPECT_EQ(c["schemaEncoding"], "omgidl");
+      EXPECT_EQ(c["messageEncoding"], "cdr");
+      EXPECT_NE(c["qos"].get<std::string>().find(t["reliable"].get<bool>() ? "reliability: true" : "reliability: false"),
+                std::string::npos);
+    }
+    // The decoded calibration is the rig's, to the last bit printed (%.17g).
+    ASSERT_EQ(nj["cameraInfo"].size(), cams) << name;
+    for (const auto& ci : nj["cameraInfo"]) {
+      const auto cam = std::find_if(rig.cameras.begin(), rig.cameras.end(),
+                                    [&](const RigCamera& c) { return c.camera.id == ci["camera_id"].get<int>(); });
+      ASSERT_NE(cam, rig.cameras.end()) << ci.dump();
+      EXPECT_EQ(ci["width"], cam->camera.width);
+      EXPECT_EQ(ci["height"], cam->camera.height);
+      const Eigen::Matrix3d K = cam->camera.K();
+      for (int i = 0; i < 9; ++i) EXPECT_DOUBLE_EQ(ci["K"][i].get<double>(), K(i / 3, i % 3)) << i;
+      const Eigen::Vector3d t = cam->camera.cam_from_world.translation;
+      for (int i = 0; i < 3; ++i)
+        EXPECT_DOUBLE_EQ(ci["cam_from_world_translation"][i].get<double>(), t(i)) << i;
+    }
+  }
 }
 
 }  // namespace

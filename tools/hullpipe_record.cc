@@ -1,6 +1,8 @@
-// hullpipe_record: records a domain's DDS traffic into SQLite (docs/recording.md).
+// hullpipe_record: records a domain's DDS traffic into SQLite or MCAP (docs/recording.md).
 //   hullpipe_record --domain 7 -o run.hprec [--include 'hullpipe/*'] [--exclude '*/camera_image']
 //                   [--compression zstd] [--split-size 500MB | --split-duration 60]  (-o: a directory)
+//   hullpipe_record --domain 7 -o run.mcap [--compression zstd|lz4|none]   (MCAP, by the extension)
+//   hullpipe_record convert run.hprec -o run.mcap                (either way, byte for byte)
 //   hullpipe_record --domain 7 -o snaps --snapshot-seconds 10     (writes on SIGUSR1 or
 //                                                                 `hullpipe_cmd snapshot`)
 //   hullpipe_record info run.hprec [--json] [--idl]
@@ -33,14 +35,19 @@ using namespace hullpipe::record;
 int main(int argc, char** argv) {
   hullpipe::LogToStderr("hullpipe_record");  // stdout carries only what a user asked for
   hullpipe::SetCommandLine(argc, argv);
-  CLI::App app{"hullpipe_record: record a domain's DDS traffic (serialized) into SQLite"};
+  CLI::App app{"hullpipe_record: record a domain's DDS traffic (serialized) into SQLite or MCAP"};
   RecordOptions ro;
   const CommonOptions& common = ro.common;
   AddCommonOptions(app, ro.common);
   ro.snapshot.seconds = 0;
   app.add_option("-o,--output", ro.out,
                  "Recording to create (never overwritten): a file, or a directory with --split-* and --snapshot-*");
-  app.add_option("--compression", ro.compression, "Sample compression: none or zstd")->capture_default_str();
+  app.add_option("--storage", ro.storage, "sqlite or mcap (default: by -o's extension, .mcap is MCAP)");
+  app.add_option("--compression", ro.compression, "Sample compression: none or zstd (MCAP chunks: also lz4)")
+      ->capture_default_str();
+  app.add_option("--chunk-size", ro.writer.chunk_bytes, "MCAP: close a chunk at this size (e.g. 4MiB)")
+      ->transform(CLI::AsSizeValue(true))
+      ->capture_default_str();
   app.add_option("--zstd-level", ro.writer.zstd_level, "zstd level, 1 (fast) to 19 (small)")->capture_default_str();
   app.add_option("--split-size", ro.split.max_bytes, "Start a new part at this size (e.g. 500MB, 1GiB; 0: never)")
       ->transform(CLI::AsSizeValue(true));
@@ -69,6 +76,15 @@ int main(int argc, char** argv) {
   auto* repair = app.add_subcommand("repair", "Recover what a killed recorder or a cut file holds into a new recording");
   repair->add_option("file", repair_in, "Damaged recording (its -wal beside it is read too)")->required();
   repair->add_option("-o,--output", repair_out, "New recording (never overwritten)")->required();
+  std::string convert_in, convert_out, convert_storage, convert_compression = "none";
+  int convert_level = 1;
+  auto* convert = app.add_subcommand("convert", "Copy a recording into the other storage (SQLite <-> MCAP), every "
+                                                "sample byte for byte, checked by CRC-32");
+  convert->add_option("recording", convert_in, "Recording (file or split directory, either storage)")->required();
+  convert->add_option("-o,--output", convert_out, "New recording (never overwritten); .mcap is MCAP")->required();
+  convert->add_option("--storage", convert_storage, "sqlite or mcap (default: by -o's extension)");
+  convert->add_option("--compression", convert_compression, "none, zstd or lz4 (MCAP only)")->capture_default_str();
+  convert->add_option("--zstd-level", convert_level, "zstd level, 1 (fast) to 19 (small)")->capture_default_str();
   ExportOptions eo;
   auto* exp = app.add_subcommand("export", "Maps as PNG, images and hull views as video, reports and stats as "
                                            "CSV, any topic as JSON lines");
@@ -82,6 +98,7 @@ int main(int argc, char** argv) {
   try {
     if (*info) return Info(info_path, info_json, info_idl);
     if (*repair) return RepairCmd(repair_in, repair_out);
+    if (*convert) return ConvertCmd(convert_in, convert_out, convert_storage, convert_compression, convert_level);
     if (*exp) return Export(eo, common);
     if (*echo) {
       spdlog::set_default_logger(spdlog::stderr_color_mt("echo"));  // stdout carries the samples,

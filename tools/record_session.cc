@@ -15,6 +15,7 @@
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/record/convert.h"
 #include "hullpipe/record/repair.h"
 #include "hullpipe/util/logging.h"
 
@@ -46,7 +47,7 @@ int Info(const std::string& path, bool json, bool idl) {
     j["file"] = path;
     j["files"] = info.files;
     j["file_bytes"] = info.file_bytes;
-    j["storage"] = "sqlite3";
+    j["storage"] = info.storage;
     j["format"] = info.format;
     j["serialization"] = "cdr";
     j["compression"] = info.compression;
@@ -76,8 +77,8 @@ int Info(const std::string& path, bool json, bool idl) {
   std::printf("Files:             %s", path.c_str());
   if (info.files.size() > 1) std::printf(" (%zu parts)", info.files.size());
   std::printf("\nSize:              %.1f MiB on disk\n", double(info.file_bytes) / (1 << 20));
-  std::printf("Storage:           sqlite3, %s; serialization cdr; compression %s\n", info.format.c_str(),
-              info.compression.c_str());
+  std::printf("Storage:           %s%s; serialization cdr; compression %s\n", info.storage.c_str(),
+              info.format == info.storage ? "" : (", " + info.format).c_str(), info.compression.c_str());
   std::printf("Start:             %s\n", IsoTime(info.first_arrival_ns).c_str());
   std::printf("End:               %s\n", IsoTime(info.last_arrival_ns).c_str());
   std::printf("Duration:          %.3f s\n", info.duration_s());
@@ -105,6 +106,27 @@ int Info(const std::string& path, bool json, bool idl) {
     return 3;
   }
   return 0;
+}
+
+int ConvertCmd(const std::string& in, const std::string& out, const std::string& storage,
+               const std::string& compression, int zstd_level) {
+  WriterOptions wo;
+  wo.compression = ParseCompression(compression);
+  wo.zstd_level = zstd_level;
+  if (!storage.empty()) wo.storage = ParseStorage(storage);
+  const ConvertReport rep = Convert(in, out, wo);
+  if (!rep.input_damage.empty())
+    spdlog::warn("{}: damaged ({}); converted what reads ({} samples skipped; `hullpipe_record repair` first keeps "
+                 "what a cut file holds)",
+                 in, rep.input_damage, rep.damaged_samples);
+  spdlog::info("{} ({}) -> {} ({}, compression {}): {} samples of {} topics; every sample's CRC-32 {}", in,
+               rep.input_storage, out, rep.output_storage, CompressionName(wo.compression), rep.samples, rep.topics,
+               rep.differ ? "DIFFERS" : "equal");
+  if (rep.differ) {
+    spdlog::error("{}: {} sample(s) differ from {} after the conversion", out, rep.differ, in);
+    return 3;
+  }
+  return rep.input_damage.empty() ? 0 : 3;
 }
 
 int RepairCmd(const std::string& in, const std::string& out) {
@@ -176,7 +198,10 @@ class SnapshotOutput : public Output {
     buffer_.TrimTo(now);
     std::string path;
     for (;;) {  // never overwrite: the next free number
-      path = (std::filesystem::path(dir_) / fmt::format("snapshot_{:04d}.hprec", ++count_)).string();
+      path = (std::filesystem::path(dir_) /
+              fmt::format("snapshot_{:04d}{}", ++count_,
+                          StorageExtension(writer_options_.storage.value_or(StorageForPath(dir_)))))
+                 .string();
       if (!std::filesystem::exists(path)) break;
     }
     const auto samples = buffer_.Contents();
@@ -211,6 +236,10 @@ int RunRecord(const RecordOptions& o) {
   SnapshotOptions snap = o.snapshot;
   if (o.out.empty()) throw std::runtime_error("give -o FILE (or the info, repair or export subcommand)");
   wo.compression = ParseCompression(o.compression);
+  if (!o.storage.empty()) wo.storage = ParseStorage(o.storage);
+  const bool split_or_snapshot = so.max_bytes > 0 || so.max_duration_s > 0 || snap.seconds != 0 ||
+                                 o.snapshot_bytes_given;
+  if (!split_or_snapshot) wo.Check(wo.storage.value_or(StorageForPath(o.out)));
   so.writer = wo;
   so.Check();
   // --snapshot-bytes alone: a window by size (as long as an hour of traffic).

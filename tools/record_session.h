@@ -17,7 +17,8 @@ namespace hullpipe::record {
 struct RecordOptions {
   dds::CommonOptions common;
   std::string out;                  ///< -o: a file, or a directory for split sets and snapshots.
-  std::string compression = "none"; ///< none or zstd.
+  std::string compression = "none"; ///< none, zstd or lz4 (MCAP only).
+  std::string storage;              ///< sqlite or mcap; empty: by -o's extension (.mcap: MCAP).
   std::vector<std::string> include, exclude;  ///< Topic globs.
   double duration = 0;              ///< Seconds (0: until SIGINT).
   double batch_ms = 100;            ///< Commit at least this often.
@@ -41,5 +42,13 @@ int Info(const std::string& path, bool json, bool idl);
 
 /// `repair`: what a killed recorder or a cut file holds, into a new recording.
 int RepairCmd(const std::string& in, const std::string& out);
+
+/// `convert`: a recording (either storage, one file or a split set) into a new
+/// one in the storage `out`'s extension or `storage` names, every sample byte
+/// for byte with its topic, QoS, IDL, times and the meta (plus 'converted_from');
+/// then reads both and compares every sample's CRC-32. Returns the exit code
+/// (3: the input is damaged or the copy differs).
+int ConvertCmd(const std::string& in, const std::string& out, const std::string& storage,
+               const std::string& compression, int zstd_level);
 
 }  // namespace hullpipe::record

@@ -222,6 +222,38 @@ const std::string& Str(const std::vector<Value>& r, size_t i) { return std::get<
 
 }  // namespace
 
+// An MCAP file is read by a scan of its records where it has no footer (storage.h):
+// every chunk that decompresses and matches its CRC is copied, in arrival order.
+RepairReport RepairMcap(const std::string& in, const std::string& out) {
+  RepairReport report;
+  const RecordingReader r(in);
+  const RecordingInfo info = r.Info();
+  report.format = info.format;
+  report.was_closed = !info.interrupted;
+  RecordingWriter w(out);
+  for (const auto& [k, v] : info.meta)
+    if (k != "format" && k != "compression" && k != "closed_ns") w.SetMeta(k, v);
+  w.SetMeta("repaired_from", in);
+  w.SetMeta("repaired_ns", std::to_string(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                               std::chrono::system_clock::now().time_since_epoch())
+                                               .count()));
+  if (!report.was_closed) w.SetMeta("interrupted", "1");
+  std::map<int64_t, int64_t> new_id;
+  for (const auto& t : r.topics()) new_id[t.id] = w.AddTopic(t);
+  report.topics = int64_t(r.topics().size());
+  Sample copy;
+  r.ForEach([&](const Sample& s) {
+    copy = s;
+    copy.topic_id = new_id.at(s.topic_id);
+    w.Append(copy);
+    if (++report.samples % 256 == 0) w.Commit();
+    return true;
+  });
+  w.Commit();
+  report.bad_samples = r.damaged_samples();
+  return report;
+}
+
 RepairReport Repair(const std::string& in, const std::string& out) {
   std::error_code ec;
   if (std::filesystem::is_directory(in, ec))
@@ -229,6 +261,7 @@ RepairReport Repair(const std::string& in, const std::string& out) {
   if (!std::filesystem::is_regular_file(in, ec) && !std::filesystem::is_regular_file(in + "-wal", ec))
     throw RecordingError(in + ": no such file");
   if (std::filesystem::exists(out, ec)) throw RecordingError(out + ": exists; recordings are never overwritten");
+  if (IsMcapFile(in)) return RepairMcap(in, out);
   const Pages ps = LoadPages(in);
   RepairReport report;
   report.pages = int64_t(ps.page.size());

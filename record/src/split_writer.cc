@@ -14,9 +14,9 @@ void SplitOptions::Check() const {
     throw std::invalid_argument("--split-duration must be 0 or in [0.1, 1e6] s");
 }
 
-std::string SplitWriter::PartPath(const std::string& dir, int index) {
+std::string SplitWriter::PartPath(const std::string& dir, int index, Storage storage) {
   char name[32];
-  std::snprintf(name, sizeof name, "part_%04d.hprec", index);
+  std::snprintf(name, sizeof name, "part_%04d%s", index, StorageExtension(storage));
   return (std::filesystem::path(dir) / name).string();
 }
 
@@ -43,7 +43,9 @@ void SplitWriter::NextPart() {
     part_.reset();  // commits and marks the part closed
   }
   ++index_;
-  part_ = std::make_unique<RecordingWriter>(PartPath(dir_, index_), options_.writer);
+  WriterOptions w = options_.writer;
+  w.storage = w.storage.value_or(StorageForPath(dir_));
+  part_ = std::make_unique<RecordingWriter>(PartPath(dir_, index_, *w.storage), w);
   part_->SetMeta("set", set_id_);
   part_->SetMeta("part", std::to_string(index_));
   for (const auto& [k, v] : meta_) part_->SetMeta(k, v);

@@ -1,9 +1,12 @@
 // Recordings of DDS traffic (docs/recording.md): serialized samples (CDR, untouched, with
 // their encapsulation header) of every recorded topic, with source and arrival
-// timestamps, in SQLite files. DDS-free: the recorder and the player tools put
-// DDS on either side; tests use this library alone.
+// timestamps, in one of two storages (storage.h): SQLite files (.hprec, below) or
+// MCAP files (.mcap: channels of message encoding `cdr` with `omgidl` schemas, the
+// QoS in channel metadata 'qos', meta in metadata records "hullpipe"; see
+// docs/recording.md "MCAP"). DDS-free: the recorder and the player tools put DDS
+// on either side; tests use this library alone.
 //
-// File format (SQLite 3, WAL journal), 'hullpipe-recording-3':
+// SQLite file format (SQLite 3, WAL journal), 'hullpipe-recording-3':
 //   meta(key TEXT PRIMARY KEY, value TEXT)   format, compression, created_ns,
 //        closed_ns, set, part, lost:<topic>...
 //   topics(id INTEGER PRIMARY KEY, name TEXT UNIQUE, type TEXT, keyed INTEGER,
@@ -33,11 +36,9 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
-
-struct sqlite3;
-struct sqlite3_stmt;
 
 namespace hullpipe::record {
 
@@ -56,18 +57,36 @@ struct TopicInfo {
   std::string type_description;
 };
 
-/// How sample data is stored.
-enum class Compression { kNone, kZstd };
-/// "none" / "zstd"; ParseCompression throws std::invalid_argument naming --compression.
+/// How sample data is stored: per sample (SQLite) or per chunk (MCAP). lz4 (the
+/// LZ4 frame format) is MCAP's only.
+enum class Compression { kNone, kZstd, kLz4 };
+/// "none" / "zstd" / "lz4"; ParseCompression throws std::invalid_argument naming --compression.
 const char* CompressionName(Compression c);
 Compression ParseCompression(const std::string& name);
+
+/// Where a recording is kept (storage.h).
+enum class Storage { kSqlite, kMcap };
+/// "sqlite" / "mcap"; ParseStorage throws std::invalid_argument naming --storage.
+const char* StorageName(Storage s);
+Storage ParseStorage(const std::string& name);
+/// The storage a path names by its extension: ".mcap" is MCAP, anything else SQLite.
+Storage StorageForPath(const std::string& path);
+/// A file's extension for a storage: ".hprec" / ".mcap".
+const char* StorageExtension(Storage s);
 
 /// Settings of RecordingWriter.
 struct WriterOptions {
   Compression compression = Compression::kNone;
   int zstd_level = 1;  ///< 1 (fast) .. 19 (small); zstd's own scale.
-  /// Throws std::invalid_argument naming the flag (--zstd-level).
+  /// MCAP: a chunk is closed (compressed, indexed, written) once its records reach
+  /// this many bytes, and at every Commit().
+  int64_t chunk_bytes = int64_t(4) << 20;
+  /// nullopt: by the path's extension (StorageForPath).
+  std::optional<Storage> storage;
+  /// Throws std::invalid_argument naming the flag (--zstd-level, --chunk-size,
+  /// --compression lz4 on SQLite).
   void Check() const;
+  void Check(Storage s) const;
 };
 
 /// The largest sample a reader decodes (a zstd frame claiming more is damage, not
@@ -90,7 +109,11 @@ class RecordingError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Appends to a new recording. Not thread-safe.
+class StorageWriter;
+class StorageReader;
+
+/// Appends to a new recording in the storage the options or the path's extension
+/// name. Not thread-safe.
 class RecordingWriter {
  public:
   /// Creates `path` (an existing file is an error: recordings are never
@@ -103,35 +126,30 @@ class RecordingWriter {
 
   /// Adds a topic; returns its id (the same id if the name is already there).
   int64_t AddTopic(const TopicInfo& topic);
-  /// Appends a sample to the open batch (a transaction opened on demand),
-  /// compressed as the options say.
+  /// Appends a sample to the open batch (a transaction or chunk opened on
+  /// demand), compressed as the options say.
   void Append(const Sample& sample);
   /// Appends a sample already encoded with `codec` (0 none, 1 zstd) whose own
-  /// bytes have CRC-32 row checksum `crc` and size `size` (Repair copies rows so).
+  /// bytes have CRC-32 row checksum `crc` and size `size` (Repair copies rows so;
+  /// MCAP decodes it and appends the sample).
   void AppendEncoded(int64_t topic_id, int64_t source_ns, int64_t arrival_ns, const std::vector<uint8_t>& data,
                      int codec, int64_t size, uint32_t crc);
   /// Commits the open batch: after this returns, the samples survive a crash.
   void Commit();
   /// Sets a meta value (committed with the next batch).
   void SetMeta(const std::string& key, const std::string& value);
-  int64_t samples_committed() const { return committed_; }
-  int64_t samples_pending() const { return pending_; }
+  int64_t samples_committed() const;
+  int64_t samples_pending() const;
   /// Sample bytes as stored (after compression) and before it, so far.
-  int64_t stored_bytes() const { return stored_bytes_; }
-  int64_t raw_bytes() const { return raw_bytes_; }
+  int64_t stored_bytes() const;
+  int64_t raw_bytes() const;
   const std::string& path() const { return path_; }
+  Storage storage() const { return storage_; }
 
  private:
-  void Begin();
-  WriterOptions options_;
-  void* zstd_ = nullptr;  ///< ZSTD_CCtx, reused
-  std::vector<uint8_t> scratch_;
-  int64_t stored_bytes_ = 0, raw_bytes_ = 0;
   std::string path_;
-  sqlite3* db_ = nullptr;
-  sqlite3_stmt* insert_ = nullptr;
-  bool in_txn_ = false;
-  int64_t committed_ = 0, pending_ = 0;
+  Storage storage_;
+  std::unique_ptr<StorageWriter> impl_;
 };
 
 /// Summary of a recording (`hullpipe_record info`).
@@ -149,8 +167,9 @@ struct RecordingInfo {
   int64_t samples = 0, bytes = 0, stored_bytes = 0;
   int64_t first_arrival_ns = 0, last_arrival_ns = 0;
   std::map<std::string, std::string> meta;  ///< Later parts' values win.
-  std::string format;       ///< meta 'format' of the (first) file.
-  std::string compression;  ///< "none", "zstd", or "none, zstd" for a mixed set.
+  std::string format;       ///< meta 'format' of the (first) file ("mcap" for MCAP).
+  std::string storage;      ///< "sqlite" or "mcap" (of the first file).
+  std::string compression;  ///< "none", "zstd", "lz4", or "none, zstd" for a mixed set.
   /// The files read, in order (one, or a split recording's parts), and their
   /// sizes on disk (the database file and its WAL log, if any).
   std::vector<std::string> files;
@@ -166,15 +185,17 @@ struct RecordingInfo {
   double duration_s() const { return samples ? double(last_arrival_ns - first_arrival_ns) * 1e-9 : 0.0; }
 };
 
-/// Reads a recording: one file, or a directory holding the parts of one split
-/// recording, read as one (read-only; works on a file whose writer was killed).
+/// Reads a recording in either storage: one file, or a directory holding the
+/// parts of one split recording (.hprec or .mcap files), read as one (read-only;
+/// works on a file whose writer was killed).
 class RecordingReader {
  public:
   /// Throws RecordingError, naming the file and what is wrong, if the file is
-  /// missing, empty, not SQLite, lacks a table or column of the format, has an
-  /// unknown format, or a topics row without name or type; for a directory, also
-  /// if it holds no .hprec file, files of more than one recording (meta 'set'), or
-  /// two files of the same part.
+  /// missing, empty, neither SQLite nor MCAP, lacks a table or column of the
+  /// format, has an unknown format, or a topics row without name or type (MCAP:
+  /// bad magic, a header or record that runs past the end, a channel whose
+  /// schema does not exist); for a directory, also if it holds no recording file,
+  /// files of more than one recording (meta 'set'), or two files of the same part.
   explicit RecordingReader(const std::string& path);
   ~RecordingReader();
   RecordingReader(const RecordingReader&) = delete;
@@ -199,8 +220,9 @@ class RecordingReader {
   std::optional<int64_t> LastArrivalNs(const std::optional<std::vector<int64_t>>& topic_ids = std::nullopt) const;
   /// Counts, sizes, meta, and a full check: quick_check and every sample's CRC.
   RecordingInfo Info() const;
-  /// SQLite's quick_check of every file's structure: empty if sound, else its
-  /// findings (at most 10 lines a file). Reads the whole recording.
+  /// Every file's structural check (SQLite's quick_check; MCAP: records, chunk
+  /// CRCs and sizes, the summary): empty if sound, else the findings (at most 10
+  /// a file). Reads the whole recording.
   std::string QuickCheck() const;
   /// Samples ForEach skipped for a CRC mismatch, a bad frame or an unknown topic, so far.
   int64_t damaged_samples() const { return damaged_; }
@@ -209,7 +231,6 @@ class RecordingReader {
 
  private:
   struct Part;
-  static std::unique_ptr<Part> OpenPart(const std::string& path);
   std::string path_;
   std::vector<std::unique_ptr<Part>> parts_;
   std::vector<TopicInfo> topics_;
@@ -218,6 +239,9 @@ class RecordingReader {
   std::optional<int64_t> ArrivalBound(const char* fn, const std::optional<std::vector<int64_t>>& topic_ids) const;
   mutable int64_t damaged_ = 0;
 };
+
+/// True if the file's first bytes are MCAP's magic (it may still be damaged).
+bool IsMcapFile(const std::string& path);
 
 /// Decodes one stored sample: codec 0 copies, 1 decompresses a zstd frame that
 /// must decode to exactly `size` bytes (<= kMaxSampleBytes). False if it does not.

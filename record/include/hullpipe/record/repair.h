@@ -28,7 +28,10 @@ struct RepairReport {
 };
 
 /// Recovers `in` (one file; its `-wal` beside it is read too) into the new
-/// recording `out` (format 3, samples copied as stored). The output's meta keeps
+/// recording `out` (format 3, samples copied as stored; `out` ending .mcap: MCAP).
+/// An MCAP `in` (no footer, a chunk cut in the middle) is read by a scan of its
+/// records: every chunk that decompresses and matches its CRC-32 is kept, up to
+/// the last intact one (pages and wal_frames are 0). The output's meta keeps
 /// the input's (created_ns, domain, lost counts...) and adds 'repaired_from',
 /// 'repaired_ns' and, if the input was not closed, 'interrupted' = "1", which
 /// RecordingInfo::interrupted reports. Throws RecordingError if `in` cannot be

@@ -1,5 +1,6 @@
 // A recording split by size or duration into a numbered set of files read as one
-// (docs/recording.md): DIR/part_0000.hprec, part_0001.hprec, ... each a complete
+// (docs/recording.md): DIR/part_0000.hprec, part_0001.hprec, ... (.mcap where the
+// options' storage, or DIR's own extension, says MCAP) each a complete
 // recording (recording.h) with meta 'set' (one random id for the whole set) and
 // 'part' (its index). RecordingReader(DIR) reads them as one recording.
 #pragma once
@@ -56,8 +57,8 @@ class SplitWriter {
   int64_t samples_committed() const { return committed_before_ + (part_ ? part_->samples_committed() : 0); }
   int64_t stored_bytes() const { return stored_before_ + part_->stored_bytes(); }
   int64_t raw_bytes() const { return raw_before_ + part_->raw_bytes(); }
-  /// The path of part `index` in `dir`.
-  static std::string PartPath(const std::string& dir, int index);
+  /// The path of part `index` in `dir`, with the extension of `storage`.
+  static std::string PartPath(const std::string& dir, int index, Storage storage = Storage::kSqlite);
 
  private:
   void NextPart();

@@ -1,0 +1,67 @@
+#include "hullpipe/record/convert.h"
+
+#include <map>
+#include <vector>
+
+namespace hullpipe::record {
+namespace {
+
+// A sample's identity across storages (ids differ): its topic's name, both
+// times and its bytes.
+uint32_t SampleCrc(const std::string& topic, const Sample& s) {
+  return RowCrc(0, s.source_ns, s.arrival_ns, s.data.data(), s.data.size()) ^
+         RowCrc(0, 0, 0, reinterpret_cast<const uint8_t*>(topic.data()), topic.size());
+}
+
+}  // namespace
+
+ConvertReport Convert(const std::string& in, const std::string& out, const WriterOptions& options) {
+  options.Check();
+  const Storage storage = options.storage.value_or(StorageForPath(out));
+  options.Check(storage);
+  ConvertReport rep;
+  const RecordingReader r(in);
+  const RecordingInfo before = r.Info();
+  rep.input_storage = before.storage;
+  rep.output_storage = StorageName(storage);
+  rep.input_damage = before.damage;
+  std::map<int64_t, std::string> names;
+  for (const auto& t : r.topics()) names[t.id] = t.name;
+  std::vector<uint32_t> crcs;
+  {
+    WriterOptions o = options;
+    o.storage = storage;
+    RecordingWriter w(out, o);
+    for (const auto& [k, v] : before.meta)
+      if (k != "format" && k != "compression" && k != "closed_ns") w.SetMeta(k, v);
+    w.SetMeta("converted_from", in);
+    std::map<int64_t, int64_t> out_id;
+    for (const auto& t : r.topics()) out_id[t.id] = w.AddTopic(t);
+    rep.topics = int64_t(r.topics().size());
+    const int64_t damaged_before = r.damaged_samples();
+    Sample c;
+    r.ForEach([&](const Sample& s) {
+      c = s;
+      c.topic_id = out_id.at(s.topic_id);
+      w.Append(c);
+      crcs.push_back(SampleCrc(names.at(s.topic_id), s));
+      if (++rep.samples % 256 == 0) w.Commit();
+      return true;
+    });
+    rep.damaged_samples = r.damaged_samples() - damaged_before;
+    w.Commit();
+  }
+  const RecordingReader back(out);
+  std::map<int64_t, std::string> back_names;
+  for (const auto& t : back.topics()) back_names[t.id] = t.name;
+  size_t i = 0;
+  back.ForEach([&](const Sample& s) {
+    if (i >= crcs.size() || crcs[i] != SampleCrc(back_names.at(s.topic_id), s)) ++rep.differ;
+    ++i;
+    return true;
+  });
+  if (i < crcs.size()) rep.differ += int64_t(crcs.size() - i);
+  return rep;
+}
+
+}  // namespace hullpipe::record

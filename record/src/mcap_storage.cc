@@ -1,0 +1,1131 @@
+// The MCAP storage (https://mcap.dev/spec, major version 0; docs/recording.md
+// "MCAP"). What hullpipe writes:
+//   <Magic><Header profile "" library "hullpipe">
+//   data section: Schema and Channel records (top level, as each topic is added),
+//     Chunks of Message records, each followed by one Message Index per channel,
+//     Metadata records named "hullpipe" (the recording's meta, written again
+//     whenever it changed, at a commit), <Data End crc 0>
+//   summary section (at close): Schemas, Channels, Statistics, Metadata Indexes,
+//     Chunk Indexes, grouped by opcode, then one Summary Offset per group,
+//   <Footer with the summary's CRC-32><Magic>.
+// A topic is a channel (id = topic id) with message encoding "cdr" and a schema
+// named by the type ("hullpipe::msg::CameraInfo"), encoding "omgidl", its data
+// the IDL text; the QoS is channel metadata 'qos', YAML in the keys eProsima's
+// DDS recorder uses (reliability, durability, ownership, keyed; booleans) plus
+// depth. log_time is the arrival time, publish_time the source time.
+// A commit closes the open chunk and writes it with one write(2): a writer killed
+// loses at most its open chunk; the file then lacks its summary and footer, which
+// the reader does without (a linear scan of the top-level records).
+#include <fcntl.h>
+#include <lz4frame.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+#include <zlib.h>
+#include <zstd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <queue>
+
+#include "hullpipe/record/storage.h"
+
+namespace hullpipe::record {
+namespace {
+
+constexpr uint8_t kMagic[8] = {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
+enum Op : uint8_t {
+  kHeader = 0x01,
+  kFooter = 0x02,
+  kSchema = 0x03,
+  kChannel = 0x04,
+  kMessage = 0x05,
+  kChunk = 0x06,
+  kMessageIndex = 0x07,
+  kChunkIndex = 0x08,
+  kStatistics = 0x0B,
+  kMetadata = 0x0C,
+  kMetadataIndex = 0x0D,
+  kSummaryOffset = 0x0E,
+  kDataEnd = 0x0F,
+};
+constexpr const char* kMetaName = "hullpipe";
+// A chunk's declared uncompressed size above this is damage, not an allocation:
+// a chunk holds at most --chunk-size (<= 1 GiB) plus one sample (<= 1 GiB).
+constexpr uint64_t kMaxChunkBytes = (uint64_t(2) << 30) + (uint64_t(64) << 20);
+constexpr int kMaxFindings = 10;
+
+uint32_t Crc(uint32_t crc, const uint8_t* p, size_t n) {
+  uLong c = crc;
+  while (n > 0) {
+    const size_t k = std::min<size_t>(n, 1u << 30);
+    c = crc32(c, p, uInt(k));
+    p += k;
+    n -= k;
+  }
+  return uint32_t(c);
+}
+
+// Little-endian serialization of records (the spec's "Serialization").
+struct Out {
+  std::vector<uint8_t> b;
+  void le(uint64_t v, int n) {
+    for (int i = 0; i < n; ++i) b.push_back(uint8_t(v >> (8 * i)));
+  }
+  void u8(uint8_t v) { b.push_back(v); }
+  void u16(uint16_t v) { le(v, 2); }
+  void u32(uint32_t v) { le(v, 4); }
+  void u64(uint64_t v) { le(v, 8); }
+  void raw(const uint8_t* p, size_t n) { b.insert(b.end(), p, p + n); }
+  void str(const std::string& s) {
+    u32(uint32_t(s.size()));
+    b.insert(b.end(), s.begin(), s.end());
+  }
+  void patch(size_t at, uint64_t v, int n) {
+    for (int i = 0; i < n; ++i) b[at + i] = uint8_t(v >> (8 * i));
+  }
+  size_t Begin(uint8_t op) {  // opcode and a length patched by End
+    u8(op);
+    u64(0);
+    return b.size();
+  }
+  void End(size_t content_at) { patch(content_at - 8, b.size() - content_at, 8); }
+  void map(const std::map<std::string, std::string>& m) {
+    const size_t at = b.size();
+    u32(0);
+    for (const auto& [k, v] : m) {
+      str(k);
+      str(v);
+    }
+    patch(at, b.size() - at - 4, 4);
+  }
+};
+
+// What the reader throws at a field that runs past its record: caught and named
+// with the file and the record's offset.
+struct Malformed : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct In {
+  const uint8_t* p;
+  size_t n;
+  size_t at = 0;
+  void need(size_t k, const char* field) const {
+    if (n - at < k) throw Malformed(std::string("its ") + field + " runs past the record's end");
+  }
+  uint64_t le(int k, const char* field) {
+    need(size_t(k), field);
+    uint64_t v = 0;
+    for (int i = 0; i < k; ++i) v |= uint64_t(p[at + i]) << (8 * i);
+    at += size_t(k);
+    return v;
+  }
+  uint8_t u8(const char* f) { return uint8_t(le(1, f)); }
+  uint16_t u16(const char* f) { return uint16_t(le(2, f)); }
+  uint32_t u32(const char* f) { return uint32_t(le(4, f)); }
+  uint64_t u64(const char* f) { return le(8, f); }
+  std::string str(const char* f) {
+    const uint32_t len = u32(f);
+    need(len, f);
+    std::string s(reinterpret_cast<const char*>(p + at), len);
+    at += len;
+    return s;
+  }
+  In sub(uint64_t len, const char* f) {  // a length-prefixed part
+    need(size_t(std::min<uint64_t>(len, SIZE_MAX)), f);
+    In s{p + at, size_t(len)};
+    at += size_t(len);
+    return s;
+  }
+  std::map<std::string, std::string> map(const char* f) {
+    In m = sub(u32(f), f);
+    std::map<std::string, std::string> out;
+    while (m.at < m.n) {
+      std::string k = m.str(f);
+      out[k] = m.str(f);
+    }
+    return out;
+  }
+  bool done() const { return at >= n; }
+};
+
+std::string QosYaml(const TopicInfo& t) {
+  YAML::Emitter e;
+  e << YAML::BeginMap << YAML::Key << "reliability" << YAML::Value << t.reliable << YAML::Key << "durability"
+    << YAML::Value << t.transient_local << YAML::Key << "ownership" << YAML::Value << false << YAML::Key << "keyed"
+    << YAML::Value << t.keyed << YAML::Key << "depth" << YAML::Value << t.depth << YAML::EndMap;
+  return std::string(e.c_str()) + "\n";
+}
+
+// Compresses `in` by `c` into *out; false where it did not shrink (stored as is).
+bool Compress(Compression c, int level, ZSTD_CCtx* zstd, const std::vector<uint8_t>& in, std::vector<uint8_t>* out,
+              const std::string& path) {
+  if (c == Compression::kZstd) {
+    out->resize(ZSTD_compressBound(in.size()));
+    const size_t n = ZSTD_compress2(zstd, out->data(), out->size(), in.data(), in.size());
+    if (ZSTD_isError(n)) throw RecordingError(path + ": ZSTD_compress2: " + ZSTD_getErrorName(n));
+    out->resize(n);
+  } else if (c == Compression::kLz4) {
+    LZ4F_preferences_t prefs{};
+    prefs.frameInfo.contentSize = in.size();
+    prefs.compressionLevel = 0;  // LZ4's fast default
+    out->resize(LZ4F_compressFrameBound(in.size(), &prefs));
+    const size_t n = LZ4F_compressFrame(out->data(), out->size(), in.data(), in.size(), &prefs);
+    if (LZ4F_isError(n)) throw RecordingError(path + ": LZ4F_compressFrame: " + LZ4F_getErrorName(n));
+    out->resize(n);
+  } else {
+    return false;
+  }
+  (void)level;
+  return out->size() < in.size();
+}
+
+// Decompresses a chunk's records into *out, which must come to exactly `size`
+// bytes (<= kMaxChunkBytes). The buffer grows with what really decompresses, so
+// a size that lies costs no more memory than the data it stands for.
+bool Decompress(const std::string& compression, const uint8_t* p, size_t n, uint64_t size, std::vector<uint8_t>* out) {
+  if (size > kMaxChunkBytes) return false;
+  if (compression.empty()) {
+    if (n != size) return false;
+    out->assign(p, p + n);
+    return true;
+  }
+  out->clear();
+  size_t have = 0;
+  auto grow = [&] {
+    const size_t next = size_t(std::min<uint64_t>(size, std::max<uint64_t>(2 * out->size(), uint64_t(n) * 4 + 65536)));
+    out->resize(next);
+  };
+  if (compression == "zstd") {
+    std::unique_ptr<ZSTD_DCtx, size_t (*)(ZSTD_DCtx*)> d(ZSTD_createDCtx(), ZSTD_freeDCtx);
+    ZSTD_inBuffer in{p, n, 0};
+    while (true) {
+      if (have == out->size()) {
+        if (out->size() == size) {  // full: the frame must be over
+          uint8_t probe;
+          ZSTD_outBuffer o{&probe, 1, 0};
+          const size_t r = ZSTD_decompressStream(d.get(), &o, &in);
+          return !ZSTD_isError(r) && o.pos == 0 && r == 0 && in.pos == in.size;
+        }
+        grow();
+      }
+      ZSTD_outBuffer o{out->data(), out->size(), have};
+      const size_t r = ZSTD_decompressStream(d.get(), &o, &in);
+      if (ZSTD_isError(r)) return false;
+      have = o.pos;
+      if (r == 0) return have == size && in.pos == in.size;
+      if (in.pos == in.size && o.pos < o.size) return false;  // input over, frame not
+    }
+  }
+  if (compression == "lz4") {
+    LZ4F_dctx* raw = nullptr;
+    if (LZ4F_isError(LZ4F_createDecompressionContext(&raw, LZ4F_VERSION))) return false;
+    std::unique_ptr<LZ4F_dctx, size_t (*)(LZ4F_dctx*)> d(raw, LZ4F_freeDecompressionContext);
+    size_t used = 0;
+    while (true) {
+      if (have == out->size()) {
+        if (out->size() == size) {
+          uint8_t probe;
+          size_t dst = 1, src = n - used;
+          const size_t r = LZ4F_decompress(d.get(), &probe, &dst, p + used, &src, nullptr);
+          return !LZ4F_isError(r) && dst == 0 && r == 0 && used + src == n;
+        }
+        grow();
+      }
+      size_t dst = out->size() - have, src = n - used;
+      const size_t r = LZ4F_decompress(d.get(), out->data() + have, &dst, p + used, &src, nullptr);
+      if (LZ4F_isError(r)) return false;
+      have += dst;
+      used += src;
+      if (r == 0) return have == size && used == n;
+      if (dst == 0 && src == 0) return false;  // no progress: the frame is cut
+    }
+  }
+  return false;  // a compression this build does not read
+}
+
+// ---------------------------------------------------------------- writer
+
+class McapWriter final : public StorageWriter {
+ public:
+  McapWriter(const std::string& path, const WriterOptions& options);
+  ~McapWriter() override;
+  int64_t AddTopic(const TopicInfo& topic) override;
+  void Append(const Sample& sample) override;
+  void Commit() override;
+  void SetMeta(const std::string& key, const std::string& value) override;
+  int64_t samples_committed() const override { return committed_; }
+  int64_t samples_pending() const override { return pending_; }
+  /// Chunks written, and the open chunk as it is (not yet compressed), so a split
+  /// set's parts end near their size.
+  int64_t stored_bytes() const override { return stored_bytes_ + int64_t(chunk_.b.size()); }
+  int64_t raw_bytes() const override { return raw_bytes_; }
+
+ private:
+  void Write(const std::vector<uint8_t>& b);
+  void FlushChunk();
+  void WriteMetadata();
+  void Close();
+
+  struct ChunkIndex {
+    uint64_t start_ns, end_ns, offset, length;
+    std::map<uint16_t, uint64_t> index_offsets;
+    uint64_t index_length;
+    std::string compression;
+    uint64_t compressed_size, uncompressed_size;
+  };
+  std::string path_;
+  WriterOptions options_;
+  int fd_ = -1;
+  uint64_t offset_ = 0;  // bytes written
+  ZSTD_CCtx* zstd_ = nullptr;
+  // The open chunk: its records, uncompressed, and per channel (log_time, offset).
+  Out chunk_;
+  uint64_t chunk_start_ns_ = 0, chunk_end_ns_ = 0;
+  std::map<uint16_t, std::vector<std::pair<uint64_t, uint64_t>>> index_;
+  std::vector<uint8_t> compressed_;
+  std::vector<ChunkIndex> chunks_;
+  // Summary copies of schema and channel records.
+  std::vector<std::vector<uint8_t>> schema_records_, channel_records_;
+  std::map<std::string, uint16_t> schema_of_type_;
+  std::vector<TopicInfo> topics_;
+  std::map<uint16_t, uint32_t> sequence_;
+  std::map<uint16_t, uint64_t> channel_counts_;
+  uint64_t messages_ = 0, first_ns_ = 0, last_ns_ = 0;
+  std::map<std::string, std::string> meta_;
+  bool meta_dirty_ = false;
+  struct MetadataIndex {
+    uint64_t offset, length;
+  };
+  std::vector<MetadataIndex> metadata_;
+  int64_t committed_ = 0, pending_ = 0, stored_bytes_ = 0, raw_bytes_ = 0;
+  bool failed_ = false;  // a write failed: the destructor writes nothing more
+};
+
+McapWriter::McapWriter(const std::string& path, const WriterOptions& options) : path_(path), options_(options) {
+  options_.Check(Storage::kMcap);
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd_ < 0) {
+    if (errno == EEXIST) throw RecordingError(path + ": exists; recordings are never overwritten");
+    throw RecordingError(path + ": open: " + std::strerror(errno));
+  }
+  try {
+    if (options_.compression == Compression::kZstd) {
+      zstd_ = ZSTD_createCCtx();
+      if (!zstd_) throw RecordingError(path_ + ": ZSTD_createCCtx failed");
+      ZSTD_CCtx_setParameter(zstd_, ZSTD_c_compressionLevel, options_.zstd_level);
+    }
+    Out o;
+    o.raw(kMagic, 8);
+    const size_t h = o.Begin(kHeader);
+    o.str("");  // profile: none of the well-known ones (ros1/ros2 need ROS schemas)
+    o.str("hullpipe");
+    o.End(h);
+    Write(o.b);
+    meta_["format"] = "mcap";
+    meta_["compression"] = CompressionName(options_.compression);
+    meta_dirty_ = true;
+  } catch (...) {
+    ZSTD_freeCCtx(zstd_);
+    ::close(fd_);
+    throw;
+  }
+}
+
+McapWriter::~McapWriter() {
+  try {
+    if (!failed_) Close();
+  } catch (...) {
+  }
+  ZSTD_freeCCtx(zstd_);
+  ::close(fd_);
+}
+
+void McapWriter::Write(const std::vector<uint8_t>& b) {
+  size_t done = 0;
+  while (done < b.size()) {
+    const ssize_t n = ::write(fd_, b.data() + done, b.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      failed_ = true;
+      throw RecordingError(path_ + ": write: " + (n < 0 ? std::strerror(errno) : "no space written"));
+    }
+    done += size_t(n);
+  }
+  offset_ += b.size();
+}
+
+int64_t McapWriter::AddTopic(const TopicInfo& t) {
+  for (const auto& mine : topics_)
+    if (mine.name == t.name) return mine.id;
+  if (topics_.size() >= 65535) throw RecordingError(path_ + ": more than 65535 topics (MCAP channel ids are 16-bit)");
+  Out o;
+  auto s = schema_of_type_.find(t.type);
+  if (s == schema_of_type_.end()) {
+    const uint16_t id = uint16_t(schema_of_type_.size() + 1);
+    Out rec;
+    const size_t at = rec.Begin(kSchema);
+    rec.u16(id);
+    rec.str(t.type);
+    // The IDL text, self-contained (idl/hullpipe.idl has no preprocessor
+    // directives); where a recording has none, no schema encoding (the spec's
+    // "no schema available"), the type still named.
+    rec.str(t.type_description.empty() ? "" : "omgidl");
+    rec.str(t.type_description);
+    rec.End(at);
+    schema_records_.push_back(rec.b);
+    o.raw(rec.b.data(), rec.b.size());
+    s = schema_of_type_.emplace(t.type, id).first;
+  }
+  TopicInfo mine = t;
+  mine.id = int64_t(topics_.size() + 1);
+  Out rec;
+  const size_t at = rec.Begin(kChannel);
+  rec.u16(uint16_t(mine.id));
+  rec.u16(s->second);
+  rec.str(t.name);
+  rec.str("cdr");
+  rec.map({{"qos", QosYaml(t)}});
+  rec.End(at);
+  channel_records_.push_back(rec.b);
+  o.raw(rec.b.data(), rec.b.size());
+  Write(o.b);
+  topics_.push_back(mine);
+  return mine.id;
+}
+
+void McapWriter::Append(const Sample& s) {
+  if (s.topic_id < 1 || s.topic_id > int64_t(topics_.size()))
+    throw RecordingError(path_ + ": a sample of topic id " + std::to_string(s.topic_id) + ", which was never added");
+  const uint16_t ch = uint16_t(s.topic_id);
+  const uint64_t log_ns = uint64_t(s.arrival_ns), pub_ns = uint64_t(s.source_ns);
+  if (chunk_.b.empty() || log_ns < chunk_start_ns_) chunk_start_ns_ = log_ns;
+  if (chunk_.b.empty() || log_ns > chunk_end_ns_) chunk_end_ns_ = log_ns;
+  index_[ch].emplace_back(log_ns, uint64_t(chunk_.b.size()));
+  const size_t at = chunk_.Begin(kMessage);
+  chunk_.u16(ch);
+  chunk_.u32(++sequence_[ch]);
+  chunk_.u64(log_ns);
+  chunk_.u64(pub_ns);
+  chunk_.raw(s.data.data(), s.data.size());
+  chunk_.End(at);
+  if (messages_ == 0 || log_ns < first_ns_) first_ns_ = log_ns;
+  if (messages_ == 0 || log_ns > last_ns_) last_ns_ = log_ns;
+  ++messages_;
+  ++channel_counts_[ch];
+  ++pending_;
+  raw_bytes_ += int64_t(s.data.size());
+  if (int64_t(chunk_.b.size()) >= options_.chunk_bytes) FlushChunk();
+}
+
+void McapWriter::FlushChunk() {
+  if (chunk_.b.empty()) return;
+  const std::vector<uint8_t>& records = chunk_.b;
+  const uint32_t crc = Crc(0, records.data(), records.size());
+  const bool compressed = Compress(options_.compression, options_.zstd_level, zstd_, records, &compressed_, path_);
+  const std::vector<uint8_t>& stored = compressed ? compressed_ : records;
+  const std::string compression = compressed ? CompressionName(options_.compression) : "";
+  Out o;
+  const size_t at = o.Begin(kChunk);
+  o.u64(chunk_start_ns_);
+  o.u64(chunk_end_ns_);
+  o.u64(records.size());
+  o.u32(crc);
+  o.str(compression);
+  o.u64(stored.size());
+  o.raw(stored.data(), stored.size());
+  o.End(at);
+  ChunkIndex ci{chunk_start_ns_, chunk_end_ns_, offset_, o.b.size(), {}, 0, compression, stored.size(), records.size()};
+  for (const auto& [ch, entries] : index_) {
+    ci.index_offsets[ch] = offset_ + o.b.size();
+    const size_t m = o.Begin(kMessageIndex);
+    o.u16(ch);
+    o.u32(uint32_t(entries.size() * 16));
+    for (const auto& [t, off] : entries) {
+      o.u64(t);
+      o.u64(off);
+    }
+    o.End(m);
+  }
+  ci.index_length = offset_ + o.b.size() - ci.offset - ci.length;
+  Write(o.b);  // the chunk and its indexes in one write(2)
+  chunks_.push_back(std::move(ci));
+  stored_bytes_ += int64_t(stored.size());
+  committed_ += pending_;
+  pending_ = 0;
+  chunk_.b.clear();
+  index_.clear();
+}
+
+void McapWriter::WriteMetadata() {
+  Out o;
+  const size_t at = o.Begin(kMetadata);
+  o.str(kMetaName);
+  o.map(meta_);
+  o.End(at);
+  metadata_.push_back({offset_, o.b.size()});
+  Write(o.b);
+  meta_dirty_ = false;
+}
+
+void McapWriter::Commit() {
+  FlushChunk();
+  if (meta_dirty_) WriteMetadata();
+}
+
+void McapWriter::SetMeta(const std::string& key, const std::string& value) {
+  auto it = meta_.find(key);
+  if (it != meta_.end() && it->second == value) return;
+  meta_[key] = value;
+  meta_dirty_ = true;
+}
+
+void McapWriter::Close() {
+  SetMeta("closed_ns", std::to_string(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                          std::chrono::system_clock::now().time_since_epoch())
+                                          .count()));
+  Commit();
+  Out o;
+  size_t at = o.Begin(kDataEnd);
+  o.u32(0);  // no data-section CRC: every chunk carries its own
+  o.End(at);
+  const uint64_t summary_start = offset_ + o.b.size();
+  struct Group {
+    uint8_t op;
+    uint64_t start, length;
+  };
+  std::vector<Group> groups;
+  auto group = [&](uint8_t op, const std::function<void()>& write) {
+    const uint64_t start = offset_ + o.b.size();
+    write();
+    const uint64_t length = offset_ + o.b.size() - start;
+    if (length > 0) groups.push_back({op, start, length});
+  };
+  group(kSchema, [&] {
+    for (const auto& r : schema_records_) o.raw(r.data(), r.size());
+  });
+  group(kChannel, [&] {
+    for (const auto& r : channel_records_) o.raw(r.data(), r.size());
+  });
+  group(kStatistics, [&] {
+    const size_t s = o.Begin(kStatistics);
+    o.u64(messages_);
+    o.u16(uint16_t(schema_records_.size()));
+    o.u32(uint32_t(channel_records_.size()));
+    o.u32(0);  // attachments
+    o.u32(uint32_t(metadata_.size()));
+    o.u32(uint32_t(chunks_.size()));
+    o.u64(messages_ ? first_ns_ : 0);
+    o.u64(messages_ ? last_ns_ : 0);
+    const size_t m = o.b.size();
+    o.u32(0);
+    for (const auto& [ch, n] : channel_counts_) {
+      o.u16(ch);
+      o.u64(n);
+    }
+    o.patch(m, o.b.size() - m - 4, 4);
+    o.End(s);
+  });
+  group(kMetadataIndex, [&] {
+    for (const auto& m : metadata_) {
+      const size_t s = o.Begin(kMetadataIndex);
+      o.u64(m.offset);
+      o.u64(m.length);
+      o.str(kMetaName);
+      o.End(s);
+    }
+  });
+  group(kChunkIndex, [&] {
+    for (const auto& c : chunks_) {
+      const size_t s = o.Begin(kChunkIndex);
+      o.u64(c.start_ns);
+      o.u64(c.end_ns);
+      o.u64(c.offset);
+      o.u64(c.length);
+      const size_t m = o.b.size();
+      o.u32(0);
+      for (const auto& [ch, off] : c.index_offsets) {
+        o.u16(ch);
+        o.u64(off);
+      }
+      o.patch(m, o.b.size() - m - 4, 4);
+      o.u64(c.index_length);
+      o.str(c.compression);
+      o.u64(c.compressed_size);
+      o.u64(c.uncompressed_size);
+      o.End(s);
+    }
+  });
+  const uint64_t summary_offset_start = offset_ + o.b.size();
+  for (const auto& g : groups) {
+    const size_t s = o.Begin(kSummaryOffset);
+    o.u8(g.op);
+    o.u64(g.start);
+    o.u64(g.length);
+    o.End(s);
+  }
+  const size_t summary_at = size_t(summary_start - offset_);
+  o.u8(kFooter);
+  o.u64(20);  // fixed length: it is in the CRC below
+  o.u64(summary_start);
+  o.u64(summary_offset_start);
+  // The summary's CRC: from its start through the footer's summary_offset_start.
+  o.u32(Crc(0, o.b.data() + summary_at, o.b.size() - summary_at));
+  o.raw(kMagic, 8);
+  Write(o.b);
+}
+
+// ---------------------------------------------------------------- reader
+
+class McapReader final : public StorageReader {
+ public:
+  explicit McapReader(const std::string& path);
+  ~McapReader() override { ::close(fd_); }
+  const std::string& path() const override { return path_; }
+  Storage storage() const override { return Storage::kMcap; }
+  const std::vector<TopicInfo>& topics() const override { return topics_; }
+  const std::map<std::string, std::string>& meta() const override { return meta_; }
+  std::string format() const override { return "mcap"; }
+  bool interrupted() const override { return !has_footer_ || meta_.count("interrupted"); }
+  bool ForEach(const std::optional<std::set<int64_t>>& ids, const std::function<bool(const Sample&)>& f,
+               int64_t* damaged) const override;
+  std::optional<int64_t> ArrivalBound(bool max, const std::optional<std::set<int64_t>>& ids) const override;
+  std::string QuickCheck() const override;
+  std::map<int64_t, TopicCount> Counts() const override;
+  int64_t FileBytes() const override { return int64_t(size_); }
+
+ private:
+  // A chunk, or one message outside chunks (a "loose" unit).
+  struct Unit {
+    uint64_t offset = 0;  // of the record
+    bool chunk = true;
+    uint64_t start_ns = 0, end_ns = 0;
+    uint64_t uncompressed_size = 0;
+    uint32_t crc = 0;
+    std::string compression;
+    uint64_t records_offset = 0, records_size = 0;  // the records field in the file
+    // From the Message Index records after the chunk: per channel, log times.
+    std::map<uint16_t, std::vector<uint64_t>> index;
+    bool indexed = false;
+  };
+  struct Msg {
+    uint64_t log_ns;
+    size_t unit;   // the unit's place in the file: ties go in write order
+    size_t slot;   // its place in ForEach's load order
+    size_t order;
+    uint16_t channel;
+    uint64_t pub_ns;
+    std::vector<uint8_t> data;
+  };
+  std::vector<uint8_t> Read(uint64_t at, uint64_t n) const;
+  void Finding(const std::string& what) {
+    if (int(findings_.size()) < kMaxFindings) findings_.push_back(what);
+  }
+  void Scan();
+  void ReadSummary();
+  void AddSchema(In& in, uint64_t at);
+  void AddChannel(In& in, uint64_t at);
+  // The unit's messages (all channels), decoded; false (with why) if the chunk
+  // does not decompress or check.
+  // Schema and Channel records inside it go to `collect` where given (at open).
+  bool Decode(const Unit& u, std::vector<Msg>* out, std::string* why, McapReader* collect = nullptr) const;
+  bool Wanted(const Unit& u, const std::optional<std::set<int64_t>>& ids) const;
+  int64_t IndexedCount(const Unit& u, const std::optional<std::set<int64_t>>& ids) const;
+
+  std::string path_;
+  int fd_ = -1;
+  uint64_t size_ = 0;
+  bool has_footer_ = false;
+  uint64_t data_end_ = 0;  // where the data section ends (the scan stops)
+  struct Schema {
+    std::string name, encoding, data;
+  };
+  std::map<uint16_t, Schema> schemas_;
+  struct Channel {
+    uint16_t schema;
+    std::string topic, encoding;
+    std::map<std::string, std::string> metadata;
+  };
+  std::map<uint16_t, Channel> channels_;
+  std::vector<Unit> units_;
+  std::vector<TopicInfo> topics_;
+  std::set<int64_t> channel_ids_;
+  std::map<std::string, std::string> meta_;
+  std::vector<std::string> findings_;
+};
+
+std::vector<uint8_t> McapReader::Read(uint64_t at, uint64_t n) const {
+  if (at > size_ || n > size_ - at)
+    throw RecordingError(path_ + ": a read of " + std::to_string(n) + " bytes at byte " + std::to_string(at) +
+                         " runs past the end of the file (" + std::to_string(size_) + " bytes)");
+  std::vector<uint8_t> b(n);
+  size_t done = 0;
+  while (done < n) {
+    const ssize_t r = ::pread(fd_, b.data() + done, n - done, off_t(at + done));
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) throw RecordingError(path_ + ": read at byte " + std::to_string(at + done) + ": " +
+                                     (r < 0 ? std::strerror(errno) : "end of file"));
+    done += size_t(r);
+  }
+  return b;
+}
+
+McapReader::McapReader(const std::string& path) : path_(path) {
+  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd_ < 0) throw RecordingError(path + ": open: " + std::strerror(errno));
+  try {
+    struct stat st {};
+    if (fstat(fd_, &st) != 0) throw RecordingError(path + ": fstat: " + std::strerror(errno));
+    size_ = uint64_t(st.st_size);
+    if (size_ < 8 || std::memcmp(Read(0, 8).data(), kMagic, 8) != 0)
+      throw RecordingError(path + ": not an MCAP file (bad magic)");
+    // The footer: 29 bytes and the magic at the end of a file that was closed.
+    if (size_ >= 8 + 9 + 29 + 8) {
+      const auto tail = Read(size_ - 37, 37);
+      if (std::memcmp(tail.data() + 29, kMagic, 8) == 0 && tail[0] == kFooter) {
+        In in{tail.data() + 1, 28};
+        has_footer_ = in.u64("length") == 20;
+      }
+    }
+    Scan();
+    ReadSummary();
+    // Topics: every channel, its schema named; the QoS from metadata 'qos'.
+    for (const auto& [id, c] : channels_) {
+      TopicInfo t;
+      t.id = id;
+      t.name = c.topic;
+      if (c.schema != 0) {
+        const auto s = schemas_.find(c.schema);
+        if (s == schemas_.end())
+          throw RecordingError(path + ": channel " + std::to_string(id) + " ('" + c.topic + "') names schema " +
+                               std::to_string(c.schema) + ", which does not exist in the file");
+        t.type = s->second.name;
+        if (s->second.encoding == "omgidl") t.type_description = s->second.data;
+      }
+      if (t.type.empty())
+        throw RecordingError(path + ": channel " + std::to_string(id) + " ('" + c.topic +
+                             "') has no schema, so no type to replay it as");
+      const auto q = c.metadata.find("qos");
+      if (q != c.metadata.end()) {
+        try {
+          const YAML::Node y = YAML::Load(q->second);
+          if (y["reliability"]) t.reliable = y["reliability"].as<bool>();
+          if (y["durability"]) t.transient_local = y["durability"].as<bool>();
+          if (y["keyed"]) t.keyed = y["keyed"].as<bool>();
+          if (y["depth"]) t.depth = std::clamp(y["depth"].as<int32_t>(), 1, 100000);
+        } catch (const YAML::Exception& e) {
+          throw RecordingError(path + ": channel " + std::to_string(id) + " ('" + c.topic +
+                               "'): metadata 'qos' is not the YAML of a QoS: " + e.what());
+        }
+      }
+      topics_.push_back(t);
+      channel_ids_.insert(id);
+    }
+    // What the writer was asked for (a chunk that did not shrink is stored as it
+    // is); for other writers' files, what the chunks use.
+    std::set<std::string> compressions;
+    for (const auto& u : units_)
+      if (u.chunk) compressions.insert(u.compression.empty() ? "none" : u.compression);
+    if (meta_.count("compression")) {
+    } else if (!compressions.empty()) {
+      std::string c;
+      for (const auto& x : compressions) c += (c.empty() ? "" : ", ") + x;
+      meta_["compression"] = c;
+    } else {
+      meta_["compression"] = "none";
+    }
+  } catch (...) {
+    ::close(fd_);
+    fd_ = -1;
+    throw;
+  }
+}
+
+void McapReader::AddSchema(In& in, uint64_t at) {
+  const uint16_t id = in.u16("schema id");
+  Schema s{in.str("schema name"), in.str("schema encoding"), ""};
+  In d = in.sub(in.u32("schema data"), "schema data");
+  s.data.assign(reinterpret_cast<const char*>(d.p), d.n);
+  if (id == 0) return;  // the spec: invalid, ignored
+  auto [it, added] = schemas_.emplace(id, s);
+  if (!added && (it->second.name != s.name || it->second.data != s.data))
+    Finding("schema " + std::to_string(id) + " at byte " + std::to_string(at) + " differs from its earlier record");
+}
+
+void McapReader::AddChannel(In& in, uint64_t at) {
+  const uint16_t id = in.u16("channel id");
+  Channel c;
+  c.schema = in.u16("schema id");
+  c.topic = in.str("topic");
+  c.encoding = in.str("message encoding");
+  c.metadata = in.map("channel metadata");
+  auto [it, added] = channels_.emplace(id, c);
+  if (!added && (it->second.topic != c.topic || it->second.schema != c.schema))
+    Finding("channel " + std::to_string(id) + " at byte " + std::to_string(at) + " differs from its earlier record");
+}
+
+void McapReader::Scan() {
+  // The header.
+  uint64_t at = 8;
+  {
+    if (size_ < at + 9) throw RecordingError(path_ + ": MCAP file without a Header record (cut at byte " +
+                                             std::to_string(size_) + ")");
+    const auto h = Read(at, 9);
+    In in{h.data(), 9};
+    if (in.u8("opcode") != kHeader) throw RecordingError(path_ + ": the first MCAP record is not a Header");
+    const uint64_t len = in.u64("length");
+    if (len > size_ - at - 9)
+      throw RecordingError(path_ + ": the Header record claims " + std::to_string(len) + " bytes, past the end");
+    at += 9 + len;
+  }
+  const uint64_t limit = size_ - (has_footer_ ? 37 : 0);
+  Unit* last_chunk = nullptr;  // message indexes follow their chunk
+  while (at < limit) {
+    // A cut: the chunk before it may have lost some of its message indexes, so
+    // none of them is trusted (the chunk is decoded to know what it holds).
+    auto cut = [&] {
+      if (last_chunk) {
+        last_chunk->indexed = false;
+        last_chunk->index.clear();
+      }
+    };
+    if (limit - at < 9) {
+      Finding("cut at byte " + std::to_string(at) + " inside a record's opcode and length");
+      cut();
+      break;
+    }
+    const auto head = Read(at, 9);
+    In h{head.data(), 9};
+    const uint8_t op = h.u8("opcode");
+    const uint64_t len = h.u64("length");
+    if (len > limit - at - 9) {
+      Finding("the record at byte " + std::to_string(at) + " (opcode " + std::to_string(op) + ") claims " +
+              std::to_string(len) + " bytes, past the end of the file (" + std::to_string(size_) + " bytes)");
+      cut();
+      break;
+    }
+    const uint64_t content = at + 9;
+    try {
+      if (op == kDataEnd || op == kFooter) {
+        data_end_ = at;
+        break;
+      }
+      if (op == kChunk) {
+        // The fixed fields and the compression string, not the records.
+        const auto fixed = Read(content, std::min<uint64_t>(len, 4096));
+        In in{fixed.data(), fixed.size()};
+        Unit u;
+        u.offset = at;
+        u.start_ns = in.u64("message_start_time");
+        u.end_ns = in.u64("message_end_time");
+        u.uncompressed_size = in.u64("uncompressed_size");
+        u.crc = in.u32("uncompressed_crc");
+        u.compression = in.str("compression");
+        u.records_size = in.u64("records length");
+        u.records_offset = content + in.at;
+        if (u.records_size > len - in.at) throw Malformed("its records run past the record's end");
+        units_.push_back(std::move(u));
+        last_chunk = &units_.back();
+      } else if (op == kMessageIndex) {
+        if (len > (uint64_t(256) << 20)) throw Malformed("a message index of " + std::to_string(len) + " bytes");
+        const auto b = Read(content, len);
+        In in{b.data(), b.size()};
+        const uint16_t ch = in.u16("channel id");
+        In entries = in.sub(in.u32("records"), "records");
+        if (last_chunk) {
+          auto& times = last_chunk->index[ch];
+          while (!entries.done()) {
+            times.push_back(entries.u64("log_time"));
+            entries.u64("offset");
+          }
+          last_chunk->indexed = true;
+        }
+      } else {
+        last_chunk = nullptr;
+        if (op == kSchema || op == kChannel || op == kMetadata || op == kMessage) {
+          if (len > (uint64_t(64) << 20) && op != kMessage)
+            throw Malformed("a record of " + std::to_string(len) + " bytes");
+          const auto b = Read(content, op == kMessage ? std::min<uint64_t>(len, 22) : len);
+          In in{b.data(), b.size()};
+          if (op == kSchema) AddSchema(in, at);
+          else if (op == kChannel) AddChannel(in, at);
+          else if (op == kMetadata) {
+            const std::string name = in.str("metadata name");
+            auto m = in.map("metadata");
+            if (name == kMetaName)
+              for (auto& [k, v] : m) meta_[k] = std::move(v);
+          } else {
+            Unit u;
+            u.offset = at;
+            u.chunk = false;
+            in.u16("channel id");
+            in.u32("sequence");
+            u.start_ns = u.end_ns = in.u64("log_time");
+            u.records_offset = at;
+            u.records_size = 9 + len;
+            units_.push_back(std::move(u));
+          }
+        }
+      }
+    } catch (const Malformed& e) {
+      Finding("the record at byte " + std::to_string(at) + " (opcode " + std::to_string(op) + ") is malformed: " +
+              e.what());
+      if (op == kSchema || op == kChannel)
+        throw RecordingError(path_ + ": " + findings_.back());
+    }
+    at = content + len;
+  }
+  if (!data_end_) data_end_ = at;
+}
+
+void McapReader::ReadSummary() {
+  if (!has_footer_) {
+    // The writer did not close the file (killed, or the disk filled): read by the
+    // scan alone. Channels written inside chunks (by other writers) are found by decoding them.
+    bool complete = true;
+    for (const auto& u : units_) {
+      if (!u.chunk) continue;
+      if (!u.indexed) complete = false;
+      for (const auto& [ch, t] : u.index)
+        if (!channels_.count(ch)) complete = false;
+    }
+    if (!complete) {
+      for (const auto& u : units_) {
+        if (!u.chunk) continue;
+        std::vector<Msg> unused;
+        std::string why;
+        Decode(u, &unused, &why, this);
+      }
+    }
+    return;
+  }
+  const auto foot = Read(size_ - 37 + 9, 20);
+  In f{foot.data(), 20};
+  const uint64_t summary_start = f.u64("summary_start");
+  f.u64("summary_offset_start");
+  const uint32_t summary_crc = f.u32("summary_crc");
+  if (summary_start == 0) return;
+  if (summary_start < data_end_ || summary_start > size_ - 37) {
+    Finding("the footer's summary_start " + std::to_string(summary_start) + " is outside the file's summary");
+    return;
+  }
+  const uint64_t n = size_ - 37 - summary_start;
+  if (n > (uint64_t(512) << 20)) {
+    Finding("a summary of " + std::to_string(n) + " bytes");
+    return;
+  }
+  const auto b = Read(summary_start, n);
+  if (summary_crc != 0) {
+    const auto footer_fields = Read(size_ - 37, 1 + 8 + 16);
+    const uint32_t c = Crc(Crc(0, b.data(), b.size()), footer_fields.data(), footer_fields.size());
+    if (c != summary_crc) Finding("the summary's CRC-32 does not match");
+  }
+  In in{b.data(), b.size()};
+  try {
+    while (!in.done()) {
+      const uint8_t op = in.u8("opcode");
+      In r = in.sub(in.u64("length"), "record");
+      if (op == kSchema) AddSchema(r, summary_start + in.at);
+      else if (op == kChannel) AddChannel(r, summary_start + in.at);
+    }
+  } catch (const Malformed& e) {
+    Finding(std::string("the summary is malformed: ") + e.what());
+  }
+}
+
+bool McapReader::Decode(const Unit& u, std::vector<Msg>* out, std::string* why, McapReader* collect) const {
+  out->clear();
+  std::vector<uint8_t> records;
+  if (u.chunk) {
+    const auto stored = Read(u.records_offset, u.records_size);
+    if (!Decompress(u.compression, stored.data(), stored.size(), u.uncompressed_size, &records)) {
+      *why = "the chunk at byte " + std::to_string(u.offset) + " does not " +
+             (u.compression.empty() ? "hold its declared " + std::to_string(u.uncompressed_size) + " bytes"
+                                    : "decompress (" + u.compression + ") to its declared " +
+                                          std::to_string(u.uncompressed_size) + " bytes");
+      return false;
+    }
+    if (u.crc != 0 && Crc(0, records.data(), records.size()) != u.crc) {
+      *why = "the chunk at byte " + std::to_string(u.offset) + ": its records do not match their CRC-32";
+      return false;
+    }
+  } else {
+    records = Read(u.records_offset, u.records_size);
+  }
+  In in{records.data(), records.size()};
+  size_t order = 0;
+  try {
+    while (!in.done()) {
+      const uint8_t op = in.u8("opcode");
+      In r = in.sub(in.u64("length"), "record");
+      if (op == kMessage) {
+        Msg m;
+        m.channel = r.u16("channel id");
+        r.u32("sequence");
+        m.log_ns = r.u64("log_time");
+        m.pub_ns = r.u64("publish_time");
+        m.data.assign(r.p + r.at, r.p + r.n);
+        m.unit = 0;
+        m.slot = 0;
+        m.order = order++;
+        out->push_back(std::move(m));
+      } else if (op == kSchema && collect) {
+        collect->AddSchema(r, u.offset);
+      } else if (op == kChannel && collect) {
+        collect->AddChannel(r, u.offset);
+      }
+    }
+  } catch (const Malformed& e) {
+    *why = "the chunk at byte " + std::to_string(u.offset) + " holds a malformed record: " + e.what();
+    return false;
+  }
+  return true;
+}
+
+bool McapReader::Wanted(const Unit& u, const std::optional<std::set<int64_t>>& ids) const {
+  if (!ids || !u.indexed) return true;
+  for (const auto& [ch, t] : u.index)
+    if (ids->count(ch)) return true;
+  return false;
+}
+
+int64_t McapReader::IndexedCount(const Unit& u, const std::optional<std::set<int64_t>>& ids) const {
+  if (!u.indexed) return 1;
+  int64_t n = 0;
+  for (const auto& [ch, t] : u.index)
+    if (!ids || ids->count(ch)) n += int64_t(t.size());
+  return std::max<int64_t>(n, 1);
+}
+
+bool McapReader::ForEach(const std::optional<std::set<int64_t>>& ids, const std::function<bool(const Sample&)>& f,
+                         int64_t* damaged) const {
+  // Units in order of their first log time (file order on ties), merged by log
+  // time: a unit is decoded once the merge reaches its start.
+  std::vector<size_t> order;
+  for (size_t i = 0; i < units_.size(); ++i)
+    if (Wanted(units_[i], ids)) order.push_back(i);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return units_[a].start_ns < units_[b].start_ns; });
+  auto later = [](const Msg* a, const Msg* b) {
+    if (a->log_ns != b->log_ns) return a->log_ns > b->log_ns;
+    if (a->unit != b->unit) return a->unit > b->unit;
+    return a->order > b->order;
+  };
+  std::priority_queue<Msg*, std::vector<Msg*>, decltype(later)> heap(later);
+  std::map<size_t, std::vector<Msg>> loaded;  // by position in `order`
+  std::map<size_t, size_t> left;              // messages not yet given, per loaded unit
+  size_t next = 0;
+  Sample s;
+  auto load = [&](size_t k) {
+    const Unit& u = units_[order[k]];
+    std::vector<Msg> msgs;
+    std::string why;
+    if (!Decode(u, &msgs, &why)) {
+      *damaged += IndexedCount(u, ids);
+      return;
+    }
+    auto& mine = loaded[k];
+    for (auto& m : msgs) {
+      if (ids && !ids->count(m.channel)) continue;
+      if (!channel_ids_.count(m.channel)) {  // a message of no channel
+        ++*damaged;
+        continue;
+      }
+      m.unit = order[k];
+      m.slot = k;
+      mine.push_back(std::move(m));
+    }
+    if (mine.empty()) {
+      loaded.erase(k);
+      return;
+    }
+    left[k] = mine.size();
+    for (auto& m : mine) heap.push(&m);
+  };
+  while (true) {
+    while (next < order.size() && (heap.empty() || units_[order[next]].start_ns <= heap.top()->log_ns)) load(next++);
+    if (heap.empty()) break;
+    Msg* m = heap.top();
+    heap.pop();
+    s.topic_id = m->channel;
+    s.arrival_ns = int64_t(m->log_ns);
+    s.source_ns = int64_t(m->pub_ns);
+    s.data.swap(m->data);
+    const size_t k = m->slot;
+    if (--left[k] == 0) {
+      left.erase(k);
+      loaded.erase(k);  // m is gone from here on
+    }
+    if (!f(s)) return false;
+  }
+  return true;
+}
+
+std::optional<int64_t> McapReader::ArrivalBound(bool max, const std::optional<std::set<int64_t>>& ids) const {
+  std::optional<uint64_t> out;
+  auto take = [&](uint64_t t) { out = !out ? t : max ? std::max(*out, t) : std::min(*out, t); };
+  for (const auto& u : units_) {
+    if (u.indexed) {
+      for (const auto& [ch, times] : u.index)
+        if ((!ids || ids->count(ch)) && channel_ids_.count(ch))
+          for (uint64_t t : times) take(t);
+      continue;
+    }
+    std::vector<Msg> msgs;
+    std::string why;
+    if (!Decode(u, &msgs, &why)) continue;
+    for (const auto& m : msgs)
+      if ((!ids || ids->count(m.channel)) && channel_ids_.count(m.channel)) take(m.log_ns);
+  }
+  if (!out) return std::nullopt;
+  return int64_t(*out);
+}
+
+std::string McapReader::QuickCheck() const {
+  std::vector<std::string> all = findings_;
+  for (const auto& u : units_) {
+    if (int(all.size()) >= kMaxFindings) break;
+    if (!u.chunk) continue;
+    std::vector<Msg> msgs;
+    std::string why;
+    if (!Decode(u, &msgs, &why)) all.push_back(why);
+  }
+  std::string out;
+  for (const auto& f : all) out += (out.empty() ? "" : "; ") + f;
+  return out;
+}
+
+std::map<int64_t, StorageReader::TopicCount> McapReader::Counts() const {
+  std::map<int64_t, TopicCount> out;
+  for (const auto& u : units_) {
+    std::vector<Msg> msgs;
+    std::string why;
+    if (!Decode(u, &msgs, &why)) continue;
+    uint64_t total = 0;
+    for (const auto& m : msgs) total += m.data.size();
+    // A chunk's stored bytes shared out by its messages' sizes.
+    const double stored = u.chunk ? double(u.records_size) : double(total);
+    for (const auto& m : msgs) {
+      if (!channel_ids_.count(m.channel)) continue;
+      auto& c = out[m.channel];
+      ++c.count;
+      c.bytes += int64_t(m.data.size());
+      c.stored_bytes += total ? int64_t(stored * double(m.data.size()) / double(total) + 0.5) : 0;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::unique_ptr<StorageWriter> OpenMcapWriter(const std::string& path, const WriterOptions& options) {
+  return std::make_unique<McapWriter>(path, options);
+}
+
+std::unique_ptr<StorageReader> OpenMcapReader(const std::string& path) { return std::make_unique<McapReader>(path); }
+
+}  // namespace hullpipe::record

@@ -1,0 +1,115 @@
+// Reads an MCAP file with readers nobody in hullpipe wrote (@mcap/core's stream
+// reader, every record with CRCs checked, and its indexed reader, the summary and
+// every message), decodes every message of every channel with Foxglove's OMG IDL
+// parser and CDR deserializer, and prints one JSON object on stdout:
+//   { records: {opcode name: count}, statistics: {...}, channels: {topic: {count,
+//     decoded, schema, schemaEncoding, messageEncoding, qos}}, metadata: {name: {...}},
+//     cameraInfo: [first decoded CameraInfo per camera_id] }
+// Exit 1 with the error on stderr where any reader refuses the file.
+// Usage: node read_mcap.mjs FILE.mcap
+import { open } from "node:fs/promises";
+import { readFileSync } from "node:fs";
+import { McapIndexedReader, McapStreamReader } from "@mcap/core";
+import { parseIDL } from "@foxglove/omgidl-parser";
+import { MessageReader } from "@foxglove/omgidl-serialization";
+import { decompress as zstdDecompress } from "fzstd";
+import lz4 from "lz4js";
+
+const decompressHandlers = {
+  zstd: (buffer, size) => zstdDecompress(buffer, new Uint8Array(Number(size))),
+  lz4: (buffer, size) => {
+    const out = lz4.decompress(buffer, Number(size));
+    return out instanceof Uint8Array ? out : Uint8Array.from(out);
+  },
+};
+
+function plain(value) {
+  // JSON for what the deserializer gives: bigints as numbers (ns fit in 2^53 for
+  // a check), short typed arrays (K, poses) as arrays, long ones (images, runs)
+  // as their length.
+  return JSON.parse(
+    JSON.stringify(value, (_k, v) => {
+      if (typeof v === "bigint") return Number(v);
+      if (ArrayBuffer.isView(v)) return v.length <= 64 ? Array.from(v, (x) => (typeof x === "bigint" ? Number(x) : x)) : { length: v.length };
+      return v;
+    }),
+  );
+}
+
+async function main() {
+  const path = process.argv[2];
+  // 1. A linear read of every record, CRCs validated.
+  const stream = new McapStreamReader({ decompressHandlers, validateCrcs: true });
+  stream.append(readFileSync(path));
+  const records = {};
+  for (let r; (r = stream.nextRecord()); ) records[r.type] = (records[r.type] ?? 0) + 1;
+  if (!stream.done()) throw new Error(`${path}: the stream reader did not reach the end`);
+
+  // 2. The indexed reader: summary, then every message by its index.
+  const handle = await open(path, "r");
+  const size = BigInt((await handle.stat()).size);
+  const readable = {
+    size: async () => size,
+    read: async (offset, length) => {
+      const buf = new Uint8Array(Number(length));
+      await handle.read(buf, 0, Number(length), Number(offset));
+      return buf;
+    },
+  };
+  const reader = await McapIndexedReader.Initialize({ readable, decompressHandlers });
+  const channels = {};
+  const decoders = new Map();
+  for (const [id, ch] of reader.channelsById) {
+    const schema = reader.schemasById.get(ch.schemaId);
+    channels[ch.topic] = {
+      id,
+      count: 0,
+      decoded: 0,
+      schema: schema?.name ?? "",
+      schemaEncoding: schema?.encoding ?? "",
+      messageEncoding: ch.messageEncoding,
+      qos: ch.metadata.get("qos") ?? null,
+    };
+    if (schema && schema.encoding === "omgidl") {
+      const text = new TextDecoder().decode(schema.data);
+      decoders.set(id, new MessageReader(schema.name, parseIDL(text)));
+    }
+  }
+  const cameraInfo = new Map();
+  let lastLogTime = -1n;
+  let ordered = true;
+  for await (const m of reader.readMessages()) {
+    const ch = reader.channelsById.get(m.channelId);
+    const c = channels[ch.topic];
+    c.count += 1;
+    if (m.logTime < lastLogTime) ordered = false;
+    lastLogTime = m.logTime;
+    const dec = decoders.get(m.channelId);
+    if (!dec) continue;
+    const msg = dec.readMessage(m.data);
+    c.decoded += 1;
+    if (c.schema === "hullpipe::msg::CameraInfo" && !cameraInfo.has(msg.camera_id)) cameraInfo.set(msg.camera_id, plain(msg));
+  }
+  const metadata = {};
+  for await (const md of reader.readMetadata()) metadata[md.name] = Object.fromEntries(md.metadata);
+  await handle.close();
+  const stats = reader.statistics;
+  process.stdout.write(
+    JSON.stringify({
+      records,
+      statistics: stats
+        ? { messageCount: Number(stats.messageCount), channelCount: stats.channelCount, chunkCount: stats.chunkCount }
+        : null,
+      chunkIndexes: reader.chunkIndexes.length,
+      ordered,
+      channels,
+      metadata,
+      cameraInfo: [...cameraInfo.values()],
+    }) + "\n",
+  );
+}
+
+main().catch((e) => {
+  process.stderr.write(`${process.argv[2]}: ${e?.stack ?? e}\n`);
+  process.exit(1);
+});
