@@ -1,8 +1,8 @@
 // record_bench: the recorder's storage throughput (docs/benchmarks.md, "Recording
-// throughput"): RecordingWriter with and without zstd at 1 MiB samples and at the
-// rig's traffic (a recording's samples written again), against this disk's own
-// sequential write rate; compression ratio and CPU per topic. No DDS: what the
-// storage costs, apart from transport.
+// throughput"): RecordingWriter in each storage (SQLite, MCAP) with and without
+// compression at 1 MiB samples and at the rig's traffic (a recording's samples
+// written again), against this disk's own sequential write rate; compression
+// ratio and CPU per topic. No DDS: what the storage costs, apart from transport.
 //   record_bench --dir /tmp --recording run.hprec [--mib 512]
 // With --publish N: publishes N 1-MiB camera images of four cameras on --domain,
 // each frameset acknowledged before the next (lossless), for a running hullpipe_record to take
@@ -80,8 +80,8 @@ Row Disk(const std::string& dir, int mib) {
 // RecordingWriter: `samples` written, committed every `batch`; the file's close
 // (commit and WAL checkpoint) is timed too.
 Row Write(const std::string& dir, const std::string& what, const std::vector<Sample>& samples,
-          const std::vector<TopicInfo>& topics, Compression c, int level, int batch) {
-  const std::string path = dir + "/record_bench.hprec";
+          const std::vector<TopicInfo>& topics, Compression c, int level, int batch, Storage storage) {
+  const std::string path = dir + "/record_bench" + StorageExtension(storage);
   std::filesystem::remove(path);
   double mb = 0;
   for (const auto& s : samples) mb += double(s.data.size()) / 1e6;
@@ -90,6 +90,7 @@ Row Write(const std::string& dir, const std::string& what, const std::vector<Sam
     WriterOptions o;
     o.compression = c;
     o.zstd_level = level;
+    o.storage = storage;
     RecordingWriter w(path, o);
     for (const auto& t : topics) w.AddTopic(t);
     int n = 0;
@@ -176,10 +177,23 @@ int main(int argc, char** argv) {
     smooth[size_t(i)] = {1, i, int64_t(i) * 1'000'000, std::vector<uint8_t>(1 << 20)};
     for (size_t k = 0; k < smooth[size_t(i)].data.size(); ++k) smooth[size_t(i)].data[k] = uint8_t((k / 3 + i) >> 6);
   }
-  for (const auto& [name, samples] : {std::pair{"1 MiB random", &random}, {"1 MiB smooth", &smooth}}) {
-    Print(median([&] { return Write(dir, std::string(name) + ", none", *samples, {topic}, Compression::kNone, 1, 16); }));
-    Print(median([&] { return Write(dir, std::string(name) + ", zstd 1", *samples, {topic}, Compression::kZstd, 1, 16); }));
-  }
+  // Each storage, each compression it has (a commit every 16 samples: an MCAP
+  // chunk of 16 MiB).
+  struct Variant {
+    const char* name;
+    Storage storage;
+    Compression c;
+  };
+  const Variant variants[] = {{"sqlite, none", Storage::kSqlite, Compression::kNone},
+                              {"sqlite, zstd 1", Storage::kSqlite, Compression::kZstd},
+                              {"mcap, none", Storage::kMcap, Compression::kNone},
+                              {"mcap, zstd 1", Storage::kMcap, Compression::kZstd},
+                              {"mcap, lz4", Storage::kMcap, Compression::kLz4}};
+  for (const auto& [name, samples] : {std::pair{"1 MiB random", &random}, {"1 MiB smooth", &smooth}})
+    for (const auto& v : variants)
+      Print(median([&] {
+        return Write(dir, std::string(name) + ", " + v.name, *samples, {topic}, v.c, 1, 16, v.storage);
+      }));
   random.clear();
   smooth.clear();
   if (recording.empty()) return 0;
@@ -198,9 +212,13 @@ int main(int argc, char** argv) {
   std::printf("| %-44s | %8s | %8s | %9s | %8s |\n", "row", "MB/s", "CPU/s", "CPU s/GiB", "file/raw");
   std::printf("|%s|%s|%s|%s|%s|\n", std::string(46, '-').c_str(), std::string(10, '-').c_str(),
               std::string(10, '-').c_str(), std::string(11, '-').c_str(), std::string(10, '-').c_str());
-  Print(median([&] { return Write(dir, "rig traffic, none", traffic, rec.topics(), Compression::kNone, 1, 64); }));
-  Print(median([&] { return Write(dir, "rig traffic, zstd 1", traffic, rec.topics(), Compression::kZstd, 1, 64); }));
-  Print(median([&] { return Write(dir, "rig traffic, zstd 3", traffic, rec.topics(), Compression::kZstd, 3, 64); }));
+  for (const auto& v : variants)
+    Print(median([&] {
+      return Write(dir, std::string("rig traffic, ") + v.name, traffic, rec.topics(), v.c, 1, 64, v.storage);
+    }));
+  Print(median([&] {
+    return Write(dir, "rig traffic, sqlite, zstd 3", traffic, rec.topics(), Compression::kZstd, 3, 64, Storage::kSqlite);
+  }));
   // Per topic: zstd 1's ratio and CPU.
   std::printf("\n| %-28s | %8s | %10s | %7s | %12s |\n", "topic (zstd 1)", "samples", "MB", "ratio", "ms CPU / MB");
   std::printf("|%s|%s|%s|%s|%s|\n", std::string(30, '-').c_str(), std::string(10, '-').c_str(),

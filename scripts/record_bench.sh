@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The recorder's end-to-end throughput over DDS at 1 MiB samples (docs/benchmarks.md,
-# "Recording throughput"): for each of none and zstd, hullpipe_record takes
+# "Recording throughput"): for each storage (SQLite .hprec, MCAP .mcap) and
+# compression (none, zstd; MCAP also lz4), hullpipe_record takes
 # N camera images of 1 MiB from record_bench --publish (each acknowledged before
 # the next: lossless), then `info` says what it stored and lost.
 #   N=256 bash scripts/record_bench.sh
@@ -17,12 +18,13 @@ cat > "$OUT/lo.xml" <<XML
 XML
 export CYCLONEDDS_URI="file://$OUT/lo.xml"
 DOMAIN=$(( 150 + RANDOM % 50 ))
-for c in none zstd; do
-  "$BIN/hullpipe_record" --domain "$DOMAIN" -o "$OUT/$c.hprec" --compression "$c" --depth 64 > "$OUT/$c.log" 2>&1 &
+for v in hprec:none hprec:zstd mcap:none mcap:zstd mcap:lz4; do
+  ext=${v%%:*}; c=${v##*:}; f="$OUT/$c.$ext"
+  "$BIN/hullpipe_record" --domain "$DOMAIN" -o "$f" --compression "$c" --depth 64 > "$OUT/$c.$ext.log" 2>&1 &
   rec=$!
-  "$BIN/record_bench" --publish "$N" --domain "$DOMAIN" | sed "s/^/$c: /"
+  "$BIN/record_bench" --publish "$N" --domain "$DOMAIN" | sed "s/^/$ext $c: /"
   kill -INT "$rec"; wait "$rec" || true
-  "$BIN/hullpipe_record" info "$OUT/$c.hprec" --json | python3 -c "
+  "$BIN/hullpipe_record" info "$f" --json | python3 -c "
 import json,sys; j=json.load(sys.stdin); t=[x for x in j['topics'] if x['name']=='hullpipe/camera_image'][0]
-print('$c: recorded %d of $N, lost %s, %.1f MB raw, %.1f MB stored, %.1f MB on disk' % (t['count'], t['lost'], t['bytes']/1e6, t['stored_bytes']/1e6, j['file_bytes']/1e6))"
+print('$ext $c: recorded %d of $N, lost %s, %.1f MB raw, %.1f MB stored, %.1f MB on disk' % (t['count'], t['lost'], t['bytes']/1e6, t['stored_bytes']/1e6, j['file_bytes']/1e6))"
 done

@@ -15,6 +15,7 @@
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/record/recording.h"
 #include "hullpipe/util/logging.h"
+#include "record_foxglove.h"
 
 namespace hullpipe::record {
 namespace {
@@ -42,7 +43,10 @@ std::string FileName(const std::string& topic) {
 
 class Exporter {
  public:
-  Exporter(const ExportOptions& o, const Participant& p) : o_(o), participant_(p) {}
+  Exporter(const ExportOptions& o, const Participant& p) : o_(o), participant_(p) {
+    if (o.foxglove) fox_ = std::make_unique<FoxgloveExport>((std::filesystem::path(o.out) / "foxglove.mcap").string());
+  }
+  const FoxgloveExport* foxglove() const { return fox_.get(); }
 
   // Decodes `s` of topic `t`, writes what its type exports; false if it did not decode.
   bool Add(const TopicInfo& t, const Sample& s, Counts* c) {
@@ -51,6 +55,7 @@ class Exporter {
     auto& w = writers_[t.type];
     if (!w) w = std::make_unique<CdrWriter>(participant_, *kt, QosSpec{t.reliable, t.transient_local, t.depth});
     json j = {{"topic", t.name}, {"arrival_ns", s.arrival_ns}, {"source_ns", s.source_ns}};
+    if (fox_) fox_->Raw(t, s);
     bool ok = false;
     try {
       ok = Decode(t, s, *w, &j, c);
@@ -120,6 +125,7 @@ class Exporter {
         (*j)["cam_from_world_rotation"] = Arr(m.cam_from_world_rotation);
         (*j)["cam_from_world_translation"] = Arr(m.cam_from_world_translation);
         (*j)["workspace_min"] = Arr(m.workspace_min), (*j)["workspace_max"] = Arr(m.workspace_max);
+        if (fox_) fox_->Calibration(s.arrival_ns, m);
       });
     if (type == "hullpipe::msg::ObjectPixelMap")
       return With<hullpipe_msg_ObjectPixelMap>(w, s, [&](const auto& m) {
@@ -127,6 +133,7 @@ class Exporter {
         (*j)["width"] = m.width, (*j)["height"] = m.height, (*j)["runs"] = m.runs._length;
         const cv::Mat map = MapFromMsg(m);
         (*j)["object_pixels"] = cv::countNonZero(map);
+        if (fox_) fox_->Map(m.capture_time_ns, m.camera_id, map);
         if (o_.media) {
           const auto dir = std::filesystem::path(o_.out) / "maps" / ("cam" + std::to_string(m.camera_id));
           std::filesystem::create_directories(dir);
@@ -142,6 +149,7 @@ class Exporter {
         (*j)["bytes"] = m.data._length;
         const cv::Mat bgr = ImageFromMsg(m);
         if (o_.media) Frame("images_cam" + std::to_string(m.camera_id), bgr, c);
+        if (fox_) fox_->Image(m.capture_time_ns, m.camera_id, bgr);
       });
     if (type == "hullpipe::msg::ViewPose")
       return With<hullpipe_msg_ViewPose>(w, s, [&](const auto& m) {
@@ -158,7 +166,7 @@ class Exporter {
         (*j)["node_id"] = m.node_id, (*j)["tile_index"] = m.tile_index, (*j)["tile_count"] = m.tile_count;
         (*j)["rect"] = {m.x, m.y, m.width, m.height}, (*j)["pose_seq"] = m.pose_seq, (*j)["frame_seq"] = m.frame_seq;
         (*j)["capture_time_ns"] = m.capture_time_ns, (*j)["planes"] = m.planes, (*j)["render_ms"] = m.render_ms;
-        if (o_.media) AddTile(tile, c);
+        if (o_.media || fox_) AddTile(tile, m.capture_time_ns, c);
       });
     if (type == "hullpipe::msg::VirtualObjectState")
       return With<hullpipe_msg_VirtualObjectState>(w, s, [&](const auto& m) {
@@ -166,6 +174,7 @@ class Exporter {
         (*j)["object_id"] = o.object_id, (*j)["frame_seq"] = o.frame_seq, (*j)["sim_time"] = o.sim_time;
         (*j)["radius"] = o.radius, (*j)["position"] = Vec(m.position), (*j)["velocity"] = Vec(m.velocity);
         (*j)["colliding"] = o.colliding;
+        if (fox_) fox_->Object(o.capture_time_ns, o);
       });
     if (type == "hullpipe::msg::CollisionReport")
       return With<hullpipe_msg_CollisionReport>(w, s, [&](const auto& m) {
@@ -173,6 +182,7 @@ class Exporter {
         (*j)["triangles"] = m.triangle_ids._length, (*j)["collision_points"] = m.collision_points._length;
         (*j)["has_response"] = m.has_response, (*j)["cp_obj"] = Vec(m.cp_obj), (*j)["cp_hull"] = Vec(m.cp_hull);
         (*j)["v_rec"] = Vec(m.v_rec), (*j)["d_rec"] = m.d_rec, (*j)["n_hull"] = Vec(m.n_hull);
+        if (fox_) fox_->Collision(m.capture_time_ns, m);
         if (o_.media) {
           auto& f = Csv("collision_report",
                         "arrival_ns,object_id,frame_seq,capture_time_ns,triangles,collision_points,has_response,"
@@ -194,6 +204,7 @@ class Exporter {
         (*j)["rejected"] = st.rejected, (*j)["final_report"] = st.final_report;
         for (const auto& [name, g] : st.stages)
           (*j)["stages"][name] = {{"ms_mean", g.ms_mean}, {"ms_p50", g.ms_p50}, {"ms_p95", g.ms_p95}, {"count", g.count}};
+        if (fox_) fox_->Stats(s.arrival_ns, st);
         if (o_.media) {
           auto& f = Csv("node_stats",
                         "arrival_ns,node,host,fps,latency_ms_p50,latency_ms_p95,frames_in,frames_out,dropped,"
@@ -229,7 +240,7 @@ class Exporter {
   }
 
   // Hull views: the tiles of one pose, pasted into one frame once all arrived.
-  void AddTile(const HullTile& t, Counts* c) {
+  void AddTile(const HullTile& t, int64_t capture_time_ns, Counts* c) {
     auto& set = pending_[t.pose_seq];
     set.push_back(t);
     if (int(set.size()) < int(t.tile_count)) return;
@@ -237,7 +248,8 @@ class Exporter {
     for (const auto& x : set) all |= x.rect;
     cv::Mat frame(all.br().y, all.br().x, CV_8UC3, cv::Scalar::all(0));
     for (const auto& x : set) x.colour.copyTo(frame(x.rect));
-    Frame("hull_view", frame, c);
+    if (o_.media) Frame("hull_view", frame, c);
+    if (fox_) fox_->HullView(capture_time_ns, frame);
     pending_.erase(t.pose_seq);
     // Poses that never completed (a recon node's tile lost): dropped after 64 newer ones.
     while (!pending_.empty() && pending_.begin()->first + 64 < t.pose_seq) pending_.erase(pending_.begin());
@@ -250,6 +262,7 @@ class Exporter {
   std::map<std::string, cv::VideoWriter> videos_;
   std::map<std::string, cv::Size> video_size_;
   std::map<uint64_t, std::vector<HullTile>> pending_;
+  std::unique_ptr<FoxgloveExport> fox_;
 };
 
 }  // namespace
@@ -265,6 +278,9 @@ void AddExportOptions(CLI::App* sub, ExportOptions& o, bool echo) {
   sub->add_flag("!--no-jsonl", o.jsonl, "No JSON lines");
   sub->add_flag("!--no-media", o.media, "No PNG, video or CSV");
   sub->add_option("--fps", o.video_fps, "Frame rate of the videos")->capture_default_str();
+  sub->add_flag("--foxglove", o.foxglove,
+                "Also OUT/foxglove.mcap: the recording's channels and viewable ones in Foxglove's schemas (images, "
+                "maps, calibration, transforms, balls and collision points, node rates)");
 }
 
 int Export(const ExportOptions& o, const dds::CommonOptions& common) {
@@ -320,6 +336,12 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
                  c.video_frames, c.csv_rows, c.json_lines,
                  c.undecodable ? fmt::format(" ({} did not decode)", c.undecodable) : "");
     undecodable += c.undecodable;
+  }
+  if (const FoxgloveExport* fox = ex.foxglove()) {
+    summary["foxglove"]["file"] = fox->path();
+    for (const auto& [channel, n] : fox->counts()) summary["foxglove"]["channels"][channel] = n;
+    spdlog::info("{}: the recording's channels and {} viewable ones (open it in Foxglove or Lichtblick)", fox->path(),
+                 fox->counts().size());
   }
   summary["command"] = CommandLine();
   if (!o.echo) std::ofstream(std::filesystem::path(o.out) / "export.json") << summary.dump(1) << '\n';

@@ -21,9 +21,12 @@ struct ExportOptions {
   double start_s = 0, end_s = 0;     ///< Seconds after the recording's start; end 0: its end.
   bool jsonl = true, media = true;   ///< JSON lines; PNG/video/CSV.
   double video_fps = 50;             ///< Frame rate written into the videos.
+  /// Also out/foxglove.mcap: the selected channels and viewable ones in
+  /// Foxglove's schemas (record_foxglove.h).
+  bool foxglove = false;
 };
 
-/// --topic, --start, --end, --no-jsonl, --no-media, --fps and the positionals;
+/// --topic, --start, --end, --no-jsonl, --no-media, --fps, --foxglove and the positionals;
 /// with echo, only the recording and the filters.
 void AddExportOptions(CLI::App* sub, ExportOptions& o, bool echo = false);
 

@@ -115,6 +115,8 @@ int ConvertCmd(const std::string& in, const std::string& out, const std::string&
   wo.zstd_level = zstd_level;
   if (!storage.empty()) wo.storage = ParseStorage(storage);
   const ConvertReport rep = Convert(in, out, wo);
+  for (const auto& t : rep.skipped_topics)
+    spdlog::warn("{}: channel {} is not CDR (a viewable channel); SQLite recordings hold CDR only: not copied", in, t);
   if (!rep.input_damage.empty())
     spdlog::warn("{}: damaged ({}); converted what reads ({} samples skipped; `hullpipe_record repair` first keeps "
                  "what a cut file holds)",

@@ -35,11 +35,21 @@ ConvertReport Convert(const std::string& in, const std::string& out, const Write
     for (const auto& [k, v] : before.meta)
       if (k != "format" && k != "compression" && k != "closed_ns") w.SetMeta(k, v);
     w.SetMeta("converted_from", in);
+    // SQLite recordings are CDR: other channels of an MCAP file (the viewable
+    // JSON ones `export --foxglove` adds) are not copied there.
     std::map<int64_t, int64_t> out_id;
-    for (const auto& t : r.topics()) out_id[t.id] = w.AddTopic(t);
-    rep.topics = int64_t(r.topics().size());
+    for (const auto& t : r.topics()) {
+      if (storage == Storage::kSqlite && t.message_encoding != "cdr") {
+        rep.skipped_topics.push_back(t.name);
+        continue;
+      }
+      out_id[t.id] = w.AddTopic(t);
+    }
+    rep.topics = int64_t(out_id.size());
     const int64_t damaged_before = r.damaged_samples();
     Sample c;
+    std::vector<int64_t> copied;
+    for (const auto& [in_id, id] : out_id) copied.push_back(in_id);
     r.ForEach([&](const Sample& s) {
       c = s;
       c.topic_id = out_id.at(s.topic_id);
@@ -47,7 +57,7 @@ ConvertReport Convert(const std::string& in, const std::string& out, const Write
       crcs.push_back(SampleCrc(names.at(s.topic_id), s));
       if (++rep.samples % 256 == 0) w.Commit();
       return true;
-    });
+    }, copied);
     rep.damaged_samples = r.damaged_samples() - damaged_before;
     w.Commit();
   }

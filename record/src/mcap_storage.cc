@@ -374,7 +374,7 @@ int64_t McapWriter::AddTopic(const TopicInfo& t) {
     // The IDL text, self-contained (idl/hullpipe.idl has no preprocessor
     // directives); where a recording has none, no schema encoding (the spec's
     // "no schema available"), the type still named.
-    rec.str(t.type_description.empty() ? "" : "omgidl");
+    rec.str(!t.schema_encoding.empty() ? t.schema_encoding : t.type_description.empty() ? "" : "omgidl");
     rec.str(t.type_description);
     rec.End(at);
     schema_records_.push_back(rec.b);
@@ -388,8 +388,9 @@ int64_t McapWriter::AddTopic(const TopicInfo& t) {
   rec.u16(uint16_t(mine.id));
   rec.u16(s->second);
   rec.str(t.name);
-  rec.str("cdr");
-  rec.map({{"qos", QosYaml(t)}});
+  rec.str(t.message_encoding);
+  if (t.message_encoding == "cdr") rec.map({{"qos", QosYaml(t)}});
+  else rec.map({});
   rec.End(at);
   channel_records_.push_back(rec.b);
   o.raw(rec.b.data(), rec.b.size());
@@ -704,11 +705,13 @@ McapReader::McapReader(const std::string& path) : path_(path) {
           throw RecordingError(path + ": channel " + std::to_string(id) + " ('" + c.topic + "') names schema " +
                                std::to_string(c.schema) + ", which does not exist in the file");
         t.type = s->second.name;
-        if (s->second.encoding == "omgidl") t.type_description = s->second.data;
+        t.schema_encoding = s->second.encoding;
+        if (!s->second.encoding.empty()) t.type_description = s->second.data;
       }
       if (t.type.empty())
         throw RecordingError(path + ": channel " + std::to_string(id) + " ('" + c.topic +
                              "') has no schema, so no type to replay it as");
+      t.message_encoding = c.encoding;
       const auto q = c.metadata.find("qos");
       if (q != c.metadata.end()) {
         try {

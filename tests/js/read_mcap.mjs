@@ -1,10 +1,13 @@
 // Reads an MCAP file with readers nobody in hullpipe wrote (@mcap/core's stream
 // reader, every record with CRCs checked, and its indexed reader, the summary and
-// every message), decodes every message of every channel with Foxglove's OMG IDL
-// parser and CDR deserializer, and prints one JSON object on stdout:
+// every message), decodes every message of every channel — cdr ones with
+// Foxglove's OMG IDL parser and CDR deserializer, json ones of Foxglove's
+// well-known schemas checked against Foxglove's own JSON Schemas
+// (@foxglove/schemas, by ajv), their images' bytes checked for JPEG or PNG — and
+// prints one JSON object on stdout:
 //   { records: {opcode name: count}, statistics: {...}, channels: {topic: {count,
 //     decoded, schema, schemaEncoding, messageEncoding, qos}}, metadata: {name: {...}},
-//     cameraInfo: [first decoded CameraInfo per camera_id] }
+//     cameraInfo: [first decoded CameraInfo per camera_id], invalid: [first errors] }
 // Exit 1 with the error on stderr where any reader refuses the file.
 // Usage: node read_mcap.mjs FILE.mcap
 import { open } from "node:fs/promises";
@@ -14,6 +17,8 @@ import { parseIDL } from "@foxglove/omgidl-parser";
 import { MessageReader } from "@foxglove/omgidl-serialization";
 import { decompress as zstdDecompress } from "fzstd";
 import lz4 from "lz4js";
+import Ajv from "ajv";
+import * as foxgloveSchemas from "@foxglove/schemas/jsonschema.js";
 
 const decompressHandlers = {
   zstd: (buffer, size) => zstdDecompress(buffer, new Uint8Array(Number(size))),
@@ -75,6 +80,15 @@ async function main() {
       decoders.set(id, new MessageReader(schema.name, parseIDL(text)));
     }
   }
+  const ajv = new Ajv({ strict: false, allErrors: false });
+  const validators = new Map();
+  const invalid = [];
+  const imageMagic = (b64, format) => {
+    const head = Buffer.from(b64.slice(0, 16), "base64");
+    if (format === "jpeg") return head[0] === 0xff && head[1] === 0xd8;
+    if (format === "png") return head[1] === 0x50 && head[2] === 0x4e && head[3] === 0x47;
+    return false;
+  };
   const cameraInfo = new Map();
   let lastLogTime = -1n;
   let ordered = true;
@@ -84,6 +98,31 @@ async function main() {
     c.count += 1;
     if (m.logTime < lastLogTime) ordered = false;
     lastLogTime = m.logTime;
+    if (ch.messageEncoding === "json") {
+      const schema = reader.schemasById.get(ch.schemaId);
+      const msg = JSON.parse(new TextDecoder().decode(m.data));
+      const name = schema?.name ?? "";
+      if (name.startsWith("foxglove.")) {
+        let v = validators.get(name);
+        if (!v) {
+          const official = foxgloveSchemas[name.slice("foxglove.".length)];
+          if (!official) throw new Error(`${path}: ${ch.topic}: no Foxglove schema named ${name}`);
+          v = ajv.compile(official);
+          validators.set(name, v);
+        }
+        if (!v(msg)) {
+          if (invalid.length < 5) invalid.push({ topic: ch.topic, errors: v.errors });
+          continue;
+        }
+        if (name === "foxglove.CompressedImage" && !imageMagic(msg.data, msg.format)) {
+          if (invalid.length < 5) invalid.push({ topic: ch.topic, errors: `data is not ${msg.format}` });
+          continue;
+        }
+      }
+      c.decoded += 1;
+      if (!c.first) c.first = name === "foxglove.CompressedImage" ? { ...msg, data: msg.data.length } : msg;
+      continue;
+    }
     const dec = decoders.get(m.channelId);
     if (!dec) continue;
     const msg = dec.readMessage(m.data);
@@ -105,6 +144,7 @@ async function main() {
       channels,
       metadata,
       cameraInfo: [...cameraInfo.values()],
+      invalid,
     }) + "\n",
   );
 }

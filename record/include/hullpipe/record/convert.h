@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "hullpipe/record/recording.h"
 
@@ -21,6 +22,9 @@ struct ConvertReport {
   int64_t differ = 0;
   std::string input_storage, output_storage;
   std::string input_damage;  ///< RecordingInfo::damage of the input.
+  /// Channels not copied: an MCAP file's non-CDR channels (the viewable JSON
+  /// ones of `export --foxglove`) have no place in an SQLite recording.
+  std::vector<std::string> skipped_topics;
 };
 
 /// Copies `in` (a file or split directory, either storage) into the new recording

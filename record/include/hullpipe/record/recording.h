@@ -55,6 +55,12 @@ struct TopicInfo {
   /// another build or a tool that does not link hullpipe can read the samples;
   /// empty in recordings of formats 1 and 2.
   std::string type_description;
+  /// MCAP only (SQLite recordings are CDR): the channel's message encoding, "cdr"
+  /// for hullpipe's topics, "json" for the viewable channels `export --foxglove`
+  /// writes; and the schema's encoding (empty: "omgidl" where type_description
+  /// is given, else none).
+  std::string message_encoding = "cdr";
+  std::string schema_encoding;
 };
 
 /// How sample data is stored: per sample (SQLite) or per chunk (MCAP). lz4 (the
