@@ -10,6 +10,7 @@ PACKAGES=(
   libegl-dev libgles-dev libgl-dev libgbm-dev libegl-mesa0 libgl1-mesa-dri
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libspdlog-dev nlohmann-json3-dev libyaml-cpp-dev libsqlite3-dev libxml2-dev libzstd-dev liblz4-dev
+  libwebsocketpp-dev libasio-dev
   libassimp-dev assimp-testmodels
   ffmpeg gnuplot-nox openssl iproute2 iceoryx linux-perf
   clang-14 libclang-rt-14-dev llvm-14

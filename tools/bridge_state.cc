@@ -1,0 +1,135 @@
+#include "bridge_state.h"
+
+#include <algorithm>
+
+#include <nlohmann/json.hpp>
+
+namespace hullpipe::bridge {
+
+using nlohmann::json;
+
+BridgeState::BridgeState(std::vector<Channel> channels, int max_clients, std::string name)
+    : channels_(std::move(channels)), max_clients_(std::max(1, max_clients)), name_(std::move(name)) {
+  for (const auto& c : channels_) channel_ids_.insert(c.id);
+}
+
+std::string BridgeState::Accept(const std::vector<std::string>& subprotocols, std::string* why) const {
+  std::string chosen;
+  for (const char* mine : {"foxglove.sdk.v1", "foxglove.websocket.v1"})
+    if (chosen.empty() && std::find(subprotocols.begin(), subprotocols.end(), mine) != subprotocols.end())
+      chosen = mine;
+  if (chosen.empty()) {
+    *why = "no subprotocol the bridge speaks (foxglove.sdk.v1, foxglove.websocket.v1)";
+    return "";
+  }
+  if (clients() >= max_clients_) {
+    *why = "already " + std::to_string(max_clients_) + " clients (--max-clients)";
+    return "";
+  }
+  return chosen;
+}
+
+std::vector<Outgoing> BridgeState::Open(uint64_t client, const std::string& session_id) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    subs_[client];
+  }
+  json info = {{"op", "serverInfo"},
+               {"name", name_},
+               {"capabilities", json::array()},  // no clientPublish: clients cannot publish
+               {"supportedEncodings", json::array()},
+               {"metadata", json::object()},
+               {"sessionId", session_id}};
+  json channels = json::array();
+  for (const auto& c : channels_)
+    channels.push_back({{"id", c.id},
+                        {"topic", c.topic},
+                        {"encoding", c.encoding},
+                        {"schemaName", c.schema_name},
+                        {"schema", c.schema},
+                        {"schemaEncoding", c.schema_encoding}});
+  return {{client, false, info.dump()}, {client, false, json{{"op", "advertise"}, {"channels", channels}}.dump()}};
+}
+
+void BridgeState::Close(uint64_t client) {
+  std::lock_guard<std::mutex> lock(mu_);
+  subs_.erase(client);
+}
+
+Outgoing BridgeState::Status(uint64_t client, int level, const std::string& message) {
+  return {client, false, json{{"op", "status"}, {"level", level}, {"message", message}}.dump()};
+}
+
+std::vector<Outgoing> BridgeState::OnText(uint64_t client, const std::string& text) {
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("op") || !j["op"].is_string())
+    return {Status(client, 2, "not a JSON object with an 'op'")};
+  const std::string op = j["op"];
+  std::vector<Outgoing> out;
+  std::lock_guard<std::mutex> lock(mu_);
+  auto& mine = subs_[client];
+  if (op == "subscribe") {
+    if (!j.contains("subscriptions") || !j["subscriptions"].is_array())
+      return {Status(client, 2, "subscribe without a 'subscriptions' array")};
+    for (const auto& s : j["subscriptions"]) {
+      if (!s.is_object() || !s.contains("id") || !s.contains("channelId") || !s["id"].is_number_unsigned() ||
+          !s["channelId"].is_number_unsigned()) {
+        out.push_back(Status(client, 2, "a subscription needs unsigned 'id' and 'channelId'"));
+        continue;
+      }
+      const uint64_t id = s["id"], channel = s["channelId"];
+      if (id > UINT32_MAX || !channel_ids_.count(uint32_t(channel))) {
+        out.push_back(Status(client, 2, "no channel " + std::to_string(channel)));
+        continue;
+      }
+      if (mine.count(uint32_t(id))) {
+        out.push_back(Status(client, 2, "subscription " + std::to_string(id) + " exists"));
+        continue;
+      }
+      mine[uint32_t(id)] = uint32_t(channel);
+    }
+  } else if (op == "unsubscribe") {
+    if (!j.contains("subscriptionIds") || !j["subscriptionIds"].is_array())
+      return {Status(client, 2, "unsubscribe without a 'subscriptionIds' array")};
+    for (const auto& id : j["subscriptionIds"])
+      if (id.is_number_unsigned()) mine.erase(uint32_t(id.get<uint64_t>()));
+  } else if (op == "advertise" || op == "unadvertise") {
+    out.push_back(Status(client, 2, "client publishing is not enabled on this bridge"));
+  } else {
+    out.push_back(Status(client, 1, "operation '" + op + "' is not supported by hullpipe_bridge"));
+  }
+  return out;
+}
+
+std::vector<Outgoing> BridgeState::Route(uint32_t channel, uint64_t stamp_ns,
+                                         const std::vector<uint8_t>& payload) const {
+  std::vector<Outgoing> out;
+  std::lock_guard<std::mutex> lock(mu_);
+  for (const auto& [client, subs] : subs_)
+    for (const auto& [sub, ch] : subs) {
+      if (ch != channel) continue;
+      Outgoing o{client, true, std::string()};
+      o.payload.resize(1 + 4 + 8 + payload.size());
+      o.payload[0] = char(0x01);  // message data
+      for (int i = 0; i < 4; ++i) o.payload[size_t(1 + i)] = char(sub >> (8 * i));
+      for (int i = 0; i < 8; ++i) o.payload[size_t(5 + i)] = char(stamp_ns >> (8 * i));
+      std::copy(payload.begin(), payload.end(), o.payload.begin() + 13);
+      out.push_back(std::move(o));
+    }
+  return out;
+}
+
+std::set<uint32_t> BridgeState::Wanted() const {
+  std::set<uint32_t> out;
+  std::lock_guard<std::mutex> lock(mu_);
+  for (const auto& [client, subs] : subs_)
+    for (const auto& [sub, ch] : subs) out.insert(ch);
+  return out;
+}
+
+int BridgeState::clients() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return int(subs_.size());
+}
+
+}  // namespace hullpipe::bridge
