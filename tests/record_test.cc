@@ -815,7 +815,7 @@ TEST_P(RecordToolsOn, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     ASSERT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
   }
-  auto run = [&] {
+  auto run = [&](const std::string& file) {
     const uint32_t d = test::UniqueDomain();
     dds::Participant p(d);
     dds::Reader<hullpipe_msg_CollisionReport> reports(p);
@@ -823,7 +823,7 @@ TEST_P(RecordToolsOn, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
     // (without it sim_node takes the newest and, loaded, passes over some).
     auto sim = Start("sim_node", {"--every-frameset"}, d);
     // Half speed: the history (4 framesets) then spans 320 ms of a stalled sim_node.
-    auto replay = Start("hullpipe_replay", {path, "--wait-readers", "1", "--rate", "0.5", "--no-keyboard"}, d);
+    auto replay = Start("hullpipe_replay", {file, "--wait-readers", "1", "--rate", "0.5", "--no-keyboard"}, d);
     // Taken as they come (the topic keeps the last 16 per object).
     std::map<uint64_t, std::vector<Eigen::Vector3d>> out;  // frame -> collision points
     WaitFor([&] {
@@ -837,8 +837,17 @@ TEST_P(RecordToolsOn, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
     EXPECT_EQ(sim->Stop(), 0) << Log("sim_node");
     return out;
   };
-  const auto a = run();
-  const auto b = run();
+  const auto a = run(path);
+  const auto b = run(path);
+  // Its twin in the other storage (hullpipe_record convert) replays into the
+  // same reports, exactly.
+  const std::string twin = (dir_ / (Ext() == ".mcap" ? "s_twin.hprec" : "s_twin.mcap")).string();
+  {
+    const std::string log = (dir_ / "convert.log").string();
+    test::Process convert({test::BinDir() + "/hullpipe_record", "convert", path, "-o", twin}, log);
+    ASSERT_EQ(convert.Wait(60), 0) << test::ReadFile(log);
+  }
+  const auto c = run(twin);
   // The per-node benchmark runs sim_node alone on the same recording.
   {
     const std::string log = (dir_ / "node_bench.log").string();
@@ -860,6 +869,11 @@ TEST_P(RecordToolsOn, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
   for (const auto& [f, pts] : a) {
     ASSERT_TRUE(b.count(f)) << f;
     EXPECT_EQ(pts, b.at(f)) << "frame " << f;  // exactly, not approximately
+  }
+  ASSERT_EQ(a.size(), c.size()) << twin;
+  for (const auto& [f, pts] : a) {
+    ASSERT_TRUE(c.count(f)) << f;
+    EXPECT_EQ(pts, c.at(f)) << "frame " << f << " of the twin " << twin;
   }
 }
 
