@@ -934,6 +934,25 @@ TEST_F(RecordTools, AWholeRecordingReplayedIntoALiveRunIsNotMixedIn) {
             std::string::npos)
       << Log("recon_node");
   EXPECT_NE(Log("render_node").find("ignoring HullView samples"), std::string::npos) << Log("render_node");
+  // The whole run's recording exported for Foxglove: the hull view as an image
+  // and as a point cloud once per composited pose, valid against Foxglove's own
+  // JSON Schemas (tests/js/read_mcap.mjs).
+  const std::string fox = (dir_ / "fox").string(), fox_log = (dir_ / "fox.log").string();
+  test::Process exp({test::BinDir() + "/hullpipe_record", "export", path, "-o", fox, "--foxglove", "--no-media",
+                     "--no-jsonl", "--domain", std::to_string(test::UniqueDomain())},
+                    fox_log);
+  ASSERT_EQ(exp.Wait(120), 0) << test::ReadFile(fox_log);
+  const std::string js = std::string(HULLPIPE_SOURCE_DIR) + "/tests/js", node_out = (dir_ / "fox.json").string();
+  test::Process node({"/usr/bin/env", "node", js + "/read_mcap.mjs", fox + "/foxglove.mcap"}, node_out, {},
+                     node_out + ".err");
+  ASSERT_EQ(node.Wait(120), 0) << test::ReadFile(node_out + ".err");
+  const auto fj = nlohmann::json::parse(test::ReadFile(node_out));
+  EXPECT_EQ(fj["invalid"].size(), 0u) << fj["invalid"].dump();
+  const auto& points = fj["channels"]["/foxglove/hull_points"];
+  EXPECT_GT(points["decoded"].get<int>(), 0) << fj["channels"].dump();
+  EXPECT_EQ(points["decoded"], fj["channels"]["/foxglove/hull_view"]["decoded"]);
+  EXPECT_EQ(points["schema"], "foxglove.PointCloud");
+  EXPECT_GT(points["first"]["data"].get<int>(), 0);  // (read_mcap.mjs gives the base64 length)
 }
 
 }  // namespace

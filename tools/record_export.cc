@@ -154,6 +154,10 @@ class Exporter {
     if (type == "hullpipe::msg::ViewPose")
       return With<hullpipe_msg_ViewPose>(w, s, [&](const auto& m) {
         const NovelView v = ViewFromMsg(m);
+        if (fox_) {
+          views_[m.pose_seq] = v;  // the hull points of this pose's tiles need it
+          while (views_.size() > 256) views_.erase(views_.begin());
+        }
         (*j)["pose_seq"] = m.pose_seq, (*j)["frame_seq"] = m.frame_seq, (*j)["stamp_ns"] = m.stamp_ns;
         (*j)["width"] = v.width, (*j)["height"] = v.height, (*j)["fx"] = v.fx, (*j)["fy"] = v.fy;
         (*j)["cx"] = v.cx, (*j)["cy"] = v.cy, (*j)["run_id"] = m.run_id;
@@ -247,7 +251,15 @@ class Exporter {
     cv::Rect all;
     for (const auto& x : set) all |= x.rect;
     cv::Mat frame(all.br().y, all.br().x, CV_8UC3, cv::Scalar::all(0));
-    for (const auto& x : set) x.colour.copyTo(frame(x.rect));
+    cv::Mat depth(all.br().y, all.br().x, CV_32FC1, cv::Scalar::all(0));
+    for (const auto& x : set) {
+      x.colour.copyTo(frame(x.rect));
+      if (!x.depth.empty() && x.depth.size() == x.rect.size()) x.depth.copyTo(depth(x.rect));
+    }
+    if (fox_) {
+      const auto view = views_.find(t.pose_seq);
+      if (view != views_.end()) fox_->HullPoints(capture_time_ns, view->second, depth);
+    }
     if (o_.media) Frame("hull_view", frame, c);
     if (fox_) fox_->HullView(capture_time_ns, frame);
     pending_.erase(t.pose_seq);
@@ -263,6 +275,7 @@ class Exporter {
   std::map<std::string, cv::Size> video_size_;
   std::map<uint64_t, std::vector<HullTile>> pending_;
   std::unique_ptr<FoxgloveExport> fox_;
+  std::map<uint64_t, NovelView> views_;  // recent ViewPoses by pose_seq (--foxglove)
 };
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "record_foxglove.h"
 
+#include <cmath>
+
 #include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
 
@@ -43,6 +45,12 @@ const std::string kSceneUpdate = Schema(
         R"(,"frame_id":{"type":"string"},"id":{"type":"string"},"lifetime":)" + kTime +
         R"(,"frame_locked":{"type":"boolean"},"spheres":{"type":"array","items":{"type":"object","properties":{"pose":{"type":"object","properties":{"position":)" +
         kVec3 + R"(,"orientation":)" + kQuat + R"(}},"size":)" + kVec3 + R"(,"color":)" + kColor + "}}}}}}");
+const std::string kPointCloud = Schema(
+    "foxglove.PointCloud",
+    std::string(R"("timestamp":)") + kTime +
+        R"(,"frame_id":{"type":"string"},"pose":{"type":"object","properties":{"position":)" + kVec3 +
+        R"(,"orientation":)" + kQuat +
+        R"(}},"point_stride":{"type":"integer"},"fields":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"offset":{"type":"integer"},"type":{"type":"integer"}}}},"data":{"type":"string","contentEncoding":"base64"})");
 const std::string kNodeStatsPlot = Schema(
     "hullpipe.NodeStatsPlot",
     std::string(R"("timestamp":)") + kTime +
@@ -194,6 +202,39 @@ void FoxgloveExport::Map(int64_t stamp_ns, uint32_t camera_id, const cv::Mat& ma
 
 void FoxgloveExport::HullView(int64_t stamp_ns, const cv::Mat& bgr) {
   Compressed("/foxglove/hull_view", stamp_ns, "view", bgr, "jpeg");
+}
+
+void FoxgloveExport::HullPoints(int64_t stamp_ns, const NovelView& view, const cv::Mat& depth) {
+  // x, y, z and depth as little-endian float32 (Foxglove's NumericType 7).
+  constexpr int kStep = 4;
+  std::vector<uint8_t> data;
+  for (int v = 0; v < depth.rows; v += kStep)
+    for (int u = 0; u < depth.cols; u += kStep) {
+      const float z = depth.at<float>(v, u);
+      if (!(z > 0) || !std::isfinite(z)) continue;
+      // Pixel centres at +0.5 (geometry/conventions.h).
+      const Eigen::Vector3d p = view.EyeRay(u + 0.5, v + 0.5) * double(z);
+      const float xyzd[4] = {float(p.x()), float(p.y()), float(p.z()), z};
+      const auto* b = reinterpret_cast<const uint8_t*>(xyzd);
+      data.insert(data.end(), b, b + sizeof xyzd);
+    }
+  const Eigen::Vector3d& t = view.world_from_eye.translation;
+  const Eigen::Quaterniond q(view.world_from_eye.rotation);
+  json fields = json::array();
+  int offset = 0;
+  for (const char* name : {"x", "y", "z", "depth"}) {
+    fields.push_back({{"name", name}, {"offset", offset}, {"type", 7}});
+    offset += 4;
+  }
+  Json("/foxglove/hull_points", "foxglove.PointCloud", kPointCloud.c_str(), stamp_ns,
+       {{"timestamp", Time(stamp_ns)},
+        {"frame_id", "world"},
+        {"pose",
+         {{"position", {{"x", t.x()}, {"y", t.y()}, {"z", t.z()}}},
+          {"orientation", {{"x", q.x()}, {"y", q.y()}, {"z", q.z()}, {"w", q.w()}}}}},
+        {"point_stride", 16},
+        {"fields", fields},
+        {"data", Base64(data)}});
 }
 
 void FoxgloveExport::Object(int64_t stamp_ns, const VirtualObjectSample& o) {

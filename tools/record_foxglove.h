@@ -8,6 +8,9 @@
 //   /foxglove/camN/calibration        foxglove.CameraCalibration (OpenCV pixel centres)
 //   /foxglove/tf                      foxglove.FrameTransforms (world -> camN)
 //   /foxglove/hull_view               foxglove.CompressedImage (the composited tiles)
+//   /foxglove/hull_points             foxglove.PointCloud (the hull seen from the view:
+//                                     the tiles' depth, every 4th pixel, in the eye frame
+//                                     placed at the view's pose)
 //   /foxglove/scene                   foxglove.SceneUpdate (balls, red while colliding;
 //                                     collision points as small red spheres)
 //   /foxglove/node_stats              hullpipe.NodeStatsPlot (fps, latencies: plottable)
@@ -26,6 +29,7 @@
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/pipeline/node_stats.h"
 #include "hullpipe/record/recording.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
 
 namespace hullpipe::record {
 
@@ -43,6 +47,9 @@ class FoxgloveExport {
   void Image(int64_t stamp_ns, uint32_t camera_id, const cv::Mat& bgr);
   void Map(int64_t stamp_ns, uint32_t camera_id, const cv::Mat& map);
   void HullView(int64_t stamp_ns, const cv::Mat& bgr);
+  /// The hull points of a composited view: `depth` (CV_32FC1 eye z metres, <= 0
+  /// or not finite: no hull) of the view `view` (its intrinsics and pose).
+  void HullPoints(int64_t stamp_ns, const NovelView& view, const cv::Mat& depth);
   void Object(int64_t stamp_ns, const VirtualObjectSample& o);
   void Collision(int64_t stamp_ns, const hullpipe_msg_CollisionReport& m);
   void Stats(int64_t stamp_ns, const NodeStatsSample& st);

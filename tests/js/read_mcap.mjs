@@ -120,7 +120,7 @@ async function main() {
         }
       }
       c.decoded += 1;
-      if (!c.first) c.first = name === "foxglove.CompressedImage" ? { ...msg, data: msg.data.length } : msg;
+      if (!c.first) c.first = typeof msg.data === "string" ? { ...msg, data: msg.data.length } : msg;
       continue;
     }
     const dec = decoders.get(m.channelId);
