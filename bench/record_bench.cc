@@ -189,10 +189,10 @@ int main(int argc, char** argv) {
                               {"mcap, none", Storage::kMcap, Compression::kNone},
                               {"mcap, zstd 1", Storage::kMcap, Compression::kZstd},
                               {"mcap, lz4", Storage::kMcap, Compression::kLz4}};
-  for (const auto& [name, samples] : {std::pair{"1 MiB random", &random}, {"1 MiB smooth", &smooth}})
+  for (const auto& data : {std::pair{"1 MiB random", &random}, {"1 MiB smooth", &smooth}})
     for (const auto& v : variants)
       Print(median([&] {
-        return Write(dir, std::string(name) + ", " + v.name, *samples, {topic}, v.c, 1, 16, v.storage);
+        return Write(dir, std::string(data.first) + ", " + v.name, *data.second, {topic}, v.c, 1, 16, v.storage);
       }));
   random.clear();
   smooth.clear();

@@ -1120,7 +1120,8 @@ TEST_F(RecordTools, TheRigsDemoAsMcapOpensInTheFieldsOwnReaders) {
       }
       return int64_t(0);
     };
-    for (const auto& [name, extra] : recordings) {
+    for (const auto& recording : recordings) {  // (clang 14's lambdas cannot capture a structured binding)
+      const std::string& name = recording.first;
       WaitFor([&] { return maps_in(name) >= int64_t(frames * cams); }, 30);
       EXPECT_EQ(maps_in(name), int64_t(frames * cams)) << name << "\n" << Log("hullpipe_record");
     }
@@ -1133,7 +1134,7 @@ TEST_F(RecordTools, TheRigsDemoAsMcapOpensInTheFieldsOwnReaders) {
       }
       return int64_t(0);
     };
-    for (const auto& [name, extra] : recordings) WaitFor([&] { return states_in(name) > 0; }, 30);
+    for (const auto& recording : recordings) WaitFor([&] { return states_in(recording.first) > 0; }, 30);
     EXPECT_EQ(sim->Stop(), 0) << Log("sim_node");
     for (auto& r : recorders) EXPECT_EQ(r->Stop(), 0) << Log("hullpipe_record");
   }
