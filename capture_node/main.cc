@@ -80,14 +80,14 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--synthetic-placement", synthetic_options.placement, "Synthetic cameras: ring|dome")
       ->capture_default_str();
-  app.add_option("--synthetic-cameras", synthetic_options.cameras, "Number of synthetic cameras (3-16)")
-      ->check(CLI::Range(1, 16))->capture_default_str();
+  app.add_option("--synthetic-cameras", synthetic_options.cameras, "Number of synthetic cameras (1-64)")
+      ->check(CLI::Range(1, SyntheticRigOptions::kMaxCameras))->capture_default_str();
   app.add_option("--synthetic-k1", synthetic_options.distortion[0], "Synthetic radial distortion k1")
       ->check(hullpipe::FiniteRange(-1.0, 1.0))
       ->capture_default_str();
   app.add_option("--synthetic-tracked", synthetic_options.tracked_camera,
                  "Synthetic camera that moves on a known path, its pose sent with each frame (0: none)")
-      ->check(CLI::Range(0, 16))
+      ->check(CLI::Range(0, SyntheticRigOptions::kMaxCameras))
       ->capture_default_str();
   app.add_option("--cameras", camera_ids, "Camera ids to capture (default: all)")->delimiter(',');
   app.add_option("--frames", frames, "Stop after this many frames (0: end of input)")->check(CLI::NonNegativeNumber);
@@ -117,6 +117,11 @@ int main(int argc, char** argv) {
   app.add_option("--max-lag", max_lag, "Seconds behind the timeline before skipping to the frame due now")
       ->check(hullpipe::FiniteRange(1e-3, 60.0))
       ->capture_default_str();
+  double timeline_window = 600;
+  app.add_option("--timeline-window", timeline_window,
+                 "Refuse an announced capture timeline starting further than this from now, seconds")
+      ->check(hullpipe::FiniteRange(1.0, 86400.0))
+      ->capture_default_str();
   app.add_option("--wait-readers", wait_readers, "Wait until this many map readers matched")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
@@ -134,6 +139,7 @@ int main(int argc, char** argv) {
     co.image_scale = image_scale;
     co.start_ns = start_time_ns;
     co.max_lag_s = max_lag;
+    co.timeline_window_s = timeline_window;
     co.Check();
     auto participant = StartNode("capture", common);
     std::unique_ptr<RigSource> source;
@@ -185,6 +191,8 @@ int main(int argc, char** argv) {
     // Give reliable readers a moment to receive the tail before the writers go.
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     spdlog::info("published {} frames, {} rejected", capture.published(), capture.counters().rejected());
+    if (capture.timelines_refused() > 0)
+      spdlog::warn("{} announced capture timeline(s) refused (beyond --timeline-window)", capture.timelines_refused());
     if (!capture.incomplete().empty()) {
       spdlog::error("the input ended early (exit 3): {}", capture.incomplete());
       return 3;

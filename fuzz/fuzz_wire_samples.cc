@@ -54,6 +54,8 @@ void Convert(const std::string& type, const void* sample) {
     ModelPartFromMsg(*static_cast<const hullpipe_msg_ModelPart*>(sample));
   } else if (type == "hullpipe::msg::ModelState") {
     ModelStateFromMsg(*static_cast<const hullpipe_msg_ModelState*>(sample));
+  } else if (type == "hullpipe::msg::CompositedView") {
+    CompositedViewFromMsg(*static_cast<const hullpipe_msg_CompositedView*>(sample));
   }
   // CollisionReport and SceneCommand: only counted or range-checked by the
   // nodes; Cyclone's deserialization above is what they rely on.

@@ -19,22 +19,31 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// ViewPose messages on DDS; the video, PNGs and window in RenderOutputs.
+// ViewPose and CompositedView messages on DDS; the video, PNGs and window in RenderOutputs.
 class Outputs final : public nodes::RenderSink {
  public:
-  Outputs(const Writer<hullpipe_msg_ViewPose>& poses, uint64_t run_id, nodes::RenderOutputs& files)
-      : poses_(poses), run_id_(run_id), files_(files) {}
+  Outputs(const Writer<hullpipe_msg_ViewPose>& poses, const Writer<hullpipe_msg_CompositedView>& views,
+          const nodes::RenderOptions& o, nodes::RenderOutputs& files)
+      : poses_(poses), views_(views), o_(o), files_(files) {}
   void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq) override {
-    poses_.Write(ViewToMsg(view, pose_seq, frame_seq, NowNs(), run_id_));
+    poses_.Write(ViewToMsg(view, pose_seq, frame_seq, NowNs(), o_.run_id));
   }
   void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
                   const cv::Mat& hull_depth, double path_time_s) override {
     files_.WriteFrame(frame, frame_seq, count, view, hull_depth, path_time_s);
   }
+  void PublishComposite(const cv::Mat& frame, uint64_t pose_seq, uint64_t frame_seq,
+                        int64_t capture_time_ns) override {
+    if (views_.MatchedReaders() == 0) return;  // no viewer or recorder: no JPEG to encode
+    views_.Write(MakeCompositedViewMessage(frame, pose_seq, frame_seq, capture_time_ns, o_.run_id,
+                                           o_.publish_max_side, o_.publish_jpeg_quality)
+                     .msg);
+  }
 
  private:
   const Writer<hullpipe_msg_ViewPose>& poses_;
-  uint64_t run_id_;
+  const Writer<hullpipe_msg_CompositedView>& views_;
+  const nodes::RenderOptions& o_;
   nodes::RenderOutputs& files_;
 };
 
@@ -69,6 +78,7 @@ int main(int argc, char** argv) {
     Reader<hullpipe_msg_ModelPart> part_reader(*participant);
     Reader<hullpipe_msg_ModelState> model_reader(*participant);
     Writer<hullpipe_msg_ViewPose> pose_writer(*participant);
+    Writer<hullpipe_msg_CompositedView> view_writer(*participant);
     ws.Attach(tile_reader);
     ws.Attach(state_reader);
     ws.Attach(report_reader);
@@ -80,9 +90,10 @@ int main(int argc, char** argv) {
     // --run-id, render's own random one still tells its tiles from a replay's.
     o.run_id = common.run_id ? common.run_id : NewRunId();
     spdlog::info("run id {}{}", RunIdText(o.run_id), common.run_id ? "" : " (its own: no --run-id given)");
-    Outputs outputs(pose_writer, o.run_id, files);
+    Outputs outputs(pose_writer, view_writer, o, files);
     SystemClock clock;
     nodes::RenderController render(o, clock, input.assembler(), outputs);
+    render.set_stop(StopRequestFlag());  // SIGINT ends a long composite too
     NodeReporter reporter(*participant, "render", render.counters(), o.run_id);
     input.SetCounters(&render.counters());
 
@@ -117,10 +128,15 @@ int main(int argc, char** argv) {
       take(mesh_reader, [&](const hullpipe_msg_VirtualMesh& m) { render.OnMesh(VirtualMeshFromMsg(m)); });
       take(part_reader, [&](const hullpipe_msg_ModelPart& m) { render.OnModelPart(ModelPartFromMsg(m)); });
       take(model_reader, [&](const hullpipe_msg_ModelState& m) { render.OnModelState(ModelStateFromMsg(m)); });
-      take(report_reader, [&](const hullpipe_msg_CollisionReport& m) { render.OnCollisionReport(m.collision_points._length > 0); });
+      take(report_reader, [&](const hullpipe_msg_CollisionReport& m) { render.OnCollisionReport(m.collision_points._length > 0, m.has_response ? m.hull_velocity_status : 0, m.hull_normal_speed); });
       take_stats();
       render.SetMalformedInput(input.malformed());
-      composited = render.Step();
+      try {
+        composited = render.Step();
+      } catch (const Interrupted& e) {
+        spdlog::info("{}; stopping (that frame is not written)", e.what());
+        break;
+      }
       if (clock.Now() - last_progress_s >= 1.0) {
         last_progress_s = clock.Now();
         const auto& c = render.counters();
@@ -132,9 +148,11 @@ int main(int argc, char** argv) {
     }
     files.Close();
 
-    // Collect a last round of NodeStats (periodic reports are at most 0.5 s old).
+    // Collect a last round of NodeStats (periodic reports are at most 0.5 s
+    // old): until every peer heard from has sent its final report, 0.7 s at
+    // most (a node stops within a second of SIGINT).
     const double until = clock.Now() + 0.7;
-    while (clock.Now() < until) {
+    while (clock.Now() < until && render.AwaitingFinalReports()) {
       ws.Wait(0.05);
       take_stats();
     }

@@ -25,11 +25,13 @@ SEEDS=build-asan/fuzz-seeds
 rm -rf "$SEEDS" && mkdir -p "$SEEDS"
 "$BIN/fuzz_make_seeds" "$SEEDS"
 mkdir -p "$SEEDS/fuzz_rig_files" "$SEEDS/fuzz_scene_files" "$SEEDS/fuzz_csv_files"
-# The rig parser's first byte picks XML (even) or YAML (odd).
+# The rig parser's first byte picks config.xml (0), a YAML rig (1) or an OpenCV
+# calibration for the importer (2).
 for cfg in "$RIG"/cam*/config.xml; do
   [ -f "$cfg" ] && { printf '\x00'; cat "$cfg"; } > "$SEEDS/fuzz_rig_files/$(basename "$(dirname "$cfg")").xml"
 done
 for yml in launch/*.yaml; do { printf '\x01'; cat "$yml"; } > "$SEEDS/fuzz_rig_files/$(basename "$yml")"; done
+for cal in fuzz/seeds/opencv_calibration/*; do { printf '\x02'; cat "$cal"; } > "$SEEDS/fuzz_rig_files/$(basename "$cal")"; done
 cp scenes/*.yaml "$SEEDS/fuzz_scene_files/"
 for csv in scenes/*.csv; do
   { printf '\x00'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/pose_$(basename "$csv")"

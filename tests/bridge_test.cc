@@ -12,6 +12,10 @@
 #include <nlohmann/json.hpp>
 
 #include "bridge_state.h"
+#include "foxglove_channels.h"
+#include "hullpipe/dds/cdr.h"
+#include "hullpipe/dds/convert.h"
+#include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/geometry/conventions.h"
 #include "test_util.h"
 
@@ -80,6 +84,133 @@ TEST(BridgeState, SpeaksTheFoxgloveWebSocketProtocol) {
   EXPECT_NE(why.find("--max-clients"), std::string::npos);
   s.Close(8);
   EXPECT_EQ(s.Accept({"foxglove.websocket.v1"}, &why), "foxglove.websocket.v1");
+}
+
+// Channels that appear after clients connected (a camera's, when its
+// calibration arrives) are advertised to every connected client and are in the
+// first advertise of a client that connects later; latched state (the latest
+// per key) reaches each new subscription at once; the latch is bounded.
+TEST(BridgeState, LateChannelsAreAdvertisedAndLatchedStateReachesLateSubscribers) {
+  BridgeState s(TwoChannels(), 4, "hullpipe_bridge");
+  s.Open(1, "a");
+  const Channel cal{10, "/foxglove/cam3/calibration", "json", "foxglove.CameraCalibration", "{}", "jsonschema"};
+  const auto adv = s.Advertise({cal});
+  ASSERT_EQ(adv.size(), 1u);
+  EXPECT_EQ(adv[0].client, 1u);
+  const json a = json::parse(adv[0].payload);
+  EXPECT_EQ(a["op"], "advertise");
+  ASSERT_EQ(a["channels"].size(), 1u);
+  EXPECT_EQ(a["channels"][0]["topic"], "/foxglove/cam3/calibration");
+  EXPECT_EQ(a["channels"][0]["encoding"], "json");
+  EXPECT_EQ(a["channels"][0]["schemaEncoding"], "jsonschema");
+  EXPECT_TRUE(s.Advertise({cal}).empty()) << "an id already advertised is not again";
+  const auto open = s.Open(2, "b");
+  EXPECT_EQ(json::parse(open[1].payload)["channels"].size(), 3u);
+  EXPECT_EQ(s.channels().size(), 3u);
+  // Nothing latched yet: a subscription gets nothing at once (the control for below).
+  EXPECT_TRUE(s.OnText(1, R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":10}]})").empty());
+  EXPECT_TRUE(s.Latch(10, "cam3", 5, {'x'}));
+  EXPECT_TRUE(s.Latch(10, "cam3", 6, {'y'}));  // replaces
+  EXPECT_TRUE(s.Latch(10, "cam4", 7, {'z'}));
+  const auto out = s.OnText(2, R"({"op":"subscribe","subscriptions":[{"id":9,"channelId":10}]})");
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].client, 2u);
+  EXPECT_TRUE(out[0].binary);
+  EXPECT_EQ(out[0].payload, std::string("\x01\x09\x00\x00\x00\x06\x00\x00\x00\x00\x00\x00\x00y", 14));
+  EXPECT_EQ(out[1].payload.back(), 'z');
+  // Another channel's subscription gets none of them.
+  EXPECT_TRUE(s.OnText(2, R"({"op":"subscribe","subscriptions":[{"id":3,"channelId":1}]})").empty());
+  for (int i = 0; i < 4096; ++i) ASSERT_TRUE(s.Latch(2, std::to_string(i), 0, {1}));
+  EXPECT_FALSE(s.Latch(2, "one more", 0, {1}));
+  EXPECT_TRUE(s.Latch(2, "17", 0, {2})) << "a kept key is still replaced";
+}
+
+// The viewable channels derived from hullpipe samples as they are on the wire:
+// the calibration with Foxglove's pixel centres and the camera's pose, both
+// latched per camera; an image encoded to JPEG and a JPEG passed through byte
+// for byte; a channel nobody wants costs nothing; a CAD model's part sent when
+// it first has a pose and again only when its contact changes; bytes that do
+// not decode refused; the per-camera topics parsed back.
+TEST(Foxglove, DerivesTheViewableChannelsFromSamplesOnTheWire) {
+  const auto dir = test::TempDir("foxglove_derive");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  dds::Participant p(test::UniqueDomain());
+  std::vector<foxglove::Message> got;
+  std::set<std::string> wanted = {"/foxglove/cam0/image", "/foxglove/scene"};
+  foxglove::Deriver d(p, [&](foxglove::Message m) { got.push_back(std::move(m)); },
+                      [&](const std::string& topic) { return wanted.count(topic) > 0; });
+  const auto encode = [&](const std::string& type, const void* msg) {
+    const dds::KnownType& kt = *dds::FindKnownType(type);
+    return dds::CdrWriter(p, kt, kt.qos, dds::CdrWriter::Scope::kDecodeOnly).Encode(msg);
+  };
+  Camera cam = RingCameras(1, 3, 2, Eigen::Vector3d::Zero(), 64, 48, 1.0, Distortion{})[0];
+  cam.id = 0;
+  const hullpipe_msg_CameraInfo info = dds::CameraToMsg(cam, {});
+  ASSERT_TRUE(d.Add("hullpipe::msg::CameraInfo", encode("hullpipe::msg::CameraInfo", &info), 42));
+  ASSERT_EQ(got.size(), 2u) << "calibration and transform, wanted or not (latched)";
+  EXPECT_EQ(got[0].topic, "/foxglove/cam0/calibration");
+  EXPECT_EQ(got[0].latch_key, "cam0");
+  const json calib = json::parse(got[0].json);
+  EXPECT_EQ(calib["width"], 64);
+  EXPECT_DOUBLE_EQ(calib["K"][2].get<double>(), cam.cx - kOpenCvToHullpipePixelOffset);
+  EXPECT_EQ(got[1].topic, "/foxglove/tf");
+  const json tf = json::parse(got[1].json)["transforms"][0];
+  const Eigen::Vector3d centre = cam.Center();
+  EXPECT_NEAR(tf["translation"]["x"].get<double>(), centre.x(), 1e-12);
+  EXPECT_NEAR(tf["translation"]["z"].get<double>(), centre.z(), 1e-12);
+  got.clear();
+
+  cv::Mat bgr(48, 64, CV_8UC3, cv::Scalar(10, 200, 30));
+  const auto raw = dds::MakeImageMessage(0, 1, 1000, bgr, 0);
+  ASSERT_TRUE(d.Add("hullpipe::msg::CameraImage", encode("hullpipe::msg::CameraImage", &raw.msg), 1));
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].stamp_ns, 1000);
+  EXPECT_EQ(json::parse(got[0].json)["format"], "jpeg");
+  const auto jpeg = dds::MakeImageMessage(0, 2, 2000, bgr, 80);
+  ASSERT_TRUE(d.Add("hullpipe::msg::CameraImage", encode("hullpipe::msg::CameraImage", &jpeg.msg), 2));
+  ASSERT_EQ(got.size(), 2u);
+  const std::string b64 = json::parse(got[1].json)["data"];
+  EXPECT_EQ(b64.size(), (jpeg.msg.data._length + 2) / 3 * 4) << "passed through, not re-encoded";
+  // Camera 1's image: nobody wants it, nothing derived (the sample is still valid).
+  const auto other = dds::MakeImageMessage(1, 2, 2000, bgr, 0);
+  EXPECT_TRUE(d.Add("hullpipe::msg::CameraImage", encode("hullpipe::msg::CameraImage", &other.msg), 3));
+  EXPECT_EQ(got.size(), 2u);
+  got.clear();
+
+  ModelPartSample part;
+  part.object_id = part.model_id = 100;
+  part.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  part.triangles = {{0, 1, 2}};
+  const auto part_msg = dds::MakeModelPartMessage(part);
+  ASSERT_TRUE(d.Add("hullpipe::msg::ModelPart", encode("hullpipe::msg::ModelPart", &part_msg.msg), 4));
+  ModelStateSample state;
+  state.model_id = 100;
+  state.parts.resize(1);
+  state.parts[0].position = Eigen::Vector3d(0.5, 0, 0);
+  for (int step = 0; step < 3; ++step) {
+    state.frame_seq = uint64_t(step);
+    const auto m = dds::MakeModelStateMessage(state);
+    ASSERT_TRUE(d.Add("hullpipe::msg::ModelState", encode("hullpipe::msg::ModelState", &m.msg), 5));
+  }
+  ASSERT_EQ(got.size(), 1u) << "a part at rest is sent once";
+  EXPECT_EQ(got[0].latch_key, "part100");
+  const json e = json::parse(got[0].json)["entities"][0];
+  EXPECT_EQ(e["triangles"][0]["indices"], json({0, 1, 2}));
+  EXPECT_DOUBLE_EQ(e["triangles"][0]["pose"]["position"]["x"].get<double>(), 0.5);
+  state.parts[0].contact = kPartColliding;
+  const auto touched = dds::MakeModelStateMessage(state);
+  ASSERT_TRUE(d.Add("hullpipe::msg::ModelState", encode("hullpipe::msg::ModelState", &touched.msg), 6));
+  ASSERT_EQ(got.size(), 2u) << "its contact changed";
+  EXPECT_DOUBLE_EQ(json::parse(got[1].json)["entities"][0]["triangles"][0]["color"]["r"].get<double>(), 1.0);
+
+  EXPECT_FALSE(d.Add("hullpipe::msg::CameraInfo", {0, 1, 0, 0, 1, 2}, 7));
+  EXPECT_FALSE(d.Add("no::such::Type", {0, 1, 0, 0}, 7));
+  EXPECT_EQ(foxglove::CameraOfTopic("/foxglove/cam17/object_pixel_map"), 17);
+  for (const std::string bad : {"/foxglove/cam/image", "/foxglove/cam01/image", "/foxglove/cam1/other",
+                                "/foxglove/cam99999999999/image", "/foxglove/tf"})
+    EXPECT_EQ(foxglove::CameraOfTopic(bad), -1) << bad;
+  EXPECT_EQ(foxglove::SourceTypes("/foxglove/cam2/image"), std::vector<std::string>{"hullpipe::msg::CameraImage"});
+  EXPECT_TRUE(foxglove::SourceTypes("hullpipe/camera_image").empty());
 }
 
 class BridgeProcess : public ::testing::Test {
@@ -160,6 +291,71 @@ TEST_F(BridgeProcess, FoxglovesClientWatchesALivePipeline) {
   capture->Stop();
 }
 
+// The viewable channels live: a whole synthetic pipeline watched through the
+// bridge by Foxglove's client, every message checked against Foxglove's own
+// JSON Schemas: a camera's calibration (subscribed to long after it was
+// published: latched), images and object-pixel maps of the calibration's size,
+// the transforms, the tiles' hull view and render_node's composite of the
+// view's size, the hull points, the scene with the balls, node rates.
+TEST_F(BridgeProcess, FoxglovesClientSeesTheViewableChannelsOfALivePipeline) {
+  auto bridge = Start("hullpipe_bridge", {"--port", "0"});
+  const int port = Port();
+  ASSERT_GT(port, 0) << Log("hullpipe_bridge");
+  const auto out_dir = dir_ / "run";
+  launch::Process pipeline({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "150", "--fps", "10",
+                            "--width", "320", "--height", "240", "--out", out_dir.string(), "--domain",
+                            std::to_string(domain_), "--dds-config", config_},
+                           (dir_ / "launch.log").string());
+  const std::string url = "ws://127.0.0.1:" + std::to_string(port);
+  const std::string out = (dir_ / "viewable.json").string();
+  launch::Process client({"/usr/bin/env", "node", js_ + "/ws_client.mjs", url, "90", "/foxglove/cam1/calibration=1",
+                          "/foxglove/cam1/image=2", "/foxglove/cam1/object_pixel_map=2", "/foxglove/tf=1",
+                          "/foxglove/hull_view=2", "/foxglove/composited=2", "hullpipe/composited_view=1",
+                          "/foxglove/hull_points=1", "/foxglove/scene=2",
+                          "/foxglove/node_stats=2"},
+                         out, {}, out + ".err");
+  ASSERT_EQ(client.Wait(120), 0) << test::ReadFile(out + ".err") << Log("hullpipe_bridge")
+                                 << test::ReadFile((dir_ / "launch.log").string());
+  const json j = json::parse(test::ReadFile(out));
+  EXPECT_EQ(j["invalid"], json::array()) << "messages Foxglove's schemas refuse";
+  EXPECT_EQ(j["afterUnsubscribe"], 0);
+  const auto& first = j["first"];
+  const auto& cal = first["/foxglove/cam1/calibration"];
+  EXPECT_EQ(cal["frame_id"], "cam1");
+  EXPECT_EQ(cal["K"].size(), 9u);
+  EXPECT_GT(cal["K"][0].get<double>(), 0.0);
+  const auto& image = first["/foxglove/cam1/image"]["data"];
+  EXPECT_EQ(image["format"], "jpeg");
+  // capture_node publishes its colour images at --image-scale 0.5 by default.
+  EXPECT_EQ(image["width"].get<int>(), cal["width"].get<int>() / 2);
+  EXPECT_EQ(image["height"].get<int>(), cal["height"].get<int>() / 2);
+  const auto& map = first["/foxglove/cam1/object_pixel_map"]["data"];
+  EXPECT_EQ(map["format"], "png");
+  EXPECT_EQ(map["width"], cal["width"]);
+  const auto& view = first["/foxglove/hull_view"]["data"];
+  EXPECT_EQ(view["width"], 320);
+  EXPECT_EQ(view["height"], 240);
+  // render_node's own composite (hull and balls), its JPEG passed through; the
+  // raw topic decoded by Foxglove's OMG IDL decoder names the same view.
+  const auto& composited = first["/foxglove/composited"];
+  EXPECT_EQ(composited["frame_id"], "view");
+  EXPECT_EQ(composited["data"]["format"], "jpeg");
+  EXPECT_EQ(composited["data"]["width"], 320);
+  EXPECT_EQ(composited["data"]["height"], 240);
+  const auto& raw = first["hullpipe/composited_view"];
+  EXPECT_EQ(raw["view_width"], 320);
+  EXPECT_EQ(raw["width"], 320);
+  EXPECT_GT(raw["frame_seq"].get<int64_t>(), 0);
+  EXPECT_GT(first["/foxglove/hull_points"]["data"].get<int>(), 0) << "the hull is in view";
+  EXPECT_EQ(first["/foxglove/tf"]["transforms"][0]["parent_frame_id"], "world");
+  EXPECT_GE(first["/foxglove/scene"]["entities"].size(), 1u);
+  EXPECT_FALSE(first["/foxglove/node_stats"]["node"].get<std::string>().empty());
+  bridge->Signal(SIGINT);
+  EXPECT_EQ(bridge->Wait(5), 0) << Log("hullpipe_bridge");
+  pipeline.Signal(SIGINT);
+  pipeline.Wait(30);
+}
+
 // A client that subscribes to the camera images and never reads: its queue is
 // bounded, its messages past the bound are dropped and counted, and it is told;
 // the bridge keeps serving (it stops cleanly).
@@ -173,7 +369,7 @@ TEST_F(BridgeProcess, AClientThatNeverReadsIsBoundedAndTold) {
   const std::string script =
       "const W=require('" + js_ + "/node_modules/ws');const w=new W('" + url +
       "',['foxglove.websocket.v1']);w.on('message',(d,bin)=>{if(bin)return;const m=JSON.parse(d);"
-      "if(m.op==='advertise'){const c=m.channels.find(c=>c.topic==='hullpipe/camera_image');"
+      "if(m.op==='advertise'){const c=m.channels.find(c=>c.topic==='hullpipe/camera_image');if(!c)return;"
       "w.send(JSON.stringify({op:'subscribe',subscriptions:[{id:1,channelId:c.id}]}));"
       "setTimeout(()=>w._socket.pause(),300);setTimeout(()=>process.exit(0),6000);}});";
   const std::string log = (dir_ / "slow.log").string();

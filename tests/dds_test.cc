@@ -1,5 +1,6 @@
 // Message conversion and validation, and Cyclone DDS behaviour hullpipe relies on.
 #include <limits>
+#include <set>
 #include <thread>
 
 #include <dds/ddsi/ddsi_serdata.h>
@@ -8,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "hullpipe/geometry/conventions.h"
@@ -84,6 +86,83 @@ TEST(Convert, ImagesRawAndJpeg) {
   EXPECT_THROW(ImageFromMsg(raw.msg), MessageError);
   jpg.msg.data._length = 10;  // truncated JPEG
   EXPECT_THROW(ImageFromMsg(jpg.msg), MessageError);
+  // Data marked JPEG that is a PNG, or DICOM (which OpenCV hands to GDCM,
+  // whose parser aborts on a bad element: fuzz_wire_samples found it), is
+  // refused before any decoder sees it; so is a JPEG of another size.
+  for (const std::string ext : {".png", ".jpg"}) {
+    std::vector<uint8_t> bytes;
+    cv::imencode(ext, ext == ".png" ? img : cv::Mat(img, cv::Rect(0, 0, 20, 30)), bytes);
+    auto s = MakeImageMessage(1, 1, 1, img, 90);
+    s.bytes = bytes;
+    s.msg.data._buffer = s.bytes.data();
+    s.msg.data._length = uint32_t(s.bytes.size());
+    try {
+      ImageFromMsg(s.msg);
+      ADD_FAILURE() << ext;
+    } catch (const MessageError& e) {
+      EXPECT_NE(std::string(e.what()).find("not a JPEG of the stated size 40x30"), std::string::npos) << e.what();
+    }
+  }
+  std::vector<uint8_t> dicom(128, 0);
+  for (char c : std::string("DICM\x02\x00\x00\x00UL\x04\x00\xff\xff\xff\x7f", 16)) dicom.push_back(uint8_t(c));
+  dicom.resize(300, 0xd9);
+  jpg.msg.data._buffer = dicom.data();
+  jpg.msg.data._length = uint32_t(dicom.size());
+  EXPECT_THROW(ImageFromMsg(jpg.msg), MessageError);
+}
+
+// render_node's composited frame for viewers: scaled down to the publishing
+// bound with its aspect kept, a JPEG of the stated size, and refused when it
+// lies (another format, another size, larger than its view).
+TEST(Convert, CompositedViewIsAJpegScaledToTheBound) {
+  // A left/right split so that a mirrored or transposed image would fail.
+  cv::Mat frame(240, 320, CV_8UC3, cv::Scalar(200, 30, 30));
+  frame(cv::Rect(160, 0, 160, 240)).setTo(cv::Scalar(30, 200, 30));
+  const auto same = MakeCompositedViewMessage(frame, 7, 42, 1'000'000'000, 99, 1280, 90);
+  EXPECT_EQ(same.msg.pose_seq, 7u);
+  EXPECT_EQ(same.msg.frame_seq, 42u);
+  EXPECT_EQ(same.msg.run_id, 99u);
+  EXPECT_EQ(same.msg.width, 320u);
+  EXPECT_EQ(same.msg.view_width, 320u);
+  const cv::Mat back = CompositedViewFromMsg(same.msg);
+  ASSERT_EQ(back.size(), frame.size());
+  // JPEG loss away from the colour edge (8x8 blocks, 4:2:0 chroma): a few levels.
+  EXPECT_LE(cv::norm(back(cv::Rect(0, 0, 140, 240)), frame(cv::Rect(0, 0, 140, 240)), cv::NORM_INF), 12);
+  EXPECT_LE(cv::norm(back(cv::Rect(180, 0, 140, 240)), frame(cv::Rect(180, 0, 140, 240)), cv::NORM_INF), 12);
+
+  // 320x240 at a bound of 100: 100x75, the view's size kept beside it.
+  const auto small = MakeCompositedViewMessage(frame, 7, 42, 1, 99, 100, 90);
+  EXPECT_EQ(small.msg.width, 100u);
+  EXPECT_EQ(small.msg.height, 75u);
+  EXPECT_EQ(small.msg.view_width, 320u);
+  EXPECT_EQ(small.msg.view_height, 240u);
+  const cv::Mat shrunk = CompositedViewFromMsg(small.msg);
+  ASSERT_EQ(shrunk.size(), cv::Size(100, 75));
+  EXPECT_LE(cv::norm(shrunk.at<cv::Vec3b>(37, 10), cv::Vec3b(200, 30, 30), cv::NORM_INF), 12);
+  EXPECT_LE(cv::norm(shrunk.at<cv::Vec3b>(37, 90), cv::Vec3b(30, 200, 30), cv::NORM_INF), 12);
+
+  EXPECT_THROW(MakeCompositedViewMessage(cv::Mat(), 1, 1, 1, 1, 1280, 90), MessageError);
+  EXPECT_THROW(MakeCompositedViewMessage(frame, 1, 1, 1, 1, 8, 90), MessageError);
+  EXPECT_THROW(MakeCompositedViewMessage(frame, 1, 1, 1, 1, 1280, 0), MessageError);
+
+  auto lie = MakeCompositedViewMessage(frame, 1, 1, 1, 1, 1280, 90);
+  lie.msg.width = 321;  // the JPEG says 320
+  EXPECT_THROW(CheckCompositedViewMsg(lie.msg), MessageError);
+  lie.msg.width = 320, lie.msg.view_width = 160;  // an image larger than its view
+  EXPECT_THROW(CheckCompositedViewMsg(lie.msg), MessageError);
+  lie.msg.view_width = 320;
+  std::vector<uint8_t> png;
+  cv::imencode(".png", frame, png);
+  lie.msg.data._buffer = png.data();
+  lie.msg.data._length = uint32_t(png.size());
+  try {
+    CheckCompositedViewMsg(lie.msg);
+    ADD_FAILURE() << "a PNG marked JPEG was accepted";
+  } catch (const MessageError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a JPEG of the stated size 320x240"), std::string::npos) << e.what();
+  }
+  lie.msg.data._length = 0;
+  EXPECT_THROW(CompositedViewFromMsg(lie.msg), MessageError);
 }
 
 TEST(Convert, ViewAndTile) {
@@ -408,6 +487,57 @@ TEST(Dds, ASampleOfTheOlderShorterLayoutIsRefused) {
   hullpipe_msg_ViewPose old{};
   EXPECT_FALSE(w.Decode(cdr, &old));
   EXPECT_THROW(w.Write(cdr), std::invalid_argument);
+}
+
+// A recording made before CollisionReport had its hull velocity holds samples
+// 24 bytes shorter (a uint8, 7 bytes of alignment, two doubles, appended last).
+// They read as what they are: the rest of the report exactly, and "not
+// estimated" (HULL_VELOCITY_NONE, zeros) for the velocity; replayed, they are
+// published completed. A sample cut anywhere else is still refused.
+TEST(Dds, ACollisionReportOfTheEarlierLayoutReadsWithNoHullVelocity) {
+  const auto dir = test::TempDir("dds_old_report");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  Participant p(test::UniqueDomain());
+  const KnownType& kt = *FindKnownType("hullpipe::msg::CollisionReport");
+  EXPECT_EQ(kt.appended_bytes, 24u);
+  CdrWriter w(p, kt, kt.qos);
+  CollisionReportSample r;
+  r.object_id = 7, r.frame_seq = 42, r.capture_time_ns = 123456789;
+  r.triangle_ids = {3, 5};
+  r.collision_points = {{0.1, 0.2, -1.0}};
+  r.has_response = true;
+  r.cp_obj = {0.1, 0.2, -1.0}, r.cp_hull = {0.11, 0.2, -1.0}, r.v_rec = {1, 0, 0}, r.n_hull = {0, 0.6, -0.8};
+  r.d_rec = 0.01;
+  r.hull_velocity_status = hullpipe_msg_HULL_VELOCITY_MEASURED;
+  r.hull_normal_speed = 1.25;
+  r.hull_velocity_interval = 0.04;
+  const auto msg = MakeCollisionReportMessage(r);
+  std::vector<uint8_t> cdr = w.Encode(&msg.msg);
+  hullpipe_msg_CollisionReport whole{};
+  ASSERT_TRUE(w.Decode(cdr, &whole));  // control: the current layout
+  EXPECT_EQ(whole.hull_velocity_status, hullpipe_msg_HULL_VELOCITY_MEASURED);
+  EXPECT_EQ(whole.hull_normal_speed, 1.25);
+  dds_sample_free(&whole, kt.descriptor, DDS_FREE_CONTENTS);
+  std::vector<uint8_t> old(cdr.begin(), cdr.end() - 24);
+  hullpipe_msg_CollisionReport back{};
+  ASSERT_TRUE(w.Decode(old, &back));
+  EXPECT_EQ(back.object_id, 7u);
+  EXPECT_EQ(back.frame_seq, 42u);
+  ASSERT_EQ(back.triangle_ids._length, 2u);
+  EXPECT_EQ(back.triangle_ids._buffer[1], 5u);
+  EXPECT_TRUE(back.has_response);
+  EXPECT_EQ(back.n_hull.z, -0.8);
+  EXPECT_EQ(back.d_rec, 0.01);
+  EXPECT_EQ(back.hull_velocity_status, hullpipe_msg_HULL_VELOCITY_NONE);
+  EXPECT_EQ(back.hull_normal_speed, 0.0);
+  EXPECT_EQ(back.hull_velocity_interval, 0.0);
+  dds_sample_free(&back, kt.descriptor, DDS_FREE_CONTENTS);
+  EXPECT_NO_THROW(w.Write(old));
+  for (const size_t cut : {size_t(1), size_t(8), size_t(30)}) {
+    std::vector<uint8_t> bad(cdr.begin(), cdr.end() - std::ptrdiff_t(cut));
+    hullpipe_msg_CollisionReport none{};
+    EXPECT_FALSE(w.Decode(bad, &none)) << cut;
+  }
 }
 
 // CameraInfo is transient-local: a reader that joins after it was written still

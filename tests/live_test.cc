@@ -231,5 +231,36 @@ TEST(LiveCameras, ACameraWithoutABackgroundLearnsItFromItsFirstFrames) {
   EXPECT_GT(last, 0.02) << "control: the person must show against the learnt background";
 }
 
+// A live camera whose stream is not its calibrated size (a camera left in
+// another mode) learnt its background forever: no frame counted, none timed
+// out. It now ends after a few frames with one line naming both sizes, exit 1.
+TEST(LiveCameras, AStreamOfAnotherSizeThanTheCalibrationEndsInOneLine) {
+  if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
+  if (std::system("ffmpeg -hide_banner -version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no ffmpeg";
+  const auto dir = test::TempDir("live_size");
+  const std::string config = test::WriteLoopbackConfig(dir);
+  const uint32_t domain = test::UniqueDomain();
+  const int port = 20000 + int(domain) * 10 + 8;
+  Rig rig = LoadRig(test::RigDir());
+  rig.cameras.resize(1);
+  const std::string background = rig.cameras[0].background;
+  rig.cameras[0].background.clear();
+  rig.cameras[0].frames = "udp://127.0.0.1:" + std::to_string(port) + "?overrun_nonfatal=1&fifo_size=50000";
+  WriteRigYaml(rig, (dir / "live.yaml").string());
+  const std::string log = (dir / "capture.log").string();
+  auto capture = test::StartExe("capture_node",
+                                {"--rig", (dir / "live.yaml").string(), "--background-frames", "30", "--frames", "10",
+                                 "--live-timeout", "20"},
+                                domain, config, log);
+  test::Process camera({"ffmpeg", "-nostdin", "-hide_banner", "-loglevel", "error", "-readrate", "1", "-stream_loop",
+                        "-1", "-i", background, "-vf", "scale=320:240", "-t", "30", "-c:v", "mpeg4", "-q:v", "3", "-g",
+                        "10", "-f", "mpegts", "udp://127.0.0.1:" + std::to_string(port) + "?pkt_size=1316"},
+                       (dir / "ffmpeg.log").string());
+  WaitFor(25, [&] { return !capture->Running(); });
+  EXPECT_EQ(capture->Wait(5), 1) << test::ReadFile(log);
+  const std::string text = test::ReadFile(log);
+  EXPECT_NE(text.find("delivers 320x240 frames, its calibration says 644x486"), std::string::npos) << text;
+}
+
 }  // namespace
 }  // namespace hullpipe

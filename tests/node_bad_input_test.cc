@@ -82,6 +82,32 @@ class NodeTest : public ::testing::Test {
     }
     return last;
   }
+  /// One frameset of `views` (their calibration, maps and `image`, numbered seq)
+  /// written now: what the mid-work tests feed a node until it works.
+  static void WriteFrameset(const Writer<hullpipe_msg_CameraInfo>& info, const Writer<hullpipe_msg_ObjectPixelMap>& maps,
+                            const Writer<hullpipe_msg_CameraImage>& images, const std::vector<CameraMap>& views,
+                            const cv::Mat& image, uint64_t seq) {
+    for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
+    const int64_t t = NowNs();
+    for (const auto& v : views) {
+      maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, t, double(seq) / 25, 2, v.map).msg);
+      images.Write(MakeImageMessage(uint32_t(v.camera.id), seq, t, image, 0).msg);
+    }
+  }
+  /// SIGINT to `node`, seen mid-work: it must exit 0 within a second (README,
+  /// "Engineering rules") and log that the work was interrupted (the positive
+  /// control that the signal came mid-work, not between frames).
+  void ExpectStopsWithinASecondOfSigintMidWork(test::Process& node, const std::string& exe) {
+    ASSERT_TRUE(node.Running()) << exe << ":\n" << test::ReadFile(log_);
+    node.Signal(SIGINT);
+    const double t0 = MonotonicSeconds();
+    const int rc = node.Wait(10);
+    const double took = MonotonicSeconds() - t0;
+    const std::string log = test::ReadFile(log_);
+    EXPECT_EQ(rc, 0) << exe << "\n" << log;
+    EXPECT_LT(took, 1.0 * test::TimeScale()) << exe << " took " << took << " s to stop\n" << log;
+    EXPECT_NE(log.find("interrupted by a stop request; stopping"), std::string::npos) << exe << "\n" << log;
+  }
 
   std::filesystem::path dir_;
   std::string config_, log_;
@@ -416,31 +442,60 @@ TEST_F(NodeTest, ReconAndSimStopWithinASecondOfSigintMidWork) {
     // on one: volatile readers drop what came before they matched.
     const double deadline = MonotonicSeconds() + 30;
     while (!std::regex_search(test::ReadFile(log_), c.working) && MonotonicSeconds() < deadline) {
-      for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
-      ++seq;
-      const int64_t t = NowNs();
-      for (const auto& v : views) {
-        maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, t, double(seq) / 25, 2, v.map).msg);
-        images.Write(MakeImageMessage(uint32_t(v.camera.id), seq, t, img, 0).msg);
-      }
+      WriteFrameset(info, maps, images, views, img, ++seq);
       poses.Write(ViewToMsg(huge, seq, seq, NowNs()));
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
     }
     ASSERT_TRUE(std::regex_search(test::ReadFile(log_), c.working)) << c.exe << ":\n" << test::ReadFile(log_);
-    ASSERT_TRUE(node->Running()) << c.exe << ":\n" << test::ReadFile(log_);
-    node->Signal(SIGINT);
-    const double t0 = MonotonicSeconds();
-    const int rc = node->Wait(10);
-    const double took = MonotonicSeconds() - t0;
-    const std::string log = test::ReadFile(log_);
-    EXPECT_EQ(rc, 0) << c.exe << "\n" << log;
-    EXPECT_LT(took, 1.0 * test::TimeScale()) << c.exe << " took " << took << " s to stop\n" << log;
-    EXPECT_NE(log.find("interrupted by a stop request; stopping"), std::string::npos) << c.exe << "\n" << log;
+    ExpectStopsWithinASecondOfSigintMidWork(*node, c.exe);
   }
+}
+
+// Mid-composite: render_node compositing the largest view it draws in one row
+// band (8192x4096; about 1.5 s here, 8192x8192 about 3 s). A small tile
+// answers its pose (a view need not be covered by its tiles), so the test
+// sends kilobytes, not the view. Seen in that state first by its debug line;
+// it must log that the composite was interrupted (the positive control that
+// the signal came mid-composite) and exit 0 within a second.
+TEST_F(NodeTest, RenderStopsWithinASecondOfSigintMidComposite) {
+  const auto views = test::SphereViews(2, 64, 48, kCentre, 0.3);
+  const cv::Mat img(48, 64, CV_8UC3, cv::Scalar(50, 60, 70));
+  auto node = Start("render_node", {"--out", (dir_ / "render_big").string(), "--width", "8192", "--height", "4096",
+                                    "--tiles", "1", "--log-level", "debug"});
+  Writer<hullpipe_msg_CameraInfo> info(*participant_);
+  Writer<hullpipe_msg_ObjectPixelMap> maps(*participant_);
+  Writer<hullpipe_msg_CameraImage> images(*participant_);
+  Writer<hullpipe_msg_HullView> tiles(*participant_);
+  Reader<hullpipe_msg_ViewPose> poses(*participant_);
+  WaitMatched(maps, 1);
+  WaitMatched(tiles, 1);
+  const std::regex working("compositing a 8192x4096 view");
+  uint64_t seq = 0;
+  for (const double deadline = MonotonicSeconds() + 30;
+       !std::regex_search(test::ReadFile(log_), working) && MonotonicSeconds() < deadline;) {
+    WriteFrameset(info, maps, images, views, img, ++seq);
+    // Each pose render asks for is answered with one 64x48 tile (its run id echoed).
+    poses.TakeEach([&](const hullpipe_msg_ViewPose& p, const dds_sample_info_t&) {
+      HullTile tile;
+      tile.rect = {0, 0, 64, 48};
+      tile.depth = cv::Mat(48, 64, CV_32FC1, cv::Scalar(2));
+      tile.colour = cv::Mat(48, 64, CV_8UC3, cv::Scalar(0, 200, 0));
+      tile.pose_seq = p.pose_seq;
+      tile.frame_seq = p.frame_seq;
+      tile.run_id = p.run_id;
+      tiles.Write(MakeHullViewMessage(tile, 1).msg);
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_TRUE(std::regex_search(test::ReadFile(log_), working)) << test::ReadFile(log_);
+  ExpectStopsWithinASecondOfSigintMidWork(*node, "render_node");
 }
 
 // --- capture_node on broken files (needs the Utrecht rig) -------------------
 
+// Each test's deadline covers reading the videos, so it stretches with
+// TimeScale(): under ThreadSanitizer four cameras' 128 frames took 36 s, and
+// past 60 s beside another test.
 class CaptureFiles : public NodeTest {
  protected:
   void SetUp() override {
@@ -473,7 +528,7 @@ TEST_F(CaptureFiles, TruncatedVideoEndsTheInputThereWithExit3) {
   const auto video = rig_ / "cam2" / "video.avi";
   std::filesystem::resize_file(video, std::filesystem::file_size(video) * 4 / 10);
   auto node = Start("capture_node", {"--rig", rig_.string(), "--fast"});
-  EXPECT_EQ(node->Wait(60), 3) << test::ReadFile(log_);
+  EXPECT_EQ(node->Wait(60 * test::TimeScale()), 3) << test::ReadFile(log_);
   const std::string log = test::ReadFile(log_);
   EXPECT_NE(log.find("camera(s) 2 ended after frame"), std::string::npos) << log;
   EXPECT_NE(log.find("camera(s) 1, 3, 4 went on"), std::string::npos) << log;
@@ -490,7 +545,7 @@ TEST_F(CaptureFiles, EveryVideoTruncatedAlikeIsStillCaught) {
     std::filesystem::resize_file(video, std::filesystem::file_size(video) * 4 / 10);
   }
   auto node = Start("capture_node", {"--rig", rig_.string(), "--fast", "--cameras", "2"});
-  EXPECT_EQ(node->Wait(60), 3) << test::ReadFile(log_);
+  EXPECT_EQ(node->Wait(60 * test::TimeScale()), 3) << test::ReadFile(log_);
   const std::string log = test::ReadFile(log_);
   EXPECT_NE(log.find("its container declares (truncated or damaged)"), std::string::npos) << log;
   EXPECT_GT(PublishedFrames(log), 100) << log;
@@ -500,7 +555,7 @@ TEST_F(CaptureFiles, EveryVideoTruncatedAlikeIsStillCaught) {
 // frames read against 428 declared is within the container's estimate).
 TEST_F(CaptureFiles, TheWholeVideoEndsWithExit0) {
   auto node = Start("capture_node", {"--rig", rig_.string(), "--fast", "--cameras", "1"});
-  EXPECT_EQ(node->Wait(120), 0) << test::ReadFile(log_);
+  EXPECT_EQ(node->Wait(120 * test::TimeScale()), 0) << test::ReadFile(log_);
   EXPECT_EQ(PublishedFrames(test::ReadFile(log_)), 426) << test::ReadFile(log_);
 }
 
@@ -513,7 +568,7 @@ TEST_F(CaptureFiles, ACameraWithNoFramesIsAnError) {
     ASSERT_TRUE(empty.isOpened());
   }
   auto node = Start("capture_node", {"--rig", rig_.string(), "--fast"});
-  const int rc = node->Wait(60);
+  const int rc = node->Wait(60 * test::TimeScale());
   EXPECT_NE(rc, 0) << test::ReadFile(log_);
   const std::string log = test::ReadFile(log_);
   EXPECT_EQ(rc, 3) << log;

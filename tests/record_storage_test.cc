@@ -10,6 +10,7 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <zstd.h>
 
 #include "hullpipe/record/player.h"
 #include "hullpipe/record/recording.h"
@@ -73,6 +74,42 @@ void ExpectSame(const std::vector<Sample>& a, const std::vector<Sample>& b) {
     EXPECT_EQ(a[i].source_ns, b[i].source_ns) << i;
     EXPECT_TRUE(a[i].data == b[i].data) << "sample " << i << " differs";
   }
+}
+
+// A zstd frame of ~40 KB that really gives 1 GiB (run-length blocks of
+// zeros) made `info` allocate 1.1 GB on an 8-MB file: refused by the ratio
+// rule without allocating. Controls: 2 MiB of zeros (under the ratio-free
+// 64 MiB) decodes; a frame cut short fails.
+TEST(RecordingStorage, AZstdFrameThatExpandsAbsurdlyIsRefusedWithoutAllocating) {
+  std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> c(ZSTD_createCCtx(), ZSTD_freeCCtx);
+  ZSTD_CCtx_setParameter(c.get(), ZSTD_c_compressionLevel, 1);
+  const int64_t claimed = kMaxSampleBytes;
+  ZSTD_CCtx_setPledgedSrcSize(c.get(), uint64_t(claimed));
+  const std::vector<uint8_t> zeros(1 << 20, 0);
+  std::vector<uint8_t> frame(1 << 20);
+  ZSTD_outBuffer out{frame.data(), frame.size(), 0};
+  for (int64_t done = 0; done < claimed; done += int64_t(zeros.size())) {
+    ZSTD_inBuffer in{zeros.data(), zeros.size(), 0};
+    const bool last = done + int64_t(zeros.size()) >= claimed;
+    while (true) {
+      const size_t r = ZSTD_compressStream2(c.get(), &out, &in, last ? ZSTD_e_end : ZSTD_e_continue);
+      ASSERT_FALSE(ZSTD_isError(r));
+      if (last ? r == 0 : in.pos == in.size) break;
+    }
+  }
+  frame.resize(out.pos);
+  ASSERT_LT(frame.size(), size_t(1) << 20);
+  std::vector<uint8_t> got;
+  EXPECT_FALSE(DecodeSampleData(frame.data(), frame.size(), 1, claimed, &got));
+  EXPECT_LT(got.capacity(), size_t(1) << 20) << "refused before allocating";
+  EXPECT_FALSE(ZstdRatioPlausible(frame.size(), claimed));
+
+  const std::vector<uint8_t> small(2 << 20, 0);
+  std::vector<uint8_t> packed(ZSTD_compressBound(small.size()));
+  packed.resize(ZSTD_compress(packed.data(), packed.size(), small.data(), small.size(), 1));
+  ASSERT_TRUE(DecodeSampleData(packed.data(), packed.size(), 1, int64_t(small.size()), &got));
+  EXPECT_EQ(got, small);
+  EXPECT_FALSE(DecodeSampleData(packed.data(), packed.size() / 2, 1, int64_t(small.size()), &got)) << "cut short";
 }
 
 // zstd per sample: what is read back is byte for byte what was written (the CRC

@@ -588,7 +588,11 @@ TEST_P(RecordToolsOn, ReplayIsByteIdenticalAndLateJoinersGetCameraInfo) {
 }
 
 // Maps of two cameras (CameraInfo first), `frames` frames, at `hz` (0: at once).
-void PublishMaps(uint32_t domain, int frames, double hz, const std::function<bool()>& ready) {
+// Publishes `frames` frames of two cameras' maps at hz (0: as fast as acked)
+// once a reader matches and ready() holds; with `stop`, goes on past `frames`
+// until *stop is set (a bound of 10 minutes), counting frames into *sent.
+void PublishMaps(uint32_t domain, int frames, double hz, const std::function<bool()>& ready,
+                 const std::atomic<bool>* stop = nullptr, std::atomic<int>* sent = nullptr) {
   dds::Participant p(domain);
   dds::Writer<hullpipe_msg_CameraInfo> info(p);
   dds::Writer<hullpipe_msg_ObjectPixelMap> maps(p);
@@ -599,7 +603,7 @@ void PublishMaps(uint32_t domain, int frames, double hz, const std::function<boo
   const auto views = test::SphereViews(2, 64, 48, Eigen::Vector3d(0, 0, -1), 0.3);
   for (const auto& v : views) info.Write(dds::CameraToMsg(v.camera, test::BigBox()));
   const double t0 = MonotonicSeconds();
-  for (int seq = 1; seq <= frames; ++seq) {
+  for (int seq = 1; stop ? !*stop && seq <= 18000 : seq <= frames; ++seq) {
     if (hz > 0)
       while (MonotonicSeconds() < t0 + seq / hz) std::this_thread::sleep_for(std::chrono::milliseconds(2));
     for (const auto& v : views)
@@ -607,6 +611,7 @@ void PublishMaps(uint32_t domain, int frames, double hz, const std::function<boo
     // Acknowledged before the next frame: nothing overwritten in the writer's
     // keep-last history before the recorder has it.
     ASSERT_EQ(dds_wait_for_acks(maps.handle(), DDS_SECS(10)), DDS_RETCODE_OK);
+    if (sent) ++*sent;
   }
   ASSERT_EQ(dds_wait_for_acks(info.handle(), DDS_SECS(10)), DDS_RETCODE_OK);
 }
@@ -684,6 +689,43 @@ TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   }, 20);
   EXPECT_EQ(got, 40u) << Log("hullpipe_replay");
   EXPECT_EQ(replay->Wait(30), 0) << Log("hullpipe_replay");
+
+  // Exported onto a full disk (a file size limit of 2 KiB, SIGXFSZ ignored:
+  // each write past it fails with EFBIG): exit 1 naming the first file that
+  // could not be written (0-byte PNGs and export.json with exit 0 before).
+  // MCAP only: SQLite's reader writes its 32-KiB -shm file, so under the
+  // limit the recording does not open (exit 1 too, for another reason).
+  if (Ext() == ".mcap") {
+    const std::string full_log = (dir_ / "export_full.log").string();
+    test::Process full({"/bin/sh", "-c", "trap '' XFSZ; ulimit -f 2; exec \"$0\" \"$@\"", test::BinDir() + "/hullpipe_record",
+                        "export", set, "-o", (dir_ / "export_full").string(), "--domain", std::to_string(test::UniqueDomain())},
+                       full_log);
+    EXPECT_EQ(full.Wait(60), 1) << test::ReadFile(full_log);
+    EXPECT_NE(test::ReadFile(full_log).find("could not be written (a full disk?), the first"), std::string::npos)
+        << test::ReadFile(full_log);
+  }
+
+  // A part missing: what the others hold is exported and replayed, the part is
+  // named, and both exit 3 (they exited 0 while info said DAMAGED).
+  const auto holed = dir_ / ("holed" + Ext());
+  std::filesystem::create_directories(holed);
+  std::vector<std::filesystem::path> files;
+  for (const auto& f : std::filesystem::directory_iterator(set))
+    if (f.path().extension() == Ext()) files.push_back(f.path());  // not SQLite's -wal and -shm
+  std::sort(files.begin(), files.end());
+  ASSERT_GE(files.size(), 3u);
+  for (size_t i = 0; i < files.size(); ++i)
+    if (i != 1) std::filesystem::copy_file(files[i], holed / files[i].filename());
+  const std::string holed_log = (dir_ / "export_holed.log").string();
+  test::Process holed_export({test::BinDir() + "/hullpipe_record", "export", holed.string(), "-o",
+                              (dir_ / "export_holed").string(), "--domain", std::to_string(test::UniqueDomain())},
+                             holed_log);
+  EXPECT_EQ(holed_export.Wait(60), 3) << test::ReadFile(holed_log);
+  EXPECT_NE(test::ReadFile(holed_log).find("part 1 missing"), std::string::npos) << test::ReadFile(holed_log);
+  auto holed_replay = Start("hullpipe_replay", {holed.string(), "--rate", "0", "--no-keyboard", "--linger", "0"},
+                            test::UniqueDomain());
+  EXPECT_EQ(holed_replay->Wait(30), 3) << Log("hullpipe_replay");
+  EXPECT_NE(Log("hullpipe_replay").find("part 1 missing"), std::string::npos) << Log("hullpipe_replay");
 }
 
 // Snapshot mode: nothing is written until told; `hullpipe_cmd snapshot` and
@@ -691,7 +733,22 @@ TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
 TEST_P(RecordToolsOn, SnapshotsHoldTheLastSecondsWhenTold) {
   const std::string dir = (dir_ / ("snaps" + Ext())).string();
   auto recorder = Start("hullpipe_record", {"-o", dir, "--snapshot-seconds", "1"});
-  PublishMaps(domain_, 60, 30, [] { return true; });  // 2 s of maps at 30 Hz
+  // Maps at 30 Hz all along, so that the last second before each trigger holds
+  // some however late the trigger arrives (a loaded machine took over a second
+  // to start hullpipe_cmd after a fixed 2 s of maps: the window was empty).
+  std::atomic<bool> stop{false};
+  std::atomic<int> sent{0};
+  std::thread publisher([&] { PublishMaps(domain_, 0, 30, [] { return true; }, &stop, &sent); });
+  struct Join {
+    std::atomic<bool>& stop;
+    std::thread& t;
+    ~Join() {
+      stop = true;
+      t.join();
+    }
+  } join{stop, publisher};
+  WaitFor([&] { return sent >= 60; }, 30);  // 2 s of maps
+  ASSERT_GE(sent.load(), 60);
   const std::string first = dir + "/snapshot_0001" + Ext(), second = dir + "/snapshot_0002" + Ext();
   EXPECT_FALSE(std::filesystem::exists(first)) << "written before it was told";
   const std::string cmd_log = (dir_ / "cmd.log").string();
@@ -702,6 +759,7 @@ TEST_P(RecordToolsOn, SnapshotsHoldTheLastSecondsWhenTold) {
   recorder->Signal(SIGUSR1);
   WaitFor([&] { return Log("hullpipe_record").find("snapshot (SIGUSR1)") != std::string::npos; }, 20);
   EXPECT_TRUE(std::filesystem::exists(second)) << Log("hullpipe_record");
+  stop = true;
   EXPECT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
   const RecordingReader r(first);
   const RecordingInfo info = r.Info();
@@ -774,16 +832,31 @@ TEST_P(RecordToolsOn, RecorderKilledBySigkillLeavesARecordingThatOpens) {
   ASSERT_GT(maps.MatchedReaders(), 0u) << Log("hullpipe_record");
   const cv::Mat map(48, 64, CV_8UC1, cv::Scalar(0));
   uint64_t seq = 0;
-  const double end = MonotonicSeconds() + 1.0;
-  while (MonotonicSeconds() < end) {
-    maps.Write(dds::MakeMapMessage(1, ++seq, NowNs(), 0, 1, map).msg);
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  recorder.reset();  // SIGKILL, mid-stream
+  auto send = [&](int n) {
+    for (int i = 0; i < n; ++i) {
+      maps.Write(dds::MakeMapMessage(1, ++seq, NowNs(), 0, 1, map).msg);
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  };
+  send(100);
+  // What the file shows while the recorder runs (read-only, as any reader
+  // would): wait until every sample sent so far is committed, however slow the
+  // recorder is (under ThreadSanitizer it lags by seconds).
+  int64_t committed = 0;
+  WaitFor([&] {
+    try {
+      committed = RecordingReader(path).Info().samples;
+    } catch (const RecordingError&) {  // mid-write: looked at again
+    }
+    return committed >= int64_t(seq);
+  }, 60);
+  ASSERT_EQ(committed, int64_t(seq)) << Log("hullpipe_record");
+  send(5);
+  recorder.reset();  // SIGKILL, mid-stream: the last batch is not committed
   const RecordingReader rec(path);
   const auto info = rec.Info();
-  // Everything but the last, uncommitted batch (50 ms, ~10 samples; allow 3x).
-  EXPECT_GT(info.samples, int64_t(seq) - 40) << seq;
+  // Every committed sample survives the kill.
+  EXPECT_GE(info.samples, committed);
   EXPECT_LE(info.samples, int64_t(seq));
   EXPECT_TRUE(info.interrupted);
   // `repair` copies what the file and its log hold into a new recording, marked
@@ -953,6 +1026,12 @@ TEST_F(RecordTools, AWholeRecordingReplayedIntoALiveRunIsNotMixedIn) {
   EXPECT_EQ(points["decoded"], fj["channels"]["/foxglove/hull_view"]["decoded"]);
   EXPECT_EQ(points["schema"], "foxglove.PointCloud");
   EXPECT_GT(points["first"]["data"].get<int>(), 0);  // (read_mcap.mjs gives the base64 length)
+  // render_node's own composite, recorded from its CompositedView topic: one per
+  // composited frame at most (best-effort: a loaded machine may lose one).
+  const auto& composited = fj["channels"]["/foxglove/composited"];
+  EXPECT_EQ(composited["schema"], "foxglove.CompressedImage");
+  EXPECT_GT(composited["decoded"].get<int>(), 0) << fj["channels"].dump();
+  EXPECT_LE(composited["decoded"].get<int>(), run_a["frames_composited"].get<int>());
 }
 
 }  // namespace
@@ -1233,7 +1312,16 @@ TEST_F(RecordTools, TheRigsDemoAsMcapOpensInTheFieldsOwnReaders) {
     EXPECT_EQ(ch[cam + "/calibration"]["messageEncoding"], "json");
   }
   EXPECT_EQ(ch["/foxglove/tf"]["decoded"], int64_t(cams));
-  EXPECT_EQ(ch["/foxglove/scene"]["decoded"], counts["hullpipe/object_state"] + counts["hullpipe/collision_report"]);
+  // One scene update per ball state, collision report and mesh; a CAD model's
+  // part once, then when its pose or contact changes (at most once a state).
+  const int64_t scene = counts["hullpipe/object_state"] + counts["hullpipe/collision_report"] +
+                        counts["hullpipe/virtual_mesh"];
+  EXPECT_GE(ch["/foxglove/scene"]["decoded"].get<int64_t>(), scene);
+  EXPECT_LE(ch["/foxglove/scene"]["decoded"].get<int64_t>(),
+            scene + counts["hullpipe/model_part"] * std::max<int64_t>(1, counts["hullpipe/model_state"]));
+  if (counts["hullpipe/model_state"] == 0) {
+    EXPECT_EQ(ch["/foxglove/scene"]["decoded"].get<int64_t>(), scene);
+  }
   EXPECT_EQ(ch["/foxglove/node_stats"]["decoded"], counts["hullpipe/node_stats"]);
 }
 

@@ -20,21 +20,12 @@
 #include "hullpipe/launch/domain.h"
 #include "hullpipe/launch/process.h"
 #include "hullpipe/testing/fixtures.h"
+#include "hullpipe/testing/time_scale.h"  // TimeScale
 
 namespace hullpipe::test {
 
 /// Directory of the built executables.
 inline std::string BinDir() { return HULLPIPE_BIN_DIR; }
-
-/// How much longer than the specification a timing bound may be in this run:
-/// HULLPIPE_TEST_TIME_SCALE (scripts/sanitize.sh sets 4 for ThreadSanitizer,
-/// which slows every process 5-15 fold), else 1. The main suite checks the
-/// specified bounds; the sanitizer stage looks for races and leaks.
-inline double TimeScale() {
-  const char* s = std::getenv("HULLPIPE_TEST_TIME_SCALE");
-  const double v = s ? std::atof(s) : 1.0;
-  return v >= 1.0 && v <= 100.0 ? v : 1.0;
-}
 
 /// A DDS domain id that no other live process on this machine holds (a lease on
 /// its lock file, kept until this test process ends), in 100..229.

@@ -40,15 +40,61 @@ std::vector<Outgoing> BridgeState::Open(uint64_t client, const std::string& sess
                {"supportedEncodings", json::array()},
                {"metadata", json::object()},
                {"sessionId", session_id}};
+  std::lock_guard<std::mutex> lock(mu_);
+  return {{client, false, info.dump()}, {client, false, AdvertiseText(channels_)}};
+}
+
+std::string BridgeState::AdvertiseText(const std::vector<Channel>& list) const {
   json channels = json::array();
-  for (const auto& c : channels_)
+  for (const auto& c : list)
     channels.push_back({{"id", c.id},
                         {"topic", c.topic},
                         {"encoding", c.encoding},
                         {"schemaName", c.schema_name},
                         {"schema", c.schema},
                         {"schemaEncoding", c.schema_encoding}});
-  return {{client, false, info.dump()}, {client, false, json{{"op", "advertise"}, {"channels", channels}}.dump()}};
+  return json{{"op", "advertise"}, {"channels", channels}}.dump();
+}
+
+std::vector<Outgoing> BridgeState::Advertise(const std::vector<Channel>& more) {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<Channel> added;
+  for (const auto& c : more)
+    if (channel_ids_.insert(c.id).second) {
+      channels_.push_back(c);
+      added.push_back(c);
+    }
+  std::vector<Outgoing> out;
+  if (added.empty()) return out;
+  const std::string text = AdvertiseText(added);
+  for (const auto& [client, subs] : subs_) out.push_back({client, false, text});
+  return out;
+}
+
+std::vector<Channel> BridgeState::channels() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return channels_;
+}
+
+bool BridgeState::Latch(uint32_t channel, const std::string& key, uint64_t stamp_ns, std::vector<uint8_t> payload) {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto& keys = latched_[channel];
+  auto it = keys.find(key);
+  if (it == keys.end()) {
+    if (keys.size() >= 4096) return false;
+    it = keys.emplace(key, Latched{}).first;
+  }
+  it->second = Latched{stamp_ns, std::move(payload)};
+  return true;
+}
+
+std::string BridgeState::Data(uint32_t sub, uint64_t stamp_ns, const std::vector<uint8_t>& payload) const {
+  std::string p(1 + 4 + 8 + payload.size(), '\0');
+  p[0] = char(0x01);  // message data
+  for (int i = 0; i < 4; ++i) p[size_t(1 + i)] = char(sub >> (8 * i));
+  for (int i = 0; i < 8; ++i) p[size_t(5 + i)] = char(stamp_ns >> (8 * i));
+  std::copy(payload.begin(), payload.end(), p.begin() + 13);
+  return p;
 }
 
 void BridgeState::Close(uint64_t client) {
@@ -87,6 +133,9 @@ std::vector<Outgoing> BridgeState::OnText(uint64_t client, const std::string& te
         continue;
       }
       mine[uint32_t(id)] = uint32_t(channel);
+      const auto latched = latched_.find(uint32_t(channel));
+      if (latched != latched_.end())
+        for (const auto& [key, l] : latched->second) out.push_back({client, true, Data(uint32_t(id), l.stamp_ns, l.payload)});
     }
   } else if (op == "unsubscribe") {
     if (!j.contains("subscriptionIds") || !j["subscriptionIds"].is_array())
@@ -106,16 +155,8 @@ std::vector<Outgoing> BridgeState::Route(uint32_t channel, uint64_t stamp_ns,
   std::vector<Outgoing> out;
   std::lock_guard<std::mutex> lock(mu_);
   for (const auto& [client, subs] : subs_)
-    for (const auto& [sub, ch] : subs) {
-      if (ch != channel) continue;
-      Outgoing o{client, true, std::string()};
-      o.payload.resize(1 + 4 + 8 + payload.size());
-      o.payload[0] = char(0x01);  // message data
-      for (int i = 0; i < 4; ++i) o.payload[size_t(1 + i)] = char(sub >> (8 * i));
-      for (int i = 0; i < 8; ++i) o.payload[size_t(5 + i)] = char(stamp_ns >> (8 * i));
-      std::copy(payload.begin(), payload.end(), o.payload.begin() + 13);
-      out.push_back(std::move(o));
-    }
+    for (const auto& [sub, ch] : subs)
+      if (ch == channel) out.push_back({client, true, Data(sub, stamp_ns, payload)});
   return out;
 }
 

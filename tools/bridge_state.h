@@ -17,7 +17,7 @@
 namespace hullpipe::bridge {
 
 /// One advertised channel: a DDS topic, its samples as recorded (cdr, the
-/// type's omgidl schema).
+/// type's omgidl schema), or a viewable channel (json, a jsonschema schema).
 struct Channel {
   uint32_t id = 0;
   std::string topic, encoding, schema_name, schema, schema_encoding;
@@ -44,9 +44,20 @@ class BridgeState {
   /// A client connected: the serverInfo and advertise messages to send it.
   std::vector<Outgoing> Open(uint64_t client, const std::string& session_id);
   void Close(uint64_t client);
+  /// Channels that appear while clients are connected (a camera's viewable
+  /// channels when its calibration arrives): added, and one advertise message
+  /// for each connected client. Ids must be new (a channel with an id already
+  /// advertised is ignored).
+  std::vector<Outgoing> Advertise(const std::vector<Channel>& more);
   /// A text message from a client: subscribe / unsubscribe (others, and client
-  /// publishing, answered with a status error); what to send back.
+  /// publishing, answered with a status error); what to send back. A new
+  /// subscription is sent its channel's latched messages at once.
   std::vector<Outgoing> OnText(uint64_t client, const std::string& text);
+  /// Keeps `payload` as the latest message of (channel, key): state a late
+  /// subscriber needs (a calibration, a camera's transform, a model part), sent
+  /// to each new subscription of the channel. At most 4096 keys per channel
+  /// (further keys are not kept; false).
+  bool Latch(uint32_t channel, const std::string& key, uint64_t stamp_ns, std::vector<uint8_t> payload);
   /// A sample of channel `channel` received at `stamp_ns`: one binary message
   /// (opcode 1, subscription id, timestamp, payload) per subscription.
   std::vector<Outgoing> Route(uint32_t channel, uint64_t stamp_ns, const std::vector<uint8_t>& payload) const;
@@ -55,11 +66,18 @@ class BridgeState {
   /// A status message (level 0 info, 1 warning, 2 error) for one client.
   static Outgoing Status(uint64_t client, int level, const std::string& message);
   int clients() const;
-  const std::vector<Channel>& channels() const { return channels_; }
+  std::vector<Channel> channels() const;
 
  private:
+  std::string Data(uint32_t subscription, uint64_t stamp_ns, const std::vector<uint8_t>& payload) const;
+  std::string AdvertiseText(const std::vector<Channel>& channels) const;
   std::vector<Channel> channels_;
   std::set<uint32_t> channel_ids_;
+  struct Latched {
+    uint64_t stamp_ns = 0;
+    std::vector<uint8_t> payload;
+  };
+  std::map<uint32_t, std::map<std::string, Latched>> latched_;  // channel -> key -> latest
   int max_clients_;
   std::string name_;
   mutable std::mutex mu_;

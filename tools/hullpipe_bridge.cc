@@ -3,8 +3,14 @@
 //   hullpipe_bridge --domain 7 [--address 127.0.0.1] [--port 8765] [--max-clients 8]
 //                   [--queue-mib 16]
 // Then in Foxglove: Open connection -> Foxglove WebSocket -> ws://127.0.0.1:8765.
-// Advertises every hullpipe topic (cdr, with its type's omgidl schema) and
-// streams what each client subscribes to. Its own process rather than a part of
+// Advertises every hullpipe topic (cdr, with its type's omgidl schema) and the
+// viewable channels of foxglove_channels.h (Foxglove's well-known schemas, JSON:
+// camera images, object-pixel maps, calibrations and transforms, the composited
+// view and its hull points, the scene, node rates; a camera's channels from when
+// its calibration arrives), and streams what each client subscribes to. A
+// viewable channel costs only while someone watches it (its JPEG or PNG encode
+// runs for subscribers alone); calibrations, transforms and model parts are
+// latched, so a client that comes late still sees the rig. Its own process rather than a part of
 // render_node: the compositor's loop never waits on a socket, and the bridge
 // reads a DDS topic only while some client is subscribed to it (best-effort,
 // depth 1, so the writers never wait for the bridge). A client that reads slower
@@ -18,12 +24,14 @@
 #include <memory>
 #include <mutex>
 #include <random>
+#include <set>
 #include <thread>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
 #include "bridge_state.h"
+#include "foxglove_channels.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/dds/topics.h"
@@ -55,10 +63,28 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     auto participant = StartNode("bridge", common);
+    // Channels 1..N: the hullpipe topics (type i has channel i + 1); then the
+    // viewable ones.
     std::vector<bridge::Channel> channels;
     const auto& types = KnownTypes();
     for (size_t i = 0; i < types.size(); ++i)
       channels.push_back({uint32_t(i + 1), types[i].topic_name, "cdr", types[i].type_name, IdlText(), "omgidl"});
+    const auto type_index = [&](const std::string& type_name) {
+      for (size_t i = 0; i < types.size(); ++i)
+        if (types[i].type_name == type_name) return i;
+      throw std::logic_error("no hullpipe type " + type_name);
+    };
+    const size_t camera_info = type_index("hullpipe::msg::CameraInfo");
+    uint32_t next_id = uint32_t(types.size() + 1);
+    std::map<std::string, uint32_t> viewable;             // topic -> channel (DDS thread only)
+    std::map<uint32_t, std::vector<size_t>> sources;      // viewable channel -> the types it is made from
+    const auto add_viewable = [&](const foxglove::ChannelSpec& c) {
+      const uint32_t id = next_id++;
+      viewable[c.topic] = id;
+      for (const auto& t : foxglove::SourceTypes(c.topic)) sources[id].push_back(type_index(t));
+      return bridge::Channel{id, c.topic, "json", c.schema_name, c.schema, "jsonschema"};
+    };
+    for (const auto& c : foxglove::FixedChannels()) channels.push_back(add_viewable(c));
     bridge::BridgeState state(channels, max_clients, "hullpipe_bridge");
     SystemClock clock;
     NodeCounters counters(clock);
@@ -116,28 +142,80 @@ int main(int argc, char** argv) {
     const int bound = server.Start(address, port);
     spdlog::info("listening on ws://{}:{} (Foxglove: Open connection -> Foxglove WebSocket)", address, bound);
 
-    // DDS: a reader per wanted channel, made when the first client subscribes
-    // and removed when the last one leaves.
-    std::map<uint32_t, std::unique_ptr<CdrReader>> readers;
-    while (!StopRequested()) {
-      const auto wanted = state.Wanted();
-      for (auto it = readers.begin(); it != readers.end();)
-        it = wanted.count(it->first) ? std::next(it) : readers.erase(it);
-      for (uint32_t ch : wanted)
-        if (!readers.count(ch)) {
-          const KnownType& kt = types[ch - 1];
-          // Best-effort for streams (writers never wait for the bridge); reliable
-          // and transient-local where the topic is (calibration, stats): its
-          // history reaches a client that subscribes late.
-          const QosSpec qos{kt.qos.transient_local, kt.qos.transient_local, 1};
-          readers[ch] = std::make_unique<CdrReader>(*participant, kt, qos);
+    // The viewable channels' derivation. A camera's channels are advertised
+    // when its calibration first arrives (at most Rig::kMaxCameras = 64 of them:
+    // further camera ids are counted as rejected and named once).
+    std::set<uint32_t> wanted;  // channels some client is subscribed to (refreshed each pass)
+    std::set<int64_t> cameras;
+    constexpr size_t kMaxCameras = 64;
+    uint64_t cameras_refused = 0;
+    const auto sink = [&](foxglove::Message m) {
+      auto it = viewable.find(m.topic);
+      if (it == viewable.end()) {
+        const int64_t cam = foxglove::CameraOfTopic(m.topic);
+        if (cam < 0 || cameras.count(cam)) return;
+        if (cameras.size() >= kMaxCameras) {
+          counters.Rejected();
+          if (cameras_refused++ == 0)
+            spdlog::warn("camera {} is past the bridge's {} cameras: its viewable channels are not advertised", cam,
+                         kMaxCameras);
+          return;
         }
-      size_t n = 0;
-      for (auto& [ch, reader] : readers) {
-        const uint32_t channel = ch;
+        cameras.insert(cam);
+        std::vector<bridge::Channel> more;
+        for (const auto& c : foxglove::CameraChannels(uint32_t(cam))) more.push_back(add_viewable(c));
+        for (const auto& o : state.Advertise(more)) send(o);
+        it = viewable.find(m.topic);
+      }
+      const std::vector<uint8_t> bytes(m.json.begin(), m.json.end());
+      const uint64_t now = uint64_t(NowNs());
+      if (!m.latch_key.empty()) state.Latch(it->second, m.latch_key, now, bytes);
+      for (const auto& o : state.Route(it->second, now, bytes)) send(o);
+    };
+    foxglove::Deriver deriver(*participant, sink, [&](const std::string& topic) {
+      const auto it = viewable.find(topic);
+      return it != viewable.end() && wanted.count(it->second) > 0;
+    });
+
+    // DDS: the calibration always (the cameras' channels and latched state come
+    // from it; reliable, transient-local, one sample per camera), and a reader
+    // per type some subscribed channel needs, made when the first client
+    // subscribes and removed when the last one leaves.
+    const KnownType& info_type = types[camera_info];
+    CdrReader calibration(*participant, info_type, QosSpec{true, true, 1});
+    std::map<size_t, std::unique_ptr<CdrReader>> readers;  // by type index
+    while (!StopRequested()) {
+      wanted = state.Wanted();
+      std::set<size_t> raw, derived;
+      for (uint32_t ch : wanted) {
+        if (ch <= types.size()) raw.insert(ch - 1);
+        const auto src = sources.find(ch);
+        if (src != sources.end()) derived.insert(src->second.begin(), src->second.end());
+      }
+      derived.erase(camera_info);  // from the calibration reader above
+      std::set<size_t> needed = raw;
+      needed.insert(derived.begin(), derived.end());
+      for (auto it = readers.begin(); it != readers.end();)
+        it = needed.count(it->first) ? std::next(it) : readers.erase(it);
+      for (size_t t : needed)
+        if (!readers.count(t)) {
+          const KnownType& kt = types[t];
+          // Best-effort for streams (writers never wait for the bridge); reliable
+          // and transient-local where the topic is (calibration, stats, model
+          // parts): its history reaches a client that subscribes late.
+          const QosSpec qos{kt.qos.transient_local, kt.qos.transient_local, 1};
+          readers[t] = std::make_unique<CdrReader>(*participant, kt, qos);
+        }
+      size_t n = calibration.TakeEach([&](const std::vector<uint8_t>& bytes, int64_t) {
+        if (!deriver.Add(info_type.type_name, bytes, NowNs())) counters.Rejected();
+      });
+      for (auto& [t, reader] : readers) {
+        const size_t type = t;
         n += reader->TakeEach([&](const std::vector<uint8_t>& bytes, int64_t) {
           counters.FrameIn();
-          for (const auto& o : state.Route(channel, uint64_t(NowNs()), bytes)) send(o);
+          if (raw.count(type))
+            for (const auto& o : state.Route(uint32_t(type + 1), uint64_t(NowNs()), bytes)) send(o);
+          if (derived.count(type) && !deriver.Add(types[type].type_name, bytes, NowNs())) counters.Rejected();
           counters.FrameOut(0);
         });
       }
@@ -146,7 +224,8 @@ int main(int argc, char** argv) {
     }
     server.Stop();
     reporter.Publish(true);
-    spdlog::info("stopped: {} samples in, {} dropped for slow clients", counters.frames_in(), counters.dropped());
+    spdlog::info("stopped: {} samples in, {} dropped for slow clients, {} refused", counters.frames_in(),
+                 counters.dropped(), counters.rejected());
     return 0;
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());

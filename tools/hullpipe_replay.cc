@@ -97,6 +97,8 @@ int main(int argc, char** argv) {
     // Damage found before anything is published, rather than half-way.
     if (const std::string damage = rec.QuickCheck(); !damage.empty())
       throw std::runtime_error(path + ": damaged (" + damage + "); see hullpipe_record info");
+    if (!rec.missing_parts().empty())
+      spdlog::warn("{}: {}: replaying what the other parts hold", path, rec.missing_parts());
     if (po.include.empty() && !all_topics) {
       po.include = kInputTopics;
       std::vector<std::string> outputs;
@@ -180,6 +182,10 @@ int main(int argc, char** argv) {
     if (rec.damaged_samples() > 0 || refused > 0) {
       spdlog::error("{}: {} damaged sample(s) skipped (CRC-32 mismatch or unknown topic), {} refused by DDS", path,
                     rec.damaged_samples(), refused);
+      return 3;
+    }
+    if (!rec.missing_parts().empty()) {
+      spdlog::error("{}: {}: replayed what the other parts hold (exit 3)", path, rec.missing_parts());
       return 3;
     }
   } catch (const std::exception& e) {

@@ -14,6 +14,7 @@
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/record/recording.h"
+#include "hullpipe/reconstruction/tile_set.h"
 #include "hullpipe/util/logging.h"
 #include "record_foxglove.h"
 
@@ -44,7 +45,8 @@ std::string FileName(const std::string& topic) {
 class Exporter {
  public:
   Exporter(const ExportOptions& o, const Participant& p) : o_(o), participant_(p) {
-    if (o.foxglove) fox_ = std::make_unique<FoxgloveExport>((std::filesystem::path(o.out) / "foxglove.mcap").string());
+    if (o.foxglove)
+      fox_ = std::make_unique<FoxgloveExport>((std::filesystem::path(o.out) / "foxglove.mcap").string(), p);
   }
   const FoxgloveExport* foxglove() const { return fox_.get(); }
 
@@ -55,7 +57,7 @@ class Exporter {
     auto& w = writers_[t.type];
     if (!w) w = std::make_unique<CdrWriter>(participant_, *kt, QosSpec{t.reliable, t.transient_local, t.depth});
     json j = {{"topic", t.name}, {"arrival_ns", s.arrival_ns}, {"source_ns", s.source_ns}};
-    if (fox_) fox_->Raw(t, s);
+    if (fox_) fox_->Add(t, s);
     bool ok = false;
     try {
       ok = Decode(t, s, *w, &j, c);
@@ -68,18 +70,43 @@ class Exporter {
       ++c->json_lines;
     } else if (o_.jsonl) {
       auto& f = jsonl_[t.name];
-      if (!f) f = std::make_unique<std::ofstream>(std::filesystem::path(o_.out) / (FileName(t.name) + ".jsonl"));
+      const auto path = std::filesystem::path(o_.out) / (FileName(t.name) + ".jsonl");
+      if (!f) f = std::make_unique<std::ofstream>(path);
       *f << j.dump(-1, ' ', false, json::error_handler_t::replace) << '\n';
-      ++c->json_lines;
+      if (*f)
+        ++c->json_lines;
+      else
+        Failed(path.string());
     }
     return ok;
   }
 
-  // Closes the videos and flushes the JSON lines.
+  // Closes the videos and the JSON lines and CSV files; a file that could not
+  // be written in full is counted (Failed).
   void Finish() {
-    for (auto& [name, v] : videos_) v.release();
-    for (auto& [name, f] : jsonl_) f->flush();
+    for (auto& [name, v] : videos_) {
+      v.release();
+      const std::string path = (std::filesystem::path(o_.out) / (name + ".mp4")).string();
+      std::error_code ec;
+      if (std::filesystem::file_size(path, ec) == 0 || ec) Failed(path);
+    }
+    for (auto& [topic, f] : jsonl_) {
+      f->close();
+      if (!*f) Failed((std::filesystem::path(o_.out) / (FileName(topic) + ".jsonl")).string());
+    }
+    for (auto& [name, f] : csv_) {
+      f->close();
+      if (!*f) Failed((std::filesystem::path(o_.out) / (name + ".csv")).string());
+    }
   }
+
+  /// Records an output that could not be written (a full disk, a quota): the
+  /// export exits 1 naming the first.
+  void Failed(const std::string& path) {
+    if (write_failures_++ == 0) first_failure_ = path;
+  }
+  int64_t write_failures() const { return write_failures_; }
+  const std::string& first_failure() const { return first_failure_; }
 
  private:
   template <typename T, typename F>
@@ -125,7 +152,6 @@ class Exporter {
         (*j)["cam_from_world_rotation"] = Arr(m.cam_from_world_rotation);
         (*j)["cam_from_world_translation"] = Arr(m.cam_from_world_translation);
         (*j)["workspace_min"] = Arr(m.workspace_min), (*j)["workspace_max"] = Arr(m.workspace_max);
-        if (fox_) fox_->Calibration(s.arrival_ns, m);
       });
     if (type == "hullpipe::msg::ObjectPixelMap")
       return With<hullpipe_msg_ObjectPixelMap>(w, s, [&](const auto& m) {
@@ -133,13 +159,21 @@ class Exporter {
         (*j)["width"] = m.width, (*j)["height"] = m.height, (*j)["runs"] = m.runs._length;
         const cv::Mat map = MapFromMsg(m);
         (*j)["object_pixels"] = cv::countNonZero(map);
-        if (fox_) fox_->Map(m.capture_time_ns, m.camera_id, map);
         if (o_.media) {
           const auto dir = std::filesystem::path(o_.out) / "maps" / ("cam" + std::to_string(m.camera_id));
           std::filesystem::create_directories(dir);
           char name[32];
           std::snprintf(name, sizeof name, "%08llu.png", (unsigned long long)m.frame_seq);
-          if (cv::imwrite((dir / name).string(), map)) ++c->pngs;
+          bool written = false;
+          try {
+            written = cv::imwrite((dir / name).string(), map);
+          } catch (const cv::Exception&) {
+          }
+          if (written) {
+            ++c->pngs;
+          } else {
+            Failed((dir / name).string());
+          }
         }
       });
     if (type == "hullpipe::msg::CameraImage")
@@ -149,28 +183,31 @@ class Exporter {
         (*j)["bytes"] = m.data._length;
         const cv::Mat bgr = ImageFromMsg(m);
         if (o_.media) Frame("images_cam" + std::to_string(m.camera_id), bgr, c);
-        if (fox_) fox_->Image(m.capture_time_ns, m.camera_id, bgr);
       });
     if (type == "hullpipe::msg::ViewPose")
       return With<hullpipe_msg_ViewPose>(w, s, [&](const auto& m) {
         const NovelView v = ViewFromMsg(m);
-        if (fox_) {
-          views_[m.pose_seq] = v;  // the hull points of this pose's tiles need it
-          while (views_.size() > 256) views_.erase(views_.begin());
-        }
         (*j)["pose_seq"] = m.pose_seq, (*j)["frame_seq"] = m.frame_seq, (*j)["stamp_ns"] = m.stamp_ns;
         (*j)["width"] = v.width, (*j)["height"] = v.height, (*j)["fx"] = v.fx, (*j)["fy"] = v.fy;
         (*j)["cx"] = v.cx, (*j)["cy"] = v.cy, (*j)["run_id"] = m.run_id;
         (*j)["world_from_eye_rotation"] = Arr(m.world_from_eye_rotation);
         (*j)["world_from_eye_translation"] = Arr(m.world_from_eye_translation);
       });
+    if (type == "hullpipe::msg::CompositedView")
+      return With<hullpipe_msg_CompositedView>(w, s, [&](const auto& m) {
+        const cv::Mat bgr = CompositedViewFromMsg(m);
+        (*j)["pose_seq"] = m.pose_seq, (*j)["frame_seq"] = m.frame_seq, (*j)["capture_time_ns"] = m.capture_time_ns;
+        (*j)["width"] = m.width, (*j)["height"] = m.height, (*j)["view_width"] = m.view_width;
+        (*j)["view_height"] = m.view_height, (*j)["bytes"] = m.data._length, (*j)["run_id"] = m.run_id;
+        if (o_.media) Frame("composited", bgr, c);
+      });
     if (type == "hullpipe::msg::HullView")
       return With<hullpipe_msg_HullView>(w, s, [&](const auto& m) {
-        const HullTile tile = TileFromMsg(m);
+        HullTile tile = TileFromMsg(m);
         (*j)["node_id"] = m.node_id, (*j)["tile_index"] = m.tile_index, (*j)["tile_count"] = m.tile_count;
         (*j)["rect"] = {m.x, m.y, m.width, m.height}, (*j)["pose_seq"] = m.pose_seq, (*j)["frame_seq"] = m.frame_seq;
         (*j)["capture_time_ns"] = m.capture_time_ns, (*j)["planes"] = m.planes, (*j)["render_ms"] = m.render_ms;
-        if (o_.media || fox_) AddTile(tile, m.capture_time_ns, c);
+        if (o_.media) AddTile(std::move(tile), c);
       });
     if (type == "hullpipe::msg::VirtualObjectState")
       return With<hullpipe_msg_VirtualObjectState>(w, s, [&](const auto& m) {
@@ -178,7 +215,6 @@ class Exporter {
         (*j)["object_id"] = o.object_id, (*j)["frame_seq"] = o.frame_seq, (*j)["sim_time"] = o.sim_time;
         (*j)["radius"] = o.radius, (*j)["position"] = Vec(m.position), (*j)["velocity"] = Vec(m.velocity);
         (*j)["colliding"] = o.colliding;
-        if (fox_) fox_->Object(o.capture_time_ns, o);
       });
     if (type == "hullpipe::msg::CollisionReport")
       return With<hullpipe_msg_CollisionReport>(w, s, [&](const auto& m) {
@@ -186,7 +222,6 @@ class Exporter {
         (*j)["triangles"] = m.triangle_ids._length, (*j)["collision_points"] = m.collision_points._length;
         (*j)["has_response"] = m.has_response, (*j)["cp_obj"] = Vec(m.cp_obj), (*j)["cp_hull"] = Vec(m.cp_hull);
         (*j)["v_rec"] = Vec(m.v_rec), (*j)["d_rec"] = m.d_rec, (*j)["n_hull"] = Vec(m.n_hull);
-        if (fox_) fox_->Collision(m.capture_time_ns, m);
         if (o_.media) {
           auto& f = Csv("collision_report",
                         "arrival_ns,object_id,frame_seq,capture_time_ns,triangles,collision_points,has_response,"
@@ -208,7 +243,6 @@ class Exporter {
         (*j)["rejected"] = st.rejected, (*j)["final_report"] = st.final_report;
         for (const auto& [name, g] : st.stages)
           (*j)["stages"][name] = {{"ms_mean", g.ms_mean}, {"ms_p50", g.ms_p50}, {"ms_p95", g.ms_p95}, {"count", g.count}};
-        if (fox_) fox_->Stats(s.arrival_ns, st);
         if (o_.media) {
           auto& f = Csv("node_stats",
                         "arrival_ns,node,host,fps,latency_ms_p50,latency_ms_p95,frames_in,frames_out,dropped,"
@@ -244,27 +278,8 @@ class Exporter {
   }
 
   // Hull views: the tiles of one pose, pasted into one frame once all arrived.
-  void AddTile(const HullTile& t, int64_t capture_time_ns, Counts* c) {
-    auto& set = pending_[t.pose_seq];
-    set.push_back(t);
-    if (int(set.size()) < int(t.tile_count)) return;
-    cv::Rect all;
-    for (const auto& x : set) all |= x.rect;
-    cv::Mat frame(all.br().y, all.br().x, CV_8UC3, cv::Scalar::all(0));
-    cv::Mat depth(all.br().y, all.br().x, CV_32FC1, cv::Scalar::all(0));
-    for (const auto& x : set) {
-      x.colour.copyTo(frame(x.rect));
-      if (!x.depth.empty() && x.depth.size() == x.rect.size()) x.depth.copyTo(depth(x.rect));
-    }
-    if (fox_) {
-      const auto view = views_.find(t.pose_seq);
-      if (view != views_.end()) fox_->HullPoints(capture_time_ns, view->second, depth);
-    }
-    if (o_.media) Frame("hull_view", frame, c);
-    if (fox_) fox_->HullView(capture_time_ns, frame);
-    pending_.erase(t.pose_seq);
-    // Poses that never completed (a recon node's tile lost): dropped after 64 newer ones.
-    while (!pending_.empty() && pending_.begin()->first + 64 < t.pose_seq) pending_.erase(pending_.begin());
+  void AddTile(HullTile t, Counts* c) {
+    if (const auto view = tiles_.Add(std::move(t))) Frame("hull_view", view->colour, c);
   }
 
   const ExportOptions& o_;
@@ -273,9 +288,10 @@ class Exporter {
   std::map<std::string, std::unique_ptr<std::ofstream>> jsonl_, csv_;
   std::map<std::string, cv::VideoWriter> videos_;
   std::map<std::string, cv::Size> video_size_;
-  std::map<uint64_t, std::vector<HullTile>> pending_;
+  TileSet tiles_;  // HullView tiles by pose, until a view is whole
   std::unique_ptr<FoxgloveExport> fox_;
-  std::map<uint64_t, NovelView> views_;  // recent ViewPoses by pose_seq (--foxglove)
+  int64_t write_failures_ = 0;
+  std::string first_failure_;
 };
 
 }  // namespace
@@ -357,12 +373,25 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
                  fox->counts().size());
   }
   summary["command"] = CommandLine();
-  if (!o.echo) std::ofstream(std::filesystem::path(o.out) / "export.json") << summary.dump(1) << '\n';
+  if (!o.echo) {
+    const auto path = std::filesystem::path(o.out) / "export.json";
+    std::ofstream f(path);
+    f << summary.dump(1) << '\n';
+    f.close();
+    if (!f) ex.Failed(path.string());
+  }
+  if (ex.write_failures() > 0) {
+    spdlog::error("{} output file(s) could not be written (a full disk?), the first {}; the export is incomplete",
+                  ex.write_failures(), ex.first_failure());
+    return 1;
+  }
   if (StopRequested()) {
     spdlog::error("export stopped by a signal before the end; {} is incomplete", o.out);
     return 1;
   }
-  return undecodable || rec.damaged_samples() > 0 ? 3 : 0;
+  if (!rec.missing_parts().empty())
+    spdlog::error("{}: {}: exported what the other parts hold (exit 3)", o.recording, rec.missing_parts());
+  return undecodable || rec.damaged_samples() > 0 || !rec.missing_parts().empty() ? 3 : 0;
 }
 
 }  // namespace hullpipe::record

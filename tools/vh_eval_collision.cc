@@ -13,6 +13,14 @@
 // A case whose CP_obj is ill-conditioned (another exact point 5 mm away is
 // within 0.2 mm as far from RP_obj) has no single right answer: it counts as
 // "ambiguous" and is left out of the response errors.
+//
+// The hull surface's velocity at contacts (hull_motion.h): each scene
+// translating at a known speed along a random direction, filmed by the same
+// cameras with per-camera capture offsets and jitter (so they do not shoot
+// together), two consecutive framesets; at random surface points of the
+// current hull the estimated normal speed against the exact one, v . N with N
+// the smooth hull's normal there (for a translating body the cone surface
+// through a point moves along its normal by the body's displacement along it).
 #include "vh_eval_collision.h"
 
 #include <algorithm>
@@ -21,6 +29,8 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <map>
+#include <memory>
 #include <optional>
 #include <random>
 
@@ -31,6 +41,7 @@
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/collision/collision_response.h"
 #include "hullpipe/collision/contact_region.h"
+#include "hullpipe/collision/hull_motion.h"
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
 #include "hullpipe/gl/gl_triangle_query.h"
@@ -169,6 +180,90 @@ std::optional<Case> MakeCase(const Scene& s, std::mt19937& rng, double spacing) 
   c.d_rec = exact->d_rec;
   c.n_hull = SmoothHullNormal(s.shapes, s.centres, c.cp_hull, 5e-4, &c.edge);
   return c;
+}
+
+// A copy of `scene` translated by t (metres).
+SyntheticScene Translated(SyntheticScene scene, const Eigen::Vector3d& t) {
+  for (Shape& sh : scene.shapes) sh.a += t, sh.b += t;
+  return scene;
+}
+
+// Per-camera capture offsets and a jitter alternating sign frame to frame
+// (seconds): cameras that do not shoot together.
+constexpr double kViewOffsetS[4] = {0.0, 0.003, -0.004, 0.005}, kViewJitterS[4] = {0.002, -0.002, 0.0015, -0.0015};
+
+// One velocity row: a scene moving at `speed` m/s, framesets at `fps`.
+nlohmann::json VelocityRow(const std::string& name, double speed, double fps, const CollisionEvalOptions& o,
+                           std::mt19937& rng) {
+  const Eigen::Vector3d target(0, 0, -1.0);
+  const auto cams = DomeCameras(o.cameras, 3.0, target, o.camera_width, o.camera_height, 0.9);
+  std::vector<Eigen::Vector3d> centres;
+  for (const auto& c : cams) centres.push_back(c.Center());
+  std::normal_distribution<double> gauss;
+  Eigen::Vector3d dir(gauss(rng), gauss(rng), gauss(rng));
+  dir.normalize();
+  const Eigen::Vector3d v = speed * dir;
+  const SyntheticScene base = NamedScene(name, 0.5);
+  Aabb ws;
+  ws.min = target - Eigen::Vector3d::Constant(1.2);
+  ws.max = target + Eigen::Vector3d::Constant(1.2);
+  struct Shot {
+    std::unique_ptr<VolumeQuery> query;
+    TimedHull timed;
+  };
+  auto shoot = [&](int k) {
+    std::vector<CameraMap> views;
+    std::vector<int64_t> skew_ns;
+    for (size_t i = 0; i < cams.size(); ++i) {
+      const double skew = kViewOffsetS[i % 4] + (k % 2 ? 1 : -1) * kViewJitterS[i % 4];
+      views.push_back({cams[i], RenderExactMap(cams[i], Translated(base, (k / fps + skew) * v))});
+      skew_ns.push_back(int64_t(std::llround(skew * 1e9)));
+    }
+    Shot s;
+    s.query = std::make_unique<VolumeQuery>(views, ws);
+    s.timed = TimedHull::Of(*s.query, 1'000'000'000 + int64_t(std::llround(k / fps * 1e9)), skew_ns);
+    return s;
+  };
+  const Shot prev = shoot(1), cur = shoot(2);
+  const HullMotion motion(cur.timed, prev.timed);
+  const SyntheticScene now = Translated(base, (2 / fps) * v);
+  std::vector<double> err, rel_bound, us;
+  std::map<std::string, int> status;
+  int edges = 0;
+  const int points = o.smoke ? 6 : 24;
+  for (int attempt = 0, made = 0; made < points && attempt < 20 * points; ++attempt) {
+    Eigen::Vector3d d(gauss(rng), gauss(rng), gauss(rng));
+    d.normalize();
+    const auto cp = FirstHullPointAlong(*cur.query, target + 1.0 * d, -d, 1.0);
+    if (!cp) continue;
+    const auto n = HullSurfaceNormal(*cur.query, *cp);
+    if (!n) continue;
+    ++made;
+    const auto t0 = Clock::now();
+    const HullVelocity est = motion.At(*cp, n->normal);
+    us.push_back(Seconds(t0) * 1e6);
+    ++status[ToString(est.status)];
+    if (!est.valid()) continue;
+    bool on_edge = false;
+    const Eigen::Vector3d n_true = SmoothHullNormal(now, centres, *cp, 5e-4, &on_edge);
+    if (on_edge) {
+      ++edges;  // the normal, and so the normal speed, is undefined there
+      continue;
+    }
+    err.push_back(std::abs(est.normal_speed - v.dot(n_true)));
+    // What the quantization allows (hull_motion_test.cc): 1.42 px at the
+    // point's depth over the interval, plus 5% of |v|.
+    double footprint = 0;
+    for (const auto& c : cams) footprint = std::max(footprint, (*cp - c.Center()).norm() / c.fx);
+    rel_bound.push_back(err.back() / (1.42 * footprint / est.interval_s + 0.05 * speed));
+  }
+  return {{"scene", name},         {"speed_mps", speed},
+          {"fps", fps},            {"points", us.size()},
+          {"statuses", status},    {"on_hull_edge", edges},
+          {"err_mps_median", Pct(err, 50)},
+          {"err_mps_p95", Pct(err, 95)},
+          {"err_over_bound_max", Pct(rel_bound, 100)},
+          {"us_median", Pct(us, 50)}};
 }
 
 struct MethodStats {
@@ -344,6 +439,15 @@ int RunCollisionEval(const CollisionEvalOptions& o_in) {
     }
   }
 
+  // The hull surface's velocity (hull_motion.h) against the exact one.
+  nlohmann::json velocity_rows = nlohmann::json::array();
+  const std::vector<double> speeds = o.smoke ? std::vector<double>{1.0} : std::vector<double>{0.2, 1.0, 3.0};
+  const std::vector<double> rates = o.smoke ? std::vector<double>{25} : std::vector<double>{25, 50};
+  std::mt19937 vrng(o.seed + 7);
+  for (const auto& name : o.scenes)
+    for (const double fps : rates)
+      for (const double speed : speeds) velocity_rows.push_back(VelocityRow(name, speed, fps, o, vrng));
+
   int ambiguous = 0, edges = 0;
   for (const auto& c : cases) ambiguous += c.ambiguous, edges += c.edge;
   nlohmann::json out = {
@@ -361,7 +465,11 @@ int RunCollisionEval(const CollisionEvalOptions& o_in) {
       {"paper", {{"tris_per_s", 13000}, {"cp_err_mm", 2.0}, {"cp_hull_err_mm", 0.125}, {"response_err_mm", 7.5}}},
       {"normal_fit_radius_px", response_options.normal.fit_radius_px},
       {"gl", gl_tri ? nlohmann::json(gl_note) : nlohmann::json(nullptr)},
-      {"rows", rows}};
+      {"rows", rows},
+      {"velocity",
+       {{"what", "hull surface normal speed at random surface points, scene translating, per-camera capture "
+                 "offsets 0/+3/-4/+5 ms and jitter +-2 ms (hull_motion.h)"},
+        {"rows", velocity_rows}}}};
   if (!o.tsv.empty()) {
     std::ofstream f(o.tsv);
     f << "method\tbackend\tviewport\tthreads\ttris_per_s\tcp_err_mm_p95\tcp_obj_err_mm_p95\td_rec_err_mm_p95\tn_hull_err_deg_p95\n";
@@ -387,6 +495,15 @@ int RunCollisionEval(const CollisionEvalOptions& o_in) {
                 r["cp_obj_err_mm_p95"].dump().c_str(), r["cp_hull_err_mm_p95"].dump().c_str(),
                 r["d_rec_err_mm_p95"].dump().c_str(), r["n_hull_err_deg_p95"].dump().c_str(),
                 r["response_us_median"].dump().c_str());
+  std::printf("\nHull surface velocity at contacts (exact truth v . N; cameras with capture skew)\n");
+  std::printf("| scene | fps | speed m/s | points | measured | err median m/s | err p95 m/s | err/bound max | us |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& r : velocity_rows)
+    std::printf("| %s | %.0f | %.1f | %d | %d | %s | %s | %s | %s |\n", r["scene"].get<std::string>().c_str(),
+                r["fps"].get<double>(), r["speed_mps"].get<double>(), r["points"].get<int>(),
+                r["statuses"].value("measured", 0), r["err_mps_median"].dump().c_str(),
+                r["err_mps_p95"].dump().c_str(), r["err_over_bound_max"].dump().c_str(),
+                r["us_median"].dump().c_str());
   return 0;
 }
 

@@ -34,15 +34,24 @@ KnownType Make() {
   return k;
 }
 
-}  // namespace
-
-const std::vector<KnownType>& KnownTypes() {
-  static const std::vector<KnownType> types = {
+std::vector<KnownType> MakeKnownTypes() {
+  std::vector<KnownType> types = {
       Make<hullpipe_msg_CameraInfo>(),   Make<hullpipe_msg_ObjectPixelMap>(),     Make<hullpipe_msg_CameraImage>(),
       Make<hullpipe_msg_ViewPose>(),     Make<hullpipe_msg_HullView>(),           Make<hullpipe_msg_VirtualObjectState>(),
       Make<hullpipe_msg_CollisionReport>(), Make<hullpipe_msg_NodeStats>(),       Make<hullpipe_msg_VirtualMesh>(),
       Make<hullpipe_msg_SceneCommand>(), Make<hullpipe_msg_HeadPose>(),          Make<hullpipe_msg_ModelPart>(),
-      Make<hullpipe_msg_ModelState>()};
+      Make<hullpipe_msg_ModelState>(),   Make<hullpipe_msg_CompositedView>()};
+  // Fields appended since the first recordings (idl/hullpipe.idl): the hull
+  // velocity of CollisionReport, uint8 + 7 bytes of alignment + 2 doubles.
+  for (KnownType& t : types)
+    if (t.type_name == "hullpipe::msg::CollisionReport") t.appended_bytes = 24;
+  return types;
+}
+
+}  // namespace
+
+const std::vector<KnownType>& KnownTypes() {
+  static const std::vector<KnownType> types = MakeKnownTypes();
   return types;
 }
 
@@ -97,11 +106,17 @@ uint64_t CdrReader::Lost() const {
   return uint64_t(lost.total_count) + uint64_t(rejected.total_count);
 }
 
-CdrWriter::CdrWriter(const Participant& p, const KnownType& type, const QosSpec& qos)
+CdrWriter::CdrWriter(const Participant& p, const KnownType& type, const QosSpec& qos, Scope scope)
     : topic_(Check(dds_create_topic(p.handle(), type.descriptor, type.topic_name.c_str(), nullptr, nullptr),
-                   "dds_create_topic")) {
-  Entity writer(Check(dds_create_writer(p.handle(), topic_.handle(), Qos(qos).get(), nullptr), "dds_create_writer"));
-  static_cast<Entity&>(*this) = std::move(writer);
+                   "dds_create_topic")),
+      appended_bytes_(type.appended_bytes),
+      scope_(scope),
+      descriptor_(type.descriptor) {
+  if (scope == Scope::kPublish) {
+    Entity writer(
+        Check(dds_create_writer(p.handle(), topic_.handle(), Qos(qos).get(), nullptr), "dds_create_writer"));
+    static_cast<Entity&>(*this) = std::move(writer);
+  }
   // The sertype probe, on a partition no one else uses.
   const std::string partition = "hullpipe-sertype-probe-" + std::to_string(getpid());
   const char* parts[] = {partition.c_str()};
@@ -125,29 +140,63 @@ CdrWriter::CdrWriter(const Participant& p, const KnownType& type, const QosSpec&
     }
   }
   if (!sertype_) throw DdsError("sertype probe for " + type.topic_name, DDS_RETCODE_TIMEOUT);
+  // Decode-only: the private publisher (and its probe writer) is all it owns.
+  if (scope == Scope::kDecodeOnly) static_cast<Entity&>(*this) = std::move(pub);
 }
 
 CdrWriter::~CdrWriter() {
   if (sertype_) ddsi_sertype_unref(sertype_);
 }
 
+struct ddsi_serdata* CdrWriter::FromSer(const std::vector<uint8_t>& cdr) const {
+  auto from = [&](const std::vector<uint8_t>& bytes) {
+    ddsrt_iovec_t iov;
+    iov.iov_base = const_cast<uint8_t*>(bytes.data());
+    iov.iov_len = static_cast<ddsrt_iov_len_t>(bytes.size());
+    return ddsi_serdata_from_ser_iov(sertype_, SDK_DATA, 1, &iov, bytes.size());
+  };
+  struct ddsi_serdata* d = from(cdr);
+  if (d || appended_bytes_ == 0 || cdr.size() < 4) return d;
+  // An earlier layout: its body (less the padding its header declares, the low
+  // two bits of the options) with the appended fields' zeros after it.
+  const size_t padding = cdr[3] & 3u;
+  if (cdr.size() < 4 + padding) return nullptr;
+  std::vector<uint8_t> completed(cdr.begin(), cdr.end() - std::ptrdiff_t(padding));
+  completed[2] = completed[3] = 0;
+  completed.resize(completed.size() + appended_bytes_, 0);
+  d = from(completed);
+  if (!d) return nullptr;
+  // Cyclone reads a sample with bytes left over: a current sample cut short
+  // would pass, completed by zeros it never had. Only a sample that ends
+  // exactly where the appended fields begin is of the earlier layout: its
+  // completion serializes back to the same length.
+  void* sample = dds_alloc(descriptor_->m_size);
+  bool exact = ddsi_serdata_to_sample(d, sample, nullptr, nullptr);
+  if (exact) {
+    struct ddsi_serdata* again = ddsi_serdata_from_sample(sertype_, SDK_DATA, sample);
+    exact = again && ddsi_serdata_size(again) == completed.size();
+    if (again) ddsi_serdata_unref(again);
+  }
+  dds_sample_free(sample, descriptor_, DDS_FREE_ALL);
+  if (!exact) {
+    ddsi_serdata_unref(d);
+    return nullptr;
+  }
+  return d;
+}
+
 void CdrWriter::Write(const std::vector<uint8_t>& cdr) const {
+  if (scope_ == Scope::kDecodeOnly) throw std::logic_error("CdrWriter::Write on a decode-only writer");
   if (cdr.size() < 4) throw std::invalid_argument("CDR sample shorter than its header");
   if (!IsXcdr1(cdr.data(), cdr.size())) throw std::invalid_argument("CDR sample is not XCDR1 (encapsulation CDR_LE or CDR_BE)");
-  ddsrt_iovec_t iov;
-  iov.iov_base = const_cast<uint8_t*>(cdr.data());
-  iov.iov_len = static_cast<ddsrt_iov_len_t>(cdr.size());
-  struct ddsi_serdata* d = ddsi_serdata_from_ser_iov(sertype_, SDK_DATA, 1, &iov, cdr.size());
+  struct ddsi_serdata* d = FromSer(cdr);
   if (!d) throw std::invalid_argument("CDR sample does not deserialize as its topic's type");
   Check(dds_writecdr(handle(), d), "dds_writecdr");  // takes the serdata's reference
 }
 
 bool CdrWriter::Decode(const std::vector<uint8_t>& cdr, void* sample) const {
   if (!IsXcdr1(cdr.data(), cdr.size())) return false;
-  ddsrt_iovec_t iov;
-  iov.iov_base = const_cast<uint8_t*>(cdr.data());
-  iov.iov_len = static_cast<ddsrt_iov_len_t>(cdr.size());
-  struct ddsi_serdata* d = ddsi_serdata_from_ser_iov(sertype_, SDK_DATA, 1, &iov, cdr.size());
+  struct ddsi_serdata* d = FromSer(cdr);
   if (!d) return false;
   const bool ok = ddsi_serdata_to_sample(d, sample, nullptr, nullptr);
   ddsi_serdata_unref(d);
@@ -164,6 +213,7 @@ std::vector<uint8_t> CdrWriter::Encode(const void* sample) const {
 }
 
 uint32_t CdrWriter::MatchedReaders() const {
+  if (scope_ == Scope::kDecodeOnly) return 0;
   dds_publication_matched_status_t st;
   Check(dds_get_publication_matched_status(handle(), &st), "dds_get_publication_matched_status");
   return st.current_count;

@@ -1,10 +1,13 @@
 #include "hullpipe/dds/convert.h"
 
 #include <cmath>
+#include <optional>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "hullpipe/segmentation/object_pixel_map.h"
+#include "hullpipe/util/image_file.h"
 
 namespace hullpipe::dds {
 namespace {
@@ -153,16 +156,73 @@ cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& m) {
     return cv::Mat(int(m.height), int(m.width), CV_8UC3, m.data._buffer).clone();
   }
   if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG) {
-    cv::Mat img;
-    if (m.data._length > 0) {
-      const cv::Mat buf(1, int(m.data._length), CV_8UC1, m.data._buffer);
-      img = cv::imdecode(buf, cv::IMREAD_COLOR);
-    }
-    if (img.empty() || img.cols != int(m.width) || img.rows != int(m.height))
-      throw MessageError(who + "JPEG data does not decode to the stated size");
+    // The header first: only a JPEG of the stated size reaches a decoder
+    // (hullpipe/util/image_file.h), never bytes of another format or a
+    // header claiming more than the message says.
+    CheckJpegOfSize(who, m.data._buffer, m.data._length, m.width, m.height);
+    std::string why;
+    cv::Mat img = DecodeImage(m.data._buffer, m.data._length, cv::IMREAD_COLOR, &why);
+    if (img.empty()) throw MessageError(who + why);
     return img;
   }
   throw MessageError(who + "unknown encoding " + std::to_string(int(m.encoding)));
+}
+
+void CheckJpegOfSize(const std::string& who, const uint8_t* data, size_t n, uint32_t width, uint32_t height) {
+  const std::optional<ImageHeader> h = ParseImageHeader(data, n);
+  if (!h || h->format != "jpeg" || int64_t(h->width) != int64_t(width) || int64_t(h->height) != int64_t(height))
+    throw MessageError(who + "data is not a JPEG of the stated size " + std::to_string(width) + "x" +
+                       std::to_string(height));
+}
+
+OwnedSample<hullpipe_msg_CompositedView> MakeCompositedViewMessage(const cv::Mat& bgr, uint64_t pose_seq,
+                                                                   uint64_t frame_seq, int64_t t, uint64_t run_id,
+                                                                   int max_side, int jpeg_quality) {
+  if (bgr.empty() || bgr.type() != CV_8UC3) throw MessageError("CompositedView: the frame must be non-empty BGR");
+  if (max_side < 16 || max_side > int(kMaxSide))
+    throw MessageError("CompositedView: the largest side must be in [16, 16384], not " + std::to_string(max_side));
+  if (jpeg_quality < 1 || jpeg_quality > 100)
+    throw MessageError("CompositedView: the JPEG quality must be in [1, 100], not " + std::to_string(jpeg_quality));
+  cv::Mat image = bgr;
+  const int longer = std::max(bgr.cols, bgr.rows);
+  if (longer > max_side) {
+    const double s = double(max_side) / longer;
+    const cv::Size size(std::max(1, int(std::lround(bgr.cols * s))), std::max(1, int(std::lround(bgr.rows * s))));
+    cv::resize(bgr, image, size, 0, 0, cv::INTER_AREA);
+  }
+  OwnedSample<hullpipe_msg_CompositedView> s;
+  auto& m = s.msg;
+  m.pose_seq = pose_seq;
+  m.frame_seq = frame_seq;
+  m.capture_time_ns = t;
+  m.width = uint32_t(image.cols);
+  m.height = uint32_t(image.rows);
+  m.view_width = uint32_t(bgr.cols);
+  m.view_height = uint32_t(bgr.rows);
+  m.run_id = run_id;
+  if (!cv::imencode(".jpg", image, s.bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality}))
+    throw MessageError("CompositedView: the JPEG encoder failed");
+  Borrow(&m.data, s.bytes);
+  return s;
+}
+
+void CheckCompositedViewMsg(const hullpipe_msg_CompositedView& m) {
+  const std::string who = "CompositedView of frame " + std::to_string(m.frame_seq) + ": ";
+  for (const uint32_t side : {m.width, m.height, m.view_width, m.view_height})
+    if (side == 0 || side > kMaxSide) throw MessageError(who + "a size out of [1, 16384]");
+  if (m.width > m.view_width || m.height > m.view_height)
+    throw MessageError(who + "the image (" + std::to_string(m.width) + "x" + std::to_string(m.height) +
+                       ") is larger than its view (" + std::to_string(m.view_width) + "x" +
+                       std::to_string(m.view_height) + ")");
+  CheckJpegOfSize(who, m.data._buffer, m.data._length, m.width, m.height);
+}
+
+cv::Mat CompositedViewFromMsg(const hullpipe_msg_CompositedView& m) {
+  CheckCompositedViewMsg(m);
+  std::string why;
+  cv::Mat img = DecodeImage(m.data._buffer, m.data._length, cv::IMREAD_COLOR, &why);
+  if (img.empty()) throw MessageError("CompositedView of frame " + std::to_string(m.frame_seq) + ": " + why);
+  return img;
 }
 
 hullpipe_msg_ViewPose ViewToMsg(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq, int64_t stamp,
@@ -415,6 +475,9 @@ OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const Colli
     m.v_rec = ToMsg(r.v_rec);
     m.d_rec = r.d_rec;
     m.n_hull = ToMsg(r.n_hull);
+    m.hull_velocity_status = r.hull_velocity_status;
+    m.hull_normal_speed = r.hull_normal_speed;
+    m.hull_velocity_interval = r.hull_velocity_interval;
   }
   return o;
 }

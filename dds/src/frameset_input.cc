@@ -41,8 +41,13 @@ void FramesetInput::Poll() {
   info_.TakeEach([&](const hullpipe_msg_CameraInfo& m, const dds_sample_info_t&) {
     try {
       Aabb box;
-      assembler_.SetCamera(CameraFromMsg(m, &box));
-      if (!box.empty()) assembler_.SetWorkspace(box);
+      std::string why;
+      const Camera camera = CameraFromMsg(m, &box);
+      bool ok = assembler_.SetCamera(camera, &why);
+      if (ok && !box.empty()) ok = assembler_.SetWorkspace(box, &why);
+      // Named once per camera; every refusal is counted by the assembler.
+      if (!ok && calibration_warned_.size() < 64 && calibration_warned_.insert(camera.id).second)
+        spdlog::warn("{}", why);
     } catch (const MessageError& e) {
       Reject(e.what());
     }

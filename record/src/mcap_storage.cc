@@ -181,7 +181,9 @@ bool Compress(Compression c, int level, ZSTD_CCtx* zstd, const std::vector<uint8
     return false;
   }
   (void)level;
-  return out->size() < in.size();
+  // A chunk that would compress past the readers' ratio rule is stored as it
+  // is, so every file written reads back (recording.h, ZstdRatioPlausible).
+  return out->size() < in.size() && ZstdRatioPlausible(out->size(), int64_t(in.size()));
 }
 
 // Decompresses a chunk's records into *out, which must come to exactly `size`
@@ -189,6 +191,9 @@ bool Compress(Compression c, int level, ZSTD_CCtx* zstd, const std::vector<uint8
 // a size that lies costs no more memory than the data it stands for.
 bool Decompress(const std::string& compression, const uint8_t* p, size_t n, uint64_t size, std::vector<uint8_t>* out) {
   if (size > kMaxChunkBytes) return false;
+  // A chunk of a few KB that truly gives gigabytes (run-length blocks): refused
+  // by the ratio rule before anything is allocated.
+  if (!compression.empty() && !ZstdRatioPlausible(n, int64_t(size))) return false;
   if (compression.empty()) {
     if (n != size) return false;
     out->assign(p, p + n);

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <set>
 
 #include "hullpipe/record/storage.h"
@@ -78,12 +79,33 @@ bool DecodeSampleData(const uint8_t* data, size_t n, int codec, int64_t size, st
     out->assign(data, data + n);
     return true;
   }
-  if (codec != 1 || size < 0 || size > kMaxSampleBytes) return false;
+  if (codec != 1 || size < 0 || size > kMaxSampleBytes || !ZstdRatioPlausible(n, size)) return false;
   const unsigned long long declared = ZSTD_getFrameContentSize(data, n);
   if (declared != (unsigned long long)size) return false;
-  out->resize(size_t(size));
-  const size_t got = ZSTD_decompress(out->data(), out->size(), data, n);
-  return !ZSTD_isError(got) && got == size_t(size);
+  // Streamed into a buffer that doubles (from 4x the input): the allocation
+  // follows the output.
+  std::unique_ptr<ZSTD_DCtx, size_t (*)(ZSTD_DCtx*)> d(ZSTD_createDCtx(), ZSTD_freeDCtx);
+  if (!d) return false;
+  out->clear();
+  ZSTD_inBuffer in{data, n, 0};
+  size_t have = 0;
+  while (true) {
+    if (have == out->size()) {
+      if (out->size() == size_t(size)) {  // full: the frame must end here
+        uint8_t probe;
+        ZSTD_outBuffer o{&probe, 1, 0};
+        const size_t r = ZSTD_decompressStream(d.get(), &o, &in);
+        return !ZSTD_isError(r) && o.pos == 0 && r == 0 && in.pos == in.size;
+      }
+      out->resize(size_t(std::min<uint64_t>(uint64_t(size), std::max<uint64_t>(2 * out->size(), uint64_t(n) * 4 + 65536))));
+    }
+    ZSTD_outBuffer o{out->data(), out->size(), have};
+    const size_t r = ZSTD_decompressStream(d.get(), &o, &in);
+    if (ZSTD_isError(r)) return false;
+    have = o.pos;
+    if (r == 0) return have == size_t(size) && in.pos == in.size;
+    if (in.pos == in.size && o.pos < o.size) return false;  // the input ended, the frame did not
+  }
 }
 
 bool IsMcapFile(const std::string& path) {

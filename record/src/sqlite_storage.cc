@@ -177,7 +177,7 @@ void SqliteWriter::Append(const Sample& s) {
     scratch_.resize(ZSTD_compressBound(s.data.size()));
     const size_t n = ZSTD_compress2(zstd_, scratch_.data(), scratch_.size(), s.data.data(), s.data.size());
     if (ZSTD_isError(n)) throw RecordingError(path_ + ": ZSTD_compress2: " + ZSTD_getErrorName(n));
-    if (n < s.data.size()) {
+    if (n < s.data.size() && ZstdRatioPlausible(n, int64_t(s.data.size()))) {  // else stored as it is
       scratch_.resize(n);
       AppendEncoded(s.topic_id, s.source_ns, s.arrival_ns, scratch_, 1, int64_t(s.data.size()), crc);
       return;

@@ -13,6 +13,7 @@
 
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/image_file.h"
 
 namespace hullpipe {
 namespace {
@@ -47,7 +48,45 @@ cv::VideoCapture OpenCameraCapture(const std::string& spec) {
                             {cv::CAP_PROP_OPEN_TIMEOUT_MSEC, kLiveOpenTimeoutMs, cv::CAP_PROP_READ_TIMEOUT_MSEC,
                              kLiveReadTimeoutMs});
   }
+  // A FIFO, a device or a directory given as a video file would block
+  // open() or be probed by every backend: only regular files are opened.
+  std::error_code ec;
+  const auto st = std::filesystem::status(spec, ec);
+  if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
+    throw std::runtime_error("'" + spec +
+                             "': not a regular file (a FIFO or a device is not read as a video; a live camera is "
+                             "v4l2:<index> or a stream URL)");
+  if (NumberedFile(spec, 0) != spec) CheckImageSequence(spec);
   return cv::VideoCapture(spec, cv::CAP_ANY);
+}
+
+void CheckImageSequence(const std::string& pattern) {
+  const ImageLimits limits;
+  std::optional<ImageHeader> first;
+  for (int n = FirstFileNumber(pattern);; ++n) {
+    const std::string file = NumberedFile(pattern, n);
+    std::error_code ec;
+    if (!std::filesystem::exists(file, ec)) break;  // the sequence ends at its first gap, as OpenCV's
+    const auto h = ProbeImageFile(file);
+    if (!h)
+      throw std::runtime_error("'" + file +
+                               "': not a regular file holding a PNG, JPEG, BMP, PNM or TIFF image (its header)");
+    if (h->width > limits.max_side || h->height > limits.max_side)
+      throw std::runtime_error("'" + file + "': its header says " + std::to_string(h->width) + "x" +
+                               std::to_string(h->height) + " px, over " + std::to_string(limits.max_side) +
+                               " a side");
+    const auto bytes = std::filesystem::file_size(file, ec);
+    if (!ec && int64_t(bytes) > limits.max_bytes)
+      throw std::runtime_error("'" + file + "': " + std::to_string(bytes) + " bytes, over " +
+                               std::to_string(limits.max_bytes >> 20) + " MiB");
+    if (!first) {
+      first = h;
+    } else if (h->width != first->width || h->height != first->height) {
+      throw std::runtime_error("'" + file + "': " + std::to_string(h->width) + "x" + std::to_string(h->height) +
+                               " px, the sequence's first frame is " + std::to_string(first->width) + "x" +
+                               std::to_string(first->height));
+    }
+  }
 }
 
 std::string NumberedFile(const std::string& pattern, int n) {

@@ -25,8 +25,18 @@ namespace hullpipe {
 /// second unless OPENCV_FFMPEG_CAPTURE_OPTIONS is set), anything else as a video
 /// file or image pattern. The capture may be closed (not found, not yet up):
 /// callers check isOpened(). Throws std::runtime_error for a malformed
-/// "v4l2:" spec.
+/// "v4l2:" spec, a file spec that is not a regular file, and an image sequence
+/// that CheckImageSequence refuses.
 cv::VideoCapture OpenCameraCapture(const std::string& spec);
+
+/// Checks every file of an image sequence (`pattern` as NumberedFile takes it,
+/// from FirstFileNumber to the first gap, as OpenCV's image-sequence capture
+/// reads them) from its header alone (util/image_file.h, ProbeImageFile)
+/// before any is decoded: each must be a regular file holding a PNG, JPEG, BMP,
+/// PNM or TIFF image within ImageLimits (16384 px a side, 256 MiB) and of the
+/// first frame's size. Throws std::runtime_error naming the first file that is
+/// not. Reads the start of every file once (up to 4 MiB each).
+void CheckImageSequence(const std::string& pattern);
 
 /// The file of number `n` of a printf-style pattern ("mask_%04d.png"): one
 /// integer conversion, "%d" or "%0Nd" (N <= 9); a pattern without one names a

@@ -2,7 +2,10 @@
 // frame and reopened, a malformed device spec.
 #include "hullpipe/capture/camera_reader.h"
 
+#include <sys/stat.h>
+
 #include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -40,6 +43,47 @@ TEST(CameraReader, AnImageSequenceIsReadInOrderAndReopened) {
   // Frames of the calibrated size only.
   EXPECT_EQ(ReadCalibratedFrames(3, "frames", pattern, 10, 8, 6).size(), 3u);
   EXPECT_EQ(ReadCalibratedFrames(3, "frames", pattern, 10, 9, 6).size(), 0u);
+}
+
+// Every frame of an image sequence is checked from its header before OpenCV
+// decodes any: a PNG whose header claims 20000x20000 px (OpenCV would allocate
+// 1.2 GB for it), bytes of no image format, a frame of another size and a FIFO
+// are each refused naming the file; the sequence before them reads (the control).
+TEST(CameraReader, AnImageSequenceIsCheckedFromItsHeadersBeforeAnyDecode) {
+  const auto dir = test::TempDir("camera_reader_hostile_seq");
+  for (int k = 0; k < 2; ++k)
+    cv::imwrite((dir / cv::format("f_%02d.png", k)).string(), cv::Mat(6, 8, CV_8UC3, cv::Scalar::all(10 * k)));
+  const std::string pattern = (dir / "f_%02d.png").string();
+  EXPECT_NO_THROW(CheckImageSequence(pattern));
+  FileCameraReader good(3, pattern);
+  cv::Mat img;
+  EXPECT_TRUE(good.Read(&img));
+  const auto expect_refused = [&](const std::string& what) {
+    try {
+      OpenCameraCapture(pattern);
+      ADD_FAILURE() << "not refused: " << what;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("f_02.png"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  const std::string third = (dir / "f_02.png").string();
+  {
+    // The 8-byte signature and an IHDR chunk of 20000 x 20000, 8-bit RGB.
+    std::vector<uint8_t> png = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A, 0, 0, 0, 13, 'I', 'H', 'D', 'R',
+                                0,    0,   0x4E, 0x20, 0, 0, 0x4E, 0x20, 8, 2, 0, 0, 0, 0, 0, 0, 0};
+    std::ofstream(third, std::ios::binary).write(reinterpret_cast<const char*>(png.data()), std::streamsize(png.size()));
+  }
+  expect_refused("20000x20000");
+  std::ofstream(third, std::ios::binary) << "not an image at all, just text";
+  expect_refused("header");
+  cv::imwrite(third, cv::Mat(7, 8, CV_8UC3, cv::Scalar::all(1)));
+  expect_refused("first frame is 8x6");
+  std::filesystem::remove(third);
+  ASSERT_EQ(mkfifo(third.c_str(), 0600), 0);
+  expect_refused("regular file");
+  std::filesystem::remove(third);
+  EXPECT_NO_THROW(OpenCameraCapture(pattern)) << "the sequence ends at its first gap again";
 }
 
 // (A file that does not open is a capture node test,

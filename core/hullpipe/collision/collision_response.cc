@@ -147,7 +147,8 @@ std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, co
                                                     const Eigen::Vector3d& rp_obj, const TriangleQueryOptions& options,
                                                     bool exact, double restitution, const Eigen::Vector3d& previous,
                                                     const Eigen::Vector3d& fallback_normal, CollisionResult* c,
-                                                    Eigen::Vector3d* position, Eigen::Vector3d* velocity) {
+                                                    Eigen::Vector3d* position, Eigen::Vector3d* velocity,
+                                                    const HullMotion* motion) {
   std::optional<CollisionResponse> resp;
   if (exact) {
     RefineFarthestCollisionPoint(query, world_mesh, rp_obj, options, c);
@@ -156,8 +157,10 @@ std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, co
     resp = ComputeResponsePaper(query, c->collision_points, rp_obj);
   }
   Eigen::Vector3d n;
+  HullVelocity hull_velocity;  // none: the paper's stationary hull
   if (resp) {
     n = resp->n_hull;
+    if (motion) resp->hull_velocity = hull_velocity = motion->At(resp->cp_hull, resp->n_hull);
     *position += (resp->d_rec + 1e-3) * resp->v_rec;  // 1 mm clear of the surface
   } else {
     // No CP_hull (a collision point outside the hull by float rounding): back
@@ -169,8 +172,7 @@ std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, co
     n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized()) : fallback_normal;
     *position = previous;
   }
-  const double vn = velocity->dot(n);
-  if (vn < 0) *velocity -= (1 + restitution) * vn * n;
+  ReflectOffMovingSurface(n, hull_velocity, restitution, velocity);
   return resp;
 }
 

@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "hullpipe/collision/collision.h"
+#include "hullpipe/collision/hull_motion.h"
 #include "hullpipe/collision/hull_surface.h"
 #include "hullpipe/reconstruction/volume_query.h"
 
@@ -40,6 +41,9 @@ struct CollisionResponse {
   /// CP_hull on a hull edge or corner: n_hull is the documented blend
   /// (HullNormal::edge).
   bool n_hull_edge = false;
+  /// The hull surface's normal velocity at CP_hull (hull_motion.h): set by
+  /// RespondAsRigidBody when given the hull's motion; kNone otherwise.
+  HullVelocity hull_velocity;
 };
 
 /// §4.2: CP_obj is the collision point farthest from the object's reference point
@@ -92,7 +96,11 @@ std::optional<CollisionResponse> ComputeResponsePaper(const VolumeQuery& query,
 /// (*position moves by that vector: it may be any point fixed to the body, as a
 /// part's pose translation), and the part of *velocity into the hull,
 /// v . N_hull < 0, is reflected about N_hull scaled by `restitution`
-/// (v -= (1 + e) (v . N) N). Without a CP_hull (a collision point outside the
+/// (v -= (1 + e) (v . N) N). Given `motion` (the previous frameset's hull:
+/// hull_motion.h), the velocity reflected is the body's relative to the hull's
+/// surface at CP_hull (ReflectOffMovingSurface; the estimate is kept in the
+/// response's hull_velocity), so a moving hand throws what it strikes; a
+/// stationary hull gives the same result as without. Without a CP_hull (a collision point outside the
 /// hull by rounding) *position goes back to `previous` and the normal is the
 /// direction from the collision points' centroid to rp_obj, or
 /// fallback_normal (unit) where they coincide. Returns the response (nullopt in
@@ -101,6 +109,7 @@ std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, co
                                                     const Eigen::Vector3d& rp_obj, const TriangleQueryOptions& options,
                                                     bool exact, double restitution, const Eigen::Vector3d& previous,
                                                     const Eigen::Vector3d& fallback_normal, CollisionResult* c,
-                                                    Eigen::Vector3d* position, Eigen::Vector3d* velocity);
+                                                    Eigen::Vector3d* position, Eigen::Vector3d* velocity,
+                                                    const HullMotion* motion = nullptr);
 
 }  // namespace hullpipe

@@ -142,6 +142,7 @@ std::optional<HullNormal> HullSurfaceNormal(const VolumeQuery& query, const Eige
     const auto n = ConeNormal(cm.camera, *uv, fit, X);
     if (!n) continue;
     ++forming;
+    best.cameras.push_back(int(i));
     sum += *n;
     if (d < best.border_px) {
       best.border_px = d;

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <optional>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -61,6 +62,9 @@ struct HullNormal {
   /// normalized sum of their cone normals, a documented fallback that points
   /// outward from every cone involved.
   bool edge = false;
+  /// Every camera whose border passes within border_px (indices in
+  /// query.views()): `camera` alone off edges.
+  std::vector<int> cameras;
 };
 
 /// The hull's outward surface normal at X (world metres), which should lie on the

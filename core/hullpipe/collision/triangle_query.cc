@@ -5,15 +5,21 @@
 #include <stdexcept>
 
 #include "hullpipe/util/parallel.h"
+#include <string>
+
 #include "hullpipe/geometry/conventions.h"
 
 namespace hullpipe {
 
 void TriangleQueryOptions::Check() const {
-  if (fixed_viewport < 0) throw std::invalid_argument("TriangleQueryOptions: fixed_viewport must be >= 0");
-  if (fixed_viewport == 0 && !(max_pixel_size > 0))
-    throw std::invalid_argument("TriangleQueryOptions: max_pixel_size must be > 0");
-  if (max_viewport < 1) throw std::invalid_argument("TriangleQueryOptions: max_viewport must be >= 1");
+  const std::string side = std::to_string(kMaxViewportSide);
+  if (fixed_viewport < 0 || fixed_viewport > kMaxViewportSide)
+    throw std::invalid_argument("collision: fixed_viewport must be in [0, " + side + "] pixels (0: sized by "
+                                "max_pixel_size)");
+  if (fixed_viewport == 0 && !(max_pixel_size >= kMinPixelSize && max_pixel_size <= 1))
+    throw std::invalid_argument("collision: max_pixel_size must be in [1e-05, 1] m");
+  if (max_viewport < 1 || max_viewport > kMaxViewportSide)
+    throw std::invalid_argument("collision: max_viewport must be in [1, " + side + "] pixels");
 }
 
 TriangleViewport MakeTriangleViewport(const Eigen::Vector3d& a, const Eigen::Vector3d& b,

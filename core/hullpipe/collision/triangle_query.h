@@ -24,7 +24,16 @@ struct TriangleQueryOptions {
   int fixed_viewport = 0;
   /// Upper bound on the viewport side (pixels), so a huge triangle stays cheap.
   int max_viewport = 64;
-  /// Throws std::invalid_argument naming the bad field.
+  /// Largest viewport side either setting may ask for: 256 px (65,536 volume
+  /// queries a triangle, 10x the default's worst case); 200,000 asked for
+  /// 4e10 a triangle and hung the step.
+  static constexpr int kMaxViewportSide = 256;
+  /// Smallest max_pixel_size: 10 micrometres, far below any camera's pixel on
+  /// the hull (millimetres); below it only max_viewport bounded the work.
+  static constexpr double kMinPixelSize = 1e-5;
+  /// Throws std::invalid_argument naming the bad field: fixed_viewport in
+  /// [0, kMaxViewportSide], max_viewport in [1, kMaxViewportSide],
+  /// max_pixel_size in [kMinPixelSize, 1] m (unless fixed_viewport > 0).
   void Check() const;
 };
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -16,6 +17,7 @@
 #include <Eigen/Dense>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/image_file.h"
 #include "hullpipe/util/yaml_keys.h"
 
 namespace fs = std::filesystem;
@@ -43,7 +45,7 @@ cv::Mat ReadMatrix(const cv::FileStorage& fs_in, const std::string& path, const 
   cv::Mat m;
   try {
     node >> m;
-  } catch (const cv::Exception& e) {
+  } catch (const std::exception&) {  // cv::Exception, and std::length_error from its YAML parser
     throw CalibrationError(path + ": key '" + key + "' is not a matrix");
   }
   if (m.empty() || static_cast<int>(m.total()) != expected_elements)
@@ -99,9 +101,9 @@ void SetIntrinsics(const std::vector<double>& k, const std::string& path, const 
 
 // Image size of a video or image file; {0,0} if it cannot be read.
 cv::Size ProbeSize(const std::string& path) {
-  if (path.empty() || !fs::exists(path)) return {0, 0};
-  cv::Mat img = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (!img.empty()) return img.size();
+  std::error_code ec;
+  if (path.empty() || !fs::is_regular_file(path, ec)) return {0, 0};  // a FIFO would block the open
+  if (const std::optional<ImageHeader> h = ProbeImageFile(path)) return {h->width, h->height};  // never decoded
   cv::VideoCapture cap(path);
   if (!cap.isOpened()) return {0, 0};
   return {static_cast<int>(cap.get(cv::CAP_PROP_FRAME_WIDTH)),
@@ -114,7 +116,8 @@ Rig LoadUtrechtDir(const fs::path& dir) {
   std::vector<std::pair<int, fs::path>> cams;
   for (const auto& entry : fs::directory_iterator(dir)) {
     const std::string name = entry.path().filename().string();
-    if (entry.is_directory() && name.rfind("cam", 0) == 0 && name.size() > 3 &&
+    // cam<N> with N of at most 9 digits (std::stoi threw "stoi" on more).
+    if (entry.is_directory() && name.rfind("cam", 0) == 0 && name.size() > 3 && name.size() <= 12 &&
         std::all_of(name.begin() + 3, name.end(), ::isdigit))
       cams.emplace_back(std::stoi(name.substr(3)), entry.path());
   }
@@ -287,6 +290,7 @@ Rig LoadYamlRig(const fs::path& file) {
     rig.cameras.push_back(std::move(rc));
     ++index;
   }
+  CheckCameraIds(rig, path);
   if (!repaired.empty()) rig.notes.push_back(RepairedRotationsNote(path, repaired));
   if (const YAML::Node ws = root["workspace"]) {
     if (!ws.IsMap()) throw CalibrationError(path + ": key 'workspace' must be a map {min: [x,y,z], max: [x,y,z]}");
@@ -294,6 +298,10 @@ Rig LoadYamlRig(const fs::path& file) {
     const auto lo = ReadList(ws, path, "min", 3, true), hi = ReadList(ws, path, "max", 3, true);
     rig.workspace.min = Eigen::Vector3d(lo[0], lo[1], lo[2]);
     rig.workspace.max = Eigen::Vector3d(hi[0], hi[1], hi[2]);
+    // NaN compares false: a NaN box was "not empty" and passed.
+    for (const double v : {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]})
+      if (!(std::abs(v) <= kMaxStatedExtentM))
+        throw CalibrationError(path + ": workspace: 'min' and 'max' must be finite metres within 10 km of the origin");
     if (rig.workspace.empty()) throw CalibrationError(path + ": workspace min must be <= max");
   }
   if (const YAML::Node w = root["world"]) {
@@ -316,8 +324,8 @@ Rig LoadYamlRig(const fs::path& file) {
       } else {
         rig.world.floor = RigWorld::Floor::kPlane;
         rig.world.floor_height = f.as<double>(std::nan(""));
-        if (!std::isfinite(rig.world.floor_height))
-          throw CalibrationError(path + ": world: key 'floor' must be metres along up, 'hull' or 'none'");
+        if (!(std::abs(rig.world.floor_height) <= kMaxStatedExtentM))
+          throw CalibrationError(path + ": world: key 'floor' must be metres along up (within 10 km), 'hull' or 'none'");
       }
       rig.world.floor_stated = true;
     }
@@ -325,8 +333,9 @@ Rig LoadYamlRig(const fs::path& file) {
       if (!w[key]) continue;
       const double v = w[key].as<double>(std::nan(""));
       const bool radius = std::string(key) == "orbit_radius";
-      if (!std::isfinite(v) || (radius && !(v > 0)))
-        throw CalibrationError(path + ": world: key '" + key + "' must be " + (radius ? "> 0 m" : "finite metres"));
+      if (!(std::abs(v) <= kMaxStatedExtentM) || (radius && !(v > 0)))
+        throw CalibrationError(path + ": world: key '" + key + "' must be " +
+                               (radius ? "in (0, 10000] m" : "finite metres within 10 km"));
       (radius ? rig.world.orbit_radius : rig.world.orbit_height) = v;
       rig.world.orbit_stated = true;
     }
@@ -367,6 +376,49 @@ void CheckWellFormedXml(const std::string& text, const std::string& path) {
 }
 }  // namespace
 
+void CheckCameraIds(const Rig& rig, const std::string& where) {
+  std::set<int> seen;
+  for (const auto& rc : rig.cameras) {
+    if (rc.camera.id < 0)
+      throw CalibrationError(where + ": camera id " + std::to_string(rc.camera.id) + " is negative");
+    if (!seen.insert(rc.camera.id).second)
+      throw CalibrationError(where + ": two cameras have id " + std::to_string(rc.camera.id) +
+                             " (a camera id names one camera on the wire)");
+  }
+}
+
+void CheckOpenCvStorageText(const std::string& text, const std::string& path) {
+  if (text.size() > (1u << 20)) throw CalibrationError(path + ": larger than 1 MiB, not a calibration file");
+  if (const size_t nul = text.find('\0'); nul != std::string::npos)
+    throw CalibrationError(path + ": a NUL byte at offset " + std::to_string(nul) + ": not a text calibration file");
+  size_t first = text.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && text.compare(first, 3, "\xEF\xBB\xBF") == 0)
+    first = text.find_first_not_of(" \t\r\n", first + 3);
+  if (first != std::string::npos && text[first] == '<') {
+    CheckWellFormedXml(text, path);
+    return;
+  }
+  // YAML or JSON: the nesting of [ and {. Brackets in quotes or comments are
+  // counted too, and can hide nesting from the depth (a quoted ']' closes
+  // nothing for OpenCV); the number of them cannot be hidden, and OpenCV's
+  // recursion is never deeper than it.
+  int depth = 0, line = 1, opened = 0;
+  for (const char c : text) {
+    if (c == '\n') {
+      ++line;
+    } else if (c == '[' || c == '{') {
+      if (++opened > kMaxStorageCollections)
+        throw CalibrationError(path + ": line " + std::to_string(line) + ": more than " +
+                               std::to_string(kMaxStorageCollections) + " sequences and maps: not a calibration file");
+      if (++depth > kMaxStorageNesting)
+        throw CalibrationError(path + ": line " + std::to_string(line) + ": sequences and maps nested deeper than " +
+                               std::to_string(kMaxStorageNesting) + ": not a calibration file");
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+}
+
 Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width, int height) {
   // The text is read and checked here first: OpenCV 4.6's FileStorage parser
   // dereferences NULL on a NUL byte inside an XML attribute (fuzz_rig_files
@@ -390,7 +442,7 @@ Camera ReadOpenCvCameraConfig(const std::string& path, int camera_id, int width,
   try {
     if (!fs_in.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY))
       throw CalibrationError(path + ": not a readable OpenCV FileStorage file");
-  } catch (const cv::Exception& e) {
+  } catch (const std::exception&) {  // cv::Exception, and std::length_error from its YAML parser
     throw CalibrationError(path + ": not a readable OpenCV FileStorage file");
   }
   const cv::Mat k = ReadMatrix(fs_in, path, "CameraMatrix", 9);
@@ -602,6 +654,9 @@ void WriteRigYaml(const Rig& rig, const std::string& path) {
   std::ofstream f(path);
   if (!f) throw CalibrationError(path + ": cannot write");
   f << out.c_str() << "\n";
+  f.close();
+  // A full disk or a quota: said, never a "wrote" over a cut file.
+  if (!f) throw CalibrationError(path + ": could not be written in full (a full disk?)");
 }
 
 }  // namespace hullpipe

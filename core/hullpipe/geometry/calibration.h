@@ -52,6 +52,28 @@ class CalibrationError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Largest coordinate a rig file may state for its workspace, floor and orbit:
+/// 10 km from the origin, beyond any space a camera rig covers (a rig in other
+/// units is imported with --scale); a 1e308 orbit or a NaN box passed before.
+constexpr double kMaxStatedExtentM = 1e4;
+
+/// Deepest nesting of sequences and maps ([ and {) accepted in a YAML or JSON
+/// calibration file: OpenCV 4.6's FileStorage parser recurses once per level
+/// and overflows the stack between 30,000 and 40,000 levels; a calibration
+/// nests three or four.
+constexpr int kMaxStorageNesting = 64;
+/// Most sequences and maps in one such file (a bound on that recursion that
+/// quotes cannot hide): a 64-camera calibration has a few hundred.
+constexpr int kMaxStorageCollections = 4096;
+
+/// Checks the text of a file for OpenCV's FileStorage before OpenCV parses it
+/// (docs/reliability.md): at most 1 MiB, no NUL byte, XML (first character '<')
+/// well-formed by libxml2 (no network, no DTD: OpenCV 4.6 dereferences NULL on
+/// attributes cut short), YAML or JSON nested at most kMaxStorageNesting deep
+/// with at most kMaxStorageCollections sequences and maps.
+/// Throws CalibrationError naming `path` and what is wrong.
+void CheckOpenCvStorageText(const std::string& text, const std::string& path);
+
 /// Largest ||R R^T - I||_F (and |det R - 1|) accepted as a rotation and repaired
 /// to the nearest one: 1e-3, a thousand times what six printed decimals leave and
 /// well below anything that is not meant as a rotation (a reflection, a scaled or
@@ -172,8 +194,15 @@ std::string MaskChannelName(RigCamera::MaskChannel c);
 /// 4-channel mask, or the image has another channel count or depth.
 cv::Mat MaskToObjectPixelMap(const cv::Mat& mask, const RigCamera& rc);
 
+/// Every camera id of `rig` in [0, 2^31 - 1] and none twice: two cameras of
+/// one id are one camera to the frameset assembler (a COLMAP model with a
+/// duplicate IMAGE_ID imported with "no warnings" and composited nothing).
+/// Throws CalibrationError naming `where` and the id.
+void CheckCameraIds(const Rig& rig, const std::string& where);
+
 /// Writes a rig as a generic YAML rig file (paths written as given). Used by tools
-/// and tests to round-trip calibrations.
+/// and tests to round-trip calibrations. Throws CalibrationError naming `path`
+/// when it cannot be opened or written in full (a full disk).
 void WriteRigYaml(const Rig& rig, const std::string& path);
 
 }  // namespace hullpipe

@@ -227,6 +227,28 @@ TEST(Calibration, YamlRigKeysAndBoundsAreChecked) {
   skewed.replace(skewed.find("[500,0,"), 7, "[500,900,");
   EXPECT_NE(load("cameras:\n" + skewed).find("key 'K' has skew 900"), std::string::npos);
   EXPECT_NE(load("- just a list\n").find("not a YAML map"), std::string::npos);
+  // A NaN workspace (NaN compares false: the box was "not empty") and a 1e308
+  // orbit passed `check`.
+  EXPECT_NE(load("cameras:\n" + cam + "workspace: {min: [.nan, 0, 0], max: [1, 1, 1]}\n")
+                .find("workspace: 'min' and 'max' must be finite metres within 10 km"),
+            std::string::npos);
+  EXPECT_NE(load("cameras:\n" + cam + "world: {orbit_radius: 1e308}\n").find("'orbit_radius' must be in (0, 10000] m"),
+            std::string::npos);
+  EXPECT_NE(load("cameras:\n" + cam + "world: {floor: -1e30}\n").find("key 'floor' must be metres along up (within 10 km)"),
+            std::string::npos);
+  EXPECT_EQ(load("cameras:\n" + cam + "world: {orbit_radius: 3, floor: -0.5}\n"), "") << "the control";
+  // A Utrecht-style directory whose cam<N> overflows int: "stoi" was the whole message.
+  const auto utrecht = test::TempDir("rig_cam_overflow");
+  std::filesystem::create_directories(utrecht / "cam99999999999");
+  try {
+    LoadRig(utrecht.string());
+    ADD_FAILURE() << "loaded";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("no cam<N>/ directories"), std::string::npos) << e.what();
+  }
+  // Two cameras of one id are one camera on the wire.
+  std::string two = cam;
+  EXPECT_NE(load("cameras:\n" + cam + two).find("two cameras have id 1"), std::string::npos);
 }
 
 TEST(Calibration, LoadsTheUtrechtRig) {

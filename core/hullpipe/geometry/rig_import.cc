@@ -17,6 +17,7 @@
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/image_file.h"
 
 namespace fs = std::filesystem;
 
@@ -44,11 +45,16 @@ std::string ReadText(const fs::path& p) {
   return text;
 }
 
+std::string FormatNumber(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
+}
+
 cv::Size ProbeImage(const fs::path& p) {
-  std::error_code ec;
-  if (p.empty() || !fs::is_regular_file(p, ec)) return {0, 0};
-  const cv::Mat img = cv::imread(p.string(), cv::IMREAD_UNCHANGED);
-  return img.empty() ? cv::Size(0, 0) : img.size();
+  // The header only: an image is never decoded just for its size.
+  const std::optional<ImageHeader> h = p.empty() ? std::nullopt : ProbeImageFile(p.string());
+  return h ? cv::Size(h->width, h->height) : cv::Size(0, 0);
 }
 
 // The image size: the file's, else --width/--height, else the image's.
@@ -63,8 +69,9 @@ void SetSize(Camera* c, int file_w, int file_h, const ImportOptions& o, const fs
   }
   if (c->width <= 0 || c->height <= 0)
     throw CalibrationError(where + ": camera " + std::to_string(c->id) + ": the file has no image size and " +
-                           (image.empty() ? std::string("no image") : "the image " + image.string()) +
-                           " cannot be read: give --width and --height");
+                           (image.empty() ? std::string("names no image")
+                                          : "the image " + image.string() + " cannot be read") +
+                           ": give --width and --height");
   if (c->width > Camera::kMaxSide || c->height > Camera::kMaxSide)
     throw CalibrationError(where + ": camera " + std::to_string(c->id) + ": image size " + std::to_string(c->width) +
                            "x" + std::to_string(c->height) + " beyond " + std::to_string(Camera::kMaxSide) + " px");
@@ -86,6 +93,7 @@ Rig Finish(Rig rig, const std::vector<std::pair<int, double>>& repaired) {
   if (rig.cameras.size() > size_t(Rig::kMaxCameras))
     throw CalibrationError(rig.source + ": " + std::to_string(rig.cameras.size()) + " cameras; a rig has at most " +
                            std::to_string(Rig::kMaxCameras));
+  CheckCameraIds(rig, rig.source);
   for (auto& rc : rig.cameras) {
     try {
       rc.camera.Check();
@@ -195,7 +203,7 @@ void ReadColmapText(const fs::path& dir, std::map<uint32_t, ColmapCamera>* cams,
       while (ls >> v) c.params.push_back(v);
       if (int(c.params.size()) != m->params)
         throw CalibrationError(where + ": line " + std::to_string(n) + ": " + c.model_name + " has " +
-                               std::to_string(m->params) + " parameters, the line " + std::to_string(c.params.size()));
+                               std::to_string(m->params) + " parameters, the line has " + std::to_string(c.params.size()));
       (*cams)[id] = c;
     }
   }
@@ -305,6 +313,8 @@ Rig ImportColmap(const std::string& path, const ImportOptions& o) {
   for (const auto& im : images) {
     RigCamera rc;
     Camera& c = rc.camera;
+    if (im.id > uint32_t(INT32_MAX))
+      throw CalibrationError(where + ": IMAGE_ID " + std::to_string(im.id) + " is beyond 2147483647 (a camera id)");
     c.id = int(im.id);
     const auto it = cams.find(im.camera);
     if (it == cams.end())
@@ -327,7 +337,22 @@ Rig ImportColmap(const std::string& path, const ImportOptions& o) {
   return Finish(std::move(rig), repaired);
 }
 
+namespace {
+Rig ImportNerfChecked(const std::string& path, const ImportOptions& o);
+}  // namespace
+
 Rig ImportNerf(const std::string& path, const ImportOptions& o) {
+  // Any JSON type surprise left unchecked below still names the file.
+  try {
+    return ImportNerfChecked(path, o);
+  } catch (const nlohmann::json::exception& e) {
+    throw CalibrationError(path + ": " + e.what());
+  }
+}
+
+namespace {
+
+Rig ImportNerfChecked(const std::string& path, const ImportOptions& o) {
   o.Check();
   nlohmann::json parsed;
   try {
@@ -362,11 +387,18 @@ Rig ImportNerf(const std::string& path, const ImportOptions& o) {
     RigCamera rc;
     Camera& c = rc.camera;
     c.id = index;
+    if (fr.contains("file_path") && !fr["file_path"].is_string())
+      throw CalibrationError(where + ": key 'file_path' must be text");
     std::string file = fr.value("file_path", std::string());
     fs::path image = file.empty() ? fs::path() : base / file;
     std::error_code ec;
     if (!image.empty() && !image.has_extension() && fs::exists(image.string() + ".png", ec)) image += ".png";
     const double w = num("w"), h = num("h");
+    // Checked as numbers before they become ints ("2147483647x120" from 1e300).
+    for (const auto& [key, v] : {std::pair<const char*, double>{"w", w}, {"h", h}})
+      if (std::isfinite(v) && !(v >= 1 && v <= Camera::kMaxSide && v == std::floor(v)))
+        throw CalibrationError(where + ": key '" + key + "' must be whole pixels in [1, " +
+                               std::to_string(Camera::kMaxSide) + "], not " + FormatNumber(v));
     SetSize(&c, std::isfinite(w) ? int(w) : 0, std::isfinite(h) ? int(h) : 0, o, image, path);
     double fx = num("fl_x"), fy = num("fl_y");
     const double angle_x = num("camera_angle_x"), angle_y = num("camera_angle_y");
@@ -418,6 +450,8 @@ Rig ImportNerf(const std::string& path, const ImportOptions& o) {
   }
   return Finish(std::move(rig), repaired);
 }
+
+}  // namespace
 
 Rig ImportMiddlebury(const std::string& path, const ImportOptions& o) {
   o.Check();
@@ -471,7 +505,7 @@ cv::Mat Matrix(const cv::FileStorage& f, const std::string& key, const std::stri
   cv::Mat m;
   try {
     n >> m;
-  } catch (const cv::Exception&) {
+  } catch (const std::exception&) {
     throw CalibrationError(where + ": key '" + key + "' is not a matrix");
   }
   if (m.empty()) throw CalibrationError(where + ": key '" + key + "' is not a matrix");
@@ -495,7 +529,27 @@ void SetDistortion(const cv::Mat& d, const std::string& where, const std::string
 
 }  // namespace
 
+namespace {
+Rig ImportOpenCvYamlChecked(const std::string& path, const ImportOptions& o);
+}  // namespace
+
 Rig ImportOpenCvYaml(const std::string& path, const ImportOptions& o) {
+  // OpenCV's FileStorage throws cv::Exception and, from its YAML parser,
+  // std::length_error (fuzz_rig_files found it): every one names the file.
+  try {
+    return ImportOpenCvYamlChecked(path, o);
+  } catch (const CalibrationError&) {
+    throw;
+  } catch (const std::invalid_argument&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw CalibrationError(path + ": not a readable OpenCV calibration (" + e.what() + ")");
+  }
+}
+
+namespace {
+
+Rig ImportOpenCvYamlChecked(const std::string& path, const ImportOptions& o) {
   o.Check();
   std::vector<fs::path> files;
   std::error_code ec;
@@ -510,13 +564,14 @@ Rig ImportOpenCvYaml(const std::string& path, const ImportOptions& o) {
   std::vector<cv::FileStorage> storages;
   for (const auto& f : files) {
     const std::string text = ReadText(f);
-    if (text.size() > (1u << 20)) throw CalibrationError(f.string() + ": larger than 1 MiB, not a calibration file");
-    if (text.find('\0') != std::string::npos) throw CalibrationError(f.string() + ": a NUL byte: not a text file");
+    // Checked before OpenCV reads it: its parser crashes on a cut-off XML
+    // attribute and overflows the stack on deeply nested YAML.
+    CheckOpenCvStorageText(text, f.string());
     cv::FileStorage fsr;
     try {
       if (!fsr.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_AUTO))
         throw CalibrationError(f.string() + ": not an OpenCV FileStorage file");
-    } catch (const cv::Exception& e) {
+    } catch (const std::exception&) {  // cv::Exception, and std::length_error from its YAML parser
       throw CalibrationError(f.string() + ": not an OpenCV FileStorage file");
     }
     storages.push_back(std::move(fsr));
@@ -580,7 +635,11 @@ Rig ImportOpenCvYaml(const std::string& path, const ImportOptions& o) {
   } else if (find("M1") && find("M2")) {
     add(1, matrix("M1"), matrix("D1", false), "M1", "D1", Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
     const cv::Mat r = matrix("R"), t = matrix("T");
-    if (r.total() != 9 || t.total() != 3) throw CalibrationError(path + ": keys 'R' and 'T' must be 3x3 and 3x1");
+    // R is read by row and column: a 1x9 or 9x1 R has nine values but not
+    // three rows (it read past its buffer).
+    if (r.rows != 3 || r.cols != 3 || t.total() != 3)
+      throw CalibrationError(path + ": keys 'R' and 'T' must be 3x3 and 3x1 (R is " + std::to_string(r.rows) + "x" +
+                             std::to_string(r.cols) + ", T has " + std::to_string(t.total()) + " values)");
     Eigen::Matrix3d re;
     for (int k = 0; k < 9; ++k) re(k / 3, k % 3) = r.at<double>(k / 3, k % 3);
     const cv::Mat tf = t.reshape(1, 1);
@@ -592,6 +651,8 @@ Rig ImportOpenCvYaml(const std::string& path, const ImportOptions& o) {
   }
   return Finish(std::move(rig), repaired);
 }
+
+}  // namespace
 
 bool DecomposeProjection(const Eigen::Matrix<double, 3, 4>& P_in, Eigen::Matrix3d* K, Eigen::Matrix3d* R,
                          Eigen::Vector3d* t) {

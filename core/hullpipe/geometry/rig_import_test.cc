@@ -6,6 +6,7 @@
 #include "hullpipe/geometry/rig_import.h"
 
 #include <cstdio>
+#include <functional>
 #include <fstream>
 
 #include <Eigen/Geometry>
@@ -311,6 +312,14 @@ TEST(RigImport, MillimetresAreScaledOrWarnedAbout) {
   EXPECT_TRUE(warned);
   for (const auto& w : CheckRig(cams, DefaultWorkspace(cams), raw.world).warnings)
     EXPECT_EQ(w.find("millimetres"), std::string::npos) << w;  // control: metres are not warned about
+  // Far beyond int's range the distance is still printed right (it printed
+  // "-2147483648 m apart").
+  auto far = cams;
+  far[1].cam_from_world.translation += far[1].cam_from_world.rotation * Eigen::Vector3d(3e9, 0, 0);
+  bool said = false;
+  for (const auto& w : CheckRig(far, DefaultWorkspace(cams), raw.world).warnings)
+    said |= w.find("the cameras are 3e+09 m apart") != std::string::npos;
+  EXPECT_TRUE(said);
 }
 
 TEST(RigImport, NearRotationsAreRepairedOnceAndNonRotationsRefused) {
@@ -437,6 +446,106 @@ TEST(RigImport, PmvsProjectionMatricesAreDecomposedWithTheirSkew) {
   } catch (const CalibrationError& e) {
     EXPECT_NE(std::string(e.what()).find("00000000.txt: P is singular"), std::string::npos) << e.what();
   }
+}
+
+// Files that crashed the OpenCV importer (docs/reliability.md): each ends in
+// one CalibrationError naming the file and what is wrong.
+TEST(RigImport, HostileOpenCvFilesAreRefusedInOneLine) {
+  const auto dir = test::TempDir("hostile_opencv");
+  auto expect_refused = [&](const std::string& name, const std::string& text, const std::string& says) {
+    const fs::path p = dir / name;
+    std::ofstream(p, std::ios::binary) << text;
+    try {
+      ImportOptions sized;
+      sized.width = 640;
+      sized.height = 480;
+      ImportOpenCvYaml(p.string(), sized);
+      ADD_FAILURE() << name << " was accepted";
+    } catch (const CalibrationError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind(p.string() + ": ", 0), 0u) << what;
+      EXPECT_NE(what.find(says), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+  };
+  // An XML attribute cut off at the end: OpenCV 4.6 dereferenced NULL.
+  expect_refused("cut.xml", "<?xml version=\"1.0\"?>\n<opencv_storage>\n<op vo=", "not well-formed XML");
+  // 40,000 nested sequences: OpenCV's YAML parser overflowed the stack.
+  expect_refused("deep.yml", "%YAML:1.0\nnCameras: " + std::string(40000, '['), "nested deeper than 64");
+  // Many flat sequences, none deep: bounded by their number.
+  std::string flat = "%YAML:1.0\nx: [";
+  for (int i = 0; i < 5000; ++i) flat += "[1],";
+  expect_refused("flat.yml", flat + "]\n", "more than 4096 sequences and maps");
+  // A stereo calibration whose R is 1x9: nine values, read as 3x3 past its buffer.
+  const std::string m = "!!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n";
+  const std::string d = "!!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n";
+  expect_refused("stereo.yml",
+                 "%YAML:1.0\nM1: " + m + "D1: " + d + "M2: " + m + "D2: " + d +
+                     "R: !!opencv-matrix\n   rows: 1\n   cols: 9\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\n"
+                     "T: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ -0.1, 0., 0. ]\n",
+                 "R is 1x9");
+  // Control: the same stereo file with a 3x3 R imports.
+  const fs::path good = dir / "good.yml";
+  std::ofstream(good) << "%YAML:1.0\nM1: " + m + "D1: " + d + "M2: " + m + "D2: " + d +
+                             "R: " + m.substr(0, m.find("data")) + "data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\n"
+                             "T: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ -0.1, 0., 0. ]\n";
+  ImportOptions o;
+  o.width = 640;
+  o.height = 480;
+  EXPECT_EQ(ImportOpenCvYaml(good.string(), o).cameras.size(), 2u);
+}
+
+// Lies and unclear messages: a COLMAP model whose IMAGE_IDs repeat (two
+// cameras of one id: the assembler saw one, nothing composited) or pass int's
+// range, a cameras.txt line short of parameters, a NeRF size of 1e300 or a
+// file_path that is a number: each one line naming the file and the thing.
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+TEST(RigImport, DuplicateOrOutOfRangeIdsAndBadNumbersAreNamed) {
+  const auto cams = ZUpRig();
+  const auto dir = test::TempDir("lies");
+  auto error_of = [](const std::function<void()>& f) -> std::string {
+    try {
+      f();
+    } catch (const CalibrationError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  auto edit = [](const fs::path& file, const std::string& from, const std::string& to) {
+    std::string text = Slurp(file);
+    const size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    std::ofstream(file) << text;
+  };
+  WriteColmapText(dir / "dup", cams);
+  edit(dir / "dup" / "images.txt", "\n2 ", "\n1 ");  // image 2 now claims id 1
+  EXPECT_NE(error_of([&] { ImportColmap((dir / "dup").string()); }).find("two cameras have id 1"), std::string::npos);
+  WriteColmapText(dir / "big", cams);
+  edit(dir / "big" / "images.txt", "\n2 ", "\n4294967295 ");
+  EXPECT_NE(error_of([&] { ImportColmap((dir / "big").string()); }).find("IMAGE_ID 4294967295 is beyond 2147483647"),
+            std::string::npos);
+  WriteColmapText(dir / "short", cams);
+  std::string text = Slurp(dir / "short" / "cameras.txt");
+  text = text.substr(0, text.find_last_of(' ', text.find('\n', text.find("OPENCV")))) + "\n";  // a parameter less
+  std::ofstream(dir / "short" / "cameras.txt") << text;
+  EXPECT_NE(error_of([&] { ImportColmap((dir / "short").string()); }).find("OPENCV has 8 parameters, the line has 7"),
+            std::string::npos);
+  WriteColmapText(dir / "good", cams);
+  EXPECT_EQ(error_of([&] { ImportColmap((dir / "good").string()); }), "") << "the control";
+
+  WriteNerf(dir / "huge.json", cams);
+  edit(dir / "huge.json", "\"w\": 640", "\"w\": 1e300");
+  EXPECT_NE(error_of([&] { ImportNerf((dir / "huge.json").string()); }).find("key 'w' must be whole pixels in [1, 16384], not 1e+300"),
+            std::string::npos);
+  WriteNerf(dir / "typed.json", cams);
+  edit(dir / "typed.json", "\"file_path\": \"", "\"file_path\": 5, \"x\": \"");
+  const std::string typed = error_of([&] { ImportNerf((dir / "typed.json").string()); });
+  EXPECT_NE(typed.find("typed.json: frame 1: key 'file_path' must be text"), std::string::npos) << typed;
 }
 
 TEST(RigImport, ImportedRigsRoundTripThroughTheRigFile) {

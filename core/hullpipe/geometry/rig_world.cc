@@ -11,6 +11,15 @@
 namespace hullpipe {
 namespace {
 
+// A distance for a message: 4 significant digits at any size ("2.147e+09",
+// where int() printed -2147483648).
+std::string FormatMetres(double m) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.4g", m);
+  return b;
+}
+
+
 constexpr double kPi = 3.14159265358979323846;
 double Deg(double rad) { return rad * 180.0 / kPi; }
 double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
@@ -226,10 +235,10 @@ RigReport CheckRig(const std::vector<Camera>& cameras, const Aabb& workspace, co
     for (const auto& b : cameras) spread = std::max(spread, (a.Center() - b.Center()).norm());
   if (cameras.size() >= 2) {
     if (spread > 200)
-      r.warnings.push_back("the cameras are " + std::to_string(int(spread)) +
+      r.warnings.push_back("the cameras are " + FormatMetres(spread) +
                            " m apart: is the calibration in millimetres? (import with --scale 0.001)");
     else if (spread < 0.005)
-      r.warnings.push_back("the cameras are " + std::to_string(spread) +
+      r.warnings.push_back("the cameras are " + FormatMetres(spread) +
                            " m apart: is the calibration in kilometres or arbitrary units? (import with --scale)");
   }
   const UpEstimates estimates = EstimateUp(cameras);

@@ -113,6 +113,12 @@ struct CollisionReportSample {
   Eigen::Vector3d cp_obj = Eigen::Vector3d::Zero(), cp_hull = Eigen::Vector3d::Zero();
   Eigen::Vector3d v_rec = Eigen::Vector3d::Zero(), n_hull = Eigen::Vector3d::Zero();
   double d_rec = 0;
+  /// The hull surface's motion at CP_hull (collision/hull_motion.h): a
+  /// HullVelocityStatus value (0: not estimated), the normal speed (m/s along
+  /// n_hull, positive outward) and the seconds it was measured over.
+  uint8_t hull_velocity_status = 0;
+  double hull_normal_speed = 0;
+  double hull_velocity_interval = 0;
 };
 
 }  // namespace hullpipe

@@ -13,7 +13,7 @@ namespace {
 
 // Rasterises the meshes into out/depth (eye z), depth-tested.
 void DrawMeshes(const NovelView& view, const MeshDraws& meshes, const Eigen::Vector3d& light,
-                const CompositeOptions& o, cv::Mat* out, cv::Mat* depth) {
+                const CompositeOptions& o, cv::Mat* out, cv::Mat* depth, StopFlag stop) {
   const Rigid3d eye_from_world = view.world_from_eye.Inverse();
   const Eigen::Vector3d light_eye = eye_from_world.rotation * light;
   constexpr double kNear = 0.05;
@@ -59,6 +59,7 @@ void DrawMeshes(const NovelView& view, const MeshDraws& meshes, const Eigen::Vec
       P[i] = Eigen::Vector2d(view.fx * e[i].x() * iz[i] + view.cx, view.fy * e[i].y() * iz[i] + view.cy);
     }
     for (size_t t = 0; t < m.triangles.size(); ++t) {
+      if ((t & 1023) == 0) ThrowIfStopped(stop, "composite");
       const Eigen::Vector3i& tri = m.triangles[t];
       if ((tri.array() < 0).any() || (tri.array() >= int(e.size())).any()) continue;
       const size_t i0 = size_t(tri[0]), i1 = size_t(tri[1]), i2 = size_t(tri[2]);
@@ -113,7 +114,7 @@ void DrawMeshes(const NovelView& view, const MeshDraws& meshes, const Eigen::Vec
 
 cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Mat& hull_colour,
                   const std::vector<VirtualSphere>& spheres, const CompositeOptions& o,
-                  cv::Mat* depth_out, const MeshDraws& meshes) {
+                  cv::Mat* depth_out, const MeshDraws& meshes, StopFlag stop) {
   CV_Assert(hull_depth.type() == CV_32FC1 && hull_colour.type() == CV_8UC3);
   CV_Assert(hull_depth.cols == view.width && hull_depth.rows == view.height);
   CV_Assert(hull_colour.size() == hull_depth.size());
@@ -123,6 +124,7 @@ cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Ma
   const Eigen::Vector3d O = view.world_from_eye.translation;
   const Eigen::Vector3d light = (-o.floor_normal + Eigen::Vector3d(0.3, 0.2, 0)).normalized() * -1.0;
   for (int r = 0; r < view.height; ++r) {
+    ThrowIfStopped(stop, "composite");
     for (int c = 0; c < view.width; ++c) {
       const Eigen::Vector3d D = R * view.EyeRay(c + 0.5, r + 0.5);  // eye z of D is 1
       float best = hull_depth.at<float>(r, c);
@@ -166,7 +168,7 @@ cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Ma
       depth.at<float>(r, c) = best;
     }
   }
-  if (!meshes.empty()) DrawMeshes(view, meshes, light, o, &out, &depth);
+  if (!meshes.empty()) DrawMeshes(view, meshes, light, o, &out, &depth, stop);
   if (depth_out) *depth_out = depth;
   return out;
 }

@@ -10,6 +10,7 @@
 
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/util/interrupt.h"
 
 namespace hullpipe {
 
@@ -40,10 +41,12 @@ using MeshDraws = std::vector<const VirtualMeshDraw*>;
 /// composited eye-z depth. A mesh whose triangle indices are out of range is
 /// skipped (callers validate messages first); null pointers are skipped. A
 /// triangle is tested only at the pixel centres inside its box (most of a CAD
-/// model's triangles, smaller than a pixel, cover none).
+/// model's triangles, smaller than a pixel, cover none). `stop` (util/interrupt.h)
+/// is polled per row and every 1024 triangles: once set, throws Interrupted (an
+/// 8192x8192 view takes seconds; a node stops within a second of SIGINT).
 cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Mat& hull_colour,
                   const std::vector<VirtualSphere>& spheres, const CompositeOptions& options = {},
-                  cv::Mat* depth_out = nullptr, const MeshDraws& meshes = {});
+                  cv::Mat* depth_out = nullptr, const MeshDraws& meshes = {}, StopFlag stop = nullptr);
 
 /// The scripted head path: an orbit around `centre` (world metres) of `radius` at
 /// `height` along the up vector, one turn per `period` seconds, looking at centre.

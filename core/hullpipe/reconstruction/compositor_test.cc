@@ -2,9 +2,12 @@
 // hull, virtual objects and floor wins at each pixel).
 #include "hullpipe/reconstruction/compositor.h"
 
+#include <atomic>
+
 #include <gtest/gtest.h>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/testing/stop_timing.h"
 
 namespace hullpipe {
 namespace {
@@ -58,6 +61,37 @@ TEST(Composite, FarProjectionsDoNotOverflowPixelIndices) {
   (void)Composite(f.view, f.depth, f.colour, {}, f.options, &depth, {&tri, &points});
   EXPECT_GT(cv::countNonZero(depth < kNoDepth), 0);
   EXPECT_NO_THROW((void)Composite(f.view, f.depth, f.colour, {}, CompositeOptions{}, &depth, {}));
+}
+
+// A stop request ends a composite (polled per row, and every 1024 triangles
+// while drawing meshes); without one the same call composites (positive
+// control).
+TEST(Composite, AStopRequestEndsItWithInterrupted) {
+  Fixture f;
+  VirtualMeshDraw m;
+  m.vertices = {{-0.5, -0.5, 2}, {0.5, -0.5, 2}, {-0.5, 0.5, 2}};
+  m.triangles = {{0, 1, 2}};
+  std::atomic<bool> stop{true};
+  EXPECT_THROW((void)Composite(f.view, f.depth, f.colour, {}, f.options, nullptr, {&m}, &stop), Interrupted);
+  stop = false;
+  EXPECT_NO_THROW((void)Composite(f.view, f.depth, f.colour, {}, f.options, nullptr, {&m}, &stop));
+}
+
+// A node stops within a second of SIGINT mid-composite (README, "Engineering
+// rules"): a 4096x4096 view takes about 0.7 s here (8192x8192, render_node's
+// largest, about 3 s); the flag is set 50 ms in and the composite must end
+// within 0.5 s of it (a row is 4096 pixels, well under a millisecond).
+TEST(Composite, AStopFlagEndsALargeCompositeWithinHalfASecond) {
+  const int side = 4096;
+  const NovelView view = NovelView::FromFov(side, side, 1.0, Rigid3d{});
+  const cv::Mat depth(side, side, CV_32FC1, cv::Scalar(kNoDepth));
+  const cv::Mat colour(side, side, CV_8UC3, cv::Scalar(0, 0, 0));
+  const auto t = test::StopAfter(std::chrono::milliseconds(50), [&](StopFlag stop) {
+    (void)Composite(view, depth, colour, {{Eigen::Vector3d(0, 0, 3), 0.5, false}}, {}, nullptr, {}, stop);
+  });
+  ASSERT_TRUE(t.seconds) << "the composite finished before the flag was set; it proves nothing";
+  EXPECT_LT(*t.seconds, 0.5 * test::TimeScale());
+  EXPECT_NE(t.what.find("composite"), std::string::npos) << t.what;
 }
 
 }  // namespace

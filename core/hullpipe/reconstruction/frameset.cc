@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
+#include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
 
 namespace hullpipe {
@@ -10,7 +12,52 @@ namespace hullpipe {
 FramesetAssembler::FramesetAssembler(size_t max_pending, bool want_images)
     : max_pending_(std::max<size_t>(1, max_pending)), want_images_(want_images) {}
 
-void FramesetAssembler::SetCamera(const Camera& camera) {
+namespace {
+
+// What differs between two calibrations of one camera ("" when none does).
+std::string CalibrationChange(const Camera& was, const Camera& now) {
+  std::string what;
+  auto add = [&](const std::string& s) { what += (what.empty() ? "" : ", ") + s; };
+  if (was.width != now.width || was.height != now.height)
+    add("size " + std::to_string(was.width) + "x" + std::to_string(was.height) + " -> " + std::to_string(now.width) +
+        "x" + std::to_string(now.height));
+  if (was.fx != now.fx || was.fy != now.fy || was.cx != now.cx || was.cy != now.cy || was.skew != now.skew)
+    add("intrinsics K");
+  if (was.distortion != now.distortion) add("distortion");
+  if (was.cam_from_world.rotation != now.cam_from_world.rotation ||
+      was.cam_from_world.translation != now.cam_from_world.translation) {
+    const double moved = (was.Center() - now.Center()).norm();
+    const Eigen::AngleAxisd turn(now.cam_from_world.rotation * was.cam_from_world.rotation.transpose());
+    char text[96];
+    std::snprintf(text, sizeof text, "pose (centre moved %.4g m, turned %.3g deg)", moved,
+                  std::abs(turn.angle()) * 180.0 / 3.14159265358979323846);
+    add(text);
+  }
+  return what;
+}
+
+}  // namespace
+
+bool FramesetAssembler::SetWorkspace(const Aabb& workspace, std::string* why) {
+  if (workspace_.empty() || (workspace_.min == workspace.min && workspace_.max == workspace.max)) {
+    workspace_ = workspace;
+    return true;
+  }
+  ++calibrations_refused_;
+  if (why) *why = "a CameraInfo with another workspace than the run's first: refused (a changed rig is a new run)";
+  return false;
+}
+
+bool FramesetAssembler::SetCamera(const Camera& camera, std::string* why) {
+  if (const auto known = cameras_.find(camera.id); known != cameras_.end()) {
+    const std::string change = CalibrationChange(known->second, camera);
+    if (change.empty()) return true;
+    ++calibrations_refused_;
+    if (why)
+      *why = "camera " + std::to_string(camera.id) + ": a CameraInfo that changes its calibration mid-run (" + change +
+             "): refused, the first one holds (a recalibrated rig is a new run)";
+    return false;
+  }
   Cam& cam = cams_[camera.id];
   // Samples of this camera that left the history before its first CameraInfo were
   // a start-up race (DDS does not order samples across topics), not bad input:
@@ -27,6 +74,7 @@ void FramesetAssembler::SetCamera(const Camera& camera) {
       ++rejected_;
       s.map = cv::Mat();
     }
+  return true;
 }
 
 bool FramesetAssembler::Reject(std::string* why, std::string text) {

@@ -78,9 +78,18 @@ class FramesetAssembler {
   /// frameset is complete only when each chosen sample's image has arrived too.
   explicit FramesetAssembler(size_t max_pending = 6, bool want_images = false);
 
-  /// Registers (or updates) a camera's calibration (from CameraInfo).
-  void SetCamera(const Camera& camera);
-  void SetWorkspace(const Aabb& workspace) { workspace_ = workspace; }
+  /// Registers a camera's calibration (from CameraInfo). The first one of a
+  /// camera id holds for the run: the same again (a restarted capture node's,
+  /// the transient-local resend) changes nothing; a different one (size, K,
+  /// distortion or pose) is refused: false, counted in calibrations_refused(),
+  /// *why names the camera and what changed. A calibration changed mid-run
+  /// moved the hull of every frame it is in (a pose moved 0.3 m carved the
+  /// person away; a size change rejected every map): a recalibrated rig is a
+  /// new run.
+  bool SetCamera(const Camera& camera, std::string* why = nullptr);
+  /// The rig's workspace (from CameraInfo): the first holds, as SetCamera's;
+  /// a different one is refused (false, counted, *why says so).
+  bool SetWorkspace(const Aabb& workspace, std::string* why = nullptr);
   /// The workspace from CameraInfo, else DefaultWorkspace of the cameras known.
   Aabb workspace() const;
   size_t camera_count() const { return cameras_.size(); }
@@ -158,6 +167,8 @@ class FramesetAssembler {
 
   uint64_t dropped() const { return dropped_; }
   uint64_t rejected() const { return rejected_; }
+  /// CameraInfo samples refused for changing a calibration or the workspace.
+  uint64_t calibrations_refused() const { return calibrations_refused_; }
   /// Reference frames whose nearest partner of some camera lay outside the tolerance.
   uint64_t dropped_for_skew() const { return dropped_for_skew_; }
   /// Reference frames decided so far: taken, or passed over (superseded by a newer
@@ -251,7 +262,7 @@ class FramesetAssembler {
   uint64_t taken_up_to_ = 0;
   int64_t taken_time_ns_ = 0;
   bool taken_any_ = false;
-  uint64_t dropped_ = 0, rejected_ = 0, restarts_ = 0, dropped_for_skew_ = 0;
+  uint64_t dropped_ = 0, rejected_ = 0, restarts_ = 0, dropped_for_skew_ = 0, calibrations_refused_ = 0;
   uint64_t reference_frames_ = 0, framesets_complete_ = 0;
 };
 

@@ -121,6 +121,48 @@ TEST_F(Assembler, AMapSizeIsCheckedBeforeDecodingOnceTheCameraIsKnown) {
   EXPECT_EQ(a.rejected(), 1u);
 }
 
+// A CameraInfo that changes a camera mid-run (a hostile peer, or a capture
+// node restarted on another calibration): its size changed rejected every map
+// and ended the run with exit 0; a pose moved 0.3 m was taken silently and
+// carved the person away. The first calibration holds; the change is refused,
+// named and counted. Control: the same calibration again (a restarted
+// capture node's) changes nothing and maps of the first size go on.
+TEST_F(Assembler, ACalibrationChangedMidRunIsRefusedNamedAndCounted) {
+  FramesetAssembler a(4);
+  for (const auto& c : cams_) EXPECT_TRUE(a.SetCamera(c));
+  for (const auto& c : cams_) EXPECT_TRUE(a.SetCamera(c)) << "the same again";
+  std::string why;
+  Camera resized = cams_[0];
+  resized.width = 16;
+  resized.height = 12;
+  EXPECT_FALSE(a.SetCamera(resized, &why));
+  EXPECT_EQ(why, "camera 1: a CameraInfo that changes its calibration mid-run (size 32x24 -> 16x12): refused, the "
+                 "first one holds (a recalibrated rig is a new run)");
+  Camera moved = cams_[1];
+  moved.cam_from_world.translation += moved.cam_from_world.rotation * Eigen::Vector3d(0.3, 0, 0);
+  EXPECT_FALSE(a.SetCamera(moved, &why));
+  EXPECT_NE(why.find("pose (centre moved 0.3 m, turned 0 deg)"), std::string::npos) << why;
+  Camera refocused = cams_[2];
+  refocused.fx *= 1.01;
+  refocused.distortion[0] = 0.1;
+  EXPECT_FALSE(a.SetCamera(refocused, &why));
+  EXPECT_NE(why.find("(intrinsics K, distortion)"), std::string::npos) << why;
+  EXPECT_EQ(a.calibrations_refused(), 3u);
+  for (int c = 1; c <= 3; ++c)
+    EXPECT_TRUE(a.AddMap(MapSample{.camera_id = c, .seq = 1, .capture_time_ns = 100, .camera_count = 3, .map = Map()}));
+  ASSERT_TRUE(a.IsComplete(1)) << "the first calibrations hold: maps of their size go on";
+  Aabb box;
+  box.min = Eigen::Vector3d(-1, -1, -1);
+  box.max = Eigen::Vector3d(1, 1, 1);
+  EXPECT_TRUE(a.SetWorkspace(box));
+  EXPECT_TRUE(a.SetWorkspace(box));
+  Aabb other = box;
+  other.max.x() = 2;
+  EXPECT_FALSE(a.SetWorkspace(other, &why));
+  EXPECT_EQ(a.calibrations_refused(), 4u);
+  EXPECT_EQ(a.workspace().max.x(), 1);
+}
+
 // With a camera per capture node, a truncated video ends that node's input
 // early and it cannot tell (it has no other camera): the assembler, which sees
 // every camera, names it. A camera ending 0.8 s before the last (within the

@@ -55,7 +55,7 @@ TriangleMesh BallSimulation::WorldMesh(size_t i) const {
   return meshes_[i].Transformed(world_from_body);
 }
 
-void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
+void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop, const HullMotion* motion) {
   dt = std::clamp(dt, 0.0, 0.25);
   for (auto& s : bodies_) s.colliding = false;
   // Substeps short in time, and short in space: no ball moves more than its own
@@ -94,12 +94,13 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop) {
       CollisionResult c = DetectCollisions(*hull, mesh, config_.collision);
       if (!c.colliding()) continue;
       // Paper §4.2: move the ball by D_rec along V_rec so its deepest collision
-      // point reaches the hull's surface, and reflect its velocity about N_hull.
+      // point reaches the hull's surface, and reflect its velocity about N_hull
+      // (relative to the surface's own velocity there, given the hull's motion).
       const Eigen::Vector3d fallback =
           s.velocity.norm() > 1e-9 ? Eigen::Vector3d(-s.velocity.normalized()) : Eigen::Vector3d(-g_hat);
       const std::optional<CollisionResponse> resp = RespondAsRigidBody(
           *hull, mesh, s.position, config_.collision, config_.response == SceneConfig::Response::kExact,
-          config_.balls[i].restitution, previous, fallback, &c, &s.position, &s.velocity);
+          config_.balls[i].restitution, previous, fallback, &c, &s.position, &s.velocity, motion);
       s.colliding = true;
       s.last_collision = std::move(c);
       s.last_response = resp;
@@ -133,6 +134,9 @@ void BallsElement::Output(double, uint64_t, ElementOutput* out) {
       r.v_rec = resp.v_rec;
       r.d_rec = resp.d_rec;
       r.n_hull = resp.n_hull;
+      r.hull_velocity_status = uint8_t(resp.hull_velocity.status);
+      r.hull_normal_speed = resp.hull_velocity.normal_speed;
+      r.hull_velocity_interval = resp.hull_velocity.interval_s;
     }
     out->reports.push_back(std::move(r));
   }

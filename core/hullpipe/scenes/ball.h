@@ -38,8 +38,10 @@ class BallSimulation {
   /// max_substep and short enough that no ball moves more than its radius in one
   /// (so it cannot tunnel through a thin part of the hull), each checked against
   /// `hull` (nullptr: no hull this step). Throws Interrupted (util/interrupt.h)
-  /// between substeps once `stop` is set.
-  void Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr);
+  /// between substeps once `stop` is set. `motion` (optional): the hull's
+  /// motion since the previous frameset (hull_motion.h), so a ball struck by a
+  /// moving hull leaves with its velocity relative to the surface reflected.
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr, const HullMotion* motion = nullptr);
   const std::vector<BodyState>& bodies() const { return bodies_; }
   /// The world-frame mesh of body i at its current position.
   TriangleMesh WorldMesh(size_t i) const;
@@ -62,7 +64,7 @@ class BallSimulation {
 class BallsElement final : public SceneElement {
  public:
   explicit BallsElement(const SceneConfig& config) : sim_(config) {}
-  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override { sim_.Step(dt, hull, stop); }
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override { sim_.Step(dt, hull, stop, hull_motion()); }
   void Output(double source_time_s, uint64_t frame_seq, ElementOutput* out) override;
   const BallSimulation& simulation() const { return sim_; }
 

@@ -23,6 +23,8 @@ void ClothConfig::Check() const {
     throw std::invalid_argument("cloth: max_substep must be in [1e-4, 0.1] s");
   if (!(clearance >= 0)) throw std::invalid_argument("cloth: clearance must be >= 0");
   if (!(max_search > clearance)) throw std::invalid_argument("cloth: max_search must be > clearance");
+  if (!(collision.max_pixel_size >= TriangleQueryOptions::kMinPixelSize && collision.max_pixel_size <= 1))
+    throw std::invalid_argument("cloth: max_pixel_size must be in [1e-05, 1] m");
   collision.Check();
 }
 

@@ -59,7 +59,7 @@ ShadowMap RenderShadowMap(const LightConfig& light, const Eigen::Vector3d& up, c
 }
 
 void ApplyLighting(const NovelView& view, const cv::Mat& depth, const cv::Mat& hull_depth, const LightConfig& light,
-                   const ShadowMap& shadow, cv::Mat* colour) {
+                   const ShadowMap& shadow, cv::Mat* colour, StopFlag stop) {
   CV_Assert(depth.type() == CV_32FC1 && hull_depth.type() == CV_32FC1 && colour->type() == CV_8UC3);
   CV_Assert(depth.size() == colour->size() && hull_depth.size() == colour->size());
   const Eigen::Matrix3d& R = view.world_from_eye.rotation;
@@ -67,7 +67,8 @@ void ApplyLighting(const NovelView& view, const cv::Mat& depth, const cv::Mat& h
   auto world = [&](int r, int c) {
     return Eigen::Vector3d(O + double(depth.at<float>(r, c)) * (R * view.EyeRay(c + 0.5, r + 0.5)));
   };
-  for (int r = 0; r < view.height; ++r)
+  for (int r = 0; r < view.height; ++r) {
+    ThrowIfStopped(stop, "lighting");
     for (int c = 0; c < view.width; ++c) {
       const float z = depth.at<float>(r, c);
       if (!std::isfinite(z)) continue;
@@ -92,6 +93,7 @@ void ApplyLighting(const NovelView& view, const cv::Mat& depth, const cv::Mat& h
         for (int k = 0; k < 3; ++k) px[k] = cv::saturate_cast<uint8_t>(px[k] * f);
       }
     }
+  }
 }
 
 }  // namespace hullpipe

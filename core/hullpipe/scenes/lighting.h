@@ -61,7 +61,8 @@ ShadowMap RenderShadowMap(const LightConfig& light, const Eigen::Vector3d& up, c
 /// composited depth) are also shaded by the angle between the light and the
 /// hull's normal (from the composited depth's gradient). colour: CV_8UC3, depth:
 /// CV_32FC1 eye z as Composite's depth_out, hull_depth as given to Composite.
+/// `stop` is polled per row: once set, throws Interrupted with *colour part-lit.
 void ApplyLighting(const NovelView& view, const cv::Mat& depth, const cv::Mat& hull_depth, const LightConfig& light,
-                   const ShadowMap& shadow, cv::Mat* colour);
+                   const ShadowMap& shadow, cv::Mat* colour, StopFlag stop = nullptr);
 
 }  // namespace hullpipe

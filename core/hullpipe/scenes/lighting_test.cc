@@ -4,6 +4,7 @@
 // compared with their analytic shadows, and the lit view, all channels, with the
 // analytically lit scene.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <cstdlib>
@@ -214,6 +215,19 @@ TEST(Lighting, LitViewMatchesTheAnalyticallyLitScene) {
     cv::imwrite(dir + "/lit.png", l.image);
     cv::imwrite(dir + "/analytic.png", ref);
   }
+}
+
+// A stop request ends the lighting pass (polled per row); without one the same
+// call lights (positive control: the image changes).
+TEST(Lighting, AStopRequestEndsItWithInterrupted) {
+  Lit l = Render();
+  cv::Mat image = cv::Mat(l.image.size(), CV_8UC3, cv::Scalar(150, 150, 150));
+  std::atomic<bool> stop{true};
+  EXPECT_THROW(ApplyLighting(l.view, l.depth, l.hull_depth, l.light, l.shadow, &image, &stop), Interrupted);
+  EXPECT_EQ(cv::countNonZero(image.reshape(1) != 150), 0);
+  stop = false;
+  ApplyLighting(l.view, l.depth, l.hull_depth, l.light, l.shadow, &image, &stop);
+  EXPECT_GT(cv::countNonZero(image.reshape(1) != 150), 0);
 }
 
 }  // namespace

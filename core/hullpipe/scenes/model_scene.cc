@@ -231,6 +231,9 @@ class ModelsElement final : public SceneElement {
             r.v_rec = resp->v_rec;
             r.d_rec = resp->d_rec;
             r.n_hull = resp->n_hull;
+            r.hull_velocity_status = uint8_t(resp->hull_velocity.status);
+            r.hull_normal_speed = resp->hull_velocity.normal_speed;
+            r.hull_velocity_interval = resp->hull_velocity.interval_s;
           }
           out->reports.push_back(std::move(r));
           if (m.parts[k].dynamic) ++out->colliding_bodies;
@@ -342,7 +345,7 @@ class ModelsElement final : public SceneElement {
         // §4.2, as for the balls (the world mesh only for the exact CP_obj).
         const TriangleMesh world = exact ? p.mesh.Transformed(p.world_from_body) : TriangleMesh{};
         b.response = RespondAsRigidBody(*hull, world, p.world_from_body * b.centre_body, options, exact, e, previous,
-                                        -g_hat_, &c, &t, &b.velocity);
+                                        -g_hat_, &c, &t, &b.velocity, hull_motion());
         collided[k] = true;
         m.results[k] = std::move(c);
       }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
 
 #include <yaml-cpp/yaml.h>
@@ -65,8 +66,17 @@ void SceneConfig::Check() const {
   if (!(max_substep >= kMinSubstepS && max_substep <= kMaxSubstepS))
     throw std::invalid_argument("scene: max_substep must be in [1e-4, 0.1] s");
   collision.Check();
+  try {
+    hull_velocity.Check();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("scene: ") + e.what());
+  }
   for (const auto& e : elements) e->CheckIn(*this);
   if (light) light->Check();
+  if (balls.size() > size_t(kMaxBalls))
+    throw std::invalid_argument("scene: " + std::to_string(balls.size()) + " balls; at most " +
+                                std::to_string(kMaxBalls));
+  long long triangles = 0;
   for (const auto& b : balls) {
     if (!(b.radius > 0)) throw std::invalid_argument("scene: ball radius must be > 0");
     if (!b.start.allFinite() || !b.target.allFinite())
@@ -76,7 +86,11 @@ void SceneConfig::Check() const {
       throw std::invalid_argument("scene: ball restitution must be in [0, 1]");
     if (b.subdivisions < 0 || b.subdivisions > 5)
       throw std::invalid_argument("scene: ball subdivisions must be in [0, 5]");
+    triangles += 20LL << (2 * b.subdivisions);
   }
+  if (triangles > kMaxBallTriangles)
+    throw std::invalid_argument("scene: the balls have " + std::to_string(triangles) + " triangles together; at most " +
+                                std::to_string(kMaxBallTriangles) + " (fewer balls or subdivisions)");
 }
 
 namespace {
@@ -106,14 +120,25 @@ LightConfig ParseLight(const YAML::Node& n, const std::string& path) {
 
 SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& load) {
   SceneConfig cfg;
+  {
+    // Bounded before it is parsed; a FIFO or a directory is not opened.
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec))
+      throw std::runtime_error(path + ": not a regular file (a scene file is YAML text)");
+    const auto bytes = std::filesystem::file_size(path, ec);
+    if (ec) throw std::runtime_error(path + ": cannot read the scene file");
+    if (bytes > uintmax_t(kMaxSceneFileBytes))
+      throw std::runtime_error(path + ": " + std::to_string(bytes >> 20) +
+                               " MiB; a scene file is at most 1 MiB (models go in their own files)");
+  }
   try {
     const YAML::Node root = YAML::LoadFile(path);
     if (!root.IsMap() || root.size() == 0)
       throw std::runtime_error(path + ": not a scene (empty, or not a YAML map of keys)");
     // 'balls' is required (balls: [] for none): a file without it would get the
     // default ball unasked.
-    std::vector<std::string> known = {"gravity", "floor", "collision", "response", "max_substep", "balls",
-                                      "light", "frame"};
+    std::vector<std::string> known = {"gravity", "floor", "collision", "response", "hull_velocity",
+                                      "max_substep", "balls", "light", "frame"};
     for (const auto& kind : SceneElementKinds()) known.push_back(kind.key);
     Keys(root, path, "", known, {"balls"});
     if (const YAML::Node f = root["frame"]) {
@@ -146,6 +171,12 @@ SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& loa
       const std::string r = root["response"].as<std::string>();
       if (r != "exact" && r != "paper") throw std::runtime_error(path + ": 'response' must be exact or paper, not " + r);
       cfg.response = r == "exact" ? SceneConfig::Response::kExact : SceneConfig::Response::kPaper;
+    }
+    if (const YAML::Node v = root["hull_velocity"]) {
+      Keys(v, path, "hull_velocity", {"enabled", "max_speed", "max_interval"});
+      if (v["enabled"]) cfg.hull_velocity.enabled = v["enabled"].as<bool>();
+      if (v["max_speed"]) cfg.hull_velocity.max_speed = v["max_speed"].as<double>();
+      if (v["max_interval"]) cfg.hull_velocity.max_interval = v["max_interval"].as<double>();
     }
     if (root["max_substep"]) cfg.max_substep = root["max_substep"].as<double>();
     if (const YAML::Node balls = root["balls"]) {

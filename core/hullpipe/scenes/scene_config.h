@@ -7,7 +7,9 @@
 // then each triangle volume-queried in its own viewport); the response is §4.2's:
 // the ball moves by D_rec along V_rec (plus 1 mm) so its deepest collision point
 // CP_obj reaches the hull's surface at CP_hull, and its velocity is reflected about
-// N_hull. `response: exact` (default) refines CP_obj below the viewport pixel and
+// N_hull -- relative to the hull surface's own normal velocity there, from the
+// previous frameset's hull (`hull_velocity`, on by default), so a moving hand
+// throws what it strikes. `response: exact` (default) refines CP_obj below the viewport pixel and
 // finds CP_hull and N_hull exactly (collision.h, collision_response.h); `paper`
 // uses the paper's isosceles-triangle scans.
 //
@@ -16,6 +18,8 @@
 //   floor: 0.0                    # floor plane: g_hat . x = floor (omit: no floor)
 //   collision: {max_pixel_size: 0.004, fixed_viewport: 0, max_viewport: 32}
 //   response: exact               # exact | paper
+//   hull_velocity:                # the hull surface's motion at contacts (hull_motion.h)
+//     {enabled: true, max_speed: 10, max_interval: 0.1}   # m/s (clamped beyond), s
 //   balls:
 //     - id: 1
 //       radius: 0.12
@@ -102,6 +106,9 @@ struct SceneConfig {
   /// How the §4.2 response is found: exact (RefineFarthestCollisionPoint +
   /// ComputeResponse) or paper (ComputeResponsePaper).
   enum class Response { kExact, kPaper } response = Response::kExact;
+  /// The hull's motion at contacts (hull_motion.h): sim_node gives the elements
+  /// the previous frameset's hull unless `enabled` is false.
+  HullMotionOptions hull_velocity;
   /// Longest integration step (s), limits tunnelling; in [kMinSubstepS, kMaxSubstepS].
   double max_substep = 0.01;
   std::vector<BallConfig> balls{BallConfig{}};

@@ -22,7 +22,7 @@ namespace hullpipe {
 namespace {
 
 TEST(SceneFiles, EveryShippedSceneLoads) {
-  for (const char* name : {"ball", "ball_blocks", "curtain", "particles", "payload", "lighting"}) {
+  for (const char* name : {"ball", "ball_blocks", "bat", "bat_rig", "curtain", "particles", "payload", "lighting"}) {
     const std::string path = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/" + name + ".yaml";
     EXPECT_NO_THROW(VirtualScene(LoadSceneConfig(path))) << path;
   }
@@ -47,7 +47,30 @@ TEST(SceneFiles, BadFilesNameTheKey) {
        "max_substep must be in [1e-4, 0.1] s"},
       {"balls: []\ncloth: {rod_a: [0, -1, -2], length: 1}\n", "key 'cloth.rod_b' is missing"},
       {"balls: []\ncollision: {max_pixel: 0.01}\n", "unknown key 'collision.max_pixel'"},
+      {"balls: []\nhull_velocity: {max_sped: 5}\n", "unknown key 'hull_velocity.max_sped'"},
+      {"balls: []\nhull_velocity: {max_speed: -1}\n", "hull_velocity.max_speed must be in (0, 1000] m/s"},
+      {"balls: []\nhull_velocity: {max_interval: .nan}\n", "hull_velocity.max_interval must be in (0, 10] s"},
       {"balls: 3\n", "'balls' must be a list"},
+      // The triangle query's viewport: 200,000 px a side hung sim_node past SIGINT.
+      {"balls: []\ncollision: {fixed_viewport: 200000}\n", "collision: fixed_viewport must be in [0, 256] pixels"},
+      {"balls: []\ncollision: {max_viewport: 100000, max_pixel_size: 1e-9}\n",
+       "collision: max_pixel_size must be in [1e-05, 1] m"},
+      {"balls: []\ncollision: {max_viewport: 100000}\n", "collision: max_viewport must be in [1, 256] pixels"},
+      // 5000 balls at subdivision 5 took 2.5 GB past SIGINT.
+      {[] {
+         std::string t = "balls:\n";
+         for (int k = 0; k < 300; ++k) t += "  - {radius: 0.1, start: [1, 0, -1], target: [0, 0, -1]}\n";
+         return t;
+       }(),
+       "300 balls; at most 256"},
+      {[] {
+         std::string t = "balls:\n";
+         for (int k = 0; k < 60; ++k) t += "  - {radius: 0.1, start: [1, 0, -1], target: [0, 0, -1], subdivisions: 5}\n";
+         return t;
+       }(),
+       "the balls have 1228800 triangles together; at most 1048576"},
+      // A 2-MiB file is refused before it is parsed.
+      {ball + "# " + std::string(2 << 20, 'x') + "\n", "2 MiB; a scene file is at most 1 MiB"},
   };
   int i = 0;
   for (const auto& [text, words] : cases) {

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "hullpipe/collision/hull_motion.h"
 #include "hullpipe/geometry/rigid3.h"
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/reconstruction/volume_query.h"
@@ -63,6 +64,18 @@ class SceneElement {
   /// element has no spacing. Throws std::invalid_argument (nothing changes) for a
   /// value it refuses.
   virtual bool SetSpacing(double /*spacing_m*/) { return false; }
+  /// The hull's motion for the next Step (hull_motion.h: the current and the
+  /// previous frameset's hulls), or nullptr (a stationary hull, the paper's
+  /// §4.2). Elements with rigid bodies (balls, dynamic model parts) reflect
+  /// their velocity relative to the moving surface; the rest ignore it. The
+  /// caller keeps it alive until that Step returns.
+  void set_hull_motion(const HullMotion* motion) { hull_motion_ = motion; }
+
+ protected:
+  const HullMotion* hull_motion() const { return hull_motion_; }
+
+ private:
+  const HullMotion* hull_motion_ = nullptr;
 };
 
 /// One element's settings as its scene-file section gives them. Immutable once

@@ -22,7 +22,9 @@ class VirtualScene {
   /// Advances every element, balls first, by dt seconds against `hull`
   /// (nullptr: none). Throws Interrupted (util/interrupt.h) once `stop` is
   /// set; the scene is then part-way through the step (good only for stopping).
-  void Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr);
+  /// `motion` (optional): the hull's motion since the previous frameset
+  /// (hull_motion.h), given to every element for this step.
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr, const HullMotion* motion = nullptr);
   /// What every element gives to publish after the last step, balls first
   /// (their frame_seq and capture_time_ns left for the caller).
   ElementOutput Output(double source_time_s, uint64_t frame_seq);

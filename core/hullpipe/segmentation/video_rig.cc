@@ -15,6 +15,7 @@
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/geometry/head_pose.h"
+#include "hullpipe/util/image_file.h"
 #include "hullpipe/util/parallel.h"
 
 namespace hullpipe {
@@ -175,8 +176,9 @@ class VideoRig final : public RigSource {
     if (!c.masks_spec.empty()) {
       // Read as stored (cv::IMREAD_UNCHANGED): an RGBA mask keeps its alpha.
       const std::string file = NumberedFile(c.masks_spec, c.mask_first + int(index_));
-      const cv::Mat m = cv::imread(file, cv::IMREAD_UNCHANGED);
-      std::string why = m.empty() ? "unreadable (" + file + ")" : "";
+      std::string why;
+      const cv::Mat m = ReadImageFile(file, cv::IMREAD_UNCHANGED, &why);
+      if (m.empty()) why = "unreadable (" + why + ")";
       if (!m.empty() && m.size() != img.size())
         why = "of the wrong size (" + std::to_string(m.cols) + "x" + std::to_string(m.rows) + ", " + file + ")";
       if (why.empty()) {
@@ -238,11 +240,15 @@ class VideoRig final : public RigSource {
     }
     if (any) {
       last_live_frame_s_ = now;
+      any_live_frame_ = true;
       ++index_;
       return true;
     }
-    if (now - last_live_frame_s_ > options_.live_timeout_s) {
-      f->errors.push_back(cv::format("no frame from any live camera for %.1f s: input ended", options_.live_timeout_s));
+    const double timeout =
+        any_live_frame_ ? options_.live_timeout_s : std::max(options_.live_timeout_s, VideoRigOptions::kFirstLiveFrameS);
+    if (now - last_live_frame_s_ > timeout) {
+      f->errors.push_back(cv::format("no frame from any live camera for %.1f s%s: input ended", timeout,
+                                     any_live_frame_ ? "" : " (none since the start)"));
       return false;
     }
     return true;  // nothing this time; the caller asks again
@@ -255,6 +261,8 @@ class VideoRig final : public RigSource {
                  options_.background_frames);
     std::vector<cv::Mat> frames;
     double last = MonotonicSeconds();
+    int wrong = 0;  // frames of another size in a row
+    constexpr int kWrongSizeFrames = 10;
     while (int(frames.size()) < options_.background_frames) {
       cv::Mat img;
       int64_t t;
@@ -271,9 +279,20 @@ class VideoRig final : public RigSource {
                                    cv::format(" for %.1f s while learning the background", options_.live_timeout_s));
         continue;
       }
-      last = MonotonicSeconds();
-      if (img.cols == c.camera.width && img.rows == c.camera.height && img.type() == CV_8UC3)
+      // Only frames of the calibrated size count as the camera delivering: a
+      // stream of another size (a camera left in another mode) learnt
+      // forever before; it ends the input after a few frames, naming both.
+      if (img.cols == c.camera.width && img.rows == c.camera.height && img.type() == CV_8UC3) {
+        last = MonotonicSeconds();
+        wrong = 0;
         frames.push_back(img);
+      } else if (++wrong >= kWrongSizeFrames || MonotonicSeconds() - last > options_.live_timeout_s) {
+        throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": " + c.frames_spec + " delivers " +
+                                 std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+                                 (img.type() == CV_8UC3 ? "" : " (not 8-bit colour)") + " frames, its calibration says " +
+                                 std::to_string(c.camera.width) + "x" + std::to_string(c.camera.height) +
+                                 ": set the camera's mode to the calibrated size, or calibrate it at this one");
+      }
     }
     c.background = BackgroundModel(frames);
     spdlog::info("camera {}: background learnt from {} frames; capturing", c.camera.id, frames.size());
@@ -352,6 +371,7 @@ class VideoRig final : public RigSource {
   std::shared_ptr<LiveHub> hub_ = std::make_shared<LiveHub>();
   bool live_ = false;
   double last_live_frame_s_ = 0;
+  bool any_live_frame_ = false;  // a live camera delivered since the start
   std::vector<Cam> cams_;
   std::vector<Camera> cameras_;
   Aabb workspace_;

@@ -30,7 +30,10 @@ struct VideoRigOptions {
   /// ("Segmentation settings") measures what following costs or buys there.
   bool follow_files = false;
   /// Live cameras: the input ends when no camera delivered a frame for this long, seconds.
+  /// Before the first frame the wait is at least kFirstLiveFrameS: a stream
+  /// that starts late (an encoder starting up on a loaded machine) is waited for.
   double live_timeout_s = 5;
+  static constexpr double kFirstLiveFrameS = 15;
   /// Polled while learning a live background (which waits for frames): true aborts.
   std::function<bool()> stop_requested;
 };

@@ -9,6 +9,7 @@
 #include <string>
 #include <thread>
 
+#include "hullpipe/testing/time_scale.h"  // TimeScale, for the bounds
 #include "hullpipe/util/interrupt.h"
 
 namespace hullpipe::test {

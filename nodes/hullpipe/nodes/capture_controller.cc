@@ -16,6 +16,8 @@ void CaptureOptions::Check() const {
   if (!(image_scale >= 0.05 && image_scale <= 1.0)) throw std::invalid_argument("--image-scale must be in [0.05, 1]");
   if (start_ns < 0) throw std::invalid_argument("--start-time must be >= 0 (ns since the Unix epoch; 0: none)");
   if (!(max_lag_s > 0 && max_lag_s <= 60)) throw std::invalid_argument("--max-lag must be in (0, 60] seconds");
+  if (!(timeline_window_s >= 1 && timeline_window_s <= 86400))
+    throw std::invalid_argument("--timeline-window must be in [1, 86400] seconds");
 }
 
 CaptureController::CaptureController(CaptureOptions options, const Clock& clock, RigSource& source,
@@ -33,8 +35,16 @@ void CaptureController::PublishCalibration() {
 }
 
 void CaptureController::OnTimeline(int64_t start_ns, double fps) {
-  if (o_.fast || o_.start_ns != 0 || start_ns <= 0) return;  // unpaced, or told by the launcher
-  if (std::abs(fps - rate_) > 1e-6 * rate_) {
+  if (o_.fast || o_.start_ns != 0) return;  // unpaced, or told by the launcher
+  const double from_now_s = double(start_ns) * 1e-9 - double(clock_.WallNs()) * 1e-9;
+  if (!(std::abs(from_now_s) <= o_.timeline_window_s)) {
+    if (timelines_refused_++ == 0)
+      spdlog::warn("a capture timeline starting {:.6g} s {} now was announced on the domain: refused (beyond "
+                   "--timeline-window {:g} s; a peer's clock is wrong, or the sample is not a run's); counted",
+                   std::abs(from_now_s), from_now_s < 0 ? "before" : "after", o_.timeline_window_s);
+    return;
+  }
+  if (!(std::abs(fps - rate_) <= 1e-6 * rate_)) {
     spdlog::warn("a capture timeline at {:.3f} fps was announced; this node runs at {:.3f} fps: ignored", fps, rate_);
     return;
   }
@@ -80,14 +90,29 @@ bool CaptureController::CatchUp(double lag_s, const char* why) {
     spdlog::debug("{}: skipping frames {}..{} to the frame due now", why, index_ + 1, due_now());
   else
     spdlog::info("{}: skipping frames {}..{} to the frame due now", why, index_ + 1, due_now());
-  // (Skipping takes time too: the frame due is asked again after each.)
+  // (Skipping takes time too: the frame due is asked again after each.) A
+  // looping input of known length skips whole passes without reading them,
+  // and skipping yields after kMaxWaitS so a stop request is seen.
+  const double t0 = clock_.Now();
+  const int64_t length = o_.loop ? source_.frame_count() : 0;
+  catching_up_ = false;
   while (index_ < due_now()) {
+    if (length > 0 && due_now() - index_ > 2 * length && index_ % length == 0) {
+      const int64_t passes = (due_now() - index_) / length - 1;
+      if (published_ > 0) counters_.Dropped(uint64_t(passes * length));
+      index_ += passes * length;
+      continue;
+    }
     if (!source_.Skip()) {
       if (AtEnd()) continue;
       return false;
     }
     if (published_ > 0) counters_.Dropped();
     ++index_;
+    if (clock_.Now() - t0 > kMaxWaitS) {
+      catching_up_ = true;
+      return true;
+    }
   }
   return true;
 }
@@ -113,6 +138,10 @@ bool CaptureController::Step() {
       if (!CatchUp(join ? 0.0 : o_.max_lag_s, join ? "joining the capture timeline" : "behind the capture timeline")) {
         spdlog::info("end of input after {} frames", published_);
         return false;
+      }
+      if (catching_up_) {  // still skipping: back to the node's loop (it checks for a stop), then on
+        rejoin_ = join;
+        return true;
       }
       // Wait for the frame's due time in slices, so a stop request is seen
       // within kMaxWaitS even when the timeline starts in the future.

@@ -40,6 +40,12 @@ struct CaptureOptions {
   /// A paced node more than this many seconds (and two frames) behind the
   /// timeline skips ahead to the frame due now (counted as dropped), (0, 60].
   double max_lag_s = 0.1;
+  /// An announced timeline starting further than this from now (either way) is
+  /// refused, named once and counted: a peer's clock or a hostile sample (a
+  /// start of 1 ns skipped the whole input, and with --loop 4.5e10 frames),
+  /// not a run of this lab, whose nodes start within minutes of each other;
+  /// [1, 86400] s (--timeline-window).
+  double timeline_window_s = 600;
   /// Throws std::invalid_argument naming the flag out of range.
   void Check() const;
 };
@@ -71,8 +77,12 @@ class CaptureController {
   /// Publishes every camera's calibration (call once, before the first Step).
   void PublishCalibration();
   /// A timeline announced by another capture node (or this node's own, echoed):
-  /// adopted if it starts earlier than the one in use and has this node's rate.
+  /// adopted if it starts earlier than the one in use, has this node's rate and
+  /// starts within timeline_window_s of now; one outside the window is refused
+  /// (warned once, counted in timelines_refused()).
   void OnTimeline(int64_t start_ns, double fps);
+  /// Announced timelines refused for their start (outside the window).
+  int64_t timelines_refused() const { return timelines_refused_; }
   /// Starts: on the --start-time timeline, else on one heard of (OnTimeline before
   /// Start), else on a new one starting now, announced. Call after waiting for readers.
   void Start();
@@ -108,6 +118,8 @@ class CaptureController {
   int64_t start_ns_ = 0;
   bool started_ = false;
   bool rejoin_ = false;  ///< An earlier timeline was adopted: skip to its frame due now.
+  bool catching_up_ = false;  ///< CatchUp ran out of its time slice before the frame due now.
+  int64_t timelines_refused_ = 0;
   int64_t index_ = 0;             ///< Timeline index of the next frame read.
   std::vector<uint64_t> last_seq_;  ///< Per camera, the last frame_seq sent.
   int64_t published_ = 0;

@@ -1,6 +1,7 @@
 #include "hullpipe/nodes/capture_controller.h"
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <sstream>
 #include <random>
@@ -286,6 +287,53 @@ TEST(Capture, NodesConvergeOnTheEarliestTimeline) {
   ASSERT_TRUE(d.Step());
   EXPECT_TRUE(sink2.frames.empty()) << "not due yet";
   EXPECT_EQ(d.timeline_start_ns(), given.start_ns);
+}
+
+// A timeline announced by a hostile or broken peer: a start of 1 ns (1970)
+// made a file-fed node skip its whole input, and with --loop try 4.5e10 frames
+// past SIGINT. One outside the window is refused, said once and counted; one
+// inside is adopted (the control), and a legitimately old timeline with --loop
+// skips whole passes of the input without reading them.
+TEST(Capture, ATimelineFarFromNowIsRefusedAndCounted) {
+  FakeClock clock;
+  auto source = Synthetic(50);
+  CaptureRecorder sink;
+  CaptureOptions o;
+  CaptureController c(o, clock, *source, sink);
+  const int64_t now = clock.WallNs();
+  c.OnTimeline(1, 25.0);
+  c.OnTimeline(now - 601'000'000'000, 25.0);
+  c.OnTimeline(now + 3'600'000'000'000, 25.0);
+  c.OnTimeline(now - 100'000'000, std::nan(""));  // a rate that is not one
+  EXPECT_EQ(c.timelines_refused(), 3);
+  c.Start();
+  EXPECT_EQ(c.timeline_start_ns(), now) << "its own";
+  c.OnTimeline(now - 599'000'000'000, 25.0);  // control: inside the window, adopted
+  EXPECT_EQ(c.timeline_start_ns(), now - 599'000'000'000);
+  EXPECT_EQ(c.timelines_refused(), 3);
+  CaptureOptions bad;
+  bad.timeline_window_s = 0;
+  EXPECT_THROW(bad.Check(), std::invalid_argument);
+
+  // --loop on a 10-frame input, joining a timeline 500 s old: 12,500 frames are
+  // due; whole passes are skipped without reading, and the first frame
+  // published is the one due now, in few steps.
+  auto looping = Synthetic(10);
+  CaptureRecorder sink2;
+  CaptureOptions lo;
+  lo.loop = true;
+  CaptureController l(lo, clock, *looping, sink2);
+  l.OnTimeline(now - 500'000'000'000, 25.0);
+  l.Start();
+  int steps = 0;
+  while (sink2.frames.empty() && steps < 100) {
+    ASSERT_TRUE(l.Step());
+    ++steps;
+  }
+  ASSERT_FALSE(sink2.frames.empty());
+  EXPECT_LE(steps, 2);
+  EXPECT_EQ(sink2.frames.front().seq, 12'501u);
+  EXPECT_EQ(sink2.frames.front().t_ns, now - 500'000'000'000 + 12'500 * 40'000'000LL);
 }
 
 // The paper's head-mounted camera: a tracked camera's pose travels with each of

@@ -30,7 +30,7 @@ const std::map<std::string, std::vector<StageDef>>& Stages() {
       {"sim", {{"transport_map", true}, {"wait", true}, {"step", true}, {"publish", true}}},
       {"render",
        {{"transport_map", false}, {"issue", false}, {"tiles", false}, {"transport_tile", true}, {"composite", true},
-        {"light", true}, {"write", true}}},
+        {"light", true}, {"write", true}, {"publish", true}}},
   };
   return stages;
 }

@@ -33,7 +33,7 @@ std::map<std::string, NodeStatsSample> FiveNodes() {
                                        {"transport_image", 2}});
   m["sim"] = Report("sim", "a", {{"step", 4}, {"transport_map", 1}});
   m["render"] = Report("render", "a", {{"composite", 2}, {"write", 1}, {"transport_tile", 0.5}, {"issue", 1},
-                                       {"tiles", 30}, {"transport_map", 1}, {"gamma", 0.1}});
+                                       {"tiles", 30}, {"transport_map", 1}, {"gamma", 0.1}, {"publish", 0.5}});
   m["render"].latency_ms_p50 = 40;
   m["render"].latency_ms_p95 = 60;
   return m;
@@ -61,6 +61,9 @@ TEST(LatencyBudget, StagesFollowThePipelineAndThePathTakesTheSlowerReconLane) {
   EXPECT_DOUBLE_EQ(Find(b, "render", "transport_tile")->start_ms, recon_end);
   EXPECT_DOUBLE_EQ(Find(b, "render", "composite")->start_ms, recon_end + 0.5);
   EXPECT_TRUE(Find(b, "render", "write")->on_path);
+  // The composite published for viewers comes after the write, on the path.
+  EXPECT_TRUE(Find(b, "render", "publish")->on_path);
+  EXPECT_DOUBLE_EQ(Find(b, "render", "publish")->start_ms, recon_end + 0.5 + 2 + 1);
   // render's own frameset, pose and the tiles' round trip run beside recon.
   EXPECT_FALSE(Find(b, "render", "tiles")->on_path);
   EXPECT_DOUBLE_EQ(Find(b, "render", "transport_map")->start_ms, 10.5);
@@ -68,7 +71,7 @@ TEST(LatencyBudget, StagesFollowThePipelineAndThePathTakesTheSlowerReconLane) {
   // A stage the budget does not know comes last in its node, off the path.
   EXPECT_FALSE(Find(b, "render", "gamma")->on_path);
   EXPECT_EQ(b.rows.back().stage, "gamma");
-  EXPECT_DOUBLE_EQ(b.path_p50_sum_ms, recon_end + 0.5 + 2 + 1);
+  EXPECT_DOUBLE_EQ(b.path_p50_sum_ms, recon_end + 0.5 + 2 + 1 + 0.5);
   EXPECT_DOUBLE_EQ(b.end_to_end_p50_ms, 40);
   EXPECT_DOUBLE_EQ(Find(b, "recon1", "sweep")->p95_ms, 24);
 }

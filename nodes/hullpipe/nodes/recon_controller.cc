@@ -62,6 +62,7 @@ void ReconController::OnNodeStats(const std::string& name, bool final_report, ui
   int k = -1;
   char tail = 0;
   if (std::sscanf(name.c_str(), "recon%d%c", &k, &tail) != 1 || k < 0 || k >= o_.tile_count || k == o_.tile) return;
+  if (name != "recon" + std::to_string(k)) return;  // "recon01", "recon+1": not a peer's name (unbounded keys)
   peers_.Heard(name, clock_.Now(), final_report);
 }
 
@@ -124,7 +125,7 @@ int ReconController::Step() {
   }
   counters_.SetDropped(assembler_.dropped() + poses_dropped_);
   counters_.SetAssembly(assembler_.SkewReports(), assembler_.dropped_for_skew());
-  counters_.SetRejected(assembler_.rejected() + rejected_ + malformed_input_);
+  counters_.SetRejected(assembler_.rejected() + assembler_.calibrations_refused() + rejected_ + malformed_input_);
   return published;
 }
 

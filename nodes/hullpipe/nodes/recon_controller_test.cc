@@ -134,6 +134,8 @@ TEST_F(Recon, TheLowestLiveNodeAdoptsASilentPeersTileUntilItIsHeardAgain) {
   r0.OnNodeStats("render", false);
   r0.OnNodeStats("recon7", false);
   r0.OnNodeStats("recon1x", false);
+  r0.OnNodeStats("recon01", false);  // another spelling of 1: not recon1's name
+  r0.OnNodeStats("recon+1", false);
   EXPECT_EQ(r0.MyTiles(), std::vector<int>({0, 1}));
 }
 

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
 #include "hullpipe/util/percentile.h"
 #include "hullpipe/reconstruction/exact_hull.h"
+#include "hullpipe/reconstruction/tile_set.h"
 
 #include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
@@ -61,6 +63,8 @@ void RenderOptions::Check() const {
   if (orbit_centre && !orbit_centre->allFinite()) bad("--orbit-centre must be finite");
   if (!up.allFinite() || up.norm() < 1e-9) bad("--up must be a finite non-zero vector");
   if (view == View::kFile && track.empty()) bad("--view file goes with --head-poses FILE");
+  if (publish_max_side < 16 || publish_max_side > 16384) bad("--publish-max-side must be 16..16384 pixels");
+  if (publish_jpeg_quality < 1 || publish_jpeg_quality > 100) bad("--publish-jpeg-quality must be 1..100");
 }
 
 RenderController::RenderController(RenderOptions options, const Clock& clock, FramesetAssembler& assembler,
@@ -231,14 +235,42 @@ nlohmann::json RenderController::ModelsJson() const {
 
 void RenderController::OnHeadPose(const Rigid3d& world_from_eye) { tracked_ = world_from_eye; }
 
-void RenderController::OnCollisionReport(bool has_points) {
+void RenderController::OnCollisionReport(bool has_points, uint8_t hull_velocity_status, double hull_normal_speed) {
   if (has_points) ++collision_reports_;
+  if (hull_velocity_status == 0 || hull_velocity_status > 5) return;  // none, or not a known status
+  ++hull_velocity_statuses_[hull_velocity_status];
+  if ((hull_velocity_status == 1 || hull_velocity_status == 2) && std::isfinite(hull_normal_speed)) {
+    hull_speed_max_ = std::max(hull_speed_max_, std::abs(hull_normal_speed));
+    hull_speed_sum_ += std::abs(hull_normal_speed);
+  }
+}
+
+bool RenderController::AwaitingFinalReports() const {
+  for (const auto& [name, st] : node_stats_)
+    if (name != "render" && !st.final_report) return true;
+  return false;
 }
 
 void RenderController::OnNodeStats(const NodeStatsSample& m) {
   if (!runs_.Accept(m.run_id, "NodeStats", /*take_unset=*/true, m.name)) return;
+  // Per-node state is bounded: a peer flooding reports under distinct names
+  // (render grew to 594 MB and wrote a 0.5-GB stats.json) is ignored past
+  // kMaxNodes names, counted and said once.
+  if (node_stats_.size() >= kMaxNodes && !node_stats_.count(m.name)) {
+    if (node_stats_over_limit_++ == 0)
+      spdlog::warn("NodeStats from more than {} node names (the latest '{}'): the rest are ignored and counted "
+                   "(a peer on this domain publishes reports of nodes that are not a run's)",
+                   kMaxNodes, m.name.substr(0, 64));
+    return;
+  }
   node_stats_[m.name] = m;
-  if (m.name.rfind("recon", 0) == 0) recon_liveness_.Heard(m.name, clock_.Now(), m.final_report);
+  // Only this run's recon names ("recon0".."recon<tiles-1>") are watched for
+  // silence: 1000 names "recon_<n>" from a peer made 1000 false fail-over lines.
+  int k = -1;
+  char tail = 0;
+  if (std::sscanf(m.name.c_str(), "recon%d%c", &k, &tail) == 1 && k >= 0 && k < o_.tiles &&
+      m.name == "recon" + std::to_string(k))
+    recon_liveness_.Heard(m.name, clock_.Now(), m.final_report);
   // With cameras on several capture nodes the input ends when every capture node
   // heard from has said so.
   if (m.name.rfind("capture", 0) == 0) {
@@ -328,16 +360,20 @@ void RenderController::IssuePoses() {
   }
 }
 
-void RenderController::Composite(InFlight& f) {
+void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
+  spdlog::debug("compositing a {}x{} view (frame {})", o_.width, o_.height, f.frame_seq);
   std::optional<StageTimer> st(std::in_place, counters_, "composite");
-  cv::Mat depth(o_.height, o_.width, CV_32FC1, cv::Scalar(kNoDepth));
-  cv::Mat colour(o_.height, o_.width, CV_8UC3, cv::Scalar(0, 0, 0));
-  for (const auto& [idx, t] : f.tiles) {
-    t.depth.copyTo(depth(t.rect));
-    t.colour.copyTo(colour(t.rect));
+  std::vector<const HullTile*> tiles;
+  for (const auto& [idx, t] : f.tiles) tiles.push_back(&t);
+  const HullViewImage hull = PasteTiles(tiles, {o_.width, o_.height}, stop_);
+  const cv::Mat& depth = hull.depth;
+  const cv::Mat& colour = hull.colour;
+  int64_t hull_pixels = 0;
+  for (int r = 0; r < depth.rows; ++r) {
+    const float* row = depth.ptr<float>(r);
+    for (int c = 0; c < depth.cols; ++c) hull_pixels += row[c] < kNoDepth;
   }
-  hull_fraction_sum_ +=
-      double(cv::countNonZero(depth < std::numeric_limits<float>::infinity())) / double(depth.total());
+  hull_fraction_sum_ += double(hull_pixels) / double(depth.total());
   std::vector<VirtualSphere> spheres;
   for (const auto& [id, per] : states_) {
     // The state stepped against this frameset, else the newest before it.
@@ -363,17 +399,21 @@ void RenderController::Composite(InFlight& f) {
   DrawModels(f.frame_seq, &draws);
   meshes_drawn_ += draws.size();
   cv::Mat composited_depth;
-  cv::Mat frame = hullpipe::Composite(f.view, depth, colour, spheres, comp_, &composited_depth, draws);
+  cv::Mat frame = hullpipe::Composite(f.view, depth, colour, spheres, comp_, &composited_depth, draws, stop_);
   st.reset();
   if (o_.light) {
     StageTimer lt(counters_, "light");
     const ShadowMap shadow = RenderShadowMap(*o_.light, orbit_.up, f.hull.get(), spheres, draws);
-    ApplyLighting(f.view, composited_depth, depth, *o_.light, shadow, &frame);
+    ApplyLighting(f.view, composited_depth, depth, *o_.light, shadow, &frame, stop_);
     ++lit_frames_;
   }
   {
     StageTimer wt(counters_, "write");
     sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1, f.view, depth, f.path_time_s);
+  }
+  if (o_.publish_composite) {
+    StageTimer pt(counters_, "publish");
+    sink_.PublishComposite(frame, pose_seq, f.frame_seq, f.capture_time_ns);
   }
   counters_.FrameOut(f.capture_time_ns);
   last_composited_ = std::max(last_composited_, f.frame_seq);
@@ -398,7 +438,7 @@ int RenderController::Step() {
       }
       continue;
     }
-    Composite(f);
+    Composite(it->first, f);
     ++composited;
     // Older poses still waiting are superseded by this one.
     for (auto older = in_flight_.begin(); older != it;) {
@@ -428,7 +468,7 @@ int RenderController::Step() {
     spdlog::info("no new frameset for {:.1f} s: input ended", o_.idle_timeout);
     done_ = true;
   }
-  counters_.SetRejected(rejected_ + malformed_input_ + assembler_.rejected());
+  counters_.SetRejected(rejected_ + malformed_input_ + assembler_.rejected() + assembler_.calibrations_refused());
   counters_.SetAssembly(assembler_.SkewReports(), assembler_.dropped_for_skew());
   return composited;
 }
@@ -454,6 +494,8 @@ nlohmann::json RenderController::StatsJson() const {
   j["view"] = {{"width", o_.width}, {"height", o_.height}, {"tiles", o_.tiles}};
   j["run_id"] = RunIdText(o_.run_id);
   j["ignored_from_other_runs"] = runs_.ignored();  // samples by kind (HullView, NodeStats)
+  j["node_stats_over_limit"] = node_stats_over_limit_;  // reports of names past kMaxNodes, ignored
+  j["calibrations_refused"] = assembler_.calibrations_refused();  // CameraInfo changing a calibration mid-run
   if (capture_done_) {
     j["cameras_ended_early"] = nlohmann::json::array();
     for (const auto& e : assembler_.EndedEarly()) j["cameras_ended_early"].push_back(e.camera_id);
@@ -462,6 +504,19 @@ nlohmann::json RenderController::StatsJson() const {
   j["last_frame_seq"] = last_composited_;
   j["collision_frames_drawn"] = collisions_drawn_;
   j["collision_reports_with_points"] = collision_reports_;
+  // Responses by their hull velocity (docs/collision.md, "Hull velocity").
+  {
+    static const char* kNames[] = {"none", "measured", "clamped", "no_previous", "too_far_apart", "appeared"};
+    nlohmann::json hv = nlohmann::json::object();
+    for (int i = 1; i <= 5; ++i) {
+      const auto it = hull_velocity_statuses_.find(uint8_t(i));
+      hv[kNames[i]] = it == hull_velocity_statuses_.end() ? 0 : it->second;
+    }
+    const uint64_t valid = hv["measured"].get<uint64_t>() + hv["clamped"].get<uint64_t>();
+    hv["max_normal_speed_mps"] = hull_speed_max_;
+    hv["mean_normal_speed_mps"] = valid ? hull_speed_sum_ / double(valid) : 0.0;
+    j["hull_velocity"] = hv;
+  }
   j["meshes_drawn"] = meshes_drawn_;  // cloth, particle sets and payload parts, summed over frames
   j["lit_frames"] = lit_frames_;      // frames with the scene's light and shadows
   j["recon_outages"] = recon_liveness_.outages();  // times each recon node fell silent

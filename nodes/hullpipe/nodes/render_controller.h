@@ -69,6 +69,13 @@ struct RenderOptions {
   enum class View { kOrbit, kFile, kTopic } view = View::kOrbit;
   PoseTrack track;                   ///< For View::kFile.
   std::optional<LightConfig> light;  ///< The scene's light (shadows), if any.
+  /// Each composited frame also goes to RenderSink::PublishComposite (the
+  /// CompositedView topic, for viewers and recordings), scaled down to at most
+  /// publish_max_side px on its longer side (16..16384) and JPEG-encoded at
+  /// publish_jpeg_quality (1..100).
+  bool publish_composite = true;
+  int publish_max_side = 1280;
+  int publish_jpeg_quality = 85;
   /// This run (nodes/run_filter.h): its poses carry it, and tiles and NodeStats of
   /// another run are ignored. The main gives --run-id or a random id; 0 (tests)
   /// takes only tiles without one.
@@ -94,6 +101,13 @@ class RenderSink {
   /// (orbit or tracker log: the frameset's source time less the first one's).
   virtual void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
                           const cv::Mat& hull_depth, double path_time_s) = 0;
+  /// The same frame for viewers (RenderOptions::publish_composite): composited
+  /// for pose pose_seq from frameset frame_seq, captured at capture_time_ns.
+  /// A sink that publishes nothing may ignore it.
+  virtual void PublishComposite(const cv::Mat& frame, uint64_t pose_seq, uint64_t frame_seq,
+                                int64_t capture_time_ns) {
+    (void)frame, (void)pose_seq, (void)frame_seq, (void)capture_time_ns;
+  }
 };
 
 class RenderController {
@@ -117,8 +131,19 @@ class RenderController {
   /// A model's part poses and contact states for one frameset.
   void OnModelState(ModelStateSample state);
   void OnHeadPose(const Rigid3d& world_from_eye);
-  void OnCollisionReport(bool has_points);
+  /// A CollisionReport: whether it has collision points, and its response's
+  /// hull velocity (HullVelocityStatus value, 0: none; the normal speed, m/s),
+  /// counted into stats.json's "hull_velocity".
+  void OnCollisionReport(bool has_points, uint8_t hull_velocity_status = 0, double hull_normal_speed = 0);
   void OnNodeStats(const NodeStatsSample& stats);
+  /// Most node names whose reports are kept; reports of further names are
+  /// ignored and counted (stats.json "node_stats_over_limit").
+  static constexpr size_t kMaxNodes = 256;
+  uint64_t node_stats_over_limit() const { return node_stats_over_limit_; }
+  /// Whether a peer heard from (any node name but render's own) has not yet
+  /// sent its final report: render, stopping, waits for those (bounded by its
+  /// caller) so stats.json holds every node's last figures.
+  bool AwaitingFinalReports() const;
   /// A malformed sample the caller could not convert.
   void Reject(const std::string& why);
   /// Input samples the caller could not decode before they reached the
@@ -127,8 +152,12 @@ class RenderController {
 
   /// One round: new poses for new complete framesets, composites every pose
   /// whose tiles are in, drops timed-out poses, recon liveness, end of input.
-  /// Returns the number of frames composited this round.
+  /// Returns the number of frames composited this round. Throws Interrupted
+  /// (util/interrupt.h) when the stop flag is set mid-composite: the node is
+  /// stopping, and that frame is not written.
   int Step();
+  /// The flag compositing and lighting poll per row (nullptr: never stops).
+  void set_stop(StopFlag stop) { stop_ = stop; }
   /// The run is over (max_frames reached, input ended or idle).
   bool done() const { return done_; }
   /// Once every capture node reported the end of its input: one line naming the
@@ -172,7 +201,7 @@ class RenderController {
     std::shared_ptr<const VolumeQuery> hull;   // for the light's shadow map
   };
   void IssuePoses();
-  void Composite(InFlight& f);
+  void Composite(uint64_t pose_seq, InFlight& f);
   // Appends the models' parts as of frame_seq to *draws (amber when near, red
   // when colliding), and counts them into the models' statistics.
   void DrawModels(uint64_t frame_seq, MeshDraws* draws);
@@ -213,16 +242,20 @@ class RenderController {
   std::map<uint32_t, ModelStats> model_stats_;                           // model -> what its steps cost
   std::map<uint32_t, double> min_clearance_;     // payload part -> least clearance, metres
   std::map<uint32_t, uint64_t> part_collisions_;  // payload part -> frames drawn colliding
-  std::map<std::string, NodeStatsSample> node_stats_;
+  std::map<std::string, NodeStatsSample> node_stats_;  // at most kMaxNodes names
+  uint64_t node_stats_over_limit_ = 0;
   uint64_t seen_restarts_ = 0, malformed_input_ = 0;
   uint64_t pose_seq_ = 0, last_requested_ = 0, last_composited_ = 0, rejected_ = 0, tiles_late_ = 0;
   double tile_timeout_ = 1.0;                // in force (see RenderOptions::tile_timeout)
   std::map<uint64_t, double> given_up_sent_;  // pose_seq -> sent_s of the last poses given up
   uint64_t collisions_drawn_ = 0, collision_reports_ = 0, meshes_drawn_ = 0, lit_frames_ = 0;
+  std::map<uint8_t, uint64_t> hull_velocity_statuses_;  // responses by hull velocity status
+  double hull_speed_max_ = 0, hull_speed_sum_ = 0;     // of |normal speed| measured or clamped, m/s
   double hull_fraction_sum_ = 0;
   double first_source_time_ = 0;
   double last_new_frame_s_ = 0;
   bool any_frame_ = false, done_ = false, capture_done_ = false;
+  StopFlag stop_ = nullptr;
   double capture_done_s_ = 0;
   std::map<std::string, bool> capture_final_;  ///< Capture node name -> it sent its final report.
 };

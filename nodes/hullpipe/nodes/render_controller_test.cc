@@ -1,6 +1,7 @@
 #include "hullpipe/nodes/render_controller.h"
 
 #include <algorithm>
+#include <atomic>
 
 #include <gtest/gtest.h>
 
@@ -25,6 +26,15 @@ struct Recorder final : RenderSink {
   }
   void WriteFrame(const cv::Mat& f, uint64_t frame_seq, uint64_t, const NovelView&, const cv::Mat&, double) override {
     frames.push_back({frame_seq, f.clone()});
+  }
+  struct Published {
+    cv::Mat frame;
+    uint64_t pose_seq, frame_seq;
+    int64_t capture_time_ns;
+  };
+  std::vector<Published> published;
+  void PublishComposite(const cv::Mat& f, uint64_t pose_seq, uint64_t frame_seq, int64_t capture_time_ns) override {
+    published.push_back({f.clone(), pose_seq, frame_seq, capture_time_ns});
   }
 };
 
@@ -108,6 +118,47 @@ TEST_F(Render, PosesFollowNewFramesetsUpToMaxInFlight) {
   r.OnTile(WholeTile(sink_.poses[0], kNoDepth, {0, 0, 0}));
   EXPECT_EQ(r.tiles_late(), 1u);
   EXPECT_EQ(r.rejected(), 0u);
+}
+
+// Each composited frame is also published for viewers (the CompositedView
+// topic): the very frame written, with its pose, frameset and capture time.
+// Turned off, nothing is published while frames are still written (the
+// control that the publication is the option's doing).
+TEST_F(Render, EachCompositedFrameIsPublishedForViewersUnlessTurnedOff) {
+  for (const bool publish : {true, false}) {
+    SCOPED_TRACE(publish ? "publishing" : "not publishing");
+    Recorder sink;
+    RenderOptions o = Options();
+    o.publish_composite = publish;
+    RenderController r(o, clock_, assembler_, sink);
+    const uint64_t base = publish ? 0 : 10;
+    for (uint64_t f = base + 1; f <= base + 3; ++f) {
+      rig_.AddFrame(assembler_, f, clock_.WallNs());
+      r.Step();
+      ASSERT_FALSE(sink.poses.empty());
+      r.OnTile(WholeTile(sink.poses.back(), kNoDepth, {0, 0, 0}));
+      EXPECT_EQ(r.Step(), 1);
+      clock_.Advance(0.04);
+    }
+    ASSERT_EQ(sink.frames.size(), 3u);
+    if (!publish) {
+      EXPECT_TRUE(sink.published.empty());
+      continue;
+    }
+    ASSERT_EQ(sink.published.size(), 3u);
+    for (size_t i = 0; i < 3; ++i) {
+      EXPECT_EQ(sink.published[i].pose_seq, sink.poses[i].pose_seq);
+      EXPECT_EQ(sink.published[i].frame_seq, sink.frames[i].first);
+      EXPECT_GT(sink.published[i].capture_time_ns, 0);
+      EXPECT_EQ(cv::norm(sink.published[i].frame, sink.frames[i].second, cv::NORM_INF), 0);
+    }
+  }
+  RenderOptions bad = Options();
+  bad.publish_max_side = 8;
+  EXPECT_THROW(bad.Check(), std::invalid_argument);
+  bad = Options();
+  bad.publish_jpeg_quality = 101;
+  EXPECT_THROW(bad.Check(), std::invalid_argument);
 }
 
 TEST_F(Render, APoseWhoseTilesDoNotComeIsDroppedAfterTheTileTimeout) {
@@ -227,7 +278,9 @@ TEST_F(Render, CompositesWithTheDepthTestAndDrawsCollidingObjectsRed) {
 }
 
 TEST_F(Render, ASilentReconIsNoticedAndItsReturnLogged) {
-  RenderController r(Options(), clock_, assembler_, sink_);
+  RenderOptions o = Options();
+  o.tiles = 2;  // recon0 and recon1
+  RenderController r(o, clock_, assembler_, sink_);
   NodeStatsSample s;
   s.name = "recon1";
   r.OnNodeStats(s);
@@ -295,6 +348,56 @@ TEST_F(Render, TilesAndReportsOfAnotherRunAreIgnoredAndCounted) {
   EXPECT_NE(r.Table().find("ignored 2 HullView sample(s) of other runs (this run is 000000000000000a)"),
             std::string::npos)
       << r.Table();
+}
+
+// A peer flooding NodeStats under distinct names grew render to 594 MB and its
+// stats.json to 0.5 GB. The names kept are bounded; the rest are counted, and
+// a node known before the flood goes on being reported (the control).
+TEST_F(Render, AFloodOfNodeNamesIsBoundedAndCounted) {
+  RenderController r(Options(), clock_, assembler_, sink_);
+  NodeStatsSample sim;
+  sim.name = "sim";
+  sim.frames_in = 1;
+  r.OnNodeStats(sim);
+  for (int i = 0; i < 10000; ++i) {
+    NodeStatsSample s;
+    s.name = "recon_flood_" + std::to_string(i);
+    r.OnNodeStats(s);
+  }
+  sim.frames_in = 7;
+  r.OnNodeStats(sim);
+  const auto j = r.StatsJson();
+  EXPECT_EQ(j["nodes"].size(), RenderController::kMaxNodes + 1) << "and render itself";
+  EXPECT_EQ(r.node_stats_over_limit(), 10001u - RenderController::kMaxNodes);
+  EXPECT_EQ(j["node_stats_over_limit"], 10001u - RenderController::kMaxNodes);
+  EXPECT_EQ(j["nodes"]["sim"]["frames_in"], 7) << "a known node is still reported";
+  EXPECT_LT(j.dump().size(), 1u << 20);
+  clock_.Advance(2.0);
+  r.Step();
+  EXPECT_TRUE(r.recon_liveness().outages().empty()) << "no flood name is a recon of this run";
+}
+
+// Stopping, render waits only for peers that have not yet sent their final
+// report (its own reports, read back from the domain, do not count).
+TEST_F(Render, AwaitsTheFinalReportsOfThePeersHeardFrom) {
+  RenderController r(Options(), clock_, assembler_, sink_);
+  EXPECT_FALSE(r.AwaitingFinalReports()) << "no peer heard from";
+  NodeStatsSample own;
+  own.name = "render";
+  r.OnNodeStats(own);
+  EXPECT_FALSE(r.AwaitingFinalReports());
+  NodeStatsSample sim, recon;
+  sim.name = "sim";
+  recon.name = "recon0";
+  r.OnNodeStats(sim);
+  r.OnNodeStats(recon);
+  EXPECT_TRUE(r.AwaitingFinalReports());
+  sim.final_report = true;
+  r.OnNodeStats(sim);
+  EXPECT_TRUE(r.AwaitingFinalReports()) << "recon0's is still to come";
+  recon.final_report = true;
+  r.OnNodeStats(recon);
+  EXPECT_FALSE(r.AwaitingFinalReports());
 }
 
 TEST_F(Render, EndsWhenCaptureReportsItsEndAndEverythingIsComposited) {
@@ -392,6 +495,27 @@ TEST_F(Render, StopsAfterTheRequestedFrame) {
     r.Step();
     EXPECT_EQ(r.done(), seq == 2);
   }
+}
+
+// SIGINT mid-composite: the composite is abandoned (Composite polls the flag
+// per row) and the frame is not written; with the flag clear the same pose
+// composites (positive control).
+TEST_F(Render, AStopRequestAbandonsTheCompositeAndWritesNothing) {
+  RenderOptions o = Options();
+  o.max_in_flight = 1;
+  RenderController r(o, clock_, assembler_, sink_);
+  std::atomic<bool> stop{true};
+  r.set_stop(&stop);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  r.OnTile(WholeTile(sink_.poses.back(), 1.0f, {0, 200, 0}));
+  EXPECT_THROW(r.Step(), Interrupted);
+  EXPECT_TRUE(sink_.frames.empty());
+  EXPECT_EQ(r.counters().frames_out(), 0u);
+  stop = false;
+  EXPECT_EQ(r.Step(), 1);
+  ASSERT_EQ(sink_.frames.size(), 1u);
+  EXPECT_EQ(sink_.frames[0].second.at<cv::Vec3b>(24, 32), cv::Vec3b(0, 200, 0));
 }
 
 TEST_F(Render, TheViewFollowsTheOrbitThenTheTrackersNewestPose) {

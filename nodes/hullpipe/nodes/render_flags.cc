@@ -57,6 +57,15 @@ void RenderFlags::Register(CLI::App& app) {
   app.add_option("--floor", world_.floor,
                  "Floor: metres along up (plane up . x = H), 'hull' (under the first hull) or 'none' (default: the "
                  "rig's; Utrecht: 0)");
+  app.add_flag("--publish-view,!--no-publish-view", o.publish_composite,
+               "Publish each composited frame as a JPEG (CompositedView: hullpipe_bridge's /foxglove/composited, "
+               "recordings)")
+      ->capture_default_str();
+  app.add_option("--publish-max-side", o.publish_max_side,
+                 "Published frames larger than this many pixels a side are scaled down")
+      ->capture_default_str();
+  app.add_option("--publish-jpeg-quality", o.publish_jpeg_quality, "JPEG quality of the published frames (1..100)")
+      ->capture_default_str();
   app.add_option("--window", window, "Show the output in a window: auto (where a display exists), on, off")
       ->check(CLI::IsMember({"auto", "on", "off"}))
       ->capture_default_str();

@@ -37,7 +37,7 @@ int SimController::Step() {
   }
   counters_.SetDropped(assembler_.dropped());
   counters_.SetAssembly(assembler_.SkewReports(), assembler_.dropped_for_skew());
-  counters_.SetRejected(assembler_.rejected() + commands_rejected_ + malformed_input_);
+  counters_.SetRejected(assembler_.rejected() + assembler_.calibrations_refused() + commands_rejected_ + malformed_input_);
   return stepped;
 }
 
@@ -50,9 +50,22 @@ void SimController::StepOne(const Frameset& fs) {
   last_source_time_ = fs.source_time_s;
   {
     StageTimer st(counters_, "step");
-    VolumeQuery vq(fs.maps, assembler_.workspace());
+    auto vq = std::make_unique<VolumeQuery>(fs.maps, assembler_.workspace());
+    // The hull's motion since the previous frameset stepped (hull_motion.h):
+    // that one's hull is kept; an older one, a changed rig or a later time
+    // gives no velocity (HullMotion says which). Timed on the clock the scene
+    // steps by, the frames' source time (a live camera's capture time; a
+    // file's own timeline, also when capture paces it slower), each map offset
+    // by its capture-time skew from the reference camera's.
+    TimedHull current = TimedHull::Of(*vq, int64_t(std::llround(fs.source_time_s * 1e9)), fs.skew_ns);
+    const HullMotionOptions& mo = scene_.config().hull_velocity;
+    std::unique_ptr<HullMotion> motion;
+    if (mo.enabled) motion = std::make_unique<HullMotion>(current, previous_hull_, mo);
     spdlog::debug("frameset {}: stepping the scene {:.3f} s", fs.seq, dt);
-    scene_.Step(dt, &vq, stop_);
+    scene_.Step(dt, vq.get(), stop_, motion.get());
+    motion.reset();
+    previous_query_ = std::move(vq);
+    previous_hull_ = std::move(current);  // points at *previous_query_, which moved with its pointer
   }
   StageTimer publish_timer(counters_, "publish");
   ElementOutput out = scene_.Output(fs.source_time_s, fs.seq);
@@ -74,6 +87,14 @@ void SimController::StepOne(const Frameset& fs) {
     sink_.PublishState(s);
   }
   for (CollisionReportSample& r : out.reports) {
+    if (r.has_response && r.hull_velocity_status < hull_velocity_counts_.size()) {
+      if (r.hull_velocity_status == uint8_t(HullVelocityStatus::kClamped) &&
+          hull_velocity_counts_[r.hull_velocity_status] == 0)
+        spdlog::warn("frame {}: object {} was struck by a hull surface faster than hull_velocity.max_speed ({} m/s): "
+                     "clamped, and counted from here on (the scene's hull_velocity.max_speed sets the bound)",
+                     fs.seq, r.object_id, scene_.config().hull_velocity.max_speed);
+      ++hull_velocity_counts_[r.hull_velocity_status];
+    }
     r.frame_seq = fs.seq;
     r.capture_time_ns = fs.capture_time_ns;
     sink_.PublishReport(r);

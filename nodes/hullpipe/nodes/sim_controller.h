@@ -4,11 +4,14 @@
 // deterministic given its inputs; it publishes what each element gives (each
 // body's state and collision report, §4.1 points and §4.2 response; meshes) and
 // logs each part's collisions as they start and end. Scene commands change the
-// payload spacing while it runs.
+// payload spacing while it runs. It keeps the previous frameset's hull so that
+// bodies struck by a moving hull are thrown by it (collision/hull_motion.h).
 // DDS-free; tests drive it with a FakeClock.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -64,6 +67,10 @@ class SimController {
   uint64_t collisions() const { return collisions_; }  ///< Colliding body-steps.
   uint64_t commands_rejected() const { return commands_rejected_; }
   const std::vector<PartCollisionEvent>& part_events() const { return part_events_; }
+  /// Responses published so far by their hull velocity's status (index: a
+  /// HullVelocityStatus value): how many were measured, clamped, had no
+  /// previous frameset, ... (kNone counts those with the motion turned off).
+  const std::array<uint64_t, 6>& hull_velocity_counts() const { return hull_velocity_counts_; }
 
  private:
   void StepOne(const Frameset& fs);
@@ -76,6 +83,10 @@ class SimController {
   uint64_t collisions_ = 0, commands_rejected_ = 0, malformed_input_ = 0;
   double last_source_time_ = -1;
   StopFlag stop_ = nullptr;
+  // The previous stepped frameset's hull and its times (hull_motion.h).
+  std::unique_ptr<VolumeQuery> previous_query_;
+  TimedHull previous_hull_;
+  std::array<uint64_t, 6> hull_velocity_counts_{};
 };
 
 }  // namespace hullpipe::nodes

@@ -29,6 +29,12 @@ struct KnownType {
   bool keyed = false;
   /// Writes one zeroed (valid) sample with `writer` (used by the sertype probe).
   std::function<void(dds_entity_t writer)> write_probe;
+  /// XCDR1 bytes of the fields appended to this @final type since recordings
+  /// were first made of it (0: none). A recorded sample of the earlier layout
+  /// is the new one's prefix: CdrWriter completes it with this many zeros (the
+  /// appended fields' zero values, alignment included) when it does not
+  /// deserialize as it is. CollisionReport: 24 (its hull velocity fields).
+  size_t appended_bytes = 0;
 };
 
 /// Every topic of idl/hullpipe.idl.
@@ -60,17 +66,26 @@ class CdrReader : public Entity {
 /// A writer of serialized samples of a known type with the given QoS.
 class CdrWriter : public Entity {
  public:
-  CdrWriter(const Participant& p, const KnownType& type, const QosSpec& qos);
+  /// kPublish: a writer on the domain. kDecodeOnly: no endpoint the domain can
+  /// see (only the sertype probe's, on its private partition): for a process on
+  /// a live domain that only decodes and encodes (hullpipe_bridge), so the
+  /// pipeline never matches a writer that never writes. Write then throws
+  /// std::logic_error and MatchedReaders is 0.
+  enum class Scope { kPublish, kDecodeOnly };
+  CdrWriter(const Participant& p, const KnownType& type, const QosSpec& qos, Scope scope = Scope::kPublish);
   ~CdrWriter();
   /// Publishes one serialized sample (CDR with its 4-byte header, as recorded).
-  /// Throws DdsError if Cyclone refuses it, std::invalid_argument if it is not
-  /// XCDR1 (what hullpipe's writers send) or does not deserialize as this type.
+  /// A sample of the type's earlier layout is completed first (KnownType::
+  /// appended_bytes). Throws DdsError if Cyclone refuses it,
+  /// std::invalid_argument if it is not XCDR1 (what hullpipe's writers send) or
+  /// does not deserialize as this type.
   void Write(const std::vector<uint8_t>& cdr) const;
   uint32_t MatchedReaders() const;
   /// Deserializes a recorded sample of this writer's type into *sample (a
   /// zeroed struct of the type; its sequences/strings are allocated by Cyclone:
   /// free them with dds_sample_free(sample, descriptor, DDS_FREE_CONTENTS)).
-  /// Returns false if the bytes are not a valid XCDR1 sample of the type.
+  /// Returns false if the bytes are not a valid XCDR1 sample of the type (or of
+  /// its earlier layout: KnownType::appended_bytes).
   bool Decode(const std::vector<uint8_t>& cdr, void* sample) const;
   /// Serializes a sample of this writer's type (the struct Decode fills) into
   /// CDR with its 4-byte header, as a recording stores it. Throws DdsError if
@@ -78,8 +93,14 @@ class CdrWriter : public Entity {
   std::vector<uint8_t> Encode(const void* sample) const;
 
  private:
+  // A serdata of the bytes, or of them completed to the current layout; nullptr
+  // if neither deserializes.
+  struct ddsi_serdata* FromSer(const std::vector<uint8_t>& cdr) const;
   Entity topic_;
   struct ddsi_sertype* sertype_ = nullptr;
+  size_t appended_bytes_ = 0;
+  Scope scope_ = Scope::kPublish;
+  const dds_topic_descriptor_t* descriptor_ = nullptr;
 };
 
 }  // namespace hullpipe::dds

@@ -51,6 +51,28 @@ OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint6
 /// Decoded BGR image. Throws MessageError on a bad encoding or size.
 cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& msg);
 
+/// Throws MessageError ("<who>data is not a JPEG of the stated size WxH") unless
+/// `data` (n bytes) starts with a JPEG header of exactly width x height
+/// (hullpipe/util/image_file.h): only such bytes may reach a decoder or be
+/// passed on to a viewer. Nothing is decoded.
+void CheckJpegOfSize(const std::string& who, const uint8_t* data, size_t n, uint32_t width, uint32_t height);
+
+/// The CompositedView of render_node's composited frame `bgr` (CV_8UC3, the
+/// view's size): scaled down with area interpolation so that its longer side is
+/// at most `max_side` px (aspect kept), then JPEG at `jpeg_quality` (1..100).
+/// Throws MessageError for an empty frame, max_side outside [16, 16384] or a
+/// quality outside [1, 100].
+OwnedSample<hullpipe_msg_CompositedView> MakeCompositedViewMessage(const cv::Mat& bgr, uint64_t pose_seq,
+                                                                   uint64_t frame_seq, int64_t capture_time_ns,
+                                                                   uint64_t run_id, int max_side, int jpeg_quality);
+/// Checks a CompositedView without decoding it: image and view sizes in
+/// [1, 16384], the image no larger than the view, `data` a JPEG of the stated
+/// size. Throws MessageError naming what is wrong.
+void CheckCompositedViewMsg(const hullpipe_msg_CompositedView& msg);
+/// The decoded BGR image (CV_8UC3, width x height) after CheckCompositedViewMsg.
+/// Throws MessageError.
+cv::Mat CompositedViewFromMsg(const hullpipe_msg_CompositedView& msg);
+
 /// ViewPose for a novel view, of run `run_id` (docs/reliability.md, "run id").
 hullpipe_msg_ViewPose ViewToMsg(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq,
                                 int64_t stamp_ns, uint64_t run_id = 0);

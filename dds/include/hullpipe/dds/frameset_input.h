@@ -5,6 +5,7 @@
 #pragma once
 
 #include <memory>
+#include <set>
 
 #include <CLI/CLI.hpp>
 
@@ -65,6 +66,7 @@ class FramesetInput {
   /// Now on the node's clock (the counters'), else the system's: a sample's arrival.
   int64_t ArrivalNs() const;
   Reader<hullpipe_msg_CameraInfo> info_;
+  std::set<int> calibration_warned_;  ///< Cameras whose changed calibration was named.
   Reader<hullpipe_msg_ObjectPixelMap> maps_;
   std::unique_ptr<Reader<hullpipe_msg_CameraImage>> images_;
   FramesetAssembler assembler_;

@@ -19,6 +19,8 @@ HULLPIPE_TOPIC(ObjectPixelMap, "hullpipe/object_pixel_map", true, false, 4)
 HULLPIPE_TOPIC(CameraImage, "hullpipe/camera_image", true, false, 4)
 HULLPIPE_TOPIC(ViewPose, "hullpipe/view_pose", true, false, 4)
 HULLPIPE_TOPIC(HullView, "hullpipe/hull_view", true, false, 4)
+// For viewers: best-effort, so a reader that lags never makes render_node wait.
+HULLPIPE_TOPIC(CompositedView, "hullpipe/composited_view", false, false, 1)
 HULLPIPE_TOPIC(VirtualObjectState, "hullpipe/object_state", true, false, 1)
 HULLPIPE_TOPIC(CollisionReport, "hullpipe/collision_report", true, false, 16)
 HULLPIPE_TOPIC(NodeStats, "hullpipe/node_stats", true, true, 1)

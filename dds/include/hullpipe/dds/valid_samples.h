@@ -83,6 +83,9 @@ inline std::map<std::string, std::vector<uint8_t>> ValidSampleOfEachTopic(const 
   model.parts.push_back({{0, 0, -1}, {1, 0, 0, 0}, kPartNear, 0.02});
   const auto ms = MakeModelStateMessage(model);
   encode("hullpipe::msg::ModelState", &ms.msg);
+  const auto composited = MakeCompositedViewMessage(cv::Mat(24, 32, CV_8UC3, cv::Scalar(40, 80, 120)), 1, 1,
+                                                    kStampNs, 7, 1280, 90);
+  encode("hullpipe::msg::CompositedView", &composited.msg);
   return out;
 }
 

@@ -100,6 +100,19 @@ struct WriterOptions {
 /// image is 2.8 MB).
 constexpr int64_t kMaxSampleBytes = int64_t(1) << 30;
 
+/// A zstd-stored sample (or a compressed MCAP chunk, zstd or lz4) of more than
+/// kRatioFreeBytes (64 MiB) must be stored in
+/// at least 1/kMaxZstdRatio of its size: a frame of a few KB claiming (and
+/// made of run-length blocks that give) 1 GiB made `info` allocate 1.1 GB on
+/// an 8-MB file. The writer stores a sample that would compress better than
+/// that uncompressed, so every file it writes reads back.
+constexpr int64_t kRatioFreeBytes = int64_t(64) << 20;
+constexpr int64_t kMaxZstdRatio = 1024;
+/// Whether `size` decoded bytes from `stored` stored bytes pass the rule above.
+constexpr bool ZstdRatioPlausible(size_t stored, int64_t size) {
+  return size <= kRatioFreeBytes || size / kMaxZstdRatio <= int64_t(stored);
+}
+
 /// One recorded sample.
 struct Sample {
   int64_t topic_id = 0;
@@ -232,6 +245,9 @@ class RecordingReader {
   std::string QuickCheck() const;
   /// Samples ForEach skipped for a CRC mismatch, a bad frame or an unknown topic, so far.
   int64_t damaged_samples() const { return damaged_; }
+  /// A split recording's parts found missing at open ("part 2 missing, part 5
+  /// missing"); empty when none is. Replay and export read the rest and exit 3.
+  const std::string& missing_parts() const { return missing_parts_; }
   /// The files read, in order.
   std::vector<std::string> files() const;
 
@@ -250,7 +266,9 @@ class RecordingReader {
 bool IsMcapFile(const std::string& path);
 
 /// Decodes one stored sample: codec 0 copies, 1 decompresses a zstd frame that
-/// must decode to exactly `size` bytes (<= kMaxSampleBytes). False if it does not.
+/// must decode to exactly `size` bytes (<= kMaxSampleBytes, ZstdRatioPlausible).
+/// The output grows with what the frame really gives, so a frame that stops
+/// short costs what it gave, not what it claimed. False if it does not decode.
 bool DecodeSampleData(const uint8_t* data, size_t n, int codec, int64_t size, std::vector<uint8_t>* out);
 /// The row checksum of the format (header comment).
 uint32_t RowCrc(int64_t topic_id, int64_t source_ns, int64_t arrival_ns, const uint8_t* data, size_t size);
