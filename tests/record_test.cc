@@ -621,18 +621,40 @@ void PublishMaps(uint32_t domain, int frames, double hz, const std::function<boo
 // and a JSON line per map), and the directory replays as one recording.
 TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   const std::string set = (dir_ / ("split" + Ext())).string();  // split.mcap: a set of MCAP parts
+  // The parts of the set (not SQLite's -wal and -shm files), in order.
+  auto parts = [&] {
+    std::vector<std::filesystem::path> files;
+    std::error_code ec;
+    for (const auto& f : std::filesystem::directory_iterator(set, ec))
+      if (f.path().extension() == Ext()) files.push_back(f.path());
+    std::sort(files.begin(), files.end());
+    return files;
+  };
+  int frames = 0;  // maps of two cameras each
   {
-    // 1 s of maps in parts of 0.25 s (a size split is tested on the library: these
-    // maps compress to a few KiB in all).
+    // Maps at 20 Hz in parts of 0.25 s (a size split is tested on the library:
+    // these maps compress to a few KiB in all) until there are three parts and
+    // at least 20 frames. Parts split on the recorder's arrival stamps, which a
+    // slowed recorder (ThreadSanitizer) gives in bursts: a fixed second of maps
+    // made only two parts there.
     auto recorder = Start("hullpipe_record", {"-o", set, "--compression", "zstd", "--split-duration", "0.25"});
-    PublishMaps(domain_, 20, 20, [] { return true; });
+    std::atomic<bool> stop{false};
+    std::atomic<int> sent{0};
+    std::thread publisher([&] { PublishMaps(domain_, 0, 20, [] { return true; }, &stop, &sent); });
+    WaitFor([&] { return sent >= 20 && parts().size() >= 3; }, 60 * test::TimeScale());
+    stop = true;
+    publisher.join();
+    frames = sent;
     EXPECT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
   }
+  ASSERT_GE(frames, 20);
+  ASSERT_GE(parts().size(), 3u) << Log("hullpipe_record");
+  const int maps_sent = 2 * frames;
   const std::string info_log = (dir_ / "split_info.json").string();
   test::Process info({test::BinDir() + "/hullpipe_record", "info", set, "--json"}, info_log);
   ASSERT_EQ(info.Wait(20), 0) << test::ReadFile(info_log);
   const auto j = nlohmann::json::parse(test::ReadFile(info_log));
-  EXPECT_EQ(j["samples"].get<int>(), 42);
+  EXPECT_EQ(j["samples"].get<int>(), maps_sent + 2);
   EXPECT_GT(j["files"].size(), 1u) << "not split";
   EXPECT_EQ(j["compression"], "zstd");
   EXPECT_EQ(j["format"], Ext() == ".mcap" ? "mcap" : "hullpipe-recording-3");
@@ -655,18 +677,18 @@ TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   ASSERT_EQ(exp.Wait(60), 0) << test::ReadFile(export_log);
   const auto e = nlohmann::json::parse(test::ReadFile(out + "/export.json"));
   const auto& maps = e["topics"]["hullpipe/object_pixel_map"];
-  EXPECT_EQ(maps["samples"], 40);
-  EXPECT_EQ(maps["pngs"], 40);
-  EXPECT_EQ(maps["json_lines"], 40);
+  EXPECT_EQ(maps["samples"], maps_sent);
+  EXPECT_EQ(maps["pngs"], maps_sent);
+  EXPECT_EQ(maps["json_lines"], maps_sent);
   EXPECT_EQ(maps["undecodable"], 0);
   EXPECT_EQ(e["topics"]["hullpipe/camera_info"]["json_lines"], 2);
   int pngs = 0;
   for (const auto& f : std::filesystem::recursive_directory_iterator(out + "/maps")) pngs += f.path().extension() == ".png";
-  EXPECT_EQ(pngs, 40);
+  EXPECT_EQ(pngs, maps_sent);
   std::ifstream lines(out + "/hullpipe_object_pixel_map.jsonl");
   int n = 0;
   for (std::string line; std::getline(lines, line); ++n) EXPECT_EQ(nlohmann::json::parse(line)["width"], 64);
-  EXPECT_EQ(n, 40);
+  EXPECT_EQ(n, maps_sent);
   // echo: the same JSON lines on stdout (the log on stderr).
   const std::string echo_log = (dir_ / "echo.log").string();
   test::Process echo({test::BinDir() + "/hullpipe_record", "echo", set, "--topic", "hullpipe/object_pixel_map",
@@ -676,7 +698,7 @@ TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   int lines_echoed = 0;
   for (std::string line; std::getline(echoed, line);)
     if (!line.empty() && line[0] == '{') lines_echoed += nlohmann::json::parse(line)["topic"] == "hullpipe/object_pixel_map";
-  EXPECT_EQ(lines_echoed, 40);
+  EXPECT_EQ(lines_echoed, maps_sent);
   // The directory replays as one recording.
   const uint32_t d2 = test::UniqueDomain();
   dds::Participant p2(d2);
@@ -685,9 +707,9 @@ TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   size_t got = 0;
   WaitFor([&] {
     got += cdr.TakeEach([](const std::vector<uint8_t>&, int64_t) {});
-    return got >= 40;
+    return got >= size_t(maps_sent);
   }, 20);
-  EXPECT_EQ(got, 40u) << Log("hullpipe_replay");
+  EXPECT_EQ(got, size_t(maps_sent)) << Log("hullpipe_replay");
   EXPECT_EQ(replay->Wait(30), 0) << Log("hullpipe_replay");
 
   // Exported onto a full disk (a file size limit of 2 KiB, SIGXFSZ ignored:
@@ -709,10 +731,7 @@ TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   // named, and both exit 3 (they exited 0 while info said DAMAGED).
   const auto holed = dir_ / ("holed" + Ext());
   std::filesystem::create_directories(holed);
-  std::vector<std::filesystem::path> files;
-  for (const auto& f : std::filesystem::directory_iterator(set))
-    if (f.path().extension() == Ext()) files.push_back(f.path());  // not SQLite's -wal and -shm
-  std::sort(files.begin(), files.end());
+  const auto files = parts();
   ASSERT_GE(files.size(), 3u);
   for (size_t i = 0; i < files.size(); ++i)
     if (i != 1) std::filesystem::copy_file(files[i], holed / files[i].filename());
