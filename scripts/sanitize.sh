@@ -13,6 +13,8 @@
 # in build-asan/fuzz-out/<target>/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each stage's line says when it starts (CI's whole run has 90 minutes).
+stage() { echo "== sanitize: $* ($(date -u +%H:%M:%S), ${SECONDS} s in)"; }
 FUZZ_SECONDS="${FUZZ_SECONDS:-20}"
 RIG="${RIG:-../shared/data/utrecht-4cam}"
 # Warnings are the main (gcc, -Werror) build's business; clang's own extra
@@ -25,13 +27,13 @@ CORE_TESTS=(util_tests geometry_tests capture_tests reconstruction_tests collisi
             scenes_tests nodes_tests launch_support_tests)
 FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings fuzz_model_files)  # as in scripts/fuzz.sh
 
-echo "== sanitize: ASan + UBSan build (clang-14)"
+stage "ASan + UBSan build (clang-14)"
 cmake -S . -B build-asan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=address,undefined -DHULLPIPE_FUZZ=ON -DHULLPIPE_WERROR=OFF >/dev/null
 cmake --build build-asan --target "${CORE_TESTS[@]}" record_tests bridge_tests "${FUZZERS[@]}" fuzz_make_seeds
 ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -L core
 ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -R '^(Recording|RecordingStorage|McapStorage|Player|BridgeState)\.'
 
-echo "== sanitize: fuzzing, ${FUZZ_SECONDS} s per target"
+stage "fuzzing, ${FUZZ_SECONDS} s per target"
 FUZZ_SECONDS="$FUZZ_SECONDS" RIG="$RIG" bash scripts/fuzz.sh
 
 # ThreadSanitizer: the core tests (row-band threads, the rig source's parallel
@@ -44,10 +46,10 @@ FUZZ_SECONDS="$FUZZ_SECONDS" RIG="$RIG" bash scripts/fuzz.sh
 # Left out: ReplayingTwiceIntoSimNode..., whose sim_node must keep up with a
 # 25-fps replay (17 of 50 frames under TSan). HULLPIPE_TSAN=0 skips the stage.
 if [ "${HULLPIPE_TSAN:-1}" = 0 ]; then
-  echo "== sanitize: clean (TSan stage skipped: HULLPIPE_TSAN=0)"
+  stage "clean (TSan stage skipped: HULLPIPE_TSAN=0)"
   exit 0
 fi
-echo "== sanitize: TSan build (clang-14)"
+stage "TSan build (clang-14)"
 cmake -S . -B build-tsan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=thread -DHULLPIPE_WERROR=OFF >/dev/null
 cmake --build build-tsan --target "${CORE_TESTS[@]}" record_tests node_tests hullpipe_record hullpipe_replay \
     hullpipe_cmd node_bench capture_node recon_node sim_node render_node
@@ -58,4 +60,4 @@ export HULLPIPE_TEST_TIME_SCALE=4
 ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -L 'core|record' \
     -E 'ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports|TheRigsDemoAsMcapOpensInTheFieldsOwnReaders'
 ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -R '^(NodeTest|CaptureFiles)\.'
-echo "== sanitize: clean"
+stage "clean"

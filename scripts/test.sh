@@ -5,8 +5,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
+echo "== test: build ($(date -u +%H:%M:%S))"
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build build
+echo "== test: ctest ($(date -u +%H:%M:%S), ${SECONDS} s in)"
 ctest --test-dir build -j2 --output-on-failure --timeout 300 "$@"
 # The whole run (no ctest arguments) goes on to the sanitizer builds and the
 # fuzz targets (docs/reliability.md); HULLPIPE_SANITIZE=0 skips them.
