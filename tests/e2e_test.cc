@@ -23,11 +23,10 @@
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/geometry/head_pose.h"
-#include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/evaluation/run_check.h"
 #include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/segmentation/video_rig.h"
-#include "hullpipe/util/percentile.h"
 #include "test_util.h"
 
 namespace hullpipe {
@@ -243,27 +242,22 @@ nlohmann::json ExpectTheCompositedHullIsExact(const std::string& name, const Syn
     while (source->Next(&f)) frames.push_back(f);
   }
   auto source = OpenSyntheticRig(so);
-  std::ifstream views((out / "run" / "views.csv").string());
-  std::string line;
-  std::getline(views, line);  // header
+  const std::string run_dir = (out / "run").string();
+  std::vector<RunView> views;
+  try {
+    views = ReadRunViews(run_dir + "/views.csv");
+  } catch (const std::runtime_error& e) {
+    ADD_FAILURE() << e.what();
+  }
   int checked = 0;
-  while (std::getline(views, line) && checked < run.frames_checked) {
-    std::vector<double> v;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
-    EXPECT_EQ(v.size(), 20u) << line;
-    if (v.size() != 20u) break;
-    const uint64_t seq = uint64_t(v[0]);
-    EXPECT_GE(seq, 1u);
+  for (const RunView& rv : views) {
+    if (checked >= run.frames_checked) break;
+    const uint64_t seq = rv.frame_seq;
     EXPECT_LE(seq, frames.size());
-    if (seq < 1 || seq > frames.size()) break;
-    NovelView view;
-    view.width = int(v[2]), view.height = int(v[3]);
-    view.fx = v[4], view.fy = v[5], view.cx = v[6], view.cy = v[7];
-    view.world_from_eye.rotation << v[8], v[9], v[10], v[11], v[12], v[13], v[14], v[15], v[16];
-    view.world_from_eye.translation = {v[17], v[18], v[19]};
+    if (seq > frames.size()) break;
+    const NovelView& view = rv.view;
     // The view is the tracker log's pose at the frame's time.
-    const Rigid3d logged = track.At(v[1]);
+    const Rigid3d logged = track.At(rv.path_time_s);
     EXPECT_LT((logged.rotation - view.world_from_eye.rotation).norm(), 1e-9) << "frame " << seq;
     EXPECT_LT((logged.translation - view.world_from_eye.translation).norm(), 1e-9) << "frame " << seq;
     // The hull: frame seq is the source's (seq)-th frame.
@@ -271,46 +265,33 @@ nlohmann::json ExpectTheCompositedHullIsExact(const std::string& name, const Syn
     for (size_t c = 0; c < source->cameras().size(); ++c)
       maps.push_back({source->cameras()[c], frames[seq - 1].maps[c]});
     const VolumeQuery q(maps, source->workspace());
-    const cv::Mat exact = ExactHullDepth(q, view, cv::Rect(0, 0, view.width, view.height), 2);
-    const cv::Mat got = cv::imread(cv::format("%s/frame_%05llu_depth.tiff", (out / "run").c_str(),
-                                              (unsigned long long)seq),
-                                   cv::IMREAD_UNCHANGED);
+    const cv::Mat got = cv::imread(RunDepthPath(run_dir, seq), cv::IMREAD_UNCHANGED);
     EXPECT_EQ(got.type(), CV_32FC1);
-    EXPECT_EQ(got.size(), exact.size());
-    if (got.type() != CV_32FC1 || got.size() != exact.size()) break;
+    EXPECT_EQ(got.size(), cv::Size(view.width, view.height));
+    if (got.type() != CV_32FC1 || got.size() != cv::Size(view.width, view.height)) break;
     // 1. The pipeline computed what the sweep computes: the two recon nodes'
     // tiles, assembled, equal recon's sweep (50 planes, 6 bisections, the
     // launcher's settings) of this frame and view run here, pixel for pixel.
-    const cv::Rect all(0, 0, view.width, view.height);
-    const cv::Mat sweep = PlaneSweepCpu(q, view, SweepPlaneDepths(q, view, PlaneSweepOptions{}), all, nullptr, 1, 6);
-    cv::Mat same = (got == sweep) | ((got != got) & (sweep != sweep));  // equal, or both NaN (none here)
-    same |= (got == std::numeric_limits<float>::infinity()) & (sweep == std::numeric_limits<float>::infinity());
-    EXPECT_EQ(cv::countNonZero(same), int(got.total())) << "frame " << seq << ": pipeline and direct sweep differ";
-    // 2. Against the exact hull.
-    int hull = 0, exact_only = 0, sweep_only = 0;
-    std::vector<double> err_mm;
-    for (int r = 0; r < got.rows; ++r)
-      for (int c = 0; c < got.cols; ++c) {
-        const bool a = std::isfinite(got.at<float>(r, c)), b = std::isfinite(exact.at<float>(r, c));
-        hull += b;
-        exact_only += b && !a;
-        sweep_only += a && !b;
-        if (a && b) err_mm.push_back(std::abs(got.at<float>(r, c) - exact.at<float>(r, c)) * 1e3);
-      }
+    // 2. Against the exact hull, at every pixel.
+    RunCheckOptions co;
+    co.threads = 2;
+    const RunFrameCheck c = CheckRunFrame(q, view, got, co);
+    EXPECT_EQ(c.equal_to_sweep, c.pixels) << "frame " << seq << ": pipeline and direct sweep differ";
+    const int64_t hull = c.exact.both + c.exact.only_ref, exact_only = c.exact.only_ref, sweep_only = c.exact.only_got;
     EXPECT_GT(hull, run.min_hull_px) << "frame " << seq << ": the figure is in view";
-    std::printf("%s frame %llu: %d exact hull px, %d only exact, %d only swept; depth error median %.3f mm, "
+    std::printf("%s frame %llu: %lld exact hull px, %lld only exact, %lld only swept; depth error median %.3f mm, "
                 "p95 %.2f mm\n",
-                name.c_str(), (unsigned long long)seq, hull, exact_only, sweep_only, Median(err_mm),
-                Percentile(err_mm, 95));
+                name.c_str(), (unsigned long long)seq, (long long)hull, (long long)exact_only, (long long)sweep_only,
+                c.exact.err_mm_median, c.exact.err_mm_p95);
     // The sweep samples each ray at 50 planes: a ray that only grazes the hull
     // (an interval shorter than the plane spacing, ~2 cm here, at the figure's
     // silhouette and thin limbs) can pass between two planes, so the sweep misses
     // it (measured ~5% of the hull's pixels at 160x120) or lands on a later part
     // (the p95). It never finds hull where there is none. Where both see hull,
     // refinement puts the depth within a millimetre (measured median 0.84 mm).
-    EXPECT_LE(sweep_only, std::max(2, hull / 500)) << "frame " << seq;
+    EXPECT_LE(sweep_only, std::max<int64_t>(2, hull / 500)) << "frame " << seq;
     EXPECT_LT(exact_only, hull / 10) << "frame " << seq;
-    EXPECT_LT(Median(err_mm), 1.5) << "frame " << seq;
+    EXPECT_LT(c.exact.err_mm_median, 1.5) << "frame " << seq;
     ++checked;
   }
   EXPECT_GE(checked, run.frames_checked) << "views.csv rows";
@@ -453,9 +434,12 @@ TEST(EndToEnd, AZUpRigFromAColmapModelShowsThePersonUprightOnTheFloorAndTheBallR
   EXPECT_NE(report.find("up    0.000    0.000    1.000 (derived"), std::string::npos) << report;
   EXPECT_NE(report.find("no warnings"), std::string::npos) << report;
   // Capture paced at 10 fps so that a busy 2-core machine composites enough of
-  // the 75 framesets (render takes the newest; at 25 fps it skips most).
-  std::ofstream(dir / "paced.yaml")
-      << test::LocalDescriptionWith(test::kCaptureWaitArg, "--fps, \"10\", " + test::kCaptureWaitArg);
+  // the 75 framesets (render takes the newest; at 25 fps it skips most); render
+  // saves every frame's depth and view for `vh_eval run` below.
+  std::string description = test::LocalDescriptionWith("--png-every, \"50\"", "--png-every, \"1\", --save-depth");
+  description.replace(description.find(test::kCaptureWaitArg), test::kCaptureWaitArg.size(),
+                      "--fps, \"10\", " + test::kCaptureWaitArg);
+  std::ofstream(dir / "paced.yaml") << description;
   const auto out = dir / "run";
   test::Process launch({test::BinDir() + "/hullpipe_launch", "--rig", yaml, "--frames", "75", "--out", out.string(),
                         "--description", (dir / "paced.yaml").string(), "--scene",
@@ -493,6 +477,27 @@ TEST(EndToEnd, AZUpRigFromAColmapModelShowsThePersonUprightOnTheFloorAndTheBallR
   EXPECT_NEAR(0.5 * (lo.y() + hi.y()), -0.8, 0.15);
   const std::string log = test::ReadFile((dir / "launch.log").string());
   EXPECT_EQ(log.find("below the rig's floor"), std::string::npos) << log;
+
+  // What the pipeline composited is the hull `vh_eval run` computes for the
+  // same frames from the rig's videos: the direct sweep of those frames' maps
+  // (segmented as capture segments them) pixel for pixel, and the exact
+  // intervals at every 4th pixel within the sweep's sampling (50 planes, 6
+  // bisections: under a millimetre where both have hull; a ray grazing the
+  // silhouette between two planes may be missed, never hull where there is none).
+  const std::string eval_log = (dir / "vh_eval_run.json").string();
+  test::Process eval({test::BinDir() + "/vh_eval", "run", "--rig", yaml, "--run", out.string(), "--max-frames", "3",
+                      "--json"},
+                     eval_log, {}, (dir / "vh_eval_run.log").string());
+  ASSERT_EQ(eval.Wait(120), 0) << test::ReadFile(eval_log) << test::ReadFile((dir / "vh_eval_run.log").string());
+  const auto ev = nlohmann::json::parse(test::ReadFile(eval_log));
+  EXPECT_EQ(ev["frames_checked"], 3) << ev.dump(1);
+  EXPECT_EQ(ev["equal_to_sweep"], ev["pixels"]) << ev.dump(1);
+  EXPECT_EQ(ev["only_run"], 0) << ev.dump(1);
+  for (const auto& f : ev["frames"]) {
+    EXPECT_GT(f["hull_pixels"].get<int>(), 300) << "the person is in view\n" << f.dump();
+    EXPECT_LT(f["only_exact"].get<int>(), f["exact_both"].get<int>() / 10) << f.dump();
+    EXPECT_LT(f["err_mm_median"].get<double>(), 1.5) << f.dump();
+  }
 }
 
 // Faults (docs/architecture.md): kill one recon node mid-run with SIGKILL. render_node

@@ -22,6 +22,10 @@
 // each texturing variant (vh_eval_held_out.h).
 //   vh_eval segmentation --rig DIR [--stride S ...]
 // the same measure for each segmentation setting and the adaptive background.
+//   vh_eval run --rig DIR --run OUT [--exact-stride S] [--json]
+// a pipeline run's composited hull (render_node --save-depth) against the same
+// frames' hull computed here: the direct sweep, pixel for pixel, and the exact
+// intervals (vh_eval_run.h).
 #include <cstdio>
 #include <memory>
 #include <iostream>
@@ -42,6 +46,7 @@
 #include "vh_eval_collision.h"
 #include "vh_eval_held_out.h"
 #include "vh_eval_reprojection.h"
+#include "vh_eval_run.h"
 #include "vh_eval_sweep.h"
 
 using namespace hullpipe;
@@ -91,6 +96,9 @@ int main(int argc, char** argv) {
   ReprojectionEvalOptions ro;
   auto* rep = app.add_subcommand("reprojection", "Per-camera IoU of the hull's reprojection with the maps");
   AddReprojectionOptions(rep, ro);
+  RunEvalOptions rn;
+  auto* run = app.add_subcommand("run", "A pipeline run's composited hull against the same frames' direct sweep and exact hull");
+  AddRunEvalOptions(run, rn);
   HeldOutEvalOptions ho;
   auto* held = app.add_subcommand("held-out", "Rendering error from each held-out camera's pose, per texturing variant");
   auto* seg = app.add_subcommand("segmentation", "Held-out rendering error per segmentation setting");
@@ -115,6 +123,14 @@ int main(int argc, char** argv) {
   if (collision->parsed()) {
     try {
       return RunCollisionEval(co);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "vh_eval: %s\n", e.what());
+      return 1;
+    }
+  }
+  if (run->parsed()) {
+    try {
+      return RunRunEval(rn);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "vh_eval: %s\n", e.what());
       return 1;
