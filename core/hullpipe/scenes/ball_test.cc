@@ -29,15 +29,33 @@ namespace {
 const Eigen::Vector3d& kCentre = test::kSphereCentre;
 constexpr double kRadius = test::kSphereRadius;
 
-TEST(BallSimulation, BouncesOffTheHullAndIsDeterministic) {
-  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+// One ball and nothing else (no floor, no gravity, never thrown again), thrown
+// from `start` to reach `target` after flight_time seconds.
+SceneConfig OneBall(const Eigen::Vector3d& start, const Eigen::Vector3d& target, double flight_time) {
   SceneConfig cfg;
   cfg.has_floor = false;
   cfg.gravity.setZero();
-  cfg.balls[0].start = kCentre + Eigen::Vector3d(1.5, 0, 0);
-  cfg.balls[0].target = kCentre;
-  cfg.balls[0].flight_time = 1.0;
+  cfg.balls[0].start = start;
+  cfg.balls[0].target = target;
+  cfg.balls[0].flight_time = flight_time;
   cfg.balls[0].rethrow_period = 0;
+  return cfg;
+}
+
+// One ball of 5 cm radius at rest at `at`, nothing else.
+SceneConfig RestingBall(const Eigen::Vector3d& at) {
+  SceneConfig cfg;
+  cfg.has_floor = false;
+  cfg.gravity.setZero();
+  cfg.balls[0].radius = 0.05;
+  cfg.balls[0].start = cfg.balls[0].target = at;
+  cfg.balls[0].rethrow_period = 0;
+  return cfg;
+}
+
+TEST(BallSimulation, BouncesOffTheHullAndIsDeterministic) {
+  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+  const SceneConfig cfg = OneBall(kCentre + Eigen::Vector3d(1.5, 0, 0), kCentre, 1.0);
   BallSimulation a(cfg), b(cfg);
   bool collided = false;
   for (int i = 0; i < 60; ++i) {
@@ -67,14 +85,9 @@ TEST(BallSimulation, AFastBallDoesNotTunnelThroughAThinHull) {
   std::vector<CameraMap> views;
   for (const auto& c : RingCameras(4, 3.0, 1.8, kCentre, 640, 480, 1.0)) views.push_back({c, RenderExactMap(c, scene)});
   const VolumeQuery q(views, test::BigBox());
-  SceneConfig cfg;
-  cfg.has_floor = false;
-  cfg.gravity.setZero();
+  SceneConfig cfg = OneBall(kCentre + Eigen::Vector3d(1.2, 0, 0), kCentre - Eigen::Vector3d(1.8, 0, 0),
+                            0.15);  // 3 m in 0.15 s: 20 m/s
   cfg.balls[0].radius = 0.05;
-  cfg.balls[0].start = kCentre + Eigen::Vector3d(1.2, 0, 0);
-  cfg.balls[0].target = kCentre - Eigen::Vector3d(1.8, 0, 0);
-  cfg.balls[0].flight_time = 0.15;  // 3 m in 0.15 s: 20 m/s
-  cfg.balls[0].rethrow_period = 0;
   BallSimulation sim(cfg);
   bool collided = false;
   for (int i = 0; i < 10; ++i) {
@@ -176,12 +189,7 @@ TEST_P(BatsABall, AtOnePlusRestitutionTimesTheSurfacesNormalSpeed) {
   const ShotFrame first = ShootSphere(cams, 0, b.fps, at);
   const auto front = FirstHullPointAlong(*first.query, c0 + d, -d, 1.0);
   ASSERT_TRUE(front);
-  SceneConfig cfg;
-  cfg.has_floor = false;
-  cfg.gravity.setZero();
-  cfg.balls[0].radius = 0.05;
-  cfg.balls[0].start = cfg.balls[0].target = *front + (0.05 + 0.6 * b.speed / b.fps) * d;  // struck in frame 1
-  cfg.balls[0].rethrow_period = 0;
+  SceneConfig cfg = RestingBall(*front + (0.05 + 0.6 * b.speed / b.fps) * d);  // struck in frame 1
   cfg.balls[0].restitution = 0.5;
   BallSimulation sim(cfg);
   ASSERT_EQ(sim.bodies()[0].velocity, Eigen::Vector3d::Zero());
@@ -232,12 +240,7 @@ TEST(BallSimulation, WithoutTheHullsMotionARestingBallIsOnlyPushedOut) {
   const ShotFrame first = ShootSphere(cams, 0, 25, at);
   const auto front = FirstHullPointAlong(*first.query, c0 + d, -d, 1.0);
   ASSERT_TRUE(front);
-  SceneConfig cfg;
-  cfg.has_floor = false;
-  cfg.gravity.setZero();
-  cfg.balls[0].radius = 0.05;
-  cfg.balls[0].start = cfg.balls[0].target = *front + 0.07 * d;
-  cfg.balls[0].rethrow_period = 0;
+  const SceneConfig cfg = RestingBall(*front + 0.07 * d);
   BallSimulation sim(cfg);
   sim.Step(0, first.query.get());
   bool hit = false;
@@ -255,13 +258,7 @@ TEST(BallSimulation, WithoutTheHullsMotionARestingBallIsOnlyPushedOut) {
 TEST(BallSimulation, AStationaryHullsMotionChangesNothing) {
   const auto views = test::SphereViews(4, 160, 120, kCentre, kRadius);
   const VolumeQuery q(views, test::BigBox()), q_prev(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
-  SceneConfig cfg;
-  cfg.has_floor = false;
-  cfg.gravity.setZero();
-  cfg.balls[0].start = kCentre + Eigen::Vector3d(1.5, 0.05, 0);
-  cfg.balls[0].target = kCentre;
-  cfg.balls[0].flight_time = 1.0;
-  cfg.balls[0].rethrow_period = 0;
+  const SceneConfig cfg = OneBall(kCentre + Eigen::Vector3d(1.5, 0.05, 0), kCentre, 1.0);
   BallSimulation a(cfg), b(cfg);
   int measured = 0;
   for (int i = 0; i < 60; ++i) {
@@ -290,12 +287,7 @@ TEST(BallSimulation, AHullThatAppearsDoesNotThrow) {
   const ShotFrame cur = ShootSphere(cams, 1, 25, [&](double) { return SyntheticScene{{Shape::Sphere(c0, 0.1)}}; });
   const auto front = FirstHullPointAlong(*cur.query, c0 + d, -d, 1.0);
   ASSERT_TRUE(front);
-  SceneConfig cfg;
-  cfg.has_floor = false;
-  cfg.gravity.setZero();
-  cfg.balls[0].radius = 0.05;
-  cfg.balls[0].start = cfg.balls[0].target = *front + 0.02 * d;  // 3 cm inside
-  cfg.balls[0].rethrow_period = 0;
+  const SceneConfig cfg = RestingBall(*front + 0.02 * d);  // 3 cm inside
   BallSimulation sim(cfg);
   sim.Step(0, empty.query.get());
   const HullMotion motion(cur.timed, empty.timed);
