@@ -12,8 +12,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD="${1:-build}"
 shift || true
-RATES=("${@:-2 5}")
-read -r -a RATES <<< "${RATES[*]}"
+RATES=("$@")
+[ ${#RATES[@]} -gt 0 ] || RATES=(2 5)
 CAMERAS="${CAMERAS:-20}" SIZE="${SIZE:-1024x768}" FRAMES="${FRAMES:-40}" CHECK="${CHECK:-4}" STRIDE="${STRIDE:-8}"
 OUT=out/many_cameras
 mkdir -p "$OUT"
