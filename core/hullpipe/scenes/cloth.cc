@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 #include "hullpipe/scenes/scene_config.h"
@@ -13,7 +14,8 @@ namespace hullpipe {
 
 void ClothConfig::Check() const {
   if (nx < 2 || ny < 2) throw std::invalid_argument("cloth: nx and ny must be >= 2");
-  if (nx * ny > 100000) throw std::invalid_argument("cloth: nx * ny must be <= 100000");
+  // In 64 bits: each side may be as large as an int, and their product is not.
+  if (int64_t(nx) * int64_t(ny) > 100000) throw std::invalid_argument("cloth: nx * ny must be <= 100000");
   if (!rod_a.allFinite() || !rod_b.allFinite() || (rod_b - rod_a).norm() < 1e-6)
     throw std::invalid_argument("cloth: rod_a and rod_b must be finite and distinct");
   if (!(length > 0)) throw std::invalid_argument("cloth: length must be > 0");

@@ -77,6 +77,21 @@ TEST(Cloth, HasThePapersTriangleCountAndHangsStill) {
   for (size_t i = 0; i < size_t(cfg.nx); ++i) EXPECT_EQ(cloth.positions()[i], x0[i]);  // pinned rod
 }
 
+// The vertex bound holds for sides whose product overflows an int (a fuzzed
+// scene had nx = 212222222, ny = 19: undefined behaviour, then accepted or not
+// by chance). Control: the largest legal grid passes.
+TEST(Cloth, SidesWhoseProductOverflowsAnIntAreRefused) {
+  ClothConfig cfg;
+  cfg.nx = 212222222;
+  cfg.ny = 19;
+  EXPECT_THROW(cfg.Check(), std::invalid_argument);
+  cfg.nx = cfg.ny = 2147483647;
+  EXPECT_THROW(cfg.Check(), std::invalid_argument);
+  cfg.nx = 400;
+  cfg.ny = 250;
+  EXPECT_NO_THROW(cfg.Check());
+}
+
 TEST(Cloth, ACapsulePushedThroughLeavesNoVertexInsideTheHull) {
   // A forearm-like capsule (r 5 cm) moves along +x through a curtain hanging in
   // the plane x = 0; 4 dome cameras see it with exact maps.
