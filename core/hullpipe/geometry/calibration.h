@@ -66,11 +66,19 @@ constexpr int kMaxStorageNesting = 64;
 /// quotes cannot hide): a 64-camera calibration has a few hundred.
 constexpr int kMaxStorageCollections = 4096;
 
+/// Longest OpenCV may take to parse a YAML or JSON calibration file in the
+/// bounded child process (CheckOpenCvStorageText): a 1-MiB file parses in
+/// milliseconds, even under a sanitizer.
+constexpr int kMaxStorageParseSeconds = 5;
+
 /// Checks the text of a file for OpenCV's FileStorage before OpenCV parses it
 /// (docs/reliability.md): at most 1 MiB, no NUL byte, XML (first character '<')
 /// well-formed by libxml2 (no network, no DTD: OpenCV 4.6 dereferences NULL on
 /// attributes cut short), YAML or JSON nested at most kMaxStorageNesting deep
-/// with at most kMaxStorageCollections sequences and maps.
+/// with at most kMaxStorageCollections sequences and maps, and parsed once by
+/// OpenCV in a child process that must end within kMaxStorageParseSeconds and
+/// not by a signal (OpenCV 4.6's YAML parser loops forever on some malformed
+/// text). Costs a fork (about a millisecond) per YAML or JSON file.
 /// Throws CalibrationError naming `path` and what is wrong.
 void CheckOpenCvStorageText(const std::string& text, const std::string& path);
 

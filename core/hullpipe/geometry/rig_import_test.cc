@@ -5,6 +5,7 @@
 // unsupported models) is a case of its own.
 #include "hullpipe/geometry/rig_import.h"
 
+#include <chrono>
 #include <cstdio>
 #include <functional>
 #include <fstream>
@@ -472,6 +473,12 @@ TEST(RigImport, HostileOpenCvFilesAreRefusedInOneLine) {
   expect_refused("cut.xml", "<?xml version=\"1.0\"?>\n<opencv_storage>\n<op vo=", "not well-formed XML");
   // 40,000 nested sequences: OpenCV's YAML parser overflowed the stack.
   expect_refused("deep.yml", "%YAML:1.0\nnCameras: " + std::string(40000, '['), "nested deeper than 64");
+  // A '-' line where a second document would start: OpenCV 4.6's YAML parser
+  // looped forever (fuzz_rig_files); parsed in a bounded child, it is refused
+  // within kMaxStorageParseSeconds.
+  const auto t0 = std::chrono::steady_clock::now();
+  expect_refused("loops.yml", "%YAML:1.\n s:3\na-\n-", "did not finish reading it within 5 s");
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), kMaxStorageParseSeconds + 2.0);
   // Many flat sequences, none deep: bounded by their number.
   std::string flat = "%YAML:1.0\nx: [";
   for (int i = 0; i < 5000; ++i) flat += "[1],";
