@@ -25,12 +25,15 @@ namespace {
 
 // Appends the parameters in (s0, s1) where a + b s = k (c + d s) for integer k,
 // i.e. where the Möbius function f(s) = (a + b s) / (c + d s) crosses an integer,
-// with c + d s > 0 on [s0, s1].
-void MobiusCrossings(double a, double b, double c, double d, double s0, double s1, std::vector<double>* out) {
+// with c + d s > 0 on [s0, s1]. Only k in [0, side]: the image's pixel lines;
+// beyond them every point is out of view, one vote, so crossings there split
+// nothing (a ray grazing a camera sweeps millions of pixel widths there, and
+// sorting them once took 70% of an exact run).
+void MobiusCrossings(double a, double b, double c, double d, double s0, double s1, int side,
+                     std::vector<double>* out) {
   const double f0 = (a + b * s0) / (c + d * s0), f1 = (a + b * s1) / (c + d * s1);
   const double lo = std::min(f0, f1), hi = std::max(f0, f1);
-  // Bound the count: a ray grazing a camera can sweep a huge range of pixels.
-  const double k_lo = std::max(std::ceil(lo), -1.0), k_hi = std::min(std::floor(hi), 1e5);
+  const double k_lo = std::max(std::ceil(lo), 0.0), k_hi = std::min(std::floor(hi), double(side));
   for (double k = k_lo; k <= k_hi; k += 1.0) {
     const double den = b - k * d;
     if (den == 0) continue;
@@ -68,9 +71,10 @@ std::vector<VoteSegment> RayCameraSegments(const VolumeQuery& q, size_t ci, cons
       // u = (fx x + skew y)/z + cx:
       // (fx A.x + skew A.y + cx A.z + s (fx B.x + skew B.y + cx B.z)) / (A.z + s B.z).
       MobiusCrossings(cam.fx * A.x() + cam.skew * A.y() + cam.cx * A.z(),
-                      cam.fx * B.x() + cam.skew * B.y() + cam.cx * B.z(), A.z(), B.z(), s0, s1, &breaks);
-      MobiusCrossings(cam.fy * A.y() + cam.cy * A.z(), cam.fy * B.y() + cam.cy * B.z(), A.z(), B.z(), s0, s1,
+                      cam.fx * B.x() + cam.skew * B.y() + cam.cx * B.z(), A.z(), B.z(), s0, s1, cam.width,
                       &breaks);
+      MobiusCrossings(cam.fy * A.y() + cam.cy * A.z(), cam.fy * B.y() + cam.cy * B.z(), A.z(), B.z(), s0, s1,
+                      cam.height, &breaks);
     } else {
       // Step so the projection moves at most ~0.5 px, bisect every change of
       // pixel (or of seen/unseen, at the valid radius).
