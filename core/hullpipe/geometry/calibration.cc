@@ -6,16 +6,8 @@
 #include <fstream>
 #include <set>
 
-#include <fcntl.h>
-#include <poll.h>
 #include <signal.h>
-#include <sys/prctl.h>
-#include <sys/resource.h>
 #include <sys/wait.h>
-#include <unistd.h>
-#include <cerrno>
-#include <chrono>
-#include <cstring>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -28,6 +20,7 @@
 #include <Eigen/Dense>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/bounded_child.h"
 #include "hullpipe/util/image_file.h"
 #include "hullpipe/util/yaml_keys.h"
 
@@ -407,56 +400,22 @@ namespace {
 // child did not end in time or ended by a signal; what the parse itself says
 // (accepted, cv::Exception) is the caller's parse's to say again.
 void CheckOpenCvParseEnds(const std::string& text, const std::string& path) {
-  int fds[2];
-  if (::pipe2(fds, O_CLOEXEC) != 0)
-    throw CalibrationError(path + ": cannot check the file (pipe: " + std::strerror(errno) + ")");
-  const pid_t parent = ::getpid();
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    ::close(fds[0]), ::close(fds[1]);
-    throw CalibrationError(path + ": cannot check the file (fork: " + std::strerror(errno) + ")");
+  BoundedChildResult child;
+  try {
+    child = RunBoundedChild(
+        [&](int) {
+          try {
+            cv::FileStorage fs;
+            fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_AUTO);
+          } catch (...) {
+          }
+        },
+        kMaxStorageParseSeconds, kMaxStorageParseSeconds, 0);
+  } catch (const std::runtime_error& e) {
+    throw CalibrationError(path + ": cannot check the file (" + e.what() + ")");
   }
-  if (pid == 0) {
-    // A crash ends the child by its signal, which the parent names (not by a
-    // sanitizer's or libFuzzer's handler); the child ends with its parent.
-    for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGXCPU}) ::signal(sig, SIG_DFL);
-    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (::getppid() != parent) ::_exit(0);
-    const rlimit cpu{rlim_t(kMaxStorageParseSeconds), rlim_t(kMaxStorageParseSeconds) + 1};
-    ::setrlimit(RLIMIT_CPU, &cpu);
-    const rlimit no_core{0, 0};
-    ::setrlimit(RLIMIT_CORE, &no_core);
-    ::close(fds[0]);
-    try {
-      cv::FileStorage fs;
-      fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_AUTO);
-    } catch (...) {
-    }
-    ::_exit(0);  // closes the pipe: the parent's poll sees it
-  }
-  ::close(fds[1]);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kMaxStorageParseSeconds);
-  bool ended = false;
-  for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-    if (left.count() <= 0) break;
-    pollfd p{fds[0], POLLIN, 0};
-    const int r = ::poll(&p, 1, int(std::min<int64_t>(left.count(), 200)) + 1);
-    if (r < 0 && errno == EINTR) continue;
-    if (r > 0) {
-      char c;
-      const ssize_t n = ::read(fds[0], &c, 1);
-      if (n < 0 && errno == EINTR) continue;
-      ended = true;  // EOF (the child wrote nothing)
-      break;
-    }
-  }
-  ::close(fds[0]);
-  if (!ended) ::kill(pid, SIGKILL);
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (!ended || (WIFSIGNALED(status) && (WTERMSIG(status) == SIGXCPU || WTERMSIG(status) == SIGKILL)))
+  const int status = child.status;
+  if (child.timed_out || (WIFSIGNALED(status) && (WTERMSIG(status) == SIGXCPU || WTERMSIG(status) == SIGKILL)))
     throw CalibrationError(path + ": OpenCV's parser did not finish reading it within " +
                            std::to_string(kMaxStorageParseSeconds) + " s: malformed YAML or JSON");
   if (WIFSIGNALED(status))

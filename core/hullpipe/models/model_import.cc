@@ -1,16 +1,13 @@
 #include "hullpipe/models/model_import.h"
+#include "hullpipe/util/bounded_child.h"
 
-#include <fcntl.h>
-#include <poll.h>
 #include <signal.h>
-#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -409,24 +406,14 @@ void WriteAll(int fd, const std::string& s) {
   }
 }
 
-[[noreturn]] void RunChild(int fd, const std::string& path, const ImportLimits& limits, pid_t parent) {
-  // A crash in Assimp ends the child by its signal, which the parent names: the
-  // handlers the parent may have (a sanitizer's, libFuzzer's) are not the child's.
-  for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGXCPU}) ::signal(sig, SIG_DFL);
-  // The child ends with the parent (a SIGINT to sim_node alone must not leave
-  // an import running for up to its time bound).
-  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-  if (::getppid() != parent) ::_exit(0);
+// The child's work (RunBoundedChild has set its signals, parent death, CPU
+// and core bounds): the memory bound, the import, its result on `fd`.
+void RunChild(int fd, const std::string& path, const ImportLimits& limits) {
   // Bounds first: a crafted file may ask Assimp for gigabytes or loop.
 #ifndef HULLPIPE_SANITIZED
   const rlimit mem{rlim_t(limits.max_memory_bytes), rlim_t(limits.max_memory_bytes)};
   ::setrlimit(RLIMIT_AS, &mem);
 #endif
-  const rlim_t cpu = rlim_t(std::ceil(limits.max_seconds));
-  const rlimit cpu_limit{cpu, cpu + 1};
-  ::setrlimit(RLIMIT_CPU, &cpu_limit);
-  const rlimit no_core{0, 0};
-  ::setrlimit(RLIMIT_CORE, &no_core);
   std::string out;
   try {
     out = "K" + SerializeModel(ImportModelInProcess(path, limits));
@@ -438,8 +425,6 @@ void WriteAll(int fd, const std::string& s) {
     out = "E" + path + ": " + e.what();
   }
   WriteAll(fd, out);
-  ::close(fd);
-  ::_exit(0);
 }
 
 }  // namespace
@@ -454,52 +439,23 @@ bool ImportBoundsMemory() {
 
 ImportedModel ImportModel(const std::string& path, const ImportLimits& limits) {
   limits.Check();
-  int fds[2];
-  if (::pipe2(fds, O_CLOEXEC) != 0) throw ModelError(path + ": cannot start the importer (pipe: " + std::strerror(errno) + ")");
-  const pid_t self = ::getpid();
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    ::close(fds[0]), ::close(fds[1]);
-    throw ModelError(path + ": cannot start the importer (fork: " + std::strerror(errno) + ")");
-  }
-  if (pid == 0) {
-    ::close(fds[0]);
-    RunChild(fds[1], path, limits, self);
-  }
-  ::close(fds[1]);
   // The result is bounded as the import is: vertices and indices of at most
   // max_triangles triangles, plus names.
   const uint64_t max_bytes = (uint64_t(16) << 20) + uint64_t(limits.max_triangles) * 48;
-  std::string got;
-  std::string bound_hit;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(limits.max_seconds + 1.0);
-  char buf[1 << 16];
-  for (;;) {
-    const double left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
-    if (left <= 0) {
-      bound_hit = "did not finish within the " + std::to_string(int(std::ceil(limits.max_seconds))) +
-                  " s time bound (models.max_import_seconds)";
-      break;
-    }
-    pollfd p{fds[0], POLLIN, 0};
-    const int r = ::poll(&p, 1, int(std::min(left, 0.2) * 1000) + 1);
-    if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) continue;
-    const ssize_t n = ::read(fds[0], buf, sizeof(buf));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;  // EOF: the child is done
-    got.append(buf, size_t(n));
-    if (got.size() > max_bytes) {
-      bound_hit = "the importer's result exceeds " + std::to_string(max_bytes >> 20) + " MiB";
-      break;
-    }
+  BoundedChildResult child;
+  try {
+    child = RunBoundedChild([&](int fd) { RunChild(fd, path, limits); }, int(std::ceil(limits.max_seconds)),
+                            limits.max_seconds + 1.0, max_bytes);
+  } catch (const std::runtime_error& e) {
+    throw ModelError(path + ": cannot start the importer (" + e.what() + ")");
   }
-  ::close(fds[0]);
-  if (!bound_hit.empty()) ::kill(pid, SIGKILL);
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (!bound_hit.empty()) throw ModelError(path + ": " + bound_hit);
+  const int status = child.status;
+  const std::string& got = child.output;
+  if (child.timed_out)
+    throw ModelError(path + ": did not finish within the " + std::to_string(int(std::ceil(limits.max_seconds))) +
+                     " s time bound (models.max_import_seconds)");
+  if (child.output_over)
+    throw ModelError(path + ": the importer's result exceeds " + std::to_string(max_bytes >> 20) + " MiB");
   if (WIFSIGNALED(status)) {
     const int sig = WTERMSIG(status);
     if (sig == SIGXCPU || sig == SIGKILL)
