@@ -8,8 +8,8 @@
 #     (fuzz/regressions/<target>).
 #  2. build-tsan (clang, ThreadSanitizer): the core tests, the recording tests
 #     and the nodes' bad-input and SIGINT tests, the nodes built with TSan too.
-# Each test may take 1200 s: the longest, the skewed rig's exact hull, takes
-# ~430 s under ASan+UBSan alone on a 2-core machine (30 s in the main build).
+# Each test may take 600 s: the longest under ASan+UBSan take ~2 minutes on a
+# 2-core machine (docs/benchmarks.md, "Build").
 # A finding fails the run: sanitizers abort on the first report
 # (-fno-sanitize-recover=all), a fuzzer exits non-zero and leaves its crash file
 # in build-asan/fuzz-out/<target>/.
@@ -32,8 +32,8 @@ FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_cs
 stage "ASan + UBSan build (clang-14)"
 cmake -S . -B build-asan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=address,undefined -DHULLPIPE_FUZZ=ON -DHULLPIPE_WERROR=OFF >/dev/null
 cmake --build build-asan --target "${CORE_TESTS[@]}" record_tests bridge_tests "${FUZZERS[@]}" fuzz_make_seeds
-ctest --test-dir build-asan -j2 --output-on-failure --timeout 1200 -L core
-ctest --test-dir build-asan -j2 --output-on-failure --timeout 1200 -R '^(Recording|RecordingStorage|McapStorage|Player|BridgeState)\.'
+ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -L core
+ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -R '^(Recording|RecordingStorage|McapStorage|Player|BridgeState)\.'
 
 stage "fuzzing, ${FUZZ_SECONDS} s per target"
 FUZZ_SECONDS="$FUZZ_SECONDS" RIG="$RIG" bash scripts/fuzz.sh
@@ -59,7 +59,7 @@ export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:sup
 export HULLPIPE_TEST_TIME_SCALE=4
 # (Not under TSan: the sim replay twice and the rig demo read by the npm readers,
 # whole pipelines that only time out at TSan's speed.)
-ctest --test-dir build-tsan -j2 --output-on-failure --timeout 1200 -L 'core|record' \
+ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -L 'core|record' \
     -E 'ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports|TheRigsDemoAsMcapOpensInTheFieldsOwnReaders'
-ctest --test-dir build-tsan -j2 --output-on-failure --timeout 1200 -R '^(NodeTest|CaptureFiles)\.'
+ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -R '^(NodeTest|CaptureFiles)\.'
 stage "clean"
