@@ -1,8 +1,10 @@
 #include "hullpipe/geometry/camera.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 namespace hullpipe {
 
@@ -75,23 +77,45 @@ Eigen::Vector2d Camera::Undistort(const Eigen::Vector2d& xd) const {
 
 double Camera::MaxValidRadius2() const {
   if (max_valid_radius2_ >= 0) return max_valid_radius2_;
-  // d/dr [r (1 + k1 r^2 + k2 r^4 + k3 r^6)] = 1 + 3 k1 r^2 + 5 k2 r^4 + 7 k3 r^6.
-  // Find its first zero in s = r^2 by a fine scan then bisection.
+  // d/dr [r (1 + k1 r^2 + k2 r^4 + k3 r^6)] = 1 + 3 k1 r^2 + 5 k2 r^4 + 7 k3 r^6:
+  // its first zero in s = r^2 (up to s = 100). Between the zeros of its own
+  // derivative (a quadratic in s) it is monotonic, so the first interval whose
+  // end is not positive holds the zero, found by bisection: exact, and a
+  // slope that only touches zero is found too (a scan could step over it).
   const auto& d = distortion;
-  auto slope = [&](double s) { return 1 + s * (3 * d[0] + s * (5 * d[1] + s * 7 * d[4])); };
+  const double a = 3 * d[0], b = 5 * d[1], c = 7 * d[4];
+  auto slope = [&](double s) { return 1 + s * (a + s * (b + s * c)); };
+  constexpr double kMaxS = 100.0;
+  std::vector<double> ends;
+  // Zeros of a + 2 b s + 3 c s^2.
+  const double qa = 3 * c, qb = 2 * b, qc = a;
+  if (qa == 0) {
+    if (qb != 0) ends.push_back(-qc / qb);
+  } else {
+    const double disc = qb * qb - 4 * qa * qc;
+    if (disc >= 0) {
+      const double r = std::sqrt(disc);
+      ends.push_back((-qb - r) / (2 * qa));
+      ends.push_back((-qb + r) / (2 * qa));
+    }
+  }
+  std::sort(ends.begin(), ends.end());
+  std::erase_if(ends, [](double s) { return !(s > 0 && s < kMaxS); });
+  ends.push_back(kMaxS);
   double result = std::numeric_limits<double>::infinity();
-  double prev = 0;
-  for (double s = 1e-3; s <= 100.0; s += 1e-3) {
-    if (slope(s) <= 0) {
-      double lo = prev, hi = s;
-      for (int i = 0; i < 60; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (slope(mid) > 0 ? lo : hi) = mid;
+  double lo = 0;
+  for (const double hi : ends) {
+    if (slope(hi) <= 0) {
+      double l = lo, h = hi;
+      for (int i = 0; i < 200 && l < h; ++i) {
+        const double mid = 0.5 * (l + h);
+        if (mid <= l || mid >= h) break;
+        (slope(mid) > 0 ? l : h) = mid;
       }
-      result = lo;
+      result = l;
       break;
     }
-    prev = s;
+    lo = hi;
   }
   max_valid_radius2_ = result;
   return result;

@@ -55,6 +55,24 @@ TEST(Camera, DistortionFoldBackIsRejected) {
   EXPECT_TRUE(cam.Project(cam.cam_from_world.Inverse() * inside_cam).has_value());
 }
 
+// The valid radius is the first zero of d/dr [r (1 + k1 r^2 + k2 r^4 + k3 r^6)]
+// = 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3 (s = r^2), against closed forms: a line, a
+// quadratic, one that never folds (the published dome's lens), and one whose
+// slope only touches zero at s = 1 ((1 - s)^2), which a scan can step over.
+TEST(Camera, ValidRadiusIsTheSlopesFirstZero) {
+  auto r2 = [](double k1, double k2, double k3) {
+    Camera c = DistortedCamera();
+    c.distortion = {k1, k2, 0, 0, k3};
+    return c.MaxValidRadius2();
+  };
+  EXPECT_NEAR(r2(-0.5, 0, 0), 2.0 / 3.0, 1e-12);                                   // 1 - 1.5 s
+  EXPECT_NEAR(r2(0.1, -0.05, 0), (0.3 + std::sqrt(0.09 + 1.0)) / 0.5, 1e-12);      // 1 + 0.3 s - 0.25 s^2
+  EXPECT_TRUE(std::isinf(r2(-0.038174, 0.061023, 0)));                             // never folds
+  EXPECT_NEAR(r2(-2.0 / 3.0, 0.2, 0), 1.0, 1e-6);                                  // (1 - s)^2
+  EXPECT_NEAR(r2(0, 0, -1.0 / 7.0), 1.0, 1e-12);                                   // 1 - s^3
+  EXPECT_TRUE(std::isinf(r2(0, 0, 0)));
+}
+
 TEST(Camera, CheckNamesTheProblem) {
   Camera cam = DistortedCamera();
   cam.fx = -1;
