@@ -1,5 +1,6 @@
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/parallel.h"
 
 #include <algorithm>
 #include <array>
@@ -18,6 +19,7 @@ namespace hullpipe {
 
 void VolumeQueryOptions::Check() const {
   if (min_seen < 1) throw std::invalid_argument("VolumeQueryOptions.min_seen must be >= 1");
+  if (threads < 1 || threads > 256) throw std::invalid_argument("VolumeQueryOptions.threads must be in [1, 256]");
 }
 
 namespace {
@@ -39,23 +41,35 @@ bool SeesWholeBox(const Camera& c, const Aabb& box) {
 // is in T and its pyramid is added; repeat until none is added. X lies in that
 // final box for some S ⊆ T, so the union of the final boxes is conservative.
 // Cameras that see the whole workspace join every S (they always vote).
+// The subsets are C(n, m) (190 pairs at 20 cameras, each grown at O(n) clips):
+// past kMaxSubsets the start is instead the union over the cameras of each
+// one's pyramid in the workspace (an inside point lies in the pyramid of every
+// camera that sees it), linear in n and looser, which the search then tightens.
+constexpr int kMaxSubsets = 16;
 Aabb UnknownPolicyHullBox(const std::vector<Camera>& cams, const std::vector<cv::Rect>& rects, const Aabb& workspace,
                           int m) {
   const size_t n = cams.size();
   Aabb out;
   // Each camera's pyramid once: its rectangle's border undistorted once, not
-  // once per subset (on 20 cameras, 190 pairs each grown to a set of them).
+  // once per subset.
   std::vector<ObjectPyramid> pyramids;
   for (size_t i = 0; i < n; ++i) pyramids.push_back(MakeObjectPyramid(cams[i], rects[i]));
+  double subsets_needed = 1;  // C(n, m), in floating point (no overflow)
+  for (int k = 0; k < m; ++k) subsets_needed = subsets_needed * double(int(n) - k) / double(k + 1);
+  if (subsets_needed > kMaxSubsets) {
+    for (const ObjectPyramid& p : pyramids) {
+      const Aabb box = PyramidsBox({&p}, workspace);
+      if (!box.empty()) out.Extend(box.min), out.Extend(box.max);
+    }
+    return out;
+  }
   std::vector<int> pick(n, 0);
   std::fill(pick.end() - m, pick.end(), 1);  // the first combination in next_permutation order
-  int subsets = 0;
   // Camera sets already grown from: the growth from a set is the same whatever
   // subset it started from, so each is followed once (many subsets grow into the
   // same few sets).
   std::set<std::vector<char>> followed;
   do {
-    if (++subsets > 4096) return workspace;  // too many cameras for the exact union: stay conservative
     std::vector<char> in(pick.begin(), pick.end());
     Aabb box;
     for (;;) {
@@ -88,13 +102,18 @@ Aabb UnknownPolicyHullBox(const std::vector<Camera>& cams, const std::vector<cv:
 // every 8 px; the displacement field is smooth, so `shift` takes 10% and 1 px
 // over the largest sample.
 struct LensBound {
-  const Camera* camera;
   double r2max;  // Camera::MaxValidRadius2: beyond it a point does not project
   double shift = 0;
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;  // pinhole pixels
-  explicit LensBound(const Camera& c) : camera(&c), r2max(c.MaxValidRadius2()) {
+  /// Every border sample undistorts to a point within the valid radius whose
+  /// distortion gives the sample back: the border's pinhole image bounds the
+  /// picture's (ViewPyramid may use x0..y1).
+  bool border_valid = true;
+  explicit LensBound(const Camera& c) : r2max(c.MaxValidRadius2()) {
     auto visit = [&](double u, double v) {
-      const Eigen::Vector2d xn = c.Undistort(c.ImagePlaneFromPixel({u, v}));
+      const Eigen::Vector2d xd = c.ImagePlaneFromPixel({u, v});
+      const Eigen::Vector2d xn = c.Undistort(xd);
+      if (!(xn.squaredNorm() <= r2max) || !((c.Distort(xn) - xd).norm() < 1e-9)) border_valid = false;
       const Eigen::Vector2d p = c.PixelFromImagePlane(xn);
       x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
       shift = std::max({shift, std::abs(p.x() - u), std::abs(p.y() - v)});
@@ -110,14 +129,53 @@ struct LensBound {
       }
     shift = 1.1 * shift + 1.0;
   }
-  /// The pinhole pixel of X, or nullopt if X is not in front or beyond the valid
-  /// radius (the disk is convex: a cell whose corners are all inside it is too).
-  std::optional<Eigen::Vector2d> Pinhole(const Eigen::Vector3d& X) const {
-    const Eigen::Vector3d xc = camera->cam_from_world * X;
-    if (!(xc.z() > 1e-9)) return std::nullopt;
-    const Eigen::Vector2d xn(xc.x() / xc.z(), xc.y() / xc.z());
-    if (xn.squaredNorm() > r2max) return std::nullopt;
-    return camera->PixelFromImagePlane(xn);
+};
+
+// The rays a camera can see at all, as planes through its centre (camera
+// frame): a point X_cam with n . X_cam > 0 for some plane n is out of its view.
+// The sides of the pyramid over its picture (for a distorted camera, the box of
+// its undistorted border in pinhole pixels, LensBound, grown by a pixel for the
+// border's sampling), the square around the distortion's valid radius, and the
+// image plane (z > 0). A box all of whose corners lie beyond one plane is seen
+// by none of the camera's pixels: convexity.
+struct ViewPyramid {
+  std::vector<Eigen::Vector3d> planes;
+  ViewPyramid(const Camera& c, const LensBound* lens) {
+    double x0 = 0, y0 = 0, x1 = c.width, y1 = c.height;
+    if (lens) x0 = lens->x0 - 1, y0 = lens->y0 - 1, x1 = lens->x1 + 1, y1 = lens->y1 + 1;
+    const bool sides = !lens || lens->border_valid;
+    // Corners in the normalised image plane, in order around the (convex)
+    // quadrilateral: the skew makes it a parallelogram.
+    const Eigen::Vector2d q[4] = {c.ImagePlaneFromPixel({x0, y0}), c.ImagePlaneFromPixel({x1, y0}),
+                                  c.ImagePlaneFromPixel({x1, y1}), c.ImagePlaneFromPixel({x0, y1})};
+    const Eigen::Vector2d mid = 0.25 * (q[0] + q[1] + q[2] + q[3]);
+    const Eigen::Vector3d inner(mid.x(), mid.y(), 1.0);
+    for (int k = 0; k < 4 && sides; ++k) {
+      const Eigen::Vector3d a(q[k].x(), q[k].y(), 1.0), b(q[(k + 1) % 4].x(), q[(k + 1) % 4].y(), 1.0);
+      Eigen::Vector3d n = a.cross(b);
+      if (n.dot(inner) > 0) n = -n;  // pointing out of the pyramid
+      planes.push_back(n);
+    }
+    const double r2 = c.MaxValidRadius2();
+    if (r2 < 1e30) {
+      const double r = std::sqrt(r2);
+      planes.push_back({1, 0, -r}), planes.push_back({-1, 0, -r});
+      planes.push_back({0, 1, -r}), planes.push_back({0, -1, -r});
+    }
+    planes.push_back({0, 0, -1});  // behind the camera: z <= 0
+  }
+  /// True if no point of the box with these corners (camera frame) is in view.
+  bool Misses(const std::array<Eigen::Vector3d, 8>& corners_cam) const {
+    for (const Eigen::Vector3d& n : planes) {
+      bool all_out = true;
+      for (const auto& X : corners_cam)
+        if (!(n.dot(X) > 0)) {
+          all_out = false;
+          break;
+        }
+      if (all_out) return true;
+    }
+    return false;
   }
 };
 
@@ -140,6 +198,7 @@ class CellProver {
     for (size_t i = 0; i < n; ++i) {
       if (rects_[i].area() > 0) cv::integral(views[i].map(rects_[i]), sums_[i], CV_32S);
       if (views[i].camera.HasDistortion()) lenses_[i].emplace(views[i].camera);
+      pyramids_.emplace_back(views[i].camera, lenses_[i] ? &*lenses_[i] : nullptr);
     }
   }
   // True if no hull point lies in `cell`. *hint: the camera tried first, set to
@@ -153,6 +212,7 @@ class CellProver {
   int required_seen_;
   std::vector<cv::Mat> sums_;
   std::vector<std::optional<LensBound>> lenses_;
+  std::vector<ViewPyramid> pyramids_;
 };
 
 bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
@@ -169,49 +229,71 @@ bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
   struct Rect {
     double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
     double span() const { return std::max(u1 - u0, v1 - v0); }
-  };
-  // Grows *r over the projections of the corners; false if one does not project.
-  auto corners_rect = [](const auto& project, const std::array<Eigen::Vector3d, 8>& pts, Rect* r) {
-    for (const auto& X : pts) {
-      const auto uv = project(X);
-      if (!uv) return false;
-      r->u0 = std::min(r->u0, uv->x()), r->v0 = std::min(r->v0, uv->y());
-      r->u1 = std::max(r->u1, uv->x()), r->v1 = std::max(r->v1, uv->y());
+    void Extend(const Eigen::Vector2d& uv) {
+      u0 = std::min(u0, uv.x()), v0 = std::min(v0, uv.y());
+      u1 = std::max(u1, uv.x()), v1 = std::max(v1, uv.y());
     }
-    return true;
   };
-  std::array<Eigen::Vector3d, 8> pts;
-  for (int k = 0; k < 8; ++k)
-    pts[size_t(k)] = {k & 1 ? cell.max.x() : cell.min.x(), k & 2 ? cell.max.y() : cell.min.y(),
-                      k & 4 ? cell.max.z() : cell.min.z()};
+  const Eigen::Vector3d size = cell.max - cell.min;
   int seeing = 0;
   for (size_t j = 0; j < n; ++j) {
     const size_t i = j == 0 ? hint : (j <= hint ? j - 1 : j);
     const Camera& cam = views[i].camera;
+    // The corners in the camera's frame (its rotation applied to the cell's
+    // edges once, not to each corner), and their normalised image points as
+    // Camera::Project finds them: none where a corner is not in front or lies
+    // beyond the lens model's valid radius. In front, the cell's image in the
+    // normalised plane is the convex hull of its corners' (perspective keeps
+    // convexity), so corners within the valid disk (convex) put all of it there.
+    const Eigen::Matrix3d& R = cam.cam_from_world.rotation;
+    const Eigen::Vector3d base = R * cell.min + cam.cam_from_world.translation;
+    const Eigen::Vector3d ex = R.col(0) * size.x(), ey = R.col(1) * size.y(), ez = R.col(2) * size.z();
+    std::array<Eigen::Vector3d, 8> pc;
+    for (int k = 0; k < 8; ++k)
+      pc[size_t(k)] = base + (k & 1 ? ex : Eigen::Vector3d::Zero()) + (k & 2 ? ey : Eigen::Vector3d::Zero()) +
+                      (k & 4 ? ez : Eigen::Vector3d::Zero());
+    const double r2max = cam.MaxValidRadius2();
+    std::array<Eigen::Vector2d, 8> xn;
+    bool projects = true;
+    for (size_t k = 0; k < 8 && projects; ++k) {
+      projects = pc[k].z() > 1e-9;
+      if (projects) xn[k] = pc[k].head<2>() / pc[k].z();
+      projects = projects && !(xn[k].squaredNorm() > r2max);
+    }
     // A conservative rectangle of the cell's projection, or none: the camera
     // may see some of the cell and vetoes none of it.
     Rect r;
     bool bounded = false;
-    if (!lenses[i]) {
-      bounded = corners_rect([&](const Eigen::Vector3d& X) { return cam.Project(X); }, pts, &r);
-    } else {
+    if (projects && !lenses[i]) {
+      for (const auto& x : xn) r.Extend(cam.PixelFromImagePlane(x));
+      bounded = true;
+    } else if (projects) {
       const LensBound& lens = *lenses[i];
       Rect p;
-      if (corners_rect([&](const Eigen::Vector3d& X) { return lens.Pinhole(X); }, pts, &p) && p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 &&
-          p.v1 <= lens.y1) {
+      for (const auto& x : xn) p.Extend(cam.PixelFromImagePlane(x));
+      if (p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 && p.v1 <= lens.y1) {
         r = {p.u0 - lens.shift, p.v0 - lens.shift, p.u1 + lens.shift, p.v1 + lens.shift};
         bounded = true;
       }
-      Rect d;
-      if ((!bounded || p.span() <= 32) &&
-          corners_rect([&](const Eigen::Vector3d& X) { return cam.Project(X); }, pts, &d) && d.span() <= 32) {
-        const double m = 0.5 + d.span() * d.span() / 400;
-        const Rect g{d.u0 - m, d.v0 - m, d.u1 + m, d.v1 + m};
-        r = bounded ? Rect{std::max(r.u0, g.u0), std::max(r.v0, g.v0), std::min(r.u1, g.u1), std::min(r.v1, g.v1)} : g;
-        bounded = true;
+      if (!bounded || p.span() <= 32) {
+        Rect d;
+        for (const auto& x : xn) d.Extend(cam.PixelFromImagePlane(cam.Distort(x)));
+        if (d.span() <= 32) {
+          const double m = 0.5 + d.span() * d.span() / 400;
+          const Rect g{d.u0 - m, d.v0 - m, d.u1 + m, d.v1 + m};
+          r = bounded ? Rect{std::max(r.u0, g.u0), std::max(r.v0, g.v0), std::min(r.u1, g.u1), std::min(r.v1, g.v1)}
+                      : g;
+          bounded = true;
+        }
       }
     }
     if (!bounded) {
+      // Corners behind the camera or beyond its lens model: the cell may still
+      // lie wholly outside its view (a corner of the workspace below a dome).
+      if (pyramids_[i].Misses(pc)) {
+        if (outside_vetoes) return hint = i, true;
+        continue;
+      }
       ++seeing;
       continue;
     }
@@ -223,15 +305,22 @@ bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
       if (outside_vetoes) return hint = i, true;
       continue;
     }
-    ++seeing;
-    if (x0 < 0 || y0 < 0 || x1 > cam.width || y1 > cam.height) continue;  // sees part of it
-    // Object pixels under [x0, x1) x [y0, y1), counted within the rectangle.
+    // Object pixels under [x0, x1) x [y0, y1) within the image, counted within
+    // the object rectangle.
     const cv::Rect& o = rects[i];
     const int a0 = std::clamp(x0 - o.x, 0, o.width), a1 = std::clamp(x1 - o.x, 0, o.width);
     const int b0 = std::clamp(y0 - o.y, 0, o.height), b1 = std::clamp(y1 - o.y, 0, o.height);
     const cv::Mat& s = sums[i];
-    if (a0 == a1 || b0 == b1 || s.at<int>(b1, a1) - s.at<int>(b0, a1) - s.at<int>(b1, a0) + s.at<int>(b0, a0) == 0)
-      return hint = i, true;
+    if (a0 == a1 || b0 == b1 || s.at<int>(b1, a1) - s.at<int>(b0, a1) - s.at<int>(b1, a0) + s.at<int>(b0, a0) == 0) {
+      // It votes background wherever it sees the cell. Seeing all of it, or
+      // vetoing what it cannot see (kOutside): no point is inside. Seeing part
+      // of it (kUnknown): no inside point is one it sees, so it does not count
+      // towards the cameras that may see one.
+      const bool whole = x0 >= 0 && y0 >= 0 && x1 <= cam.width && y1 <= cam.height;
+      if (whole || outside_vetoes) return hint = i, true;
+      continue;
+    }
+    ++seeing;
   }
   return seeing < required_seen;
 }
@@ -265,13 +354,13 @@ namespace {
 // its far side bounding the hull there. Every hull point lies in a cell not yet
 // dropped, so the result stays conservative. Cells are classified once for all
 // six searches. An empty hull gives an empty box.
-Aabb TightenHullBox(const detail::CellProver& prover, const Aabb& box) {
-  if (box.empty()) return box;
-  const double leaf = std::clamp((box.max - box.min).maxCoeff() / 64, 5e-3, 0.02);
-  size_t hint = 0;
-  // Cells are made by halving, so one cell has the same bits whichever search
-  // made it: classified once.
-  std::map<std::array<double, 6>, bool> known;
+// One face's search (TightenHullBox): how far the hull reaches through face
+// `face` (axis face / 2; even faces the min side, as -axis), or nullopt when
+// every cell is proven empty. `known` caches cells' verdicts: cells are made by
+// halving, so one cell has the same bits whichever search made it.
+using CellCache = std::map<std::array<double, 6>, bool>;
+std::optional<double> FaceReach(const detail::CellProver& prover, const Aabb& box, double leaf, int face,
+                                CellCache& known, size_t& hint) {
   auto empty = [&](const Aabb& c) {
     const std::array<double, 6> key{c.min.x(), c.min.y(), c.min.z(), c.max.x(), c.max.y(), c.max.z()};
     const auto it = known.find(key);
@@ -285,51 +374,63 @@ Aabb TightenHullBox(const detail::CellProver& prover, const Aabb& box) {
     Aabb cell;
     bool operator<(const Item& o) const { return reach < o.reach; }
   };
+  const int axis = face / 2;
+  const double sign = face % 2 ? 1.0 : -1.0;
+  auto reach = [&](const Aabb& c) { return sign > 0 ? c.max[axis] : -c.min[axis]; };
+  std::priority_queue<Item> queue;
+  queue.push({reach(box), box});
+  for (int pops = 0; !queue.empty(); ++pops) {
+    // A pathological rig: stop where the search stands (still conservative).
+    if (pops > 20000) return queue.top().reach;
+    const Item it = queue.top();
+    queue.pop();
+    if (empty(it.cell)) continue;
+    const Eigen::Vector3d size = it.cell.max - it.cell.min;
+    if (size.maxCoeff() <= leaf) return it.reach;
+    // Split in two along every axis longer than half the cell's largest side.
+    const Eigen::Vector3d c = it.cell.Center();
+    const double half = 0.5 * size.maxCoeff();
+    std::vector<Aabb> parts{it.cell};
+    for (int a = 0; a < 3; ++a) {
+      if (size[a] < half) continue;
+      std::vector<Aabb> next;
+      for (const Aabb& p : parts) {
+        Aabb lo = p, hi = p;
+        lo.max[a] = c[a];
+        hi.min[a] = c[a];
+        next.push_back(lo);
+        next.push_back(hi);
+      }
+      parts.swap(next);
+    }
+    for (const Aabb& p : parts) queue.push({reach(p), p});
+  }
+  return std::nullopt;  // every cell proven empty: no hull
+}
+
+// With threads > 1 the six faces are searched at once, each with its own cache
+// (a cell two searches meet is classified twice); the verdicts, and so the box,
+// are the same.
+Aabb TightenHullBox(const detail::CellProver& prover, const Aabb& box, int threads) {
+  if (box.empty()) return box;
+  const double leaf = std::clamp((box.max - box.min).maxCoeff() / 64, 5e-3, 0.02);
+  std::array<std::optional<double>, 6> reach;
+  if (threads <= 1) {
+    CellCache known;  // shared: the searches meet near the hull's edges
+    size_t hint = 0;
+    for (int face = 0; face < 6; ++face) reach[size_t(face)] = FaceReach(prover, box, leaf, face, known, hint);
+  } else {
+    ForEachRowDynamic(6, threads, [&](int face, int) {
+      CellCache known;
+      size_t hint = 0;
+      reach[size_t(face)] = FaceReach(prover, box, leaf, face, known, hint);
+    });
+  }
   Aabb out;
   for (int face = 0; face < 6; ++face) {
-    const int axis = face / 2;
-    const double sign = face % 2 ? 1.0 : -1.0;  // even faces: the min side, reached by -axis
-    auto reach = [&](const Aabb& c) { return sign > 0 ? c.max[axis] : -c.min[axis]; };
-    std::priority_queue<Item> queue;
-    queue.push({reach(box), box});
-    bool found = false;
-    double bound = 0;
-    for (int pops = 0; !queue.empty(); ++pops) {
-      if (pops > 20000) {  // a pathological rig: stop where the search stands (still conservative)
-        bound = queue.top().reach;
-        found = true;
-        break;
-      }
-      const Item it = queue.top();
-      queue.pop();
-      if (empty(it.cell)) continue;
-      const Eigen::Vector3d size = it.cell.max - it.cell.min;
-      if (size.maxCoeff() <= leaf) {
-        bound = it.reach;
-        found = true;
-        break;
-      }
-      // Split in two along every axis longer than half the cell's largest side.
-      const Eigen::Vector3d c = it.cell.Center();
-      const double half = 0.5 * size.maxCoeff();
-      std::vector<Aabb> parts{it.cell};
-      for (int a = 0; a < 3; ++a) {
-        if (size[a] < half) continue;
-        std::vector<Aabb> next;
-        for (const Aabb& p : parts) {
-          Aabb lo = p, hi = p;
-          lo.max[a] = c[a];
-          hi.min[a] = c[a];
-          next.push_back(lo);
-          next.push_back(hi);
-        }
-        parts.swap(next);
-      }
-      for (const Aabb& p : parts) queue.push({reach(p), p});
-    }
-    if (!found) return Aabb{};  // every cell proven empty: no hull
-    if (sign > 0) out.max[axis] = bound;
-    else out.min[axis] = -bound;
+    if (!reach[size_t(face)]) return Aabb{};
+    if (face % 2) out.max[face / 2] = *reach[size_t(face)];
+    else out.min[face / 2] = -*reach[size_t(face)];
   }
   return out;
 }
@@ -370,7 +471,7 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
   hull_box_ = outside ? HullBoundingBox(cams, rects, workspace_)
                       : UnknownPolicyHullBox(cams, rects, workspace_, required_seen_);
   prover_ = std::make_shared<const detail::CellProver>(views_, rects, outside, required_seen_);
-  hull_box_ = TightenHullBox(*prover_, hull_box_);
+  hull_box_ = TightenHullBox(*prover_, hull_box_, options_.threads);
 }
 
 Vote VolumeQuery::VoteOf(size_t i, const Eigen::Vector3d& X) const {

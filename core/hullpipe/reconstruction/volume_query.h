@@ -65,6 +65,9 @@ struct VolumeQueryOptions {
   /// With kUnknown: the fewest cameras that must see a point for it to be inside
   /// (clamped to n; >= 1).
   int min_seen = 2;
+  /// Threads for the hull box search (its six faces at once; 1..256). The box
+  /// is the same with any number.
+  int threads = 1;
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
 };
