@@ -107,18 +107,17 @@ void RenderController::OnTile(HullTile t, int64_t sent_ns) {
   if (it == in_flight_.end()) {
     ++tiles_late_;
     // A tile for a pose given up on: the recon nodes need longer than the
-    // time-out. Wait twice what this one took from now on (docs/latency.md).
-    const auto g = given_up_sent_.find(t.pose_seq);
-    if (g != given_up_sent_.end()) {
-      const double took = clock_.Now() - g->second;
-      if (took > tile_timeout_ && tile_timeout_ < kMaxTileTimeoutS) {
-        tile_timeout_ = std::min(kMaxTileTimeoutS, 2 * took);
-        spdlog::warn("pose {}'s tile came {:.2f} s after the pose, past the tile time-out: waiting up to {:.2f} s "
-                     "from now on (--tile-timeout sets where it starts)",
-                     t.pose_seq, took, tile_timeout_);
-      }
+    // time-out. Wait twice what this one took from now on (docs/latency.md),
+    // and keep the tile: Step composites the pose if all its tiles come.
+    it = given_up_.find(t.pose_seq);
+    if (it == given_up_.end()) return;
+    const double took = clock_.Now() - it->second.sent_s;
+    if (took > tile_timeout_ && tile_timeout_ < kMaxTileTimeoutS) {
+      tile_timeout_ = std::min(kMaxTileTimeoutS, 2 * took);
+      spdlog::warn("pose {}'s tile came {:.2f} s after the pose, past the tile time-out: waiting up to {:.2f} s "
+                   "from now on (--tile-timeout sets where it starts)",
+                   t.pose_seq, took, tile_timeout_);
     }
-    return;
   }
   if (t.rect.x < 0 || t.rect.y < 0 || t.rect.x + t.rect.width > it->second.view.width ||
       t.rect.y + t.rect.height > it->second.view.height) {
@@ -422,6 +421,23 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
 int RenderController::Step() {
   IssuePoses();
   int composited = 0;
+  // A pose given up on whose tiles all came after all: composited if nothing
+  // newer was (it was counted as dropped when given up; no longer).
+  for (auto it = given_up_.begin(); it != given_up_.end();) {
+    if (int(it->second.tiles.size()) < o_.tiles) {
+      ++it;
+      continue;
+    }
+    if (it->second.frame_seq > last_composited_) {
+      spdlog::info("pose {} (frame {}): its tiles came after it was given up; composited", it->first,
+                   it->second.frame_seq);
+      Composite(it->first, it->second);
+      ++composited;
+      ++late_composited_;
+      counters_.SetDropped(counters_.dropped() - std::min<uint64_t>(1, counters_.dropped()));
+    }
+    it = given_up_.erase(given_up_.begin(), std::next(it));  // older ones cannot be composited now
+  }
   // Composite every pose whose tiles are all in; give up on stale ones.
   for (auto it = in_flight_.begin(); it != in_flight_.end();) {
     InFlight& f = it->second;
@@ -430,8 +446,8 @@ int RenderController::Step() {
         spdlog::warn("pose {} (frame {}): {} of {} tiles after {:.1f} s; dropped", it->first, f.frame_seq,
                      f.tiles.size(), o_.tiles, tile_timeout_);
         counters_.Dropped();
-        given_up_sent_[it->first] = f.sent_s;
-        while (given_up_sent_.size() > 64) given_up_sent_.erase(given_up_sent_.begin());
+        given_up_[it->first] = std::move(f);
+        while (given_up_.size() > kMaxGivenUp) given_up_.erase(given_up_.begin());
         it = in_flight_.erase(it);
       } else {
         ++it;
@@ -460,11 +476,16 @@ int RenderController::Step() {
   }
   // The input ended: capture said so and everything it sent is composited
   // (end_grace for the last samples to land), or nothing came for idle_timeout.
-  if (capture_done_ && in_flight_.empty() && !assembler_.NewestComplete() && now - capture_done_s_ > o_.end_grace) {
+  // A pose given up on shortly before may still have its tiles coming.
+  bool awaiting_late = false;
+  for (const auto& [seq, f] : given_up_)
+    awaiting_late = awaiting_late || (f.frame_seq > last_composited_ && now - f.sent_s < kLateWaitS);
+  if (capture_done_ && in_flight_.empty() && !awaiting_late && !assembler_.NewestComplete() &&
+      now - capture_done_s_ > o_.end_grace) {
     spdlog::info("input ended; all framesets handled");
     done_ = true;
   }
-  if (any_frame_ && now - last_new_frame_s_ > o_.idle_timeout && in_flight_.empty()) {
+  if (any_frame_ && now - last_new_frame_s_ > o_.idle_timeout && in_flight_.empty() && !awaiting_late) {
     spdlog::info("no new frameset for {:.1f} s: input ended", o_.idle_timeout);
     done_ = true;
   }

@@ -180,6 +180,11 @@ class RenderController {
   NodeCounters& counters() { return counters_; }
   uint64_t rejected() const { return rejected_; }
   uint64_t tiles_late() const { return tiles_late_; }
+  /// Poses given up on whose tiles all came later and were composited then.
+  uint64_t late_composited() const { return late_composited_; }
+  /// At the input's end, a pose given up on is waited for this long after it
+  /// was sent (its tiles may still come: a first frameset that takes seconds).
+  static constexpr double kLateWaitS = 10;
   /// The tile time-out in force (tile_timeout, or raised by late tiles).
   double tile_timeout() const { return tile_timeout_; }
   /// The most the tile time-out is raised to, seconds.
@@ -247,7 +252,12 @@ class RenderController {
   uint64_t seen_restarts_ = 0, malformed_input_ = 0;
   uint64_t pose_seq_ = 0, last_requested_ = 0, last_composited_ = 0, rejected_ = 0, tiles_late_ = 0;
   double tile_timeout_ = 1.0;                // in force (see RenderOptions::tile_timeout)
-  std::map<uint64_t, double> given_up_sent_;  // pose_seq -> sent_s of the last poses given up
+  // Poses given up on (at most kMaxGivenUp, newest kept): their tiles may still
+  // come, and a pose whose tiles all come is composited then if it is newer than
+  // the last composited (a rig whose first frameset takes seconds loses nothing).
+  std::map<uint64_t, InFlight> given_up_;
+  static constexpr size_t kMaxGivenUp = 4;
+  uint64_t late_composited_ = 0;
   uint64_t collisions_drawn_ = 0, collision_reports_ = 0, meshes_drawn_ = 0, lit_frames_ = 0;
   std::map<uint8_t, uint64_t> hull_velocity_statuses_;  // responses by hull velocity status
   double hull_speed_max_ = 0, hull_speed_sum_ = 0;     // of |normal speed| measured or clamped, m/s

@@ -188,7 +188,8 @@ TEST_F(Render, APoseWhoseTilesDoNotComeIsDroppedAfterTheTileTimeout) {
 // on a small machine): the first pose is given up on, its tile comes 1.5 s
 // after the pose, and the time-out becomes twice that, so the next pose whose
 // tile takes as long is composited (before, every pose was dropped and render
-// composited nothing).
+// composited nothing). The late tile itself composites its pose, which nothing
+// newer was composited before.
 TEST_F(Render, TilesThatComeLateRaiseTheTileTimeout) {
   RenderOptions o = Options();
   o.tiles = 1;
@@ -205,6 +206,11 @@ TEST_F(Render, TilesThatComeLateRaiseTheTileTimeout) {
   r.OnTile(WholeTile(sink_.poses[0], 2.0f, {10, 20, 30}));  // 1.5 s after its pose
   EXPECT_EQ(r.tiles_late(), 1u);
   EXPECT_NEAR(r.tile_timeout(), 3.0, 1e-9);
+  EXPECT_EQ(r.Step(), 1) << "the given-up pose is composited when its tile comes";
+  ASSERT_EQ(sink_.frames.size(), 1u);
+  EXPECT_EQ(sink_.frames[0].first, 1u);
+  EXPECT_EQ(r.late_composited(), 1u);
+  EXPECT_EQ(r.counters().dropped(), 0u);
   rig_.AddFrame(assembler_, 2, clock_.WallNs());
   r.Step();
   ASSERT_EQ(sink_.poses.size(), 2u);
@@ -213,13 +219,77 @@ TEST_F(Render, TilesThatComeLateRaiseTheTileTimeout) {
   EXPECT_EQ(r.in_flight(), 1u) << "still waiting at 1.5 s";
   r.OnTile(WholeTile(sink_.poses[1], 2.0f, {10, 20, 30}));
   EXPECT_EQ(r.Step(), 1);
-  ASSERT_EQ(sink_.frames.size(), 1u);
+  ASSERT_EQ(sink_.frames.size(), 2u);
+  EXPECT_EQ(r.late_composited(), 1u);
   // A late tile of a pose never given up on (another run's, say) raises nothing.
   HullTile stray = WholeTile(sink_.poses[1], 2.0f, {10, 20, 30});
   stray.pose_seq = 999;
   clock_.Advance(10);
   r.OnTile(stray);
   EXPECT_NEAR(r.tile_timeout(), 3.0, 1e-9);
+}
+
+// A given-up pose is composited late only while nothing newer was: once a
+// newer frame is out, its late tiles are dropped (latest wins). And at the
+// input's end render waits for a given-up pose's tiles (a first frameset of
+// many cameras that takes seconds) rather than ending with nothing.
+TEST_F(Render, AGivenUpPoseIsCompositedLateOnlyIfNothingNewerWas) {
+  RenderOptions o = Options();
+  o.tile_timeout = 1.0;
+  o.max_in_flight = 2;
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  rig_.AddFrame(assembler_, 2, clock_.WallNs());
+  r.Step();
+  ASSERT_EQ(sink_.poses.size(), 2u);
+  clock_.Advance(1.1);
+  r.Step();
+  EXPECT_EQ(r.counters().dropped(), 2u);  // both given up
+  r.OnTile(WholeTile(sink_.poses[1], 2.0f, {10, 20, 30}));  // frame 2 first
+  EXPECT_EQ(r.Step(), 1);
+  r.OnTile(WholeTile(sink_.poses[0], 2.0f, {10, 20, 30}));  // then frame 1: older, stays dropped
+  EXPECT_EQ(r.Step(), 0);
+  ASSERT_EQ(sink_.frames.size(), 1u);
+  EXPECT_EQ(sink_.frames[0].first, 2u);
+  EXPECT_EQ(r.late_composited(), 1u);
+  EXPECT_EQ(r.counters().dropped(), 1u);
+}
+
+TEST_F(Render, AtTheInputsEndAGivenUpPoseIsWaitedFor) {
+  for (const bool tile_comes : {true, false}) {
+    SCOPED_TRACE(tile_comes ? "its tile comes at 4 s" : "its tile never comes");
+    Recorder sink;
+    FramesetAssembler assembler{8, false};
+    rig_.Calibrate(assembler);
+    RenderOptions o = Options();
+    o.tile_timeout = 1.0;
+    RenderController r(o, clock_, assembler, sink);
+    rig_.AddFrame(assembler, 1, clock_.WallNs());
+    r.Step();
+    ASSERT_EQ(sink.poses.size(), 1u);
+    NodeStatsSample cap;
+    cap.name = "capture";
+    cap.final_report = true;
+    r.OnNodeStats(cap);  // the input ended
+    const double t0 = clock_.Now();
+    while (!r.done() && clock_.Now() - t0 < 20) {
+      clock_.Advance(0.1);
+      if (tile_comes && clock_.Now() - t0 > 4 && sink.frames.empty())
+        r.OnTile(WholeTile(sink.poses[0], 2.0f, {10, 20, 30}));
+      r.Step();
+    }
+    EXPECT_TRUE(r.done());
+    if (tile_comes) {
+      ASSERT_EQ(sink.frames.size(), 1u);
+      EXPECT_LT(clock_.Now() - t0, 5.0);
+    } else {
+      EXPECT_TRUE(sink.frames.empty());
+      // Waited for it up to kLateWaitS after the pose, then ended.
+      EXPECT_GT(clock_.Now() - t0, RenderController::kLateWaitS - 1);
+      EXPECT_LT(clock_.Now() - t0, RenderController::kLateWaitS + 2);
+    }
+  }
 }
 
 TEST_F(Render, ATileOutsideTheViewIsRejectedAndNotComposited) {
