@@ -49,7 +49,10 @@ int main(int argc, char** argv) {
   app.add_option("--gl-device", bo.gl_device, "EGL device index for GL (-1: the first hardware device)")
       ->check(CLI::Range(-1, 64))->capture_default_str();
   app.add_option("--planes", o.sweep.num_planes, "Sweep planes")->capture_default_str();
-  app.add_option("--threads", o.threads, "CPU sweep threads")->capture_default_str();
+  app.add_option("--threads", o.threads,
+                 "CPU threads of the sweep, visibility maps and hull box (0: this host's cores shared among its "
+                 "recon nodes)")
+      ->capture_default_str();
   app.add_option("--refine", o.refine, "Depth refinement bisections after the sweep (0: the paper's plane depth)")
       ->check(CLI::Range(0, 30))->capture_default_str();
   app.add_option("--visibility-width", o.visibility_width,
@@ -79,7 +82,7 @@ int main(int argc, char** argv) {
   try {
     auto participant = StartNode(name, common);
     bo.name = backend_name;
-    bo.threads = o.threads;
+    bo.threads = std::max(1, o.threads);  // 0: decided per frameset (ReconController::ThreadsNow)
     bo.refine = o.refine;
     std::unique_ptr<SweepBackend> backend = gl::MakeSweepBackend(bo);
     backend->set_stop(StopRequestFlag());  // SIGINT ends a long sweep too
@@ -99,7 +102,7 @@ int main(int argc, char** argv) {
       ws.Wait(0.1);
       input.Poll();
       peer_stats.TakeEach([&](const hullpipe_msg_NodeStats& m, const dds_sample_info_t&) {
-        recon.OnNodeStats(m.node_name ? m.node_name : "", m.final_report, m.run_id);
+        recon.OnNodeStats(m.node_name ? m.node_name : "", m.final_report, m.run_id, m.host ? m.host : "");
       });
       pose_reader.TakeEach([&](const hullpipe_msg_ViewPose& m, const dds_sample_info_t&) {
         try {

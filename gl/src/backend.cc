@@ -15,7 +15,8 @@ namespace {
 class GlBackend final : public SweepBackend {
  public:
   GlBackend(EglContext ctx, bool stencil, int threads, int refine)
-      : ctx_(std::move(ctx)), stencil_(stencil), threads_(threads), refine_(refine) {
+      : ctx_(std::move(ctx)), stencil_(stencil), refine_(refine) {
+    set_threads(threads);
     // The programs are built here, with the context current: a driver that cannot
     // build them fails now, where `auto` can still fall back.
     if (stencil_) stencil_sweep_ = std::make_unique<GlPlaneSweep>();
@@ -34,7 +35,7 @@ class GlBackend final : public SweepBackend {
     cv::Mat depth = stencil_ ? stencil_sweep_->Sweep(q, v, d, tile) : march_->Sweep(q, v, d, tile, refine_);
     const double t1 = MonotonicSeconds();
     // The stencil sweep's bracket is refined with CPU point queries.
-    if (stencil_) RefineSweepDepth(q, v, d, tile, refine_, &depth, threads_, stop());
+    if (stencil_) RefineSweepDepth(q, v, d, tile, refine_, &depth, threads(), stop());
     if (stats) {
       stats->sweep_ms += (t1 - t0) * 1e3;
       stats->refine_ms += (MonotonicSeconds() - t1) * 1e3;
@@ -67,7 +68,7 @@ class GlBackend final : public SweepBackend {
  private:
   EglContext ctx_;
   bool stencil_;
-  int threads_, refine_;
+  int refine_;
   std::unique_ptr<GlPlaneSweep> stencil_sweep_;
   std::unique_ptr<GlRaySweep> march_;
   std::unique_ptr<GlTexture> texture_;

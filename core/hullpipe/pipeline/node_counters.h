@@ -59,6 +59,8 @@ class NodeCounters {
   const SampleStats& latency_ms() const { return latency_; }
   const std::map<std::string, SampleStats>& stages() const { return stages_; }
   const Clock& clock() const { return clock_; }
+  /// This machine's host name (gethostname; empty if it failed).
+  const std::string& host() const { return host_; }
   /// The report of this node under `name`.
   NodeStatsSample Snapshot(const std::string& name, bool final_report) const;
 

@@ -7,15 +7,15 @@ namespace {
 
 class CpuBackend final : public SweepBackend {
  public:
-  CpuBackend(int threads, int refine) : threads_(threads), refine_(refine) {}
+  CpuBackend(int threads, int refine) : refine_(refine) { set_threads(threads); }
   void BeginFrameset(const VolumeQuery&, const std::vector<CameraImage>&) override {}
   cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d, const cv::Rect& tile,
                 SweepStats* stats) override {
-    return PlaneSweepCpu(q, v, d, tile, stats, threads_, refine_, stop());
+    return PlaneSweepCpu(q, v, d, tile, stats, threads(), refine_, stop());
   }
   HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
                             const PlaneSweepOptions& sweep) override {
-    return ComputeHullVisibility(q, cams, width, sweep, refine_, threads_, stop());
+    return ComputeHullVisibility(q, cams, width, sweep, refine_, threads(), stop());
   }
   cv::Mat Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
                   const std::vector<CameraImage>& images, const HullVisibility* vis) override {
@@ -24,7 +24,7 @@ class CpuBackend final : public SweepBackend {
   std::string Name() const override { return "cpu"; }
 
  private:
-  int threads_, refine_;
+  int refine_;
 };
 
 }  // namespace

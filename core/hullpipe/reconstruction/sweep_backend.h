@@ -6,6 +6,7 @@
 // node controllers and the tools that need no GPU link no GL.
 #pragma once
 
+#include <algorithm>
 #include <memory>
 #include <string>
 #include <vector>
@@ -53,10 +54,16 @@ class SweepBackend {
   /// run to their end. nullptr (the default) never stops.
   void set_stop(StopFlag stop) { stop_ = stop; }
   StopFlag stop() const { return stop_; }
+  /// CPU threads for the work done on the CPU (the CPU backend's sweep,
+  /// visibility maps; the stencil method's refinement), from the next call on;
+  /// clamped to [1, 256].
+  void set_threads(int threads) { threads_ = std::clamp(threads, 1, 256); }
+  int threads() const { return threads_; }
 
  private:
   std::string reason_;
   StopFlag stop_ = nullptr;
+  int threads_ = 1;
 };
 
 /// How to make a backend (gl/backend.h: MakeSweepBackend).
@@ -65,7 +72,7 @@ struct BackendOptions {
   /// software one (Mesa's llvmpipe, where the CPU path is faster), and the CPU
   /// where no GL context can be made.
   std::string name = "auto";
-  int threads = 1;  ///< CPU threads (sweep, and the stencil method's refinement).
+  int threads = 1;  ///< CPU threads at the start (SweepBackend::set_threads).
   /// Depth refinement bisections after the sweep (PlaneSweepCpu; 0 = the paper's
   /// plane-quantised depth).
   int refine = 0;

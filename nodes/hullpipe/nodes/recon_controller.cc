@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <optional>
 #include <stdexcept>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 
@@ -25,7 +26,8 @@ void ReconOptions::Check() const {
   if (tile_count < 1 || tile_count > 64 || tile < 0 || tile >= tile_count)
     bad("--tile must be i/N with 0 <= i < N <= 64");
   sweep.Check();
-  if (threads < 1 || threads > 256) bad("--threads must be 1..256");
+  if (threads < 0 || threads > 256) bad("--threads must be 0..256 (0: what the host gives each recon node)");
+  if (host_cores < 0 || host_cores > 4096) bad("host cores must be 0..4096");
   if (refine < 0 || refine > 30) bad("--refine must be 0..30");
   if (visibility_width < 0 || visibility_width > 4096) bad("--visibility-width must be 0..4096");
   if (!(pose_timeout > 0 && pose_timeout <= 3600)) bad("--pose-timeout must be in (0, 3600] s");
@@ -57,13 +59,30 @@ void ReconController::OnPose(const NovelView& view, uint64_t pose_seq, uint64_t 
   poses_.push_back({view, pose_seq, frame_seq, clock_.Now(), run_id});
 }
 
-void ReconController::OnNodeStats(const std::string& name, bool final_report, uint64_t run_id) {
+void ReconController::OnNodeStats(const std::string& name, bool final_report, uint64_t run_id,
+                                  const std::string& host) {
   if (!runs_.Accept(run_id, "NodeStats", /*take_unset=*/true, name)) return;
   int k = -1;
   char tail = 0;
   if (std::sscanf(name.c_str(), "recon%d%c", &k, &tail) != 1 || k < 0 || k >= o_.tile_count || k == o_.tile) return;
   if (name != "recon" + std::to_string(k)) return;  // "recon01", "recon+1": not a peer's name (unbounded keys)
   peers_.Heard(name, clock_.Now(), final_report);
+  peer_hosts_[name] = host;  // at most tile_count - 1 keys
+}
+
+int ReconController::ThreadsNow() {
+  if (o_.threads > 0) return o_.threads;
+  const int cores = o_.host_cores > 0 ? o_.host_cores : int(std::max(1u, std::thread::hardware_concurrency()));
+  const double now = clock_.Now();
+  int sharing = 1;
+  for (const auto& [peer, host] : peer_hosts_)
+    if (!host.empty() && host == counters_.host() && peers_.Alive(peer, now)) ++sharing;
+  const int threads = std::clamp(cores / sharing, 1, 256);
+  if (threads != threads_said_) {
+    spdlog::info("{} CPU thread(s): {} core(s) shared by {} recon node(s) on this host", threads, cores, sharing);
+    threads_said_ = threads;
+  }
+  return threads;
 }
 
 void ReconController::Reject(const std::string& why) {
@@ -135,6 +154,9 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
   // sample taken to this start: a pose naming it, or this node busy), hull_box,
   // upload, visibility, sweep, refine, texture, publish.
   counters_.StageSince("wait", fs.last_arrival_ns);
+  const int threads = ThreadsNow();
+  backend_.set_threads(threads);
+  query_options_.threads = threads;
   const double t0 = clock_.Now();
   const VolumeQuery vq(fs.maps, assembler_.workspace(), query_options_);  // includes the hull box
   const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, o_.sweep);

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -30,7 +31,12 @@ namespace hullpipe::nodes {
 struct ReconOptions {
   int tile = 0, tile_count = 1;  ///< This node's tile i of N horizontal bands.
   PlaneSweepOptions sweep;       ///< Planes and their placement (§3.3).
-  int threads = 1;               ///< CPU sweep threads (1..256).
+  /// CPU threads of the sweep, the visibility maps and the hull box search
+  /// (1..256), or 0: what this host can give each recon node on it, its cores
+  /// (host_cores) shared among this node and the live peers reporting the
+  /// same host name, re-decided per frameset.
+  int threads = 0;
+  int host_cores = 0;            ///< Cores for threads = 0 (0: std::thread::hardware_concurrency()).
   int refine = 6;                ///< Depth refinement bisections (0..30; 0: the paper's plane depth).
   int visibility_width = 80;     ///< Width of each camera's hull depth map for the visibility test (0: none).
   OutOfView out_of_view = OutOfView::kUnknown;
@@ -62,7 +68,11 @@ class ReconController {
   void OnPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq, uint64_t run_id = 0);
   /// A NodeStats sample of node `name` (peers are "recon<k>"; others ignored,
   /// as are reports of another run: a replayed peer must not seem alive).
-  void OnNodeStats(const std::string& name, bool final_report, uint64_t run_id = 0);
+  /// `host`: the peer's host name (NodeStats.host; recon peers on this node's
+  /// host share its cores when threads is 0).
+  void OnNodeStats(const std::string& name, bool final_report, uint64_t run_id = 0, const std::string& host = "");
+  /// The CPU threads the next frameset gets (ReconOptions::threads).
+  int ThreadsNow();
   void Reject(const std::string& why);
   /// Input samples the caller could not decode before they reached the
   /// assembler (counted into this node's rejected, with the assembler's own).
@@ -99,6 +109,8 @@ class ReconController {
   RunFilter runs_;
   VolumeQueryOptions query_options_;
   std::vector<bool> adopted_;
+  std::map<std::string, std::string> peer_hosts_;  // recon peer -> its host name
+  int threads_said_ = -1;
   std::deque<PendingPose> poses_;
   uint64_t poses_dropped_ = 0, rejected_ = 0, malformed_input_ = 0;
 };

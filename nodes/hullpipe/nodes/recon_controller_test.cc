@@ -43,6 +43,41 @@ TEST_F(Recon, TileSpecAndOptionsAreChecked) {
   EXPECT_THROW(o.Check(), std::invalid_argument);
 }
 
+// --threads 0 (the default): the host's cores shared among the recon nodes
+// reporting its host name; a peer on another host, or one that stopped, shares
+// nothing; a thread count given is kept (the control).
+TEST_F(Recon, ThreadsDefaultToTheHostsCoresSharedAmongItsReconNodes) {
+  ReconOptions o = Options("0/3");
+  o.host_cores = 16;
+  ReconController r(o, clock_, assembler_, *cpu_, sink_);
+  const std::string here = r.counters().host();
+  ASSERT_FALSE(here.empty());
+  EXPECT_EQ(r.ThreadsNow(), 16) << "alone";
+  r.OnNodeStats("recon1", false, 0, here);
+  EXPECT_EQ(r.ThreadsNow(), 8);
+  r.OnNodeStats("recon2", false, 0, here + "-other");
+  EXPECT_EQ(r.ThreadsNow(), 8) << "a peer on another host takes none of these cores";
+  r.OnNodeStats("recon2", false, 0, here);
+  EXPECT_EQ(r.ThreadsNow(), 5);
+  r.OnNodeStats("recon1", /*final_report=*/true, 0, here);
+  EXPECT_EQ(r.ThreadsNow(), 8) << "a stopped peer shares nothing";
+  o.host_cores = 1;
+  ReconController small(o, clock_, assembler_, *cpu_, sink_);
+  small.OnNodeStats("recon1", false, 0, here);
+  EXPECT_EQ(small.ThreadsNow(), 1) << "never below one";
+  o.threads = 3;
+  ReconController fixed(o, clock_, assembler_, *cpu_, sink_);
+  fixed.OnNodeStats("recon1", false, 0, here);
+  EXPECT_EQ(fixed.ThreadsNow(), 3);
+  // The frameset is swept with them.
+  rig_.AddFrame(assembler_, 1, clock_.WallNs(), true);
+  fixed.OnPose(View(), 1, 1);
+  EXPECT_EQ(fixed.Step(), 1);
+  EXPECT_EQ(cpu_->threads(), 3);
+  o.threads = -1;
+  EXPECT_THROW(o.Check(), std::invalid_argument);
+}
+
 // The latency budget's recon stages (docs/latency.md): "wait" runs from the
 // frameset's last sample taken to the node starting on it, on the node's clock.
 TEST_F(Recon, TimesEachBudgetStageFromTheFramesetsLastArrival) {
