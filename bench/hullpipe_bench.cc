@@ -120,9 +120,9 @@ int BackendTable(const std::string& which, int repeats, int gl_device) {
     *sweep_ms = MedianMs(repeats, [&] { (void)b.Sweep(q, view, depths, all); });
     return MedianMs(repeats, [&] {
       b.BeginFrameset(q, in.images);
-      const HullVisibility vis = b.Visibility(q, cams, 80, vo);
+      b.ComputeVisibility(q, cams, 80, vo);
       const cv::Mat d = b.Sweep(q, view, depths, all);
-      (void)b.Texture(d, all, view, in.images, &vis);
+      (void)b.Texture(d, all, view, in.images, true);
     });
   };
   for (const int ncam : {4, 8, 16}) {

@@ -1,8 +1,13 @@
 #include "hullpipe/gl/backend.h"
 
+#include <algorithm>
+#include <cstdio>
+#include <functional>
 #include <stdexcept>
 
+#include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/geometry/mesh.h"
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
 #include "hullpipe/gl/gl_ray_sweep.h"
@@ -27,6 +32,8 @@ class GlBackend final : public SweepBackend {
     ctx_.MakeCurrent();
     march_->Upload(q);
     texture_->UploadImages(images);
+    vis_views_.clear();
+    has_vis_ = false;
   }
   cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d, const cv::Rect& tile,
                 SweepStats* stats) override {

@@ -46,8 +46,11 @@ void SetCameras(GLuint program, const VolumeQuery& q, std::vector<Texture>& maps
   CheckGl("upload maps and camera uniforms");
 }
 
-GpuCamera PackCamera(const hullpipe::detail::FastCamera& f, const Eigen::Matrix3d& M, const Eigen::Vector3d& A) {
+GpuCamera PackCamera(const hullpipe::detail::FastCamera& f, const Eigen::Matrix3d& M, const Eigen::Vector3d& A,
+                     const cv::Rect& object_rect) {
   GpuCamera g{};
+  const cv::Rect& o = object_rect;
+  g.rect[0] = float(o.x), g.rect[1] = float(o.y), g.rect[2] = float(o.x + o.width), g.rect[3] = float(o.y + o.height);
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) g.m[4 * r + c] = float(M(r, c));
   for (int i = 0; i < 3; ++i) g.a[i] = float(A[i]);
@@ -80,7 +83,7 @@ GpuCamera PackCamera(const Camera& c) {
   const double r2 = c.MaxValidRadius2();
   f.r2max = r2 > 1e30 ? std::numeric_limits<float>::max() : float(r2);
   f.width = c.width, f.height = c.height;
-  return PackCamera(f, c.cam_from_world.rotation, c.cam_from_world.translation);
+  return PackCamera(f, c.cam_from_world.rotation, c.cam_from_world.translation, cv::Rect(0, 0, c.width, c.height));
 }
 
 }  // namespace hullpipe::gl

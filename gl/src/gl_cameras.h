@@ -60,10 +60,11 @@ struct Cam {
   vec4 intr;        // fx fy cx cy
   vec4 k;           // k1 k2 k3 r2max
   vec4 p;           // p1 p2 width height
+  vec4 rect;        // the map's object rectangle [x0, x1) x [y0, y1): background outside
 };
 layout(std430, binding = 0) readonly buffer Cams { Cam cams[]; };
-// Where camera c sees camera-frame point X: its pixel, or (-1, -1) if unseen
-// (as VolumeQuery::VoteFast and Camera::Project).
+// Where the camera of entry c sees camera-frame point X: its pixel, or (-1, -1)
+// if unseen (as VolumeQuery::VoteFast and Camera::Project).
 vec2 CamPixel(int c, vec3 X) {
   if (!(X.z > 1e-6)) return vec2(-1.0);
   float iz = 1.0 / X.z;
@@ -81,19 +82,21 @@ vec2 CamPixel(int c, vec3 X) {
 }
 )";
 
-/// One camera as kCameraBufferGlsl's Cam (std430: 28 floats).
+/// One camera as kCameraBufferGlsl's Cam (std430: 32 floats).
 struct GpuCamera {
   float m[12];
   float a[4];  ///< A, then the skew
   float intr[4];
   float k[4];
   float p[4];
+  float rect[4];  ///< x0, y0, x1, y1 of the map's object pixels (the whole image if not known)
 };
 
 /// Packs a camera for a pass where X_c = A + d * (M ray): M and A in double, then
 /// rounded to float; intrinsics and distortion as VolumeQuery's FastCamera (which
-/// must be the camera's).
-GpuCamera PackCamera(const hullpipe::detail::FastCamera& f, const Eigen::Matrix3d& M, const Eigen::Vector3d& A);
+/// must be the camera's); `object_rect` its map's object pixels' rectangle.
+GpuCamera PackCamera(const hullpipe::detail::FastCamera& f, const Eigen::Matrix3d& M, const Eigen::Vector3d& A,
+                     const cv::Rect& object_rect);
 /// The same for a Camera: X_c = A + M X with M, A its cam_from_world (texturing).
 GpuCamera PackCamera(const Camera& camera);
 

@@ -12,32 +12,58 @@
 namespace hullpipe::gl {
 namespace {
 
-// What both passes share: the view's rays, the planes, the hull box clip and the
-// volume query of a point on the current ray (PlaneSweepCpu's RayQuery).
+// One swept view as the shaders read it (std430: 9 x 16 bytes).
+struct GpuView {
+  float intr[4];     // fx fy cx cy
+  float O[4];        // eye centre, world metres
+  float Rwe[12];     // world_from_eye rotation, columns (std430 mat3: 3 x vec4)
+  float origin[4];   // xy: view pixel of the region's (0, 0)
+  int32_t idx[4];    // first plane, plane count, first Cam entry
+  int32_t size[4];   // region w, h; tile w, h
+  int32_t inner[4];  // tile origin in the region
+};
+static_assert(sizeof(GpuView) == 144);
+
+// What both passes share: the views, their rays, the planes, the hull box clip
+// and the volume query of a point on the current ray (PlaneSweepCpu's RayQuery).
+// Invocation z sweeps view z; its cameras are Cam entries idx.z .. idx.z + n - 1
+// (each camera's M and A depend on the view), its planes idx.x .. idx.x + idx.y - 1.
 const char* kRayGlsl = R"(
+struct View {
+  vec4 intr;
+  vec4 O;
+  mat3 Rwe;
+  vec4 origin;
+  ivec4 idx;
+  ivec4 size;
+  ivec4 inner;
+};
 layout(std430, binding = 1) readonly buffer Planes { float planes[]; };
+layout(std430, binding = 3) readonly buffer Views { View views[]; };
 layout(binding = 0) uniform usampler2DArray u_maps;
 uniform int u_ncam;
 uniform int u_unknown;   // 1: a camera that cannot see a point does not vote (OutOfView::kUnknown)
 uniform int u_required;  // cameras that must see an inside point
-uniform int u_nplanes;
 uniform int u_refine;    // bisections (0: the paper's plane depth)
-uniform vec4 u_view;     // fx fy cx cy of the novel view
-uniform vec2 u_origin;   // view pixel of the pass image's (0, 0)
-uniform mat3 u_Rwe;      // world_from_eye rotation
-uniform vec3 u_O;        // eye centre, world metres
 uniform vec3 u_bmin;     // hull box, world metres
 uniform vec3 u_bmax;
 const float INF = uintBitsToFloat(0x7f800000u);
 
+View g_v;    // this invocation's view
 vec3 g_ray;  // eye ray of the current pixel (z = 1)
+
+float Plane(int k) { return planes[g_v.idx.x + k]; }
 
 // 0 background, 1 object, 2 unseen: camera c's vote on the ray's point at eye depth d.
 int VoteAt(int c, float d) {
-  precise vec3 B = vec3(dot(cams[c].m0.xyz, g_ray), dot(cams[c].m1.xyz, g_ray), dot(cams[c].m2.xyz, g_ray));
-  precise vec3 X = cams[c].a.xyz + d * B;
-  vec2 uv = CamPixel(c, X);
+  int e = g_v.idx.z + c;
+  precise vec3 B = vec3(dot(cams[e].m0.xyz, g_ray), dot(cams[e].m1.xyz, g_ray), dot(cams[e].m2.xyz, g_ray));
+  precise vec3 X = cams[e].a.xyz + d * B;
+  vec2 uv = CamPixel(e, X);
   if (uv.x < 0.0) return 2;
+  // Outside the map's object rectangle every pixel is background (not uploaded).
+  vec4 r = cams[e].rect;
+  if (!(uv.x >= r.x && uv.y >= r.y && uv.x < r.z && uv.y < r.w)) return 0;
   return texelFetch(u_maps, ivec3(int(uv.x), int(uv.y), c), 0).r != 0u ? 1 : 0;
 }
 
@@ -74,34 +100,35 @@ float Bisect(float lo, float hi, int iterations) {
 }
 
 int LowerBound(float x) {
-  int lo = 0, hi = u_nplanes;
+  int lo = 0, hi = g_v.idx.y;
   while (lo < hi) {
     int m = (lo + hi) / 2;
-    if (planes[m] < x) lo = m + 1; else hi = m;
+    if (Plane(m) < x) lo = m + 1; else hi = m;
   }
   return lo;
 }
 
 float SpacingAt(float d) {
-  if (u_nplanes < 2) return 0.0;
-  int k = clamp(LowerBound(d), 1, u_nplanes - 1);
-  return planes[k] - planes[k - 1];
+  if (g_v.idx.y < 2) return 0.0;
+  int k = clamp(LowerBound(d), 1, g_v.idx.y - 1);
+  return Plane(k) - Plane(k - 1);
 }
 
-// Aims at pass pixel px; the ray's part [s0, s1] in the hull box (false: misses).
+// Aims at region pixel px; the ray's part [s0, s1] in the hull box (false: misses).
 bool Aim(ivec2 px, out float s0, out float s1) {
-  vec2 uv = u_origin + vec2(px) + 0.5;
-  g_ray = vec3((uv.x - u_view.z) / u_view.x, (uv.y - u_view.w) / u_view.y, 1.0);
-  vec3 D = u_Rwe * g_ray;
-  float lo = planes[0], hi = planes[u_nplanes - 1];
+  vec2 uv = g_v.origin.xy + vec2(px) + 0.5;
+  g_ray = vec3((uv.x - g_v.intr.z) / g_v.intr.x, (uv.y - g_v.intr.w) / g_v.intr.y, 1.0);
+  vec3 D = g_v.Rwe * g_ray;
+  vec3 O = g_v.O.xyz;
+  float lo = Plane(0), hi = Plane(g_v.idx.y - 1);
   s0 = lo;
   s1 = hi;
   for (int a = 0; a < 3; ++a) {
     if (abs(D[a]) < 1e-30) {
-      if (u_O[a] < u_bmin[a] || u_O[a] > u_bmax[a]) return false;
+      if (O[a] < u_bmin[a] || O[a] > u_bmax[a]) return false;
       continue;
     }
-    float t0 = (u_bmin[a] - u_O[a]) / D[a], t1 = (u_bmax[a] - u_O[a]) / D[a];
+    float t0 = (u_bmin[a] - O[a]) / D[a], t1 = (u_bmax[a] - O[a]) / D[a];
     if (t0 > t1) { float t = t0; t0 = t1; t1 = t; }
     lo = max(lo, t0);
     hi = min(hi, t1);
@@ -116,28 +143,29 @@ bool Aim(ivec2 px, out float s0, out float s1) {
 std::string MarchCs() {
   return std::string("#version 450 core\nlayout(local_size_x = 8, local_size_y = 8) in;\n") + kCameraBufferGlsl +
          kRayGlsl + R"(
-layout(r32f, binding = 0) uniform writeonly image2D u_out;
-uniform ivec2 u_size;
+layout(r32f, binding = 0) uniform writeonly image2DArray u_out;
 void main() {
+  int z = int(gl_GlobalInvocationID.z);
+  g_v = views[z];
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-  if (px.x >= u_size.x || px.y >= u_size.y) return;
+  if (px.x >= g_v.size.x || px.y >= g_v.size.y) return;
   float result = INF;
   float s0, s1;
-  if (Aim(px, s0, s1)) {
+  if (g_v.idx.y > 0 && Aim(px, s0, s1)) {
     bool want = u_refine > 0;
     int near_k[8];
     int n_near = 0, hit = -1;
-    for (int k = LowerBound(s0); k < u_nplanes && planes[k] <= s1; ++k) {
+    for (int k = LowerBound(s0); k < g_v.idx.y && Plane(k) <= s1; ++k) {
       bool near;
-      if (InsideAt(planes[k], want, near)) { hit = k; break; }
+      if (InsideAt(Plane(k), want, near)) { hit = k; break; }
       if (near && n_near < 8) near_k[n_near++] = k;
     }
     bool done = false;
     // Scan around each near miss, front to back, at 1/16 of its two gaps.
     for (int m = 0; m < n_near && !done; ++m) {
       int k = near_k[m];
-      float a = max(s0, k > 0 ? planes[k - 1] : planes[k]);
-      float b = min(s1, k + 1 < u_nplanes ? planes[k + 1] : planes[k]);
+      float a = max(s0, k > 0 ? Plane(k - 1) : Plane(k));
+      float b = min(s1, k + 1 < g_v.idx.y ? Plane(k + 1) : Plane(k));
       float step = (b - a) / 16.0;
       if (!(step > 0.0)) continue;
       float prev = a;
@@ -150,9 +178,9 @@ void main() {
       }
     }
     if (!done && hit >= 0)
-      result = want && hit > 0 ? Bisect(max(planes[hit - 1], s0), planes[hit], u_refine) : planes[hit];
+      result = want && hit > 0 ? Bisect(max(Plane(hit - 1), s0), Plane(hit), u_refine) : Plane(hit);
   }
-  imageStore(u_out, px, vec4(result, 0.0, 0.0, 0.0));
+  imageStore(u_out, ivec3(px, z), vec4(result, 0.0, 0.0, 0.0));
 }
 )";
 }
@@ -161,23 +189,23 @@ void main() {
 std::string EdgesCs() {
   return std::string("#version 450 core\nlayout(local_size_x = 8, local_size_y = 8) in;\n") + kCameraBufferGlsl +
          kRayGlsl + R"(
-layout(r32f, binding = 0) uniform readonly image2D u_swept;  // the march over the region
-layout(r32f, binding = 1) uniform writeonly image2D u_out;   // the tile
-uniform ivec2 u_region;  // region size
-uniform ivec2 u_inner;   // tile origin in the region
-uniform ivec2 u_size;    // tile size
+layout(r32f, binding = 0) uniform readonly image2DArray u_swept;  // the march over each region
+layout(r32f, binding = 1) uniform writeonly image2DArray u_out;   // each tile
 void main() {
+  int z = int(gl_GlobalInvocationID.z);
+  g_v = views[z];
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-  if (px.x >= u_size.x || px.y >= u_size.y) return;
-  ivec2 q = u_inner + px;
-  float dp = imageLoad(u_swept, q).r;
+  if (px.x >= g_v.size.z || px.y >= g_v.size.w) return;
+  ivec2 region = g_v.size.xy;
+  ivec2 q = g_v.inner.xy + px;
+  float dp = imageLoad(u_swept, ivec3(q, z)).r;
   vec2 win[4];
   int nw = 0;
   const ivec2 nb[4] = ivec2[4](ivec2(0, -1), ivec2(0, 1), ivec2(-1, 0), ivec2(1, 0));
   for (int i = 0; i < 4; ++i) {
     ivec2 o = q + nb[i];
-    if (o.x < 0 || o.y < 0 || o.x >= u_region.x || o.y >= u_region.y) continue;
-    float dq = imageLoad(u_swept, o).r;
+    if (o.x < 0 || o.y < 0 || o.x >= region.x || o.y >= region.y) continue;
+    float dq = imageLoad(u_swept, ivec3(o, z)).r;
     if (isinf(dq) || isnan(dq)) continue;
     float sp = SpacingAt(dq);
     if (!isinf(dp) && dq >= dp - 1.5 * sp) continue;
@@ -185,7 +213,7 @@ void main() {
   }
   float best = dp;
   float s0, s1;
-  if (nw > 0 && Aim(q, s0, s1)) {
+  if (nw > 0 && g_v.idx.y > 0 && Aim(q, s0, s1)) {
     // Sort the windows (by start, then end) as the CPU does.
     for (int i = 1; i < nw; ++i)
       for (int j = i; j > 0 && (win[j].x < win[j - 1].x || (win[j].x == win[j - 1].x && win[j].y < win[j - 1].y)); --j) {
@@ -193,7 +221,7 @@ void main() {
       }
     float limit = isinf(dp) ? s1 : min(dp, s1);
     for (int w = 0; w < nw; ++w) {
-      float a = max(max(win[w].x, s0), planes[0]), b = min(win[w].y, limit);
+      float a = max(max(win[w].x, s0), Plane(0)), b = min(win[w].y, limit);
       if (!(b > a) || a >= best) continue;
       float step = SpacingAt(a) / 8.0;
       if (!(step > 0.0)) continue;
@@ -207,7 +235,7 @@ void main() {
             // Inside at the window's start: the entry lies in front, after the
             // last plane before it or the box entry.
             int k = LowerBound(a);
-            prev = max(s0, k == 0 ? s0 : planes[k - 1]);
+            prev = max(s0, k == 0 ? s0 : Plane(k - 1));
             if (!(prev < a)) { best = a; break; }
           }
           best = Bisect(prev, t, u_refine);
@@ -217,52 +245,139 @@ void main() {
       }
     }
   }
-  imageStore(u_out, px, vec4(best < dp || (isinf(dp) && !isinf(best)) ? best : dp, 0.0, 0.0, 0.0));
+  imageStore(u_out, ivec3(px, z), vec4(best < dp || (isinf(dp) && !isinf(best)) ? best : dp, 0.0, 0.0, 0.0));
 }
 )";
 }
 
-void SetRayUniforms(GLuint p, const VolumeQuery& q, const NovelView& view, const cv::Rect& region, int nplanes,
-                    int refine) {
+void SetPassUniforms(GLuint p, const VolumeQuery& q, int refine) {
   glUseProgram(p);
   glUniform1i(glGetUniformLocation(p, "u_ncam"), GLint(q.size()));
   glUniform1i(glGetUniformLocation(p, "u_unknown"), q.options().out_of_view == OutOfView::kUnknown ? 1 : 0);
   glUniform1i(glGetUniformLocation(p, "u_required"), GLint(q.required_seen()));
-  glUniform1i(glGetUniformLocation(p, "u_nplanes"), nplanes);
   glUniform1i(glGetUniformLocation(p, "u_refine"), refine);
-  SetViewUniforms(p, view, region.tl(), &q.hull_box());
+  const Eigen::Vector3f bmin = q.hull_box().min.cast<float>(), bmax = q.hull_box().max.cast<float>();
+  glUniform3fv(glGetUniformLocation(p, "u_bmin"), 1, bmin.data());
+  glUniform3fv(glGetUniformLocation(p, "u_bmax"), 1, bmax.data());
   glUniform1i(glGetUniformLocation(p, "u_maps"), 0);
 }
 
 GLuint Groups(int n) { return GLuint((n + 7) / 8); }
 
+// An R32F texture array of at least w x h x layers (grown, never shrunk).
+void EnsureArray(Texture* t, int* w, int* h, int* layers, int want_w, int want_h, int want_layers) {
+  if (want_w <= *w && want_h <= *h && want_layers <= *layers && t->get()) return;
+  *w = std::max(*w, want_w);
+  *h = std::max(*h, want_h);
+  *layers = std::max(*layers, want_layers);
+  *t = MakeTexture(GL_TEXTURE_2D_ARRAY);
+  glTextureStorage3D(t->get(), 1, GL_R32F, *w, *h, *layers);
+  glTextureParameteri(t->get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(t->get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  CheckGl("sweep images");
+}
+
 }  // namespace
+
+// The march's and the silhouette pass's images for one kind of sweep (tiles, or
+// the visibility views), and which of them holds the result.
+struct GlRaySweep::Target {
+  Texture swept, refined;
+  int sw = 0, sh = 0, sl = 0, rw = 0, rh = 0, rl = 0;
+  GLuint result = 0;
+};
 
 GlRaySweep::GlRaySweep()
     : march_(BuildComputeProgram(MarchCs().c_str())),
       edges_(BuildComputeProgram(EdgesCs().c_str())),
       maps_(std::make_unique<LayerUploader>(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, CV_8UC1)),
       cams_(MakeBuffer()),
-      planes_(MakeBuffer()) {}
+      planes_(MakeBuffer()),
+      views_(MakeBuffer()),
+      tile_target_(std::make_unique<Target>()),
+      view_target_(std::make_unique<Target>()) {}
 
 GlRaySweep::~GlRaySweep() = default;
 
 void GlRaySweep::Upload(const VolumeQuery& q) {
   std::vector<cv::Mat> maps;
-  for (const auto& v : q.views()) maps.push_back(v.map);
-  maps_->Upload(maps);
+  std::vector<cv::Rect> rects;
+  for (size_t c = 0; c < q.size(); ++c) {
+    maps.push_back(q.views()[c].map);
+    rects.push_back(q.object_rect(c));
+  }
+  maps_->Upload(maps, &rects);
   uploaded_cameras_ = q.size();
 }
 
-void GlRaySweep::EnsureImages(int w, int h) {
-  if (w <= image_w_ && h <= image_h_) return;
-  image_w_ = std::max(w, image_w_);
-  image_h_ = std::max(h, image_h_);
-  for (Texture* t : {&swept_, &refined_}) {
-    *t = MakeTexture(GL_TEXTURE_2D);
-    glTextureStorage2D(t->get(), 1, GL_R32F, image_w_, image_h_);
+size_t GlRaySweep::last_upload_bytes() const { return maps_->last_bytes(); }
+
+void GlRaySweep::Run(const VolumeQuery& q, const std::vector<NovelView>& views,
+                     const std::vector<std::vector<double>>& depths, const std::vector<cv::Rect>& tiles, int refine,
+                     Target& target) {
+  if (q.size() != uploaded_cameras_)
+    throw std::invalid_argument("GlRaySweep: the query has " + std::to_string(q.size()) +
+                                " cameras, the last Upload " + std::to_string(uploaded_cameras_));
+  const size_t n = q.size();
+  std::vector<GpuCamera> cams;
+  cams.reserve(views.size() * n);
+  std::vector<float> planes;
+  std::vector<GpuView> gv(views.size());
+  int max_rw = 1, max_rh = 1, max_tw = 1, max_th = 1;
+  for (size_t k = 0; k < views.size(); ++k) {
+    const NovelView& view = views[k];
+    const cv::Rect& tile = tiles[k];
+    // With refinement the march covers the tile and a one-pixel margin in the
+    // view, so the silhouette pass sees the neighbours a whole-view render has.
+    const cv::Rect region = refine > 0 ? cv::Rect(tile.x - 1, tile.y - 1, tile.width + 2, tile.height + 2) &
+                                             cv::Rect(0, 0, view.width, view.height)
+                                       : tile;
+    GpuView& g = gv[k];
+    g = GpuView{};
+    g.intr[0] = float(view.fx), g.intr[1] = float(view.fy), g.intr[2] = float(view.cx), g.intr[3] = float(view.cy);
+    const Eigen::Vector3d O = view.world_from_eye.translation;
+    for (int i = 0; i < 3; ++i) g.O[i] = float(O[i]);
+    for (int col = 0; col < 3; ++col)
+      for (int row = 0; row < 3; ++row) g.Rwe[4 * col + row] = float(view.world_from_eye.rotation(row, col));
+    g.origin[0] = float(region.x), g.origin[1] = float(region.y);
+    g.idx[0] = int32_t(planes.size()), g.idx[1] = int32_t(depths[k].size()), g.idx[2] = int32_t(cams.size());
+    g.size[0] = region.width, g.size[1] = region.height, g.size[2] = tile.width, g.size[3] = tile.height;
+    g.inner[0] = tile.x - region.x, g.inner[1] = tile.y - region.y;
+    for (const double d : depths[k]) planes.push_back(float(d));
+    for (size_t c = 0; c < n; ++c) {
+      const Rigid3d& cw = q.views()[c].camera.cam_from_world;
+      cams.push_back(PackCamera(q.fast()[c], cw.rotation * view.world_from_eye.rotation, cw * O, q.object_rect(c)));
+    }
+    max_rw = std::max(max_rw, region.width), max_rh = std::max(max_rh, region.height);
+    max_tw = std::max(max_tw, tile.width), max_th = std::max(max_th, tile.height);
   }
-  CheckGl("sweep images");
+  if (planes.empty()) planes.push_back(0.0f);  // a buffer of no size cannot be bound
+  const int layers = int(views.size());
+  EnsureArray(&target.swept, &target.sw, &target.sh, &target.sl, max_rw, max_rh, layers);
+  if (refine > 0) EnsureArray(&target.refined, &target.rw, &target.rh, &target.rl, max_tw, max_th, layers);
+  glNamedBufferData(cams_.get(), GLsizeiptr(cams.size() * sizeof(GpuCamera)), cams.data(), GL_STREAM_DRAW);
+  glNamedBufferData(planes_.get(), GLsizeiptr(planes.size() * sizeof(float)), planes.data(), GL_STREAM_DRAW);
+  glNamedBufferData(views_.get(), GLsizeiptr(gv.size() * sizeof(GpuView)), gv.data(), GL_STREAM_DRAW);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, cams_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, planes_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, views_.get());
+  glBindTextureUnit(0, maps_->texture());
+
+  SetPassUniforms(march_.get(), q, refine);
+  glBindImageTexture(0, target.swept.get(), 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_R32F);
+  glDispatchCompute(Groups(max_rw), Groups(max_rh), GLuint(layers));
+  target.result = target.swept.get();
+  if (refine > 0) {
+    glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+    SetPassUniforms(edges_.get(), q, refine);
+    glBindImageTexture(0, target.swept.get(), 0, GL_TRUE, 0, GL_READ_ONLY, GL_R32F);
+    glBindImageTexture(1, target.refined.get(), 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_R32F);
+    glDispatchCompute(Groups(max_tw), Groups(max_th), GLuint(layers));
+    target.result = target.refined.get();
+  }
+  // Later passes read the result by texel fetch or read it back.
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
+  CheckGl("ray-march sweep");
 }
 
 cv::Mat GlRaySweep::Sweep(const VolumeQuery& q, const NovelView& view, const std::vector<double>& depths,
@@ -274,47 +389,44 @@ cv::Mat GlRaySweep::Sweep(const VolumeQuery& q, const NovelView& view, const std
                                 " cameras, the last Upload " + std::to_string(uploaded_cameras_));
   cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
   if (depths.empty() || tile.area() == 0 || q.hull_box().empty()) return out;
-  // With refinement the march covers the tile and a one-pixel margin in the view,
-  // so the silhouette pass sees the neighbours a whole-view render has.
-  const cv::Rect region = refine > 0 ? cv::Rect(tile.x - 1, tile.y - 1, tile.width + 2, tile.height + 2) &
-                                           cv::Rect(0, 0, view.width, view.height)
-                                     : tile;
-  EnsureImages(region.width, region.height);
-
-  std::vector<GpuCamera> cams;
-  const Eigen::Vector3d O = view.world_from_eye.translation;
-  for (size_t c = 0; c < q.size(); ++c) {
-    const Rigid3d& cw = q.views()[c].camera.cam_from_world;
-    cams.push_back(PackCamera(q.fast()[c], cw.rotation * view.world_from_eye.rotation, cw * O));
-  }
-  const std::vector<float> planes(depths.begin(), depths.end());
-  glNamedBufferData(cams_.get(), GLsizeiptr(cams.size() * sizeof(GpuCamera)), cams.data(), GL_STREAM_DRAW);
-  glNamedBufferData(planes_.get(), GLsizeiptr(planes.size() * sizeof(float)), planes.data(), GL_STREAM_DRAW);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, cams_.get());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, planes_.get());
-  glBindTextureUnit(0, maps_->texture());
-
-  SetRayUniforms(march_.get(), q, view, region, int(planes.size()), refine);
-  glUniform2i(glGetUniformLocation(march_.get(), "u_size"), region.width, region.height);
-  glBindImageTexture(0, swept_.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
-  glDispatchCompute(Groups(region.width), Groups(region.height), 1);
-  GLuint result = swept_.get();
-  if (refine > 0) {
-    glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
-    SetRayUniforms(edges_.get(), q, view, region, int(planes.size()), refine);
-    glUniform2i(glGetUniformLocation(edges_.get(), "u_region"), region.width, region.height);
-    glUniform2i(glGetUniformLocation(edges_.get(), "u_inner"), tile.x - region.x, tile.y - region.y);
-    glUniform2i(glGetUniformLocation(edges_.get(), "u_size"), tile.width, tile.height);
-    glBindImageTexture(0, swept_.get(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_R32F);
-    glBindImageTexture(1, refined_.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
-    glDispatchCompute(Groups(tile.width), Groups(tile.height), 1);
-    result = refined_.get();
-  }
-  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  Run(q, {view}, {depths}, {tile}, refine, *tile_target_);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  glGetTextureSubImage(result, 0, 0, 0, 0, tile.width, tile.height, 1, GL_RED, GL_FLOAT,
+  glGetTextureSubImage(tile_target_->result, 0, 0, 0, 0, tile.width, tile.height, 1, GL_RED, GL_FLOAT,
                        GLsizei(out.total() * sizeof(float)), out.data);
-  CheckGl("ray-march sweep");
+  CheckGl("ray-march sweep read-back");
+  return out;
+}
+
+void GlRaySweep::SweepViews(const VolumeQuery& q, const std::vector<NovelView>& views,
+                            const std::vector<std::vector<double>>& depths, int refine) {
+  if (views.size() != depths.size())
+    throw std::invalid_argument("GlRaySweep::SweepViews: " + std::to_string(views.size()) + " views, " +
+                                std::to_string(depths.size()) + " plane lists");
+  if (refine < 0) throw std::invalid_argument("GlRaySweep: refine iterations must be >= 0");
+  std::vector<cv::Rect> tiles;
+  std::vector<std::vector<double>> used = depths;
+  for (const NovelView& v : views) {
+    v.Check();
+    tiles.emplace_back(0, 0, v.width, v.height);
+  }
+  // An empty hull box: no plane is inside anywhere (as Sweep returns).
+  if (q.hull_box().empty())
+    for (auto& d : used) d.clear();
+  view_sizes_.clear();
+  for (const NovelView& v : views) view_sizes_.emplace_back(v.width, v.height);
+  if (views.empty()) return;
+  Run(q, views, used, tiles, refine, *view_target_);
+}
+
+GLuint GlRaySweep::views_texture() const { return view_target_->result; }
+
+cv::Mat GlRaySweep::ReadView(size_t k) const {
+  const cv::Size size = view_sizes_.at(k);
+  cv::Mat out(size, CV_32FC1);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glGetTextureSubImage(view_target_->result, 0, 0, 0, GLint(k), size.width, size.height, 1, GL_RED, GL_FLOAT,
+                       GLsizei(out.total() * sizeof(float)), out.data);
+  CheckGl("ray-march view read-back");
   return out;
 }
 

@@ -116,7 +116,7 @@ void main() {
 
 GlTexture::GlTexture()
     : program_(BuildComputeProgram(TextureCs().c_str())),
-      images_(std::make_unique<LayerUploader>(GL_RGBA8UI, GL_RGB_INTEGER, GL_UNSIGNED_BYTE, CV_8UC3)),
+      images_(std::make_unique<LayerUploader>(GL_RGBA8UI, GL_RGBA_INTEGER, GL_UNSIGNED_BYTE, CV_8UC3)),
       visibility_(std::make_unique<LayerUploader>(GL_R32F, GL_RED, GL_FLOAT, CV_32FC1)),
       cams_(MakeBuffer()),
       extra_(MakeBuffer()) {}
@@ -135,12 +135,29 @@ void GlTexture::UploadImages(const std::vector<CameraImage>& images) {
 cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
                            const std::vector<CameraImage>& images, const TextureOptions& options,
                            const HullVisibility* vis) {
-  options.Check();
-  view.Check();
-  CV_Assert(depth.type() == CV_32FC1 && depth.size() == tile.size());
   if (vis && (vis->views.size() != images.size() || vis->depth.size() != images.size()))
     throw std::invalid_argument("GlTexture: visibility has " + std::to_string(vis->views.size()) +
                                 " cameras, images " + std::to_string(images.size()));
+  if (vis && !images.empty()) visibility_->Upload(vis->depth);
+  return Run(depth, tile, view, images, options, vis ? &vis->views : nullptr, vis ? visibility_->texture() : 0);
+}
+
+cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
+                           const std::vector<CameraImage>& images, const TextureOptions& options,
+                           const std::vector<NovelView>& visibility_views, GLuint visibility_texture) {
+  if (visibility_views.size() != images.size())
+    throw std::invalid_argument("GlTexture: visibility has " + std::to_string(visibility_views.size()) +
+                                " cameras, images " + std::to_string(images.size()));
+  return Run(depth, tile, view, images, options, &visibility_views, visibility_texture);
+}
+
+cv::Mat GlTexture::Run(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
+                       const std::vector<CameraImage>& images, const TextureOptions& options,
+                       const std::vector<NovelView>* vis_views, GLuint vis_texture) {
+  options.Check();
+  view.Check();
+  CV_Assert(depth.type() == CV_32FC1 && depth.size() == tile.size());
+  const bool vis = vis_views != nullptr;
   if (images.size() != uploaded_)
     throw std::invalid_argument("GlTexture: " + std::to_string(images.size()) + " images, the last upload " +
                                 std::to_string(uploaded_));
@@ -158,7 +175,7 @@ cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const Nov
     const Eigen::Vector3d C = c.Center();
     for (int i = 0; i < 3; ++i) e.centre[i] = float(C[i]);
     if (vis) {
-      const NovelView& v = vis->views[k];
+      const NovelView& v = (*vis_views)[k];
       const Rigid3d ew = v.world_from_eye.Inverse();
       for (int r = 0; r < 3; ++r)
         for (int j = 0; j < 3; ++j) e.vr[4 * r + j] = float(ew.rotation(r, j));
@@ -169,7 +186,6 @@ cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const Nov
   }
   glNamedBufferData(cams_.get(), GLsizeiptr(cams.size() * sizeof(GpuCamera)), cams.data(), GL_STREAM_DRAW);
   glNamedBufferData(extra_.get(), GLsizeiptr(extra.size() * sizeof(TexExtra)), extra.data(), GL_STREAM_DRAW);
-  if (vis) visibility_->Upload(vis->depth);
 
   if (tile.width > w_ || tile.height > h_) {
     w_ = std::max(w_, tile.width);
@@ -191,7 +207,7 @@ cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const Nov
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, cams_.get());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, extra_.get());
   glBindTextureUnit(0, images_->texture());
-  glBindTextureUnit(1, vis ? visibility_->texture() : images_->texture());
+  glBindTextureUnit(1, vis ? vis_texture : images_->texture());
   glBindTextureUnit(2, depth_.get());
   glBindImageTexture(0, out_.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8UI);
   glUniform1i(glGetUniformLocation(p, "u_ncam"), GLint(images.size()));

@@ -5,22 +5,36 @@
 #include <stdexcept>
 #include <string>
 
+#include <opencv2/imgproc.hpp>
+
 namespace hullpipe::gl {
 
 LayerUploader::LayerUploader(GLenum internal_format, GLenum format, GLenum type, int mat_type)
-    : internal_format_(internal_format), format_(format), type_(type), mat_type_(mat_type) {}
+    : internal_format_(internal_format),
+      format_(format),
+      type_(type),
+      mat_type_(mat_type),
+      expand_(mat_type == CV_8UC3 && format == GL_RGBA_INTEGER) {}
 
-void LayerUploader::Upload(const std::vector<cv::Mat>& layers) {
+void LayerUploader::Upload(const std::vector<cv::Mat>& layers, const std::vector<cv::Rect>* rects) {
   if (layers.empty()) throw std::invalid_argument("LayerUploader: no layers");
+  if (rects && rects->size() != layers.size())
+    throw std::invalid_argument("LayerUploader: " + std::to_string(rects->size()) + " rectangles for " +
+                                std::to_string(layers.size()) + " layers");
+  const size_t texel = expand_ ? 4 : CV_ELEM_SIZE(mat_type_);
   int w = 0, h = 0;
   size_t bytes = 0;
-  for (const cv::Mat& m : layers) {
+  std::vector<cv::Rect> parts(layers.size());
+  for (size_t i = 0; i < layers.size(); ++i) {
+    const cv::Mat& m = layers[i];
     if (m.type() != mat_type_ || m.empty())
       throw std::invalid_argument("LayerUploader: layer of type " + std::to_string(m.type()) + ", expected " +
                                   std::to_string(mat_type_));
     w = std::max(w, m.cols);
     h = std::max(h, m.rows);
-    bytes += m.total() * m.elemSize();
+    parts[i] = cv::Rect(0, 0, m.cols, m.rows);
+    if (rects) parts[i] &= (*rects)[i];
+    bytes += size_t(parts[i].area()) * texel;
   }
   if (w > width_ || h > height_ || int(layers.size()) > layers_) {
     width_ = std::max(w, width_);
@@ -32,6 +46,8 @@ void LayerUploader::Upload(const std::vector<cv::Mat>& layers) {
     glTextureParameteri(texture_.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
     CheckGl("texture array storage");
   }
+  last_bytes_ = bytes;
+  if (bytes == 0) return;
   Slot& s = slots_[size_t(next_)];
   next_ ^= 1;
   s.fence.Wait();  // the GPU has finished copying this buffer's last upload
@@ -47,13 +63,20 @@ void LayerUploader::Upload(const std::vector<cv::Mat>& layers) {
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   size_t offset = 0;
   for (size_t i = 0; i < layers.size(); ++i) {
-    const cv::Mat& m = layers[i];
-    const size_t row = size_t(m.cols) * m.elemSize();
-    for (int r = 0; r < m.rows; ++r)
-      std::memcpy(static_cast<uint8_t*>(s.mapped) + offset + size_t(r) * row, m.ptr(r), row);
-    glTextureSubImage3D(texture_.get(), 0, 0, 0, GLint(i), m.cols, m.rows, 1, format_, type_,
+    const cv::Rect& r = parts[i];
+    if (r.area() == 0) continue;
+    uint8_t* dst = static_cast<uint8_t*>(s.mapped) + offset;
+    const cv::Mat src = layers[i](r);
+    if (expand_) {
+      cv::Mat out(r.height, r.width, CV_8UC4, dst);
+      cv::cvtColor(src, out, cv::COLOR_BGR2BGRA);
+    } else {
+      const size_t row = size_t(r.width) * texel;
+      for (int y = 0; y < r.height; ++y) std::memcpy(dst + size_t(y) * row, src.ptr(y), row);
+    }
+    glTextureSubImage3D(texture_.get(), 0, r.x, r.y, GLint(i), r.width, r.height, 1, format_, type_,
                         reinterpret_cast<const void*>(offset));
-    offset += row * size_t(m.rows);
+    offset += size_t(r.area()) * texel;
   }
   glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
   s.fence.Insert();

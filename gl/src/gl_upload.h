@@ -2,7 +2,10 @@
 // hullpipe_gl): the layers are copied into one of two persistently mapped pixel
 // buffers and the GPU copies them into the array from there, so the CPU's copy of
 // frame f+1 waits only for the GPU to have consumed frame f-1's buffer, never for
-// frame f's sweep (pixel buffer objects, double-buffered).
+// frame f's sweep (pixel buffer objects, double-buffered). Only a rectangle of
+// each layer may be sent (the object pixels of a map: the rest is background and
+// never read), and 3-channel images go up as 4 channels, expanded on the CPU
+// while copied (the driver would otherwise convert them texel by texel).
 #pragma once
 
 #include <array>
@@ -18,14 +21,21 @@ namespace hullpipe::gl {
 class LayerUploader {
  public:
   /// internal_format/format/type as glTexStorage3D/glTexSubImage3D take them;
-  /// mat_type: the cv::Mat type every layer must have (e.g. CV_8UC1).
+  /// mat_type: the cv::Mat type every layer must have (e.g. CV_8UC1). With
+  /// mat_type CV_8UC3 and format GL_RGBA_INTEGER, each BGR texel goes up as
+  /// BGRA (alpha 255).
   LayerUploader(GLenum internal_format, GLenum format, GLenum type, int mat_type);
   /// Uploads layers[i] into layer i (row 0 of a Mat = texel row 0). Layers may
   /// differ in size; the array is as large as the largest (texels beyond a
-  /// layer's own size are undefined: shaders bound-check). Throws
-  /// std::invalid_argument for a wrong Mat type or no layers, GlError on a GL error.
-  void Upload(const std::vector<cv::Mat>& layers);
+  /// layer's own size are undefined: shaders bound-check). With `rects`, only
+  /// rects[i] (clipped to the layer) of layer i goes up; the rest of the layer
+  /// keeps older contents, which shaders must not read. Throws
+  /// std::invalid_argument for a wrong Mat type, no layers or a rects list of
+  /// another length, GlError on a GL error.
+  void Upload(const std::vector<cv::Mat>& layers, const std::vector<cv::Rect>* rects = nullptr);
   GLuint texture() const { return texture_.get(); }
+  /// Bytes copied by the last Upload.
+  size_t last_bytes() const { return last_bytes_; }
 
  private:
   struct Slot {
@@ -36,10 +46,12 @@ class LayerUploader {
   };
   GLenum internal_format_, format_, type_;
   int mat_type_;
+  bool expand_ = false;  // BGR layers sent as BGRA
   Texture texture_;
   int width_ = 0, height_ = 0, layers_ = 0;
   std::array<Slot, 2> slots_;
   int next_ = 0;
+  size_t last_bytes_ = 0;
 };
 
 }  // namespace hullpipe::gl

@@ -8,23 +8,31 @@ namespace {
 class CpuBackend final : public SweepBackend {
  public:
   CpuBackend(int threads, int refine) : refine_(refine) { set_threads(threads); }
-  void BeginFrameset(const VolumeQuery&, const std::vector<CameraImage>&) override {}
+  void BeginFrameset(const VolumeQuery&, const std::vector<CameraImage>&) override {
+    vis_ = {};
+    has_vis_ = false;
+  }
   cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d, const cv::Rect& tile,
                 SweepStats* stats) override {
     return PlaneSweepCpu(q, v, d, tile, stats, threads(), refine_, stop());
   }
-  HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
-                            const PlaneSweepOptions& sweep) override {
-    return ComputeHullVisibility(q, cams, width, sweep, refine_, threads(), stop());
+  void ComputeVisibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
+                         const PlaneSweepOptions& sweep) override {
+    vis_ = ComputeHullVisibility(q, cams, width, sweep, refine_, threads(), stop());
+    has_vis_ = true;
   }
+  HullVisibility KeptVisibility() override { return vis_; }
   cv::Mat Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
-                  const std::vector<CameraImage>& images, const HullVisibility* vis) override {
-    return TextureHull(depth, tile, view, images, {}, vis, stop());
+                  const std::vector<CameraImage>& images, bool with_visibility) override {
+    if (with_visibility && !has_vis_) throw std::logic_error("Texture with visibility before ComputeVisibility");
+    return TextureHull(depth, tile, view, images, {}, with_visibility ? &vis_ : nullptr, stop());
   }
   std::string Name() const override { return "cpu"; }
 
  private:
   int refine_;
+  HullVisibility vis_;
+  bool has_vis_ = false;
 };
 
 }  // namespace

@@ -20,8 +20,9 @@
 namespace hullpipe {
 
 /// What renders a frameset's hull: sweep, visibility maps and texture.
-/// Per frameset: BeginFrameset, then any number of Sweep / Visibility / Texture
-/// calls on that frameset's query and images (which must outlive them).
+/// Per frameset: BeginFrameset, then ComputeVisibility (if the texture is to
+/// use it), then any number of Sweep / Texture calls on that frameset's query
+/// and images (which must outlive them).
 class SweepBackend {
  public:
   virtual ~SweepBackend() = default;
@@ -33,12 +34,20 @@ class SweepBackend {
   /// pass, as the GL ray march's, counts as sweep).
   virtual cv::Mat Sweep(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
                         const cv::Rect& tile, SweepStats* stats = nullptr) = 0;
-  /// Same contract as ComputeHullVisibility with the backend's refinement.
-  virtual HullVisibility Visibility(const VolumeQuery& query, const std::vector<Camera>& cameras, int width,
-                                    const PlaneSweepOptions& sweep) = 0;
-  /// Same contract as TextureHull; `images` are the ones given to BeginFrameset.
+  /// The visibility maps of the frameset begun last (same contract as
+  /// ComputeHullVisibility with the backend's refinement), kept for its Texture
+  /// calls: the GL backend sweeps all cameras' views in one dispatch and keeps
+  /// the maps on the GPU, reading nothing back.
+  virtual void ComputeVisibility(const VolumeQuery& query, const std::vector<Camera>& cameras, int width,
+                                 const PlaneSweepOptions& sweep) = 0;
+  /// The maps ComputeVisibility kept, on the CPU (read back from the GPU: for
+  /// tests and benchmarks); empty views before it in this frameset.
+  virtual HullVisibility KeptVisibility() = 0;
+  /// Same contract as TextureHull; `images` are the ones given to BeginFrameset;
+  /// with_visibility: the visibility test with the maps ComputeVisibility kept
+  /// (std::logic_error if it was not called for this frameset).
   virtual cv::Mat Texture(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
-                          const std::vector<CameraImage>& images, const HullVisibility* visibility) = 0;
+                          const std::vector<CameraImage>& images, bool with_visibility) = 0;
   /// "cpu", "gl march (renderer)" or "gl stencil (renderer)".
   virtual std::string Name() const = 0;
   /// The GL implementation in use in one line (vendor, renderer, version), or

@@ -444,7 +444,7 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
   const int n = int(views_.size());
   required_seen_ = options_.out_of_view == OutOfView::kOutside ? n : std::min(options_.min_seen, n);
   std::vector<Camera> cams;
-  std::vector<cv::Rect> rects;  // each map's object pixels' bounding rectangle, found once
+  std::vector<cv::Rect>& rects = rects_;  // each map's object pixels' bounding rectangle, found once
   for (const auto& v : views_) {
     const Camera& c = v.camera;
     if (v.map.type() != CV_8UC1 || v.map.cols != c.width || v.map.rows != c.height)

@@ -132,6 +132,11 @@ class VolumeQuery {
   /// Float camera parameters for hot loops, in views() order.
   const std::vector<detail::FastCamera>& fast() const { return fast_; }
 
+  /// Camera i's object pixels' bounding rectangle (empty when its map has
+  /// none): every pixel outside it is background (the GL path uploads and
+  /// reads only this part of each map).
+  const cv::Rect& object_rect(size_t i) const { return rects_.at(i); }
+
   /// Camera `c`'s verdict on camera-frame point (x, y, z), in floats. Inline for
   /// the hot loops (sweep, reprojection).
   static Vote VoteFast(const detail::FastCamera& c, float x, float y, float z) {
@@ -173,6 +178,7 @@ class VolumeQuery {
   int required_seen_ = 1;
   Aabb hull_box_;
   std::vector<detail::FastCamera> fast_;
+  std::vector<cv::Rect> rects_;
   std::shared_ptr<const detail::CellProver> prover_;
 };
 

@@ -165,14 +165,14 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
     StageTimer st(counters_, "upload");
     backend_.BeginFrameset(vq, fs.images);
   }
-  std::optional<HullVisibility> vis;
-  if (o_.visibility_width > 0) {
+  const bool with_visibility = o_.visibility_width > 0;
+  if (with_visibility) {
     StageTimer st(counters_, "visibility");
     std::vector<Camera> cams;
     for (const auto& im : fs.images) cams.push_back(im.camera);
     PlaneSweepOptions vis_sweep = o_.sweep;
     vis_sweep.num_planes = std::min(o_.sweep.num_planes, 48);
-    vis = backend_.Visibility(vq, cams, o_.visibility_width, vis_sweep);
+    backend_.ComputeVisibility(vq, cams, o_.visibility_width, vis_sweep);
   }
   int published = 0;
   spdlog::debug("frameset {}, pose {}: sweeping a {}x{} view, {} planes", fs.seq, pose.pose_seq, pose.view.width,
@@ -187,7 +187,7 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
     counters_.Stage("refine", sweep_stats.refine_ms);
     {
       StageTimer st(counters_, "texture");
-      tile.colour = backend_.Texture(tile.depth, rect, pose.view, fs.images, vis ? &*vis : nullptr);
+      tile.colour = backend_.Texture(tile.depth, rect, pose.view, fs.images, with_visibility);
     }
     tile.rect = rect;
     tile.node_id = uint32_t(o_.tile);

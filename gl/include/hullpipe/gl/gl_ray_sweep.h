@@ -5,7 +5,9 @@
 // sweep's algorithm (PlaneSweepCpu, paper §3.3 with the early exit), depth
 // refinement included (bisection, near-miss scans and the silhouette pass, in a
 // second compute pass), so it equals PlaneSweepCpu with the same planes and
-// refinement up to float rounding; gl tests compare them. The paper's
+// refinement up to float rounding; gl tests compare them. Several views are
+// swept in one dispatch per pass (the visibility maps: one view per camera),
+// their depths kept on the GPU for the texturing pass. The paper's
 // stencil-counting sweep (GlPlaneSweep) stays as the reference GL method.
 #pragma once
 
@@ -31,10 +33,13 @@ class GlRaySweep {
   GlRaySweep& operator=(const GlRaySweep&) = delete;
 
   /// Uploads a frameset's object-pixel maps (one texture array layer per camera,
-  /// through double-buffered pixel buffers: the copy does not wait for an earlier
-  /// frameset's sweep). Every Sweep until the next Upload uses these maps. Throws
-  /// GlError on a GL error.
+  /// only each map's object rectangle, VolumeQuery::object_rect, through
+  /// double-buffered pixel buffers: the copy does not wait for an earlier
+  /// frameset's sweep). Every sweep until the next Upload uses these maps.
+  /// Throws GlError on a GL error.
   void Upload(const VolumeQuery& query);
+  /// Bytes of map pixels the last Upload sent.
+  size_t last_upload_bytes() const;
 
   /// Same contract as PlaneSweepCpu(query, view, depths, tile, nullptr, threads,
   /// refine_iterations): CV_32FC1 tile of eye-z depths (metres), kNoDepth where no
@@ -44,14 +49,30 @@ class GlRaySweep {
   cv::Mat Sweep(const VolumeQuery& query, const NovelView& view, const std::vector<double>& plane_depths,
                 const cv::Rect& tile, int refine_iterations = 0);
 
+  /// Sweeps every view whole in one dispatch per pass, view k with
+  /// plane_depths[k] (as Sweep over {0, 0, width, height}), and keeps the depths
+  /// on the GPU: layer k of views_texture() (R32F, eye z in metres, +inf where
+  /// no plane is inside), until the next SweepViews. Nothing is read back.
+  /// Throws std::invalid_argument if the sizes of views and plane_depths differ
+  /// or the query is not the uploaded one, GlError on a GL error.
+  void SweepViews(const VolumeQuery& query, const std::vector<NovelView>& views,
+                  const std::vector<std::vector<double>>& plane_depths, int refine_iterations = 0);
+  /// The texture array SweepViews wrote (0 before the first).
+  GLuint views_texture() const;
+  /// Reads view k of the last SweepViews back (CV_32FC1 of its size). Throws
+  /// std::out_of_range for a k it did not sweep.
+  cv::Mat ReadView(size_t k) const;
+
  private:
-  void EnsureImages(int width, int height);
+  struct Target;  // the pass images of one kind of sweep
+  void Run(const VolumeQuery& q, const std::vector<NovelView>& views, const std::vector<std::vector<double>>& depths,
+           const std::vector<cv::Rect>& tiles, int refine, Target& target);
   Program march_, edges_;
   std::unique_ptr<LayerUploader> maps_;
   size_t uploaded_cameras_ = 0;
-  Buffer cams_, planes_;
-  Texture swept_, refined_;
-  int image_w_ = 0, image_h_ = 0;
+  Buffer cams_, planes_, views_;
+  std::unique_ptr<Target> tile_target_, view_target_;
+  std::vector<cv::Size> view_sizes_;
 };
 
 }  // namespace hullpipe::gl

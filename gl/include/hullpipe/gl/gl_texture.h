@@ -27,7 +27,7 @@ class GlTexture {
   GlTexture& operator=(const GlTexture&) = delete;
 
   /// Uploads a frameset's colour images (CV_8UC3 BGR; one texture array layer
-  /// each, through double-buffered pixel buffers). Every Texture call until the
+  /// each, as BGRA, through double-buffered pixel buffers). Every Texture call until the
   /// next upload reads these. Throws std::invalid_argument for more than
   /// kMaxTextureCameras images or a non-CV_8UC3 image, GlError on a GL error.
   void UploadImages(const std::vector<CameraImage>& images);
@@ -41,7 +41,19 @@ class GlTexture {
                   const std::vector<CameraImage>& images, const TextureOptions& options = {},
                   const HullVisibility* visibility = nullptr);
 
+  /// The same with visibility maps already on the GPU: layer k of
+  /// `visibility_texture` (an R32F texture array, GlRaySweep::views_texture) is
+  /// the hull's depth from visibility_views[k] (one per image), so nothing is
+  /// uploaded for them. Throws std::invalid_argument if their number differs
+  /// from the images'.
+  cv::Mat Texture(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
+                  const std::vector<CameraImage>& images, const TextureOptions& options,
+                  const std::vector<NovelView>& visibility_views, GLuint visibility_texture);
+
  private:
+  cv::Mat Run(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
+              const std::vector<CameraImage>& images, const TextureOptions& options,
+              const std::vector<NovelView>* visibility_views, GLuint visibility_texture);
   Program program_;
   std::unique_ptr<LayerUploader> images_, visibility_;
   size_t uploaded_ = 0;
