@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
     if (const auto* models = config.Find<ModelsConfig>()) {
       ModelsConfig m = *models;
       m.threads = model_threads;
-      m.query = gl::MakeTriangleQuery(backend_name, gl::EglOptions{gl_device}, &backend);
+      m.query = gl::MakeTriangleQuery(backend_name, gl::EglOptions{gl_device}, &backend, model_threads);
       spdlog::info("CAD models' triangle query: {}", backend);
       config.Set(std::move(m));
     }

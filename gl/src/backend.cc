@@ -49,22 +49,31 @@ class GlBackend final : public SweepBackend {
     }
     return depth;
   }
-  HullVisibility Visibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
-                            const PlaneSweepOptions& sweep) override {
+  void ComputeVisibility(const VolumeQuery& q, const std::vector<Camera>& cams, int width,
+                         const PlaneSweepOptions& sweep) override {
+    ctx_.MakeCurrent();
+    vis_views_.clear();
+    std::vector<std::vector<double>> depths;
+    for (const Camera& cam : cams) {
+      vis_views_.push_back(HullVisibilityView(cam, width));
+      depths.push_back(SweepPlaneDepths(q, vis_views_.back(), sweep));
+    }
+    march_->SweepViews(q, vis_views_, depths, refine_);
+    has_vis_ = true;
+  }
+  HullVisibility KeptVisibility() override {
     ctx_.MakeCurrent();
     HullVisibility vis;
-    for (const Camera& cam : cams) {
-      NovelView v = HullVisibilityView(cam, width);
-      const auto depths = SweepPlaneDepths(q, v, sweep);
-      vis.depth.push_back(march_->Sweep(q, v, depths, {0, 0, v.width, v.height}, refine_));
-      vis.views.push_back(v);
-    }
+    vis.views = vis_views_;
+    for (size_t k = 0; k < vis_views_.size(); ++k) vis.depth.push_back(march_->ReadView(k));
     return vis;
   }
   cv::Mat Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
-                  const std::vector<CameraImage>& images, const HullVisibility* vis) override {
+                  const std::vector<CameraImage>& images, bool with_visibility) override {
     ctx_.MakeCurrent();
-    return texture_->Texture(depth, tile, view, images, {}, vis);
+    if (!with_visibility) return texture_->Texture(depth, tile, view, images, {}, nullptr);
+    if (!has_vis_) throw std::logic_error("Texture with visibility before ComputeVisibility");
+    return texture_->Texture(depth, tile, view, images, {}, vis_views_, march_->views_texture());
   }
   std::string Name() const override {
     return std::string("gl ") + (stencil_ ? "stencil" : "march") + " (" + ctx_.renderer() + ")";
@@ -79,6 +88,8 @@ class GlBackend final : public SweepBackend {
   std::unique_ptr<GlPlaneSweep> stencil_sweep_;
   std::unique_ptr<GlRaySweep> march_;
   std::unique_ptr<GlTexture> texture_;
+  std::vector<NovelView> vis_views_;  // the visibility maps' views (their depths on the GPU)
+  bool has_vis_ = false;
 };
 
 // The GL context a backend `name` (gl|auto) gets, or nullopt with *why saying
@@ -137,12 +148,71 @@ const GlInfo* GlInfoOf(const SweepBackend& backend) {
   return gl ? &gl->info() : nullptr;
 }
 
-TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOptions& egl, std::string* description) {
+namespace {
+
+// What a triangle query costs on this machine for a batch of n triangles,
+// fitted as fixed + n * per_triangle from two timed batches.
+struct QueryCost {
+  double fixed_ms = 0, per_triangle_ms = 0;
+  double At(size_t n) const { return fixed_ms + double(n) * per_triangle_ms; }
+};
+
+// Times both queries on the same synthetic frameset (four cameras around a
+// sphere, an icosphere cutting it: triangles inside, outside and across) at
+// 80 and 5,120 triangles, medians of three after a warm-up.
+void Calibrate(GlTriangleQuery& gl, int cpu_threads, QueryCost* gpu, QueryCost* cpu) {
+  const Eigen::Vector3d centre(0, 0, -1);
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Sphere(centre, 0.3));
+  std::vector<CameraMap> views;
+  for (const Camera& c : RingCameras(4, 3.0, 1.5, centre, 320, 240, 1.0)) views.push_back({c, RenderExactMap(c, scene)});
+  Aabb ws;
+  ws.min = centre - Eigen::Vector3d::Constant(1.0), ws.max = centre + Eigen::Vector3d::Constant(1.0);
+  const VolumeQuery q(views, ws);
+  const TriangleQueryOptions o{0.004, 0, 32};
+  auto batch = [&](int subdivisions) {
+    Rigid3d pose;
+    pose.translation = centre + Eigen::Vector3d(0.2, 0, 0);
+    const TriangleMesh m = TriangleMesh::Icosphere(0.25, subdivisions).Transformed(pose);
+    std::vector<Triangle> tris;
+    for (const auto& t : m.triangles)
+      tris.push_back({m.vertices[size_t(t[0])], m.vertices[size_t(t[1])], m.vertices[size_t(t[2])]});
+    return tris;
+  };
+  auto median_ms = [](const std::function<void()>& f) {
+    f();
+    std::vector<double> t;
+    for (int i = 0; i < 3; ++i) {
+      const double t0 = MonotonicSeconds();
+      f();
+      t.push_back((MonotonicSeconds() - t0) * 1e3);
+    }
+    std::sort(t.begin(), t.end());
+    return t[1];
+  };
+  const std::vector<Triangle> small = batch(1), large = batch(4);  // 80 and 5,120
+  double g[2], c[2];
+  int k = 0;
+  for (const auto* tris : {&small, &large}) {
+    g[k] = median_ms([&] { (void)gl.QueryBatch(q, *tris, o).All(); });
+    c[k] = median_ms([&] { (void)QueryTrianglesCpu(q, *tris, o, cpu_threads); });
+    ++k;
+  }
+  const double dn = double(large.size() - small.size());
+  *gpu = {std::max(0.0, g[0] - (g[1] - g[0]) / dn * double(small.size())), std::max(0.0, (g[1] - g[0]) / dn)};
+  *cpu = {std::max(0.0, c[0] - (c[1] - c[0]) / dn * double(small.size())), std::max(0.0, (c[1] - c[0]) / dn)};
+}
+
+}  // namespace
+
+TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOptions& egl, std::string* description,
+                                        int cpu_threads) {
   auto say = [&](const std::string& s) {
     if (description) *description = s;
   };
   if (name != "cpu" && name != "gl" && name != "auto")
     throw std::invalid_argument("--backend must be cpu, gl or auto, not '" + name + "'");
+  if (cpu_threads < 1) throw std::invalid_argument("MakeTriangleQuery: cpu_threads must be >= 1");
   if (name == "cpu") {
     say("cpu (--backend cpu)");
     return {};
@@ -155,21 +225,44 @@ TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOption
   }
   struct Gl {
     EglContext ctx;
-    GlTriangleQuery query;
+    std::unique_ptr<GlTriangleQuery> query;
   };
   std::shared_ptr<Gl> gl;
   const std::string summary = ctx->info().Summary();
   try {
-    gl = std::make_shared<Gl>(Gl{std::move(*ctx), GlTriangleQuery()});  // built with the context current
+    gl = std::make_shared<Gl>(Gl{std::move(*ctx), nullptr});
+    gl->query = std::make_unique<GlTriangleQuery>();  // built with the context current
   } catch (const std::exception& e) {
     if (name == "gl") throw std::runtime_error(std::string("--backend gl: ") + e.what());
     say(std::string("cpu (auto: GL triangle query failed to build: ") + e.what() + ")");
     return {};
   }
-  say("gl triangle query (" + summary + ")");
-  return [gl](const VolumeQuery& q, const std::vector<Triangle>& tris, const TriangleQueryOptions& o) {
+  auto on_gpu = [gl](const VolumeQuery& q, const std::vector<Triangle>& tris, const TriangleQueryOptions& o) {
     gl->ctx.MakeCurrent();
-    return gl->query.Query(q, tris, o);
+    return gl->query->Query(q, tris, o);
+  };
+  if (name == "gl") {
+    say("gl triangle query (" + summary + ")");
+    return on_gpu;
+  }
+  // auto on a hardware renderer: whichever is faster for a batch's size on
+  // this machine, from both timed at the start.
+  QueryCost gpu, cpu;
+  gl->ctx.MakeCurrent();
+  Calibrate(*gl->query, cpu_threads, &gpu, &cpu);
+  char line[256];
+  std::snprintf(line, sizeof line, "GL %.2f ms + %.2f us a triangle, CPU (%d thread%s) %.2f ms + %.2f us",
+                gpu.fixed_ms, gpu.per_triangle_ms * 1e3, cpu_threads, cpu_threads == 1 ? "" : "s", cpu.fixed_ms,
+                cpu.per_triangle_ms * 1e3);
+  if (gpu.At(5120) >= cpu.At(5120) && gpu.At(100000) >= cpu.At(100000)) {
+    say(std::string("cpu (auto: measured ") + line + ")");
+    return {};
+  }
+  say("gl triangle query where faster for the batch (auto: measured " + std::string(line) + "; " + summary + ")");
+  return [on_gpu, gpu, cpu, cpu_threads](const VolumeQuery& q, const std::vector<Triangle>& tris,
+                                         const TriangleQueryOptions& o) {
+    if (gpu.At(tris.size()) < cpu.At(tris.size())) return on_gpu(q, tris, o);
+    return QueryTrianglesCpu(q, tris, o, cpu_threads);
   };
 }
 

@@ -2,196 +2,326 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
-#include <limits>
 #include <stdexcept>
 #include <string>
 
 #include "gl_cameras.h"
+#include "gl_upload.h"
 
 namespace hullpipe::gl {
 namespace {
 
-// One inside fragment as the shader appends it (std430 struct Hit).
-struct Hit {
-  float world[4];
-  uint32_t id[4];
-};
+// A triangle's mask offset when it has no mask.
+constexpr uint32_t kMaskFull = 0xFFFFFFFEu;  // the mask buffer was full: run again
+constexpr uint32_t kCentroid = 0xFFFFFFFDu;  // no pixel centre covered: its centroid was queried
 
-const char* kTriVs = R"(#version 450 core
-layout(location = 0) in vec2 a_pix;    // vertex in its viewport's pixel coordinates
-layout(location = 1) in vec3 a_world;  // vertex in world metres
-layout(location = 2) in ivec4 a_cell;  // cell origin x, y in the atlas; triangle index; viewport width
-uniform vec2 u_atlas;                  // atlas size in pixels
-out vec3 v_world;
-flat out ivec4 v_cell;
-void main() {
-  v_world = a_world;
-  v_cell = a_cell;
-  gl_Position = vec4((vec2(a_cell.xy) + a_pix) / u_atlas * 2.0 - 1.0, 0.0, 1.0);
-}
-)";
-
-std::string TriFs() {
-  return std::string("#version 450 core\n") + kProjectGlsl + R"(
+// One workgroup per triangle: its viewport (MakeTriangleViewport), its pixel
+// centres in the triangle (PixelInTriangle's edge functions), each one's volume
+// query (VolumeQuery::Inside's votes), the inside ones as bits in shared
+// memory, then the counts and, where any pixel is inside, the mask written at
+// an offset taken from one atomic counter.
+std::string TriangleCs() {
+  return std::string("#version 450 core\nlayout(local_size_x = 64) in;\n") + kCameraBufferGlsl + R"(
+layout(std430, binding = 1) readonly buffer Tris { float tris[]; };     // a, b, c: 9 floats per triangle
+layout(std430, binding = 2) writeonly buffer Results { uvec4 results[]; };  // tested, inside, mask offset, w | h << 16
+layout(std430, binding = 3) buffer Masks { uint mask_used; uint mask_capacity; uint pad0; uint pad1; uint masks[]; };
+layout(binding = 0) uniform usampler2DArray u_maps;
 uniform int u_ncam;
 uniform int u_unknown;
 uniform int u_required;
-uniform vec3 u_wmin;  // workspace box, world metres
+uniform uint u_count;
+uniform uint u_first;     // triangle index of workgroup 0
+uniform vec3 u_wmin;      // workspace box, world metres
 uniform vec3 u_wmax;
-layout(std430, binding = 0) buffer Counts { uint total; uint tested[]; };
-struct Hit { vec4 world; uvec4 id; };  // id: triangle, row-major pixel of its viewport
-layout(std430, binding = 1) buffer Points { uint capacity; uint pad[3]; Hit hits[]; };
-in vec3 v_world;
-flat in ivec4 v_cell;
-void main() {
-  // No early break: sampler arrays must be indexed with dynamically uniform
-  // values (GLSL 4.5), which a divergent break would violate.
-  int votes[3] = int[3](0, 0, 0);
-  for (int c = 0; c < u_ncam; ++c) votes[VoteOf(c, u_A[c] + u_M[c] * v_world)] += 1;
-  bool in_box = all(greaterThanEqual(v_world, u_wmin)) && all(lessThanEqual(v_world, u_wmax));
-  bool inside = in_box && votes[0] == 0 && (votes[2] == 0 || u_unknown != 0) && votes[1] >= u_required;
-  atomicAdd(tested[v_cell.z], 1u);
-  if (inside) {
-    uint k = atomicAdd(total, 1u);
-    ivec2 p = ivec2(gl_FragCoord.xy) - v_cell.xy;  // pixel in the triangle's viewport
-    if (k < capacity) hits[k] = Hit(vec4(v_world, 0.0), uvec4(uint(v_cell.z), uint(p.y * v_cell.w + p.x), 0u, 0u));
+uniform float u_pixel;    // TriangleQueryOptions::max_pixel_size
+uniform int u_fixed;      // ::fixed_viewport
+uniform int u_maxvp;      // ::max_viewport
+shared uint s_mask[2048];  // 256 x 256 pixels (TriangleQueryOptions::kMaxViewportSide)
+shared uint s_tested, s_inside, s_offset;
+
+// 0 background, 1 object, 2 unseen: camera c on world point X.
+int VoteOf(int c, vec3 X) {
+  vec3 Xc = cams[c].a.xyz + vec3(dot(cams[c].m0.xyz, X), dot(cams[c].m1.xyz, X), dot(cams[c].m2.xyz, X));
+  vec2 uv = CamPixel(c, Xc);
+  if (uv.x < 0.0) return 2;
+  vec4 r = cams[c].rect;
+  if (!(uv.x >= r.x && uv.y >= r.y && uv.x < r.z && uv.y < r.w)) return 0;
+  return texelFetch(u_maps, ivec3(int(uv.x), int(uv.y), c), 0).r != 0u ? 1 : 0;
+}
+
+bool Inside(vec3 X) {
+  int object = 0, unseen = 0;
+  for (int c = 0; c < u_ncam; ++c) {
+    int v = VoteOf(c, X);
+    if (v == 0 || (v == 2 && u_unknown == 0)) return false;
+    if (v == 1) ++object; else ++unseen;
   }
+  return (unseen == 0 || u_unknown != 0) && object >= u_required;
+}
+
+float Edge(vec2 s, vec2 e, vec2 q) { return (e.x - s.x) * (q.y - s.y) - (e.y - s.y) * (q.x - s.x); }
+
+void main() {
+  uint t = u_first + gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
+  if (t >= u_count) return;  // the whole group
+  uint lid = gl_LocalInvocationIndex;
+  vec3 a = vec3(tris[9 * t], tris[9 * t + 1], tris[9 * t + 2]);
+  vec3 b = vec3(tris[9 * t + 3], tris[9 * t + 4], tris[9 * t + 5]);
+  vec3 c = vec3(tris[9 * t + 6], tris[9 * t + 7], tris[9 * t + 8]);
+  // The viewport (MakeTriangleViewport): u along the longest edge from its
+  // start, v across, in the triangle's plane.
+  vec3 p0 = a, p1 = b;
+  if (length(c - b) > length(p1 - p0)) { p0 = b; p1 = c; }
+  if (length(a - c) > length(p1 - p0)) { p0 = c; p1 = a; }
+  vec3 u = p1 - p0;
+  float len = length(u);
+  u = len > 0.0 ? u / len : vec3(1.0, 0.0, 0.0);
+  vec3 n = cross(b - a, c - a);
+  vec3 v;
+  if (length(n) > 1e-18) {
+    v = normalize(cross(n, u));
+  } else if (abs(u.x) > 1e-6 * abs(u.z) || abs(u.y) > 1e-6 * abs(u.z)) {
+    v = vec3(-u.y, u.x, 0.0) / sqrt(u.x * u.x + u.y * u.y);
+  } else {
+    v = vec3(0.0, -u.z, u.y) / sqrt(u.z * u.z + u.y * u.y);
+  }
+  vec2 pa = vec2(dot(a - p0, u), dot(a - p0, v)), pb = vec2(dot(b - p0, u), dot(b - p0, v)),
+       pc = vec2(dot(c - p0, u), dot(c - p0, v));
+  vec2 lo = min(pa, min(pb, pc)), hi = max(pa, max(pb, pc));
+  vec2 ext = hi - lo;
+  int w, h;
+  if (u_fixed > 0) {
+    w = h = u_fixed;
+  } else {
+    w = int(clamp(ceil(ext.x / u_pixel), 1.0, float(u_maxvp)));
+    h = int(clamp(ceil(ext.y / u_pixel), 1.0, float(u_maxvp)));
+  }
+  vec2 s = vec2(ext.x > 0.0 ? ext.x / float(w) : 1e-9, ext.y > 0.0 ? ext.y / float(h) : 1e-9);
+  vec3 origin = p0 + lo.x * u + lo.y * v;
+  vec3 du = s.x * u, dv = s.y * v;
+  vec2 a2 = (pa - lo) / s, b2 = (pb - lo) / s, c2 = (pc - lo) / s;
+  float area = Edge(a2, b2, c2);
+  float sgn = area > 0.0 ? 1.0 : area < 0.0 ? -1.0 : 0.0;
+  bool check_ws = !(all(greaterThanEqual(min(a, min(b, c)), u_wmin)) && all(lessThanEqual(max(a, max(b, c)), u_wmax)));
+  uint words = uint(w * h + 31) / 32u;
+  if (lid == 0u) { s_tested = 0u; s_inside = 0u; }
+  for (uint k = lid; k < words; k += 64u) s_mask[k] = 0u;
+  barrier();
+  uint tested = 0u, inside = 0u;
+  bool thin = h == 1;
+  if (sgn != 0.0 || thin) {
+    for (int p = int(lid); p < w * h; p += 64) {
+      vec2 q = vec2(float(p % w) + 0.5, float(p / w) + 0.5);
+      if (thin) {
+        // Thinner than a pixel: each column's sample is the middle of the
+        // triangle's chord there (TriangleChord), along all its length.
+        float clo = 1e30, chi = -1e30;
+        vec2 v3[3] = vec2[3](a2, b2, c2);
+        for (int e = 0; e < 3; ++e) {
+          vec2 e0 = v3[e], e1 = v3[(e + 1) % 3];
+          if ((e0.x - q.x) * (e1.x - q.x) > 0.0) continue;
+          if (e0.x == e1.x) {
+            clo = min(clo, min(e0.y, e1.y));
+            chi = max(chi, max(e0.y, e1.y));
+            continue;
+          }
+          float y = e0.y + (q.x - e0.x) / (e1.x - e0.x) * (e1.y - e0.y);
+          clo = min(clo, y);
+          chi = max(chi, y);
+        }
+        if (!(clo <= chi)) continue;
+        q.y = 0.5 * (clo + chi);
+      } else if (!(sgn * Edge(a2, b2, q) >= 0.0 && sgn * Edge(b2, c2, q) >= 0.0 && sgn * Edge(c2, a2, q) >= 0.0)) {
+        continue;
+      }
+      ++tested;
+      vec3 X = origin + q.x * du + q.y * dv;
+      if (check_ws && !(all(greaterThanEqual(X, u_wmin)) && all(lessThanEqual(X, u_wmax)))) continue;
+      if (Inside(X)) {
+        atomicOr(s_mask[p >> 5], 1u << uint(p & 31));
+        ++inside;
+      }
+    }
+  }
+  atomicAdd(s_tested, tested);
+  atomicAdd(s_inside, inside);
+  barrier();
+  if (s_tested == 0u) {  // the same for the whole group
+    // No pixel centre covered (smaller than a pixel): its centroid, as the CPU
+    // does (QueryTriangleCpu; VolumeQuery::Inside with the workspace).
+    if (lid == 0u) {
+      vec3 X = (a + b + c) / 3.0;
+      bool in_ws = all(greaterThanEqual(X, u_wmin)) && all(lessThanEqual(X, u_wmax));
+      results[t] = uvec4(1u, in_ws && Inside(X) ? 1u : 0u, 0xFFFFFFFDu, uint(w) | (uint(h) << 16));
+    }
+    return;
+  }
+  if (lid == 0u) {
+    uint off = 0xFFFFFFFFu;
+    if (s_inside > 0u) {
+      off = atomicAdd(mask_used, words);
+      if (off + words > mask_capacity) off = 0xFFFFFFFEu;
+    }
+    s_offset = off;
+    results[t] = uvec4(s_tested, s_inside, off, uint(w) | (uint(h) << 16));
+  }
+  barrier();
+  if (s_offset < 0xFFFFFFFDu)
+    for (uint k = lid; k < words; k += 64u) masks[s_offset + k] = s_mask[k];
 }
 )";
 }
 
 }  // namespace
 
-GlTriangleQuery::GlTriangleQuery(int max_atlas)
-    : program_(BuildProgram(kTriVs, TriFs().c_str())), vao_(MakeVertexArray()), vbo_(MakeBuffer()),
-      counts_(MakeBuffer()), points_(MakeBuffer()), fbo_(MakeFramebuffer()), max_atlas_(max_atlas) {
-  if (max_atlas < 64 || max_atlas > 16384)
-    throw std::invalid_argument("GlTriangleQuery: max_atlas must be in [64, 16384]");
-  glBindVertexArray(vao_.get());
-  glBindBuffer(GL_ARRAY_BUFFER, vbo_.get());
-  const GLsizei stride = 9 * sizeof(float);
-  glEnableVertexAttribArray(0);
-  glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, stride, nullptr);
-  glEnableVertexAttribArray(1);
-  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(2 * sizeof(float)));
-  glEnableVertexAttribArray(2);
-  glVertexAttribIPointer(2, 4, GL_INT, stride, reinterpret_cast<void*>(5 * sizeof(float)));
-  CheckGl("triangle query setup");
+std::vector<Eigen::Vector3d> TriangleBatchResult::Points(size_t i) const {
+  if (on_cpu_.at(i)) return cpu_points_[i];
+  std::vector<Eigen::Vector3d> out;
+  if (inside_[i] == 0) return out;
+  const Triangle& t = triangles_[i];
+  if (mask_offset_[i] == kCentroid) return {(t.a + t.b + t.c) / 3.0};
+  // The pixel centres the GPU found inside, placed by the CPU's own viewport
+  // (QueryTriangleCpu's points; its size is the GPU's, checked in QueryBatch).
+  const TriangleViewport vp = MakeTriangleViewport(t.a, t.b, t.c, options_);
+  const int w = width_[i];
+  out.reserve(size_t(inside_[i]));
+  const uint32_t* mask = masks_.data() + mask_offset_[i];
+  for (int p = 0; p < w * int(height_[i]); ++p) {
+    if (!(mask[p >> 5] >> (p & 31) & 1u)) continue;
+    const double fi = p % w + 0.5;
+    double fj = p / w + 0.5;
+    if (vp.height == 1) {  // a thin triangle's sample: the middle of its chord
+      double lo, hi;
+      if (!TriangleChord(vp, 0, fi, &lo, &hi)) continue;
+      fj = 0.5 * (lo + hi);
+    }
+    out.push_back(vp.origin + fi * vp.u_step + fj * vp.v_step);
+  }
+  return out;
 }
 
-std::vector<TriangleQueryResult> GlTriangleQuery::Query(const VolumeQuery& q, const std::vector<Triangle>& tris,
-                                                        const TriangleQueryOptions& options) {
+std::vector<TriangleQueryResult> TriangleBatchResult::All() const {
+  std::vector<TriangleQueryResult> out(size());
+  for (size_t i = 0; i < size(); ++i) {
+    out[i].pixels_tested = tested_[i];
+    out[i].collision_points = Points(i);
+  }
+  return out;
+}
+
+GlTriangleQuery::GlTriangleQuery(size_t initial_mask_words)
+    : program_(BuildComputeProgram(TriangleCs().c_str())),
+      maps_(std::make_unique<LayerUploader>(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, CV_8UC1)),
+      cams_(MakeBuffer()),
+      tris_(MakeBuffer()),
+      results_(MakeBuffer()),
+      masks_(MakeBuffer()),
+      mask_capacity_(std::max<size_t>(initial_mask_words, 1)) {}
+
+GlTriangleQuery::~GlTriangleQuery() = default;
+
+TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std::vector<Triangle>& tris,
+                                                const TriangleQueryOptions& options) {
   options.Check();
-  std::vector<TriangleQueryResult> results(tris.size());
-  if (tris.empty()) return results;
+  TriangleBatchResult r;
+  r.triangles_ = tris;
+  r.options_ = options;
+  const size_t count = tris.size();
+  r.tested_.assign(count, 0);
+  r.inside_.assign(count, 0);
+  r.mask_offset_.assign(count, 0);
+  r.width_.assign(count, 0);
+  r.height_.assign(count, 0);
+  r.cpu_points_.resize(count);
+  r.on_cpu_.assign(count, 0);
+  if (count == 0) return r;
+
   const size_t n = q.size();
-  std::vector<Eigen::Matrix3f> M(n);
-  std::vector<Eigen::Vector3f> A(n);
+  std::vector<cv::Mat> maps;
+  std::vector<cv::Rect> rects;
+  std::vector<GpuCamera> cams;
   for (size_t c = 0; c < n; ++c) {
-    M[c] = q.views()[c].camera.cam_from_world.rotation.cast<float>();
-    A[c] = q.views()[c].camera.cam_from_world.translation.cast<float>();
+    maps.push_back(q.views()[c].map);
+    rects.push_back(q.object_rect(c));
+    const Rigid3d& cw = q.views()[c].camera.cam_from_world;
+    cams.push_back(PackCamera(q.fast()[c], cw.rotation, cw.translation, q.object_rect(c)));
   }
-  SetCameras(program_.get(), q, maps_, M, A);
-  const GLuint prog = program_.get();
+  maps_->Upload(maps, &rects);
+  std::vector<float> flat;
+  flat.reserve(count * 9);
+  for (const Triangle& t : tris)
+    for (const Eigen::Vector3d* p : {&t.a, &t.b, &t.c}) flat.insert(flat.end(), {float(p->x()), float(p->y()), float(p->z())});
+  glNamedBufferData(cams_.get(), GLsizeiptr(cams.size() * sizeof(GpuCamera)), cams.data(), GL_STREAM_DRAW);
+  glNamedBufferData(tris_.get(), GLsizeiptr(flat.size() * sizeof(float)), flat.data(), GL_STREAM_DRAW);
+  glNamedBufferData(results_.get(), GLsizeiptr(count * 16), nullptr, GL_STREAM_READ);
+
+  const GLuint p = program_.get();
+  glUseProgram(p);
+  glUniform1i(glGetUniformLocation(p, "u_ncam"), GLint(n));
+  glUniform1i(glGetUniformLocation(p, "u_unknown"), q.options().out_of_view == OutOfView::kUnknown ? 1 : 0);
+  glUniform1i(glGetUniformLocation(p, "u_required"), GLint(q.required_seen()));
+  glUniform1ui(glGetUniformLocation(p, "u_count"), GLuint(count));
   const Eigen::Vector3f wmin = q.workspace().min.cast<float>(), wmax = q.workspace().max.cast<float>();
-  glUniform3fv(glGetUniformLocation(prog, "u_wmin"), 1, wmin.data());
-  glUniform3fv(glGetUniformLocation(prog, "u_wmax"), 1, wmax.data());
+  glUniform3fv(glGetUniformLocation(p, "u_wmin"), 1, wmin.data());
+  glUniform3fv(glGetUniformLocation(p, "u_wmax"), 1, wmax.data());
+  glUniform1f(glGetUniformLocation(p, "u_pixel"), float(options.max_pixel_size));
+  glUniform1i(glGetUniformLocation(p, "u_fixed"), options.fixed_viewport);
+  glUniform1i(glGetUniformLocation(p, "u_maxvp"), options.max_viewport);
+  glUniform1i(glGetUniformLocation(p, "u_maps"), 0);
+  glBindTextureUnit(0, maps_->texture());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, cams_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, tris_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, results_.get());
 
-  std::vector<TriangleViewport> vps;
-  vps.reserve(tris.size());
-  int cell = 1;
-  for (const auto& t : tris) {
-    vps.push_back(MakeTriangleViewport(t.a, t.b, t.c, options));
-    cell = std::max({cell, vps.back().width, vps.back().height});
-  }
-  // Cells in a square atlas of at most max_atlas_ pixels a side; more triangles
-  // than one atlas holds are drawn in further passes into the same buffers.
-  const size_t fit = size_t(max_atlas_ / cell);
-  const size_t per_row = std::min(fit, size_t(std::ceil(std::sqrt(double(tris.size())))));
-  const size_t per_pass = per_row * fit;
-  const int atlas_w = int(per_row) * cell;
-  const int atlas_h = int(std::min(fit, (tris.size() + per_row - 1) / per_row)) * cell;
-
-  // Vertices: viewport pixel (2), world point (3), cell x, y, triangle, width (4 ints).
-  std::vector<float> verts;
-  verts.reserve(tris.size() * 27);
-  for (size_t t = 0; t < tris.size(); ++t) {
-    const auto& vp = vps[t];
-    const Triangle& tr = tris[t];
-    const size_t k = t % per_pass;
-    const int cx = int(k % per_row) * cell, cy = int(k / per_row) * cell;
-    const int ints[4] = {cx, cy, int(t), vp.width};
-    for (const auto& [p2, p3] : {std::pair{vp.a2, tr.a}, std::pair{vp.b2, tr.b}, std::pair{vp.c2, tr.c}}) {
-      verts.insert(verts.end(), {float(p2.x()), float(p2.y()), float(p3.x()), float(p3.y()), float(p3.z())});
-      for (int i : ints) {
-        float f;
-        std::memcpy(&f, &i, sizeof f);
-        verts.push_back(f);
-      }
-    }
-  }
-  glNamedBufferData(vbo_.get(), GLsizeiptr(verts.size() * sizeof(float)), verts.data(), GL_STREAM_DRAW);
-  const std::vector<uint32_t> zero_counts(tris.size() + 1, 0);
-  glNamedBufferData(counts_.get(), GLsizeiptr(zero_counts.size() * sizeof(uint32_t)), zero_counts.data(),
-                    GL_DYNAMIC_COPY);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, counts_.get());
-  glNamedFramebufferParameteri(fbo_.get(), GL_FRAMEBUFFER_DEFAULT_WIDTH, atlas_w);
-  glNamedFramebufferParameteri(fbo_.get(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, atlas_h);
-  glBindFramebuffer(GL_FRAMEBUFFER, fbo_.get());
-  glBindVertexArray(vao_.get());
-  glDisable(GL_DEPTH_TEST);
-  glDisable(GL_STENCIL_TEST);
-  glViewport(0, 0, atlas_w, atlas_h);
-  glUniform2f(glGetUniformLocation(prog, "u_atlas"), float(atlas_w), float(atlas_h));
-
-  uint32_t total = 0;
+  std::vector<uint32_t> res(count * 4);
+  uint32_t used = 0;
   for (int attempt = 0; attempt < 2; ++attempt) {
-    if (point_capacity_ < std::max<size_t>(total, 4096)) {
-      point_capacity_ = std::max<size_t>(size_t(total) + total / 4, 4096);
-      glNamedBufferData(points_.get(), GLsizeiptr(16 + point_capacity_ * sizeof(Hit)), nullptr, GL_DYNAMIC_COPY);
-    }
-    const uint32_t header[4] = {uint32_t(point_capacity_), 0, 0, 0};
-    glNamedBufferSubData(points_.get(), 0, sizeof header, header);
-    if (attempt > 0) glNamedBufferSubData(counts_.get(), 0, GLsizeiptr(zero_counts.size() * 4), zero_counts.data());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, points_.get());
-    for (size_t first = 0; first < tris.size(); first += per_pass)
-      glDrawArrays(GL_TRIANGLES, GLint(3 * first), GLsizei(3 * std::min(per_pass, tris.size() - first)));
+    // Header: words used, capacity.
+    glNamedBufferData(masks_.get(), GLsizeiptr(16 + mask_capacity_ * 4), nullptr, GL_STREAM_READ);
+    const uint32_t header[4] = {0, uint32_t(mask_capacity_), 0, 0};
+    glNamedBufferSubData(masks_.get(), 0, sizeof header, header);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, masks_.get());
+    // Workgroups in a 2D grid (at most 65,535 along x), one dispatch for up to
+    // 65,535^2 triangles.
+    const size_t gx = std::min<size_t>(count, 65535), gy = (count + gx - 1) / gx;
+    glUniform1ui(glGetUniformLocation(p, "u_first"), 0u);
+    glDispatchCompute(GLuint(gx), GLuint(gy), 1);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-    glGetNamedBufferSubData(counts_.get(), 0, sizeof total, &total);
-    if (total <= point_capacity_) break;  // else: too many points for the buffer; again with room for all
+    glGetNamedBufferSubData(masks_.get(), 0, sizeof used, &used);
+    if (used <= mask_capacity_) break;
+    mask_capacity_ = size_t(used) + used / 4;  // too many masks for the buffer: again with room for all
   }
-  std::vector<uint32_t> tested(tris.size() + 1);
-  glGetNamedBufferSubData(counts_.get(), 0, GLsizeiptr(tested.size() * 4), tested.data());
-  std::vector<Hit> hits(total);
-  if (total > 0) glGetNamedBufferSubData(points_.get(), 16, GLsizeiptr(size_t(total) * sizeof(Hit)), hits.data());
+  glGetNamedBufferSubData(results_.get(), 0, GLsizeiptr(res.size() * 4), res.data());
+  r.masks_.resize(std::min<size_t>(used, mask_capacity_));
+  if (!r.masks_.empty()) glGetNamedBufferSubData(masks_.get(), 16, GLsizeiptr(r.masks_.size() * 4), r.masks_.data());
   CheckGl("triangle query");
 
-  // Points by triangle, then in the viewport's row-major pixel order (as the CPU
-  // visits them; the GPU appends in no particular order).
-  std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) {
-    return a.id[0] != b.id[0] ? a.id[0] < b.id[0] : a.id[1] < b.id[1];
-  });
-  for (const Hit& h : hits)
-    if (h.id[0] < tris.size()) results[h.id[0]].collision_points.emplace_back(h.world[0], h.world[1], h.world[2]);
-  for (size_t t = 0; t < tris.size(); ++t) {
-    TriangleQueryResult& r = results[t];
-    const auto& vp = vps[t];
-    const Triangle& tr = tris[t];
-    if (vp.height == 1) {
-      // Thinner than a pixel: sampled along its spine on the CPU (QueryTriangleCpu).
-      r = QueryTriangleCpu(q, tr.a, tr.b, tr.c, options);
+  for (size_t i = 0; i < count; ++i) {
+    const uint32_t* e = &res[4 * i];
+    r.width_[i] = uint16_t(e[3] & 0xFFFFu);
+    r.height_[i] = uint16_t(e[3] >> 16);
+    const Triangle& t = tris[i];
+    // The CPU's own viewport must have the GPU's size for the mask to index it
+    // (float and double can round a side's pixel count differently); where it
+    // does not, or the mask did not fit, the CPU queries the triangle.
+    bool cpu = e[2] == kMaskFull;
+    if (!cpu && e[1] > 0 && e[2] != kCentroid) {
+      const TriangleViewport vp = MakeTriangleViewport(t.a, t.b, t.c, options);
+      cpu = vp.width != r.width_[i] || vp.height != r.height_[i];
+    }
+    if (cpu) {
+      TriangleQueryResult c = QueryTriangleCpu(q, t.a, t.b, t.c, options);
+      r.tested_[i] = c.pixels_tested;
+      r.inside_[i] = int(c.collision_points.size());
+      r.cpu_points_[i] = std::move(c.collision_points);
+      r.on_cpu_[i] = 1;
       continue;
     }
-    r.pixels_tested = int(tested[t + 1]);
-    if (r.pixels_tested == 0) {
-      // No pixel centre covered (smaller than a pixel): query the centroid, as the CPU does.
-      r.pixels_tested = 1;
-      const Eigen::Vector3d centroid = (tr.a + tr.b + tr.c) / 3.0;
-      if (q.Inside(centroid)) r.collision_points.push_back(centroid);
-    }
+    r.tested_[i] = int(e[0]);
+    r.inside_[i] = int(e[1]);
+    r.mask_offset_[i] = e[1] > 0 ? e[2] : 0;
   }
-  return results;
+  return r;
 }
 
 }  // namespace hullpipe::gl

@@ -26,14 +26,18 @@ std::unique_ptr<SweepBackend> MakeSweepBackend(const std::string& name, int thre
 const GlInfo* GlInfoOf(const SweepBackend& backend);
 
 /// The triangle query of sim_node's CAD models (paper §4.1): a GlTriangleQuery
-/// on a context of its own (one pass over a batch, one readback), made current
-/// on each call (call it from one thread). `name` as BackendOptions::name:
-/// "cpu" gives an empty function (the CPU query); "gl" the GL query, or throws
-/// std::runtime_error with one line naming what failed; "auto" the GL query on
-/// a hardware renderer, empty on a software one (llvmpipe: the CPU query is
-/// faster there) or where no context can be made. *description (optional) says
-/// which and why, for the log and NodeStats.
+/// on a context of its own (one compute pass over a batch, one read-back), made
+/// current on each call (call it from one thread). `name` as
+/// BackendOptions::name: "cpu" gives an empty function (the CPU query); "gl"
+/// the GL query, or throws std::runtime_error with one line naming what failed;
+/// "auto" on a hardware renderer times both queries at the start (two batch
+/// sizes of a synthetic frameset, QueryTrianglesCpu with cpu_threads) and
+/// answers each batch with the one faster for its size, or is empty where the
+/// GL query is never faster, on a software renderer (llvmpipe) or where no
+/// context can be made. *description (optional) says which and why (with the
+/// measured costs), for the log and NodeStats. Throws std::invalid_argument for
+/// an unknown name or cpu_threads < 1.
 TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOptions& egl = {},
-                                        std::string* description = nullptr);
+                                        std::string* description = nullptr, int cpu_threads = 1);
 
 }  // namespace hullpipe::gl

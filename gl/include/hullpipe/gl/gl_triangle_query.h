@@ -1,9 +1,10 @@
 // The per-triangle viewport query for collision detection (§4.1) on the GPU
-// (OpenGL 4.5 core, headless EGL): the GPU twin of QueryTriangleCpu
-// (triangle_query.h), equal to it up to float rounding on silhouette borders;
+// (OpenGL 4.5 compute shader, headless EGL): the GPU twin of QueryTriangleCpu
+// (triangle_query.h), equal to it up to float rounding on the triangles' edges;
 // tests compare them.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -15,36 +16,70 @@
 
 namespace hullpipe::gl {
 
-/// Per-triangle viewport query on the GPU: every triangle's viewport is a cell of
-/// one atlas framebuffer (the paper packed 10x10 viewports in a 400x400 window),
-/// all drawn with one draw call (the vertex shader places each triangle, seen
-/// orthographically along its normal, in its cell); every fragment volume-queries
-/// its interpolated world point against all n maps and adds itself to its
-/// triangle's count, and an inside one appends its point to a buffer; one
-/// readback of counts and points. An atlas larger than max_atlas x max_atlas
-/// pixels is drawn in several passes into the same buffers.
+class LayerUploader;
+
+/// What one batched GPU triangle query found (GlTriangleQuery::QueryBatch):
+/// per triangle the pixels tested and inside, and which pixels were inside (a
+/// bit per viewport pixel, kept only for triangles with one), so collision
+/// points are made on the CPU only for the triangles asked about.
+class TriangleBatchResult {
+ public:
+  size_t size() const { return tested_.size(); }
+  /// Pixel centres of triangle i's viewport inside it (QueryTriangleCpu's
+  /// pixels_tested).
+  int pixels_tested(size_t i) const { return tested_.at(i); }
+  /// Of those, the ones inside the hull (its collision points' count).
+  int inside(size_t i) const { return inside_.at(i); }
+  /// Triangle i's collision points (world metres), in its viewport's row-major
+  /// pixel order, as QueryTriangleCpu gives them.
+  std::vector<Eigen::Vector3d> Points(size_t i) const;
+  /// Every triangle's result as QueryTrianglesCpu gives them.
+  std::vector<TriangleQueryResult> All() const;
+
+ private:
+  friend class GlTriangleQuery;
+  std::vector<Triangle> triangles_;
+  TriangleQueryOptions options_;
+  std::vector<int> tested_, inside_;
+  std::vector<uint32_t> mask_offset_;  // into masks_, for triangles with inside > 0
+  std::vector<uint16_t> width_, height_;  // the GPU's viewport
+  std::vector<uint32_t> masks_;
+  std::vector<std::vector<Eigen::Vector3d>> cpu_points_;  // triangles the CPU queried (a viewport size differs)
+  std::vector<char> on_cpu_;
+};
+
+/// Per-triangle viewport query on the GPU, one compute pass per batch: a
+/// workgroup per triangle builds its viewport (MakeTriangleViewport, in float),
+/// tests each pixel centre in the triangle (PixelInTriangle) and volume-queries
+/// it against the n maps (one texture array, only their object rectangles
+/// uploaded); inside pixels are kept as a bit mask per triangle that has any,
+/// and one read-back brings counts and masks. A triangle a pixel thin is
+/// sampled along its chords, one covering no pixel centre at its centroid, as
+/// QueryTriangleCpu does.
 class GlTriangleQuery {
  public:
-  /// max_atlas: the atlas's side in pixels (GL guarantees 16384 for a
-  /// framebuffer without attachments); smaller only to test the passes. Throws
-  /// std::invalid_argument below 64 (the largest viewport).
-  explicit GlTriangleQuery(int max_atlas = 16384);
-  /// Results in triangle order, same contract as QueryTriangleCpu (a triangle
-  /// with no covered pixel centre is queried at its centroid on the CPU; one a
-  /// pixel thin is sampled on the CPU as there). A triangle's collision points
-  /// are in its viewport's row-major pixel order, as on the CPU. Throws GlError
-  /// on a GL error, std::invalid_argument as QueryTriangleCpu.
+  /// initial_mask_words: room for inside-pixel masks at first (grown and the
+  /// pass run again when a batch needs more; small only to test that).
+  explicit GlTriangleQuery(size_t initial_mask_words = size_t(1) << 16);
+  ~GlTriangleQuery();
+  GlTriangleQuery(const GlTriangleQuery&) = delete;
+  GlTriangleQuery& operator=(const GlTriangleQuery&) = delete;
+  /// The batched query: counts for every triangle, points on demand. Throws
+  /// GlError on a GL error, std::invalid_argument as QueryTriangleCpu.
+  TriangleBatchResult QueryBatch(const VolumeQuery& query, const std::vector<Triangle>& triangles,
+                                 const TriangleQueryOptions& options);
+  /// Results in triangle order, same contract as QueryTrianglesCpu (every
+  /// collision point made).
   std::vector<TriangleQueryResult> Query(const VolumeQuery& query, const std::vector<Triangle>& triangles,
-                                         const TriangleQueryOptions& options);
+                                         const TriangleQueryOptions& options) {
+    return QueryBatch(query, triangles, options).All();
+  }
 
  private:
   Program program_;
-  VertexArray vao_;
-  Buffer vbo_, counts_, points_;
-  Framebuffer fbo_;
-  std::vector<Texture> maps_;
-  size_t point_capacity_ = 0;
-  int max_atlas_;
+  std::unique_ptr<LayerUploader> maps_;
+  Buffer cams_, tris_, results_, masks_;
+  size_t mask_capacity_;
 };
 
 }  // namespace hullpipe::gl
