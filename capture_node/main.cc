@@ -42,6 +42,7 @@ class CaptureWriters final : public nodes::CaptureSink {
     return {(t1 - t0) * 1e3, (MonotonicSeconds() - t1) * 1e3};
   }
   uint32_t MatchedMapReaders() const { return maps_.MatchedReaders(); }
+  bool Concurrent() const override { return true; }  // Cyclone's writers take writes from several threads
 
  private:
   Writer<hullpipe_msg_CameraInfo> info_;
@@ -128,10 +129,16 @@ int main(int argc, char** argv) {
   app.add_option("--wait-timeout", wait_timeout, "Longest wait for readers, seconds")
       ->check(hullpipe::FiniteRange(0.0, 3600.0))
       ->capture_default_str();
+  int threads = 0;
+  app.add_option("--threads", threads,
+                 "Threads that scale, encode and write the cameras' frames at once (0: the machine's cores)")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
     nodes::CaptureOptions co;
+    co.threads = threads;
     co.frames = frames;
     co.fps = fps;
     co.fast = fast;

@@ -46,6 +46,9 @@ struct CaptureOptions {
   /// not a run of this lab, whose nodes start within minutes of each other;
   /// [1, 86400] s (--timeline-window).
   double timeline_window_s = 600;
+  /// Threads that scale, encode and write the cameras' frames at once when the
+  /// sink allows it (CaptureSink::Concurrent); 0: the machine's cores (--threads).
+  int threads = 0;
   /// Throws std::invalid_argument naming the flag out of range.
   void Check() const;
 };
@@ -69,6 +72,9 @@ class CaptureSink {
                             const Rigid3d* cam_from_world) = 0;
   /// The timeline this node starts (CaptureTimeline, transient-local).
   virtual void AnnounceTimeline(int64_t start_ns, double fps) = 0;
+  /// True if PublishFrame may be called for different cameras at once (the
+  /// DDS writers'; a frame's cameras are then encoded on several cores).
+  virtual bool Concurrent() const { return false; }
 };
 
 class CaptureController {
@@ -128,6 +134,8 @@ class CaptureController {
   /// At the source's end: logs and keeps an incomplete end. Returns true to go on
   /// (--loop rewound the source).
   bool AtEnd();
+  /// Threads for the cameras' publication (CaptureOptions::threads).
+  int PublishThreads() const;
 };
 
 }  // namespace hullpipe::nodes

@@ -1,10 +1,14 @@
 #include "hullpipe/nodes/capture_controller.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <sstream>
+#include <mutex>
 #include <random>
+#include <set>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <spdlog/sinks/ostream_sink.h>
@@ -19,6 +23,10 @@ namespace hullpipe::nodes {
 namespace {
 
 struct CaptureRecorder final : CaptureSink {
+  bool concurrent = false;  ///< Say PublishFrame may run for several cameras at once.
+  std::mutex mutex;
+  std::set<std::thread::id> threads;  ///< Threads PublishFrame ran on.
+  bool Concurrent() const override { return concurrent; }
   int infos = 0;
   PublishTimes times;  ///< What each PublishFrame reports it spent.
   struct Frame {
@@ -34,6 +42,10 @@ struct CaptureRecorder final : CaptureSink {
   void AnnounceTimeline(int64_t start_ns, double fps) override { timelines.push_back({start_ns, fps}); }
   PublishTimes PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double, uint32_t count, const cv::Mat& map,
                             const cv::Mat& image, const Rigid3d*) override {
+    // A writer's work, so the other threads find cameras left to take.
+    if (concurrent) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    const std::lock_guard<std::mutex> lock(mutex);
+    threads.insert(std::this_thread::get_id());
     frames.push_back({id, seq, t_ns, count, map.size(), image.size()});
     return times;
   }
@@ -48,6 +60,41 @@ std::unique_ptr<RigSource> Synthetic(int frames) {
   so.frames = frames;
   so.scene = "sphere";
   return OpenSyntheticRig(so);
+}
+
+// A sink that allows it gets a frame's cameras from several threads at once,
+// each camera once per frame with the frame's number and stamp; one that does
+// not gets them all from the node's own thread (the control).
+TEST(Capture, AConcurrentSinkGetsTheCamerasFromSeveralThreads) {
+  for (const bool concurrent : {true, false}) {
+    SCOPED_TRACE(concurrent ? "concurrent" : "one thread");
+    FakeClock clock;
+    auto source = Synthetic(3);
+    CaptureRecorder sink;
+    sink.concurrent = concurrent;
+    CaptureOptions o;
+    o.threads = 3;
+    CaptureController c(o, clock, *source, sink);
+    c.PublishCalibration();
+    c.Start();
+    for (int k = 0; k < 3; ++k) ASSERT_TRUE(c.Step());
+    ASSERT_EQ(sink.frames.size(), 9u);
+    for (uint64_t seq = 1; seq <= 3; ++seq) {
+      std::set<uint32_t> ids;
+      std::set<int64_t> stamps;
+      for (const auto& f : sink.frames)
+        if (f.seq == seq) ids.insert(f.camera_id), stamps.insert(f.t_ns);
+      EXPECT_EQ(ids.size(), 3u) << "frame " << seq;
+      EXPECT_EQ(stamps.size(), 1u) << "frame " << seq << ": one stamp for all its cameras";
+    }
+    if (concurrent)
+      EXPECT_GT(sink.threads.size(), 1u);
+    else
+      EXPECT_EQ(sink.threads, std::set<std::thread::id>{std::this_thread::get_id()});
+  }
+  CaptureOptions bad;
+  bad.threads = -1;
+  EXPECT_THROW(bad.Check(), std::invalid_argument);
 }
 
 TEST(Capture, PacesAtTheSourceRateAndPublishesEveryCameraPerFrame) {
