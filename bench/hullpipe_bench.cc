@@ -88,7 +88,16 @@ BackendInput MakeBackendInput(int cameras) {
   return in;
 }
 
-int BackendTable(const std::string& which, int repeats, int gl_device) {
+// Which rows of the backend table to run (--cameras, --sizes, --planes,
+// --triangles): all by default.
+struct TableRows {
+  std::vector<int> cameras{4, 8, 16};
+  std::vector<std::string> sizes{"320x240", "640x480", "1280x720"};
+  std::vector<int> planes{50, 100, 200};
+  std::vector<int> triangles{720, 10000, 100000};
+};
+
+int BackendTable(const std::string& which, int repeats, int gl_device, const TableRows& rows) {
   std::unique_ptr<SweepBackend> cpu, gpu;
   if (which != "gl") cpu = gl::MakeSweepBackend("cpu", 1, 6);
   std::optional<gl::EglContext> tri_ctx;
@@ -125,7 +134,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device) {
       (void)b.Texture(d, all, view, in.images, true);
     });
   };
-  for (const int ncam : {4, 8, 16}) {
+  for (const int ncam : rows.cameras) {
     const BackendInput in = MakeBackendInput(ncam);
     const VolumeQuery q(in.views, DefaultWorkspace([&] {
                           std::vector<Camera> c;
@@ -134,9 +143,14 @@ int BackendTable(const std::string& which, int repeats, int gl_device) {
                         }()));
     OrbitPath orbit;
     orbit.centre = in.centre;
-    for (const auto& [w, h] : {std::pair{320, 240}, std::pair{640, 480}, std::pair{1280, 720}}) {
+    for (const std::string& size : rows.sizes) {
+      int w = 0, h = 0;
+      if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2 || w < 8 || h < 8 || w > 8192 || h > 8192) {
+        std::fprintf(stderr, "--sizes: '%s' is not WxH within [8, 8192]\n", size.c_str());
+        return 2;
+      }
       const NovelView view = NovelView::FromFov(w, h, 50 * M_PI / 180, orbit.WorldFromEye(1.0));
-      for (const int planes : {50, 100, 200}) {
+      for (const int planes : rows.planes) {
         PlaneSweepOptions o;
         o.num_planes = planes;
         const auto depths = SweepPlaneDepths(q, view, o);
@@ -170,9 +184,13 @@ int BackendTable(const std::string& which, int repeats, int gl_device) {
       tri_ctx = gl::EglContext::TryCreate(gl::EglOptions{gl_device});
       if (tri_ctx) gl_tri = std::make_unique<gl::GlTriangleQuery>();
     }
-    std::printf("\n| triangles (10x10 viewports) | CPU ms | CPU tris/s | GL ms | GL tris/s | CPU/GL |\n");
-    std::printf("|-----------------------------|--------|------------|-------|-----------|--------|\n");
-    for (const int count : {720, 10000, 100000}) {
+    // GL batch: the query's one pass with its counts and inside-pixel masks
+    // read back (TriangleBatchResult); GL + points: every collision point made
+    // on the CPU as well (the QueryTrianglesCpu contract sim_node takes).
+    std::printf("\n| triangles (10x10 viewports) | colliding | CPU ms | CPU tris/s | GL batch ms | GL batch tris/s | "
+                "GL + points ms | GL + points tris/s | CPU/GL batch |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|\n");
+    for (const int count : rows.triangles) {
       std::vector<Triangle> tris;
       const int side = int(std::ceil(std::sqrt(count)));
       const double s = 0.9 / side;
@@ -181,11 +199,22 @@ int BackendTable(const std::string& which, int repeats, int gl_device) {
         tris.push_back({p, p + Eigen::Vector3d(s, 0, 0), p + Eigen::Vector3d(0, 0.002, s)});
       }
       const int reps = count >= 100000 ? std::max(1, repeats / 3) : repeats;
-      const double cms = cpu ? MedianMs(reps, [&] { (void)QueryTrianglesCpu(q, tris, o, 1); }) : 0;
-      const double gms = gl_tri ? MedianMs(reps, [&] { (void)gl_tri->Query(q, tris, o); }) : 0;
-      std::printf("| %27d | %6.1f | %10.0f | %5.1f | %9.0f | %6s |\n", count, cms, cms > 0 ? count / cms * 1e3 : 0.0,
-                  gms, gms > 0 ? count / gms * 1e3 : 0.0,
-                  cms > 0 && gms > 0 ? std::to_string(cms / gms).substr(0, 5).c_str() : "-");
+      size_t colliding = 0;
+      const double cms = cpu ? MedianMs(reps, [&] {
+        colliding = 0;
+        for (const auto& r : QueryTrianglesCpu(q, tris, o, 1)) colliding += !r.collision_points.empty();
+      }) : 0;
+      const double gms = gl_tri ? MedianMs(reps, [&] {
+        const gl::TriangleBatchResult b = gl_tri->QueryBatch(q, tris, o);
+        if (!cpu) {
+          colliding = 0;
+          for (size_t i = 0; i < b.size(); ++i) colliding += b.inside(i) > 0;
+        }
+      }) : 0;
+      const double pms = gl_tri ? MedianMs(reps, [&] { (void)gl_tri->Query(q, tris, o); }) : 0;
+      auto rate = [&](double ms) { return ms > 0 ? count / ms * 1e3 : 0.0; };
+      std::printf("| %d | %zu | %.1f | %.0f | %.2f | %.0f | %.2f | %.0f | %s |\n", count, colliding, cms, rate(cms), gms,
+                  rate(gms), pms, rate(pms), cms > 0 && gms > 0 ? std::to_string(cms / gms).substr(0, 6).c_str() : "-");
       std::fflush(stdout);
     }
   }
@@ -213,13 +242,22 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"cpu", "gl", "both"}));
   app.add_option("--gl-device", gl_device, "EGL device for GL (-1: the first hardware device)")
       ->check(CLI::Range(-1, 64))->capture_default_str();
+  TableRows rows;
+  app.add_option("--cameras", rows.cameras, "Backend table: camera counts")
+      ->delimiter(',')->check(CLI::Range(2, 64))->capture_default_str();
+  app.add_option("--sizes", rows.sizes, "Backend table: view sizes WxH")->delimiter(',')->capture_default_str();
+  app.add_option("--planes", rows.planes, "Backend table: plane counts")
+      ->delimiter(',')->check(CLI::Range(2, PlaneSweepOptions::kMaxPlanes))->capture_default_str();
+  app.add_option("--triangles", rows.triangles, "Backend table: triangle counts (0 alone: none)")
+      ->delimiter(',')->check(CLI::Range(0, 10000000))->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
   if (!(repeats >= 1 && repeats <= 1000)) {
     std::fprintf(stderr, "--repeats must be in [1, 1000]\n");
     return 2;
   }
-  if (!backend.empty()) return BackendTable(backend, repeats, gl_device);
+  std::erase(rows.triangles, 0);
+  if (!backend.empty()) return BackendTable(backend, repeats, gl_device, rows);
 
   std::unique_ptr<RigSource> src;
   if (synthetic) {
