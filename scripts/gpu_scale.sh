@@ -1,0 +1,154 @@
+#!/usr/bin/env bash
+# Many cameras at camera rate (docs/benchmarks.md, "Many cameras on a GPU
+# machine"): in one call, on a machine with a GPU, the rows a lab would try --
+# the GL frame and the triangle query (hullpipe_bench --backend), the query
+# set-up against the number of cameras (scaling_bench), and the five processes
+# on the 4-camera demo, synthesized 16-camera 640x480 and 20-camera 1024x768
+# rigs (60 frames at 25 fps) and the published 20-camera dome as 30 stills at
+# 25 fps, on the GL and CPU backends -- then one table. Without a hardware GPU
+# it runs the CPU rows and says the GPU rows were not measured.
+#
+# Usage: scripts/gpu_scale.sh BINDIR OUT
+#   BINDIR  a build's bin/ or a bundle's (scripts/bundle_binaries.py: its lib/
+#           beside it goes on LD_LIBRARY_PATH)
+#   OUT     results: table.md, summary.json, per run its stats.json and log
+# Environment: RIG (the Utrecht rig, default ../shared/data/utrecht-4cam), DOME
+# (the published dome, default ../shared/data/dome-20cam), RIGS (where the
+# synthesized rigs are kept between runs, default OUT/rigs), QUICK=1 (fewer
+# bench rows).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+[ $# -eq 2 ] || { echo "usage: scripts/gpu_scale.sh BINDIR OUT" >&2; exit 2; }
+BIN="$(cd "$1" && pwd)" || { echo "gpu_scale: BINDIR $1 not found" >&2; exit 2; }
+OUT="$2"
+mkdir -p "$OUT" || exit 2
+OUT="$(cd "$OUT" && pwd)"
+[ -d "$BIN/../lib" ] && export LD_LIBRARY_PATH="$BIN/../lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+RIG="${RIG:-../shared/data/utrecht-4cam}"
+DOME="${DOME:-../shared/data/dome-20cam}"
+RIGS="${RIGS:-$OUT/rigs}"
+for exe in hullpipe_bench scaling_bench hullpipe_rig hullpipe_launch capture_node recon_node sim_node render_node; do
+  [ -x "$BIN/$exe" ] || { echo "gpu_scale: $BIN/$exe missing" >&2; exit 2; }
+done
+say() { echo "== gpu_scale: $* ($(date -u +%H:%M:%S), ${SECONDS} s in)" >&2; }
+
+# A hardware GL renderer? (the bench's header names it; llvmpipe is software)
+"$BIN/hullpipe_bench" --backend gl --cameras 4 --sizes 64x48 --planes 8 --triangles 0 --repeats 1 \
+  > "$OUT/gl_probe.txt" 2> "$OUT/gl_probe.err"
+GL_LINE="$(grep -m1 '^backend table' "$OUT/gl_probe.txt" | sed 's/.*GL: //')"
+GPU=0
+if [ -n "$GL_LINE" ] && ! grep -qiE 'llvmpipe|softpipe|swrast|not run' <<<"$GL_LINE"; then GPU=1; fi
+say "GL: ${GL_LINE:-none} (hardware: $GPU); $(nproc) cores"
+
+# The frame and the triangle query.
+if [ "$GPU" = 1 ]; then
+  say "hullpipe_bench --backend gl"
+  if [ "${QUICK:-0}" = 1 ]; then rows=(--cameras 8,16 --sizes 640x480 --planes 100 --triangles 100000)
+  else rows=(--cameras 4,8,16 --sizes 640x480 --planes 100 --triangles 720,10000,100000); fi
+  "$BIN/hullpipe_bench" --backend gl "${rows[@]}" --repeats 5 > "$OUT/bench_gl.md" 2> "$OUT/bench_gl.err"
+  # The CPU's triangle query beside it, one thread (sim_node's default).
+  "$BIN/hullpipe_bench" --backend cpu --cameras 4 --sizes 64x48 --planes 8 --triangles 100000 --repeats 3 \
+    > "$OUT/bench_cpu_tri.md" 2> "$OUT/bench_cpu_tri.err"
+fi
+say "scaling_bench"
+"$BIN/scaling_bench" --sizes 644x486,1024x768 --repeats 3 > "$OUT/scaling.txt" 2> "$OUT/scaling.err"
+
+# Rigs, synthesized as a lab would (25 fps sources, other settings default).
+synth() {  # name cameras size
+  if [ ! -f "$RIGS/$1/rig.yaml" ]; then
+    say "synthesizing $1 ($2 cameras, $3, 60 frames)"
+    "$BIN/hullpipe_rig" synthesize -o "$RIGS/$1" --cameras "$2" --size "$3" --frames 60 --format yaml \
+      > "$OUT/synth_$1.log" 2>&1 || { echo "gpu_scale: synthesize $1 failed: $OUT/synth_$1.log" >&2; return 1; }
+  fi
+}
+# The dome's one frame as 30 identical stills (its README).
+dome30() {
+  local d="$RIGS/dome30"
+  [ -f "$d/rig.yaml" ] && return 0
+  [ -f "$DOME/rig.yaml" ] || { echo "gpu_scale: $DOME/rig.yaml not found" >&2; return 1; }
+  mkdir -p "$d" && cp "$DOME/rig.yaml" "$d/"
+  for c in "$DOME"/cam*; do
+    local n; n="$(basename "$c")"
+    mkdir -p "$d/$n" && cp "$c/frame_0000.png" "$c/mask_0000.png" "$d/$n/"
+    for i in $(seq 1 29); do
+      ln -sf frame_0000.png "$d/$n/frame_$(printf %04d "$i").png"
+      ln -sf mask_0000.png "$d/$n/mask_$(printf %04d "$i").png"
+    done
+  done
+}
+
+run() {  # name backend rig [launch flags...]
+  local name="$1" backend="$2" rig="$3"
+  shift 3
+  local dir="$OUT/run_${name}_${backend}"
+  rm -rf "$dir"
+  say "run $name on $backend"
+  timeout 120 "$BIN/hullpipe_launch" --rig "$rig" --backend "$backend" --out "$dir" --bin-dir "$BIN" \
+    --description "${DESC:-launch/local.yaml}" --scene scenes/ball.yaml "$@" > "$OUT/run_${name}_${backend}.log" 2>&1
+  echo "$name $backend $? $dir" >> "$OUT/runs.txt"
+}
+
+rm -f "$OUT/runs.txt"
+backends=(cpu)
+[ "$GPU" = 1 ] && backends=(gl cpu)
+for b in "${backends[@]}"; do run demo4 "$b" "$RIG"; done
+if synth syn16 16 640x480; then
+  for b in "${backends[@]}"; do run syn16 "$b" "$RIGS/syn16/rig.yaml"; done
+  # The same with capture's images as JPEG (capture_node --jpeg 90): what the
+  # transport carries to the recon nodes, 10x smaller.
+  if [ "$GPU" = 1 ]; then
+    sed 's/"${pace}"]/"${pace}", --jpeg, "90"]/' launch/local.yaml > "$OUT/jpeg.yaml"
+    DESC="$OUT/jpeg.yaml" run syn16jpeg gl "$RIGS/syn16/rig.yaml"
+  fi
+fi
+if [ "$GPU" = 1 ] && synth syn20 20 1024x768; then run syn20 gl "$RIGS/syn20/rig.yaml"; fi
+if dome30; then
+  for b in "${backends[@]}"; do run dome30 "$b" "$RIGS/dome30/rig.yaml" --frames 30; done
+  [ "$GPU" = 1 ] || run dome30_fps2 cpu "$RIGS/dome30/rig.yaml" --frames 30 --fps 2
+fi
+
+say "table"
+python3 - "$OUT" "$GPU" "$GL_LINE" <<'PY'
+import json, os, sys
+out, gpu, gl_line = sys.argv[1], sys.argv[2] == "1", sys.argv[3]
+rows, summary = [], {"gl": gl_line, "hardware_gpu": gpu, "cores": os.cpu_count(), "runs": {}}
+def stage(node, name, q="ms_p50"):
+    s = node.get("stages_ms", {}).get(name)
+    return s[q] if s else float("nan")
+for line in open(os.path.join(out, "runs.txt")):
+    name, backend, rc, d = line.split()
+    try:
+        s = json.load(open(os.path.join(d, "stats.json")))
+    except Exception as e:
+        rows.append(f"| {name} | {backend} | exit {rc}: no stats.json | | | | |")
+        continue
+    n = s["nodes"]
+    r, cap = n.get("render", {}), n.get("capture", {})
+    recon = [n[k] for k in sorted(n) if k.startswith("recon")]
+    framesets = s.get("framesets", 0)
+    frames = cap.get("frames_in", 0) + cap.get("dropped", 0)
+    worst = lambda f: max((f(x) for x in recon), default=float("nan"))
+    st = {k: worst(lambda x, k=k: stage(x, k)) for k in ("hull_box", "upload", "visibility", "sweep", "texture", "wait")}
+    tmap = worst(lambda x: stage(x, "transport_map", "ms_p95"))
+    timg = worst(lambda x: stage(x, "transport_image", "ms_p95"))
+    rows.append(f"| {name} | {backend} | {r.get('fps', 0):.1f} | {s['frames_composited']} / {frames} (capture out {cap.get('frames_out', 0)}, {cap.get('fps', 0):.1f} fps) | "
+                f"{r.get('latency_ms_p50', 0):.1f} / {r.get('latency_ms_p95', 0):.1f} | "
+                f"{st['wait']:.1f} / {st['hull_box']:.1f} / {st['upload']:.1f} / {st['visibility']:.1f} / {st['sweep']:.1f} / {st['texture']:.1f} | "
+                f"{tmap:.1f} / {timg:.1f} | {rc} |")
+    summary["runs"][f"{name}_{backend}"] = {"exit": int(rc), "render_fps": r.get("fps"), "composited": s["frames_composited"],
+        "frames": frames, "p50_ms": r.get("latency_ms_p50"), "p95_ms": r.get("latency_ms_p95"), "recon_p50_ms": st,
+        "transport_map_p95_ms": tmap, "transport_image_p95_ms": timg, "capture_fps": cap.get("fps")}
+with open(os.path.join(out, "table.md"), "w") as f:
+    f.write(f"GL: {gl_line or 'none'}; {os.cpu_count()} cores\n\n")
+    f.write("| run | backend | render fps | composited / frames | p50 / p95 ms | recon p50 ms: wait / hull box / upload / visibility / sweep / texture | transport p95 ms: map / image | exit |\n")
+    f.write("|---|---|---|---|---|---|---|---|\n")
+    f.write("\n".join(rows) + "\n")
+    if not gpu:
+        f.write("\nGPU rows not measured: no hardware GL renderer here (the CPU rows only).\n")
+    for name in ("bench_gl.md", "bench_cpu_tri.md", "scaling.txt"):
+        p = os.path.join(out, name)
+        if os.path.exists(p):
+            f.write(f"\n{name}:\n\n" + open(p).read())
+json.dump(summary, open(os.path.join(out, "summary.json"), "w"), indent=1)
+print(open(os.path.join(out, "table.md")).read())
+PY
