@@ -175,18 +175,21 @@ void main() {
 }  // namespace
 
 std::vector<Eigen::Vector3d> TriangleBatchResult::Points(size_t i) const {
-  if (on_cpu_.at(i)) return cpu_points_[i];
-  std::vector<Eigen::Vector3d> out;
-  if (inside_[i] == 0) return out;
-  const Triangle& t = triangles_[i];
-  if (mask_offset_[i] == kCentroid) return {(t.a + t.b + t.c) / 3.0};
+  if (inside_.at(i) == 0) return {};
+  const uint32_t h = hit_of_[i];
+  const Triangle& t = hit_triangles_[h];
+  if (hit_mask_[h] == kCentroid) return {(t.a + t.b + t.c) / 3.0};
   // The pixel centres the GPU found inside, placed by the CPU's own viewport
-  // (QueryTriangleCpu's points; its size is the GPU's, checked in QueryBatch).
+  // (QueryTriangleCpu's points). Where float and double round a side's pixel
+  // count differently, or the mask did not fit, the CPU queries the triangle.
   const TriangleViewport vp = MakeTriangleViewport(t.a, t.b, t.c, options_);
-  const int w = width_[i];
+  const int w = int(hit_size_[h] & 0xFFFFu), hh = int(hit_size_[h] >> 16);
+  if (hit_mask_[h] == kMaskFull || vp.width != w || vp.height != hh)
+    return QueryTriangleCpu(*query_, t.a, t.b, t.c, options_).collision_points;
+  std::vector<Eigen::Vector3d> out;
   out.reserve(size_t(inside_[i]));
-  const uint32_t* mask = masks_.data() + mask_offset_[i];
-  for (int p = 0; p < w * int(height_[i]); ++p) {
+  const uint32_t* mask = masks_.data() + hit_mask_[h];
+  for (int p = 0; p < w * hh; ++p) {
     if (!(mask[p >> 5] >> (p & 31) & 1u)) continue;
     const double fi = p % w + 0.5;
     double fj = p / w + 0.5;
@@ -224,16 +227,12 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
                                                 const TriangleQueryOptions& options) {
   options.Check();
   TriangleBatchResult r;
-  r.triangles_ = tris;
+  r.query_ = &q;
   r.options_ = options;
   const size_t count = tris.size();
   r.tested_.assign(count, 0);
   r.inside_.assign(count, 0);
-  r.mask_offset_.assign(count, 0);
-  r.width_.assign(count, 0);
-  r.height_.assign(count, 0);
-  r.cpu_points_.resize(count);
-  r.on_cpu_.assign(count, 0);
+  r.hit_of_.assign(count, 0);
   if (count == 0) return r;
 
   const size_t n = q.size();
@@ -296,30 +295,17 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
   if (!r.masks_.empty()) glGetNamedBufferSubData(masks_.get(), 16, GLsizeiptr(r.masks_.size() * 4), r.masks_.data());
   CheckGl("triangle query");
 
+  // Counts as the GPU found them; the triangles with an inside pixel kept
+  // for their points (made on demand: TriangleBatchResult::Points).
   for (size_t i = 0; i < count; ++i) {
     const uint32_t* e = &res[4 * i];
-    r.width_[i] = uint16_t(e[3] & 0xFFFFu);
-    r.height_[i] = uint16_t(e[3] >> 16);
-    const Triangle& t = tris[i];
-    // The CPU's own viewport must have the GPU's size for the mask to index it
-    // (float and double can round a side's pixel count differently); where it
-    // does not, or the mask did not fit, the CPU queries the triangle.
-    bool cpu = e[2] == kMaskFull;
-    if (!cpu && e[1] > 0 && e[2] != kCentroid) {
-      const TriangleViewport vp = MakeTriangleViewport(t.a, t.b, t.c, options);
-      cpu = vp.width != r.width_[i] || vp.height != r.height_[i];
-    }
-    if (cpu) {
-      TriangleQueryResult c = QueryTriangleCpu(q, t.a, t.b, t.c, options);
-      r.tested_[i] = c.pixels_tested;
-      r.inside_[i] = int(c.collision_points.size());
-      r.cpu_points_[i] = std::move(c.collision_points);
-      r.on_cpu_[i] = 1;
-      continue;
-    }
     r.tested_[i] = int(e[0]);
     r.inside_[i] = int(e[1]);
-    r.mask_offset_[i] = e[1] > 0 ? e[2] : 0;
+    if (e[1] == 0) continue;
+    r.hit_of_[i] = uint32_t(r.hit_triangles_.size());
+    r.hit_triangles_.push_back(tris[i]);
+    r.hit_mask_.push_back(e[2]);
+    r.hit_size_.push_back(e[3]);
   }
   return r;
 }

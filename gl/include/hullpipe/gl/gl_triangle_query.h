@@ -24,6 +24,8 @@ class LayerUploader;
 /// points are made on the CPU only for the triangles asked about.
 class TriangleBatchResult {
  public:
+  /// Valid while the VolumeQuery it answered lives (Points may query a
+  /// triangle again on the CPU).
   size_t size() const { return tested_.size(); }
   /// Pixel centres of triangle i's viewport inside it (QueryTriangleCpu's
   /// pixels_tested).
@@ -38,14 +40,15 @@ class TriangleBatchResult {
 
  private:
   friend class GlTriangleQuery;
-  std::vector<Triangle> triangles_;
+  const VolumeQuery* query_ = nullptr;
   TriangleQueryOptions options_;
   std::vector<int> tested_, inside_;
-  std::vector<uint32_t> mask_offset_;  // into masks_, for triangles with inside > 0
-  std::vector<uint16_t> width_, height_;  // the GPU's viewport
+  // Triangles with an inside pixel: their corners, mask offset (into masks_,
+  // or kCentroid) and the GPU's viewport size, by index into these.
+  std::vector<uint32_t> hit_of_;  // triangle -> index into the hit arrays (only where inside > 0)
+  std::vector<Triangle> hit_triangles_;
+  std::vector<uint32_t> hit_mask_, hit_size_;
   std::vector<uint32_t> masks_;
-  std::vector<std::vector<Eigen::Vector3d>> cpu_points_;  // triangles the CPU queried (a viewport size differs)
-  std::vector<char> on_cpu_;
 };
 
 /// Per-triangle viewport query on the GPU, one compute pass per batch: a
