@@ -134,6 +134,39 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       (void)b.Texture(d, all, view, in.images, true);
     });
   };
+  // The same frame stage by stage, each waited for (SweepBackend::Finish):
+  // where a frame's time goes (the frame above overlaps them on a GPU).
+  std::vector<std::string> stage_rows;
+  auto stages = [&](SweepBackend& b, const BackendInput& in, const VolumeQuery& q, const NovelView& view,
+                    const std::vector<double>& depths) {
+    std::vector<Camera> cams;
+    for (const auto& im : in.images) cams.push_back(im.camera);
+    PlaneSweepOptions vo;
+    vo.num_planes = 48;
+    const cv::Rect all(0, 0, view.width, view.height);
+    std::vector<double> t[4];
+    for (int r = 0; r <= repeats; ++r) {  // the first a warm-up
+      double mark = MonotonicSeconds();
+      auto lap = [&](int k) {
+        b.Finish();
+        const double now = MonotonicSeconds();
+        if (r > 0) t[k].push_back((now - mark) * 1e3);
+        mark = now;
+      };
+      b.BeginFrameset(q, in.images);
+      lap(0);
+      b.ComputeVisibility(q, cams, 80, vo);
+      lap(1);
+      const cv::Mat d = b.Sweep(q, view, depths, all);
+      lap(2);
+      (void)b.Texture(d, all, view, in.images, true);
+      lap(3);
+    }
+    char row[160];
+    std::snprintf(row, sizeof row, "| %dx%d | %d | %zu | %.2f | %.2f | %.2f | %.2f |", view.width, view.height,
+                  int(in.images.size()), depths.size(), Median(t[0]), Median(t[1]), Median(t[2]), Median(t[3]));
+    stage_rows.push_back(row);
+  };
   for (const int ncam : rows.cameras) {
     const BackendInput in = MakeBackendInput(ncam);
     const VolumeQuery q(in.views, DefaultWorkspace([&] {
@@ -162,6 +195,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
         if (gpu) {
           gpu->BeginFrameset(q, in.images);
           gf = frame(*gpu, in, q, view, depths, &gs);
+          stages(*gpu, in, q, view, depths);
         }
         auto cell = [](double v) { return v > 0 ? std::to_string(v).substr(0, std::to_string(v).find('.') + 3) : std::string("-"); };
         std::printf("| %4dx%-4d | %4d | %6d | %12s | %12s | %11s | %11s | %12s |\n", w, h, ncam, planes,
@@ -171,6 +205,13 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       }
     }
   }
+  if (!stage_rows.empty()) {
+    std::printf("\nGL frame stage by stage, each waited for (median ms):\n\n"
+                "| view | cams | planes | upload | visibility maps | sweep (read back) | texture (read back) |\n"
+                "|---|---|---|---|---|---|---|\n");
+    for (const auto& r : stage_rows) std::printf("%s\n", r.c_str());
+  }
+  if (rows.triangles.empty()) return 0;
   // Triangle query: triangles of ~8 mm across the figure's torso plane, some
   // inside the hull and some out, each in a 10x10 viewport (the paper's setting).
   {

@@ -541,6 +541,12 @@ TEST_F(Gl, GlBackendRendersAFramesetAsTheCpuBackend) {
                      "texture");
   ExpectColoursMatch(gpu->Texture(dc, tile, view, images, false), cpu->Texture(dc, tile, view, images, false), 0.02,
                      "texture without visibility");
+  // The tile the march returned is textured from its copy on the GPU: the same
+  // colours as from a copy uploaded again (a clone is another Mat).
+  const cv::Mat from_gpu = gpu->Texture(dg, tile, view, images, true);
+  const cv::Mat uploaded = gpu->Texture(dg.clone(), tile, view, images, true);
+  EXPECT_EQ(cv::norm(from_gpu, uploaded, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::countNonZero(from_gpu.reshape(1)), 100) << "hull pixels textured";
 }
 
 TEST_F(Gl, FiveProcessesWithTheGlBackend) {

@@ -34,12 +34,16 @@ class GlBackend final : public SweepBackend {
     texture_->UploadImages(images);
     vis_views_.clear();
     has_vis_ = false;
+    last_tile_ = cv::Mat();
   }
   cv::Mat Sweep(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d, const cv::Rect& tile,
                 SweepStats* stats) override {
     ctx_.MakeCurrent();
     const double t0 = MonotonicSeconds();
     cv::Mat depth = stencil_ ? stencil_sweep_->Sweep(q, v, d, tile) : march_->Sweep(q, v, d, tile, refine_);
+    // The march's tile stays on the GPU for the texture pass (Texture checks
+    // it is given this very Mat).
+    last_tile_ = stencil_ ? cv::Mat() : depth;
     const double t1 = MonotonicSeconds();
     // The stencil sweep's bracket is refined with CPU point queries.
     if (stencil_) RefineSweepDepth(q, v, d, tile, refine_, &depth, threads(), stop());
@@ -73,12 +77,18 @@ class GlBackend final : public SweepBackend {
     ctx_.MakeCurrent();
     if (!with_visibility) return texture_->Texture(depth, tile, view, images, {}, nullptr);
     if (!has_vis_) throw std::logic_error("Texture with visibility before ComputeVisibility");
-    return texture_->Texture(depth, tile, view, images, {}, vis_views_, march_->views_texture());
+    const bool on_gpu = !last_tile_.empty() && depth.data == last_tile_.data && depth.size() == last_tile_.size();
+    return texture_->Texture(depth, tile, view, images, {}, vis_views_, march_->views_texture(),
+                             on_gpu ? march_->tile_texture() : 0);
   }
   std::string Name() const override {
     return std::string("gl ") + (stencil_ ? "stencil" : "march") + " (" + ctx_.renderer() + ")";
   }
   std::string GlSummary() const override { return ctx_.info().Summary(); }
+  void Finish() override {
+    ctx_.MakeCurrent();
+    glFinish();
+  }
   const GlInfo& info() const { return ctx_.info(); }
 
  private:
@@ -89,6 +99,7 @@ class GlBackend final : public SweepBackend {
   std::unique_ptr<GlRaySweep> march_;
   std::unique_ptr<GlTexture> texture_;
   std::vector<NovelView> vis_views_;  // the visibility maps' views (their depths on the GPU)
+  cv::Mat last_tile_;                 // the last tile the march returned (its depth also on the GPU)
   bool has_vis_ = false;
 };
 

@@ -388,8 +388,10 @@ cv::Mat GlRaySweep::Sweep(const VolumeQuery& q, const NovelView& view, const std
     throw std::invalid_argument("GlRaySweep: the query has " + std::to_string(q.size()) +
                                 " cameras, the last Upload " + std::to_string(uploaded_cameras_));
   cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
+  tile_valid_ = false;
   if (depths.empty() || tile.area() == 0 || q.hull_box().empty()) return out;
   Run(q, {view}, {depths}, {tile}, refine, *tile_target_);
+  tile_valid_ = true;
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glGetTextureSubImage(tile_target_->result, 0, 0, 0, 0, tile.width, tile.height, 1, GL_RED, GL_FLOAT,
                        GLsizei(out.total() * sizeof(float)), out.data);
@@ -419,6 +421,8 @@ void GlRaySweep::SweepViews(const VolumeQuery& q, const std::vector<NovelView>& 
 }
 
 GLuint GlRaySweep::views_texture() const { return view_target_->result; }
+
+GLuint GlRaySweep::tile_texture() const { return tile_valid_ ? tile_target_->result : 0; }
 
 cv::Mat GlRaySweep::ReadView(size_t k) const {
   const cv::Size size = view_sizes_.at(k);

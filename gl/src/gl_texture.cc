@@ -29,7 +29,7 @@ struct Extra { vec4 centre; vec4 vr0, vr1, vr2; vec4 vt; vec4 vintr; vec4 vsize;
 layout(std430, binding = 2) readonly buffer Extras { Extra ex[]; };
 layout(binding = 0) uniform usampler2DArray u_images;  // bytes B, G, R per texel
 layout(binding = 1) uniform sampler2DArray u_vis;      // hull depth from each camera
-layout(binding = 2) uniform sampler2D u_depth;         // the tile's eye-z depths
+layout(binding = 2) uniform sampler2DArray u_depth;    // the tile's eye-z depths (layer 0)
 layout(rgba8ui, binding = 0) uniform writeonly uimage2D u_out;
 uniform int u_ncam;
 uniform int u_max;        // TextureOptions::max_cameras
@@ -70,7 +70,7 @@ bool Visible(int k, vec3 X) {
 void main() {
   ivec2 px = ivec2(gl_GlobalInvocationID.xy);
   if (px.x >= u_size.x || px.y >= u_size.y) return;
-  float d = texelFetch(u_depth, px, 0).r;
+  float d = texelFetch(u_depth, ivec3(px, 0), 0).r;
   if (isinf(d) || isnan(d)) { imageStore(u_out, px, uvec4(0u)); return; }
   vec2 uv = u_origin + vec2(px) + 0.5;
   vec3 ray = vec3((uv.x - u_view.z) / u_view.x, (uv.y - u_view.w) / u_view.y, 1.0);
@@ -139,21 +139,22 @@ cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const Nov
     throw std::invalid_argument("GlTexture: visibility has " + std::to_string(vis->views.size()) +
                                 " cameras, images " + std::to_string(images.size()));
   if (vis && !images.empty()) visibility_->Upload(vis->depth);
-  return Run(depth, tile, view, images, options, vis ? &vis->views : nullptr, vis ? visibility_->texture() : 0);
+  return Run(depth, tile, view, images, options, vis ? &vis->views : nullptr, vis ? visibility_->texture() : 0, 0);
 }
 
 cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
                            const std::vector<CameraImage>& images, const TextureOptions& options,
-                           const std::vector<NovelView>& visibility_views, GLuint visibility_texture) {
+                           const std::vector<NovelView>& visibility_views, GLuint visibility_texture,
+                           GLuint depth_texture) {
   if (visibility_views.size() != images.size())
     throw std::invalid_argument("GlTexture: visibility has " + std::to_string(visibility_views.size()) +
                                 " cameras, images " + std::to_string(images.size()));
-  return Run(depth, tile, view, images, options, &visibility_views, visibility_texture);
+  return Run(depth, tile, view, images, options, &visibility_views, visibility_texture, depth_texture);
 }
 
 cv::Mat GlTexture::Run(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
                        const std::vector<CameraImage>& images, const TextureOptions& options,
-                       const std::vector<NovelView>* vis_views, GLuint vis_texture) {
+                       const std::vector<NovelView>* vis_views, GLuint vis_texture, GLuint depth_texture) {
   options.Check();
   view.Check();
   CV_Assert(depth.type() == CV_32FC1 && depth.size() == tile.size());
@@ -190,17 +191,19 @@ cv::Mat GlTexture::Run(const cv::Mat& depth, const cv::Rect& tile, const NovelVi
   if (tile.width > w_ || tile.height > h_) {
     w_ = std::max(w_, tile.width);
     h_ = std::max(h_, tile.height);
-    depth_ = MakeTexture(GL_TEXTURE_2D);
-    glTextureStorage2D(depth_.get(), 1, GL_R32F, w_, h_);
+    depth_ = MakeTexture(GL_TEXTURE_2D_ARRAY);
+    glTextureStorage3D(depth_.get(), 1, GL_R32F, w_, h_, 1);
     glTextureParameteri(depth_.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTextureParameteri(depth_.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
     out_ = MakeTexture(GL_TEXTURE_2D);
     glTextureStorage2D(out_.get(), 1, GL_RGBA8UI, w_, h_);
   }
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  glPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(depth.step[0] / sizeof(float)));
-  glTextureSubImage2D(depth_.get(), 0, 0, 0, tile.width, tile.height, GL_RED, GL_FLOAT, depth.data);
-  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  if (!depth_texture) {
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(depth.step[0] / sizeof(float)));
+    glTextureSubImage3D(depth_.get(), 0, 0, 0, 0, tile.width, tile.height, 1, GL_RED, GL_FLOAT, depth.data);
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  }
 
   const GLuint p = program_.get();
   glUseProgram(p);
@@ -208,7 +211,7 @@ cv::Mat GlTexture::Run(const cv::Mat& depth, const cv::Rect& tile, const NovelVi
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, extra_.get());
   glBindTextureUnit(0, images_->texture());
   glBindTextureUnit(1, vis ? vis_texture : images_->texture());
-  glBindTextureUnit(2, depth_.get());
+  glBindTextureUnit(2, depth_texture ? depth_texture : depth_.get());
   glBindImageTexture(0, out_.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8UI);
   glUniform1i(glGetUniformLocation(p, "u_ncam"), GLint(images.size()));
   glUniform1i(glGetUniformLocation(p, "u_max"), options.max_cameras);

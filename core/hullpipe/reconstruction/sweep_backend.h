@@ -45,7 +45,9 @@ class SweepBackend {
   virtual HullVisibility KeptVisibility() = 0;
   /// Same contract as TextureHull; `images` are the ones given to BeginFrameset;
   /// with_visibility: the visibility test with the maps ComputeVisibility kept
-  /// (std::logic_error if it was not called for this frameset).
+  /// (std::logic_error if it was not called for this frameset). A depth_tile
+  /// that Sweep returned must be passed unchanged: the GL backend textures the
+  /// last one from its own copy on the GPU.
   virtual cv::Mat Texture(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
                           const std::vector<CameraImage>& images, bool with_visibility) = 0;
   /// "cpu", "gl march (renderer)" or "gl stencil (renderer)".
@@ -68,6 +70,9 @@ class SweepBackend {
   /// clamped to [1, 256].
   void set_threads(int threads) { threads_ = std::clamp(threads, 1, 256); }
   int threads() const { return threads_; }
+  /// Returns once the work issued so far is done (the GL backend queues its
+  /// dispatches and returns: glFinish). For timing the stages one by one.
+  virtual void Finish() {}
 
  private:
   std::string reason_;

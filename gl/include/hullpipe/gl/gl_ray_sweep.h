@@ -48,6 +48,10 @@ class GlRaySweep {
   /// of cameras than the upload, GlError on a GL error.
   cv::Mat Sweep(const VolumeQuery& query, const NovelView& view, const std::vector<double>& plane_depths,
                 const cv::Rect& tile, int refine_iterations = 0);
+  /// The R32F texture array whose layer 0 holds the last Sweep's tile at (0, 0)
+  /// on the GPU (what Sweep read back), or 0 when that Sweep dispatched nothing
+  /// (no planes, an empty tile or hull box).
+  GLuint tile_texture() const;
 
   /// Sweeps every view whole in one dispatch per pass, view k with
   /// plane_depths[k] (as Sweep over {0, 0, width, height}), and keeps the depths
@@ -73,6 +77,7 @@ class GlRaySweep {
   Buffer cams_, planes_, views_;
   std::unique_ptr<Target> tile_target_, view_target_;
   std::vector<cv::Size> view_sizes_;
+  bool tile_valid_ = false;
 };
 
 }  // namespace hullpipe::gl

@@ -44,16 +44,19 @@ class GlTexture {
   /// The same with visibility maps already on the GPU: layer k of
   /// `visibility_texture` (an R32F texture array, GlRaySweep::views_texture) is
   /// the hull's depth from visibility_views[k] (one per image), so nothing is
-  /// uploaded for them. Throws std::invalid_argument if their number differs
-  /// from the images'.
+  /// uploaded for them; with depth_texture, layer 0 of that R32F texture array
+  /// holds depth_tile already (GlRaySweep::tile_texture after the tile's
+  /// Sweep), so neither is it. Throws std::invalid_argument if the number of
+  /// views differs from the images'.
   cv::Mat Texture(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
                   const std::vector<CameraImage>& images, const TextureOptions& options,
-                  const std::vector<NovelView>& visibility_views, GLuint visibility_texture);
+                  const std::vector<NovelView>& visibility_views, GLuint visibility_texture,
+                  GLuint depth_texture = 0);
 
  private:
   cv::Mat Run(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
               const std::vector<CameraImage>& images, const TextureOptions& options,
-              const std::vector<NovelView>* visibility_views, GLuint visibility_texture);
+              const std::vector<NovelView>* visibility_views, GLuint visibility_texture, GLuint depth_texture);
   Program program_;
   std::unique_ptr<LayerUploader> images_, visibility_;
   size_t uploaded_ = 0;
