@@ -23,11 +23,13 @@ import tempfile
 # Provided by the target machine: glibc, the dynamic loader and libglvnd's GL/EGL.
 SYSTEM = re.compile(r"^(libc|libm|libpthread|libdl|librt|ld-linux-x86-64|linux-vdso|libresolv|"
                     r"libGL|libEGL|libOpenGL|libGLX|libGLdispatch|libGLESv2)\.so")
-# Carried as they are: what hullpipe's binaries call at run time.
+# Carried as they are: what hullpipe's binaries call at run time (Assimp with
+# its own needs: sim_node imports the scenes' CAD models).
 REAL = re.compile(r"^(libopencv_(?!highgui)\w+|libddsc|libyaml-cpp|libspdlog|libfmt|libstdc\+\+|libgcc_s|"
                   r"libtbb|liblapack|libblas|libgfortran|libquadmath|libz|liblzma|libxml2|"
                   r"libavcodec|libavformat|libavutil|libswscale|libswresample|libjpeg|libpng16|"
-                  r"libgomp|libdrm|libexpat|libwebp|libsharpyuv|libgme|libopenmpt)\.so")
+                  r"libgomp|libdrm|libexpat|libwebp|libsharpyuv|libgme|libopenmpt|"
+                  r"libassimp|libdraco|libminizip)\.so")
 
 # Defined by the linker or crt files in every shared library.
 LINKER_PROVIDED = {"_init", "_fini", "_edata", "_end", "__bss_start", "_DYNAMIC",

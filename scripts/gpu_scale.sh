@@ -15,7 +15,8 @@
 # Environment: RIG (the Utrecht rig, default ../shared/data/utrecht-4cam), DOME
 # (the published dome, default ../shared/data/dome-20cam), RIGS (where the
 # synthesized rigs are kept between runs, default OUT/rigs), QUICK=1 (fewer
-# bench rows).
+# bench rows), ROWS (which rows, default all: "bench scaling demo4 syn16
+# syn16jpeg syn20 dome30"), BACKENDS (default "gl cpu" with a GPU, "cpu" without).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 [ $# -eq 2 ] || { echo "usage: scripts/gpu_scale.sh BINDIR OUT" >&2; exit 2; }
@@ -31,6 +32,8 @@ for exe in hullpipe_bench scaling_bench hullpipe_rig hullpipe_launch capture_nod
   [ -x "$BIN/$exe" ] || { echo "gpu_scale: $BIN/$exe missing" >&2; exit 2; }
 done
 say() { echo "== gpu_scale: $* ($(date -u +%H:%M:%S), ${SECONDS} s in)" >&2; }
+ROWS=" ${ROWS:-bench scaling demo4 syn16 syn16jpeg syn20 dome30} "
+want() { [[ "$ROWS" == *" $1 "* ]]; }
 
 # A hardware GL renderer? (the bench's header names it; llvmpipe is software)
 "$BIN/hullpipe_bench" --backend gl --cameras 4 --sizes 64x48 --planes 8 --triangles 0 --repeats 1 \
@@ -41,7 +44,7 @@ if [ -n "$GL_LINE" ] && ! grep -qiE 'llvmpipe|softpipe|swrast|not run' <<<"$GL_L
 say "GL: ${GL_LINE:-none} (hardware: $GPU); $(nproc) cores"
 
 # The frame and the triangle query.
-if [ "$GPU" = 1 ]; then
+if [ "$GPU" = 1 ] && want bench; then
   say "hullpipe_bench --backend gl"
   if [ "${QUICK:-0}" = 1 ]; then rows=(--cameras 8,16 --sizes 640x480 --planes 100 --triangles 100000)
   else rows=(--cameras 4,8,16 --sizes 640x480 --planes 100 --triangles 720,10000,100000); fi
@@ -50,8 +53,10 @@ if [ "$GPU" = 1 ]; then
   "$BIN/hullpipe_bench" --backend cpu --cameras 4 --sizes 64x48 --planes 8 --triangles 100000 --repeats 3 \
     > "$OUT/bench_cpu_tri.md" 2> "$OUT/bench_cpu_tri.err"
 fi
-say "scaling_bench"
-"$BIN/scaling_bench" --sizes 644x486,1024x768 --repeats 3 > "$OUT/scaling.txt" 2> "$OUT/scaling.err"
+if want scaling; then
+  say "scaling_bench"
+  "$BIN/scaling_bench" --sizes 644x486,1024x768 --repeats 3 > "$OUT/scaling.txt" 2> "$OUT/scaling.err"
+fi
 
 # Rigs, synthesized as a lab would (25 fps sources, other settings default).
 synth() {  # name cameras size
@@ -89,20 +94,26 @@ run() {  # name backend rig [launch flags...]
 }
 
 rm -f "$OUT/runs.txt"
-backends=(cpu)
-[ "$GPU" = 1 ] && backends=(gl cpu)
-for b in "${backends[@]}"; do run demo4 "$b" "$RIG"; done
-if synth syn16 16 640x480; then
-  for b in "${backends[@]}"; do run syn16 "$b" "$RIGS/syn16/rig.yaml"; done
+touch "$OUT/runs.txt"
+if [ -n "${BACKENDS:-}" ]; then read -r -a backends <<<"$BACKENDS"
+elif [ "$GPU" = 1 ]; then backends=(gl cpu)
+else backends=(cpu); fi
+if want demo4; then
+  for b in "${backends[@]}"; do run demo4 "$b" "$RIG"; done
+fi
+if { want syn16 || want syn16jpeg; } && synth syn16 16 640x480; then
+  if want syn16; then
+    for b in "${backends[@]}"; do run syn16 "$b" "$RIGS/syn16/rig.yaml"; done
+  fi
   # The same with capture's images as JPEG (capture_node --jpeg 90): what the
   # transport carries to the recon nodes, 10x smaller.
-  if [ "$GPU" = 1 ]; then
+  if [ "$GPU" = 1 ] && want syn16jpeg; then
     sed 's/"${pace}"]/"${pace}", --jpeg, "90"]/' launch/local.yaml > "$OUT/jpeg.yaml"
     DESC="$OUT/jpeg.yaml" run syn16jpeg gl "$RIGS/syn16/rig.yaml"
   fi
 fi
-if [ "$GPU" = 1 ] && synth syn20 20 1024x768; then run syn20 gl "$RIGS/syn20/rig.yaml"; fi
-if dome30; then
+if [ "$GPU" = 1 ] && want syn20 && synth syn20 20 1024x768; then run syn20 gl "$RIGS/syn20/rig.yaml"; fi
+if want dome30 && dome30; then
   for b in "${backends[@]}"; do run dome30 "$b" "$RIGS/dome30/rig.yaml" --frames 30; done
   [ "$GPU" = 1 ] || run dome30_fps2 cpu "$RIGS/dome30/rig.yaml" --frames 30 --fps 2
 fi
