@@ -51,6 +51,12 @@ double MedianMs(int repeats, const std::function<void()>& f) {
   return Median(std::move(t));
 }
 
+std::string Ms2(double ms) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f", ms);
+  return b;
+}
+
 void Row(const std::string& what, const std::string& config, double ms, const std::string& extra = "") {
   std::printf("| %-28s | %-34s | %9.2f | %-28s |\n", what.c_str(), config.c_str(), ms, extra.c_str());
   std::fflush(stdout);
@@ -228,6 +234,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
     // GL batch: the query's one pass with its counts and inside-pixel masks
     // read back (TriangleBatchResult); GL + points: every collision point made
     // on the CPU as well (the QueryTrianglesCpu contract sim_node takes).
+    std::vector<std::string> part_rows;
     std::printf("\n| triangles (10x10 viewports) | colliding | CPU ms | CPU tris/s | GL batch ms | GL batch tris/s | "
                 "GL + points ms | GL + points tris/s | CPU/GL batch |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|\n");
@@ -245,8 +252,10 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
         colliding = 0;
         for (const auto& r : QueryTrianglesCpu(q, tris, o, 1)) colliding += !r.collision_points.empty();
       }) : 0;
+      gl::TriangleBatchResult::Timing parts;
       const double gms = gl_tri ? MedianMs(reps, [&] {
         const gl::TriangleBatchResult b = gl_tri->QueryBatch(q, tris, o);
+        parts = b.timing();
         if (!cpu) {
           colliding = 0;
           for (size_t i = 0; i < b.size(); ++i) colliding += b.inside(i) > 0;
@@ -256,7 +265,15 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       auto rate = [&](double ms) { return ms > 0 ? count / ms * 1e3 : 0.0; };
       std::printf("| %d | %zu | %.1f | %.0f | %.2f | %.0f | %.2f | %.0f | %s |\n", count, colliding, cms, rate(cms), gms,
                   rate(gms), pms, rate(pms), cms > 0 && gms > 0 ? std::to_string(cms / gms).substr(0, 6).c_str() : "-");
+      if (gl_tri)
+        part_rows.push_back("| " + std::to_string(count) + " | " + Ms2(parts.prepare_ms) + " | " + Ms2(parts.pass_ms) +
+                            " | " + Ms2(parts.read_ms) + " | " + Ms2(parts.cpu_ms) + " |");
       std::fflush(stdout);
+    }
+    if (!part_rows.empty()) {
+      std::printf("\nGL batch, one run's parts (ms):\n\n| triangles | pack + upload | pass | read back | CPU |\n"
+                  "|---|---|---|---|---|\n");
+      for (const auto& r : part_rows) std::printf("%s\n", r.c_str());
     }
   }
   return 0;

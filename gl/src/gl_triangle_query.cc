@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "hullpipe/geometry/conventions.h"
 #include "gl_cameras.h"
 #include "gl_upload.h"
 
@@ -234,6 +235,7 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
   r.inside_.assign(count, 0);
   r.hit_of_.assign(count, 0);
   if (count == 0) return r;
+  const double t0 = MonotonicSeconds();
 
   const size_t n = q.size();
   std::vector<cv::Mat> maps;
@@ -246,10 +248,12 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
     cams.push_back(PackCamera(q.fast()[c], cw.rotation, cw.translation, q.object_rect(c)));
   }
   maps_->Upload(maps, &rects);
-  std::vector<float> flat;
-  flat.reserve(count * 9);
-  for (const Triangle& t : tris)
-    for (const Eigen::Vector3d* p : {&t.a, &t.b, &t.c}) flat.insert(flat.end(), {float(p->x()), float(p->y()), float(p->z())});
+  std::vector<float> flat(count * 9);
+  for (size_t i = 0; i < count; ++i) {
+    const Triangle& t = tris[i];
+    float* f = &flat[9 * i];
+    for (int k = 0; k < 3; ++k) f[k] = float(t.a[k]), f[3 + k] = float(t.b[k]), f[6 + k] = float(t.c[k]);
+  }
   glNamedBufferData(cams_.get(), GLsizeiptr(cams.size() * sizeof(GpuCamera)), cams.data(), GL_STREAM_DRAW);
   glNamedBufferData(tris_.get(), GLsizeiptr(flat.size() * sizeof(float)), flat.data(), GL_STREAM_DRAW);
   glNamedBufferData(results_.get(), GLsizeiptr(count * 16), nullptr, GL_STREAM_READ);
@@ -274,6 +278,7 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
 
   std::vector<uint32_t> res(count * 4);
   uint32_t used = 0;
+  double t1 = 0, t2 = 0;
   for (int attempt = 0; attempt < 2; ++attempt) {
     // Header: words used, capacity.
     glNamedBufferData(masks_.get(), GLsizeiptr(16 + mask_capacity_ * 4), nullptr, GL_STREAM_READ);
@@ -284,9 +289,11 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
     // 65,535^2 triangles.
     const size_t gx = std::min<size_t>(count, 65535), gy = (count + gx - 1) / gx;
     glUniform1ui(glGetUniformLocation(p, "u_first"), 0u);
+    t1 = MonotonicSeconds();
     glDispatchCompute(GLuint(gx), GLuint(gy), 1);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-    glGetNamedBufferSubData(masks_.get(), 0, sizeof used, &used);
+    glGetNamedBufferSubData(masks_.get(), 0, sizeof used, &used);  // waits for the pass
+    t2 = MonotonicSeconds();
     if (used <= mask_capacity_) break;
     mask_capacity_ = size_t(used) + used / 4;  // too many masks for the buffer: again with room for all
   }
@@ -294,6 +301,7 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
   r.masks_.resize(std::min<size_t>(used, mask_capacity_));
   if (!r.masks_.empty()) glGetNamedBufferSubData(masks_.get(), 16, GLsizeiptr(r.masks_.size() * 4), r.masks_.data());
   CheckGl("triangle query");
+  const double t3 = MonotonicSeconds();
 
   // Counts as the GPU found them; the triangles with an inside pixel kept
   // for their points (made on demand: TriangleBatchResult::Points).
@@ -307,6 +315,7 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
     r.hit_mask_.push_back(e[2]);
     r.hit_size_.push_back(e[3]);
   }
+  r.timing_ = {(t1 - t0) * 1e3, (t2 - t1) * 1e3, (t3 - t2) * 1e3, (MonotonicSeconds() - t3) * 1e3};
   return r;
 }
 

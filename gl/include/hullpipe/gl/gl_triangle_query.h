@@ -37,6 +37,13 @@ class TriangleBatchResult {
   std::vector<Eigen::Vector3d> Points(size_t i) const;
   /// Every triangle's result as QueryTrianglesCpu gives them.
   std::vector<TriangleQueryResult> All() const;
+  /// Where the batch's time went (wall ms): packing and uploading the maps,
+  /// cameras and triangles; the pass (dispatch to its first read-back); reading
+  /// counts and masks back; the CPU's pass over the counts.
+  struct Timing {
+    double prepare_ms = 0, pass_ms = 0, read_ms = 0, cpu_ms = 0;
+  };
+  const Timing& timing() const { return timing_; }
 
  private:
   friend class GlTriangleQuery;
@@ -49,6 +56,7 @@ class TriangleBatchResult {
   std::vector<Triangle> hit_triangles_;
   std::vector<uint32_t> hit_mask_, hit_size_;
   std::vector<uint32_t> masks_;
+  Timing timing_;
 };
 
 /// Per-triangle viewport query on the GPU, one compute pass per batch: a
