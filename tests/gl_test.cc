@@ -587,6 +587,17 @@ TEST_F(Gl, CadModelsCollideTheSameWithTheGlTriangleQuery) {
     EXPECT_NE(said.find("software"), std::string::npos) << said;
   }
   EXPECT_THROW(MakeTriangleQuery("vulkan"), std::invalid_argument);
+  // What auto does on a hardware GPU, here on whatever GL this machine has:
+  // both queries timed, and the choice said with both fits; a function it
+  // returns answers as the GL or the CPU query does.
+  std::optional<EglContext> measure_ctx = EglContext::TryCreate();
+  ASSERT_TRUE(measure_ctx);
+  std::string measured;
+  const TriangleQueryFunction chosen = MeasuredTriangleQuery(std::move(*measure_ctx), 1, &measured);
+  EXPECT_NE(measured.find("measured GL"), std::string::npos) << measured;
+  EXPECT_NE(measured.find("CPU (1 thread)"), std::string::npos) << measured;
+  EXPECT_EQ(bool(chosen), measured.find("gl triangle query") == 0) << measured;
+  EXPECT_THROW(MeasuredTriangleQuery(*EglContext::TryCreate(), 0), std::invalid_argument);
   const TriangleQueryFunction gl_query = MakeTriangleQuery("gl", {}, &said);
   ASSERT_TRUE(gl_query) << said;
   EXPECT_NE(said.find("gl triangle query"), std::string::npos) << said;

@@ -1,11 +1,11 @@
 #include "hullpipe/gl/backend.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <functional>
 #include <stdexcept>
 
-#include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/gl/egl_context.h"
@@ -172,11 +172,30 @@ struct QueryCost {
 // sphere, an icosphere cutting it: triangles inside, outside and across) at
 // 80 and 5,120 triangles, medians of three after a warm-up.
 void Calibrate(GlTriangleQuery& gl, int cpu_threads, QueryCost* gpu, QueryCost* cpu) {
+  // Four 320x240 cameras 3 m around the sphere, each map the sphere's exact
+  // silhouette (a pixel is object iff its ray meets the sphere).
   const Eigen::Vector3d centre(0, 0, -1);
-  SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(centre, 0.3));
+  const double radius = 0.3;
   std::vector<CameraMap> views;
-  for (const Camera& c : RingCameras(4, 3.0, 1.5, centre, 320, 240, 1.0)) views.push_back({c, RenderExactMap(c, scene)});
+  for (int k = 0; k < 4; ++k) {
+    const double a = 2 * M_PI * k / 4;
+    Camera c;
+    c.id = k + 1;
+    c.width = 320, c.height = 240;
+    c.fx = c.fy = 300, c.cx = 160, c.cy = 120;
+    c.cam_from_world =
+        LookAt(centre + Eigen::Vector3d(3 * std::cos(a), 3 * std::sin(a), -1.0), centre, Eigen::Vector3d(0, 0, -1))
+            .Inverse();
+    cv::Mat map(c.height, c.width, CV_8UC1, cv::Scalar(0));
+    const Eigen::Vector3d o = c.Center();
+    for (int v = 0; v < c.height; ++v)
+      for (int u = 0; u < c.width; ++u) {
+        const Eigen::Vector3d d = c.PixelRayWorld({u + 0.5, v + 0.5});
+        const double t = (centre - o).dot(d);
+        map.at<uint8_t>(v, u) = t > 0 && (o + t * d - centre).norm() < radius ? 255 : 0;
+      }
+    views.push_back({c, map});
+  }
   Aabb ws;
   ws.min = centre - Eigen::Vector3d::Constant(1.0), ws.max = centre + Eigen::Vector3d::Constant(1.0);
   const VolumeQuery q(views, ws);
@@ -216,6 +235,58 @@ void Calibrate(GlTriangleQuery& gl, int cpu_threads, QueryCost* gpu, QueryCost* 
 
 }  // namespace
 
+namespace {
+
+// The GL query on its own context, as a TriangleQueryFunction (the context
+// made current on each call).
+struct GlQuery {
+  EglContext ctx;
+  std::unique_ptr<GlTriangleQuery> query;
+};
+
+std::shared_ptr<GlQuery> BuildGlQuery(EglContext ctx) {
+  auto gl = std::make_shared<GlQuery>(GlQuery{std::move(ctx), nullptr});
+  gl->ctx.MakeCurrent();
+  gl->query = std::make_unique<GlTriangleQuery>();  // built with the context current
+  return gl;
+}
+
+TriangleQueryFunction OnGpu(std::shared_ptr<GlQuery> gl) {
+  return [gl](const VolumeQuery& q, const std::vector<Triangle>& tris, const TriangleQueryOptions& o) {
+    gl->ctx.MakeCurrent();
+    return gl->query->Query(q, tris, o);
+  };
+}
+
+}  // namespace
+
+TriangleQueryFunction MeasuredTriangleQuery(EglContext ctx, int cpu_threads, std::string* description) {
+  if (cpu_threads < 1) throw std::invalid_argument("MeasuredTriangleQuery: cpu_threads must be >= 1");
+  const std::string summary = ctx.info().Summary();
+  const std::shared_ptr<GlQuery> gl = BuildGlQuery(std::move(ctx));
+  QueryCost gpu, cpu;
+  Calibrate(*gl->query, cpu_threads, &gpu, &cpu);
+  char line[256];
+  std::snprintf(line, sizeof line, "GL %.2f ms + %.2f us a triangle, CPU (%d thread%s) %.2f ms + %.2f us",
+                gpu.fixed_ms, gpu.per_triangle_ms * 1e3, cpu_threads, cpu_threads == 1 ? "" : "s", cpu.fixed_ms,
+                cpu.per_triangle_ms * 1e3);
+  auto say = [&](const std::string& s) {
+    if (description) *description = s;
+  };
+  // Both costs are linear in the batch's size: the GPU is faster for some
+  // batch of 1 to 10^6 triangles iff it is at one end.
+  if (gpu.At(1) >= cpu.At(1) && gpu.At(1000000) >= cpu.At(1000000)) {
+    say(std::string("cpu (auto: measured ") + line + ")");
+    return {};
+  }
+  say("gl triangle query where faster for the batch (auto: measured " + std::string(line) + "; " + summary + ")");
+  return [on_gpu = OnGpu(gl), gpu, cpu, cpu_threads](const VolumeQuery& q, const std::vector<Triangle>& tris,
+                                                     const TriangleQueryOptions& o) {
+    if (gpu.At(tris.size()) < cpu.At(tris.size())) return on_gpu(q, tris, o);
+    return QueryTrianglesCpu(q, tris, o, cpu_threads);
+  };
+}
+
 TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOptions& egl, std::string* description,
                                         int cpu_threads) {
   auto say = [&](const std::string& s) {
@@ -234,47 +305,19 @@ TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOption
     say("cpu (" + why + ")");
     return {};
   }
-  struct Gl {
-    EglContext ctx;
-    std::unique_ptr<GlTriangleQuery> query;
-  };
-  std::shared_ptr<Gl> gl;
   const std::string summary = ctx->info().Summary();
   try {
-    gl = std::make_shared<Gl>(Gl{std::move(*ctx), nullptr});
-    gl->query = std::make_unique<GlTriangleQuery>();  // built with the context current
+    // auto on a hardware renderer: whichever is faster for a batch's size on
+    // this machine, from both timed at the start.
+    if (name == "auto") return MeasuredTriangleQuery(std::move(*ctx), cpu_threads, description);
+    TriangleQueryFunction f = OnGpu(BuildGlQuery(std::move(*ctx)));
+    say("gl triangle query (" + summary + ")");
+    return f;
   } catch (const std::exception& e) {
     if (name == "gl") throw std::runtime_error(std::string("--backend gl: ") + e.what());
     say(std::string("cpu (auto: GL triangle query failed to build: ") + e.what() + ")");
     return {};
   }
-  auto on_gpu = [gl](const VolumeQuery& q, const std::vector<Triangle>& tris, const TriangleQueryOptions& o) {
-    gl->ctx.MakeCurrent();
-    return gl->query->Query(q, tris, o);
-  };
-  if (name == "gl") {
-    say("gl triangle query (" + summary + ")");
-    return on_gpu;
-  }
-  // auto on a hardware renderer: whichever is faster for a batch's size on
-  // this machine, from both timed at the start.
-  QueryCost gpu, cpu;
-  gl->ctx.MakeCurrent();
-  Calibrate(*gl->query, cpu_threads, &gpu, &cpu);
-  char line[256];
-  std::snprintf(line, sizeof line, "GL %.2f ms + %.2f us a triangle, CPU (%d thread%s) %.2f ms + %.2f us",
-                gpu.fixed_ms, gpu.per_triangle_ms * 1e3, cpu_threads, cpu_threads == 1 ? "" : "s", cpu.fixed_ms,
-                cpu.per_triangle_ms * 1e3);
-  if (gpu.At(5120) >= cpu.At(5120) && gpu.At(100000) >= cpu.At(100000)) {
-    say(std::string("cpu (auto: measured ") + line + ")");
-    return {};
-  }
-  say("gl triangle query where faster for the batch (auto: measured " + std::string(line) + "; " + summary + ")");
-  return [on_gpu, gpu, cpu, cpu_threads](const VolumeQuery& q, const std::vector<Triangle>& tris,
-                                         const TriangleQueryOptions& o) {
-    if (gpu.At(tris.size()) < cpu.At(tris.size())) return on_gpu(q, tris, o);
-    return QueryTrianglesCpu(q, tris, o, cpu_threads);
-  };
 }
 
 }  // namespace hullpipe::gl

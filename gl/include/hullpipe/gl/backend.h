@@ -40,4 +40,15 @@ const GlInfo* GlInfoOf(const SweepBackend& backend);
 TriangleQueryFunction MakeTriangleQuery(const std::string& name, const EglOptions& egl = {},
                                         std::string* description = nullptr, int cpu_threads = 1);
 
+/// What "auto" does on a hardware renderer, on any context: times the GL query
+/// on `ctx` and QueryTrianglesCpu with cpu_threads on one synthetic frameset (a
+/// sphere seen by four 320x240 cameras, an icosphere of 80 and of 5,120
+/// triangles cutting it; medians of three), fits each as fixed + per-triangle
+/// milliseconds, and returns a function that answers each batch with the one
+/// faster for its size, or an empty function (the CPU query) where the GL one
+/// is faster for no batch of 1 to 10^6 triangles. *description says which, with
+/// both fits. Throws GlError if the GL query cannot be built,
+/// std::invalid_argument for cpu_threads < 1.
+TriangleQueryFunction MeasuredTriangleQuery(EglContext ctx, int cpu_threads = 1, std::string* description = nullptr);
+
 }  // namespace hullpipe::gl
