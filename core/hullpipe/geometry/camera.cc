@@ -40,15 +40,6 @@ Eigen::Vector3d Camera::Center() const {
   return -(cam_from_world.rotation.transpose() * cam_from_world.translation);
 }
 
-Eigen::Vector2d Camera::Distort(const Eigen::Vector2d& xn) const {
-  const auto& [k1, k2, p1, p2, k3] = distortion;
-  const double x = xn.x(), y = xn.y();
-  const double r2 = x * x + y * y;
-  const double radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3));
-  return {x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
-          y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y};
-}
-
 Eigen::Vector2d Camera::Undistort(const Eigen::Vector2d& xd) const {
   const auto& [k1, k2, p1, p2, k3] = distortion;
   if (!HasDistortion()) return xd;  // what the iteration below returns at once

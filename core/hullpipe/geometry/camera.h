@@ -64,7 +64,15 @@ struct Camera {
   Eigen::Vector3d Center() const;
 
   /// Applies lens distortion to normalized coordinates (x/z, y/z). OpenCV's model.
-  Eigen::Vector2d Distort(const Eigen::Vector2d& xn) const;
+  /// Inline: the hull box search and the projections call it in hot loops.
+  Eigen::Vector2d Distort(const Eigen::Vector2d& xn) const {
+    const double k1 = distortion[0], k2 = distortion[1], p1 = distortion[2], p2 = distortion[3], k3 = distortion[4];
+    const double x = xn.x(), y = xn.y();
+    const double r2 = x * x + y * y;
+    const double radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    return {x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+            y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y};
+  }
 
   /// Inverts Distort by Newton's method with the analytic Jacobian (converges to
   /// ~1e-15 inside the valid radius; cv::undistortPoints' fixed-point iteration

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <queue>
 #include <set>
@@ -179,6 +181,38 @@ struct ViewPyramid {
   }
 };
 
+// What the cell rule needs of a camera alone (its lens bound and view
+// pyramid): the same for every frameset of a rig, so made once per camera and
+// kept (at most kMaxKept cameras, all dropped when more come: a process sees
+// one rig or a few).
+struct CameraBounds {
+  std::optional<LensBound> lens;
+  std::optional<ViewPyramid> pyramid;
+};
+
+std::shared_ptr<const CameraBounds> BoundsOf(const Camera& c) {
+  constexpr size_t kMaxKept = 256;
+  // The key: every parameter the bounds depend on, as raw bytes.
+  std::string key;
+  auto add = [&](const auto& v) { key.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  add(c.width), add(c.height), add(c.fx), add(c.fy), add(c.cx), add(c.cy), add(c.skew);
+  for (const double d : c.distortion) add(d);
+  static std::mutex mutex;
+  static std::map<std::string, std::shared_ptr<const CameraBounds>> kept;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    const auto it = kept.find(key);
+    if (it != kept.end()) return it->second;
+  }
+  auto b = std::make_shared<CameraBounds>();
+  if (c.HasDistortion()) b->lens.emplace(c);
+  b->pyramid.emplace(c, b->lens ? &*b->lens : nullptr);
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (kept.size() >= kMaxKept) kept.clear();
+  kept.emplace(key, b);
+  return b;
+}
+
 }  // namespace
 
 namespace detail {
@@ -194,11 +228,10 @@ class CellProver {
     // Integral images of each map within its object pixels' bounding rectangle
     // (none outside it): 0 under a rectangle iff it holds no object pixel.
     sums_.resize(n);
-    lenses_.resize(n);
+    bounds_.resize(n);
     for (size_t i = 0; i < n; ++i) {
       if (rects_[i].area() > 0) cv::integral(views[i].map(rects_[i]), sums_[i], CV_32S);
-      if (views[i].camera.HasDistortion()) lenses_[i].emplace(views[i].camera);
-      pyramids_.emplace_back(views[i].camera, lenses_[i] ? &*lenses_[i] : nullptr);
+      bounds_[i] = BoundsOf(views[i].camera);
     }
   }
   // True if no hull point lies in `cell`. *hint: the camera tried first, set to
@@ -211,15 +244,13 @@ class CellProver {
   bool outside_vetoes_;
   int required_seen_;
   std::vector<cv::Mat> sums_;
-  std::vector<std::optional<LensBound>> lenses_;
-  std::vector<ViewPyramid> pyramids_;
+  std::vector<std::shared_ptr<const CameraBounds>> bounds_;  // per camera, shared across framesets
 };
 
 bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
   const auto& views = views_;
   const auto& rects = rects_;
   const auto& sums = sums_;
-  const auto& lenses = lenses_;
   const bool outside_vetoes = outside_vetoes_;
   const int required_seen = required_seen_;
   const size_t n = views.size();
@@ -264,11 +295,11 @@ bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
     // may see some of the cell and vetoes none of it.
     Rect r;
     bool bounded = false;
-    if (projects && !lenses[i]) {
+    if (projects && !bounds_[i]->lens) {
       for (const auto& x : xn) r.Extend(cam.PixelFromImagePlane(x));
       bounded = true;
     } else if (projects) {
-      const LensBound& lens = *lenses[i];
+      const LensBound& lens = *bounds_[i]->lens;
       Rect p;
       for (const auto& x : xn) p.Extend(cam.PixelFromImagePlane(x));
       if (p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 && p.v1 <= lens.y1) {
@@ -290,7 +321,7 @@ bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
     if (!bounded) {
       // Corners behind the camera or beyond its lens model: the cell may still
       // lie wholly outside its view (a corner of the workspace below a dome).
-      if (pyramids_[i].Misses(pc)) {
+      if (bounds_[i]->pyramid->Misses(pc)) {
         if (outside_vetoes) return hint = i, true;
         continue;
       }
