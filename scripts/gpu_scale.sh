@@ -15,8 +15,9 @@
 # Environment: RIG (the Utrecht rig, default ../shared/data/utrecht-4cam), DOME
 # (the published dome, default ../shared/data/dome-20cam), RIGS (where the
 # synthesized rigs are kept between runs, default OUT/rigs), QUICK=1 (fewer
-# bench rows), ROWS (which rows, default all: "bench scaling demo4 syn16
-# syn16jpeg syn20 dome30"), BACKENDS (default "gl cpu" with a GPU, "cpu" without).
+# bench rows), ROWS (which rows, default all: "bench scaling demo4 engine4
+# syn16 syn16jpeg syn20 dome30"), BACKENDS (default "gl cpu" with a GPU, "cpu"
+# without).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 [ $# -eq 2 ] || { echo "usage: scripts/gpu_scale.sh BINDIR OUT" >&2; exit 2; }
@@ -32,7 +33,7 @@ for exe in hullpipe_bench scaling_bench hullpipe_rig hullpipe_launch capture_nod
   [ -x "$BIN/$exe" ] || { echo "gpu_scale: $BIN/$exe missing" >&2; exit 2; }
 done
 say() { echo "== gpu_scale: $* ($(date -u +%H:%M:%S), ${SECONDS} s in)" >&2; }
-ROWS=" ${ROWS:-bench scaling demo4 syn16 syn16jpeg syn20 dome30} "
+ROWS=" ${ROWS:-bench scaling demo4 engine4 syn16 syn16jpeg syn20 dome30} "
 want() { [[ "$ROWS" == *" $1 "* ]]; }
 
 # A hardware GL renderer? (the bench's header names it; llvmpipe is software)
@@ -89,7 +90,7 @@ run() {  # name backend rig [launch flags...]
   rm -rf "$dir"
   say "run $name on $backend"
   timeout 120 "$BIN/hullpipe_launch" --rig "$rig" --backend "$backend" --out "$dir" --bin-dir "$BIN" \
-    --description "${DESC:-launch/local.yaml}" --scene scenes/ball.yaml "$@" > "$OUT/run_${name}_${backend}.log" 2>&1
+    --description "${DESC:-launch/local.yaml}" --scene "${SCENE:-scenes/ball.yaml}" "$@" > "$OUT/run_${name}_${backend}.log" 2>&1
   echo "$name $backend $? $dir" >> "$OUT/runs.txt"
 }
 
@@ -100,6 +101,11 @@ elif [ "$GPU" = 1 ]; then backends=(gl cpu)
 else backends=(cpu); fi
 if want demo4; then
   for b in "${backends[@]}"; do run demo4 "$b" "$RIG"; done
+fi
+# The demo with the engine (scenes/engine.yaml: Debian's 2CylinderEngine before
+# the seated person): sim's CAD models through the triangle query auto picks.
+if want engine4; then
+  for b in "${backends[@]}"; do SCENE=scenes/engine.yaml run engine4 "$b" "$RIG"; done
 fi
 if { want syn16 || want syn16jpeg; } && synth syn16 16 640x480; then
   if want syn16; then
@@ -131,7 +137,7 @@ for line in open(os.path.join(out, "runs.txt")):
     try:
         s = json.load(open(os.path.join(d, "stats.json")))
     except Exception as e:
-        rows.append(f"| {name} | {backend} | exit {rc}: no stats.json | | | | |")
+        rows.append(f"| {name} | {backend} | exit {rc}: no stats.json | | | | | |")
         continue
     n = s["nodes"]
     r, cap = n.get("render", {}), n.get("capture", {})
@@ -140,19 +146,22 @@ for line in open(os.path.join(out, "runs.txt")):
     frames = cap.get("frames_in", 0) + cap.get("dropped", 0)
     worst = lambda f: max((f(x) for x in recon), default=float("nan"))
     st = {k: worst(lambda x, k=k: stage(x, k)) for k in ("hull_box", "upload", "visibility", "sweep", "texture", "wait")}
+    sim = n.get("sim", {})
+    sim_step, sim_backend = stage(sim, "step"), sim.get("backend", "")
     tmap = worst(lambda x: stage(x, "transport_map", "ms_p95"))
     timg = worst(lambda x: stage(x, "transport_image", "ms_p95"))
     rows.append(f"| {name} | {backend} | {r.get('fps', 0):.1f} | {s['frames_composited']} / {frames} (capture out {cap.get('frames_out', 0)}, {cap.get('fps', 0):.1f} fps) | "
                 f"{r.get('latency_ms_p50', 0):.1f} / {r.get('latency_ms_p95', 0):.1f} | "
                 f"{st['wait']:.1f} / {st['hull_box']:.1f} / {st['upload']:.1f} / {st['visibility']:.1f} / {st['sweep']:.1f} / {st['texture']:.1f} | "
-                f"{tmap:.1f} / {timg:.1f} | {rc} |")
+                f"{tmap:.1f} / {timg:.1f} | {sim_step:.1f} | {rc} |")
     summary["runs"][f"{name}_{backend}"] = {"exit": int(rc), "render_fps": r.get("fps"), "composited": s["frames_composited"],
         "frames": frames, "p50_ms": r.get("latency_ms_p50"), "p95_ms": r.get("latency_ms_p95"), "recon_p50_ms": st,
-        "transport_map_p95_ms": tmap, "transport_image_p95_ms": timg, "capture_fps": cap.get("fps")}
+        "transport_map_p95_ms": tmap, "transport_image_p95_ms": timg, "capture_fps": cap.get("fps"),
+        "sim_step_p50_ms": sim_step, "sim_backend": sim_backend}
 with open(os.path.join(out, "table.md"), "w") as f:
     f.write(f"GL: {gl_line or 'none'}; {os.cpu_count()} cores\n\n")
-    f.write("| run | backend | render fps | composited / frames | p50 / p95 ms | recon p50 ms: wait / hull box / upload / visibility / sweep / texture | transport p95 ms: map / image | exit |\n")
-    f.write("|---|---|---|---|---|---|---|---|\n")
+    f.write("| run | backend | render fps | composited / frames | p50 / p95 ms | recon p50 ms: wait / hull box / upload / visibility / sweep / texture | transport p95 ms: map / image | sim step p50 ms | exit |\n")
+    f.write("|---|---|---|---|---|---|---|---|---|\n")
     f.write("\n".join(rows) + "\n")
     if not gpu:
         f.write("\nGPU rows not measured: no hardware GL renderer here (the CPU rows only).\n")
