@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -248,15 +249,25 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
     cams.push_back(PackCamera(q.fast()[c], cw.rotation, cw.translation, q.object_rect(c)));
   }
   maps_->Upload(maps, &rects);
-  std::vector<float> flat(count * 9);
+  // The triangles written as floats straight into a persistently mapped
+  // buffer (the last batch's pass is over: its results were read back).
+  if (tris_capacity_ < count) {
+    tris_capacity_ = std::max(count, 2 * tris_capacity_);
+    tris_ = MakeBuffer();
+    const GLbitfield flags = GL_MAP_WRITE_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
+    glNamedBufferStorage(tris_.get(), GLsizeiptr(tris_capacity_ * 9 * sizeof(float)), nullptr, flags);
+    tris_mapped_ = static_cast<float*>(
+        glMapNamedBufferRange(tris_.get(), 0, GLsizeiptr(tris_capacity_ * 9 * sizeof(float)), flags));
+    if (!tris_mapped_) throw GlError("glMapNamedBufferRange of the triangle buffer failed");
+    results_ = MakeBuffer();
+    glNamedBufferStorage(results_.get(), GLsizeiptr(tris_capacity_ * 16), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  }
   for (size_t i = 0; i < count; ++i) {
     const Triangle& t = tris[i];
-    float* f = &flat[9 * i];
+    float* f = tris_mapped_ + 9 * i;
     for (int k = 0; k < 3; ++k) f[k] = float(t.a[k]), f[3 + k] = float(t.b[k]), f[6 + k] = float(t.c[k]);
   }
   glNamedBufferData(cams_.get(), GLsizeiptr(cams.size() * sizeof(GpuCamera)), cams.data(), GL_STREAM_DRAW);
-  glNamedBufferData(tris_.get(), GLsizeiptr(flat.size() * sizeof(float)), flat.data(), GL_STREAM_DRAW);
-  glNamedBufferData(results_.get(), GLsizeiptr(count * 16), nullptr, GL_STREAM_READ);
 
   const GLuint p = program_.get();
   glUseProgram(p);
@@ -276,7 +287,7 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, tris_.get());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, results_.get());
 
-  std::vector<uint32_t> res(count * 4);
+  std::unique_ptr<uint32_t[]> res(new uint32_t[count * 4]);  // every entry read back below
   uint32_t used = 0;
   double t1 = 0, t2 = 0;
   for (int attempt = 0; attempt < 2; ++attempt) {
@@ -297,7 +308,7 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
     if (used <= mask_capacity_) break;
     mask_capacity_ = size_t(used) + used / 4;  // too many masks for the buffer: again with room for all
   }
-  glGetNamedBufferSubData(results_.get(), 0, GLsizeiptr(res.size() * 4), res.data());
+  glGetNamedBufferSubData(results_.get(), 0, GLsizeiptr(count * 16), res.get());
   r.masks_.resize(std::min<size_t>(used, mask_capacity_));
   if (!r.masks_.empty()) glGetNamedBufferSubData(masks_.get(), 16, GLsizeiptr(r.masks_.size() * 4), r.masks_.data());
   CheckGl("triangle query");
@@ -305,6 +316,11 @@ TriangleBatchResult GlTriangleQuery::QueryBatch(const VolumeQuery& q, const std:
 
   // Counts as the GPU found them; the triangles with an inside pixel kept
   // for their points (made on demand: TriangleBatchResult::Points).
+  size_t hits = 0;
+  for (size_t i = 0; i < count; ++i) hits += res[4 * i + 1] > 0;
+  r.hit_triangles_.reserve(hits);
+  r.hit_mask_.reserve(hits);
+  r.hit_size_.reserve(hits);
   for (size_t i = 0; i < count; ++i) {
     const uint32_t* e = &res[4 * i];
     r.tested_[i] = int(e[0]);

@@ -91,6 +91,8 @@ class GlTriangleQuery {
   std::unique_ptr<LayerUploader> maps_;
   Buffer cams_, tris_, results_, masks_;
   size_t mask_capacity_;
+  size_t tris_capacity_ = 0;      // triangles tris_ and results_ hold
+  float* tris_mapped_ = nullptr;  // tris_, persistently mapped
 };
 
 }  // namespace hullpipe::gl
