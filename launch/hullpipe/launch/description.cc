@@ -22,6 +22,18 @@ bool PlainName(const std::string& s) {
   return true;
 }
 
+// A host ssh can be given as its destination and nothing else: a name or
+// address ([user@]host, IPv6 in brackets or bare), never an option ('-...')
+// nor anything a shell or ssh would read further (spaces, quotes, '$', ';').
+bool PlainHost(const std::string& h) {
+  if (h.empty() || h.size() > 255 || h.front() == '-') return false;
+  for (char c : h)
+    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '-' ||
+          c == '_' || c == ':' || c == '@' || c == '[' || c == ']' || c == '%'))
+      return false;
+  return true;
+}
+
 std::string Substitute(std::string s, const std::map<std::string, std::string>& vars) {
   for (const auto& [k, v] : vars) {
     const std::string key = "${" + k + "}";
@@ -49,6 +61,10 @@ NodeSpec ParseNode(const YAML::Node& n) {
   if (!PlainName(s.name))
     throw std::runtime_error("node name '" + s.name +
                              "' must be 1-64 letters, digits, '_' or '-' (it names the node's log file)");
+  if (!PlainHost(s.host))
+    throw std::runtime_error("node " + s.name + ": host '" + s.host +
+                             "' must be a host name or address ([user@]host: letters, digits, '.', '-', '_', ':', "
+                             "'@', '[', ']', '%'; not starting with '-')");
   bool known = false;
   for (const char* e : kNodeExecs) known |= s.exec == e;
   if (!known)
@@ -128,15 +144,29 @@ std::vector<std::string> ExpandArguments(const LaunchDescription& description, s
   return args;
 }
 
+std::string QuoteForShell(const std::string& word) {
+  std::string q = "'";
+  for (char c : word) {
+    if (c == '\'') q += "'\\''";  // close, an escaped quote, reopen
+    else q += c;
+  }
+  return q + "'";
+}
+
 std::vector<std::string> NodeCommand(const NodeSpec& spec, const std::string& exe,
                                      const std::vector<std::string>& args, const std::string& dds_config) {
-  std::vector<std::string> argv;
-  if (spec.host != "localhost" && !spec.host.empty())
-    argv = {"ssh", spec.host, "env", "CYCLONEDDS_URI=file://" + dds_config};
-  if (spec.nice > 0) argv.insert(argv.end(), {"nice", "-n", std::to_string(spec.nice)});
-  argv.push_back(exe);
-  argv.insert(argv.end(), args.begin(), args.end());
-  return argv;
+  std::vector<std::string> command;
+  if (spec.nice > 0) command.insert(command.end(), {"nice", "-n", std::to_string(spec.nice)});
+  command.push_back(exe);
+  command.insert(command.end(), args.begin(), args.end());
+  if (spec.host == "localhost" || spec.host.empty()) return command;
+  // ssh joins the words after the destination with spaces and the remote
+  // user's shell parses the line: each word goes quoted, so it arrives as one
+  // word, unexpanded. `--` ends ssh's options before the destination.
+  if (!PlainHost(spec.host)) throw std::invalid_argument("host '" + spec.host + "' is not a host name or address");
+  std::string line = "env " + QuoteForShell("CYCLONEDDS_URI=file://" + dds_config);
+  for (const auto& w : command) line += " " + QuoteForShell(w);
+  return {"ssh", "--", spec.host, line};
 }
 
 }  // namespace hullpipe::launch

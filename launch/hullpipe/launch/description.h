@@ -18,7 +18,8 @@ struct NodeSpec {
   std::string name;
   /// capture_node, recon_node, sim_node or render_node.
   std::string exec;
-  /// "localhost" runs the node here; any other host through ssh.
+  /// "localhost" runs the node here; any other host through ssh: a host name
+  /// or address ([user@]host), never starting with '-' (an ssh option).
   std::string host = "localhost";
   std::vector<std::string> args;  ///< With ${...} placeholders (ExpandArguments).
   double start_delay = 0;         ///< Seconds after the previous node started, [0, 60].
@@ -68,10 +69,18 @@ struct LaunchContext {
 std::vector<std::string> ExpandArguments(const LaunchDescription& description, size_t index,
                                          const LaunchContext& context);
 
-/// The whole command: `ssh <host> env CYCLONEDDS_URI=file://<dds_config>` for a
-/// remote host, `nice -n N` where nice > 0 (nice execs the node: its pid,
-/// signals and exit status are the node's), then `exe` and `args`.
+/// The whole command: `nice -n N` where nice > 0 (nice execs the node: its
+/// pid, signals and exit status are the node's), then `exe` and `args`; for a
+/// remote host, `ssh -- <host>` and one line for the remote shell, `env
+/// CYCLONEDDS_URI=file://<dds_config>` and those words, each single-quoted
+/// (QuoteForShell), so the node gets them as they are, unexpanded. Throws
+/// std::invalid_argument for a host that is no host name or address (the
+/// description's parser refuses those first).
 std::vector<std::string> NodeCommand(const NodeSpec& spec, const std::string& exe,
                                      const std::vector<std::string>& args, const std::string& dds_config);
+
+/// `word` as one word for a POSIX shell: in single quotes, a quote inside it
+/// as '\''.
+std::string QuoteForShell(const std::string& word);
 
 }  // namespace hullpipe::launch

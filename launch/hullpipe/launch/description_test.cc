@@ -2,6 +2,7 @@
 // on one line naming the node and key; node command lines as the launcher makes
 // them (placeholders, the rig's world, the parent's view flags, ssh and nice).
 #include "hullpipe/launch/description.h"
+#include "hullpipe/launch/process.h"
 #include "hullpipe/launch/supervisor.h"
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -106,8 +108,9 @@ TEST(LaunchDescription, ArgumentsAreExpandedAsTheLauncherGivesThem) {
   EXPECT_EQ(ExpandArguments(d, 1, ctx).front(), "--synthetic");      // ${source}
   EXPECT_EQ(ExpandArguments(d, 0, ctx).front(), "--out");            // ${world}: nothing
   EXPECT_EQ(NodeCommand(d.nodes[1], "/bin/capture_node", {"--x"}, "/o/dds.xml"),
-            (std::vector<std::string>{"ssh", "labpc", "env", "CYCLONEDDS_URI=file:///o/dds.xml", "nice", "-n", "5",
-                                      "/bin/capture_node", "--x"}));
+            (std::vector<std::string>{"ssh", "--", "labpc",
+                                      "env 'CYCLONEDDS_URI=file:///o/dds.xml' 'nice' '-n' '5' '/bin/capture_node' "
+                                      "'--x'"}));
   EXPECT_EQ(NodeCommand(d.nodes[0], "/bin/render_node", {}, "/o/dds.xml"),
             (std::vector<std::string>{"/bin/render_node"}));
 }
@@ -127,6 +130,74 @@ std::vector<SupervisedNode> Start(const std::vector<std::string>& scripts) {
                                                    std::vector<std::string>{"/bin/sh", "-c", scripts[i]}, ""),
                      ""});
   return nodes;
+}
+
+// A launch description must not run commands. A host is a host name or
+// address, never an ssh option ("-oProxyCommand=..." ran its command on the
+// launching machine); and a remote node's words reach it as they are: ssh
+// joins them for the remote shell, so unquoted, "$(...)" ran there and a path
+// with a space broke. A stand-in ssh does what sshd does (joins the words after
+// the destination, runs them with sh -c); the control shows it expands an
+// unquoted "$(...)".
+TEST(LaunchDescription, AHostIsNoOptionAndRemoteWordsReachTheNodeUnexpanded) {
+  const std::string base = "nodes:\n  - {name: render, exec: render_node}\n  - {name: c, exec: capture_node, host: ";
+  for (const std::string bad : {"\"-oProxyCommand=touch /tmp/x\"", "\"lab pc\"", "\"lab;pc\"", "\"$(id)\"",
+                                "\"-lroot\"", "\"\""}) {
+    try {
+      ParseLaunchDescription(base + bad + "}\n");
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("node c: host"), std::string::npos) << e.what();
+    }
+  }
+  for (const std::string good : {"labpc", "user@lab-pc.local", "10.0.0.2", "\"[fe80::1%eth0]\"", "fe80::1"})
+    EXPECT_NO_THROW(ParseLaunchDescription(base + good + "}\n")) << good;
+  NodeSpec hostile;
+  hostile.host = "-oProxyCommand=x";
+  EXPECT_THROW(NodeCommand(hostile, "/bin/true", {}, "/o/dds.xml"), std::invalid_argument);
+
+  const std::filesystem::path dir =
+      std::filesystem::path(::testing::TempDir()) / ("hullpipe_ssh_" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  const auto write = [&](const std::string& name, const std::string& text) {
+    FILE* f = std::fopen((dir / name).c_str(), "w");
+    ASSERT_TRUE(f);
+    std::fputs(text.c_str(), f);
+    std::fclose(f);
+    std::filesystem::permissions(dir / name, std::filesystem::perms::owner_all);
+  };
+  write("ssh", "#!/bin/sh\n[ \"$1\" = -- ] && shift\nshift\nexec /bin/sh -c \"$*\"\n");
+  write("node", "#!/bin/sh\nfor a in \"$@\"; do printf '%s\\n' \"$a\"; done > \"" + (dir / "args").string() +
+                    "\"\nprintf '%s\\n' \"$CYCLONEDDS_URI\" > \"" + (dir / "uri").string() + "\"\n");
+  const std::string pwned = (dir / "pwned").string();
+  const std::vector<std::string> args = {"$(touch " + pwned + ")", "a path/with space", "it's", "`touch " + pwned + "`",
+                                         "--rig", "x;touch " + pwned};
+  NodeSpec spec;
+  spec.host = "labpc";
+  spec.nice = 3;
+  std::vector<std::string> argv = NodeCommand(spec, (dir / "node").string(), args, "/o/my dds.xml");
+  ASSERT_EQ(argv.front(), "ssh");
+  argv.front() = (dir / "ssh").string();
+  {
+    Process p(argv, (dir / "log").string());
+    ASSERT_EQ(p.Wait(20), 0);
+  }
+  std::ifstream in(dir / "args");
+  std::vector<std::string> got;
+  for (std::string line; std::getline(in, line);) got.push_back(line);
+  EXPECT_EQ(got, args);
+  std::ifstream uri(dir / "uri");
+  std::string u;
+  std::getline(uri, u);
+  EXPECT_EQ(u, "file:///o/my dds.xml");
+  EXPECT_FALSE(std::filesystem::exists(pwned)) << "a word ran as a command";
+  // Control: the same words unquoted, as ssh was given them before, do run it.
+  {
+    Process p({(dir / "ssh").string(), "--", "labpc", (dir / "node").string(), args[0]}, (dir / "log").string());
+    ASSERT_EQ(p.Wait(20), 0);
+  }
+  EXPECT_TRUE(std::filesystem::exists(pwned)) << "the stand-in ssh expands as sshd's shell does";
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Supervisor, TheParentFinishingEndsTheRunAndTheOthersAreStopped) {
