@@ -354,6 +354,14 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
   if (rec.damaged_samples() > 0)
     spdlog::error("{}: {} damaged sample(s) skipped (CRC-32 mismatch, a bad frame or an unknown topic); "
                   "`hullpipe_record info` says more", o.recording, rec.damaged_samples());
+  // What the samples read cannot show (a file cut short, a record that lies
+  // about its length, a channel redefined, a message on no channel): the
+  // structural check `info` makes, so echo and export name the damage and exit
+  // 3 as info does, after giving what reads.
+  const std::string structural = StopRequested() ? std::string() : rec.QuickCheck();
+  if (!structural.empty())
+    spdlog::error("{}: damaged: {} ({} what reads; `hullpipe_record repair` keeps the sound part)", o.recording,
+                  structural, o.echo ? "echoed" : "exported");
   json summary;
   summary["recording"] = o.recording;
   int64_t undecodable = 0;
@@ -391,7 +399,7 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
   }
   if (!rec.missing_parts().empty())
     spdlog::error("{}: {}: exported what the other parts hold (exit 3)", o.recording, rec.missing_parts());
-  return undecodable || rec.damaged_samples() > 0 || !rec.missing_parts().empty() ? 3 : 0;
+  return undecodable || rec.damaged_samples() > 0 || !rec.missing_parts().empty() || !structural.empty() ? 3 : 0;
 }
 
 }  // namespace hullpipe::record
