@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <deque>
 #include <filesystem>
 #include <stdexcept>
 
+#include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/geometry/calibration.h"
@@ -60,10 +62,14 @@ cv::VideoCapture OpenCameraCapture(const std::string& spec) {
   return cv::VideoCapture(spec, cv::CAP_ANY);
 }
 
-void CheckImageSequence(const std::string& pattern) {
+void CheckImageSequence(const std::string& pattern) { CheckImageSequence(pattern, FirstFileNumber(pattern)); }
+
+int CheckImageSequence(const std::string& pattern, int first_number) {
   const ImageLimits limits;
+  const bool single = NumberedFile(pattern, 0) == pattern;
   std::optional<ImageHeader> first;
-  for (int n = FirstFileNumber(pattern);; ++n) {
+  int count = 0;
+  for (int n = first_number; !single || n == first_number; ++n, ++count) {
     const std::string file = NumberedFile(pattern, n);
     std::error_code ec;
     if (!std::filesystem::exists(file, ec)) break;  // the sequence ends at its first gap, as OpenCV's
@@ -87,6 +93,37 @@ void CheckImageSequence(const std::string& pattern) {
                                std::to_string(first->height));
     }
   }
+  return count;
+}
+
+std::optional<ImageSequence> FindImageSequence(const std::string& spec) {
+  if (RigCamera::IsLiveSpec(spec) || spec.rfind("v4l2:", 0) == 0) return std::nullopt;
+  ImageSequence seq;
+  if (NumberedFile(spec, 0) != spec) {
+    seq.pattern = spec;
+    seq.first = FirstFileNumber(spec);
+  } else {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(spec, ec) || !ProbeImageFile(spec)) return std::nullopt;
+    // The basename's last run of digits is the frame number ("img_0007.png").
+    const size_t base = spec.find_last_of('/') + 1;  // npos + 1 == 0
+    size_t end = spec.size();
+    while (end > base && !std::isdigit(static_cast<unsigned char>(spec[end - 1]))) --end;
+    size_t begin = end;
+    while (begin > base && std::isdigit(static_cast<unsigned char>(spec[begin - 1]))) --begin;
+    if (begin < end && end - begin <= 9) {
+      std::string pattern = spec.substr(0, begin) + "%0" + std::to_string(end - begin) + "d" + spec.substr(end);
+      // A literal '%' elsewhere in the name would be read as the conversion.
+      if (pattern.find('%') == begin) {
+        seq.pattern = std::move(pattern);
+        seq.first = std::stoi(spec.substr(begin, end - begin));
+      }
+    }
+    if (seq.pattern.empty()) seq.pattern = spec;  // a still: one file
+  }
+  seq.count = CheckImageSequence(seq.pattern, seq.first);
+  if (seq.count == 0) return std::nullopt;  // a pattern naming no file: "cannot open" below
+  return seq;
 }
 
 std::string NumberedFile(const std::string& pattern, int n) {
@@ -113,6 +150,14 @@ FileCameraReader::FileCameraReader(int camera_id, std::string spec) : camera_id_
 }
 
 void FileCameraReader::Reopen() {
+  next_ = 0;
+  error_.clear();
+  sequence_ = FindImageSequence(spec_);
+  if (sequence_) {
+    declared_frames_ = sequence_->count;
+    fps_ = 0;
+    return;
+  }
   capture_ = OpenCameraCapture(spec_);
   if (!capture_.isOpened())
     throw std::runtime_error("camera " + std::to_string(camera_id_) + ": cannot open " + spec_);
@@ -123,6 +168,11 @@ void FileCameraReader::Reopen() {
 }
 
 bool FileCameraReader::Read(cv::Mat* image) {
+  if (sequence_) {
+    if (next_ >= sequence_->count) return false;
+    *image = ReadImageFile(NumberedFile(sequence_->pattern, sequence_->first + next_++), cv::IMREAD_COLOR, &error_);
+    return !image->empty();
+  }
   try {
     return capture_.read(*image) && !image->empty();
   } catch (const cv::Exception&) {
@@ -131,6 +181,7 @@ bool FileCameraReader::Read(cv::Mat* image) {
 }
 
 bool FileCameraReader::Grab() {
+  if (sequence_) return next_ < sequence_->count && ++next_ > 0;
   try {
     return capture_.grab();
   } catch (const cv::Exception&) {
@@ -234,10 +285,16 @@ void LiveCameraReader::Run(State& s) {
 
 std::vector<cv::Mat> ReadCalibratedFrames(int camera_id, const std::string& what, const std::string& spec, int count,
                                           int width, int height) {
-  cv::VideoCapture cap = OpenCameraCapture(spec);
-  if (!cap.isOpened()) throw std::runtime_error("camera " + std::to_string(camera_id) + ": cannot open " + what);
   std::vector<cv::Mat> frames;
   cv::Mat f;
+  if (FindImageSequence(spec)) {
+    FileCameraReader reader(camera_id, spec);
+    while (int(frames.size()) < count && reader.Read(&f))
+      if (f.cols == width && f.rows == height && f.type() == CV_8UC3) frames.push_back(f.clone());
+    return frames;
+  }
+  cv::VideoCapture cap = OpenCameraCapture(spec);
+  if (!cap.isOpened()) throw std::runtime_error("camera " + std::to_string(camera_id) + ": cannot open " + what);
   while (int(frames.size()) < count && cap.read(f) && !f.empty()) {
     if (f.cols == width && f.rows == height && f.type() == CV_8UC3) frames.push_back(f.clone());
   }

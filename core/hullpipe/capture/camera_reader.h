@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -30,13 +31,32 @@ namespace hullpipe {
 cv::VideoCapture OpenCameraCapture(const std::string& spec);
 
 /// Checks every file of an image sequence (`pattern` as NumberedFile takes it,
-/// from FirstFileNumber to the first gap, as OpenCV's image-sequence capture
-/// reads them) from its header alone (util/image_file.h, ProbeImageFile)
-/// before any is decoded: each must be a regular file holding a PNG, JPEG, BMP,
-/// PNM or TIFF image within ImageLimits (16384 px a side, 256 MiB) and of the
-/// first frame's size. Throws std::runtime_error naming the first file that is
-/// not. Reads the start of every file once (up to 4 MiB each).
+/// from file number `first` to the first gap; a pattern without a conversion is
+/// one file) from its header alone (util/image_file.h, ProbeImageFile) before
+/// any is decoded: each must be a regular file holding a PNG, JPEG, BMP, PNM or
+/// TIFF image within ImageLimits (16384 px a side, 256 MiB) and of the first
+/// frame's size. Returns the number of files. Throws std::runtime_error naming
+/// the first file that is not. Reads the start of every file once (up to 4 MiB
+/// each).
+int CheckImageSequence(const std::string& pattern, int first);
+/// As above from FirstFileNumber(pattern).
 void CheckImageSequence(const std::string& pattern);
+
+/// An image sequence a camera spec names, checked (CheckImageSequence).
+struct ImageSequence {
+  std::string pattern;  ///< as NumberedFile takes it; a single file's own name when it has no digits
+  int first = 0;        ///< the first file's number
+  int count = 0;        ///< files from `first` to the first gap (>= 1)
+};
+
+/// The image sequence `spec` names, or std::nullopt when it names none (a video
+/// file, a live camera, a missing file). A pattern ("img_%04d.png") starts at
+/// FirstFileNumber; a regular file whose header is an image names the sequence
+/// it starts: its basename's last run of digits becomes the number
+/// ("cam1/img_0007.png" is "cam1/img_%04d.png" from 7), and a name without
+/// digits is a single still image (count 1). Either way every file is checked
+/// as CheckImageSequence does, which throws naming the file.
+std::optional<ImageSequence> FindImageSequence(const std::string& spec);
 
 /// The file of number `n` of a printf-style pattern ("mask_%04d.png"): one
 /// integer conversion, "%d" or "%0Nd" (N <= 9); a pattern without one names a
@@ -47,7 +67,11 @@ std::string NumberedFile(const std::string& pattern, int n);
 /// image sequences count), so that file k goes with frame k; 0 if none does.
 int FirstFileNumber(const std::string& pattern);
 
-/// A video file or image sequence read frame by frame.
+/// A video file or image sequence read frame by frame. Image sequences
+/// (FindImageSequence) are read file by file here with the header checks of
+/// ReadImageFile, not through OpenCV's capture: its sequences start only at
+/// file 0 or 1, and a sequence's first file given by name is opened by FFmpeg as
+/// one still frame.
 class FileCameraReader {
  public:
   /// Opens `spec` from its first frame. Throws std::runtime_error naming the
@@ -60,8 +84,14 @@ class FileCameraReader {
   bool Read(cv::Mat* image);
   /// Passes over the next frame without decoding it; false at its end.
   bool Grab();
-  /// Frames the container declares (estimates; 0 when unknown or absurd).
+  /// Frames the container declares (estimates; 0 when unknown or absurd); an
+  /// image sequence's file count.
   int64_t declared_frames() const { return declared_frames_; }
+  /// Why the last Read failed before the end, naming the file (image
+  /// sequences), or empty.
+  const std::string& error() const { return error_; }
+  /// The image sequence read, or std::nullopt for a video.
+  const std::optional<ImageSequence>& sequence() const { return sequence_; }
   /// The container's frame rate, or 0 when it gives none in (1, 1000).
   double fps() const { return fps_; }
   const std::string& spec() const { return spec_; }
@@ -70,6 +100,9 @@ class FileCameraReader {
   int camera_id_;
   std::string spec_;
   cv::VideoCapture capture_;
+  std::optional<ImageSequence> sequence_;
+  int next_ = 0;  ///< the sequence's next frame index
+  std::string error_;
   int64_t declared_frames_ = 0;
   double fps_ = 0;
 };

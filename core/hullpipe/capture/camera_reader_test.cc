@@ -86,6 +86,64 @@ TEST(CameraReader, AnImageSequenceIsCheckedFromItsHeadersBeforeAnyDecode) {
   EXPECT_NO_THROW(OpenCameraCapture(pattern)) << "the sequence ends at its first gap again";
 }
 
+// A sequence named by its first file ("f_01.png" instead of "f_%02d.png") is
+// the sequence from that number, checked as the pattern is: FFmpeg once opened
+// such a file as one still frame, so the camera ended after frame 1 without a
+// reason, and a bad later file was never checked. A name without digits is a
+// single still image (the control for the count).
+TEST(CameraReader, AnImageSequenceNamedByItsFirstFileIsTheSequenceChecked) {
+  const auto dir = test::TempDir("camera_reader_first_file");
+  for (int k = 0; k < 4; ++k)
+    cv::imwrite((dir / cv::format("f_%02d.png", k)).string(), cv::Mat(6, 8, CV_8UC3, cv::Scalar::all(10 * k)));
+  const std::string first = (dir / "f_01.png").string();
+  const auto seq = FindImageSequence(first);
+  ASSERT_TRUE(seq.has_value());
+  EXPECT_EQ(seq->pattern, (dir / "f_%02d.png").string());
+  EXPECT_EQ(seq->first, 1);
+  EXPECT_EQ(seq->count, 3);
+  FileCameraReader reader(1, first);
+  EXPECT_EQ(reader.declared_frames(), 3);
+  cv::Mat img;
+  for (int k = 1; k < 4; ++k) {
+    ASSERT_TRUE(reader.Read(&img)) << k;
+    EXPECT_EQ(img.at<cv::Vec3b>(0, 0)[0], 10 * k);
+  }
+  EXPECT_FALSE(reader.Read(&img));
+  EXPECT_TRUE(reader.error().empty()) << reader.error();  // the end, not a failure
+  // Frames past file 1 (OpenCV's own sequences start at 0 or 1 only).
+  EXPECT_EQ(FindImageSequence((dir / "f_03.png").string())->count, 1);
+  // A later file whose header lies is refused naming it, before any decode.
+  std::ofstream(dir / "f_02.png", std::ios::binary) << "not an image at all, just text";
+  try {
+    FileCameraReader bad(1, first);
+    ADD_FAILURE() << "not refused";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("f_02.png"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("header"), std::string::npos) << e.what();
+  }
+  // A still without digits in its name: one frame. A video or a missing file
+  // is no image sequence.
+  cv::imwrite((dir / "still.png").string(), cv::Mat(6, 8, CV_8UC3, cv::Scalar::all(7)));
+  EXPECT_EQ(FindImageSequence((dir / "still.png").string())->count, 1);
+  EXPECT_FALSE(FindImageSequence((dir / "missing_00.png").string()).has_value());
+  std::ofstream(dir / "clip_00.avi") << "RIFF";
+  EXPECT_FALSE(FindImageSequence((dir / "clip_00.avi").string()).has_value());
+  // A file that fails to decode after the check (replaced mid-run) ends the
+  // reader with its reason, naming the file.
+  cv::imwrite((dir / "f_02.png").string(), cv::Mat(6, 8, CV_8UC3, cv::Scalar::all(20)));
+  FileCameraReader later(1, first);
+  ASSERT_TRUE(later.Read(&img));
+  {
+    std::vector<uint8_t> png;
+    cv::imencode(".png", cv::Mat(6, 8, CV_8UC3, cv::Scalar::all(1)), png);
+    png.resize(png.size() / 2);  // the header intact, the data cut
+    std::ofstream(dir / "f_02.png", std::ios::binary).write(reinterpret_cast<const char*>(png.data()),
+                                                           std::streamsize(png.size()));
+  }
+  EXPECT_FALSE(later.Read(&img));
+  EXPECT_NE(later.error().find("f_02.png"), std::string::npos) << later.error();
+}
+
 // (A file that does not open is a capture node test,
 // CaptureFiles.AMissingVideoNamesTheCameraAndTheFile: OpenCV's probing of every
 // backend for a missing file leaks inside libusb, which the sanitizer build of

@@ -332,6 +332,11 @@ class VideoRig final : public RigSource {
         // 428): short by more than max(5 frames, 1%) is a truncated file.
         const int64_t declared = c.frames->declared_frames();  // 0: unknown
         const int64_t slack = std::max<int64_t>(5, declared / 100);
+        if (!c.frames->error().empty()) {
+          incomplete_ = "camera " + std::to_string(c.camera.id) + ": " + c.frames_spec + " ends after frame " +
+                        std::to_string(index_) + ": " + c.frames->error();
+          break;
+        }
         if (declared > 0 && index_ + slack < declared) {
           incomplete_ = "camera " + std::to_string(c.camera.id) + ": " + c.frames_spec + " ends after frame " +
                         std::to_string(index_) + " of the " + std::to_string(declared) +
@@ -344,8 +349,14 @@ class VideoRig final : public RigSource {
   }
   std::string FilesOf(bool ended) const {
     std::string s;
-    for (const Cam& c : cams_)
-      if (c.ended == ended) s += (s.empty() ? "" : ", ") + c.frames_spec;
+    for (const Cam& c : cams_) {
+      if (c.ended != ended) continue;
+      s += (s.empty() ? "" : ", ") + c.frames_spec;
+      if (c.frames && c.frames->sequence())
+        s += " (" + std::to_string(c.frames->sequence()->count) + " image file(s) from " +
+             NumberedFile(c.frames->sequence()->pattern, c.frames->sequence()->first) + ")";
+      if (c.frames && !c.frames->error().empty()) s += " (" + c.frames->error() + ")";
+    }
     return s;
   }
 

@@ -59,6 +59,36 @@ TEST(RigSource, YamlRigOfImageSequencesIsSegmented) {
   EXPECT_GE(MaskIoU(f.maps[0], truth), 0.9);  // small 96x72 images: borders weigh more
 }
 
+// A rig whose camera names its frames by the first file reads the whole
+// sequence as the pattern does; when one of its files is bad, the rig does not
+// open and the line names that file (it once read one frame, then ended the run
+// with "camera(s) 1 ended after frame 1" and no reason).
+TEST(RigSource, FramesNamedByTheirFirstFileAreTheSequence) {
+  const auto dir = test::TempDir("rig_first_file");
+  const std::string path = WriteImageRig(dir, false, 3);
+  Rig rig = LoadRig(path);
+  rig.cameras[0].frames = "cam1/frame_000.png";
+  WriteRigYaml(rig, (dir / "first.yaml").string());
+  {
+    const auto source = OpenVideoRig((dir / "first.yaml").string(), {});
+    RigFrame f;
+    int n = 0;
+    while (source->Next(&f)) ++n;
+    EXPECT_EQ(n, 3);
+    EXPECT_EQ(source->IncompleteEnd(), "");
+  }
+  std::ofstream(dir / "cam1" / "frame_002.png", std::ios::binary) << "text, not a PNG";
+  try {
+    const auto source = OpenVideoRig((dir / "first.yaml").string(), {});
+    RigFrame f;
+    while (source->Next(&f)) {
+    }
+    ADD_FAILURE() << "a bad file was read past: " << source->IncompleteEnd();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("frame_002.png"), std::string::npos) << e.what();
+  }
+}
+
 TEST(RigSource, CameraSubsetKeepsTheRigSize) {
   const auto dir = test::TempDir("rig_subset");
   VideoRigOptions o;
