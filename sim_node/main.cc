@@ -72,8 +72,12 @@ int main(int argc, char** argv) {
   app.add_flag("--every-frameset", every_frameset,
                "Step every complete frameset in order, not only the newest (deterministic replays of a recording)");
   CLI11_PARSE(app, argc, argv);
+  InstallStopHandler();  // before the models import: SIGINT ends an import too
   try {
-    SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path);
+    SceneLoadOptions load;
+    load.stop = StopRequestFlag();
+    if (!scene_path.empty()) spdlog::info("loading {} (and importing its models)", scene_path);
+    SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path, load);
     RigWorld world;  // the Utrecht rig's: up -z, the floor z = 0
     world.floor = RigWorld::Floor::kPlane;
     Aabb workspace;  // none: a stage's origin is the world's, on the floor
@@ -123,8 +127,13 @@ int main(int argc, char** argv) {
       reporter.Publish();
     }
     reporter.Publish(true);
-    spdlog::info("stopped: {} steps, {} colliding body-steps, {} dropped, {} rejected", sim.counters().frames_out(),
-                 sim.collisions(), sim.counters().dropped(), sim.counters().rejected());
+    spdlog::info("stopped: {} steps, {} colliding body-steps, {} part collision starts/ends ({} not logged one by "
+                 "one), {} dropped, {} rejected",
+                 sim.counters().frames_out(), sim.collisions(), sim.part_events(), sim.part_events_unlogged(),
+                 sim.counters().dropped(), sim.counters().rejected());
+  } catch (const Interrupted& e) {
+    spdlog::info("{}; stopped before the first step", e.what());
+    return 0;
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

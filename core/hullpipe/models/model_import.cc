@@ -37,6 +37,7 @@ namespace hullpipe {
 void ImportLimits::Check() const {
   if (max_file_bytes < 1) throw std::invalid_argument("ImportLimits.max_file_bytes must be >= 1");
   if (max_triangles < 1) throw std::invalid_argument("ImportLimits.max_triangles must be >= 1");
+  if (max_parts < 1) throw std::invalid_argument("ImportLimits.max_parts must be >= 1");
   if (max_memory_bytes < (int64_t(64) << 20)) throw std::invalid_argument("ImportLimits.max_memory_bytes must be >= 64 MiB");
   if (!(max_seconds >= 0.1 && max_seconds <= 3600)) throw std::invalid_argument("ImportLimits.max_seconds must be in [0.1, 3600]");
 }
@@ -160,6 +161,9 @@ class PartBuilder {
         t[c] = r;
       }
     part.vertices.swap(used);
+    if (int64_t(out_->parts.size()) >= limits_.max_parts)
+      throw ModelError(file_ + ": more than " + std::to_string(limits_.max_parts) +
+                       " parts (nodes with meshes; the part cap: merge parts in the CAD tool)");
     out_->parts.push_back(std::move(part));
   }
 
@@ -352,6 +356,8 @@ ImportedModel DeserializeModel(const std::string& bytes, const std::string& name
   m.counts.degenerate_triangles = c.Get<int64_t>(), m.counts.empty_nodes = c.Get<int64_t>();
   const uint64_t parts = c.Get<uint64_t>();
   c.Need(parts);  // every part takes bytes: a count past them is a lie
+  if (parts > uint64_t(limits.max_parts))
+    throw ModelError(name + ": more than " + std::to_string(limits.max_parts) + " parts (the part cap)");
   int64_t triangles = 0;
   for (uint64_t k = 0; k < parts; ++k) {
     ImportedPart p;
@@ -445,10 +451,11 @@ ImportedModel ImportModel(const std::string& path, const ImportLimits& limits) {
   BoundedChildResult child;
   try {
     child = RunBoundedChild([&](int fd) { RunChild(fd, path, limits); }, int(std::ceil(limits.max_seconds)),
-                            limits.max_seconds + 1.0, max_bytes);
+                            limits.max_seconds + 1.0, max_bytes, limits.stop);
   } catch (const std::runtime_error& e) {
     throw ModelError(path + ": cannot start the importer (" + e.what() + ")");
   }
+  if (child.interrupted) throw Interrupted(path + ": import interrupted by a stop request");
   const int status = child.status;
   const std::string& got = child.output;
   if (child.timed_out)

@@ -19,6 +19,8 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "hullpipe/util/interrupt.h"
+
 namespace hullpipe {
 
 /// A model file that cannot be used: the message names the file (and the node
@@ -34,6 +36,13 @@ struct ImportLimits {
   int64_t max_triangles = 5'000'000;            ///< Triangles kept, all parts together.
   int64_t max_memory_bytes = int64_t(4) << 30;  ///< The importer's address space (4 GiB).
   double max_seconds = 60;                      ///< The importer's CPU time and wall clock.
+  /// Parts (nodes with meshes), all a model's: each is a BVH, a wire sample
+  /// and a row of reports every frameset, so 200,000 one-triangle parts (a
+  /// 4-MB glTF under every other cap) cost sim_node 4 GB and 19 s a step.
+  int64_t max_parts = 4096;
+  /// ImportModel ends the importer and throws Interrupted within 0.2 s of this
+  /// flag being set (the node's SIGINT flag); nullptr: never.
+  StopFlag stop = nullptr;
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
 };

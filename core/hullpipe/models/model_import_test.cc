@@ -1,5 +1,8 @@
 #include "hullpipe/models/model_import.h"
 
+#include <atomic>
+#include <chrono>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -316,6 +319,21 @@ TEST(ModelImportBadFiles, AFileThatCrashesAssimpIsALine) {
   Write(dir / "crash.ply", bytes.substr(1));  // the fuzzer's first byte picks the format
   // Crashes Assimp here; a fixed Assimp may refuse it instead: either is one line.
   ExpectRefused((dir / "crash.ply").string(), "");
+}
+
+// A node's stop flag ends the importer child: ImportModel throws Interrupted
+// (not ModelError) within the parent's 0.2-s poll, whatever the file. sim_node
+// imports its models before its first step, and SIGINT there once ended it by
+// the signal (SimNodeProcess.SigintDuringAModelImportStopsCleanly runs the node).
+TEST(ModelImport, AStopFlagEndsTheImporter) {
+  std::atomic<bool> stop{true};
+  ImportLimits limits;
+  limits.stop = &stop;
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_THROW(ImportModel(kEngine, limits), Interrupted);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+  stop = false;  // the control: the same import unstopped
+  EXPECT_EQ(ImportModel(kEngine, limits).parts.size(), 67u);
 }
 
 TEST(ModelImport, SerializedResultRoundTripsAndLiesAreRefused) {

@@ -11,6 +11,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "hullpipe/collision/collision.h"
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/collision/collision_response.h"
 #include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/scenes/scene_config.h"
@@ -20,7 +21,10 @@
 namespace hullpipe {
 
 void ModelEntry::Check() const {
-  if (!(scale > 0 && std::isfinite(scale))) throw std::invalid_argument("models: scale must be > 0");
+  if (!(scale >= kMinModelScale && scale <= kMaxModelScale))
+    throw std::invalid_argument("models: scale must be in [1e-06, 1000] metres per file unit");
+  if (!(position.cwiseAbs().maxCoeff() <= kMaxStatedExtentM))
+    throw std::invalid_argument("models: position must be finite and within 10000 m of the origin");
   if (!position.allFinite()) throw std::invalid_argument("models: position must be finite");
   if (!std::isfinite(yaw_deg)) throw std::invalid_argument("models: yaw_deg must be finite");
   if (first_id < 0) throw std::invalid_argument("models: first_id must be >= 0");
@@ -417,7 +421,7 @@ std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& n,
   auto c = std::make_shared<ModelsConfig>();
   const std::string dir = path.find('/') == std::string::npos ? "" : path.substr(0, path.rfind('/') + 1);
   int next_id = 1000;
-  int64_t triangles = 0;
+  int64_t triangles = 0, parts = 0;
   for (size_t k = 0; k < n.size(); ++k) {
     const YAML::Node m = n[k];
     const std::string where = "models[" + std::to_string(k) + "]";
@@ -480,8 +484,25 @@ std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& n,
       if (limits.max_triangles < 1)
         throw std::runtime_error(path + ": '" + where + "': the scene's models already hold the cap of " +
                                  std::to_string(kMaxSceneModelTriangles) + " triangles");
+      limits.max_parts = kMaxSceneModelParts - parts;
+      limits.stop = load.stop;
+      if (limits.max_parts < 1)
+        throw std::runtime_error(path + ": '" + where + "': the scene's models already hold the cap of " +
+                                 std::to_string(kMaxSceneModelParts) + " parts");
       e.imported = std::make_shared<const ImportedModel>(ImportModel(e.path, limits));
+      // Placed, every vertex lies within 10 km of the origin (before the up
+      // rotation and yaw, which keep distances from the anchor).
+      double reach = 0;
+      for (const auto& p : e.imported->parts)
+        for (const auto& v : p.vertices) reach = std::max(reach, double(v.cast<double>().norm()));
+      const double placed = 2 * reach * e.scale + e.position.norm();  // the anchor moves by at most the reach
+      if (!(placed <= kMaxStatedExtentM))
+        throw std::runtime_error(path + ": '" + where + ".scale': " + e.file + " reaches " +
+                                 std::to_string(reach) + " file units from its origin; at scale " +
+                                 std::to_string(e.scale) + " it would lie up to " + std::to_string(placed) +
+                                 " m from the world's origin, over 10000 m");
       triangles += e.imported->triangles();
+      parts += int64_t(e.imported->parts.size());
       next_id = e.first_id + int(e.imported->parts.size());
     }
     c->models.push_back(std::move(e));

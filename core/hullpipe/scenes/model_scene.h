@@ -57,6 +57,13 @@ namespace hullpipe {
 constexpr int64_t kMaxSceneModelTriangles = 5'000'000;
 constexpr int64_t kMaxModelFileBytes = int64_t(256) << 20;
 constexpr int64_t kMaxDynamicModelTriangles = 200'000;
+/// Parts of a scene's models together (ImportLimits::max_parts).
+constexpr int64_t kMaxSceneModelParts = 4096;
+/// `scale` (metres per file unit) lies in [kMinModelScale, kMaxModelScale]
+/// (a micrometre to a kilometre per unit), and every placed vertex within
+/// kMaxStatedExtentM (10 km) of the world's origin: a scale of 1e308 once gave
+/// non-finite vertices that render refused while every node exited 0.
+constexpr double kMinModelScale = 1e-6, kMaxModelScale = 1e3;
 
 /// One part ready to collide. A static part collides in the world: its mesh
 /// and hierarchy are built there once. A dynamic part's mesh and hierarchy stay

@@ -115,6 +115,46 @@ TEST(ModelScene, BadEntriesNameTheKey) {
   EXPECT_NO_THROW(LoadSceneConfig(p.string(), SceneLoadOptions{false}));
 }
 
+// Scales and positions that put a model's vertices beyond any rig (a scale of
+// 1e308 once gave non-finite vertices: sim published them, render refused them
+// and drew nothing, every node exited 0), and models of more parts than the
+// cap (a 4-MB glTF of 200,000 one-triangle nodes cost sim 4 GB and 19 s a
+// step): refused at load, naming the key or the cap. The controls load.
+TEST(ModelScene, AbsurdScalesAndPartFloodsAreRefusedNamingTheKey) {
+  const fs::path dir = test::TempDir("model_scene_absurd");
+  std::ofstream(dir / "t.obj") << "o t\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  std::ofstream(dir / "far.obj") << "o t\nv 0 0 0\nv 1e38 0 0\nv 0 1e38 0\nf 1 2 3\n";
+  const std::string head = "balls: []\nmodels:\n";
+  for (const char* scale : {"1e308", "1e30", "0", "-1", "1e-9", ".nan"})
+    EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, scale: " + scale + "}\n").find("models[0]': models: scale must be in"),
+              std::string::npos)
+        << scale;
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, position: [1e300, 0, 0]}\n").find("position"),
+            std::string::npos);
+  const std::string far = LoadError(dir, head + "  - {file: far.obj, units: m}\n");
+  EXPECT_NE(far.find("models[0].scale'"), std::string::npos) << far;
+  EXPECT_NE(far.find("over 10000 m"), std::string::npos) << far;
+  // 1 km per unit, a 1-unit model: 2.8 km at most from the origin.
+  EXPECT_EQ(LoadError(dir, head + "  - {file: t.obj, scale: 1000}\n"), "");
+  EXPECT_EQ(LoadError(dir, head + "  - {file: far.obj, scale: 1e-35}\n").find("over 10000 m"), std::string::npos);
+  // Parts: one over the cap in one file, and the cap reached by two files.
+  const auto parts = [&](const std::string& name, int n) {
+    std::ofstream o(dir / name);
+    for (int k = 0; k < n; ++k)
+      o << "o p" << k << "\nv " << k << " 0 0\nv " << k + 0.5 << " 0 0\nv " << k << " 0.5 0\nf " << 3 * k + 1 << ' '
+        << 3 * k + 2 << ' ' << 3 * k + 3 << '\n';
+  };
+  parts("flood.obj", int(kMaxSceneModelParts) + 1);
+  parts("half.obj", int(kMaxSceneModelParts) / 2 + 1);
+  const std::string flood = LoadError(dir, head + "  - {file: flood.obj, scale: 0.001}\n");
+  EXPECT_NE(flood.find("more than 4096 parts"), std::string::npos) << flood;
+  EXPECT_NE(flood.find("flood.obj"), std::string::npos) << flood;
+  EXPECT_EQ(LoadError(dir, head + "  - {file: half.obj, scale: 0.001}\n"), "");
+  const std::string two =
+      LoadError(dir, head + "  - {file: half.obj, scale: 0.001}\n  - {file: half.obj, scale: 0.001, first_id: 9000}\n");
+  EXPECT_NE(two.find("more than 2047 parts"), std::string::npos) << two;
+}
+
 // The element against the synthetic figure: the part the forearm crosses is
 // red, one a few centimetres beyond the hand amber, a far one clear; its
 // collision points equal brute force (DetectCollisions of the part's world mesh).

@@ -108,6 +108,10 @@ struct SceneLoadOptions {
   /// read and check the section's keys only (render_node, which needs the
   /// light, and gets the models' geometry from sim_node; the scene fuzzer).
   bool import_models = true;
+  /// Model imports end within 0.2 s of this flag being set and the load throws
+  /// Interrupted (a node's SIGINT flag: it stops within a second even while a
+  /// model imports); nullptr: never.
+  StopFlag stop = nullptr;
 };
 
 /// A kind of element: the key of its section and how to read one. `read`

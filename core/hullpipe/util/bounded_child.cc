@@ -16,7 +16,7 @@
 namespace hullpipe {
 
 BoundedChildResult RunBoundedChild(const std::function<void(int fd)>& body, int cpu_seconds, double wall_seconds,
-                                   uint64_t max_output_bytes) {
+                                   uint64_t max_output_bytes, StopFlag stop) {
   int fds[2];
   if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error(std::string("pipe: ") + std::strerror(errno));
   const pid_t parent = ::getpid();
@@ -50,6 +50,10 @@ BoundedChildResult RunBoundedChild(const std::function<void(int fd)>& body, int 
       r.timed_out = true;
       break;
     }
+    if (Stopped(stop)) {
+      r.interrupted = true;
+      break;
+    }
     pollfd p{fds[0], POLLIN, 0};
     const int n_ready = ::poll(&p, 1, int(std::min(left, 0.2) * 1000) + 1);
     if (n_ready <= 0) continue;  // EINTR or the 0.2-s tick
@@ -63,7 +67,7 @@ BoundedChildResult RunBoundedChild(const std::function<void(int fd)>& body, int 
     }
   }
   ::close(fds[0]);
-  if (r.timed_out || r.output_over) ::kill(pid, SIGKILL);
+  if (r.timed_out || r.output_over || r.interrupted) ::kill(pid, SIGKILL);
   while (::waitpid(pid, &r.status, 0) < 0 && errno == EINTR) {
   }
   return r;

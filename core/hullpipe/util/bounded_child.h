@@ -9,12 +9,15 @@
 #include <stdexcept>
 #include <string>
 
+#include "hullpipe/util/interrupt.h"
+
 namespace hullpipe {
 
 /// How a bounded child ended, as its parent saw it.
 struct BoundedChildResult {
   bool timed_out = false;    ///< no EOF on its pipe within the wall bound; it was SIGKILLed
   bool output_over = false;  ///< it wrote more than the output bound; it was SIGKILLed
+  bool interrupted = false;  ///< `stop` was set; it was SIGKILLed
   int status = 0;            ///< waitpid's status (WIFSIGNALED / WEXITSTATUS)
   std::string output;        ///< what it wrote to its pipe, whole unless output_over
 };
@@ -26,9 +29,11 @@ struct BoundedChildResult {
 /// parent (PR_SET_PDEATHSIG), and gets `cpu_seconds` of CPU (soft; SIGKILL one
 /// second later) and no core file. The parent reads the pipe until EOF,
 /// `wall_seconds` (> 0) or `max_output_bytes` pass, SIGKILLs the child on
-/// either bound, and reaps it. Throws std::runtime_error "pipe: ..." or
-/// "fork: ..." (errno's text) where the child cannot be started.
+/// either bound, and reaps it; it does the same within 0.2 s of `stop` being
+/// set (a node's SIGINT flag: a node stops within a second, even mid-import).
+/// Throws std::runtime_error "pipe: ..." or "fork: ..." (errno's text) where
+/// the child cannot be started.
 BoundedChildResult RunBoundedChild(const std::function<void(int fd)>& body, int cpu_seconds, double wall_seconds,
-                                   uint64_t max_output_bytes);
+                                   uint64_t max_output_bytes, StopFlag stop = nullptr);
 
 }  // namespace hullpipe

@@ -1,5 +1,6 @@
 #include "hullpipe/nodes/sim_controller.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -100,10 +101,27 @@ void SimController::StepOne(const Frameset& fs) {
     sink_.PublishReport(r);
   }
   collisions_ += out.colliding_bodies;
+  // Part events at a bounded rate (a token bucket on source time).
+  part_event_tokens_ = std::min(kPartEventBurst, part_event_tokens_ + std::max(0.0, fs.source_time_s - part_event_time_s_) *
+                                                                          kPartEventLinesPerS);
+  part_event_time_s_ = fs.source_time_s;
   for (const PartCollisionEvent& e : out.events) {
-    spdlog::info("t={:.3f} s frame {}: {} {} collision (spacing {:.1f} cm)", e.source_time_s, e.frame_seq, e.part,
-                 e.starts ? "starts" : "ends", e.spacing_m * 100);
-    part_events_.push_back(e);
+    ++part_events_;
+    if (part_event_tokens_ >= 1 && part_events_pending_ == 0) {
+      part_event_tokens_ -= 1;
+      spdlog::info("t={:.3f} s frame {}: {} {} collision (spacing {:.1f} cm)", e.source_time_s, e.frame_seq, e.part,
+                   e.starts ? "starts" : "ends", e.spacing_m * 100);
+    } else {
+      ++part_events_unlogged_;
+      ++part_events_pending_;
+    }
+  }
+  if (part_events_pending_ > 0 && part_event_tokens_ >= 1) {
+    part_event_tokens_ -= 1;
+    spdlog::info("t={:.3f} s frame {}: {} more part collision start(s)/end(s) not logged one by one (at most {} "
+                 "lines a second); {} in all so far",
+                 fs.source_time_s, fs.seq, part_events_pending_, kPartEventLinesPerS, part_events_);
+    part_events_pending_ = 0;
   }
   counters_.FrameOut(fs.capture_time_ns);
 }

@@ -66,7 +66,14 @@ class SimController {
   const NodeCounters& counters() const { return counters_; }
   uint64_t collisions() const { return collisions_; }  ///< Colliding body-steps.
   uint64_t commands_rejected() const { return commands_rejected_; }
-  const std::vector<PartCollisionEvent>& part_events() const { return part_events_; }
+  /// CAD model parts' collision starts and ends so far. Each is logged as it
+  /// happens at up to kPartEventLinesPerS lines a second of source time (a
+  /// burst of kPartEventBurst); past that one line says how many went unlogged
+  /// (a model of 200,000 parts once wrote 200,000 lines, 19 MB, in one frame).
+  uint64_t part_events() const { return part_events_; }
+  /// Of those, the ones not logged one by one.
+  uint64_t part_events_unlogged() const { return part_events_unlogged_; }
+  static constexpr double kPartEventLinesPerS = 10, kPartEventBurst = 20;
   /// Responses published so far by their hull velocity's status (index: a
   /// HullVelocityStatus value): how many were measured, clamped, had no
   /// previous frameset, ... (kNone counts those with the motion turned off).
@@ -79,7 +86,8 @@ class SimController {
   bool every_frameset_ = false;
   VirtualScene scene_;
   NodeCounters counters_;
-  std::vector<PartCollisionEvent> part_events_;
+  uint64_t part_events_ = 0, part_events_unlogged_ = 0, part_events_pending_ = 0;
+  double part_event_tokens_ = kPartEventBurst, part_event_time_s_ = 0;
   uint64_t collisions_ = 0, commands_rejected_ = 0, malformed_input_ = 0;
   double last_source_time_ = -1;
   StopFlag stop_ = nullptr;

@@ -1,10 +1,17 @@
 #include "hullpipe/nodes/sim_controller.h"
 
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 
 #include "hullpipe/collision/hull_surface.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/nodes/test_rig.h"
+#include "hullpipe/scenes/scene_config.h"
 
 namespace hullpipe::nodes {
 namespace {
@@ -21,6 +28,56 @@ struct SimRecorder final : SimSink {
   std::vector<ModelPartSample> model_parts;
   std::vector<ModelStateSample> model_states;
 };
+
+// A model of 300 small parts, every one inside the hull at once: 300 part
+// collisions start in one frameset. Each used to be one log line (a 200,000-part
+// model wrote 19 MB of log in one frame); now at most the burst of lines is
+// logged one by one and one line says how many more there were, once the rate
+// allows, and the counts hold every event. The control: a model of 3 parts logs
+// each of its events.
+TEST(Sim, PartCollisionEventsAreLoggedAtABoundedRateWithCounts) {
+  for (const int n_parts : {3, 300}) {
+    const auto dir = hullpipe::test::TempDir("sim_part_events");
+    {
+      std::ofstream o(dir / "parts.obj");
+      for (int k = 0; k < n_parts; ++k)
+        hullpipe::test::WriteObjCube(o, "p" + std::to_string(k),
+                                     hullpipe::test::kSphereCentre + Eigen::Vector3d(0.002 * (k % 10), 0.002 * (k / 10 % 10), 0.002 * (k / 100)),
+                                     0.001, 8 * k);
+    }
+    std::ofstream(dir / "scene.yaml") << "balls: []\nmodels:\n  - {file: parts.obj, units: m, up: -z, anchor: origin}\n";
+    const SceneConfig scene = LoadSceneConfig((dir / "scene.yaml").string());
+    FakeClock clock;
+    FramesetAssembler assembler(6, false);
+    test::TinyRig rig;
+    rig.Calibrate(assembler);
+    SimRecorder sink;
+    auto lines = std::make_shared<std::ostringstream>();
+    auto previous = spdlog::default_logger();
+    spdlog::set_default_logger(
+        std::make_shared<spdlog::logger>("sim", std::make_shared<spdlog::sinks::ostream_sink_mt>(*lines)));
+    SimController sim(scene, clock, assembler, sink);
+    rig.AddFrame(assembler, 1, clock.WallNs());
+    EXPECT_EQ(sim.Step(), 1);
+    rig.AddFrame(assembler, 26, clock.WallNs());  // one second of source time later: the rate allows a line
+    EXPECT_EQ(sim.Step(), 1);
+    spdlog::set_default_logger(previous);
+    const std::string log = lines->str();
+    size_t one_by_one = 0;
+    for (size_t at = log.find("starts collision"); at != std::string::npos; at = log.find("starts collision", at + 1))
+      ++one_by_one;
+    EXPECT_EQ(sim.part_events(), uint64_t(n_parts)) << log;  // every part starts, none ends
+    if (n_parts == 3) {
+      EXPECT_EQ(one_by_one, 3u) << log;
+      EXPECT_EQ(sim.part_events_unlogged(), 0u);
+      EXPECT_EQ(log.find("not logged one by one"), std::string::npos) << log;
+    } else {
+      EXPECT_EQ(one_by_one, size_t(SimController::kPartEventBurst)) << log;
+      EXPECT_EQ(sim.part_events_unlogged(), uint64_t(n_parts - SimController::kPartEventBurst));
+      EXPECT_NE(log.find("280 more part collision start(s)/end(s) not logged one by one"), std::string::npos) << log;
+    }
+  }
+}
 
 TEST(Sim, StepsByTheFramesSourceTimeAndPublishesEachBody) {
   FakeClock clock;
