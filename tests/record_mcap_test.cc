@@ -17,6 +17,7 @@
 
 #include <gtest/gtest.h>
 #include <zlib.h>
+#include <zstd.h>
 
 #include "hullpipe/record/convert.h"
 #include "hullpipe/record/player.h"
@@ -429,6 +430,125 @@ TEST(McapStorage, AKilledWritersFileKeepsEveryCommittedSample) {
 
 // Files that lie: each named in one line with what is wrong; what still checks
 // reads, what does not is counted, never handed out.
+// This process's peak resident memory so far (VmHWM), in bytes.
+int64_t PeakRss() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::atoll(line.c_str() + 6) * 1024;
+  return -1;
+}
+
+// Files made to expand: 40 zstd chunks of 64 MiB (zeros around one message),
+// each within the per-chunk ratio rule, an 86-KB file whose chunks all claim
+// to start at time 0 while their messages are at 2^62. Every tool once
+// decompressed all of them and held them at once (2.65-3.0 GB; 400 such chunks:
+// std::bad_alloc at 5.5 GB). Now the chunks past the file's expansion bound
+// (1024 times its bytes plus 64 MiB) are refused unread, named once, counted
+// as damaged; the ones before it read; the reader's peak stays far under 1 GiB.
+TEST(McapStorage, FilesMadeToExpandAreReadInBoundedMemory) {
+  const auto dir = test::TempDir("mcap_expand");
+  // The head of an honest file: its Header, Schema and Channel records.
+  const std::string honest = (dir / "honest.mcap").string();
+  int64_t map = 0;
+  {
+    WriterOptions o;
+    o.compression = Compression::kNone;
+    RecordingWriter w(honest, o);
+    map = w.AddTopic(kMapTopic);
+  }
+  std::string b = Bytes(honest);
+  size_t head_end = 0;
+  for (const Record& r : TopLevel(b)) {
+    if (r.op == 0x0C || r.op == 0x0F) break;  // Metadata, Data End: the head is over
+    head_end = r.at + 9 + r.len;
+  }
+  b.resize(head_end);
+  // One chunk's records: a message at 2^62, then one record of opcode 0 (a
+  // padding record readers skip) of zeros up to 64 MiB.
+  const uint64_t kSize = uint64_t(64) << 20;
+  std::string records;
+  auto le = [](std::string* o, uint64_t v, int n) {
+    for (int i = 0; i < n; ++i) o->push_back(char(v >> (8 * i)));
+  };
+  records.push_back(char(0x05));
+  le(&records, 22 + 1, 8);
+  le(&records, uint64_t(map), 2);
+  le(&records, 1, 4);
+  le(&records, uint64_t(1) << 62, 8);
+  le(&records, uint64_t(1) << 62, 8);
+  records.push_back('x');
+  records.push_back(char(0));
+  le(&records, kSize - records.size() - 8, 8);
+  records.resize(kSize, char(0));
+  std::string z(ZSTD_compressBound(records.size()), '\0');
+  z.resize(ZSTD_compress(z.data(), z.size(), records.data(), records.size(), 19));
+  const uint32_t crc = uint32_t(crc32(0, reinterpret_cast<const Bytef*>(records.data()), uInt(records.size())));
+  std::string chunk;
+  chunk.push_back(char(0x06));
+  le(&chunk, 8 + 8 + 8 + 4 + 4 + 4 + 8 + z.size(), 8);
+  le(&chunk, 0, 8);  // message_start_time: a lie
+  le(&chunk, 0, 8);
+  le(&chunk, kSize, 8);
+  le(&chunk, crc, 4);
+  le(&chunk, 4, 4);
+  chunk += "zstd";
+  le(&chunk, z.size(), 8);
+  chunk += z;
+  for (int k = 0; k < 40; ++k) b += chunk;
+  const std::string path = (dir / "expand.mcap").string();
+  std::ofstream(path, std::ios::binary) << b;
+  const uint64_t budget = 1024 * uint64_t(b.size()) + (uint64_t(64) << 20);
+  const int readable = int(budget / kSize);
+  ASSERT_GE(readable, 1);
+  ASSERT_LT(readable, 40) << "the file must be one that expands past its bound";
+  const RecordingReader r(path);
+  const RecordingInfo info = r.Info();
+  EXPECT_NE(info.damage.find("(a file made to expand)"), std::string::npos) << info.damage;
+  EXPECT_NE(info.damage.find("nor any chunk after it"), std::string::npos) << info.damage;
+  EXPECT_EQ(info.damaged_samples, 40 - readable) << info.damage;
+  int n = 0;
+  r.ForEach([&](const Sample& s) {
+    EXPECT_EQ(s.arrival_ns, int64_t(uint64_t(1) << 62));
+    ++n;
+    return true;
+  });
+  EXPECT_EQ(n, readable);  // the chunks within the bound: their message each
+  EXPECT_LT(PeakRss(), int64_t(600) << 20) << "the reader held more than a few chunks at once";
+}
+
+// The writer keeps its files within the bound above: 100 samples of 1 MiB of
+// zeros in 1-MiB zstd chunks (each compresses 5000-fold, within the per-chunk
+// rule) would declare 100 MiB from a few hundred KB; the chunks that would break
+// the file's bound are stored as they are, and every sample reads back.
+TEST(McapStorage, TheWritersFilesStayWithinTheExpansionBound) {
+  const auto dir = test::TempDir("mcap_expand_writer");
+  const std::string path = (dir / "zeros.mcap").string();
+  WriterOptions o;
+  o.compression = Compression::kZstd;
+  o.chunk_bytes = int64_t(1) << 20;
+  std::vector<Sample> written;
+  {
+    RecordingWriter w(path, o);
+    const int64_t map = w.AddTopic(kMapTopic);
+    for (int k = 0; k < 100; ++k) {
+      Sample s;
+      s.topic_id = map;
+      s.arrival_ns = s.source_ns = 1'000'000'000 + int64_t(k);
+      s.data.assign(size_t(1) << 20, uint8_t(0));
+      w.Append(s);
+      written.push_back(s);
+    }
+  }
+  const RecordingReader r(path);
+  const RecordingInfo info = r.Info();
+  EXPECT_EQ(info.damage, "");
+  ExpectSame(ReadAll(r), written);
+  const auto size = std::filesystem::file_size(path);
+  EXPECT_GE(1024 * size + (uint64_t(64) << 20), uint64_t(100) << 20);
+  EXPECT_LT(size, uint64_t(40) << 20) << "the chunks within the bound are still compressed";
+}
+
 TEST(McapStorage, FilesThatLieAreNamedInOneLine) {
   const auto dir = test::TempDir("mcap_lies");
   const std::string good = (dir / "good.mcap").string();

@@ -53,9 +53,26 @@ enum Op : uint8_t {
   kDataEnd = 0x0F,
 };
 constexpr const char* kMetaName = "hullpipe";
-// A chunk's declared uncompressed size above this is damage, not an allocation:
-// a chunk holds at most --chunk-size (<= 1 GiB) plus one sample (<= 1 GiB).
-constexpr uint64_t kMaxChunkBytes = (uint64_t(2) << 30) + (uint64_t(64) << 20);
+// A chunk's (or a loose message record's) declared uncompressed size above this
+// is damage, not an allocation: the writer closes a chunk at --chunk-size
+// (<= 128 MiB) and before a sample that would take it past this bound, and
+// refuses a sample over it. With the merge bound below, every tool reads any
+// file within 1 GiB (docs/recording.md, "Bounds"): one chunk, its messages'
+// places (24 bytes each), and the sample given.
+constexpr uint64_t kMaxChunkBytes = uint64_t(256) << 20;
+// The chunks held at once while ForEach merges them by log time: past this, the
+// held chunks are given out before the next is decoded (chunks overlapping in
+// time by more than this are merged only within each group).
+constexpr uint64_t kMergeBytes = uint64_t(512) << 20;
+// What a file's chunks may declare uncompressed, all together: 1024 times the
+// file's bytes plus 64 MiB (ZstdRatioPlausible, for the whole file). A 106-KB
+// file of 40 zstd chunks of 64 MiB of zeros (each under the per-chunk rule)
+// made every tool decompress 2.5 GiB; the chunks past the bound are refused as
+// damaged, unread. The writer keeps it (a chunk that would break it is stored
+// as it is).
+constexpr bool FileExpansionPlausible(uint64_t declared, uint64_t file_bytes) {
+  return declared <= uint64_t(kMaxZstdRatio) * file_bytes + uint64_t(kRatioFreeBytes);
+}
 constexpr int kMaxFindings = 10;
 
 uint32_t Crc(uint32_t crc, const uint8_t* p, size_t n) {
@@ -308,6 +325,7 @@ class McapWriter final : public StorageWriter {
   };
   std::vector<MetadataIndex> metadata_;
   int64_t committed_ = 0, pending_ = 0, stored_bytes_ = 0, raw_bytes_ = 0;
+  uint64_t declared_ = 0;  // chunks' uncompressed sizes so far (FileExpansionPlausible)
   bool failed_ = false;  // a write failed: the destructor writes nothing more
 };
 
@@ -409,6 +427,12 @@ void McapWriter::Append(const Sample& s) {
     throw RecordingError(path_ + ": a sample of topic id " + std::to_string(s.topic_id) + ", which was never added");
   const uint16_t ch = uint16_t(s.topic_id);
   const uint64_t log_ns = uint64_t(s.arrival_ns), pub_ns = uint64_t(s.source_ns);
+  const uint64_t record = 9 + 22 + s.data.size();
+  if (record > kMaxChunkBytes)
+    throw RecordingError(path_ + ": a sample of " + std::to_string(s.data.size()) + " bytes on topic '" +
+                         topics_[size_t(s.topic_id - 1)].name + "', over the MCAP storage's " +
+                         std::to_string(kMaxChunkBytes >> 20) + " MiB a chunk");
+  if (chunk_.b.size() + record > kMaxChunkBytes) FlushChunk();
   if (chunk_.b.empty() || log_ns < chunk_start_ns_) chunk_start_ns_ = log_ns;
   if (chunk_.b.empty() || log_ns > chunk_end_ns_) chunk_end_ns_ = log_ns;
   index_[ch].emplace_back(log_ns, uint64_t(chunk_.b.size()));
@@ -432,7 +456,12 @@ void McapWriter::FlushChunk() {
   if (chunk_.b.empty()) return;
   const std::vector<uint8_t>& records = chunk_.b;
   const uint32_t crc = Crc(0, records.data(), records.size());
-  const bool compressed = Compress(options_.compression, options_.zstd_level, zstd_, records, &compressed_, path_);
+  // Compressed only while the file's chunks stay within what its size allows
+  // (FileExpansionPlausible; the chunk's own header and indexes only add bytes).
+  const bool compressed =
+      Compress(options_.compression, options_.zstd_level, zstd_, records, &compressed_, path_) &&
+      FileExpansionPlausible(declared_ + records.size(), offset_ + compressed_.size());
+  declared_ += records.size();
   const std::vector<uint8_t>& stored = compressed ? compressed_ : records;
   const std::string compression = compressed ? CompressionName(options_.compression) : "";
   Out o;
@@ -617,16 +646,20 @@ class McapReader final : public StorageReader {
     // From the Message Index records after the chunk: per channel, log times.
     std::map<uint16_t, std::vector<uint64_t>> index;
     bool indexed = false;
+    std::string refused;  // why it is not decoded (set at open: over a bound), or empty
   };
+  // A message's place in its unit's decoded records (24 bytes: a chunk of
+  // 256 MiB of the smallest messages holds 8.7 M of them).
   struct Msg {
     uint64_t log_ns;
-    size_t unit;   // the unit's place in the file: ties go in write order
-    size_t slot;   // its place in ForEach's load order
-    size_t order;
+    uint32_t offset;  // of its record in the unit's records: ties go in write order
+    uint32_t slot;    // its unit's place in ForEach's load order
+    uint32_t unit;    // its unit's place in the file: ties go in write order
     uint16_t channel;
-    uint64_t pub_ns;
-    std::vector<uint8_t> data;
   };
+  // The message record at `offset` of `records`: its publish time and data.
+  static void MessageAt(const std::vector<uint8_t>& records, uint32_t offset, uint64_t* pub_ns, const uint8_t** data,
+                        size_t* size);
   std::vector<uint8_t> Read(uint64_t at, uint64_t n) const;
   void Finding(const std::string& what) {
     if (int(findings_.size()) < kMaxFindings) findings_.push_back(what);
@@ -638,7 +671,10 @@ class McapReader final : public StorageReader {
   // The unit's messages (all channels), decoded; false (with why) if the chunk
   // does not decompress or check.
   // Schema and Channel records inside it go to `collect` where given (at open).
-  bool Decode(const Unit& u, std::vector<Msg>* out, std::string* why, McapReader* collect = nullptr) const;
+  bool Decode(const Unit& u, std::vector<uint8_t>* records, std::vector<Msg>* out, std::string* why,
+              McapReader* collect = nullptr) const;
+  // Marks the units past kMaxChunkBytes or the file's expansion bound as refused.
+  void Bound();
   bool Wanted(const Unit& u, const std::optional<std::set<int64_t>>& ids) const;
   int64_t IndexedCount(const Unit& u, const std::optional<std::set<int64_t>>& ids) const;
 
@@ -698,6 +734,7 @@ McapReader::McapReader(const std::string& path) : path_(path) {
       }
     }
     Scan();
+    Bound();
     ReadSummary();
     // Topics: every channel, its schema named; the QoS from metadata 'qos'.
     for (const auto& [id, c] : channels_) {
@@ -890,6 +927,29 @@ void McapReader::Scan() {
   if (!data_end_) data_end_ = at;
 }
 
+void McapReader::Bound() {
+  uint64_t declared = 0;
+  bool said = false;
+  for (auto& u : units_) {
+    const uint64_t size = u.chunk ? u.uncompressed_size : u.records_size;
+    if (size > kMaxChunkBytes) {
+      u.refused = "the " + std::string(u.chunk ? "chunk" : "message") + " at byte " + std::to_string(u.offset) +
+                  " has a declared size of " + std::to_string(size) + " bytes, over the " + std::to_string(kMaxChunkBytes >> 20) +
+                  " MiB a chunk this reader holds";
+      Finding(u.refused);
+      continue;
+    }
+    declared += size;
+    if (!FileExpansionPlausible(declared, size_)) {
+      u.refused = "the chunk at byte " + std::to_string(u.offset) + ": the file's chunks declare " +
+                  std::to_string(declared) + " bytes uncompressed up to it, over 1024 times the file's " +
+                  std::to_string(size_) + " bytes plus 64 MiB (a file made to expand); not decompressed";
+      if (!said) Finding(u.refused + (units_.size() > 1 ? ", nor any chunk after it" : ""));
+      said = true;
+    }
+  }
+}
+
 void McapReader::ReadSummary() {
   if (!has_footer_) {
     // The writer did not close the file (killed, or the disk filled): read by the
@@ -904,9 +964,10 @@ void McapReader::ReadSummary() {
     if (!complete) {
       for (const auto& u : units_) {
         if (!u.chunk) continue;
+        std::vector<uint8_t> records;
         std::vector<Msg> unused;
         std::string why;
-        Decode(u, &unused, &why, this);
+        Decode(u, &records, &unused, &why, this);
       }
     }
     return;
@@ -945,29 +1006,34 @@ void McapReader::ReadSummary() {
   }
 }
 
-bool McapReader::Decode(const Unit& u, std::vector<Msg>* out, std::string* why, McapReader* collect) const {
+bool McapReader::Decode(const Unit& u, std::vector<uint8_t>* records, std::vector<Msg>* out, std::string* why,
+                        McapReader* collect) const {
   out->clear();
-  std::vector<uint8_t> records;
+  records->clear();
+  if (!u.refused.empty()) {
+    *why = u.refused;
+    return false;
+  }
   if (u.chunk) {
     const auto stored = Read(u.records_offset, u.records_size);
-    if (!Decompress(u.compression, stored.data(), stored.size(), u.uncompressed_size, &records)) {
+    if (!Decompress(u.compression, stored.data(), stored.size(), u.uncompressed_size, records)) {
       *why = "the chunk at byte " + std::to_string(u.offset) + " does not " +
              (u.compression.empty() ? "hold its declared " + std::to_string(u.uncompressed_size) + " bytes"
                                     : "decompress (" + u.compression + ") to its declared " +
                                           std::to_string(u.uncompressed_size) + " bytes");
       return false;
     }
-    if (u.crc != 0 && Crc(0, records.data(), records.size()) != u.crc) {
+    if (u.crc != 0 && Crc(0, records->data(), records->size()) != u.crc) {
       *why = "the chunk at byte " + std::to_string(u.offset) + ": its records do not match their CRC-32";
       return false;
     }
   } else {
-    records = Read(u.records_offset, u.records_size);
+    *records = Read(u.records_offset, u.records_size);
   }
-  In in{records.data(), records.size()};
-  size_t order = 0;
+  In in{records->data(), records->size()};
   try {
     while (!in.done()) {
+      const size_t at = in.at;
       const uint8_t op = in.u8("opcode");
       In r = in.sub(in.u64("length"), "record");
       if (op == kMessage) {
@@ -975,12 +1041,10 @@ bool McapReader::Decode(const Unit& u, std::vector<Msg>* out, std::string* why, 
         m.channel = r.u16("channel id");
         r.u32("sequence");
         m.log_ns = r.u64("log_time");
-        m.pub_ns = r.u64("publish_time");
-        m.data.assign(r.p + r.at, r.p + r.n);
-        m.unit = 0;
-        m.slot = 0;
-        m.order = order++;
-        out->push_back(std::move(m));
+        r.u64("publish_time");
+        m.offset = uint32_t(at);  // records are at most kMaxChunkBytes
+        m.slot = m.unit = 0;
+        out->push_back(m);
       } else if (op == kSchema && collect) {
         collect->AddSchema(r, u.offset);
       } else if (op == kChannel && collect) {
@@ -992,6 +1056,20 @@ bool McapReader::Decode(const Unit& u, std::vector<Msg>* out, std::string* why, 
     return false;
   }
   return true;
+}
+
+void McapReader::MessageAt(const std::vector<uint8_t>& records, uint32_t offset, uint64_t* pub_ns,
+                           const uint8_t** data, size_t* size) {
+  // Checked when decoded: opcode, length, channel, sequence, log and publish times.
+  In in{records.data() + offset, records.size() - offset};
+  in.u8("opcode");
+  const uint64_t len = in.u64("length");
+  in.u16("channel id");
+  in.u32("sequence");
+  in.u64("log_time");
+  *pub_ns = in.u64("publish_time");
+  *data = records.data() + offset + 9 + 22;
+  *size = size_t(len - 22);
 }
 
 bool McapReader::Wanted(const Unit& u, const std::optional<std::set<int64_t>>& ids) const {
@@ -1012,61 +1090,81 @@ int64_t McapReader::IndexedCount(const Unit& u, const std::optional<std::set<int
 bool McapReader::ForEach(const std::optional<std::set<int64_t>>& ids, const std::function<bool(const Sample&)>& f,
                          int64_t* damaged) const {
   // Units in order of their first log time (file order on ties), merged by log
-  // time: a unit is decoded once the merge reaches its start.
+  // time: a unit is decoded once the merge reaches its start, and while the
+  // units held stay within kMergeBytes (past it, those held are given out
+  // first: a file whose chunks all claim to start at 0 once made every tool
+  // hold every chunk at once).
   std::vector<size_t> order;
   for (size_t i = 0; i < units_.size(); ++i)
     if (Wanted(units_[i], ids)) order.push_back(i);
   std::stable_sort(order.begin(), order.end(),
                    [&](size_t a, size_t b) { return units_[a].start_ns < units_[b].start_ns; });
+  struct Held {
+    std::vector<uint8_t> records;
+    std::vector<Msg> msgs;
+    size_t left = 0;
+  };
+  std::map<uint32_t, Held> held;  // by position in `order`
+  uint64_t held_bytes = 0;
   auto later = [](const Msg* a, const Msg* b) {
     if (a->log_ns != b->log_ns) return a->log_ns > b->log_ns;
     if (a->unit != b->unit) return a->unit > b->unit;
-    return a->order > b->order;
+    return a->offset > b->offset;
   };
   std::priority_queue<Msg*, std::vector<Msg*>, decltype(later)> heap(later);
-  std::map<size_t, std::vector<Msg>> loaded;  // by position in `order`
-  std::map<size_t, size_t> left;              // messages not yet given, per loaded unit
   size_t next = 0;
   Sample s;
+  auto cost = [](const Held& h) { return uint64_t(h.records.capacity()) + h.msgs.capacity() * (sizeof(Msg) + 8); };
   auto load = [&](size_t k) {
     const Unit& u = units_[order[k]];
-    std::vector<Msg> msgs;
+    Held h;
     std::string why;
-    if (!Decode(u, &msgs, &why)) {
+    if (!Decode(u, &h.records, &h.msgs, &why)) {
       *damaged += IndexedCount(u, ids);
       return;
     }
-    auto& mine = loaded[k];
-    for (auto& m : msgs) {
+    size_t kept = 0;
+    for (const Msg& m : h.msgs) {
       if (ids && !ids->count(m.channel)) continue;
       if (!channel_ids_.count(m.channel)) {  // a message of no channel
         ++*damaged;
         continue;
       }
-      m.unit = order[k];
-      m.slot = k;
-      mine.push_back(std::move(m));
+      h.msgs[kept] = m;
+      h.msgs[kept].unit = uint32_t(order[k]);
+      h.msgs[kept++].slot = uint32_t(k);
     }
-    if (mine.empty()) {
-      loaded.erase(k);
-      return;
-    }
-    left[k] = mine.size();
-    for (auto& m : mine) heap.push(&m);
+    h.msgs.resize(kept);
+    if (kept == 0) return;
+    h.left = kept;
+    auto& mine = held[uint32_t(k)] = std::move(h);
+    held_bytes += cost(mine);
+    for (auto& m : mine.msgs) heap.push(&m);
+  };
+  auto next_size = [&] {
+    const Unit& u = units_[order[next]];
+    return u.chunk ? u.uncompressed_size : u.records_size;
   };
   while (true) {
-    while (next < order.size() && (heap.empty() || units_[order[next]].start_ns <= heap.top()->log_ns)) load(next++);
+    while (next < order.size() && (heap.empty() || (units_[order[next]].start_ns <= heap.top()->log_ns &&
+                                                    held_bytes + next_size() <= kMergeBytes)))
+      load(next++);
     if (heap.empty()) break;
     Msg* m = heap.top();
     heap.pop();
+    const uint32_t k = m->slot;
+    Held& h = held[k];
+    const uint8_t* data;
+    size_t size;
+    uint64_t pub_ns;
+    MessageAt(h.records, m->offset, &pub_ns, &data, &size);
+    s.source_ns = int64_t(pub_ns);
     s.topic_id = m->channel;
     s.arrival_ns = int64_t(m->log_ns);
-    s.source_ns = int64_t(m->pub_ns);
-    s.data.swap(m->data);
-    const size_t k = m->slot;
-    if (--left[k] == 0) {
-      left.erase(k);
-      loaded.erase(k);  // m is gone from here on
+    s.data.assign(data, data + size);
+    if (--h.left == 0) {
+      held_bytes -= cost(h);
+      held.erase(k);  // m is gone from here on
     }
     if (!f(s)) return false;
   }
@@ -1083,9 +1181,10 @@ std::optional<int64_t> McapReader::ArrivalBound(bool max, const std::optional<st
           for (uint64_t t : times) take(t);
       continue;
     }
+    std::vector<uint8_t> records;
     std::vector<Msg> msgs;
     std::string why;
-    if (!Decode(u, &msgs, &why)) continue;
+    if (!Decode(u, &records, &msgs, &why)) continue;
     for (const auto& m : msgs)
       if ((!ids || ids->count(m.channel)) && channel_ids_.count(m.channel)) take(m.log_ns);
   }
@@ -1098,9 +1197,12 @@ std::string McapReader::QuickCheck() const {
   for (const auto& u : units_) {
     if (int(all.size()) >= kMaxFindings) break;
     if (!u.chunk) continue;
+    std::vector<uint8_t> records;
     std::vector<Msg> msgs;
     std::string why;
-    if (!Decode(u, &msgs, &why)) all.push_back(why);
+    if (!Decode(u, &records, &msgs, &why) &&
+        std::find(all.begin(), all.end(), why) == all.end() && why.find("(a file made to expand)") == std::string::npos)
+      all.push_back(why);
   }
   std::string out;
   for (const auto& f : all) out += (out.empty() ? "" : "; ") + f;
@@ -1110,19 +1212,28 @@ std::string McapReader::QuickCheck() const {
 std::map<int64_t, StorageReader::TopicCount> McapReader::Counts() const {
   std::map<int64_t, TopicCount> out;
   for (const auto& u : units_) {
+    std::vector<uint8_t> records;
     std::vector<Msg> msgs;
     std::string why;
-    if (!Decode(u, &msgs, &why)) continue;
+    if (!Decode(u, &records, &msgs, &why)) continue;
+    auto size_of = [&](const Msg& m) {
+      uint64_t pub;
+      const uint8_t* data;
+      size_t n;
+      MessageAt(records, m.offset, &pub, &data, &n);
+      return n;
+    };
     uint64_t total = 0;
-    for (const auto& m : msgs) total += m.data.size();
+    for (const auto& m : msgs) total += size_of(m);
     // A chunk's stored bytes shared out by its messages' sizes.
     const double stored = u.chunk ? double(u.records_size) : double(total);
     for (const auto& m : msgs) {
       if (!channel_ids_.count(m.channel)) continue;
       auto& c = out[m.channel];
+      const size_t n = size_of(m);
       ++c.count;
-      c.bytes += int64_t(m.data.size());
-      c.stored_bytes += total ? int64_t(stored * double(m.data.size()) / double(total) + 0.5) : 0;
+      c.bytes += int64_t(n);
+      c.stored_bytes += total ? int64_t(stored * double(n) / double(total) + 0.5) : 0;
     }
   }
   return out;

@@ -63,8 +63,8 @@ const char* StorageExtension(Storage s) { return s == Storage::kMcap ? ".mcap" :
 
 void WriterOptions::Check() const {
   if (zstd_level < 1 || zstd_level > 19) throw std::invalid_argument("--zstd-level must be in [1, 19]");
-  if (chunk_bytes < 1024 || chunk_bytes > (int64_t(1) << 30))
-    throw std::invalid_argument("--chunk-size must be in [1 KiB, 1 GiB]");
+  if (chunk_bytes < 1024 || chunk_bytes > (int64_t(128) << 20))
+    throw std::invalid_argument("--chunk-size must be in [1 KiB, 128 MiB]");
   if (storage) Check(*storage);
 }
 
