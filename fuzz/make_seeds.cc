@@ -57,14 +57,17 @@ int main(int argc, char** argv) {
     record::WriterOptions zstd;
     zstd.compression = record::Compression::kZstd;
     record::RecordingWriter rec_zstd((out / "fuzz_recordings" / "seed_zstd.hullrec").string(), zstd);
-    // MCAP, uncompressed and lz4 chunks (the reader picks the storage by the magic,
-    // so the same target fuzzes the MCAP reader and its repair).
-    for (const char* f : {"seed.mcap", "seed_lz4.mcap"}) fs::remove(out / "fuzz_recordings" / f);
+    // MCAP, uncompressed, lz4 and zstd chunks (the reader picks the storage by
+    // the magic, so the same target fuzzes the MCAP reader, its chunk path with
+    // both decompressors and the expansion bounds, and its repair).
+    for (const char* f : {"seed.mcap", "seed_lz4.mcap", "seed_zstd.mcap"}) fs::remove(out / "fuzz_recordings" / f);
     record::WriterOptions mcap;
     mcap.storage = record::Storage::kMcap;
     record::RecordingWriter rec_mcap((out / "fuzz_recordings" / "seed.mcap").string(), mcap);
     mcap.compression = record::Compression::kLz4;
     record::RecordingWriter rec_lz4((out / "fuzz_recordings" / "seed_lz4.mcap").string(), mcap);
+    mcap.compression = record::Compression::kZstd;
+    record::RecordingWriter rec_mcap_zstd((out / "fuzz_recordings" / "seed_zstd.mcap").string(), mcap);
     for (size_t i = 0; i < types.size(); ++i) {
       const auto it = samples.find(types[i].type_name);
       if (it == samples.end()) {
@@ -81,14 +84,14 @@ int main(int argc, char** argv) {
       topic.type_description = IdlText();
       const int64_t id = rec.AddTopic(topic);
       rec.Append({id, int64_t(i) * 1'000'000, 1'000'000'000 + int64_t(i) * 1'000'000, it->second});
-      for (record::RecordingWriter* w : {&rec_zstd, &rec_mcap, &rec_lz4}) {
+      for (record::RecordingWriter* w : {&rec_zstd, &rec_mcap, &rec_lz4, &rec_mcap_zstd}) {
         w->AddTopic(topic);
         w->Append({id, int64_t(i) * 1'000'000, 1'000'000'000 + int64_t(i) * 1'000'000, it->second});
         if (i % 4 == 3) w->Commit();  // several chunks
       }
     }
     rec.Commit();
-    for (record::RecordingWriter* w : {&rec_zstd, &rec_mcap, &rec_lz4}) w->Commit();
+    for (record::RecordingWriter* w : {&rec_zstd, &rec_mcap, &rec_lz4, &rec_mcap_zstd}) w->Commit();
     // Maps: a silhouette of the sphere fixture, and the all-empty map.
     for (const auto& [name, map] : {std::pair{"sphere", sphere.map}, {"empty", cv::Mat(cv::Mat::zeros(48, 64, CV_8UC1))}}) {
       const auto runs = RunLengthEncode(map);
