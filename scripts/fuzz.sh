@@ -15,7 +15,7 @@ RIG="${RIG:-../shared/data/utrecht-4cam}"
 BIN=build-asan/bin
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
-FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings fuzz_model_files)
+FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings fuzz_model_files fuzz_bridge_messages)
 [ $# -gt 0 ] && FUZZERS=("$@")
 for f in "${FUZZERS[@]}" fuzz_make_seeds; do
   [ -x "$BIN/$f" ] || { echo "fuzz.sh: $BIN/$f is missing; run scripts/sanitize.sh first" >&2; exit 1; }
@@ -53,6 +53,13 @@ seed_model 02 "$M/OBJ/testmixed.obj"
 seed_model 03 "$M/STL/Spider_ascii.stl"
 seed_model 04 "$M/PLY/cube.ply"
 seed_model 05 "$M/OFF/Cube.off"
+
+# A client's text messages (fuzz_bridge_messages: NUL between messages).
+mkdir -p "$SEEDS/fuzz_bridge_messages"
+printf '%s\0%s\0%s' '{"op":"subscribe","subscriptions":[{"id":1,"channelId":2},{"id":2,"channelId":2}]}' \
+  '{"op":"unsubscribe","subscriptionIds":[1]}' '{"op":"advertise","channels":[]}' > "$SEEDS/fuzz_bridge_messages/subscribe"
+printf '%s' '{"op":"subscribe","subscriptions":[{"id":4294967296,"channelId":4294967298}],"x":[[[["]]"]]]]}' \
+  > "$SEEDS/fuzz_bridge_messages/ids"
 
 for f in "${FUZZERS[@]}"; do
   # Regression inputs (fuzz/regressions/<target>): each once, before fuzzing.

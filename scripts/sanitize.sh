@@ -27,7 +27,7 @@ export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 
 CORE_TESTS=(util_tests geometry_tests capture_tests reconstruction_tests collision_tests evaluation_tests segmentation_tests models_tests
             scenes_tests nodes_tests launch_support_tests)
-FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings fuzz_model_files)  # as in scripts/fuzz.sh
+FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings fuzz_model_files fuzz_bridge_messages)  # as in scripts/fuzz.sh
 
 stage "ASan + UBSan build (clang-14)"
 cmake -S . -B build-asan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=address,undefined -DHULLPIPE_FUZZ=ON -DHULLPIPE_WERROR=OFF >/dev/null

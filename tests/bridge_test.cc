@@ -38,9 +38,9 @@ std::vector<Channel> TwoChannels() {
 TEST(BridgeState, SpeaksTheFoxgloveWebSocketProtocol) {
   BridgeState s(TwoChannels(), 2, "hullpipe_bridge");
   std::string why;
-  EXPECT_EQ(s.Accept({"foxglove.websocket.v1"}, &why), "foxglove.websocket.v1");
-  EXPECT_EQ(s.Accept({"foxglove.websocket.v1", "foxglove.sdk.v1"}, &why), "foxglove.sdk.v1");
-  EXPECT_EQ(s.Accept({"chat"}, &why), "");
+  EXPECT_EQ(s.Accept({"foxglove.websocket.v1"}, 0, &why), "foxglove.websocket.v1");
+  EXPECT_EQ(s.Accept({"foxglove.websocket.v1", "foxglove.sdk.v1"}, 0, &why), "foxglove.sdk.v1");
+  EXPECT_EQ(s.Accept({"chat"}, 0, &why), "");
   EXPECT_NE(why.find("subprotocol"), std::string::npos);
   const auto open = s.Open(7, "abc");
   ASSERT_EQ(open.size(), 2u);
@@ -80,10 +80,51 @@ TEST(BridgeState, SpeaksTheFoxgloveWebSocketProtocol) {
   EXPECT_TRUE(s.Route(2, 5, {1}).empty());  // (the positive control is the route above)
   // The client bound.
   s.Open(8, "d");
-  EXPECT_EQ(s.Accept({"foxglove.websocket.v1"}, &why), "");
+  EXPECT_EQ(s.Accept({"foxglove.websocket.v1"}, 0, &why), "");
   EXPECT_NE(why.find("--max-clients"), std::string::npos);
   s.Close(8);
-  EXPECT_EQ(s.Accept({"foxglove.websocket.v1"}, &why), "foxglove.websocket.v1");
+  EXPECT_EQ(s.Accept({"foxglove.websocket.v1"}, 0, &why), "foxglove.websocket.v1");
+}
+
+// What hostile clients sent, each answered by one status error and nothing
+// else changed: a second subscription to a channel already subscribed (100,000
+// of them once copied each image 100,000 times), a channel id past 2^32 - 1
+// (2^32 + 3 was channel 3), JSON nested past the bound or text past the size
+// bound (refused before parsing; a 30-MB nested text cost 843 MB), an unknown
+// operation whose name is 1 MB (echoed whole before). Handshakes accepted but
+// not yet open count against the client bound (500 at once got 128 clients in
+// past --max-clients 8).
+TEST(BridgeState, HostileMessagesAreBoundedAndAnsweredOnce) {
+  BridgeState s(TwoChannels(), 2, "hullpipe_bridge");
+  s.Open(7, "abc");
+  EXPECT_TRUE(s.OnText(7, R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":2}]})").empty());
+  const auto status = [&](const std::string& text) {
+    const auto out = s.OnText(7, text);
+    EXPECT_EQ(out.size(), 1u) << text.substr(0, 100);
+    return out.empty() ? std::string() : json::parse(out[0].payload)["message"].get<std::string>();
+  };
+  EXPECT_NE(status(R"({"op":"subscribe","subscriptions":[{"id":2,"channelId":2}]})").find("already subscribed as 1"),
+            std::string::npos);
+  std::string many = R"({"op":"subscribe","subscriptions":[)";
+  for (int k = 3; k < 1003; ++k) many += (k > 3 ? "," : "") + std::string(R"({"id":)") + std::to_string(k) + R"(,"channelId":2})";
+  EXPECT_EQ(s.OnText(7, many + "]}").size(), 1000u);  // 1000 refusals, no subscription
+  EXPECT_EQ(s.Route(2, 0, {1}).size(), 1u) << "one copy of each sample for the one subscription";
+  EXPECT_EQ(status(R"({"op":"subscribe","subscriptions":[{"id":5,"channelId":4294967297}]})"), "no channel 4294967297");
+  EXPECT_EQ(s.Wanted(), std::set<uint32_t>{2}) << "channel 1 (2^32 + 1 cut to 32 bits) is not subscribed";
+  std::string deep(BridgeState::kMaxJsonDepth + 1, '[');
+  EXPECT_NE(status(deep + std::string(BridgeState::kMaxJsonDepth + 1, ']')).find("nested deeper"), std::string::npos);
+  EXPECT_NE(status(R"({"op":"x","s":")" + std::string(BridgeState::kMaxTextBytes, 'a') + "\"}").find("at most"),
+            std::string::npos);
+  // The control: brackets inside a string are no nesting.
+  EXPECT_EQ(status(R"({"op":"subscribe","subscriptions":[{"id":9,"channelId":77}],"note":"[[[[[[[[[[[[[["})"),
+            "no channel 77");
+  const std::string long_op = status(R"({"op":")" + std::string(1 << 19, 'o') + R"("})");
+  EXPECT_LT(long_op.size(), 200u);
+  EXPECT_NE(long_op.find("is not supported"), std::string::npos) << long_op.substr(0, 200);
+  // The client bound with handshakes in flight: one open, one handshaking.
+  std::string why;
+  EXPECT_EQ(s.Accept({"foxglove.websocket.v1"}, 1, &why), "");
+  EXPECT_EQ(s.Accept({"foxglove.websocket.v1"}, 0, &why), "foxglove.websocket.v1");
 }
 
 // Channels that appear after clients connected (a camera's, when its
@@ -392,6 +433,49 @@ TEST_F(BridgeProcess, AClientThatNeverReadsIsBoundedAndTold) {
   const std::string text = Log("hullpipe_bridge");
   ASSERT_TRUE(std::regex_search(text, m, dropped)) << text;
   EXPECT_GT(std::stoi(m[1]), 0);
+  capture->Stop();
+}
+
+// Hostile clients against a live bridge while a good one watches the maps
+// (tests/js/hostile_clients.mjs): one subscribing 20,000 times to the images in
+// one message, one that never reads, one sending 60 unknown operations of
+// 16 KiB and never reading, and 200 handshakes at once with --max-clients 8.
+// Before: the first held 1.2 GB and cut the other client's rate from ~30 to
+// 2-9 messages/s, the replies of the third grew the bridge by 1.1 GB, and 128
+// of the flood got in. Now the flood gets at most the 4 places left, the good
+// client keeps at least half its rate alone (measured in the same run, a
+// 2-core machine's noise inside it), and the bridge's peak memory stays under
+// 400 MB; it stops cleanly.
+TEST_F(BridgeProcess, HostileClientsCostAnotherClientNeitherItsRateNorTheBridgeItsMemory) {
+  auto bridge = Start("hullpipe_bridge", {"--port", "0", "--max-clients", "8", "--queue-mib", "1"});
+  const int port = Port();
+  ASSERT_GT(port, 0) << Log("hullpipe_bridge");
+  auto capture = Start("capture_node", {"--synthetic", "--frames", "100000", "--image-scale", "1"});
+  const std::string url = "ws://127.0.0.1:" + std::to_string(port);
+  const std::string out = (dir_ / "hostile.json").string(), err = (dir_ / "hostile.log").string();
+  launch::Process client({"/usr/bin/env", "node", js_ + "/hostile_clients.mjs", url, "hullpipe/object_pixel_map",
+                          std::to_string(int(4 * test::TimeScale())), "200"},
+                         out, {}, err);
+  EXPECT_EQ(client.Wait(120 * test::TimeScale()), 0) << test::ReadFile(err) << Log("hullpipe_bridge");
+  const json r = json::parse(test::ReadFile(out), nullptr, false);
+  ASSERT_TRUE(r.is_object()) << test::ReadFile(out) << test::ReadFile(err);
+  const double alone = r["alone"], hostile = r["hostile"];
+  EXPECT_GT(alone, 1.0) << "the positive control: maps reached the good client";
+  EXPECT_GE(hostile, 0.5 * alone) << r.dump();
+  EXPECT_LE(r["floodOpened"].get<int>(), 4) << r.dump();  // 8 places, 4 taken
+  EXPECT_GE(r["floodOpened"].get<int>(), 1) << "the control: the flood was let in up to the bound" << r.dump();
+  // The bridge's peak resident memory, while it still runs.
+  int64_t peak_kb = -1;
+  {
+    std::ifstream f("/proc/" + std::to_string(bridge->pid()) + "/status");
+    std::string line;
+    while (std::getline(f, line))
+      if (line.rfind("VmHWM:", 0) == 0) peak_kb = std::atoll(line.c_str() + 6);
+  }
+  EXPECT_GT(peak_kb, 0);
+  EXPECT_LT(peak_kb, 400 * 1024) << "the bridge's peak memory, kB";
+  EXPECT_EQ(bridge->Stop(), 0) << Log("hullpipe_bridge");
+  EXPECT_NE(Log("hullpipe_bridge").find("--max-clients"), std::string::npos) << "the flood's refusals are logged";
   capture->Stop();
 }
 

@@ -13,7 +13,7 @@ BridgeState::BridgeState(std::vector<Channel> channels, int max_clients, std::st
   for (const auto& c : channels_) channel_ids_.insert(c.id);
 }
 
-std::string BridgeState::Accept(const std::vector<std::string>& subprotocols, std::string* why) const {
+std::string BridgeState::Accept(const std::vector<std::string>& subprotocols, int handshaking, std::string* why) const {
   std::string chosen;
   for (const char* mine : {"foxglove.sdk.v1", "foxglove.websocket.v1"})
     if (chosen.empty() && std::find(subprotocols.begin(), subprotocols.end(), mine) != subprotocols.end())
@@ -22,7 +22,7 @@ std::string BridgeState::Accept(const std::vector<std::string>& subprotocols, st
     *why = "no subprotocol the bridge speaks (foxglove.sdk.v1, foxglove.websocket.v1)";
     return "";
   }
-  if (clients() >= max_clients_) {
+  if (clients() + handshaking >= max_clients_) {
     *why = "already " + std::to_string(max_clients_) + " clients (--max-clients)";
     return "";
   }
@@ -106,7 +106,41 @@ Outgoing BridgeState::Status(uint64_t client, int level, const std::string& mess
   return {client, false, json{{"op", "status"}, {"level", level}, {"message", message}}.dump()};
 }
 
+namespace {
+
+// The deepest nesting of [ and { outside strings, stopping past `limit`.
+int JsonDepth(const std::string& text, int limit) {
+  int depth = 0, deepest = 0;
+  bool in_string = false, escaped = false;
+  for (const char c : text) {
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+      if (deepest > limit) return deepest;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
+std::string Echo(const std::string& s) {
+  return s.size() <= BridgeState::kMaxEcho ? s : s.substr(0, BridgeState::kMaxEcho) + "...";
+}
+
+}  // namespace
+
 std::vector<Outgoing> BridgeState::OnText(uint64_t client, const std::string& text) {
+  if (text.size() > kMaxTextBytes)
+    return {Status(client, 2, "a message of " + std::to_string(text.size()) + " bytes; at most " +
+                                  std::to_string(kMaxTextBytes) + " are read")};
+  if (JsonDepth(text, kMaxJsonDepth) > kMaxJsonDepth)
+    return {Status(client, 2, "JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels")};
   json j = json::parse(text, nullptr, false);
   if (j.is_discarded() || !j.is_object() || !j.contains("op") || !j["op"].is_string())
     return {Status(client, 2, "not a JSON object with an 'op'")};
@@ -124,12 +158,22 @@ std::vector<Outgoing> BridgeState::OnText(uint64_t client, const std::string& te
         continue;
       }
       const uint64_t id = s["id"], channel = s["channelId"];
-      if (id > UINT32_MAX || !channel_ids_.count(uint32_t(channel))) {
+      if (id > UINT32_MAX) {
+        out.push_back(Status(client, 2, "subscription id " + std::to_string(id) + " is past 2^32 - 1"));
+        continue;
+      }
+      if (channel > UINT32_MAX || !channel_ids_.count(uint32_t(channel))) {
         out.push_back(Status(client, 2, "no channel " + std::to_string(channel)));
         continue;
       }
       if (mine.count(uint32_t(id))) {
         out.push_back(Status(client, 2, "subscription " + std::to_string(id) + " exists"));
+        continue;
+      }
+      const auto same = std::find_if(mine.begin(), mine.end(), [&](const auto& kv) { return kv.second == channel; });
+      if (same != mine.end()) {
+        out.push_back(Status(client, 2, "channel " + std::to_string(channel) + " is already subscribed as " +
+                                            std::to_string(same->first) + " (one subscription a channel)"));
         continue;
       }
       mine[uint32_t(id)] = uint32_t(channel);
@@ -145,7 +189,7 @@ std::vector<Outgoing> BridgeState::OnText(uint64_t client, const std::string& te
   } else if (op == "advertise" || op == "unadvertise") {
     out.push_back(Status(client, 2, "client publishing is not enabled on this bridge"));
   } else {
-    out.push_back(Status(client, 1, "operation '" + op + "' is not supported by hullpipe_bridge"));
+    out.push_back(Status(client, 1, "operation '" + Echo(op) + "' is not supported by hullpipe_bridge"));
   }
   return out;
 }

@@ -39,8 +39,10 @@ class BridgeState {
 
   /// A client asks to connect with these subprotocols: the one the bridge
   /// speaks ("foxglove.sdk.v1" preferred, then "foxglove.websocket.v1"), or ""
-  /// to refuse (none spoken, or max_clients connected; *why says which).
-  std::string Accept(const std::vector<std::string>& subprotocols, std::string* why) const;
+  /// to refuse (none spoken, or max_clients connected or accepted in handshakes
+  /// not yet open, `handshaking` of them: 500 concurrent handshakes once got 128
+  /// clients past --max-clients 8; *why says which).
+  std::string Accept(const std::vector<std::string>& subprotocols, int handshaking, std::string* why) const;
   /// A client connected: the serverInfo and advertise messages to send it.
   std::vector<Outgoing> Open(uint64_t client, const std::string& session_id);
   void Close(uint64_t client);
@@ -51,8 +53,17 @@ class BridgeState {
   std::vector<Outgoing> Advertise(const std::vector<Channel>& more);
   /// A text message from a client: subscribe / unsubscribe (others, and client
   /// publishing, answered with a status error); what to send back. A new
-  /// subscription is sent its channel's latched messages at once.
+  /// subscription is sent its channel's latched messages at once. Bounds, each
+  /// answered with one status error: text over kMaxTextBytes or nested deeper
+  /// than kMaxJsonDepth is refused before it is parsed; a channel id or
+  /// subscription id past 2^32 - 1 is no channel (2^32 + 3 was taken as 3); a
+  /// client holds at most one subscription per channel (100,000 subscriptions
+  /// to the image channel once copied each image 100,000 times); replies name
+  /// at most kMaxEcho bytes of what the client sent.
   std::vector<Outgoing> OnText(uint64_t client, const std::string& text);
+  static constexpr size_t kMaxTextBytes = size_t(1) << 20;
+  static constexpr int kMaxJsonDepth = 8;
+  static constexpr size_t kMaxEcho = 64;
   /// Keeps `payload` as the latest message of (channel, key): state a late
   /// subscriber needs (a calibration, a camera's transform, a model part), sent
   /// to each new subscription of the channel. At most 4096 keys per channel

@@ -95,8 +95,10 @@ int main(int argc, char** argv) {
     std::map<uint64_t, uint64_t> dropped;  // per client
     std::mt19937_64 rng(std::random_device{}());
     WsServer* server_ptr = nullptr;
+    // Replies (status, advertise) count against the queue bound as data does: a
+    // client that sent 60 unknown operations and never read once held 1.1 GB.
     auto send = [&](const bridge::Outgoing& o) {
-      const auto r = server_ptr->Send(o.client, o.binary, o.payload, o.binary ? queue_bytes : 0);
+      const auto r = server_ptr->Send(o.client, o.binary, o.payload, queue_bytes);
       if (r != WsServer::Sent::kQueueFull) return;
       counters.Dropped();
       std::lock_guard<std::mutex> lock(mu);
@@ -110,8 +112,8 @@ int main(int argc, char** argv) {
       }
     };
     WsServer::Handlers handlers;
-    handlers.accept = [&](const std::vector<std::string>& protocols, std::string* why) {
-      const std::string p = state.Accept(protocols, why);
+    handlers.accept = [&](const std::vector<std::string>& protocols, int handshaking, std::string* why) {
+      const std::string p = state.Accept(protocols, handshaking, why);
       if (p.empty()) spdlog::warn("refused a client: {}", *why);
       return p;
     };
@@ -137,7 +139,7 @@ int main(int argc, char** argv) {
       }
       for (const auto& o : state.OnText(id, payload)) send(o);
     };
-    WsServer server(handlers);
+    WsServer server(handlers, bridge::BridgeState::kMaxTextBytes);
     server_ptr = &server;
     const int bound = server.Start(address, port);
     spdlog::info("listening on ws://{}:{} (Foxglove: Open connection -> Foxglove WebSocket)", address, bound);

@@ -1,6 +1,7 @@
 #include "ws_server.h"
 
 #include <map>
+#include <set>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -18,34 +19,50 @@ struct WsServer::Impl {
   std::thread io;
   std::mutex mu;
   std::map<uint64_t, websocketpp::connection_hdl> hdls;
+  // Handshakes accepted, not yet open (or failed).
+  std::set<websocketpp::connection_hdl, std::owner_less<websocketpp::connection_hdl>> handshaking;
   uint64_t next = 1;
   bool running = false;
 };
 
-WsServer::WsServer(Handlers handlers) : impl_(std::make_unique<Impl>()) {
+WsServer::WsServer(Handlers handlers, size_t max_message_bytes) : impl_(std::make_unique<Impl>()) {
   impl_->h = std::move(handlers);
   Server& s = impl_->server;
   s.clear_access_channels(websocketpp::log::alevel::all);
   s.clear_error_channels(websocketpp::log::elevel::all);
   s.init_asio();
   s.set_reuse_addr(true);
+  s.set_max_message_size(max_message_bytes);
   Impl* impl = impl_.get();
   s.set_validate_handler([impl](websocketpp::connection_hdl hdl) {
     auto con = impl->server.get_con_from_hdl(hdl);
     std::string why;
-    const std::string proto = impl->h.accept(con->get_requested_subprotocols(), &why);
+    int handshaking;
+    {
+      std::lock_guard<std::mutex> lock(impl->mu);
+      handshaking = int(impl->handshaking.size());
+    }
+    const std::string proto = impl->h.accept(con->get_requested_subprotocols(), handshaking, &why);
     if (proto.empty()) {
       con->set_status(websocketpp::http::status_code::service_unavailable, why);
       return false;
     }
     con->select_subprotocol(proto);
+    std::lock_guard<std::mutex> lock(impl->mu);
+    impl->handshaking.insert(hdl);
     return true;
+  });
+  // A handshake that fails after it was accepted (the client left) frees its place.
+  s.set_fail_handler([impl](websocketpp::connection_hdl hdl) {
+    std::lock_guard<std::mutex> lock(impl->mu);
+    impl->handshaking.erase(hdl);
   });
   s.set_open_handler([impl](websocketpp::connection_hdl hdl) {
     auto con = impl->server.get_con_from_hdl(hdl);
     uint64_t id;
     {
       std::lock_guard<std::mutex> lock(impl->mu);
+      impl->handshaking.erase(hdl);
       id = impl->next++;
       impl->hdls[id] = hdl;
     }

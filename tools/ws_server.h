@@ -16,13 +16,18 @@ class WsServer {
   /// Called on the server's own thread.
   struct Handlers {
     /// The subprotocol to select among those a client asks for, or "" to refuse
-    /// it (HTTP 503) with *why logged by the caller.
-    std::function<std::string(const std::vector<std::string>& subprotocols, std::string* why)> accept;
+    /// it (HTTP 503) with *why logged by the caller. `handshaking`: clients
+    /// accepted here whose connection has not opened yet (they count against a
+    /// bound on clients as the open ones do).
+    std::function<std::string(const std::vector<std::string>& subprotocols, int handshaking, std::string* why)>
+        accept;
     std::function<void(uint64_t client, const std::string& remote, const std::string& subprotocol)> open;
     std::function<void(uint64_t client)> close;
     std::function<void(uint64_t client, bool binary, const std::string& payload)> message;
   };
-  explicit WsServer(Handlers handlers);
+  /// Messages from clients over `max_message_bytes` close their connection
+  /// (status 1009) before they are buffered whole.
+  explicit WsServer(Handlers handlers, size_t max_message_bytes = size_t(1) << 20);
   ~WsServer();  ///< Stop()s.
   WsServer(const WsServer&) = delete;
   WsServer& operator=(const WsServer&) = delete;
