@@ -316,14 +316,25 @@ RecordingInfo RecordingReader::Info() const {
     info.damage += (info.damage.empty() ? "" : "; ") + std::string(e.what());
   }
   info.interrupted = parts_.back()->r->interrupted();
-  // Every sample's CRC (and samples of no known topic).
-  const int64_t before = damaged_;
-  try {
-    ForEach([](const Sample&) { return true; });
-  } catch (const RecordingError& e) {
-    info.damage += (info.damage.empty() ? "" : "; ") + std::string(e.what());
+  // Every sample's CRC (and samples of no known topic): from the storages where
+  // they know it (an MCAP file's chunks were each decoded once above), else by
+  // reading every sample.
+  std::optional<int64_t> known = 0;
+  for (const auto& p : parts_) {
+    const auto d = p->r->DamagedSamples();
+    known = d && known ? std::optional<int64_t>(*known + *d) : std::nullopt;
   }
-  info.damaged_samples = damaged_ - before;
+  if (known) {
+    info.damaged_samples = *known;
+  } else {
+    const int64_t before = damaged_;
+    try {
+      ForEach([](const Sample&) { return true; });
+    } catch (const RecordingError& e) {
+      info.damage += (info.damage.empty() ? "" : "; ") + std::string(e.what());
+    }
+    info.damaged_samples = damaged_ - before;
+  }
   if (info.damaged_samples > 0)
     info.damage += (info.damage.empty() ? "" : "; ") + std::to_string(info.damaged_samples) +
                    " sample(s) whose row does not match its CRC-32, whose data does not decode, or whose topic is unknown";

@@ -69,6 +69,11 @@ class StorageReader {
   /// Per file topic id: samples, their own bytes and their bytes as stored (for
   /// MCAP, each compressed chunk's size shared out by its messages' sizes).
   virtual std::map<int64_t, TopicCount> Counts() const = 0;
+  /// The samples a ForEach over every topic would count as damaged, where the
+  /// storage knows it without reading every sample again (MCAP: from its one
+  /// survey of each chunk, whose CRC covers its samples); std::nullopt where
+  /// only that ForEach can tell (SQLite: a CRC per row).
+  virtual std::optional<int64_t> DamagedSamples() const { return std::nullopt; }
   /// Bytes on disk (SQLite: the file and its WAL log).
   virtual int64_t FileBytes() const = 0;
 };
