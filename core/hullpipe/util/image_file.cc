@@ -201,8 +201,18 @@ std::optional<ImageHeader> ProbeImageFile(const std::string& path) {
   std::vector<uint8_t> bytes;
   int64_t size = 0;
   std::string why;
-  if (!ReadPrefix(path, 4 << 20, &bytes, &size, &why)) return std::nullopt;
+  // 64 KiB first: PNG, BMP and TIFF's first bytes say whether they are that
+  // format, and most headers are there. Only a JPEG (segments before its start
+  // of frame) or a PNM (comments before its size) may need more, up to 4 MiB:
+  // a video file probed as a camera spec, or every frame of an image sequence,
+  // is not read 4 MiB at a time.
+  if (!ReadPrefix(path, 64 << 10, &bytes, &size, &why)) return std::nullopt;
   if (auto h = ParseImageHeader(bytes.data(), bytes.size())) return h;
+  const bool deeper = bytes.size() >= 2 && ((bytes[0] == 0xff && bytes[1] == 0xd8) || bytes[0] == 'P');
+  if (deeper && size > int64_t(bytes.size())) {
+    if (!ReadPrefix(path, 4 << 20, &bytes, &size, &why)) return std::nullopt;
+    if (auto h = ParseImageHeader(bytes.data(), bytes.size())) return h;
+  }
   // A TIFF's directory may follow its pixels: read the file whole if bounded.
   const bool tiff = bytes.size() >= 4 && (std::memcmp(bytes.data(), "II*\0", 4) == 0 ||
                                           std::memcmp(bytes.data(), "MM\0*", 4) == 0);

@@ -49,8 +49,8 @@ cv::Mat DecodeImage(const uint8_t* data, size_t size, int flags, std::string* wh
 cv::Mat ReadImageFile(const std::string& path, int flags, std::string* why, const ImageLimits& limits = {});
 
 /// The size of the image file at `path` from its header alone (its first
-/// 4 MiB are read); std::nullopt when it is not a regular file or
-/// ParseImageHeader fails.
+/// 64 KiB are read, up to 4 MiB for a JPEG or PNM whose header lies deeper);
+/// std::nullopt when it is not a regular file or ParseImageHeader fails.
 std::optional<ImageHeader> ProbeImageFile(const std::string& path);
 
 }  // namespace hullpipe

@@ -107,6 +107,35 @@ TEST(ImageFile, AHeaderClaimingAHugeImageIsRefusedBeforeDecoding) {
   EXPECT_EQ(why.rfind(file.string() + ": ", 0), 0u) << why;
 }
 
+// ProbeImageFile reads 64 KiB first and more only for the formats whose size
+// may lie deeper: a JPEG with 200 KB of APP segments before its start of
+// frame, and a PNM with 100 KB of comments before its size, are still probed;
+// a file of another format is not (a video given as a camera's frames).
+TEST(ImageFile, AHeaderPastTheFirst64KiBIsStillProbed) {
+  const std::vector<uint8_t> jpg = Encode(".jpg", Pattern(40, 30));
+  std::vector<uint8_t> deep(jpg.begin(), jpg.begin() + 2);  // SOI
+  for (int k = 0; k < 4; ++k) {                              // APP1 segments of 50,000 bytes
+    deep.insert(deep.end(), {0xff, 0xe1, uint8_t(50000 >> 8), uint8_t(50000 & 0xff)});
+    deep.insert(deep.end(), 50000 - 2, uint8_t('x'));
+  }
+  deep.insert(deep.end(), jpg.begin() + 2, jpg.end());
+  std::string pnm = "P6\n";
+  for (int k = 0; k < 2000; ++k) pnm += "# a comment of fifty bytes, padded out to fifty.\n";
+  pnm += "40 30\n255\n" + std::string(40 * 30 * 3, '\x10');
+  const fs::path dir = TempDir();
+  std::ofstream(dir / "deep.jpg", std::ios::binary).write(reinterpret_cast<const char*>(deep.data()),
+                                                          std::streamsize(deep.size()));
+  std::ofstream(dir / "deep.ppm", std::ios::binary) << pnm;
+  for (const char* name : {"deep.jpg", "deep.ppm"}) {
+    const auto h = ProbeImageFile((dir / name).string());
+    ASSERT_TRUE(h) << name;
+    EXPECT_EQ(h->width, 40) << name;
+    EXPECT_EQ(h->height, 30) << name;
+  }
+  std::ofstream(dir / "clip.avi", std::ios::binary) << "RIFF" << std::string(200000, '\0');
+  EXPECT_FALSE(ProbeImageFile((dir / "clip.avi").string()));
+}
+
 // Bytes of a format hullpipe does not read never reach OpenCV: a DICOM file
 // (a 128-byte preamble and "DICM"), which OpenCV would hand to GDCM, whose
 // parser aborts on malformed elements.
