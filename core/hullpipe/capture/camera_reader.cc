@@ -149,6 +149,11 @@ FileCameraReader::FileCameraReader(int camera_id, std::string spec) : camera_id_
   Reopen();
 }
 
+FileCameraReader::FileCameraReader(int camera_id, std::string spec, ImageSequence sequence)
+    : camera_id_(camera_id), spec_(std::move(spec)), sequence_(std::move(sequence)) {
+  declared_frames_ = sequence_->count;
+}
+
 void FileCameraReader::Reopen() {
   next_ = 0;
   error_.clear();
@@ -287,8 +292,8 @@ std::vector<cv::Mat> ReadCalibratedFrames(int camera_id, const std::string& what
                                           int width, int height) {
   std::vector<cv::Mat> frames;
   cv::Mat f;
-  if (FindImageSequence(spec)) {
-    FileCameraReader reader(camera_id, spec);
+  if (auto sequence = FindImageSequence(spec)) {
+    FileCameraReader reader(camera_id, spec, std::move(*sequence));
     while (int(frames.size()) < count && reader.Read(&f))
       if (f.cols == width && f.rows == height && f.type() == CV_8UC3) frames.push_back(f.clone());
     return frames;

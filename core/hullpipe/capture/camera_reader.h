@@ -77,6 +77,9 @@ class FileCameraReader {
   /// Opens `spec` from its first frame. Throws std::runtime_error naming the
   /// camera and the spec when it cannot be opened.
   FileCameraReader(int camera_id, std::string spec);
+  /// Reads the image sequence FindImageSequence found for `spec`, not checked
+  /// again (a Reopen checks it again).
+  FileCameraReader(int camera_id, std::string spec, ImageSequence sequence);
   /// Back to the first frame (reopens). Throws as the constructor.
   void Reopen();
   /// The next frame (as decoded, any type and size); false at its end or on a
