@@ -1089,7 +1089,7 @@ void McapReader::MessageAt(const std::vector<uint8_t>& records, uint32_t offset,
 }
 
 void McapReader::Fill(Survey* s, const Unit& u, const std::vector<uint8_t>& records, const std::vector<Msg>& msgs) const {
-  s->done = s->ok = true;
+  s->ok = true;
   uint64_t total = 0;
   std::vector<size_t> sizes(msgs.size());
   for (size_t k = 0; k < msgs.size(); ++k) {
@@ -1269,11 +1269,9 @@ std::string McapReader::QuickCheck() const {
   std::vector<std::string> all = findings_;
   for (const auto& u : units_) {
     if (int(all.size()) >= kMaxFindings) break;
-    if (!u.chunk) continue;
+    if (!u.chunk || !u.refused.empty()) continue;  // a refused unit is among the findings already (Bound)
     const Survey& s = SurveyOf(size_t(&u - units_.data()));
-    if (!s.ok && std::find(all.begin(), all.end(), s.why) == all.end() &&
-        s.why.find("(a file made to expand)") == std::string::npos)
-      all.push_back(s.why);
+    if (!s.ok) all.push_back(s.why);
   }
   std::string out;
   for (const auto& f : all) out += (out.empty() ? "" : "; ") + f;
