@@ -324,7 +324,7 @@ TEST(ModelImportBadFiles, AFileThatCrashesAssimpIsALine) {
 // A node's stop flag ends the importer child: ImportModel throws Interrupted
 // (not ModelError) within the parent's 0.2-s poll, whatever the file. sim_node
 // imports its models before its first step, and SIGINT there once ended it by
-// the signal (SimNodeProcess.SigintDuringAModelImportStopsCleanly runs the node).
+// the signal (NodeTest.SimStopsWithinASecondOfSigintDuringAModelImport runs the node).
 TEST(ModelImport, AStopFlagEndsTheImporter) {
   std::atomic<bool> stop{true};
   ImportLimits limits;
