@@ -24,56 +24,24 @@
 #include "hullpipe/record/recording.h"
 #include "hullpipe/record/repair.h"
 #include "hullpipe/record/split_writer.h"
+#include "record_fixtures.h"
 #include "test_util.h"
 
 namespace hullpipe {
 namespace {
 
 using namespace hullpipe::record;
-
-const TopicInfo kInfoTopic{0, "hullpipe/camera_info", "hullpipe::msg::CameraInfo", true, true, true, 1,
-                           "module hullpipe { module msg { @final struct CameraInfo { long x; }; }; };"};
-const TopicInfo kMapTopic{0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4,
-                          "module hullpipe { module msg { @final struct ObjectPixelMap { long y; }; }; };"};
-const TopicInfo kPoseTopic{0, "hullpipe/head_pose", "hullpipe::msg::HeadPose", false, false, false, 1, ""};
-
-// Sample k: arrival k * 10 ms, 40..6000 bytes, half compressible, half random.
-Sample StreamSample(int64_t topic, int k) {
-  Sample s;
-  s.topic_id = topic;
-  s.arrival_ns = 1'000'000'000 + int64_t(k) * 10'000'000;
-  s.source_ns = s.arrival_ns - 777;
-  std::mt19937 rng{uint32_t(k)};
-  s.data.resize(40 + size_t(rng() % 6000));
-  for (size_t i = 0; i < s.data.size(); ++i) s.data[i] = k % 2 ? uint8_t(rng()) : uint8_t(i / 64 + k);
-  return s;
-}
-
-std::vector<Sample> ReadAll(const RecordingReader& r, const std::optional<std::vector<int64_t>>& ids = {}) {
-  std::vector<Sample> out;
-  r.ForEach(
-      [&](const Sample& s) {
-        out.push_back(s);
-        return true;
-      },
-      ids);
-  return out;
-}
-
-void ExpectSame(const std::vector<Sample>& a, const std::vector<Sample>& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i].topic_id, b[i].topic_id) << i;
-    EXPECT_EQ(a[i].arrival_ns, b[i].arrival_ns) << i;
-    EXPECT_EQ(a[i].source_ns, b[i].source_ns) << i;
-    EXPECT_TRUE(a[i].data == b[i].data) << "sample " << i << " differs";
-  }
-}
+using test::ExpectSame;
+using test::kInfoTopic;
+using test::kMapTopic;
+using test::kPoseTopic;
+using test::ReadAll;
+using test::StreamSample;
 
 // A CameraInfo, then n - 1 samples alternating maps and head poses, committed
 // every `commit_every`, in chunks of `chunk_bytes`.
-std::vector<Sample> WriteStream(const std::string& path, Compression c, int n, int commit_every,
-                                int64_t chunk_bytes = int64_t(4) << 20) {
+std::vector<Sample> WriteMcapStream(const std::string& path, Compression c, int n, int commit_every,
+                                    int64_t chunk_bytes = int64_t(4) << 20) {
   WriterOptions o;
   o.compression = c;
   o.chunk_bytes = chunk_bytes;
@@ -91,10 +59,6 @@ std::vector<Sample> WriteStream(const std::string& path, Compression c, int n, i
   return written;
 }
 
-std::string Bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
 
 uint64_t Le(const std::string& b, size_t at, int n) {
   uint64_t v = 0;
@@ -127,7 +91,7 @@ TEST(McapStorage, EveryCompressionRoundTripsByteForByte) {
   for (const Compression c : {Compression::kNone, Compression::kZstd, Compression::kLz4}) {
     const std::string path = (dir / (std::string(CompressionName(c)) + ".mcap")).string();
     // 64 KiB chunks: ~50 chunks, so indexes, merges and sizes are exercised.
-    const auto written = WriteStream(path, c, 300, 25, 64 << 10);
+    const auto written = WriteMcapStream(path, c, 300, 25, 64 << 10);
     const RecordingReader r(path);
     ExpectSame(ReadAll(r), written);
     ASSERT_EQ(r.topics().size(), 3u);
@@ -180,8 +144,8 @@ TEST(McapStorage, EveryCompressionRoundTripsByteForByte) {
 TEST(McapStorage, TheFileHasTheSpecificationsLayout) {
   const auto dir = test::TempDir("mcap_layout");
   const std::string path = (dir / "a.mcap").string();
-  WriteStream(path, Compression::kZstd, 120, 40);
-  const std::string b = Bytes(path);
+  WriteMcapStream(path, Compression::kZstd, 120, 40);
+  const std::string b = test::ReadFile(path);
   const std::string magic("\x89MCAP0\r\n", 8);
   ASSERT_EQ(b.substr(0, 8), magic);
   ASSERT_EQ(b.substr(b.size() - 8), magic);
@@ -337,10 +301,10 @@ TEST(McapStorage, AFileCutAtAnyByteRepairsToItsIntactChunks) {
   const auto dir = test::TempDir("mcap_cut");
   for (const Compression c : {Compression::kNone, Compression::kZstd}) {
     const std::string whole = (dir / (std::string("whole_") + CompressionName(c) + ".mcap")).string();
-    const auto written = WriteStream(whole, c, 120, 10);
+    const auto written = WriteMcapStream(whole, c, 120, 10);
     std::map<int64_t, Sample> original;
     for (const auto& s : written) original[s.arrival_ns] = s;
-    const std::string bytes = Bytes(whole);
+    const std::string bytes = test::ReadFile(whole);
     std::vector<size_t> cuts;
     for (size_t k = 0; k <= 97; ++k) cuts.push_back(bytes.size() * k / 97);
     std::mt19937 rng(33);
@@ -370,7 +334,7 @@ TEST(McapStorage, AFileCutAtAnyByteRepairsToItsIntactChunks) {
         EXPECT_LT(cut, 40u) << "a file with its header was not repaired: " << e.what();
         continue;
       }
-      EXPECT_EQ(Bytes(path), bytes.substr(0, cut)) << "repair changed its input";
+      EXPECT_EQ(test::ReadFile(path), bytes.substr(0, cut)) << "repair changed its input";
       const RecordingReader r(fixed);
       const auto got = ReadAll(r);
       EXPECT_EQ(int64_t(got.size()), rep.samples);
@@ -463,7 +427,7 @@ TEST(McapStorage, FilesMadeToExpandAreReadInBoundedMemory) {
     RecordingWriter w(honest, o);
     map = w.AddTopic(kMapTopic);
   }
-  std::string b = Bytes(honest);
+  std::string b = test::ReadFile(honest);
   size_t head_end = 0;
   for (const Record& r : TopLevel(b)) {
     if (r.op == 0x0C || r.op == 0x0F) break;  // Metadata, Data End: the head is over
@@ -561,8 +525,8 @@ TEST(McapStorage, TheWritersFilesStayWithinTheExpansionBound) {
 TEST(McapStorage, FilesThatLieAreNamedInOneLine) {
   const auto dir = test::TempDir("mcap_lies");
   const std::string good = (dir / "good.mcap").string();
-  WriteStream(good, Compression::kNone, 60, 20);
-  const std::string b = Bytes(good);
+  WriteMcapStream(good, Compression::kNone, 60, 20);
+  const std::string b = test::ReadFile(good);
   const auto recs = TopLevel(b);
   auto write = [&](const std::string& name, const std::string& bytes) {
     const std::string p = (dir / name).string();
@@ -626,8 +590,8 @@ TEST(McapStorage, FilesThatLieAreNamedInOneLine) {
   }
   // A compressed chunk whose zstd frame is garbage.
   const std::string zpath = (dir / "z.mcap").string();
-  WriteStream(zpath, Compression::kZstd, 60, 20);
-  bad = Bytes(zpath);
+  WriteMcapStream(zpath, Compression::kZstd, 60, 20);
+  bad = test::ReadFile(zpath);
   Record zchunk{};
   for (const auto& r : TopLevel(bad))
     if (r.op == 0x06) {

@@ -17,42 +17,22 @@
 #include "hullpipe/record/repair.h"
 #include "hullpipe/record/snapshot.h"
 #include "hullpipe/record/split_writer.h"
+#include "record_fixtures.h"
 #include "test_util.h"
 
 namespace hullpipe {
 namespace {
 
 using namespace hullpipe::record;
-
-const TopicInfo kInfoTopic{0, "hullpipe/camera_info", "hullpipe::msg::CameraInfo", true, true, true, 1,
-                           "module hullpipe { module msg { @final struct CameraInfo { long x; }; }; };"};
-const TopicInfo kMapTopic{0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""};
-
-// Sample k of a synthetic stream: arrival k * 10 ms, sizes 40..6000 bytes (some
-// spill over SQLite pages), half of them compressible, half random.
-Sample StreamSample(int64_t topic, int k) {
-  Sample s;
-  s.topic_id = topic;
-  s.arrival_ns = 1'000'000'000 + int64_t(k) * 10'000'000;
-  s.source_ns = s.arrival_ns - 777;
-  std::mt19937 rng{uint32_t(k)};
-  s.data.resize(40 + size_t(rng() % 6000));
-  for (size_t i = 0; i < s.data.size(); ++i) s.data[i] = k % 2 ? uint8_t(rng()) : uint8_t(i / 64 + k);
-  return s;
-}
-
-std::vector<Sample> ReadAll(const RecordingReader& r) {
-  std::vector<Sample> out;
-  r.ForEach([&](const Sample& s) {
-    out.push_back(s);
-    return true;
-  });
-  return out;
-}
+using test::ExpectSame;
+using test::kInfoTopic;
+using test::kMapTopic;
+using test::ReadAll;
+using test::StreamSample;
 
 // Writes a CameraInfo then n - 1 maps of the stream to a new recording at
 // `path`, committing every `commit_every`; returns what was written.
-std::vector<Sample> WriteStream(const std::string& path, Compression c, int n, int commit_every) {
+std::vector<Sample> WriteMapStream(const std::string& path, Compression c, int n, int commit_every) {
   WriterOptions o;
   o.compression = c;
   RecordingWriter w(path, o);
@@ -66,15 +46,6 @@ std::vector<Sample> WriteStream(const std::string& path, Compression c, int n, i
   return written;
 }
 
-void ExpectSame(const std::vector<Sample>& a, const std::vector<Sample>& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i].topic_id, b[i].topic_id) << i;
-    EXPECT_EQ(a[i].arrival_ns, b[i].arrival_ns) << i;
-    EXPECT_EQ(a[i].source_ns, b[i].source_ns) << i;
-    EXPECT_TRUE(a[i].data == b[i].data) << "sample " << i << " differs";
-  }
-}
 
 // A zstd frame of ~40 KB that really gives 1 GiB (run-length blocks of
 // zeros) made `info` allocate 1.1 GB on an 8-MB file: refused by the ratio
@@ -120,7 +91,7 @@ TEST(RecordingStorage, ZstdRoundTripsByteForByte) {
   std::vector<Sample> written;
   for (const Compression c : {Compression::kNone, Compression::kZstd}) {
     const std::string path = (dir / (std::string(CompressionName(c)) + ".hprec")).string();
-    written = WriteStream(path, c, 200, 1000);
+    written = WriteMapStream(path, c, 200, 1000);
     const RecordingReader r(path);
     ExpectSame(ReadAll(r), written);
     const RecordingInfo info = r.Info();
@@ -266,10 +237,6 @@ TEST(RecordingStorage, ASnapshotHoldsExactlyTheLastNSeconds) {
   EXPECT_THROW(SnapshotBuffer{zero}, std::invalid_argument);
 }
 
-std::string Bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
 
 // A file cut at any byte opens (or is refused in one line), repairs, and the
 // repaired file replays exactly the samples it holds: each one byte for byte the
@@ -280,9 +247,9 @@ TEST(RecordingStorage, AFileCutAtAnyByteOpensRepairsAndReplaysWhatItHolds) {
   std::vector<Sample> written;
   for (const Compression c : {Compression::kNone, Compression::kZstd}) {
     const std::string whole = (dir / (std::string("whole_") + CompressionName(c) + ".hprec")).string();
-    written = WriteStream(whole, c, 120, 10);
+    written = WriteMapStream(whole, c, 120, 10);
     for (const auto& s : written) original[s.arrival_ns] = s;
-    const std::string bytes = Bytes(whole);
+    const std::string bytes = test::ReadFile(whole);
     // Every 1/97th of the file, and 40 random cuts.
     std::vector<size_t> cuts;
     for (size_t k = 0; k <= 97; ++k) cuts.push_back(bytes.size() * k / 97);
@@ -308,7 +275,7 @@ TEST(RecordingStorage, AFileCutAtAnyByteOpensRepairsAndReplaysWhatItHolds) {
         EXPECT_LT(cut, 100u) << "a file with its header was not repaired: " << e.what();
         continue;
       }
-      EXPECT_EQ(Bytes(path), bytes.substr(0, cut)) << "repair changed its input";
+      EXPECT_EQ(test::ReadFile(path), bytes.substr(0, cut)) << "repair changed its input";
       const RecordingReader r(fixed);
       const auto got = ReadAll(r);
       EXPECT_EQ(int64_t(got.size()), rep.samples);
@@ -348,7 +315,7 @@ TEST(RecordingStorage, AKilledWritersFileRepairsToItsCommittedSamplesMarkedInter
   int status = 0;
   ASSERT_EQ(waitpid(pid, &status, 0), pid);
   ASSERT_TRUE(std::filesystem::exists(path + "-wal"));
-  const std::string db = Bytes(path), wal = Bytes(path + "-wal");
+  const std::string db = test::ReadFile(path), wal = test::ReadFile(path + "-wal");
   EXPECT_TRUE(RecordingReader(path).Info().interrupted);
   const RepairReport rep = Repair(path, (dir / "fixed.hprec").string());
   EXPECT_FALSE(rep.was_closed);
@@ -360,8 +327,8 @@ TEST(RecordingStorage, AKilledWritersFileRepairsToItsCommittedSamplesMarkedInter
   const auto got = ReadAll(r);
   ASSERT_GE(got.size(), 50u);
   for (size_t k = 0; k < got.size(); ++k) EXPECT_TRUE(got[k].data == StreamSample(1, int(k)).data) << k;
-  EXPECT_EQ(Bytes(path), db);
-  EXPECT_EQ(Bytes(path + "-wal"), wal);
+  EXPECT_EQ(test::ReadFile(path), db);
+  EXPECT_EQ(test::ReadFile(path + "-wal"), wal);
   EXPECT_THROW(Repair(path, (dir / "fixed.hprec").string()), RecordingError);  // never overwritten
   EXPECT_THROW(Repair((dir / "none.hprec").string(), (dir / "o.hprec").string()), RecordingError);
 }

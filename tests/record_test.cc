@@ -166,10 +166,6 @@ TEST(Recording, BadFilesGiveOneErrorNamingTheFile) {
   }
 }
 
-std::string Bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
 
 // A recording with `n` samples of 1000 bytes, closed by its writer.
 std::string WriteRecording(const std::filesystem::path& dir, const std::string& name, int n) {
@@ -202,7 +198,7 @@ TEST(Recording, ReadingNeverChangesTheFileAndAKilledWriterIsMarked) {
   int status = 0;
   ASSERT_EQ(waitpid(pid, &status, 0), pid);
   ASSERT_TRUE(std::filesystem::exists(killed + "-wal"));  // the commit is in the log, not yet in the file
-  const std::string db = Bytes(killed), wal = Bytes(killed + "-wal");
+  const std::string db = test::ReadFile(killed), wal = test::ReadFile(killed + "-wal");
   {
     const RecordingReader r(killed);
     const RecordingInfo info = r.Info();
@@ -210,8 +206,8 @@ TEST(Recording, ReadingNeverChangesTheFileAndAKilledWriterIsMarked) {
     EXPECT_TRUE(info.interrupted);
     EXPECT_EQ(info.damage, "");
   }
-  EXPECT_EQ(Bytes(killed), db) << "the reader changed the file";
-  EXPECT_EQ(Bytes(killed + "-wal"), wal) << "the reader changed the log";
+  EXPECT_EQ(test::ReadFile(killed), db) << "the reader changed the file";
+  EXPECT_EQ(test::ReadFile(killed + "-wal"), wal) << "the reader changed the log";
   const RecordingReader c(closed);
   EXPECT_FALSE(c.Info().interrupted);  // control
 }
@@ -236,7 +232,7 @@ TEST(Recording, BitFlipsAreReportedNotReadAsData) {
   int reported = 0;
   const int kFiles = 20;
   for (int f = 0; f < kFiles; ++f) {
-    std::string bytes = Bytes(good);
+    std::string bytes = test::ReadFile(good);
     std::uniform_int_distribution<size_t> at(bytes.size() / 4, bytes.size() * 3 / 4);
     for (int k = 0; k < 8; ++k) bytes[at(rng)] ^= char(1 << (rng() % 8));
     const std::string path = (dir / ("flip" + std::to_string(f) + ".hprec")).string();
@@ -1065,7 +1061,7 @@ TEST_F(RecordTools, BadRecordingsEndInOneLineAndANonZeroExit) {
   auto cases = BadRecordings(dir_);
   // A bit-flipped recording (a seed whose flips land in the b-tree and the data).
   const std::string good = WriteRecording(dir_, "good.hprec", 200);
-  std::string bytes = Bytes(good);
+  std::string bytes = test::ReadFile(good);
   std::mt19937 rng(16);
   std::uniform_int_distribution<size_t> at(bytes.size() / 4, bytes.size() * 3 / 4);
   for (int k = 0; k < 8; ++k) bytes[at(rng)] ^= char(1 << (rng() % 8));
@@ -1124,7 +1120,7 @@ TEST_F(RecordTools, BadRecordingsEndInOneLineAndANonZeroExit) {
 // and for them alike; the sound file's runs name no damage (the controls).
 TEST_F(RecordTools, EchoAndExportOfADamagedMcapNameTheDamage) {
   const std::string sound = WriteRecording(dir_, "sound.mcap", 200);
-  const std::string bytes = Bytes(sound);
+  const std::string bytes = test::ReadFile(sound);
   std::map<std::string, std::string> files = {{"sound", sound}};
   for (const size_t keep : {bytes.size() * 3 / 10, bytes.size() * 6 / 10, bytes.size() - 20}) {
     const std::string path = (dir_ / ("cut_" + std::to_string(keep) + ".mcap")).string();

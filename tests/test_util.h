@@ -84,8 +84,9 @@ inline std::unique_ptr<Process> StartExe(const std::string& exe, std::vector<std
                                    std::vector<std::pair<std::string, std::string>>{{"CYCLONEDDS_URI", "file://" + config}});
 }
 
+/// The whole file at `path`, byte for byte (empty where it cannot be read).
 inline std::string ReadFile(const std::string& path) {
-  std::ifstream f(path);
+  std::ifstream f(path, std::ios::binary);
   std::stringstream ss;
   ss << f.rdbuf();
   return ss.str();
