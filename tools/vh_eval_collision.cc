@@ -95,7 +95,7 @@ struct Case {
   size_t scene = 0;
 };
 
-struct Config {
+struct EvalConfig {
   std::string backend;  // cpu | gl
   std::string viewport; // 10x10 | 4mm | ...
   TriangleQueryOptions options;
@@ -307,7 +307,7 @@ int RunCollisionEval(const CollisionEvalOptions& o_in) {
 
   // Detection configurations.
   auto px = [](double m) { return TriangleQueryOptions{m, 0, 64}; };
-  std::vector<Config> configs = {{"cpu", "10x10", {0.002, 10, 64}, 1}, {"cpu", "4mm", px(0.004), 1},
+  std::vector<EvalConfig> configs = {{"cpu", "10x10", {0.002, 10, 64}, 1}, {"cpu", "4mm", px(0.004), 1},
                                  {"cpu", "2mm", px(0.002), 1},       {"cpu", "1mm", px(0.001), 1},
                                  {"cpu", "0.5mm", px(0.0005), 1},    {"cpu", "0.25mm", {0.00025, 0, 128}, 1},
                                  {"cpu", "10x10", {0.002, 10, 64}, 2}, {"cpu", "2mm", px(0.002), 2},
@@ -329,7 +329,7 @@ int RunCollisionEval(const CollisionEvalOptions& o_in) {
   ResponseOptions response_options;
   if (o.normal_fit_radius_px > 0) response_options.normal.fit_radius_px = o.normal_fit_radius_px;
   nlohmann::json rows = nlohmann::json::array();
-  for (const Config& cfg : configs) {
+  for (const EvalConfig& cfg : configs) {
     double detect_s = 0;
     long tris = 0;
     std::vector<double> cp_err, pixel_mm;

@@ -21,8 +21,8 @@ namespace hullpipe {
 namespace {
 
 // The test sphere of the shared fixtures (SphereViews, SphereHull, SphereSideView).
-const Eigen::Vector3d& kCentre = test::kSphereCentre;
-constexpr double kRadius = test::kSphereRadius;
+using test::kSphereCentre;
+using test::kSphereRadius;
 
 TriangleViewport Frame(const Triangle& t) { return MakeTriangleViewport(t.a, t.b, t.c, {}); }
 
@@ -48,15 +48,15 @@ Checked Check(const VolumeQuery& q, const Triangle& t, const TriangleQueryOption
 
 class SphereCollision : public ::testing::Test {
  protected:
-  SphereCollision() : q_(test::SphereViews(4, 640, 480, kCentre, kRadius), test::BigBox()) {}
+  SphereCollision() : q_(test::SphereViews(4, 640, 480, kSphereCentre, kSphereRadius), test::BigBox()) {}
   VolumeQuery q_;
 };
 
 TEST_F(SphereCollision, ExactRegionAgreesWithDensePointQueries) {
   // A triangle cutting the hull: every dense sample inside the hull lies within
   // one line spacing (the reference samples across its lines) of the region.
-  const Triangle t{kCentre + Eigen::Vector3d(0.25, -0.05, 0), kCentre + Eigen::Vector3d(0.36, -0.05, 0.02),
-                   kCentre + Eigen::Vector3d(0.28, 0.06, -0.03)};
+  const Triangle t{kSphereCentre + Eigen::Vector3d(0.25, -0.05, 0), kSphereCentre + Eigen::Vector3d(0.36, -0.05, 0.02),
+                   kSphereCentre + Eigen::Vector3d(0.28, 0.06, -0.03)};
   const auto region = ExactContactSegments(q_, Frame(t), 1e-4);
   ASSERT_FALSE(region.empty());
   std::vector<Eigen::Vector3d> inside;
@@ -93,7 +93,7 @@ TEST(ContactError, GridOfPointsAgainstASquare) {
 }
 
 TEST_F(SphereCollision, TriangleWhollyInsideIsOneCollisionPointPerPixel) {
-  const Triangle t{kCentre, kCentre + Eigen::Vector3d(0.02, 0, 0), kCentre + Eigen::Vector3d(0, 0.02, 0.005)};
+  const Triangle t{kSphereCentre, kSphereCentre + Eigen::Vector3d(0.02, 0, 0), kSphereCentre + Eigen::Vector3d(0, 0.02, 0.005)};
   const Checked c = Check(q_, t);
   EXPECT_EQ(int(c.r.collision_points.size()), c.r.pixels_tested);
   // The region is the whole triangle; pixel centres cover it to half a diagonal,
@@ -104,7 +104,7 @@ TEST_F(SphereCollision, TriangleWhollyInsideIsOneCollisionPointPerPixel) {
 TEST_F(SphereCollision, SliverTriangleOfAspect1000) {
   // 10 cm long, 0.1 mm wide, crossing the hull's surface: its viewport is one
   // pixel high; the collision points still follow the exact contact to a pixel.
-  const Eigen::Vector3d a = kCentre + Eigen::Vector3d(0.22, 0.01, 0.0);
+  const Eigen::Vector3d a = kSphereCentre + Eigen::Vector3d(0.22, 0.01, 0.0);
   const Triangle t{a, a + Eigen::Vector3d(0.1, 0, 0), a + Eigen::Vector3d(0.05, 1e-4, 0)};
   const Checked c = Check(q_, t);
   ASSERT_FALSE(c.region.empty());
@@ -117,23 +117,23 @@ TEST_F(SphereCollision, TriangleSmallerThanAPixelIsStillQueried) {
   // triangle's chord through the pixel's centre column: inside the hull one
   // collision point, on the triangle; outside none.
   const Eigen::Vector3d d1(5e-4, 0, 0), d2(0, 5e-4, 0);
-  const auto in = QueryTriangleCpu(q_, kCentre, kCentre + d1, kCentre + d2);
+  const auto in = QueryTriangleCpu(q_, kSphereCentre, kSphereCentre + d1, kSphereCentre + d2);
   EXPECT_EQ(in.pixels_tested, 1);
   ASSERT_EQ(in.collision_points.size(), 1u);
-  const Eigen::Vector3d rel = in.collision_points[0] - kCentre;
+  const Eigen::Vector3d rel = in.collision_points[0] - kSphereCentre;
   EXPECT_NEAR(rel.z(), 0, 1e-12);
   EXPECT_GE(rel.x(), -1e-12);
   EXPECT_GE(rel.y(), -1e-12);
   EXPECT_LE(rel.x() + rel.y(), 5e-4 + 1e-12);
-  const Eigen::Vector3d far = kCentre + Eigen::Vector3d(1, 0, 0);
+  const Eigen::Vector3d far = kSphereCentre + Eigen::Vector3d(1, 0, 0);
   EXPECT_TRUE(QueryTriangleCpu(q_, far, far + d1, far + d2).collision_points.empty());
 }
 
 TEST_F(SphereCollision, TriangleLargerThanTheHull) {
   // 3 m across, through the sphere: the viewport is capped (64 px, ~5 cm pixels)
   // and still finds the hull's cross-section to a pixel.
-  const Triangle t{kCentre + Eigen::Vector3d(-1.5, -1, 0.01), kCentre + Eigen::Vector3d(1.5, -1, 0.01),
-                   kCentre + Eigen::Vector3d(0, 2, 0.01)};
+  const Triangle t{kSphereCentre + Eigen::Vector3d(-1.5, -1, 0.01), kSphereCentre + Eigen::Vector3d(1.5, -1, 0.01),
+                   kSphereCentre + Eigen::Vector3d(0, 2, 0.01)};
   const Checked c = Check(q_, t);
   ASSERT_FALSE(c.r.collision_points.empty());
   EXPECT_GT(c.pixel_diag, 0.03);
@@ -141,7 +141,7 @@ TEST_F(SphereCollision, TriangleLargerThanTheHull) {
   // A virtual box wholly containing the hull touches it nowhere: detection is of
   // surfaces (§4.1), so an object swallowing the hull reports no collision.
   Rigid3d pose;
-  pose.translation = kCentre;
+  pose.translation = kSphereCentre;
   const CollisionResult around = DetectCollisions(q_, TriangleMesh::Box({1, 1, 1}, 0.1).Transformed(pose));
   EXPECT_TRUE(around.box_overlap);
   EXPECT_FALSE(around.colliding());
@@ -150,7 +150,7 @@ TEST_F(SphereCollision, TriangleLargerThanTheHull) {
 TEST_F(SphereCollision, ZeroLengthRecoveryVectorFallsBack) {
   // CP_obj == RP_obj: V_rec has no direction; both methods take it from the hull
   // box's centre toward RP_obj (out of the hull) and say so.
-  const Eigen::Vector3d cp = kCentre + Eigen::Vector3d(0.27, 0.02, 0);
+  const Eigen::Vector3d cp = kSphereCentre + Eigen::Vector3d(0.27, 0.02, 0);
   for (int m = 0; m < 2; ++m) {
     const auto r = m == 0 ? ComputeResponse(q_, {cp}, cp) : ComputeResponsePaper(q_, {cp}, cp);
     ASSERT_TRUE(r.has_value()) << m;
@@ -168,7 +168,7 @@ TEST_F(SphereCollision, RefinedFarthestPointIsExactToALineSpacing) {
   // farthest point (lines 0.01 mm apart) to within a refinement line spacing.
   Rigid3d pose;
   pose.rotation = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
-  pose.translation = kCentre + Eigen::Vector3d(kRadius + 0.01, 0.02, -0.01);
+  pose.translation = kSphereCentre + Eigen::Vector3d(kSphereRadius + 0.01, 0.02, -0.01);
   const TriangleMesh mesh = TriangleMesh::Box({0.06, 0.04, 0.03}, 0.02).Transformed(pose);
   const TriangleQueryOptions o{0.002, 10, 64};
   CollisionResult hit = DetectCollisions(q_, mesh, o);
@@ -194,12 +194,12 @@ TEST_F(SphereCollision, RefinedFarthestPointIsExactToALineSpacing) {
 
 TEST(SmoothHull, NormalOfASpheresHullIsTheTangentConesNormal) {
   SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(kCentre, kRadius));
+  scene.shapes.push_back(Shape::Sphere(kSphereCentre, kSphereRadius));
   const Eigen::Vector3d C(3, 0.5, -1.5);
   // A point on the cone from C tangent to the sphere.
-  const Eigen::Vector3d a = (kCentre - C).normalized();
+  const Eigen::Vector3d a = (kSphereCentre - C).normalized();
   const Eigen::Vector3d perp = a.unitOrthogonal();
-  const double dist = (kCentre - C).norm(), half = std::asin(kRadius / dist);
+  const double dist = (kSphereCentre - C).norm(), half = std::asin(kSphereRadius / dist);
   const Eigen::Vector3d gen = (std::cos(half) * a + std::sin(half) * perp).normalized();
   const Eigen::Vector3d X = C + 2.8 * gen;
   const Eigen::Vector3d truth = -(a - a.dot(gen) * gen).normalized();
@@ -332,14 +332,14 @@ TEST(PartialViews, TriangleOutsideSomeCamerasViews) {
   // others; with the paper's rule it is outside. Both agree with their exact
   // regions to a pixel, and the collision points are each rule's Inside.
   SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(kCentre, kRadius));
-  auto cams = RingCameras(4, 3.0, 1.8, kCentre, 640, 480, 1.0);
+  scene.shapes.push_back(Shape::Sphere(kSphereCentre, kSphereRadius));
+  auto cams = RingCameras(4, 3.0, 1.8, kSphereCentre, 640, 480, 1.0);
   // Narrow camera 0's view to ~5 degrees: most of the sphere is outside it.
   cams[0].fx *= 12, cams[0].fy *= 12;
   std::vector<CameraMap> views;
   for (const auto& c : cams) views.push_back({c, RenderExactMap(c, scene)});
-  const Triangle t{kCentre + Eigen::Vector3d(-0.25, -0.1, 0), kCentre + Eigen::Vector3d(0.25, -0.1, 0),
-                   kCentre + Eigen::Vector3d(0, 0.25, 0)};
+  const Triangle t{kSphereCentre + Eigen::Vector3d(-0.25, -0.1, 0), kSphereCentre + Eigen::Vector3d(0.25, -0.1, 0),
+                   kSphereCentre + Eigen::Vector3d(0, 0.25, 0)};
   size_t unknown_points = 0, outside_points = 0;
   for (const OutOfView rule : {OutOfView::kUnknown, OutOfView::kOutside}) {
     const VolumeQuery q(views, test::BigBox(), {rule, 2});
@@ -355,9 +355,9 @@ TEST(PartialViews, TriangleOutsideSomeCamerasViews) {
 }
 
 TEST(PointQueries, ParticlesAreQueriedAsPoints) {
-  const VolumeQuery q(test::SphereViews(4, 320, 240, kCentre, kRadius), test::BigBox());
-  const std::vector<Eigen::Vector3d> pts = {kCentre, kCentre + Eigen::Vector3d(2, 0, 0),
-                                            kCentre + Eigen::Vector3d(0.29, 0, 0) * 0.5};
+  const VolumeQuery q(test::SphereViews(4, 320, 240, kSphereCentre, kSphereRadius), test::BigBox());
+  const std::vector<Eigen::Vector3d> pts = {kSphereCentre, kSphereCentre + Eigen::Vector3d(2, 0, 0),
+                                            kSphereCentre + Eigen::Vector3d(0.29, 0, 0) * 0.5};
   const auto in = QueryPoints(q, pts);
   ASSERT_EQ(in.size(), 3u);
   for (size_t k = 0; k < pts.size(); ++k) EXPECT_EQ(bool(in[k]), q.Inside(pts[k])) << k;
@@ -366,14 +366,14 @@ TEST(PointQueries, ParticlesAreQueriedAsPoints) {
 }
 
 TEST(Collision, BoxTestSkipsDistantMeshes) {
-  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius), test::BigBox());
   Rigid3d far;
-  far.translation = kCentre + Eigen::Vector3d(3, 0, 0);
+  far.translation = kSphereCentre + Eigen::Vector3d(3, 0, 0);
   const auto r = DetectCollisions(q, TriangleMesh::Icosphere(0.1, 1).Transformed(far));
   EXPECT_FALSE(r.box_overlap);
   EXPECT_EQ(r.triangles_queried, 0);
   Rigid3d touching;
-  touching.translation = kCentre + Eigen::Vector3d(kRadius + 0.05, 0, 0);
+  touching.translation = kSphereCentre + Eigen::Vector3d(kSphereRadius + 0.05, 0, 0);
   const auto t = DetectCollisions(q, TriangleMesh::Icosphere(0.1, 2).Transformed(touching));
   EXPECT_TRUE(t.colliding());
 }

@@ -29,7 +29,7 @@ const Eigen::Vector3d kStart(0.0, 0.0, -1.0);
 constexpr double kOffset[4] = {0.0, 0.003, -0.004, 0.005};
 constexpr double kJitter[4] = {0.002, -0.002, 0.0015, -0.0015};
 
-struct Frame {
+struct MapFrame {
   std::unique_ptr<VolumeQuery> query;
   TimedHull timed;
   std::vector<double> view_time_s;
@@ -47,8 +47,8 @@ class MovingSphere {
   }
   // Frame k: every camera's exact map of the sphere where it was when that
   // camera shot (or of nothing, `empty`).
-  Frame Shoot(int k, bool empty = false) const {
-    Frame f;
+  MapFrame Shoot(int k, bool empty = false) const {
+    MapFrame f;
     std::vector<CameraMap> views;
     std::vector<int64_t> skew_ns;
     const int64_t t_ref = int64_t(std::llround(k / fps_ * 1e9)) + 1'000'000'000;
@@ -129,7 +129,7 @@ TEST_P(HullVelocityOf, ATranslatingSphereIsItsNormalSpeedWithinPixelsOverTheInte
   const MovingSphere s((c.towards ? d : across) * c.speed, c.fps);
   int checked = 0;
   for (int k = 1; k <= 4; ++k) {
-    const Frame prev = s.Shoot(k - 1), cur = s.Shoot(k);
+    const MapFrame prev = s.Shoot(k - 1), cur = s.Shoot(k);
     // Contact points around the struck side: the line to the ball and lines
     // turned from it by up to 25 degrees.
     for (const Eigen::Vector3d& off : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0, 0.3, 0),
@@ -170,7 +170,7 @@ INSTANTIATE_TEST_SUITE_P(Speeds, HullVelocityOf,
 TEST(HullVelocity, TimingByTheFramesetsAloneFailsWhereCamerasJitter) {
   const Eigen::Vector3d d = Eigen::Vector3d(1, 0.3, -0.2).normalized();
   const MovingSphere s(d * 3.0, 50);
-  const Frame prev = s.Shoot(2), cur = s.Shoot(3);
+  const MapFrame prev = s.Shoot(2), cur = s.Shoot(3);
   const auto contact = ContactOn(*cur.query, s.CentreAt(3 / 50.0), d);
   ASSERT_TRUE(contact);
   const Eigen::Vector3d n_true = SmoothHullNormal(s.SceneAt(3 / 50.0), s.Centres(), contact->cp);
@@ -188,7 +188,7 @@ TEST(HullVelocity, TimingByTheFramesetsAloneFailsWhereCamerasJitter) {
 
 TEST(HullVelocity, AStationaryHullIsExactlyZero) {
   const MovingSphere s(Eigen::Vector3d::Zero(), 25);
-  const Frame prev = s.Shoot(0), cur = s.Shoot(1);
+  const MapFrame prev = s.Shoot(0), cur = s.Shoot(1);
   const auto contact = ContactOn(*cur.query, kStart, Eigen::Vector3d(1, 0, 0));
   ASSERT_TRUE(contact);
   const HullVelocity v = HullMotion(cur.timed, prev.timed).At(contact->cp, contact->n);
@@ -200,11 +200,11 @@ TEST(HullVelocity, AStationaryHullIsExactlyZero) {
 TEST(HullVelocity, AHullThatAppearsGivesNoneAndAFarJumpIsClampedOrNone) {
   const Eigen::Vector3d d(1, 0, 0);
   const MovingSphere s(Eigen::Vector3d::Zero(), 50, /*skew=*/false);
-  const Frame cur = s.Shoot(1);
+  const MapFrame cur = s.Shoot(1);
   const auto contact = ContactOn(*cur.query, kStart, d);
   ASSERT_TRUE(contact);
   // Nothing in view before: the hull appeared.
-  const Frame empty = s.Shoot(0, /*empty=*/true);
+  const MapFrame empty = s.Shoot(0, /*empty=*/true);
   EXPECT_EQ(HullMotion(cur.timed, empty.timed).At(contact->cp, contact->n).status, HullVelocityStatus::kAppeared);
   // The sphere 10 cm behind 20 ms earlier: 5 m/s, measured (positive control);
   // 30 cm behind: 15 m/s, clamped to the bound of 10 m/s; 50 cm behind: beyond
@@ -233,7 +233,7 @@ TEST(HullVelocity, AHullThatAppearsGivesNoneAndAFarJumpIsClampedOrNone) {
 
 TEST(HullVelocity, FramesetsTooFarApartOrOfOtherCamerasGiveNone) {
   const MovingSphere s(Eigen::Vector3d(0.5, 0, 0), 25, false);
-  const Frame a = s.Shoot(0), b = s.Shoot(3);  // 0.12 s apart
+  const MapFrame a = s.Shoot(0), b = s.Shoot(3);  // 0.12 s apart
   const auto contact = ContactOn(*b.query, s.CentreAt(0.12), Eigen::Vector3d(1, 0, 0));
   ASSERT_TRUE(contact);
   EXPECT_EQ(HullMotion(b.timed, a.timed).At(contact->cp, contact->n).status, HullVelocityStatus::kTooFarApart);

@@ -19,23 +19,23 @@ namespace hullpipe {
 namespace {
 
 // The test sphere of the shared fixtures (SphereViews, SphereHull, SphereSideView).
-const Eigen::Vector3d& kCentre = test::kSphereCentre;
-constexpr double kRadius = test::kSphereRadius;
+using test::kSphereCentre;
+using test::kSphereRadius;
 
 // Outward normal at X of the cone from camera centre C tangent to the sphere.
 Eigen::Vector3d ConeNormalAt(const Eigen::Vector3d& C, const Eigen::Vector3d& X) {
-  const Eigen::Vector3d a = (kCentre - C).normalized(), d = (X - C).normalized();
+  const Eigen::Vector3d a = (kSphereCentre - C).normalized(), d = (X - C).normalized();
   return -(a - a.dot(d) * d).normalized();
 }
 
 TEST(HullSurface, FirstHullPointIsWhereStepsFirstEnterTheHull) {
-  const VolumeQuery q(test::SphereViews(4, 320, 240, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(4, 320, 240, kSphereCentre, kSphereRadius), test::BigBox());
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1, 1);
   int hits = 0;
   for (int i = 0; i < 200; ++i) {
-    const Eigen::Vector3d o = kCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * 1.0;
-    const Eigen::Vector3d dir = (kCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)) * 0.2 - o).normalized();
+    const Eigen::Vector3d o = kSphereCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * 1.0;
+    const Eigen::Vector3d dir = (kSphereCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)) * 0.2 - o).normalized();
     const auto cp = FirstHullPointAlong(q, o, dir, 2.0);
     // Step at 0.1 mm: the first inside sample is at most one step past CP_hull.
     double first = -1;
@@ -52,16 +52,16 @@ TEST(HullSurface, FirstHullPointIsWhereStepsFirstEnterTheHull) {
     EXPECT_GE(s_cp, first - 1e-4 - 1e-9);
   }
   EXPECT_GT(hits, 100);
-  EXPECT_FALSE(FirstHullPointAlong(q, kCentre + Eigen::Vector3d(5, 0, 0), {1, 0, 0}, 3.0).has_value());
+  EXPECT_FALSE(FirstHullPointAlong(q, kSphereCentre + Eigen::Vector3d(5, 0, 0), {1, 0, 0}, 3.0).has_value());
 }
 
 TEST(HullSurface, SampledCrossingsAgreeWithTheExactIntervals) {
-  const VolumeQuery q(test::SphereViews(4, 320, 240, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(4, 320, 240, kSphereCentre, kSphereRadius), test::BigBox());
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(-1, 1);
   for (int k = 0; k < 30; ++k) {
-    const Eigen::Vector3d o = kCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * 1.0;
-    const Eigen::Vector3d d = kCentre - o;  // not unit: s in its units
+    const Eigen::Vector3d o = kSphereCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * 1.0;
+    const Eigen::Vector3d d = kSphereCentre - o;  // not unit: s in its units
     const auto exact = FirstHullPointAlong(q, o, d, 1.0);
     const auto in = FirstSampledCrossing(q, o, d, 0.0, 1.0, /*inside=*/true, 0.002, 1e-5);
     ASSERT_EQ(exact.has_value(), in.has_value());
@@ -71,28 +71,28 @@ TEST(HullSurface, SampledCrossingsAgreeWithTheExactIntervals) {
     EXPECT_TRUE(q.Inside(o + *in * d));
     // And leaving from the centre along the reverse direction reaches the same
     // surface point (a sphere's hull is convex).
-    const auto out = FirstSampledCrossing(q, kCentre, -d, 0.0, 1.0, /*inside=*/false, 0.002, 1e-5);
+    const auto out = FirstSampledCrossing(q, kSphereCentre, -d, 0.0, 1.0, /*inside=*/false, 0.002, 1e-5);
     ASSERT_TRUE(out.has_value());
-    EXPECT_FALSE(q.Inside(kCentre - *out * d));
+    EXPECT_FALSE(q.Inside(kSphereCentre - *out * d));
   }
   // Already of the wanted kind at s_begin; never of it.
-  EXPECT_EQ(FirstSampledCrossing(q, kCentre, {1, 0, 0}, 0.0, 1.0, true, 0.002, 1e-5).value(), 0.0);
-  EXPECT_FALSE(FirstSampledCrossing(q, kCentre + Eigen::Vector3d(5, 0, 0), {1, 0, 0}, 0.0, 1.0, true, 0.002, 1e-5));
+  EXPECT_EQ(FirstSampledCrossing(q, kSphereCentre, {1, 0, 0}, 0.0, 1.0, true, 0.002, 1e-5).value(), 0.0);
+  EXPECT_FALSE(FirstSampledCrossing(q, kSphereCentre + Eigen::Vector3d(5, 0, 0), {1, 0, 0}, 0.0, 1.0, true, 0.002, 1e-5));
 }
 
 TEST(HullSurface, NormalFromTheSilhouetteEdgeMatchesTheAnalyticCone) {
   // 640x480 cameras 3 m away: the sphere's silhouette is ~90 px across. The
   // normal comes from a line fitted to the border pixels within 3 px, so its
   // error is the pixel staircase's: a few degrees.
-  const auto views = test::SphereViews(4, 640, 480, kCentre, kRadius);
+  const auto views = test::SphereViews(4, 640, 480, kSphereCentre, kSphereRadius);
   const VolumeQuery q(views, test::BigBox());
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> u(-1, 1);
   std::vector<double> err_deg;
   int edges = 0;
   for (int i = 0; i < 300; ++i) {
-    const Eigen::Vector3d o = kCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * 1.0;
-    const auto cp = FirstHullPointAlong(q, o, kCentre - o, 1.0);
+    const Eigen::Vector3d o = kSphereCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * 1.0;
+    const auto cp = FirstHullPointAlong(q, o, kSphereCentre - o, 1.0);
     ASSERT_TRUE(cp.has_value());
     const auto n = HullSurfaceNormal(q, *cp);
     ASSERT_TRUE(n.has_value()) << "a hull surface point lies on some camera's border";
@@ -114,11 +114,11 @@ TEST(HullSurface, NormalFromTheSilhouetteEdgeMatchesTheAnalyticCone) {
 }
 
 TEST(HullSurface, PointAwayFromTheSurfaceHasNoNormal) {
-  const VolumeQuery q(test::SphereViews(4, 320, 240, kCentre, kRadius), test::BigBox());
-  EXPECT_FALSE(HullSurfaceNormal(q, kCentre).has_value()) << "deep inside: no border near";
+  const VolumeQuery q(test::SphereViews(4, 320, 240, kSphereCentre, kSphereRadius), test::BigBox());
+  EXPECT_FALSE(HullSurfaceNormal(q, kSphereCentre).has_value()) << "deep inside: no border near";
   HullNormalOptions bad;
   bad.border_px = 0;
-  EXPECT_THROW(HullSurfaceNormal(q, kCentre, bad), std::invalid_argument);
+  EXPECT_THROW(HullSurfaceNormal(q, kSphereCentre, bad), std::invalid_argument);
 }
 
 }  // namespace

@@ -68,13 +68,13 @@ TEST(HeldOutRendering, UndistortionMatchesThePinholeRendering) {
   EXPECT_EQ(cv::norm(same.image, img, cv::NORM_INF), 0.0);
 }
 
-struct Rig {
+struct HeldOutRig {
   std::vector<CameraMap> views;
   std::vector<cv::Mat> images;
 };
 
-Rig MakeRig(const SyntheticScene& scene, int n) {
-  Rig rig;
+HeldOutRig MakeRig(const SyntheticScene& scene, int n) {
+  HeldOutRig rig;
   for (const auto& c : DomeCameras(n, 2.5, Eigen::Vector3d(0, 0, -1), 160, 120, 1.0)) {
     rig.views.push_back({c, RenderExactMap(c, scene)});
     rig.images.push_back(RenderColour(c, scene));
@@ -84,7 +84,7 @@ Rig MakeRig(const SyntheticScene& scene, int n) {
 
 TEST(HeldOutRendering, TheOtherCamerasRenderTheHeldOutView) {
   const SyntheticScene scene = NamedScene("sphere", 0);
-  Rig rig = MakeRig(scene, 8);
+  HeldOutRig rig = MakeRig(scene, 8);
   HeldOutOptions o;
   o.sweep.num_planes = 96;
   const size_t k = 2;
@@ -101,14 +101,14 @@ TEST(HeldOutRendering, TheOtherCamerasRenderTheHeldOutView) {
   EXPECT_GT(r.error.psnr_db, 22.0);
   EXPECT_GT(r.error.ssim, 0.72);
   // The held-out camera's own map and image play no part in the rendering.
-  Rig blind = rig;
+  HeldOutRig blind = rig;
   blind.views[k].map = cv::Mat(blind.views[k].map.size(), CV_8UC1, cv::Scalar(255));
   blind.images[k] = cv::Mat(blind.images[k].size(), CV_8UC3, cv::Scalar(0, 255, 0));
   const HeldOutResult b = RenderHeldOut(blind.views, blind.images, test::BigBox(), k, o);
   EXPECT_EQ(cv::norm(b.rendered, r.rendered, cv::NORM_INF), 0.0);
   // Control: the same hull textured with the images in the wrong cameras must
   // score clearly worse, or the measure could not tell texturing apart.
-  Rig shuffled = rig;
+  HeldOutRig shuffled = rig;
   for (size_t i = 0; i < shuffled.images.size(); ++i) shuffled.images[i] = rig.images[(i + 3) % rig.images.size()];
   const HeldOutResult s = RenderHeldOut(shuffled.views, shuffled.images, test::BigBox(), k, o);
   EXPECT_EQ(s.iou, r.iou);
@@ -118,7 +118,7 @@ TEST(HeldOutRendering, TheOtherCamerasRenderTheHeldOutView) {
 }
 
 TEST(HeldOutRendering, RefusesTooFewCamerasAndMismatchedImages) {
-  Rig rig = MakeRig(NamedScene("sphere", 0), 3);
+  HeldOutRig rig = MakeRig(NamedScene("sphere", 0), 3);
   EXPECT_THROW(RenderHeldOut(rig.views, rig.images, test::BigBox(), 3), std::invalid_argument);
   rig.images[1] = cv::Mat(10, 10, CV_8UC3);
   EXPECT_THROW(RenderHeldOut(rig.views, rig.images, test::BigBox(), 0), std::invalid_argument);

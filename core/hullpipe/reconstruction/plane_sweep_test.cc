@@ -29,8 +29,8 @@ namespace hullpipe {
 namespace {
 
 // The test sphere of the shared fixtures (SphereViews, SphereHull, SphereSideView).
-const Eigen::Vector3d& kCentre = test::kSphereCentre;
-constexpr double kRadius = test::kSphereRadius;
+using test::kSphereCentre;
+using test::kSphereRadius;
 
 using test::SphereHull;
 
@@ -82,12 +82,12 @@ TEST_F(SphereHull, SweepDepthBoundsTheTrueSphere) {
   const auto depths = SweepPlaneDepths(query_, view, o);
   const double spacing = depths[1] - depths[0];
   const cv::Mat d = PlaneSweepCpu(query_, view, depths, {0, 0, view.width, view.height}, nullptr, 2);
-  const Shape sphere = Shape::Sphere(kCentre, kRadius);
+  const Shape sphere = Shape::Sphere(kSphereCentre, kSphereRadius);
   int hits = 0;
   for (int r = 0; r < view.height; ++r)
     for (int c = 0; c < view.width; ++c) {
       const Eigen::Vector3d D = view.world_from_eye.rotation * view.EyeRay(c + 0.5, r + 0.5);
-      const auto s = Shape::Sphere(kCentre, kRadius - 0.03).Intersect(view.world_from_eye.translation, D);
+      const auto s = Shape::Sphere(kSphereCentre, kSphereRadius - 0.03).Intersect(view.world_from_eye.translation, D);
       if (!s) continue;  // only rays well inside the silhouette
       const auto exact = sphere.Intersect(view.world_from_eye.translation, D);
       ++hits;
@@ -122,9 +122,9 @@ TEST_F(SphereHull, TilesAssembleToTheWholeView) {
 }
 
 TEST(PlaneSweep, NoNanOrInfiniteDepthOtherThanNoHull) {
-  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius), test::BigBox());
   // A view from inside the hull box, looking through the sphere's centre.
-  const NovelView view = NovelView::FromFov(80, 60, 1.5, LookAt(kCentre + Eigen::Vector3d(0.05, 0, 0), kCentre + Eigen::Vector3d(1, 0, 0), {0, 0, -1}));
+  const NovelView view = NovelView::FromFov(80, 60, 1.5, LookAt(kSphereCentre + Eigen::Vector3d(0.05, 0, 0), kSphereCentre + Eigen::Vector3d(1, 0, 0), {0, 0, -1}));
   const cv::Mat d = PlaneSweepCpu(q, view, SweepPlaneDepths(q, view, {}), {0, 0, 80, 60});
   for (auto it = d.begin<float>(); it != d.end<float>(); ++it) EXPECT_TRUE(!std::isnan(*it) && *it > 0);
 }
@@ -190,7 +190,7 @@ int SweepMatchesExact(const VolumeQuery& q, const NovelView& view, int planes) {
 // The sphere of these tests, and exact maps of a scene for some cameras.
 SyntheticScene OneSphere() {
   SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(kCentre, kRadius));
+  scene.shapes.push_back(Shape::Sphere(kSphereCentre, kSphereRadius));
   return scene;
 }
 
@@ -198,7 +198,7 @@ TEST(ExactHull, SweepEqualsExactPlaneMembership) {
   for (const OutOfView p : {OutOfView::kOutside, OutOfView::kUnknown}) {
     VolumeQueryOptions o;
     o.out_of_view = p;
-    const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox(), o);
+    const VolumeQuery q(test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius), test::BigBox(), o);
     const NovelView view = test::SphereSideView();
     PlaneSweepOptions so;
     so.num_planes = 40;
@@ -213,7 +213,7 @@ TEST(ExactHull, RefinementRemovesThePlaneSpacingFromTheError) {
   // 16 planes over ~0.7 m: 4.5 cm apart. 12 bisections: 11 µm. Where the first
   // inside plane lies in the first exact interval and the interval before it
   // starts after the previous plane, bisection converges to the exact entry.
-  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius), test::BigBox());
   const NovelView view = test::SphereSideView();
   PlaneSweepOptions so;
   so.num_planes = 16;
@@ -249,9 +249,9 @@ TEST(ExactHull, RefinementRemovesThePlaneSpacingFromTheError) {
 TEST(HardCase, PointBehindACameraIsOutsideNeverMirrored) {
   // One camera, full map except nothing: the mirror image of a point behind the
   // camera projects to (u, v) in the image; it must not count as object.
-  Camera cam = RingCameras(1, 2.0, 1.0, kCentre, 100, 80, 1.0)[0];
+  Camera cam = RingCameras(1, 2.0, 1.0, kSphereCentre, 100, 80, 1.0)[0];
   cv::Mat map(80, 100, CV_8UC1, cv::Scalar(255));
-  const Eigen::Vector3d front = kCentre, behind = cam.Center() - (kCentre - cam.Center());
+  const Eigen::Vector3d front = kSphereCentre, behind = cam.Center() - (kSphereCentre - cam.Center());
   for (const OutOfView p : {OutOfView::kOutside, OutOfView::kUnknown}) {
     VolumeQueryOptions o;
     o.out_of_view = p;
@@ -273,7 +273,7 @@ TEST(HardCase, PlanesThroughACameraCentreAndParallelToItsImagePlane) {
   // plane is parallel to camera 0's image plane. A second view is placed so that
   // one of its planes passes through camera 1's centre (the plane projects to a
   // line in camera 1).
-  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius), test::BigBox());
   const Camera& c0 = q.views()[0].camera;
   NovelView along = test::SphereSideView();
   along.world_from_eye = c0.cam_from_world.Inverse();
@@ -294,14 +294,14 @@ TEST(HardCase, PlanesThroughACameraCentreAndParallelToItsImagePlane) {
 TEST(HardCase, CameraAtAGrazingAngleToTheSweepPlanes) {
   // Camera 1 looks along the sweep planes (its axis is perpendicular to the
   // view's): each plane projects to a thin band of its image.
-  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius), test::BigBox());
   const Camera& c1 = q.views()[1].camera;
   NovelView view = test::SphereSideView();
   // Eye axis perpendicular to camera 1's axis, looking at the sphere.
   const Eigen::Vector3d axis1 = c1.cam_from_world.rotation.row(2).transpose();
   const Eigen::Vector3d up(0, 0, -1);
   const Eigen::Vector3d dir = axis1.cross(up).normalized();
-  view.world_from_eye = LookAt(kCentre - 2.5 * dir, kCentre, up);
+  view.world_from_eye = LookAt(kSphereCentre - 2.5 * dir, kSphereCentre, up);
   EXPECT_GT(SweepMatchesExact(q, view, 50), 300);
 }
 
@@ -310,31 +310,31 @@ TEST(HardCase, ShapePartlyOutsideACameraImage) {
   // its image. kOutside clips the hull there (the paper); kUnknown lets the other
   // cameras decide.
   const SyntheticScene scene = OneSphere();
-  auto cams = RingCameras(4, 3.0, 1.8, kCentre, 160, 120, 1.0);
+  auto cams = RingCameras(4, 3.0, 1.8, kSphereCentre, 160, 120, 1.0);
   // Re-aim camera 0 so the sphere centre projects at its right border's column.
   Camera& c0 = cams[0];
   const Eigen::Vector3d C = c0.Center();
   // Half the field of view is 0.5 rad; turn 0.55 rad away so the centre is 0.05
   // rad (~15 cm at 3 m) beyond the border and the sphere (r 0.3) straddles it.
-  const double dist = (kCentre - C).norm();
+  const double dist = (kSphereCentre - C).norm();
   const Eigen::Vector3d aim =
-      kCentre + (kCentre - C).cross(Eigen::Vector3d(0, 0, -1)).normalized() * dist * std::tan(0.55);
+      kSphereCentre + (kSphereCentre - C).cross(Eigen::Vector3d(0, 0, -1)).normalized() * dist * std::tan(0.55);
   c0.cam_from_world = LookAt(C, aim, Eigen::Vector3d(0, 0, -1)).Inverse();
   const std::vector<CameraMap> views = test::ExactViews(cams, scene);
   VolumeQueryOptions outside, unknown;
   outside.out_of_view = OutOfView::kOutside;
   const VolumeQuery qo(views, test::BigBox(), outside), qu(views, test::BigBox(), unknown);
   // The sphere's centre projects outside camera 0's image.
-  ASSERT_EQ(qo.VoteOf(0, kCentre), Vote::kUnseen);
-  EXPECT_FALSE(qo.Inside(kCentre)) << "kOutside: clipped by the camera that cannot see it";
-  EXPECT_TRUE(qu.Inside(kCentre)) << "kUnknown: the other three cameras see it inside";
+  ASSERT_EQ(qo.VoteOf(0, kSphereCentre), Vote::kUnseen);
+  EXPECT_FALSE(qo.Inside(kSphereCentre)) << "kOutside: clipped by the camera that cannot see it";
+  EXPECT_TRUE(qu.Inside(kSphereCentre)) << "kUnknown: the other three cameras see it inside";
   // A point outside the sphere that camera 0 would have rejected is still outside.
-  EXPECT_FALSE(qu.Inside(kCentre + Eigen::Vector3d(0, 0, -0.5)));
+  EXPECT_FALSE(qu.Inside(kSphereCentre + Eigen::Vector3d(0, 0, -0.5)));
   // The hull boxes stay conservative: every sphere point inside the hull is in them.
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1, 1);
   for (int i = 0; i < 2000; ++i) {
-    const Eigen::Vector3d p = kCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)) * kRadius;
+    const Eigen::Vector3d p = kSphereCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)) * kSphereRadius;
     if (qu.Inside(p)) { ASSERT_TRUE(qu.hull_box().Contains(p)); }
     if (qo.Inside(p)) { ASSERT_TRUE(qo.hull_box().Contains(p)); }
   }
@@ -347,39 +347,39 @@ TEST(HardCase, ShapePartlyOutsideACameraImage) {
 }
 
 TEST(HardCase, EmptyMapGivesAnEmptyHull) {
-  auto views = test::SphereViews(4, 160, 120, kCentre, kRadius);
+  auto views = test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius);
   views[2].map.setTo(0);
   Aabb seen_by_all;  // a workspace every camera sees whole: the empty map always votes
-  seen_by_all.min = kCentre - Eigen::Vector3d::Constant(0.5);
-  seen_by_all.max = kCentre + Eigen::Vector3d::Constant(0.5);
+  seen_by_all.min = kSphereCentre - Eigen::Vector3d::Constant(0.5);
+  seen_by_all.max = kSphereCentre + Eigen::Vector3d::Constant(0.5);
   for (const OutOfView p : {OutOfView::kOutside, OutOfView::kUnknown}) {
     VolumeQueryOptions o;
     o.out_of_view = p;
     const VolumeQuery q(views, seen_by_all, o);
     EXPECT_TRUE(q.hull_box().empty());
-    EXPECT_FALSE(q.Inside(kCentre));
+    EXPECT_FALSE(q.Inside(kSphereCentre));
     const NovelView view = test::SphereSideView();
     const cv::Mat d = PlaneSweepCpu(q, view, SweepPlaneDepths(q, view, {}), {0, 0, 160, 120});
     EXPECT_EQ(cv::countNonZero(d != kNoDepth), 0);
-    EXPECT_TRUE(RayHullIntervals(q, kCentre - Eigen::Vector3d(2, 0, 0), {1, 0, 0}, 0, 4).empty());
+    EXPECT_TRUE(RayHullIntervals(q, kSphereCentre - Eigen::Vector3d(2, 0, 0), {1, 0, 0}, 0, 4).empty());
   }
 }
 
 TEST(HardCase, FullMapDoesNotConstrain) {
   // A camera whose map is all object adds nothing where it sees: the hull is that
   // of the other three inside its view.
-  auto views = test::SphereViews(4, 160, 120, kCentre, kRadius);
+  auto views = test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius);
   auto three = views;
   three.erase(three.begin() + 1);
   views[1].map.setTo(255);
   Aabb ws;
-  ws.min = kCentre - Eigen::Vector3d::Constant(0.5);
-  ws.max = kCentre + Eigen::Vector3d::Constant(0.5);
+  ws.min = kSphereCentre - Eigen::Vector3d::Constant(0.5);
+  ws.max = kSphereCentre + Eigen::Vector3d::Constant(0.5);
   const VolumeQuery q4(views, ws), q3(three, ws);
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1, 1);
   for (int i = 0; i < 5000; ++i) {
-    const Eigen::Vector3d p = kCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)) * 0.5;
+    const Eigen::Vector3d p = kSphereCentre + Eigen::Vector3d(u(rng), u(rng), u(rng)) * 0.5;
     ASSERT_EQ(q4.Inside(p), q3.Inside(p)) << p.transpose();
   }
 }
@@ -388,14 +388,14 @@ TEST(HardCase, ObjectOnePixelWide) {
   // Camera 0's map has one object pixel; the others are full. The hull is the
   // thin pyramid through that pixel: the ray through its centre is inside from the
   // camera to the workspace's edge, its neighbours' rays are not.
-  const auto cams = RingCameras(3, 2.0, 1.0, kCentre, 100, 80, 1.0);
+  const auto cams = RingCameras(3, 2.0, 1.0, kSphereCentre, 100, 80, 1.0);
   std::vector<CameraMap> views;
   for (const auto& c : cams) views.push_back({c, cv::Mat(80, 100, CV_8UC1, cv::Scalar(255))});
   views[0].map.setTo(0);
   views[0].map.at<uint8_t>(40, 50) = 255;
   Aabb ws;
-  ws.min = kCentre - Eigen::Vector3d::Constant(0.4);
-  ws.max = kCentre + Eigen::Vector3d::Constant(0.4);
+  ws.min = kSphereCentre - Eigen::Vector3d::Constant(0.4);
+  ws.max = kSphereCentre + Eigen::Vector3d::Constant(0.4);
   const VolumeQuery q(views, ws);
   const Camera& c0 = cams[0];
   const Eigen::Vector3d O = c0.Center();
@@ -409,7 +409,7 @@ TEST(HardCase, ObjectOnePixelWide) {
   EXPECT_TRUE(RayHullIntervals(q, O, c0.PixelRayWorld({50.5, 39.5}), 0, 10).empty());
   // The sweep from a view beside camera 0 finds the sliver as the exact reference does.
   NovelView view = test::SphereSideView(200, 150);
-  view.world_from_eye = LookAt(cams[1].Center(), kCentre, {0, 0, -1});
+  view.world_from_eye = LookAt(cams[1].Center(), kSphereCentre, {0, 0, -1});
   EXPECT_GT(SweepMatchesExact(q, view, 400), 0);
 }
 
@@ -417,7 +417,7 @@ TEST(HardCase, CamerasOfDifferentResolutions) {
   const SyntheticScene scene = OneSphere();
   const int sizes[4][2] = {{64, 48}, {160, 120}, {320, 240}, {101, 77}};
   std::vector<CameraMap> views;
-  auto cams = RingCameras(4, 3.0, 1.8, kCentre, 160, 120, 1.0);
+  auto cams = RingCameras(4, 3.0, 1.8, kSphereCentre, 160, 120, 1.0);
   for (size_t i = 0; i < 4; ++i) {
     Camera c = cams[i];
     const double s = double(sizes[i][0]) / 160.0;
@@ -433,25 +433,25 @@ TEST(HardCase, NearlyParallelCameras) {
   // the hull is long along the axis (ill-conditioned depth). The sweep and the
   // exact reference still agree, with no NaN.
   const SyntheticScene scene = OneSphere();
-  const Eigen::Vector3d C = kCentre + Eigen::Vector3d(0, -3, 0);
+  const Eigen::Vector3d C = kSphereCentre + Eigen::Vector3d(0, -3, 0);
   std::vector<CameraMap> views;
   for (double dx : {0.0, 0.001}) {
-    Camera c = RingCameras(1, 3.0, 1.8, kCentre, 160, 120, 1.0)[0];
-    c.cam_from_world = LookAt(C + Eigen::Vector3d(dx, 0, 0), kCentre, {0, 0, -1}).Inverse();
+    Camera c = RingCameras(1, 3.0, 1.8, kSphereCentre, 160, 120, 1.0)[0];
+    c.cam_from_world = LookAt(C + Eigen::Vector3d(dx, 0, 0), kSphereCentre, {0, 0, -1}).Inverse();
     views.push_back({c, RenderExactMap(c, scene)});
   }
   Aabb ws;
-  ws.min = kCentre - Eigen::Vector3d::Constant(1.0);
-  ws.max = kCentre + Eigen::Vector3d::Constant(1.0);
+  ws.min = kSphereCentre - Eigen::Vector3d::Constant(1.0);
+  ws.max = kSphereCentre + Eigen::Vector3d::Constant(1.0);
   EXPECT_GT(SweepMatchesExact(VolumeQuery(views, ws), test::SphereSideView(), 50), 1000);
 }
 
 TEST(HardCase, NearAndFarPlanesCutTheShape) {
   // Near and far inside the sphere: pixels whose ray is inside at the near plane
   // get depth == near exactly; nothing lies beyond far.
-  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius), test::BigBox());
   const NovelView view = test::SphereSideView();
-  const double dist = (view.world_from_eye.translation - kCentre).norm();
+  const double dist = (view.world_from_eye.translation - kSphereCentre).norm();
   PlaneSweepOptions so;
   so.fit_planes_to_hull_box = false;
   so.near = dist - 0.1;
@@ -474,7 +474,7 @@ TEST(HardCase, NearAndFarPlanesCutTheShape) {
 TEST(PlaneSweep, RefiningAfterwardsEqualsRefiningInTheSweep) {
   // The GL backend refines a finished sweep with RefineSweepDepth; it must agree
   // with the CPU sweep's own refinement.
-  const VolumeQuery q(test::SphereViews(4, 160, 120, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius), test::BigBox());
   const NovelView view = test::SphereSideView();
   PlaneSweepOptions so;
   so.num_planes = 24;
@@ -551,7 +551,7 @@ TEST_F(SphereHull, EveryRenderStageHonoursTheStopFlag) {
   const cv::Mat depth = PlaneSweepCpu(query_, view, depths, whole);
   std::vector<CameraImage> images;
   std::vector<Camera> cameras;
-  for (const auto& v : test::SphereViews(4, 320, 240, kCentre, kRadius)) {
+  for (const auto& v : test::SphereViews(4, 320, 240, kSphereCentre, kSphereRadius)) {
     images.push_back({v.camera, cv::Mat(v.camera.height, v.camera.width, CV_8UC3, cv::Scalar(10, 20, 30))});
     cameras.push_back(v.camera);
   }

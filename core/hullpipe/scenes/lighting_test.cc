@@ -21,8 +21,8 @@
 namespace hullpipe {
 namespace {
 
-const Eigen::Vector3d kCentre(0, 0, -1.0);
-constexpr double kRadius = 0.25;
+const Eigen::Vector3d kLitCentre(0, 0, -1.0);
+constexpr double kLitRadius = 0.25;
 const Eigen::Vector3d kUp(0, 0, -1);
 
 struct Lit {
@@ -34,7 +34,7 @@ struct Lit {
 
 Lit Render() {
   Lit l;
-  const VolumeQuery q(test::SphereViews(6, 320, 240, kCentre, kRadius), test::BigBox());
+  const VolumeQuery q(test::SphereViews(6, 320, 240, kLitCentre, kLitRadius), test::BigBox());
   l.light.position = Eigen::Vector3d(0.4, -0.3, -3.0);
   l.light.target = Eigen::Vector3d(0, 0, -0.4);
   l.light.fov_deg = 60;
@@ -77,7 +77,7 @@ TEST(Lighting, TheHullsAndTheBallsShadowsOnTheFloorAreTheAnalyticOnes) {
       if (!std::isfinite(z) || std::isfinite(l.hull_depth.at<float>(r, c))) continue;
       const Eigen::Vector3d X = O + double(z) * (R * l.view.EyeRay(c + 0.5, r + 0.5));
       if (std::abs(X.z()) > 1e-6) continue;  // not the floor (the ball)
-      const bool by_hull = Blocks(X, l.light.position, kCentre, kRadius);
+      const bool by_hull = Blocks(X, l.light.position, kLitCentre, kLitRadius);
       const bool by_ball = Blocks(X, l.light.position, kBall, kBallRadius);
       const bool shadowed = l.shadow.Shadowed(X, l.light.bias);
       ++floor_px;
@@ -129,7 +129,7 @@ cv::Mat AnalyticLitView(const Lit& l) {
   for (int r = 0; r < v.height; ++r)
     for (int c = 0; c < v.width; ++c) {
       const Eigen::Vector3d D = R * v.EyeRay(c + 0.5, r + 0.5);
-      const double s_sphere = hit(D, kCentre, kRadius), s_ball = hit(D, kBall, kBallRadius);
+      const double s_sphere = hit(D, kLitCentre, kLitRadius), s_ball = hit(D, kBall, kBallRadius);
       const double s_floor = std::abs(kUp.dot(D)) > 1e-12 ? -kUp.dot(O) / kUp.dot(D) : -1;
       double best = std::numeric_limits<double>::infinity();
       cv::Vec3d colour;
@@ -143,7 +143,7 @@ cv::Mat AnalyticLitView(const Lit& l) {
       double f = 1.0;
       if (what == 1) {
         colour = {150, 150, 150};
-        const Eigen::Vector3d n = (X - kCentre).normalized();
+        const Eigen::Vector3d n = (X - kLitCentre).normalized();
         const double lambert = std::max(0.0, n.dot((l.light.position - X).normalized()));
         f = (1.0 - l.light.hull_diffuse) + l.light.hull_diffuse * lambert;
       } else if (what == 2) {
@@ -159,7 +159,7 @@ cv::Mat AnalyticLitView(const Lit& l) {
         // In shadow: the segment to the light passes through an occluder (a
         // point's own sphere counts when it faces away from the light).
         const double shrink = 1 - 1e-6;
-        if (Blocks(X, l.light.position, kCentre, kRadius * shrink) ||
+        if (Blocks(X, l.light.position, kLitCentre, kLitRadius * shrink) ||
             Blocks(X, l.light.position, kBall, kBallRadius * shrink))
           f *= l.light.ambient;
       }
