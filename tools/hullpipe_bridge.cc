@@ -35,6 +35,7 @@
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/dds/topics.h"
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/pipeline/clock.h"
 #include "hullpipe/pipeline/node_counters.h"
@@ -145,11 +146,11 @@ int main(int argc, char** argv) {
     spdlog::info("listening on ws://{}:{} (Foxglove: Open connection -> Foxglove WebSocket)", address, bound);
 
     // The viewable channels' derivation. A camera's channels are advertised
-    // when its calibration first arrives (at most Rig::kMaxCameras = 64 of them:
+    // when its calibration first arrives (at most Rig::kMaxCameras of them:
     // further camera ids are counted as rejected and named once).
     std::set<uint32_t> wanted;  // channels some client is subscribed to (refreshed each pass)
     std::set<int64_t> cameras;
-    constexpr size_t kMaxCameras = 64;
+    constexpr size_t kMaxCameras = Rig::kMaxCameras;
     uint64_t cameras_refused = 0;
     const auto sink = [&](foxglove::Message m) {
       auto it = viewable.find(m.topic);

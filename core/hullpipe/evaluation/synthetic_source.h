@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "hullpipe/capture/rig_source.h"
+#include "hullpipe/geometry/calibration.h"
 
 namespace hullpipe {
 
@@ -19,7 +20,7 @@ namespace hullpipe {
 struct SyntheticRigOptions {
   /// Bounds (checked by OpenSyntheticRig): a 4096x4096 camera is 16 MB a map and
   /// image; 100000x100000 once grew past 9.8 GB without a word.
-  static constexpr int kMaxSide = 4096, kMaxCameras = 64;
+  static constexpr int kMaxSide = 4096, kMaxCameras = Rig::kMaxCameras;
   int cameras = 4;                ///< [1, kMaxCameras]
   int width = 320, height = 240;  ///< Pixels, each in [8, kMaxSide].
   double fps = 25;                ///< (0, 1000]

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 
+#include "hullpipe/collision/hull_motion.h"
 #include "hullpipe/util/percentile.h"
 #include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/reconstruction/tile_set.h"
@@ -236,9 +238,11 @@ void RenderController::OnHeadPose(const Rigid3d& world_from_eye) { tracked_ = wo
 
 void RenderController::OnCollisionReport(bool has_points, uint8_t hull_velocity_status, double hull_normal_speed) {
   if (has_points) ++collision_reports_;
-  if (hull_velocity_status == 0 || hull_velocity_status > 5) return;  // none, or not a known status
+  using S = HullVelocityStatus;
+  if (hull_velocity_status == uint8_t(S::kNone) || hull_velocity_status > uint8_t(S::kAppeared)) return;  // none, or unknown
   ++hull_velocity_statuses_[hull_velocity_status];
-  if ((hull_velocity_status == 1 || hull_velocity_status == 2) && std::isfinite(hull_normal_speed)) {
+  if ((hull_velocity_status == uint8_t(S::kMeasured) || hull_velocity_status == uint8_t(S::kClamped)) &&
+      std::isfinite(hull_normal_speed)) {
     hull_speed_max_ = std::max(hull_speed_max_, std::abs(hull_normal_speed));
     hull_speed_sum_ += std::abs(hull_normal_speed);
   }
@@ -527,9 +531,11 @@ nlohmann::json RenderController::StatsJson() const {
   j["collision_reports_with_points"] = collision_reports_;
   // Responses by their hull velocity (docs/collision.md, "Hull velocity").
   {
+    // stats.json's keys, indexed by HullVelocityStatus (kNone is not counted).
     static const char* kNames[] = {"none", "measured", "clamped", "no_previous", "too_far_apart", "appeared"};
+    static_assert(std::size(kNames) == size_t(HullVelocityStatus::kAppeared) + 1);
     nlohmann::json hv = nlohmann::json::object();
-    for (int i = 1; i <= 5; ++i) {
+    for (int i = int(HullVelocityStatus::kMeasured); i <= int(HullVelocityStatus::kAppeared); ++i) {
       const auto it = hull_velocity_statuses_.find(uint8_t(i));
       hv[kNames[i]] = it == hull_velocity_statuses_.end() ? 0 : it->second;
     }
