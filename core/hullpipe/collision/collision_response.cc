@@ -143,15 +143,14 @@ std::optional<CollisionResponse> ComputeResponsePaper(const VolumeQuery& query,
   return r;
 }
 
-std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, const TriangleMesh& world_mesh,
-                                                    const Eigen::Vector3d& rp_obj, const TriangleQueryOptions& options,
-                                                    bool exact, double restitution, const Eigen::Vector3d& previous,
-                                                    const Eigen::Vector3d& fallback_normal, CollisionResult* c,
-                                                    Eigen::Vector3d* position, Eigen::Vector3d* velocity,
-                                                    const HullMotion* motion) {
+std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, const RigidBodyResponseRequest& request,
+                                                    CollisionResult* c, Eigen::Vector3d* position,
+                                                    Eigen::Vector3d* velocity) {
+  const Eigen::Vector3d& rp_obj = request.rp_obj;
   std::optional<CollisionResponse> resp;
-  if (exact) {
-    RefineFarthestCollisionPoint(query, world_mesh, rp_obj, options, c);
+  if (request.exact) {
+    if (!request.world_mesh) throw std::invalid_argument("RespondAsRigidBody: an exact response needs world_mesh");
+    RefineFarthestCollisionPoint(query, *request.world_mesh, rp_obj, request.query, c);
     resp = ComputeResponse(query, c->collision_points, rp_obj);
   } else {
     resp = ComputeResponsePaper(query, c->collision_points, rp_obj);
@@ -160,7 +159,7 @@ std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, co
   HullVelocity hull_velocity;  // none: the paper's stationary hull
   if (resp) {
     n = resp->n_hull;
-    if (motion) resp->hull_velocity = hull_velocity = motion->At(resp->cp_hull, resp->n_hull);
+    if (request.motion) resp->hull_velocity = hull_velocity = request.motion->At(resp->cp_hull, resp->n_hull);
     *position += (resp->d_rec + 1e-3) * resp->v_rec;  // 1 mm clear of the surface
   } else {
     // No CP_hull (a collision point outside the hull by float rounding): back
@@ -169,10 +168,10 @@ std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, co
     for (const auto& p : c->collision_points) centroid += p;
     centroid /= double(c->collision_points.size());
     n = rp_obj - centroid;
-    n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized()) : fallback_normal;
-    *position = previous;
+    n = n.norm() > 1e-9 ? Eigen::Vector3d(n.normalized()) : request.fallback_normal;
+    *position = request.previous;
   }
-  ReflectOffMovingSurface(n, hull_velocity, restitution, velocity);
+  ReflectOffMovingSurface(n, hull_velocity, request.restitution, velocity);
   return resp;
 }
 

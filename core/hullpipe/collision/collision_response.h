@@ -86,30 +86,45 @@ std::optional<CollisionResponse> ComputeResponsePaper(const VolumeQuery& query,
                                                       const std::optional<Eigen::Vector3d>& v_rec_given = std::nullopt,
                                                       const PaperResponseOptions& options = {});
 
+/// What RespondAsRigidBody needs besides the hull and the collision (as FCL's
+/// request structs). Frames: world, metres, m/s.
+struct RigidBodyResponseRequest {
+  /// Exact response: CP_obj refined on these triangles (the body's in the world,
+  /// numbered as the collision result numbers them). Unused by the paper's scans.
+  const TriangleMesh* world_mesh = nullptr;
+  Eigen::Vector3d rp_obj = Eigen::Vector3d::Zero();  ///< A reference point inside the body (its centre).
+  TriangleQueryOptions query;  ///< The triangle query's settings (the exact CP_obj's refinement).
+  bool exact = true;           ///< Exact CP_hull and N_hull, or the paper's triangle scans.
+  double restitution = 0.5;    ///< e in [0, 1]: the normal speed kept, reflected.
+  /// The tracked point's position before the substep: where it goes back to
+  /// when there is no CP_hull.
+  Eigen::Vector3d previous = Eigen::Vector3d::Zero();
+  /// Unit normal used where the collision points' centroid coincides with rp_obj.
+  Eigen::Vector3d fallback_normal = Eigen::Vector3d::UnitZ();
+  /// The previous frameset's hull (hull_motion.h), or null for a stationary hull.
+  const HullMotion* motion = nullptr;
+};
+
 /// §4.2 applied to a translating rigid body (a ball, a dynamic CAD part) whose
-/// substep ended in collision *c (world metres, m/s). CP_obj (the collision
-/// point farthest from rp_obj) and then CP_hull and N_hull: exactly (`exact`:
-/// RefineFarthestCollisionPoint on world_mesh, the body's triangles in the
-/// world as *c numbers them, then ComputeResponse), or by the paper's triangle
-/// scans (ComputeResponsePaper; world_mesh unused). The body moves by D_rec
-/// along V_rec plus 1 mm, so CP_obj ends 1 mm clear of the hull's surface
-/// (*position moves by that vector: it may be any point fixed to the body, as a
-/// part's pose translation), and the part of *velocity into the hull,
-/// v . N_hull < 0, is reflected about N_hull scaled by `restitution`
-/// (v -= (1 + e) (v . N) N). Given `motion` (the previous frameset's hull:
-/// hull_motion.h), the velocity reflected is the body's relative to the hull's
+/// substep ended in collision *c. CP_obj (the collision point farthest from
+/// rp_obj) and then CP_hull and N_hull: exactly (`exact`:
+/// RefineFarthestCollisionPoint on *world_mesh, then ComputeResponse), or by the
+/// paper's triangle scans (ComputeResponsePaper). The body moves by D_rec along
+/// V_rec plus 1 mm, so CP_obj ends 1 mm clear of the hull's surface (*position
+/// moves by that vector: it may be any point fixed to the body, as a part's pose
+/// translation), and the part of *velocity into the hull, v . N_hull < 0, is
+/// reflected about N_hull scaled by `restitution` (v -= (1 + e) (v . N) N).
+/// Given `motion`, the velocity reflected is the body's relative to the hull's
 /// surface at CP_hull (ReflectOffMovingSurface; the estimate is kept in the
 /// response's hull_velocity), so a moving hand throws what it strikes; a
-/// stationary hull gives the same result as without. Without a CP_hull (a collision point outside the
-/// hull by rounding) *position goes back to `previous` and the normal is the
-/// direction from the collision points' centroid to rp_obj, or
-/// fallback_normal (unit) where they coincide. Returns the response (nullopt in
-/// that fallback). *c gains the refined point (exact).
-std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, const TriangleMesh& world_mesh,
-                                                    const Eigen::Vector3d& rp_obj, const TriangleQueryOptions& options,
-                                                    bool exact, double restitution, const Eigen::Vector3d& previous,
-                                                    const Eigen::Vector3d& fallback_normal, CollisionResult* c,
-                                                    Eigen::Vector3d* position, Eigen::Vector3d* velocity,
-                                                    const HullMotion* motion = nullptr);
+/// stationary hull gives the same result as without. Without a CP_hull (a
+/// collision point outside the hull by rounding) *position goes back to
+/// `previous` and the normal is the direction from the collision points'
+/// centroid to rp_obj, or fallback_normal where they coincide. Returns the
+/// response (nullopt in that fallback). *c gains the refined point (exact).
+/// Throws std::invalid_argument if `exact` and world_mesh is null.
+std::optional<CollisionResponse> RespondAsRigidBody(const VolumeQuery& query, const RigidBodyResponseRequest& request,
+                                                    CollisionResult* c, Eigen::Vector3d* position,
+                                                    Eigen::Vector3d* velocity);
 
 }  // namespace hullpipe

@@ -96,11 +96,17 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop, con
       // Paper §4.2: move the ball by D_rec along V_rec so its deepest collision
       // point reaches the hull's surface, and reflect its velocity about N_hull
       // (relative to the surface's own velocity there, given the hull's motion).
-      const Eigen::Vector3d fallback =
+      RigidBodyResponseRequest request;
+      request.world_mesh = &mesh;
+      request.rp_obj = s.position;
+      request.query = config_.collision;
+      request.exact = config_.response == SceneConfig::Response::kExact;
+      request.restitution = config_.balls[i].restitution;
+      request.previous = previous;
+      request.fallback_normal =
           s.velocity.norm() > 1e-9 ? Eigen::Vector3d(-s.velocity.normalized()) : Eigen::Vector3d(-g_hat);
-      const std::optional<CollisionResponse> resp = RespondAsRigidBody(
-          *hull, mesh, s.position, config_.collision, config_.response == SceneConfig::Response::kExact,
-          config_.balls[i].restitution, previous, fallback, &c, &s.position, &s.velocity, motion);
+      request.motion = motion;
+      const std::optional<CollisionResponse> resp = RespondAsRigidBody(*hull, request, &c, &s.position, &s.velocity);
       s.colliding = true;
       s.last_collision = std::move(c);
       s.last_response = resp;

@@ -348,8 +348,16 @@ class ModelsElement final : public SceneElement {
         if (!c.colliding()) continue;
         // §4.2, as for the balls (the world mesh only for the exact CP_obj).
         const TriangleMesh world = exact ? p.mesh.Transformed(p.world_from_body) : TriangleMesh{};
-        b.response = RespondAsRigidBody(*hull, world, p.world_from_body * b.centre_body, options, exact, e, previous,
-                                        -g_hat_, &c, &t, &b.velocity, hull_motion());
+        RigidBodyResponseRequest request;
+        request.world_mesh = &world;
+        request.rp_obj = p.world_from_body * b.centre_body;
+        request.query = options;
+        request.exact = exact;
+        request.restitution = e;
+        request.previous = previous;
+        request.fallback_normal = -g_hat_;
+        request.motion = hull_motion();
+        b.response = RespondAsRigidBody(*hull, request, &c, &t, &b.velocity);
         collided[k] = true;
         m.results[k] = std::move(c);
       }
