@@ -89,7 +89,13 @@ void FramesetInput::Poll() {
       try {
         if (counters_) counters_->StageSince("transport_image", info.source_timestamp);
         // (Images and maps come from different writers: only maps name the sender.)
-        assembler_.AddImage(int(m.camera_id), m.frame_seq, m.capture_time_ns, ImageFromMsg(m), nullptr, 0, ArrivalNs());
+        ImageSample image;
+        image.camera_id = int(m.camera_id);
+        image.seq = m.frame_seq;
+        image.capture_time_ns = m.capture_time_ns;
+        image.image = ImageFromMsg(m);
+        image.arrival_ns = ArrivalNs();
+        assembler_.AddImage(std::move(image));
       } catch (const MessageError& e) {
         Reject(e.what());
       }

@@ -249,14 +249,13 @@ void FramesetAssembler::CheckClock(int camera_id, Cam& cam, int64_t t, int64_t a
   cam.clock_off = off;
 }
 
-bool FramesetAssembler::AddImage(int camera_id, uint64_t seq, int64_t t, cv::Mat image, std::string* why,
-                                 uint64_t source_id, int64_t arrival_ns) {
-  if (image.empty() || image.type() != CV_8UC3)
-    return Reject(why, "image of camera " + std::to_string(camera_id) + " is not BGR8");
-  Sample* s = Slot(camera_id, seq, t, source_id, why);
+bool FramesetAssembler::AddImage(ImageSample sample, std::string* why) {
+  if (sample.image.empty() || sample.image.type() != CV_8UC3)
+    return Reject(why, "image of camera " + std::to_string(sample.camera_id) + " is not BGR8");
+  Sample* s = Slot(sample.camera_id, sample.seq, sample.capture_time_ns, sample.source_id, why);
   if (!s) return false;
-  s->image = std::move(image);
-  s->image_arrival_ns = arrival_ns;
+  s->image = std::move(sample.image);
+  s->image_arrival_ns = sample.arrival_ns;
   return true;
 }
 

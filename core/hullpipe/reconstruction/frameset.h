@@ -70,6 +70,17 @@ struct MapSample {
   std::optional<Rigid3d> cam_from_world;
 };
 
+/// One camera's colour image as it arrives at an assembling node (a ColorImage),
+/// the twin of MapSample for AddImage.
+struct ImageSample {
+  int camera_id = 0;
+  uint64_t seq = 0;             ///< The camera's frame_seq (the map's it belongs to).
+  int64_t capture_time_ns = 0;  ///< Its capture time on the shared clock (CLOCK_REALTIME ns).
+  cv::Mat image;                ///< CV_8UC3 (BGR), any size.
+  uint64_t source_id = 0;       ///< Who sent it (0: unknown).
+  int64_t arrival_ns = 0;       ///< When it arrived, on this node's wall clock (0: unknown).
+};
+
 /// Collects maps (and images) into framesets by capture time.
 class FramesetAssembler {
  public:
@@ -121,11 +132,10 @@ class FramesetAssembler {
   /// claiming 16384x16384 pixels for a 644x486 camera costs no 268-MB decode;
   /// false counts a rejection as AddMap does, *why says why.
   bool CheckMapSize(int camera_id, int width, int height, std::string* why = nullptr);
-  /// Adds one camera's colour image (CV_8UC3, any size) of frame `seq`; same rules.
-  /// arrival_ns: when it arrived, on this node's clock (0: unknown), for
-  /// Frameset::last_arrival_ns (no clock check: images name no sender).
-  bool AddImage(int camera_id, uint64_t seq, int64_t capture_time_ns, cv::Mat image, std::string* why = nullptr,
-                uint64_t source_id = 0, int64_t arrival_ns = 0);
+  /// Adds one camera's colour image of frame `seq`; same rules as AddMap. Its
+  /// arrival_ns counts toward Frameset::last_arrival_ns (no clock check: images
+  /// name no sender). A non-BGR8 image is rejected (false, *why says why).
+  bool AddImage(ImageSample sample, std::string* why = nullptr);
 
   /// Id of the newest complete frameset not yet taken, if any.
   std::optional<uint64_t> NewestComplete() const;

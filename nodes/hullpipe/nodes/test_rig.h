@@ -30,7 +30,8 @@ struct TinyRig {
       a.AddMap(MapSample{.camera_id = v.camera.id, .seq = seq, .capture_time_ns = t, .camera_count = int(views.size()),
           .map = v.map.clone(), .source_time_s = double(seq) / 25.0, .source_id = 0, .arrival_ns = arrival_ns});
       if (images)
-        a.AddImage(v.camera.id, seq, t, cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 120, 150)), nullptr, 0, arrival_ns);
+        a.AddImage({.camera_id = v.camera.id, .seq = seq, .capture_time_ns = t,
+                    .image = cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 120, 150)), .arrival_ns = arrival_ns});
     }
   }
 };
