@@ -31,11 +31,11 @@ class CaptureWriters final : public nodes::CaptureSink {
     timeline_.Write(m);
   }
   void PublishCameraInfo(const Camera& c, const Aabb& workspace) override { info_.Write(CameraToMsg(c, workspace)); }
-  nodes::PublishTimes PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count,
-                                   const cv::Mat& map, const cv::Mat& image, const Rigid3d* cam_from_world) override {
+  nodes::PublishTimes PublishFrame(const FrameStamp& stamp, uint32_t count, const cv::Mat& map, const cv::Mat& image,
+                                   const Rigid3d* cam_from_world) override {
     const double t0 = MonotonicSeconds();
-    const auto map_msg = MakeMapMessage(id, seq, t_ns, source_time_s, count, map, cam_from_world);
-    const auto image_msg = MakeImageMessage(id, seq, t_ns, image, jpeg_);
+    const auto map_msg = MakeMapMessage(stamp, count, map, cam_from_world);
+    const auto image_msg = MakeImageMessage(stamp.camera_id, stamp.seq, stamp.capture_time_ns, image, jpeg_);
     const double t1 = MonotonicSeconds();
     maps_.Write(map_msg.msg);
     images_.Write(image_msg.msg);

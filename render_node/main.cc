@@ -36,7 +36,7 @@ class Outputs final : public nodes::RenderSink {
                         int64_t capture_time_ns) override {
     if (views_.MatchedReaders() == 0) return;  // no viewer or recorder: no JPEG to encode
     views_.Write(MakeCompositedViewMessage(frame, pose_seq, frame_seq, capture_time_ns, o_.run_id,
-                                           o_.publish_max_side, o_.publish_jpeg_quality)
+                                           {o_.publish_max_side, o_.publish_jpeg_quality})
                      .msg);
   }
 

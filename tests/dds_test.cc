@@ -61,7 +61,7 @@ TEST(Convert, BadCameraInfoIsRejected) {
 TEST(Convert, MapRoundTripAndWrongSize) {
   cv::Mat map(48, 64, CV_8UC1, cv::Scalar(0));
   cv::circle(map, {20, 20}, 9, 255, cv::FILLED);
-  auto s = MakeMapMessage(3, 42, 1234, 0.5, 4, map);
+  auto s = MakeMapMessage({3, 42, 1234, 0.5}, 4, map);
   EXPECT_EQ(s.msg.frame_seq, 42u);
   EXPECT_DOUBLE_EQ(s.msg.source_time, 0.5);
   EXPECT_EQ(cv::countNonZero(MapFromMsg(s.msg) != map), 0);
@@ -118,7 +118,7 @@ TEST(Convert, CompositedViewIsAJpegScaledToTheBound) {
   // A left/right split so that a mirrored or transposed image would fail.
   cv::Mat frame(240, 320, CV_8UC3, cv::Scalar(200, 30, 30));
   frame(cv::Rect(160, 0, 160, 240)).setTo(cv::Scalar(30, 200, 30));
-  const auto same = MakeCompositedViewMessage(frame, 7, 42, 1'000'000'000, 99, 1280, 90);
+  const auto same = MakeCompositedViewMessage(frame, 7, 42, 1'000'000'000, 99, {1280, 90});
   EXPECT_EQ(same.msg.pose_seq, 7u);
   EXPECT_EQ(same.msg.frame_seq, 42u);
   EXPECT_EQ(same.msg.run_id, 99u);
@@ -131,7 +131,7 @@ TEST(Convert, CompositedViewIsAJpegScaledToTheBound) {
   EXPECT_LE(cv::norm(back(cv::Rect(180, 0, 140, 240)), frame(cv::Rect(180, 0, 140, 240)), cv::NORM_INF), 12);
 
   // 320x240 at a bound of 100: 100x75, the view's size kept beside it.
-  const auto small = MakeCompositedViewMessage(frame, 7, 42, 1, 99, 100, 90);
+  const auto small = MakeCompositedViewMessage(frame, 7, 42, 1, 99, {100, 90});
   EXPECT_EQ(small.msg.width, 100u);
   EXPECT_EQ(small.msg.height, 75u);
   EXPECT_EQ(small.msg.view_width, 320u);
@@ -141,11 +141,11 @@ TEST(Convert, CompositedViewIsAJpegScaledToTheBound) {
   EXPECT_LE(cv::norm(shrunk.at<cv::Vec3b>(37, 10), cv::Vec3b(200, 30, 30), cv::NORM_INF), 12);
   EXPECT_LE(cv::norm(shrunk.at<cv::Vec3b>(37, 90), cv::Vec3b(30, 200, 30), cv::NORM_INF), 12);
 
-  EXPECT_THROW(MakeCompositedViewMessage(cv::Mat(), 1, 1, 1, 1, 1280, 90), MessageError);
-  EXPECT_THROW(MakeCompositedViewMessage(frame, 1, 1, 1, 1, 8, 90), MessageError);
-  EXPECT_THROW(MakeCompositedViewMessage(frame, 1, 1, 1, 1, 1280, 0), MessageError);
+  EXPECT_THROW(MakeCompositedViewMessage(cv::Mat(), 1, 1, 1, 1, {1280, 90}), MessageError);
+  EXPECT_THROW(MakeCompositedViewMessage(frame, 1, 1, 1, 1, {8, 90}), MessageError);
+  EXPECT_THROW(MakeCompositedViewMessage(frame, 1, 1, 1, 1, {1280, 0}), MessageError);
 
-  auto lie = MakeCompositedViewMessage(frame, 1, 1, 1, 1, 1280, 90);
+  auto lie = MakeCompositedViewMessage(frame, 1, 1, 1, 1, {1280, 90});
   lie.msg.width = 321;  // the JPEG says 320
   EXPECT_THROW(CheckCompositedViewMsg(lie.msg), MessageError);
   lie.msg.width = 320, lie.msg.view_width = 160;  // an image larger than its view

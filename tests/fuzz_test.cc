@@ -120,7 +120,7 @@ TEST(Fuzz, MalformedSamplesOnEveryTopicCrashNoNode) {
       for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
       ++seq;
       for (const auto& v : views) {
-        maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25, 2, v.map).msg);
+        maps.Write(MakeMapMessage({uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25}, 2, v.map).msg);
         images.Write(MakeImageMessage(uint32_t(v.camera.id), seq, NowNs(), img, 0).msg);
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(100));

@@ -90,7 +90,7 @@ class NodeTest : public ::testing::Test {
     for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
     const int64_t t = NowNs();
     for (const auto& v : views) {
-      maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, t, double(seq) / 25, 2, v.map).msg);
+      maps.Write(MakeMapMessage({uint32_t(v.camera.id), seq, t, double(seq) / 25}, 2, v.map).msg);
       images.Write(MakeImageMessage(uint32_t(v.camera.id), seq, t, image, 0).msg);
     }
   }
@@ -140,7 +140,7 @@ TEST_F(NodeTest, ReconNodeSurvivesMalformedSamplesAndAStoppedCamera) {
     const int64_t t = NowNs();  // the cameras' frames of one instant: one capture time
     for (size_t c = 0; c < (both ? 2u : 1u); ++c) {
       const uint32_t id = uint32_t(views[c].camera.id);
-      maps.Write(MakeMapMessage(id, seq, t, double(seq) / 25, 2, views[c].map).msg);
+      maps.Write(MakeMapMessage({id, seq, t, double(seq) / 25}, 2, views[c].map).msg);
       images.Write(MakeImageMessage(id, seq, t, img, 0).msg);
     }
     poses.Write(ViewToMsg(view, seq, seq, NowNs()));
@@ -158,7 +158,7 @@ TEST_F(NodeTest, ReconNodeSurvivesMalformedSamplesAndAStoppedCamera) {
   // Malformed: a size other than the calibration's (refused before decoding),
   // runs that do not sum to the size, an unknown encoding, an image of the wrong
   // length, a pose with NaN.
-  auto bad_map = MakeMapMessage(1, seq + 1, NowNs(), 0, 2, views[0].map);
+  auto bad_map = MakeMapMessage({1, seq + 1, NowNs(), 0}, 2, views[0].map);
   bad_map.msg.height = 47;
   maps.Write(bad_map.msg);
   bad_map.msg.height = 48;
@@ -175,7 +175,7 @@ TEST_F(NodeTest, ReconNodeSurvivesMalformedSamplesAndAStoppedCamera) {
   poses.Write(bad_pose);
   // A camera id that has no CameraInfo: parked with its frame, rejected when the
   // frame is evicted (checked at the end, after more frames pushed it out).
-  maps.Write(MakeMapMessage(99, seq + 2, NowNs(), 0, 2, views[0].map).msg);
+  maps.Write(MakeMapMessage({99, seq + 2, NowNs(), 0}, 2, views[0].map).msg);
 
   // All four were refused and counted (checked before more traffic: keep-last
   // histories would let newer samples replace unread ones, by design).
@@ -214,7 +214,7 @@ TEST_F(NodeTest, SimNodeRejectsBadMapsAndKeepsSimulating) {
   for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
   auto send = [&](uint64_t seq) {
     for (const auto& v : views)
-      maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25, 2, v.map).msg);
+      maps.Write(MakeMapMessage({uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25}, 2, v.map).msg);
   };
   auto take_states = [&](double wait_s) {
     return Drain(states, wait_s,
@@ -223,7 +223,7 @@ TEST_F(NodeTest, SimNodeRejectsBadMapsAndKeepsSimulating) {
   // Handshake: good framesets until the first state comes back.
   uint64_t seq = 1;
   for (int tries = 0; tries < 50 && take_states(0.2) == 0; ++tries) send(++seq);
-  auto bad = MakeMapMessage(1, ++seq, NowNs(), 0, 2, views[0].map);
+  auto bad = MakeMapMessage({1, ++seq, NowNs(), 0}, 2, views[0].map);
   bad.msg.runs._length = 1;
   maps.Write(bad.msg);
   int got = 0;
@@ -258,7 +258,7 @@ TEST_F(NodeTest, SimNodeChangesThePayloadSpacingWhileRunning) {
     while (MonotonicSeconds() < end) {
       ++seq;
       for (const auto& v : views)
-        maps.Write(MakeMapMessage(uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25, 2, v.map).msg);
+        maps.Write(MakeMapMessage({uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25}, 2, v.map).msg);
       Drain(meshes, 0.2, [&](const hullpipe_msg_VirtualMesh& m) {
         if (m.object_id != 301) return;
         const VirtualMeshSample s = VirtualMeshFromMsg(m);

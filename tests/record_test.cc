@@ -514,7 +514,7 @@ TEST_P(RecordToolsOn, ReplayIsByteIdenticalAndLateJoinersGetCameraInfo) {
     // gone (a loaded CI machine lost one of 40 so).
     for (uint64_t seq = 1; seq <= 20; ++seq) {
       for (const auto& v : views)
-        maps.Write(dds::MakeMapMessage(uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25, 2, v.map).msg);
+        maps.Write(dds::MakeMapMessage({uint32_t(v.camera.id), seq, NowNs(), double(seq) / 25}, 2, v.map).msg);
       ASSERT_EQ(dds_wait_for_acks(maps.handle(), DDS_SECS(10)), DDS_RETCODE_OK);
     }
     // Acknowledged by the recorder's readers: it has every sample; it writes
@@ -603,7 +603,7 @@ void PublishMaps(uint32_t domain, int frames, double hz, const std::function<boo
     if (hz > 0)
       while (MonotonicSeconds() < t0 + seq / hz) std::this_thread::sleep_for(std::chrono::milliseconds(2));
     for (const auto& v : views)
-      maps.Write(dds::MakeMapMessage(uint32_t(v.camera.id), uint64_t(seq), NowNs(), double(seq) / 25, 2, v.map).msg);
+      maps.Write(dds::MakeMapMessage({uint32_t(v.camera.id), uint64_t(seq), NowNs(), double(seq) / 25}, 2, v.map).msg);
     // Acknowledged before the next frame: nothing overwritten in the writer's
     // keep-last history before the recorder has it.
     ASSERT_EQ(dds_wait_for_acks(maps.handle(), DDS_SECS(10)), DDS_RETCODE_OK);
@@ -849,7 +849,7 @@ TEST_P(RecordToolsOn, RecorderKilledBySigkillLeavesARecordingThatOpens) {
   uint64_t seq = 0;
   auto send = [&](int n) {
     for (int i = 0; i < n; ++i) {
-      maps.Write(dds::MakeMapMessage(1, ++seq, NowNs(), 0, 1, map).msg);
+      maps.Write(dds::MakeMapMessage({1, ++seq, NowNs(), 0}, 1, map).msg);
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   };
@@ -1166,7 +1166,7 @@ TEST_F(RecordTools, ReplayStopsWithinASecondOfSigintInAGap) {
   {
     dds::Writer<hullpipe_msg_ObjectPixelMap> maps(p);
     WaitFor([&] { return maps.MatchedReaders() > 0; }, 20);
-    maps.Write(dds::MakeMapMessage(1, 1, NowNs(), 0, 1, cv::Mat(48, 64, CV_8UC1, cv::Scalar(0))).msg);
+    maps.Write(dds::MakeMapMessage({1, 1, NowNs(), 0}, 1, cv::Mat(48, 64, CV_8UC1, cv::Scalar(0))).msg);
     WaitFor([&] {
       cdr.TakeEach([&](const std::vector<uint8_t>& b, int64_t) { map_cdr = b; });
       return !map_cdr.empty();

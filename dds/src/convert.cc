@@ -72,17 +72,15 @@ Camera CameraFromMsg(const hullpipe_msg_CameraInfo& m, Aabb* ws) {
   return c;
 }
 
-OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint64_t frame_seq,
-                                                        int64_t t, double source_time_s,
-                                                        uint32_t camera_count, const cv::Mat& map,
-                                                        const Rigid3d* cam_from_world) {
+OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(const FrameStamp& stamp, uint32_t camera_count,
+                                                        const cv::Mat& map, const Rigid3d* cam_from_world) {
   OwnedSample<hullpipe_msg_ObjectPixelMap> s;
   s.words = RunLengthEncode(map);
   auto& m = s.msg;
-  m.camera_id = camera_id;
-  m.frame_seq = frame_seq;
-  m.capture_time_ns = t;
-  m.source_time = source_time_s;
+  m.camera_id = stamp.camera_id;
+  m.frame_seq = stamp.seq;
+  m.capture_time_ns = stamp.capture_time_ns;
+  m.source_time = stamp.source_time_s;
   m.width = uint32_t(map.cols);
   m.height = uint32_t(map.rows);
   m.camera_count = camera_count;
@@ -177,7 +175,8 @@ void CheckJpegOfSize(const std::string& who, const uint8_t* data, size_t n, uint
 
 OwnedSample<hullpipe_msg_CompositedView> MakeCompositedViewMessage(const cv::Mat& bgr, uint64_t pose_seq,
                                                                    uint64_t frame_seq, int64_t t, uint64_t run_id,
-                                                                   int max_side, int jpeg_quality) {
+                                                                   const ViewEncoding& encoding) {
+  const int max_side = encoding.max_side, jpeg_quality = encoding.jpeg_quality;
   if (bgr.empty() || bgr.type() != CV_8UC3) throw MessageError("CompositedView: the frame must be non-empty BGR");
   if (max_side < 16 || max_side > int(kMaxSide))
     throw MessageError("CompositedView: the largest side must be in [16, 16384], not " + std::to_string(max_side));

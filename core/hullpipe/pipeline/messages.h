@@ -14,6 +14,15 @@
 
 namespace hullpipe {
 
+/// Which frame of which camera a map or colour image is, and when: the stamp
+/// every ObjectPixelMap and CameraImage carries (paper §3.1; docs/latency.md).
+struct FrameStamp {
+  uint32_t camera_id = 0;
+  uint64_t seq = 0;             ///< The camera's frame_seq (orders its frames).
+  int64_t capture_time_ns = 0;  ///< Capture time on the shared clock (CLOCK_REALTIME ns).
+  double source_time_s = 0;     ///< The frame's time in its source's own timeline, seconds.
+};
+
 /// A virtual triangle mesh or point set to draw (world metres): the cloth, the
 /// payload parts, the particles.
 struct VirtualMeshDraw {

@@ -221,8 +221,8 @@ bool CaptureController::Step() {
         if (o_.image_scale < 1.0) cv::resize(img, img, cv::Size(), o_.image_scale, o_.image_scale, cv::INTER_AREA);
         spent[i].encode_ms += (clock_.Now() - t_scale) * 1e3;
         const Rigid3d* pose = i < frame_.poses.size() && frame_.poses[i] ? &*frame_.poses[i] : nullptr;
-        const PublishTimes t = sink_.PublishFrame(uint32_t(source_.cameras()[i].id), seqs[i], stamps[i],
-                                                  frame_.time_s, camera_count, frame_.maps[i], img, pose);
+        const FrameStamp stamp{uint32_t(source_.cameras()[i].id), seqs[i], stamps[i], frame_.time_s};
+        const PublishTimes t = sink_.PublishFrame(stamp, camera_count, frame_.maps[i], img, pose);
         spent[i].encode_ms += t.encode_ms;
         spent[i].write_ms += t.write_ms;
       };

@@ -22,6 +22,7 @@
 #include "hullpipe/geometry/aabb.h"
 #include "hullpipe/geometry/camera.h"
 #include "hullpipe/pipeline/clock.h"
+#include "hullpipe/pipeline/messages.h"
 #include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/capture/rig_source.h"
 
@@ -64,12 +65,12 @@ class CaptureSink {
  public:
   virtual ~CaptureSink() = default;
   virtual void PublishCameraInfo(const Camera& camera, const Aabb& workspace) = 0;
-  /// One camera's map (CV_8UC1) and image (CV_8UC3, already scaled) of frame `seq`;
-  /// cam_from_world: a tracked camera's pose of this frame (nullptr: fixed).
-  /// Returns the time it took (zeros: not timed).
-  virtual PublishTimes PublishFrame(uint32_t camera_id, uint64_t seq, int64_t capture_time_ns, double source_time_s,
-                            uint32_t camera_count, const cv::Mat& map, const cv::Mat& image,
-                            const Rigid3d* cam_from_world) = 0;
+  /// One camera's map (CV_8UC1) and image (CV_8UC3, already scaled) of the frame
+  /// `stamp` names; camera_count: cameras in the rig's frameset; cam_from_world:
+  /// a tracked camera's pose of this frame (nullptr: fixed). Returns the time it
+  /// took (zeros: not timed).
+  virtual PublishTimes PublishFrame(const FrameStamp& stamp, uint32_t camera_count, const cv::Mat& map,
+                                    const cv::Mat& image, const Rigid3d* cam_from_world) = 0;
   /// The timeline this node starts (CaptureTimeline, transient-local).
   virtual void AnnounceTimeline(int64_t start_ns, double fps) = 0;
   /// True if PublishFrame may be called for different cameras at once (the

@@ -40,13 +40,13 @@ struct CaptureRecorder final : CaptureSink {
   void PublishCameraInfo(const Camera&, const Aabb&) override { ++infos; }
   std::vector<std::pair<int64_t, double>> timelines;
   void AnnounceTimeline(int64_t start_ns, double fps) override { timelines.push_back({start_ns, fps}); }
-  PublishTimes PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double, uint32_t count, const cv::Mat& map,
-                            const cv::Mat& image, const Rigid3d*) override {
+  PublishTimes PublishFrame(const FrameStamp& stamp, uint32_t count, const cv::Mat& map, const cv::Mat& image,
+                            const Rigid3d*) override {
     // A writer's work, so the other threads find cameras left to take.
     if (concurrent) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     const std::lock_guard<std::mutex> lock(mutex);
     threads.insert(std::this_thread::get_id());
-    frames.push_back({id, seq, t_ns, count, map.size(), image.size()});
+    frames.push_back({stamp.camera_id, stamp.seq, stamp.capture_time_ns, count, map.size(), image.size()});
     return times;
   }
 };
@@ -132,8 +132,7 @@ struct SlowSink final : CaptureSink {
   int published = 0;
   void PublishCameraInfo(const Camera&, const Aabb&) override {}
   void AnnounceTimeline(int64_t, double) override {}
-  PublishTimes PublishFrame(uint32_t, uint64_t, int64_t, double, uint32_t, const cv::Mat&, const cv::Mat&,
-                            const Rigid3d*) override {
+  PublishTimes PublishFrame(const FrameStamp&, uint32_t, const cv::Mat&, const cv::Mat&, const Rigid3d*) override {
     clock->Advance(per_camera);
     ++published;
     return {};
@@ -405,10 +404,11 @@ TEST(Capture, ATrackedCameraSendsItsPoseAndTheHullUsesIt) {
       a.SetCamera(c);
       a.SetWorkspace(ws);
     }
-    PublishTimes PublishFrame(uint32_t id, uint64_t seq, int64_t t_ns, double source_time_s, uint32_t count,
-                              const cv::Mat& map, const cv::Mat&, const Rigid3d* pose) override {
-      a.AddMap(MapSample{.camera_id = int(id), .seq = seq, .capture_time_ns = t_ns, .camera_count = int(count),
-          .map = map.clone(), .source_time_s = source_time_s, .source_id = 0, .arrival_ns = 0,
+    PublishTimes PublishFrame(const FrameStamp& stamp, uint32_t count, const cv::Mat& map, const cv::Mat&,
+                              const Rigid3d* pose) override {
+      a.AddMap(MapSample{.camera_id = int(stamp.camera_id), .seq = stamp.seq, .capture_time_ns = stamp.capture_time_ns,
+          .camera_count = int(count), .map = map.clone(), .source_time_s = stamp.source_time_s, .source_id = 0,
+          .arrival_ns = 0,
           .cam_from_world = pose ? std::optional<Rigid3d>(*pose) : std::nullopt});
       return {};
     }

@@ -29,12 +29,11 @@ hullpipe_msg_CameraInfo CameraToMsg(const Camera& camera, const Aabb& workspace)
 /// Validated Camera from a CameraInfo; *workspace (optional) gets its box.
 Camera CameraFromMsg(const hullpipe_msg_CameraInfo& msg, Aabb* workspace = nullptr);
 
-/// ObjectPixelMap of one camera's map (CV_8UC1), run-length encoded.
+/// ObjectPixelMap of one camera's map (CV_8UC1, non-zero = object), run-length
+/// encoded, stamped with `stamp`; camera_count: cameras in the rig's frameset.
 /// cam_from_world: a tracked camera's pose at this frame (nullptr: a fixed camera).
-OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(uint32_t camera_id, uint64_t frame_seq,
-                                                        int64_t capture_time_ns, double source_time_s,
-                                                        uint32_t camera_count, const cv::Mat& map,
-                                                        const Rigid3d* cam_from_world = nullptr);
+OwnedSample<hullpipe_msg_ObjectPixelMap> MakeMapMessage(const FrameStamp& stamp, uint32_t camera_count,
+                                                        const cv::Mat& map, const Rigid3d* cam_from_world = nullptr);
 /// A tracked camera's pose of this frame; nullopt for a fixed camera. Throws
 /// MessageError if the rotation is not orthonormal (1e-6) or a value not finite.
 std::optional<Rigid3d> MapPoseFromMsg(const hullpipe_msg_ObjectPixelMap& msg);
@@ -57,14 +56,21 @@ cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& msg);
 /// passed on to a viewer. Nothing is decoded.
 void CheckJpegOfSize(const std::string& who, const uint8_t* data, size_t n, uint32_t width, uint32_t height);
 
+/// How a CompositedView's image is encoded (render_node --publish-max-side,
+/// --publish-jpeg-quality).
+struct ViewEncoding {
+  int max_side = 1280;    ///< The image's longer side at most this, px, in [16, 16384].
+  int jpeg_quality = 90;  ///< JPEG quality in [1, 100].
+};
+
 /// The CompositedView of render_node's composited frame `bgr` (CV_8UC3, the
-/// view's size): scaled down with area interpolation so that its longer side is
-/// at most `max_side` px (aspect kept), then JPEG at `jpeg_quality` (1..100).
-/// Throws MessageError for an empty frame, max_side outside [16, 16384] or a
-/// quality outside [1, 100].
+/// view's size) of frameset `frame_seq` (captured at capture_time_ns, shown for
+/// pose `pose_seq`, run `run_id`): scaled down with area interpolation so that
+/// its longer side is at most encoding.max_side px (aspect kept), then JPEG.
+/// Throws MessageError for an empty frame or an encoding outside its ranges.
 OwnedSample<hullpipe_msg_CompositedView> MakeCompositedViewMessage(const cv::Mat& bgr, uint64_t pose_seq,
                                                                    uint64_t frame_seq, int64_t capture_time_ns,
-                                                                   uint64_t run_id, int max_side, int jpeg_quality);
+                                                                   uint64_t run_id, const ViewEncoding& encoding);
 /// Checks a CompositedView without decoding it: image and view sizes in
 /// [1, 16384], the image no larger than the view, `data` a JPEG of the stated
 /// size. Throws MessageError naming what is wrong.

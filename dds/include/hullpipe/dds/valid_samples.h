@@ -31,7 +31,7 @@ inline std::map<std::string, std::vector<uint8_t>> ValidSampleOfEachTopic(const 
   };
   const auto info = CameraToMsg(camera, workspace);
   encode("hullpipe::msg::CameraInfo", &info);
-  const auto map_msg = MakeMapMessage(1, 1, kStampNs, 0.04, 2, map);
+  const auto map_msg = MakeMapMessage({1, 1, kStampNs, 0.04}, 2, map);
   encode("hullpipe::msg::ObjectPixelMap", &map_msg.msg);
   const auto image = MakeImageMessage(1, 1, kStampNs, cv::Mat(12, 16, CV_8UC3, cv::Scalar(1, 2, 3)), 0);
   encode("hullpipe::msg::CameraImage", &image.msg);
@@ -84,7 +84,7 @@ inline std::map<std::string, std::vector<uint8_t>> ValidSampleOfEachTopic(const 
   const auto ms = MakeModelStateMessage(model);
   encode("hullpipe::msg::ModelState", &ms.msg);
   const auto composited = MakeCompositedViewMessage(cv::Mat(24, 32, CV_8UC3, cv::Scalar(40, 80, 120)), 1, 1,
-                                                    kStampNs, 7, 1280, 90);
+                                                    kStampNs, 7, {1280, 90});
   encode("hullpipe::msg::CompositedView", &composited.msg);
   return out;
 }
