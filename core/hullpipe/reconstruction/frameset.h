@@ -70,7 +70,7 @@ struct MapSample {
   std::optional<Rigid3d> cam_from_world;
 };
 
-/// One camera's colour image as it arrives at an assembling node (a ColorImage),
+/// One camera's colour image as it arrives at an assembling node (a CameraImage),
 /// the twin of MapSample for AddImage.
 struct ImageSample {
   int camera_id = 0;
