@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include "hullpipe/capture/prefetching_source.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/evaluation/synthetic_source.h"
@@ -69,7 +70,7 @@ int main(int argc, char** argv) {
   double fps = 0;
   bool fast = false, loop = false;
   double image_scale = 0.5;
-  int jpeg_quality = 0;
+  int jpeg_quality = -1;
   uint32_t wait_readers = 0;
   double wait_timeout = 10;
   std::string synthetic_size = "320x240";
@@ -98,8 +99,11 @@ int main(int argc, char** argv) {
   app.add_flag("--loop", loop, "Restart the input at its end");
   app.add_option("--image-scale", image_scale, "Scale of the published colour images (0,1]")
       ->check(hullpipe::FiniteRange(0.05, 1.0))->capture_default_str();
-  app.add_option("--jpeg", jpeg_quality, "Publish images as JPEG of this quality (0: raw BGR8)")
-      ->check(CLI::Range(0, 100));
+  app.add_option("--jpeg", jpeg_quality,
+                 "Publish images as JPEG of this quality (0: raw BGR8; -1: JPEG 90 when one frame's images "
+                 "would pass 2 MiB raw, else raw)")
+      ->check(CLI::Range(-1, 100))
+      ->capture_default_str();
   int background_frames = 60;
   app.add_option("--background-frames", background_frames,
                  "Frames of each camera's background video (or, for a live camera without one, of its first "
@@ -134,6 +138,10 @@ int main(int argc, char** argv) {
                  "Threads that scale, encode and write the cameras' frames at once (0: the machine's cores)")
       ->check(CLI::Range(0, 256))
       ->capture_default_str();
+  bool no_read_ahead = false;
+  app.add_flag("--no-read-ahead", no_read_ahead,
+               "Read and segment each frame only when it is due (default: file and synthetic sources read the "
+               "next frame while this one is published)");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -166,8 +174,10 @@ int main(int argc, char** argv) {
       vo.background_frames = background_frames;
       source = OpenVideoRig(rig_path, vo);
     }
+    if (!no_read_ahead) source = ReadAhead(std::move(source));
     std::string name = "capture";
     for (size_t i = 0; i < camera_ids.size(); ++i) name += (i ? "," : "-") + std::to_string(camera_ids[i]);
+    jpeg_quality = nodes::ImageJpegQuality(jpeg_quality, source->cameras(), image_scale);
     CaptureWriters writers(*participant, jpeg_quality, name);
     Reader<hullpipe_msg_CaptureTimeline> timelines(*participant);
     SystemClock clock;
@@ -177,8 +187,9 @@ int main(int argc, char** argv) {
         capture.OnTimeline(m.start_ns, m.fps);
       });
     };
-    spdlog::info("{} camera(s) of {}, {:.1f} fps{}", source->cameras().size(), source->rig_camera_count(),
-                 capture.rate(), fast ? " (unpaced)" : source->live() ? " (live)" : "");
+    spdlog::info("{} camera(s) of {}, {:.1f} fps{}, images {}", source->cameras().size(),
+                 source->rig_camera_count(), capture.rate(), fast ? " (unpaced)" : source->live() ? " (live)" : "",
+                 jpeg_quality > 0 ? "JPEG " + std::to_string(jpeg_quality) : std::string("raw"));
     NodeReporter reporter(*participant, name, capture.counters(), common.run_id);
     capture.PublishCalibration();
     if (wait_readers > 0) {

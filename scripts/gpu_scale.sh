@@ -16,7 +16,7 @@
 # (the published dome, default ../shared/data/dome-20cam), RIGS (where the
 # synthesized rigs are kept between runs, default OUT/rigs), QUICK=1 (fewer
 # bench rows), ROWS (which rows, default all: "bench scaling demo4 engine4
-# syn16 syn16jpeg syn20 dome30"), BACKENDS (default "gl cpu" with a GPU, "cpu"
+# syn16 syn16jpeg syn20 dome30"; also syn16raw, syn20raw: capture --jpeg 0), BACKENDS (default "gl cpu" with a GPU, "cpu"
 # without).
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -117,8 +117,20 @@ if { want syn16 || want syn16jpeg; } && synth syn16 16 640x480; then
     sed 's/"${pace}"]/"${pace}", --jpeg, "90"]/' launch/local.yaml > "$OUT/jpeg.yaml"
     DESC="$OUT/jpeg.yaml" run syn16jpeg gl "$RIGS/syn16/rig.yaml"
   fi
+  # ...and as raw BGR8 (--jpeg 0), what capture sent by default before a
+  # frame's large images went out as JPEG (nodes/capture_controller.h).
+  if [ "$GPU" = 1 ] && want syn16raw; then
+    sed 's/"${pace}"]/"${pace}", --jpeg, "0"]/' launch/local.yaml > "$OUT/raw.yaml"
+    DESC="$OUT/raw.yaml" run syn16raw gl "$RIGS/syn16/rig.yaml"
+  fi
 fi
-if [ "$GPU" = 1 ] && want syn20 && synth syn20 20 1024x768; then run syn20 gl "$RIGS/syn20/rig.yaml"; fi
+if [ "$GPU" = 1 ] && { want syn20 || want syn20raw; } && synth syn20 20 1024x768; then
+  want syn20 && run syn20 gl "$RIGS/syn20/rig.yaml"
+  if want syn20raw; then
+    sed 's/"${pace}"]/"${pace}", --jpeg, "0"]/' launch/local.yaml > "$OUT/raw.yaml"
+    DESC="$OUT/raw.yaml" run syn20raw gl "$RIGS/syn20/rig.yaml"
+  fi
+fi
 if want dome30 && dome30; then
   for b in "${backends[@]}"; do run dome30 "$b" "$RIGS/dome30/rig.yaml" --frames 30; done
   [ "$GPU" = 1 ] || run dome30_fps2 cpu "$RIGS/dome30/rig.yaml" --frames 30 --fps 2
@@ -137,7 +149,7 @@ for line in open(os.path.join(out, "runs.txt")):
     try:
         s = json.load(open(os.path.join(d, "stats.json")))
     except Exception as e:
-        rows.append(f"| {name} | {backend} | exit {rc}: no stats.json | | | | | |")
+        rows.append(f"| {name} | {backend} | exit {rc}: no stats.json | | | | | | | |")
         continue
     n = s["nodes"]
     r, cap = n.get("render", {}), n.get("capture", {})
@@ -145,7 +157,8 @@ for line in open(os.path.join(out, "runs.txt")):
     framesets = s.get("framesets", 0)
     frames = cap.get("frames_in", 0) + cap.get("dropped", 0)
     worst = lambda f: max((f(x) for x in recon), default=float("nan"))
-    st = {k: worst(lambda x, k=k: stage(x, k)) for k in ("hull_box", "upload", "visibility", "sweep", "texture", "wait")}
+    st = {k: worst(lambda x, k=k: stage(x, k)) for k in ("hull_box", "upload", "visibility", "sweep", "texture", "wait", "image_decode")}
+    cst = {k: stage(cap, k) for k in ("lag", "read", "segment", "encode", "publish")}
     sim = n.get("sim", {})
     sim_step, sim_backend = stage(sim, "step"), sim.get("backend", "")
     tmap = worst(lambda x: stage(x, "transport_map", "ms_p95"))
@@ -153,15 +166,16 @@ for line in open(os.path.join(out, "runs.txt")):
     rows.append(f"| {name} | {backend} | {r.get('fps', 0):.1f} | {s['frames_composited']} / {frames} (capture out {cap.get('frames_out', 0)}, {cap.get('fps', 0):.1f} fps) | "
                 f"{r.get('latency_ms_p50', 0):.1f} / {r.get('latency_ms_p95', 0):.1f} | "
                 f"{st['wait']:.1f} / {st['hull_box']:.1f} / {st['upload']:.1f} / {st['visibility']:.1f} / {st['sweep']:.1f} / {st['texture']:.1f} | "
-                f"{tmap:.1f} / {timg:.1f} | {sim_step:.1f} | {rc} |")
+                f"{tmap:.1f} / {timg:.1f} | {st['image_decode']:.1f} | "
+                f"{cst['lag']:.1f} / {cst['read']:.1f} / {cst['segment']:.1f} / {cst['encode']:.1f} / {cst['publish']:.1f} | {sim_step:.1f} | {rc} |")
     summary["runs"][f"{name}_{backend}"] = {"exit": int(rc), "render_fps": r.get("fps"), "composited": s["frames_composited"],
         "frames": frames, "p50_ms": r.get("latency_ms_p50"), "p95_ms": r.get("latency_ms_p95"), "recon_p50_ms": st,
         "transport_map_p95_ms": tmap, "transport_image_p95_ms": timg, "capture_fps": cap.get("fps"),
-        "sim_step_p50_ms": sim_step, "sim_backend": sim_backend}
+        "sim_step_p50_ms": sim_step, "sim_backend": sim_backend, "capture_p50_ms": cst}
 with open(os.path.join(out, "table.md"), "w") as f:
     f.write(f"GL: {gl_line or 'none'}; {os.cpu_count()} cores\n\n")
-    f.write("| run | backend | render fps | composited / frames | p50 / p95 ms | recon p50 ms: wait / hull box / upload / visibility / sweep / texture | transport p95 ms: map / image | sim step p50 ms | exit |\n")
-    f.write("|---|---|---|---|---|---|---|---|---|\n")
+    f.write("| run | backend | render fps | composited / frames | p50 / p95 ms | recon p50 ms: wait / hull box / upload / visibility / sweep / texture | transport p95 ms: map / image | recon image decode p50 ms | capture p50 ms: lag / read / segment / encode / publish | sim step p50 ms | exit |\n")
+    f.write("|---|---|---|---|---|---|---|---|---|---|---|\n")
     f.write("\n".join(rows) + "\n")
     if not gpu:
         f.write("\nGPU rows not measured: no hardware GL renderer here (the CPU rows only).\n")

@@ -16,6 +16,7 @@
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/dds.h"
+#include "hullpipe/dds/frameset_input.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "test_util.h"
@@ -563,6 +564,67 @@ TEST(Dds, LateJoinerGetsCameraInfo) {
     });
   }
   EXPECT_EQ(got, 1);
+}
+
+// The input of recon, sim and render: JPEG images are decoded together after
+// the take (several threads), raw ones as they come; a bad JPEG is rejected,
+// counted and costs its frameset nothing else.
+TEST(Dds, FramesetInputDecodesJpegImagesAndRejectsABadOne) {
+  const auto dir = test::TempDir("dds_frameset_input");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  const std::vector<Camera> cams = RingCameras(3, 3, 2, Eigen::Vector3d::Zero(), 64, 48, 1.0, Distortion{});
+  Participant pub(domain), sub(domain);
+  WaitSet ws(sub);
+  FramesetInput input(sub, ws, 4, /*with_images=*/true);
+  input.SetDecodeThreads(3);
+  Writer<hullpipe_msg_CameraInfo> info(pub);
+  Writer<hullpipe_msg_ObjectPixelMap> maps(pub);
+  Writer<hullpipe_msg_CameraImage> images(pub);
+  const double match_end = MonotonicSeconds() + 10;
+  while ((info.MatchedReaders() == 0 || maps.MatchedReaders() == 0 || images.MatchedReaders() == 0) &&
+         MonotonicSeconds() < match_end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GT(images.MatchedReaders(), 0u);
+  for (const Camera& c : cams) info.Write(CameraToMsg(c, {}));
+  // Camera k's image: a flat colour of its own (JPEG-safe), half size.
+  auto colour = [](const Camera& c) { return cv::Scalar(40.0 * c.id, 200 - 30.0 * c.id, 90); };
+  const int64_t t0 = NowNs();
+  for (uint64_t seq : {1, 2}) {
+    const int64_t t = t0 + int64_t(seq) * 40'000'000;
+    for (const Camera& c : cams) {
+      cv::Mat map(c.height, c.width, CV_8UC1, cv::Scalar(0));
+      map(cv::Rect(20, 10, 20, 20)) = 255;
+      maps.Write(MakeMapMessage(FrameStamp{uint32_t(c.id), seq, t, double(seq) / 25}, 3, map, nullptr).msg);
+      const cv::Mat bgr(c.height / 2, c.width / 2, CV_8UC3, colour(c));
+      const int quality = c.id == cams.back().id ? 0 : 95;  // the last camera's images raw
+      auto img = MakeImageMessage(uint32_t(c.id), seq, t, bgr, quality);
+      std::vector<uint8_t> png;
+      if (seq == 2 && c.id == cams[1].id) {  // marked JPEG, holding a PNG
+        cv::imencode(".png", bgr, png);
+        img.msg.data._buffer = png.data();
+        img.msg.data._length = img.msg.data._maximum = uint32_t(png.size());
+      }
+      images.Write(img.msg);
+    }
+  }
+  const double end = MonotonicSeconds() + 10;
+  while ((!input.assembler().IsComplete(1) || input.malformed() == 0) && MonotonicSeconds() < end) {
+    ws.Wait(0.1);
+    input.Poll();
+  }
+  EXPECT_EQ(input.malformed(), 1u);
+  std::optional<Frameset> fs = input.assembler().Take(1);
+  ASSERT_TRUE(fs);
+  ASSERT_EQ(fs->images.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    ASSERT_EQ(fs->images[i].image.size(), cv::Size(32, 24)) << i;
+    const cv::Mat expected(24, 32, CV_8UC3, colour(cams[i]));
+    EXPECT_EQ(fs->images[i].camera.id, cams[i].id);
+    EXPECT_LE(cv::norm(fs->images[i].image, expected, cv::NORM_INF), i == 2 ? 0 : 4) << i;  // JPEG loss, flat colour
+  }
+  // Frameset 2 lacks camera 2's image: it never completes.
+  EXPECT_FALSE(input.assembler().IsComplete(2));
 }
 
 }  // namespace

@@ -1,10 +1,13 @@
 #include "hullpipe/dds/frameset_input.h"
 
 #include <algorithm>
+#include <thread>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/util/cli_range.h"
+#include "hullpipe/util/parallel.h"
 
 #include "hullpipe/dds/convert.h"
 
@@ -85,6 +88,17 @@ void FramesetInput::Poll() {
     }
   });
   if (images_) {
+    // Raw images are copied as they are taken; JPEGs are copied out of DDS's
+    // buffers here and decoded below on several threads at once: twenty JPEG
+    // decodes in a row held this loop (and the samples behind them) for tens
+    // of ms.
+    struct Deferred {
+      ImageSample sample;
+      hullpipe_msg_CameraImage msg;
+      std::vector<uint8_t> bytes;
+      std::string error;
+    };
+    std::vector<Deferred> jpegs;
     images_->TakeEach([&](const hullpipe_msg_CameraImage& m, const dds_sample_info_t& info) {
       try {
         if (counters_) counters_->StageSince("transport_image", info.source_timestamp);
@@ -93,13 +107,44 @@ void FramesetInput::Poll() {
         image.camera_id = int(m.camera_id);
         image.seq = m.frame_seq;
         image.capture_time_ns = m.capture_time_ns;
-        image.image = ImageFromMsg(m);
         image.arrival_ns = ArrivalNs();
+        if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG) {
+          Deferred& d = jpegs.emplace_back();
+          d.sample = std::move(image);
+          d.msg = m;
+          d.bytes.assign(m.data._buffer, m.data._buffer + m.data._length);
+          d.msg.data._buffer = nullptr;  // pointed at below, once `jpegs` stops growing
+          d.msg.data._release = false;
+          return;
+        }
+        image.image = ImageFromMsg(m);
         assembler_.AddImage(std::move(image));
       } catch (const MessageError& e) {
         Reject(e.what());
       }
     });
+    if (!jpegs.empty()) {
+      for (Deferred& d : jpegs) d.msg.data._buffer = d.bytes.data();
+      const double t0 = MonotonicSeconds();
+      const int threads =
+          decode_threads_ > 0 ? decode_threads_ : int(std::max(1u, std::thread::hardware_concurrency()));
+      ForEachRowDynamic(int(jpegs.size()), threads, [&](int i, int) {
+        Deferred& d = jpegs[size_t(i)];
+        try {
+          d.sample.image = ImageFromMsg(d.msg);
+        } catch (const MessageError& e) {
+          d.error = e.what();
+        }
+      });
+      if (counters_) counters_->Stage("image_decode", (MonotonicSeconds() - t0) * 1e3);
+      for (Deferred& d : jpegs) {
+        if (!d.error.empty()) {
+          Reject(d.error.c_str());
+          continue;
+        }
+        assembler_.AddImage(std::move(d.sample));
+      }
+    }
   }
 }
 

@@ -121,6 +121,17 @@ bool CaptureController::CatchUp(double lag_s, const char* why) {
   return true;
 }
 
+int ImageJpegQuality(int requested, const std::vector<Camera>& cameras, double image_scale) {
+  if (requested >= 0) return requested;
+  double bytes = 0;
+  for (const Camera& c : cameras) {
+    const double w = image_scale < 1.0 ? std::round(c.width * image_scale) : c.width;
+    const double h = image_scale < 1.0 ? std::round(c.height * image_scale) : c.height;
+    bytes += w * h * 3;
+  }
+  return bytes > kAutoJpegAboveBytes ? kAutoJpegQuality : 0;
+}
+
 int CaptureController::PublishThreads() const {
   if (o_.threads > 0) return o_.threads;
   return int(std::max(1u, std::thread::hardware_concurrency()));

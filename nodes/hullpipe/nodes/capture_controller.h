@@ -54,6 +54,21 @@ struct CaptureOptions {
   void Check() const;
 };
 
+/// Raw images (BGR8) of one frame of all cameras above this many bytes go out as
+/// JPEG by default: 20 cameras of 1024x768 at half size are 11.8 MB a frame,
+/// sent to each recon node (~600 MB/s at 25 fps to two of them), where their
+/// transport took 95-137 ms p95 (docs/benchmarks.md, "Many cameras on a GPU
+/// machine"); the 4-camera Utrecht rig's 0.94 MB stay raw.
+constexpr double kAutoJpegAboveBytes = 2.0 * 1024 * 1024;
+/// The quality of those JPEGs (texture colours within a few levels).
+constexpr int kAutoJpegQuality = 90;
+
+/// capture_node --jpeg: the JPEG quality its images go out with (0: raw BGR8).
+/// `requested` in [0, 100] is kept; -1 (auto) gives kAutoJpegQuality when the
+/// cameras' images at `image_scale` (each side rounded as cv::resize does)
+/// would pass kAutoJpegAboveBytes raw, else 0.
+int ImageJpegQuality(int requested, const std::vector<Camera>& cameras, double image_scale);
+
 /// Wall milliseconds a sink spent on one camera's frame: encoding the map and
 /// image into messages, and writing them (the budget's "encode" and "publish").
 struct PublishTimes {

@@ -14,6 +14,7 @@
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 
+#include "hullpipe/capture/prefetching_source.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/reconstruction/frameset.h"
@@ -97,27 +98,50 @@ TEST(Capture, AConcurrentSinkGetsTheCamerasFromSeveralThreads) {
   EXPECT_THROW(bad.Check(), std::invalid_argument);
 }
 
+// Read one frame ahead (capture_node's default) or not, the same frames on the
+// same timeline.
 TEST(Capture, PacesAtTheSourceRateAndPublishesEveryCameraPerFrame) {
-  FakeClock clock;
-  auto source = Synthetic(4);
-  CaptureRecorder sink;
-  CaptureOptions o;
-  o.image_scale = 0.5;
-  CaptureController c(o, clock, *source, sink);
-  c.PublishCalibration();
-  EXPECT_EQ(sink.infos, 3);
-  c.Start();
-  const double t0 = clock.Now();
-  for (int k = 0; k < 4; ++k) ASSERT_TRUE(c.Step());
-  EXPECT_NEAR(clock.Now() - t0, 3.0 / 25.0, 1e-9) << "frame k is due at k / fps";
-  EXPECT_FALSE(c.Step()) << "end of input";
-  EXPECT_EQ(c.published(), 4);
-  ASSERT_EQ(sink.frames.size(), 12u);
-  EXPECT_EQ(sink.frames.back().seq, 4u);
-  EXPECT_EQ(sink.frames.back().count, 3u);
-  EXPECT_EQ(sink.frames.back().map, cv::Size(80, 60));
-  EXPECT_EQ(sink.frames.back().image, cv::Size(40, 30));
-  EXPECT_EQ(sink.frames[3].t_ns - sink.frames[0].t_ns, 40'000'000) << "capture times 1/25 s apart";
+  for (const bool ahead : {false, true}) {
+    SCOPED_TRACE(ahead ? "reading ahead" : "reading when due");
+    FakeClock clock;
+    auto source = ahead ? ReadAhead(Synthetic(4)) : Synthetic(4);
+    EXPECT_EQ(dynamic_cast<PrefetchingSource*>(source.get()) != nullptr, ahead);
+    CaptureRecorder sink;
+    CaptureOptions o;
+    o.image_scale = 0.5;
+    CaptureController c(o, clock, *source, sink);
+    c.PublishCalibration();
+    EXPECT_EQ(sink.infos, 3);
+    c.Start();
+    const double t0 = clock.Now();
+    for (int k = 0; k < 4; ++k) ASSERT_TRUE(c.Step());
+    EXPECT_NEAR(clock.Now() - t0, 3.0 / 25.0, 1e-9) << "frame k is due at k / fps";
+    EXPECT_FALSE(c.Step()) << "end of input";
+    EXPECT_EQ(c.published(), 4);
+    ASSERT_EQ(sink.frames.size(), 12u);
+    EXPECT_EQ(sink.frames.back().seq, 4u);
+    EXPECT_EQ(sink.frames.back().count, 3u);
+    EXPECT_EQ(sink.frames.back().map, cv::Size(80, 60));
+    EXPECT_EQ(sink.frames.back().image, cv::Size(40, 30));
+    EXPECT_EQ(sink.frames[3].t_ns - sink.frames[0].t_ns, 40'000'000) << "capture times 1/25 s apart";
+  }
+}
+
+// --jpeg's default: raw images up to kAutoJpegAboveBytes a frame (the Utrecht
+// rig), JPEG above (20 cameras of 1024x768); a quality given is kept.
+TEST(Capture, ImagesGoOutAsJpegByDefaultOnlyWhenAFramesRawImagesAreLarge) {
+  auto rig = [](int n, int w, int h) {
+    std::vector<Camera> cams{size_t(n)};
+    for (Camera& c : cams) c.width = w, c.height = h;
+    return cams;
+  };
+  EXPECT_EQ(ImageJpegQuality(-1, rig(4, 644, 486), 0.5), 0);  // 0.94 MB
+  EXPECT_EQ(ImageJpegQuality(-1, rig(20, 1024, 768), 0.5), kAutoJpegQuality);  // 11.8 MB
+  EXPECT_EQ(ImageJpegQuality(-1, rig(16, 640, 480), 0.5), kAutoJpegQuality);  // 3.7 MB
+  EXPECT_EQ(ImageJpegQuality(-1, rig(16, 640, 480), 0.25), 0);  // 0.92 MB
+  EXPECT_EQ(ImageJpegQuality(-1, rig(4, 644, 486), 1.0), kAutoJpegQuality);  // 3.8 MB at full size
+  EXPECT_EQ(ImageJpegQuality(0, rig(20, 1024, 768), 0.5), 0);
+  EXPECT_EQ(ImageJpegQuality(75, rig(1, 64, 48), 0.5), 75);
 }
 
 // The latency budget's capture stages (docs/latency.md): lag from the frame's

@@ -4,6 +4,7 @@
 // and counted; they never stop the node.
 #pragma once
 
+#include <algorithm>
 #include <memory>
 #include <set>
 
@@ -51,6 +52,10 @@ class FramesetInput {
   /// (the assembler's clock check). nullptr (the default): not recorded, and
   /// arrivals stamped with the system clock.
   void SetCounters(NodeCounters* counters) { counters_ = counters; }
+  /// Threads that decode the JPEG images of one Poll at once (capture_node
+  /// --jpeg), >= 0; 0 (the default): this host's cores. Their time is the
+  /// counters' "image_decode" stage.
+  void SetDecodeThreads(int threads) { decode_threads_ = std::max(0, threads); }
   /// Malformed samples plus the assembler's rejections.
   uint64_t rejected() const { return malformed() + assembler_.rejected(); }
   /// Samples that could not be decoded (they never reached the assembler),
@@ -71,6 +76,7 @@ class FramesetInput {
   std::unique_ptr<Reader<hullpipe_msg_CameraImage>> images_;
   FramesetAssembler assembler_;
   uint64_t malformed_ = 0;
+  int decode_threads_ = 0;
   NodeCounters* counters_ = nullptr;
 };
 
