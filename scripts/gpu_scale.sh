@@ -63,7 +63,9 @@ fi
 synth() {  # name cameras size
   if [ ! -f "$RIGS/$1/rig.yaml" ]; then
     say "synthesizing $1 ($2 cameras, $3, 60 frames)"
+    # (--threads: cameras rendered at once; the files are the same whatever the number)
     "$BIN/hullpipe_rig" synthesize -o "$RIGS/$1" --cameras "$2" --size "$3" --frames 60 --format yaml \
+      --threads "$(( $(nproc) < 64 ? $(nproc) : 64 ))" \
       > "$OUT/synth_$1.log" 2>&1 || { echo "gpu_scale: synthesize $1 failed: $OUT/synth_$1.log" >&2; return 1; }
   fi
 }

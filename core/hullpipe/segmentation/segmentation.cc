@@ -137,36 +137,53 @@ void BackgroundModel::Follow(const cv::Mat& frame_bgr, const cv::Mat& map, doubl
 }
 
 void CleanObjectPixelMap(cv::Mat& map, const SegmentationOptions& o) {
+  // Only the object pixels' neighbourhood can change: an opening and a closing
+  // reach at most their radii beyond the object pixels, and every contour lies
+  // within. A person fills a tenth of an HD camera's map; the whole map's
+  // morphology and contour search were a third of its segmentation time.
+  const cv::Rect box = cv::boundingRect(map);  // of the non-zero pixels
+  if (box.empty()) return;  // nothing to clean, and nothing is drawn
+  const int margin = std::max(0, o.open_radius) + std::max(0, o.close_radius) + 2;
+  const cv::Rect region =
+      cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
+      cv::Rect(0, 0, map.cols, map.rows);
+  CleanObjectPixelMapIn(map, region, o);
+}
+
+void CleanObjectPixelMapIn(cv::Mat& map, const cv::Rect& region, const SegmentationOptions& o) {
+  // The component and hole bounds are fractions of the whole map.
+  const double total = double(map.total());
+  cv::Mat part = map(region);
   if (o.open_radius > 0) {
     const int k = 2 * o.open_radius + 1;
-    cv::morphologyEx(map, map, cv::MORPH_OPEN,
+    cv::morphologyEx(part, part, cv::MORPH_OPEN,
                      cv::getStructuringElement(cv::MORPH_ELLIPSE, {k, k}));
   }
   if (o.close_radius > 0) {
     const int k = 2 * o.close_radius + 1;
-    cv::morphologyEx(map, map, cv::MORPH_CLOSE,
+    cv::morphologyEx(part, part, cv::MORPH_CLOSE,
                      cv::getStructuringElement(cv::MORPH_ELLIPSE, {k, k}));
   }
   std::vector<std::vector<cv::Point>> contours;
   std::vector<cv::Vec4i> hierarchy;
-  cv::findContours(map, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
+  cv::findContours(part, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
   double largest = 0;
   for (int i = 0; i >= 0 && !contours.empty(); i = hierarchy[i][0])
     largest = std::max(largest, cv::contourArea(contours[i]));
   const double min_area =
-      std::max(o.min_component_fraction * double(map.total()), o.min_component_ratio * largest);
-  const double max_hole = o.max_hole_fraction * double(map.total());
-  map.setTo(0);
+      std::max(o.min_component_fraction * total, o.min_component_ratio * largest);
+  const double max_hole = o.max_hole_fraction * total;
+  part.setTo(0);
   if (contours.empty()) return;
   // With RETR_CCOMP, top-level contours are outer boundaries of components and
   // their children are the boundaries of holes.
   for (int i = 0; i >= 0; i = hierarchy[i][0]) {
     if (cv::contourArea(contours[i]) < min_area) continue;
-    cv::drawContours(map, contours, i, 255, cv::FILLED);
+    cv::drawContours(part, contours, i, 255, cv::FILLED);
     for (int h = hierarchy[i][2]; h >= 0; h = hierarchy[h][0]) {
       if (cv::contourArea(contours[h]) < max_hole) continue;
-      cv::drawContours(map, contours, h, 0, cv::FILLED);
-      cv::drawContours(map, contours, h, 255, 1);  // the hole's rim is object
+      cv::drawContours(part, contours, h, 0, cv::FILLED);
+      cv::drawContours(part, contours, h, 255, 1);  // the hole's rim is object
     }
   }
 }

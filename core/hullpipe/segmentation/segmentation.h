@@ -76,7 +76,15 @@ class BackgroundModel {
 };
 
 /// Removes speckle, fills cracks and holes, drops small components (the cleaning
-/// steps of SegmentationOptions) in place on a CV_8UC1 map.
+/// steps of SegmentationOptions) in place on a CV_8UC1 map (0 or 255). Works in
+/// the object pixels' bounding box widened by the two radii (and 2 px): the
+/// result equals CleanObjectPixelMapIn over the whole map, pixel for pixel.
 void CleanObjectPixelMap(cv::Mat& map, const SegmentationOptions& options);
+
+/// The same cleaning within `region` of `map` only (the reference over the whole
+/// map). `region` must hold every object pixel with the radii's margin, or the
+/// pixels outside it are left as they are; component and hole sizes are
+/// fractions of the whole map.
+void CleanObjectPixelMapIn(cv::Mat& map, const cv::Rect& region, const SegmentationOptions& options);
 
 }  // namespace hullpipe

@@ -197,3 +197,47 @@ TEST(Segmentation, TheVectorizedTestGivesExactlyThePlainRule) {
 
 }  // namespace
 }  // namespace hullpipe
+
+namespace hullpipe {
+namespace {
+
+// Cleaning only around the object pixels gives the whole map's cleaning pixel
+// for pixel: blobs with holes and cracks, speckle near them or across the whole
+// map, blobs cut by the map's edges and corners, an empty map.
+TEST(Segmentation, CleaningAroundTheObjectEqualsCleaningTheWholeMap) {
+  cv::RNG rng(20261126);
+  SegmentationOptions o;
+  int compared = 0, smaller = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    cv::Mat map(120 + trial, 160, CV_8UC1, cv::Scalar(0));
+    const int blobs = trial % 4;  // 0: speckle only (or nothing)
+    for (int b = 0; b < blobs; ++b) {
+      // Centres may lie off the map: blobs cut by its edges.
+      const cv::Point c(rng.uniform(-10, map.cols + 10), rng.uniform(-10, map.rows + 10));
+      const cv::Size axes(rng.uniform(3, 40), rng.uniform(3, 40));
+      cv::ellipse(map, c, axes, rng.uniform(0, 180), 0, 360, 255, cv::FILLED);
+      if (rng.uniform(0, 2)) cv::circle(map, c, rng.uniform(1, 8), 0, cv::FILLED);       // a hole
+      if (rng.uniform(0, 2)) cv::line(map, c, c + cv::Point(axes.width, 0), 0, 1);       // a crack
+    }
+    // Speckle: near the first blob only, or anywhere on the map.
+    const bool local = trial % 2 == 0;
+    const int specks = rng.uniform(0, 40);
+    for (int k = 0; k < specks; ++k) {
+      const cv::Point p = local ? cv::Point(rng.uniform(60, 100), rng.uniform(40, 80))
+                                : cv::Point(rng.uniform(0, map.cols), rng.uniform(0, map.rows));
+      map.at<uint8_t>(p) = 255;
+    }
+    cv::Mat fast = map.clone(), whole = map.clone();
+    CleanObjectPixelMap(fast, o);
+    CleanObjectPixelMapIn(whole, cv::Rect(0, 0, map.cols, map.rows), o);
+    ASSERT_EQ(cv::countNonZero(fast != whole), 0) << "trial " << trial;
+    ++compared;
+    const cv::Rect box = cv::boundingRect(map);
+    if (!box.empty() && box.area() < map.cols * map.rows / 2) ++smaller;
+  }
+  EXPECT_EQ(compared, 60);
+  EXPECT_GT(smaller, 10);  // many trials cleaned well inside the map, not the whole of it
+}
+
+}  // namespace
+}  // namespace hullpipe

@@ -81,16 +81,24 @@ class VideoRig final : public RigSource {
   }
   bool Skip() override {
     if (live_) return false;
-    int alive = 0;
-    for (Cam& c : cams_) {
-      if (c.ended) continue;
-      if (!c.frames->Grab()) {
-        c.ended = true;
-        continue;
+    // In parallel as Next: a grab decodes a video's frame (MJPG, MPEG-4), and
+    // twenty of them in a row made each skipped frame cost more than a frame
+    // period, so a node that fell behind fell further behind.
+    std::vector<int> alive_of(cams_.size(), 0);
+    ForEachRowBand(int(cams_.size()), ReadThreads(), [&](int c0, int c1, int) {
+      for (int ci = c0; ci < c1; ++ci) {
+        Cam& c = cams_[size_t(ci)];
+        if (c.ended) continue;
+        if (!c.frames->Grab()) {
+          c.ended = true;
+          continue;
+        }
+        // (masks are read by number: nothing to skip)
+        alive_of[size_t(ci)] = 1;
       }
-      // (masks are read by number: nothing to skip)
-      ++alive;
-    }
+    });
+    int alive = 0;
+    for (const int a : alive_of) alive += a;
     if (!CheckEnds(alive)) return false;
     ++index_;
     return true;
@@ -117,8 +125,7 @@ class VideoRig final : public RigSource {
     // collected per camera and reported in camera order.
     std::vector<std::vector<std::string>> errors(cams_.size());
     std::vector<int> alive_of(cams_.size(), 0);
-    const int threads = std::max(1, std::min(int(cams_.size()), int(std::thread::hardware_concurrency())));
-    ForEachRowBand(int(cams_.size()), threads, [&](int c0, int c1, int) {
+    ForEachRowBand(int(cams_.size()), ReadThreads(), [&](int c0, int c1, int) {
       for (int ci = c0; ci < c1; ++ci) ReadOne(size_t(ci), f, &errors[size_t(ci)], &alive_of[size_t(ci)]);
     });
     int alive = 0;
@@ -151,6 +158,12 @@ class VideoRig final : public RigSource {
     std::unique_ptr<LiveCameraReader> reader;
     PoseTrack track;  ///< A tracked camera's world_from_camera by source time.
   };
+
+  // Threads that read (and skip) the cameras' frames at once: one a camera, at
+  // most the machine's cores.
+  int ReadThreads() const {
+    return std::max(1, std::min(int(cams_.size()), int(std::thread::hardware_concurrency())));
+  }
 
   // Reads and segments camera i's next frame into f (its own slots only).
   void ReadOne(size_t i, RigFrame* f, std::vector<std::string>* errors, int* alive) {
