@@ -35,11 +35,17 @@ void PrefetchingSource::StartAhead() {
 
 bool PrefetchingSource::Next(RigFrame* frame) {
   const bool ok = read_.valid() ? Collect(frame) : inner_->Next(frame);
-  if (ok) StartAhead();
+  // Skips since the last frame: the caller is behind, and the frame read now
+  // would only be skipped in its turn (a source slower than its rate read
+  // every frame twice). Read ahead again once a frame comes without skips.
+  const bool keeping_up = !skipped_;
+  skipped_ = false;
+  if (ok && keeping_up) StartAhead();
   return ok;
 }
 
 bool PrefetchingSource::Skip() {
+  skipped_ = true;
   if (read_.valid()) return Collect(nullptr);
   return inner_->Skip();
 }

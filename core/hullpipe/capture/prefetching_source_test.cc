@@ -154,10 +154,19 @@ TEST(PrefetchingSource, SkipsDiscardTheFrameReadAheadThenSkipWithoutReading) {
   EXPECT_EQ(inner.next_calls(), 2);
   EXPECT_EQ(inner.skip_calls_, 2);
   EXPECT_EQ(source.prefetch_discarded(), 1);
+  // The caller is behind: the frame after the skips is read when asked for,
+  // and nothing is read ahead of it (it would be skipped in its turn)...
   ASSERT_TRUE(source.Next(&f));
   EXPECT_EQ(FrameNumber(f), 4);
+  EXPECT_EQ(inner.next_calls(), 3);
+  // ...until a frame comes without skips before it.
   ASSERT_TRUE(source.Next(&f));
   EXPECT_EQ(FrameNumber(f), 5);
+  EXPECT_TRUE(inner.WaitForNextCalls(5));  // frame 6, read ahead
+  ASSERT_TRUE(source.Next(&f));
+  EXPECT_EQ(FrameNumber(f), 6);
+  EXPECT_EQ(source.prefetched(), 1);  // frame 6 (frame 1 was read ahead and skipped)
+  EXPECT_EQ(source.prefetch_discarded(), 1);
 }
 
 TEST(PrefetchingSource, RewindStartsFromTheFirstFrameAgain) {
