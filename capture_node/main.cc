@@ -6,13 +6,10 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
-#include "hullpipe/capture/prefetching_source.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/node.h"
-#include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/nodes/capture_controller.h"
-#include "hullpipe/segmentation/video_rig.h"
-#include "hullpipe/util/cli_range.h"
+#include "hullpipe/nodes/capture_flags.h"
 #include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
@@ -63,138 +60,35 @@ int main(int argc, char** argv) {
   CommonOptions common;
   AddCommonOptions(app, common);
   AddRunIdOption(app, common);
-  std::string rig_path;
-  bool synthetic = false;
-  std::vector<int> camera_ids;
-  int64_t frames = 0;
-  double fps = 0;
-  bool fast = false, loop = false;
-  double image_scale = 0.5;
-  int jpeg_quality = -1;
-  uint32_t wait_readers = 0;
-  double wait_timeout = 10;
-  std::string synthetic_size = "320x240";
-  SyntheticRigOptions synthetic_options;
-  app.add_option("--rig", rig_path, "Rig directory (Utrecht layout) or YAML rig file");
-  app.add_flag("--synthetic", synthetic, "Use the built-in synthetic scene (exact masks, no files)");
-  app.add_option("--synthetic-size", synthetic_size, "Synthetic camera size WxH")->capture_default_str();
-  app.add_option("--synthetic-scene", synthetic_options.scene, "Synthetic scene: figure|hand|sphere|box|torus|mixed")
-      ->capture_default_str();
-  app.add_option("--synthetic-placement", synthetic_options.placement, "Synthetic cameras: ring|dome")
-      ->capture_default_str();
-  app.add_option("--synthetic-cameras", synthetic_options.cameras, "Number of synthetic cameras (1-64)")
-      ->check(CLI::Range(1, SyntheticRigOptions::kMaxCameras))->capture_default_str();
-  app.add_option("--synthetic-k1", synthetic_options.distortion[0], "Synthetic radial distortion k1")
-      ->check(hullpipe::FiniteRange(-1.0, 1.0))
-      ->capture_default_str();
-  app.add_option("--synthetic-tracked", synthetic_options.tracked_camera,
-                 "Synthetic camera that moves on a known path, its pose sent with each frame (0: none)")
-      ->check(CLI::Range(0, SyntheticRigOptions::kMaxCameras))
-      ->capture_default_str();
-  app.add_option("--cameras", camera_ids, "Camera ids to capture (default: all)")->delimiter(',');
-  app.add_option("--frames", frames, "Stop after this many frames (0: end of input)")->check(CLI::NonNegativeNumber);
-  app.add_option("--fps", fps, "Pace at this rate (default: the source's rate)")
-      ->check(hullpipe::FiniteRange(0.0, 1000.0));
-  app.add_flag("--fast", fast, "Do not pace: as fast as possible");
-  app.add_flag("--loop", loop, "Restart the input at its end");
-  app.add_option("--image-scale", image_scale, "Scale of the published colour images (0,1]")
-      ->check(hullpipe::FiniteRange(0.05, 1.0))->capture_default_str();
-  app.add_option("--jpeg", jpeg_quality,
-                 "Publish images as JPEG of this quality (0: raw BGR8; -1: JPEG 90 when one frame's images "
-                 "would pass 2 MiB raw, else raw)")
-      ->check(CLI::Range(-1, 100))
-      ->capture_default_str();
-  int background_frames = 60;
-  app.add_option("--background-frames", background_frames,
-                 "Frames of each camera's background video (or, for a live camera without one, of its first "
-                 "frames) to learn the background from")
-      ->check(CLI::Range(1, 1000))
-      ->capture_default_str();
-  double live_timeout = 5;
-  app.add_option("--live-timeout", live_timeout, "Live cameras: end the input when none delivered for this long, s")
-      ->check(hullpipe::FiniteRange(0.2, 3600.0))
-      ->capture_default_str();
-  int64_t start_time_ns = 0;
-  double max_lag = 0.1;
-  app.add_option("--start-time", start_time_ns,
-                 "Capture timeline start, ns since the Unix epoch (default: adopt the one announced on the domain, "
-                 "or announce one now)");
-  app.add_option("--max-lag", max_lag, "Seconds behind the timeline before skipping to the frame due now")
-      ->check(hullpipe::FiniteRange(1e-3, 60.0))
-      ->capture_default_str();
-  double timeline_window = 600;
-  app.add_option("--timeline-window", timeline_window,
-                 "Refuse an announced capture timeline starting further than this from now, seconds")
-      ->check(hullpipe::FiniteRange(1.0, 86400.0))
-      ->capture_default_str();
-  app.add_option("--wait-readers", wait_readers, "Wait until this many map readers matched")
-      ->check(CLI::Range(0, 1024))
-      ->capture_default_str();
-  app.add_option("--wait-timeout", wait_timeout, "Longest wait for readers, seconds")
-      ->check(hullpipe::FiniteRange(0.0, 3600.0))
-      ->capture_default_str();
-  int threads = 0;
-  app.add_option("--threads", threads,
-                 "Threads that scale, encode and write the cameras' frames at once (0: the machine's cores)")
-      ->check(CLI::Range(0, 256))
-      ->capture_default_str();
-  bool no_read_ahead = false;
-  app.add_flag("--no-read-ahead", no_read_ahead,
-               "Read and segment each frame only when it is due (default: file and synthetic sources read the "
-               "next frame while this one is published)");
+  nodes::CaptureFlags flags;
+  flags.Register(app);
   CLI11_PARSE(app, argc, argv);
 
   try {
-    nodes::CaptureOptions co;
-    co.threads = threads;
-    co.frames = frames;
-    co.fps = fps;
-    co.fast = fast;
-    co.loop = loop;
-    co.image_scale = image_scale;
-    co.start_ns = start_time_ns;
-    co.max_lag_s = max_lag;
-    co.timeline_window_s = timeline_window;
-    co.Check();
+    flags.Resolve();
     auto participant = StartNode("capture", common);
-    std::unique_ptr<RigSource> source;
-    if (synthetic) {
-      SyntheticRigOptions so = synthetic_options;
-      if (std::sscanf(synthetic_size.c_str(), "%dx%d", &so.width, &so.height) != 2)
-        throw std::invalid_argument("--synthetic-size must be WxH");
-      so.camera_ids = camera_ids;
-      so.frames = frames > 0 ? int(frames) : 250;
-      source = OpenSyntheticRig(so);
-    } else {
-      if (rig_path.empty()) throw std::invalid_argument("give --rig DIR or --synthetic");
-      VideoRigOptions vo;
-      vo.camera_ids = camera_ids;
-      vo.stop_requested = [] { return StopRequested(); };
-      vo.live_timeout_s = live_timeout;
-      vo.background_frames = background_frames;
-      source = OpenVideoRig(rig_path, vo);
-    }
-    if (!no_read_ahead) source = ReadAhead(std::move(source));
+    std::unique_ptr<RigSource> source = flags.OpenSource([] { return StopRequested(); });
     std::string name = "capture";
-    for (size_t i = 0; i < camera_ids.size(); ++i) name += (i ? "," : "-") + std::to_string(camera_ids[i]);
-    jpeg_quality = nodes::ImageJpegQuality(jpeg_quality, source->cameras(), image_scale);
-    CaptureWriters writers(*participant, jpeg_quality, name);
+    for (size_t i = 0; i < flags.camera_ids.size(); ++i)
+      name += (i ? "," : "-") + std::to_string(flags.camera_ids[i]);
+    CaptureWriters writers(*participant, flags.jpeg_quality, name);
     Reader<hullpipe_msg_CaptureTimeline> timelines(*participant);
     SystemClock clock;
-    nodes::CaptureController capture(co, clock, *source, writers);
+    nodes::CaptureController capture(flags.options, clock, *source, writers);
     auto hear_timelines = [&] {
       timelines.TakeEach([&](const hullpipe_msg_CaptureTimeline& m, const dds_sample_info_t&) {
         capture.OnTimeline(m.start_ns, m.fps);
       });
     };
+    const char* pacing = flags.options.fast ? " (unpaced)" : source->live() ? " (live)" : "";
     spdlog::info("{} camera(s) of {}, {:.1f} fps{}, images {}", source->cameras().size(),
-                 source->rig_camera_count(), capture.rate(), fast ? " (unpaced)" : source->live() ? " (live)" : "",
-                 jpeg_quality > 0 ? "JPEG " + std::to_string(jpeg_quality) : std::string("raw"));
+                 source->rig_camera_count(), capture.rate(), pacing,
+                 flags.jpeg_quality > 0 ? "JPEG " + std::to_string(flags.jpeg_quality) : std::string("raw"));
     NodeReporter reporter(*participant, name, capture.counters(), common.run_id);
     capture.PublishCalibration();
-    if (wait_readers > 0) {
-      const double deadline = MonotonicSeconds() + wait_timeout;
-      while (writers.MatchedMapReaders() < wait_readers && MonotonicSeconds() < deadline && !StopRequested())
+    if (flags.wait_readers > 0) {
+      const double deadline = MonotonicSeconds() + flags.wait_timeout_s;
+      while (writers.MatchedMapReaders() < flags.wait_readers && MonotonicSeconds() < deadline && !StopRequested())
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
       spdlog::info("{} map reader(s) matched", writers.MatchedMapReaders());
     }

@@ -35,23 +35,24 @@ void PrefetchingSource::StartAhead() {
 
 bool PrefetchingSource::Next(RigFrame* frame) {
   const bool ok = read_.valid() ? Collect(frame) : inner_->Next(frame);
-  // Skips since the last frame: the caller is behind, and the frame read now
+  // Read ahead only while the caller keeps up: two frames taken in a row, no
+  // skip between. A caller that skips is behind, and the frame read ahead
   // would only be skipped in its turn (a source slower than its rate read
-  // every frame twice). Read ahead again once a frame comes without skips.
-  const bool keeping_up = !skipped_;
-  skipped_ = false;
-  if (ok && keeping_up) StartAhead();
+  // every published frame twice, and once more at the start).
+  ++streak_;
+  if (ok && streak_ >= 2) StartAhead();
   return ok;
 }
 
 bool PrefetchingSource::Skip() {
-  skipped_ = true;
+  streak_ = 0;
   if (read_.valid()) return Collect(nullptr);
   return inner_->Skip();
 }
 
 bool PrefetchingSource::Rewind() {
   if (read_.valid()) Collect(nullptr);
+  streak_ = 0;
   const bool ok = inner_->Rewind();
   frame_count_ = inner_->frame_count();
   return ok;

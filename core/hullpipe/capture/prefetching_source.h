@@ -34,9 +34,9 @@ class PrefetchingSource final : public RigSource {
   Aabb workspace() const override { return workspace_; }
   double fps() const override { return fps_; }
   /// The frame read ahead (waiting for it if its read is in flight), or read
-  /// now when none is; then starts reading the next one, unless the caller
-  /// skipped frames since the last Next (it is behind: reading ahead would
-  /// only read frames it skips). As the wrapped
+  /// now when none is; then starts reading the next one once the caller has
+  /// taken two frames in a row without a Skip between (a caller that skips is
+  /// behind: reading ahead would only read frames it skips). As the wrapped
   /// source's Next: false at the end of input, errors in `frame`; an exception
   /// the wrapped Next threw on the reader thread is rethrown here.
   bool Next(RigFrame* frame) override;
@@ -45,7 +45,8 @@ class PrefetchingSource final : public RigSource {
   /// ahead afterwards: a run of skips (joining the timeline, catching up)
   /// costs the wrapped Skip each, not a whole read.
   bool Skip() override;
-  /// Discards the frame read ahead and rewinds the wrapped source.
+  /// Discards the frame read ahead and rewinds the wrapped source (reading
+  /// ahead again after two frames, as at the start).
   bool Rewind() override;
   /// As the wrapped source's, cached when nothing is in flight (at start and
   /// after Rewind).
@@ -73,7 +74,7 @@ class PrefetchingSource final : public RigSource {
   RigFrame ahead_;                  ///< The frame being read ahead (the reader thread's while in flight).
   mutable std::future<bool> read_;  ///< The read in flight, if valid().
   int64_t prefetched_ = 0, discarded_ = 0;
-  bool skipped_ = false;  ///< Skip called since the last Next.
+  int streak_ = 0;  ///< Next calls since the start, the last Skip or the last Rewind.
 };
 
 /// `inner` wrapped in a PrefetchingSource unless it is live (returned as it is).

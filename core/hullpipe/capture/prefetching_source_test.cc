@@ -104,8 +104,9 @@ TEST(PrefetchingSource, GivesTheWrappedSourcesFramesErrorsAndEndUnchanged) {
   }
   EXPECT_FALSE(source.Next(&f));
   EXPECT_EQ(source.IncompleteEnd(), "camera 7 ended early");
-  // Frames 1..4 and the end were read ahead; nothing after the end.
-  EXPECT_EQ(source.prefetched(), 5);
+  // Frames 2..4 and the end were read ahead (from the second frame taken);
+  // nothing after the end.
+  EXPECT_EQ(source.prefetched(), 4);
   EXPECT_EQ(inner.next_calls(), 6);
 }
 
@@ -116,8 +117,11 @@ TEST(PrefetchingSource, ReadsTheNextFrameWhileTheCallerPublishesThisOne) {
   RigFrame f;
   ASSERT_TRUE(source.Next(&f));
   EXPECT_EQ(FrameNumber(f), 0);
-  // No further call from here: frame 1's read starts on its own.
-  EXPECT_TRUE(inner.WaitForNextCalls(2));
+  EXPECT_EQ(inner.next_calls(), 1);  // one frame taken: not yet known to keep up
+  ASSERT_TRUE(source.Next(&f));
+  EXPECT_EQ(FrameNumber(f), 1);
+  // Two in a row, and no further call from here: frame 2's read starts on its own.
+  EXPECT_TRUE(inner.WaitForNextCalls(3));
   // Control: the same source unwrapped reads nothing before it is asked.
   CountingSource bare(5);
   ASSERT_TRUE(bare.Next(&f));
@@ -127,45 +131,48 @@ TEST(PrefetchingSource, ReadsTheNextFrameWhileTheCallerPublishesThisOne) {
 TEST(PrefetchingSource, NextWaitsForAReadInFlight) {
   auto owned = std::make_unique<CountingSource>(5);
   CountingSource& inner = *owned;
-  inner.hold_at_ = 1;  // frame 1's read (the one ahead) is held
+  inner.hold_at_ = 2;  // frame 2's read (the one ahead) is held
   PrefetchingSource source(std::move(owned));
   RigFrame f;
   ASSERT_TRUE(source.Next(&f));
-  ASSERT_TRUE(inner.WaitForNextCalls(2));
+  ASSERT_TRUE(source.Next(&f));
+  ASSERT_TRUE(inner.WaitForNextCalls(3));
   auto next = std::async(std::launch::async, [&] { return source.Next(&f); });
   // The absence: Next has not returned while the read is held...
   EXPECT_EQ(next.wait_for(std::chrono::milliseconds(50)), std::future_status::timeout);
   inner.SetOpen(true);
-  // ...and its control: it returns frame 1 once the read ends.
+  // ...and its control: it returns frame 2 once the read ends.
   ASSERT_EQ(next.wait_for(std::chrono::seconds(5)), std::future_status::ready);
   ASSERT_TRUE(next.get());
-  EXPECT_EQ(FrameNumber(f), 1);
+  EXPECT_EQ(FrameNumber(f), 2);
 }
 
 TEST(PrefetchingSource, SkipsDiscardTheFrameReadAheadThenSkipWithoutReading) {
-  auto owned = std::make_unique<CountingSource>(8);
+  auto owned = std::make_unique<CountingSource>(10);
   CountingSource& inner = *owned;
   PrefetchingSource source(std::move(owned));
   RigFrame f;
-  ASSERT_TRUE(source.Next(&f));  // frame 0; frame 1 read ahead
-  ASSERT_TRUE(source.Skip());    // frame 1, discarded
-  ASSERT_TRUE(source.Skip());    // frame 2: the wrapped Skip, no read
-  ASSERT_TRUE(source.Skip());    // frame 3
-  EXPECT_EQ(inner.next_calls(), 2);
+  ASSERT_TRUE(source.Next(&f));  // frame 0
+  ASSERT_TRUE(source.Next(&f));  // frame 1; frame 2 read ahead
+  ASSERT_TRUE(inner.WaitForNextCalls(3));
+  ASSERT_TRUE(source.Skip());    // frame 2, discarded
+  ASSERT_TRUE(source.Skip());    // frame 3: the wrapped Skip, no read
+  ASSERT_TRUE(source.Skip());    // frame 4
+  EXPECT_EQ(inner.next_calls(), 3);
   EXPECT_EQ(inner.skip_calls_, 2);
   EXPECT_EQ(source.prefetch_discarded(), 1);
   // The caller is behind: the frame after the skips is read when asked for,
   // and nothing is read ahead of it (it would be skipped in its turn)...
   ASSERT_TRUE(source.Next(&f));
-  EXPECT_EQ(FrameNumber(f), 4);
-  EXPECT_EQ(inner.next_calls(), 3);
-  // ...until a frame comes without skips before it.
-  ASSERT_TRUE(source.Next(&f));
   EXPECT_EQ(FrameNumber(f), 5);
-  EXPECT_TRUE(inner.WaitForNextCalls(5));  // frame 6, read ahead
+  EXPECT_EQ(inner.next_calls(), 4);
+  // ...until two frames come without a skip between.
   ASSERT_TRUE(source.Next(&f));
   EXPECT_EQ(FrameNumber(f), 6);
-  EXPECT_EQ(source.prefetched(), 1);  // frame 6 (frame 1 was read ahead and skipped)
+  EXPECT_TRUE(inner.WaitForNextCalls(6));  // frame 7, read ahead
+  ASSERT_TRUE(source.Next(&f));
+  EXPECT_EQ(FrameNumber(f), 7);
+  EXPECT_EQ(source.prefetched(), 1);  // frame 7 (frame 2 was read ahead and skipped)
   EXPECT_EQ(source.prefetch_discarded(), 1);
 }
 
@@ -184,9 +191,10 @@ TEST(PrefetchingSource, RewindStartsFromTheFirstFrameAgain) {
 
 TEST(PrefetchingSource, AnExceptionOfTheReaderThreadReachesTheCaller) {
   auto owned = std::make_unique<CountingSource>(5);
-  owned->throw_at_ = 1;
+  owned->throw_at_ = 2;  // the read ahead
   PrefetchingSource source(std::move(owned));
   RigFrame f;
+  ASSERT_TRUE(source.Next(&f));
   ASSERT_TRUE(source.Next(&f));
   EXPECT_THROW(source.Next(&f), std::runtime_error);
 }
