@@ -1,7 +1,6 @@
 #include "hullpipe/dds/frameset_input.h"
 
 #include <algorithm>
-#include <thread>
 #include <vector>
 
 #include <spdlog/spdlog.h>
@@ -126,9 +125,7 @@ void FramesetInput::Poll() {
     if (!jpegs.empty()) {
       for (Deferred& d : jpegs) d.msg.data._buffer = d.bytes.data();
       const double t0 = MonotonicSeconds();
-      const int threads =
-          decode_threads_ > 0 ? decode_threads_ : int(std::max(1u, std::thread::hardware_concurrency()));
-      ForEachRowDynamic(int(jpegs.size()), threads, [&](int i, int) {
+      ForEachRowDynamic(int(jpegs.size()), ThreadsOrCores(decode_threads_), [&](int i, int) {
         Deferred& d = jpegs[size_t(i)];
         try {
           d.sample.image = ImageFromMsg(d.msg);

@@ -55,7 +55,7 @@ class PrefetchingSource final : public RigSource {
   /// The wrapped source's, once a read in flight has ended.
   std::string IncompleteEnd() const override;
   /// Frames read ahead and handed out by Next, and read ahead and then skipped
-  /// (for tests and the node's counters).
+  /// (for tests).
   int64_t prefetched() const { return prefetched_; }
   int64_t prefetch_discarded() const { return discarded_; }
 

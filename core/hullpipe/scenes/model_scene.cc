@@ -5,7 +5,6 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
-#include <thread>
 
 #include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
@@ -177,7 +176,7 @@ class ModelsElement final : public SceneElement {
       SetPoses(m);
       models_.push_back(std::move(m));
     }
-    threads_ = config.threads > 0 ? config.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    threads_ = ThreadsOrCores(config.threads);
     query_ = config.query;
   }
 

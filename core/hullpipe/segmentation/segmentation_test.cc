@@ -195,12 +195,6 @@ TEST(Segmentation, TheVectorizedTestGivesExactlyThePlainRule) {
   }
 }
 
-}  // namespace
-}  // namespace hullpipe
-
-namespace hullpipe {
-namespace {
-
 // Cleaning only around the object pixels gives the whole map's cleaning pixel
 // for pixel: blobs with holes and cracks, speckle near them or across the whole
 // map, blobs cut by the map's edges and corners, an empty map.

@@ -6,7 +6,6 @@
 #include <mutex>
 #include <optional>
 #include <stdexcept>
-#include <thread>
 
 #include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
@@ -84,21 +83,15 @@ class VideoRig final : public RigSource {
     // In parallel as Next: a grab decodes a video's frame (MJPG, MPEG-4), and
     // twenty of them in a row made each skipped frame cost more than a frame
     // period, so a node that fell behind fell further behind.
-    std::vector<int> alive_of(cams_.size(), 0);
-    ForEachRowBand(int(cams_.size()), ReadThreads(), [&](int c0, int c1, int) {
-      for (int ci = c0; ci < c1; ++ci) {
-        Cam& c = cams_[size_t(ci)];
-        if (c.ended) continue;
-        if (!c.frames->Grab()) {
-          c.ended = true;
-          continue;
-        }
-        // (masks are read by number: nothing to skip)
-        alive_of[size_t(ci)] = 1;
+    const int alive = ForEachCameraAtOnce([&](size_t i) {
+      Cam& c = cams_[i];
+      if (c.ended) return false;
+      if (!c.frames->Grab()) {
+        c.ended = true;
+        return false;
       }
+      return true;  // (masks are read by number: nothing to skip)
     });
-    int alive = 0;
-    for (const int a : alive_of) alive += a;
     if (!CheckEnds(alive)) return false;
     ++index_;
     return true;
@@ -124,15 +117,9 @@ class VideoRig final : public RigSource {
     // The cameras are read and segmented in parallel (one file each); errors are
     // collected per camera and reported in camera order.
     std::vector<std::vector<std::string>> errors(cams_.size());
-    std::vector<int> alive_of(cams_.size(), 0);
-    ForEachRowBand(int(cams_.size()), ReadThreads(), [&](int c0, int c1, int) {
-      for (int ci = c0; ci < c1; ++ci) ReadOne(size_t(ci), f, &errors[size_t(ci)], &alive_of[size_t(ci)]);
-    });
-    int alive = 0;
-    for (size_t i = 0; i < cams_.size(); ++i) {
-      alive += alive_of[i];
-      for (auto& e : errors[i]) f->errors.push_back(std::move(e));
-    }
+    const int alive = ForEachCameraAtOnce([&](size_t i) { return ReadOne(i, f, &errors[i]); });
+    for (auto& camera_errors : errors)
+      for (auto& e : camera_errors) f->errors.push_back(std::move(e));
     if (!CheckEnds(alive)) return false;
     ++index_;
     return true;
@@ -159,29 +146,38 @@ class VideoRig final : public RigSource {
     PoseTrack track;  ///< A tracked camera's world_from_camera by source time.
   };
 
-  // Threads that read (and skip) the cameras' frames at once: one a camera, at
-  // most the machine's cores.
-  int ReadThreads() const {
-    return std::max(1, std::min(int(cams_.size()), int(std::thread::hardware_concurrency())));
+  // Calls one_camera(i) for every camera, the cameras on up to the machine's
+  // cores at once (one thread a camera at most); returns how many returned
+  // true (the cameras still delivering). one_camera touches camera i only.
+  template <class OneCamera>
+  int ForEachCameraAtOnce(OneCamera&& one_camera) {
+    std::vector<int> alive_of(cams_.size(), 0);
+    const int threads = std::min(int(cams_.size()), ThreadsOrCores(0));
+    ForEachRowBand(int(cams_.size()), threads, [&](int c0, int c1, int) {
+      for (int ci = c0; ci < c1; ++ci) alive_of[size_t(ci)] = one_camera(size_t(ci)) ? 1 : 0;
+    });
+    int alive = 0;
+    for (const int a : alive_of) alive += a;
+    return alive;
   }
 
   // Reads and segments camera i's next frame into f (its own slots only).
-  void ReadOne(size_t i, RigFrame* f, std::vector<std::string>* errors, int* alive) {
+  // Returns false when the camera has no frame left (ended now or before).
+  bool ReadOne(size_t i, RigFrame* f, std::vector<std::string>* errors) {
     Cam& c = cams_[i];
-    if (c.ended) return;
+    if (c.ended) return false;
     cv::Mat img;
     const double t_read = MonotonicSeconds();
     if (!c.frames->Read(&img)) {
       c.ended = true;  // CheckEnds says whether this is the input's end or a short camera
-      return;
+      return false;
     }
-    *alive = 1;
     if (img.type() != CV_8UC3 || img.cols != c.camera.width || img.rows != c.camera.height) {
       errors->push_back("camera " + std::to_string(c.camera.id) + ": frame " + std::to_string(index_) +
                           " is " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
                           ", calibration says " + std::to_string(c.camera.width) + "x" +
                           std::to_string(c.camera.height) + "; skipped");
-      return;
+      return true;  // delivered, but skipped (its line says why)
     }
     const double t_segment = MonotonicSeconds();
     f->read_ms[i] = (t_segment - t_read) * 1e3;
@@ -204,7 +200,7 @@ class VideoRig final : public RigSource {
       if (map.empty()) {
         errors->push_back("camera " + std::to_string(c.camera.id) + ": mask of frame " + std::to_string(index_) +
                           " " + why + "; skipped");
-        return;
+        return true;  // delivered, but skipped (its line says why)
       }
     } else {
       map = c.background.Segment(img, options_.segmentation);
@@ -213,6 +209,7 @@ class VideoRig final : public RigSource {
     f->images[i] = img;
     f->maps[i] = map;
     f->segment_ms[i] = (MonotonicSeconds() - t_segment) * 1e3;
+    return true;
   }
 
   // Live: waits up to kLiveWaitS for any camera's frame, then takes one queued

@@ -9,6 +9,12 @@
 
 namespace hullpipe {
 
+/// `threads` if positive, else this machine's cores (at least 1): the meaning
+/// of every "--threads 0" in hullpipe.
+inline int ThreadsOrCores(int threads) {
+  return threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
+}
+
 /// Calls rows(r0, r1, band) for `threads` contiguous bands [r0, r1) covering
 /// [0, height), band 0 on the calling thread and the others on new threads, and
 /// returns when all are done. threads is clamped to [1, max(1, height)]; band

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
-#include <thread>
 
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
@@ -132,10 +131,7 @@ int ImageJpegQuality(int requested, const std::vector<Camera>& cameras, double i
   return bytes > kAutoJpegAboveBytes ? kAutoJpegQuality : 0;
 }
 
-int CaptureController::PublishThreads() const {
-  if (o_.threads > 0) return o_.threads;
-  return int(std::max(1u, std::thread::hardware_concurrency()));
-}
+int CaptureController::PublishThreads() const { return ThreadsOrCores(o_.threads); }
 
 bool CaptureController::AtEnd() {
   const std::string why = source_.IncompleteEnd();

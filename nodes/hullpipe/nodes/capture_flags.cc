@@ -1,5 +1,6 @@
 #include "hullpipe/nodes/capture_flags.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <stdexcept>
 

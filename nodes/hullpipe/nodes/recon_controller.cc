@@ -4,11 +4,11 @@
 #include <cstdio>
 #include <optional>
 #include <stdexcept>
-#include <thread>
 
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/reconstruction/texture.h"
+#include "hullpipe/util/parallel.h"
 
 namespace hullpipe::nodes {
 
@@ -72,7 +72,7 @@ void ReconController::OnNodeStats(const std::string& name, bool final_report, ui
 
 int ReconController::ThreadsNow() {
   if (o_.threads > 0) return o_.threads;
-  const int cores = o_.host_cores > 0 ? o_.host_cores : int(std::max(1u, std::thread::hardware_concurrency()));
+  const int cores = ThreadsOrCores(o_.host_cores);
   const double now = clock_.Now();
   int sharing = 1;
   for (const auto& [peer, host] : peer_hosts_)
