@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Runs hullpipe's libFuzzer targets (docs/reliability.md, "Fuzzing and
 # sanitizers") from an existing build-asan (scripts/sanitize.sh makes it):
-#   FUZZ_SECONDS=600 bash scripts/fuzz.sh [target ...]
+#   FUZZ_SECONDS=600 FUZZ_JOBS=1 bash scripts/fuzz.sh [target ...]
 # Each target first runs its regression inputs (fuzz/regressions/<target>, in
 # git: what once failed), then fuzzes from its seeds: the rig's config.xml
 # files, the launch YAMLs, the shipped scenes and CSVs, and one valid sample of
-# every topic and a small recording (fuzz_make_seeds). A fixed -seed keeps CI's short runs repeatable. Per target
+# every topic and a small recording (fuzz_make_seeds), FUZZ_JOBS targets at a
+# time (default: the cores). A fixed -seed keeps CI's short runs repeatable. Per target
 # it prints the executions, the peak RSS and the corpus it grew; a finding exits
 # 1 naming the crash file left in build-asan/fuzz-out/<target>/.
 set -euo pipefail
@@ -61,10 +62,10 @@ printf '%s\0%s\0%s' '{"op":"subscribe","subscriptions":[{"id":1,"channelId":2},{
 printf '%s' '{"op":"subscribe","subscriptions":[{"id":4294967296,"channelId":4294967298}],"x":[[[["]]"]]]]}' \
   > "$SEEDS/fuzz_bridge_messages/ids"
 
+# Regression inputs (fuzz/regressions/<target>): each once, before fuzzing.
+# They are not seeds: the 201-Mpixel map that timed out would slow every
+# mutation made from it.
 for f in "${FUZZERS[@]}"; do
-  # Regression inputs (fuzz/regressions/<target>): each once, before fuzzing.
-  # They are not seeds: the 201-Mpixel map that timed out would slow every
-  # mutation made from it.
   if compgen -G "fuzz/regressions/$f/*" >/dev/null; then
     if ! "$BIN/$f" -timeout=10 -rss_limit_mb=2048 fuzz/regressions/"$f"/* >"build-asan/fuzz-regressions-$f.log" 2>&1; then
       tail -40 "build-asan/fuzz-regressions-$f.log" >&2
@@ -73,21 +74,45 @@ for f in "${FUZZERS[@]}"; do
     fi
     echo "$f: $(ls fuzz/regressions/"$f" | wc -l) regression input(s) pass"
   fi
-  work="build-asan/fuzz-out/$f"
+done
+
+# fuzz_one <target>: FUZZ_SECONDS of fuzzing from the seeds; prints one line,
+# returns non-zero on a finding (its log's tail on stderr).
+fuzz_one() {
+  local f="$1" work="build-asan/fuzz-out/$1" extra=""
   rm -rf "$work" && mkdir -p "$work/corpus"
-  dirs=("$work/corpus" "$SEEDS/$f")
-  echo "-- $f (${FUZZ_SECONDS} s)"
+  local dirs=("$work/corpus" "$SEEDS/$f")
   # The model importer's child may ask for gigabytes (that is what it is
   # bounded for): under ASan the allocation fails instead of the machine.
-  extra=""
   [ "$f" = fuzz_model_files ] && extra=":allocator_may_return_null=1:max_allocation_size_mb=1024"
   if ! (cd "$work" && ASAN_OPTIONS="$ASAN_OPTIONS$extra" "$OLDPWD/$BIN/$f" -seed=1 -max_total_time="$FUZZ_SECONDS" -rss_limit_mb=2048 -timeout=10 \
           -max_len=65536 -print_final_stats=1 "${dirs[@]/#/$OLDPWD/}" >fuzz.log 2>&1); then
     tail -40 "$work/fuzz.log" >&2
     echo "fuzz.sh: $f found a failing input: $(ls "$work"/crash-* "$work"/leak-* "$work"/timeout-* "$work"/oom-* 2>/dev/null | head -3)" >&2
-    exit 1
+    return 1
   fi
+  local execs rss
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$work/fuzz.log")
   rss=$(sed -n 's/^stat::peak_rss_mb: *//p' "$work/fuzz.log")
   echo "$f: ${execs:-?} executions in ${FUZZ_SECONDS} s, peak RSS ${rss:-?} MB, corpus $(ls "$work/corpus" | wc -l) inputs grown, no finding"
+}
+
+# Each libFuzzer process is one thread: FUZZ_JOBS targets (default: the
+# cores) fuzz at once, each still for its FUZZ_SECONDS.
+FUZZ_JOBS="${FUZZ_JOBS:-$(nproc)}"
+echo "-- ${#FUZZERS[@]} target(s), ${FUZZ_SECONDS} s each, ${FUZZ_JOBS} at a time"
+failed=0
+running=0
+for f in "${FUZZERS[@]}"; do
+  if [ "$running" -ge "$FUZZ_JOBS" ]; then
+    wait -n || failed=1
+    running=$((running - 1))
+  fi
+  fuzz_one "$f" &
+  running=$((running + 1))
 done
+while [ "$running" -gt 0 ]; do
+  wait -n || failed=1
+  running=$((running - 1))
+done
+exit "$failed"

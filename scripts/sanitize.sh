@@ -1,6 +1,5 @@
 #!/usr/bin/env bash
-# The sanitizer and fuzzing part of the test command (docs/reliability.md),
-# run by scripts/test.sh after the main suite:
+# The sanitizer and fuzzing part of the test command (docs/reliability.md):
 #  1. build-asan (clang, AddressSanitizer + UndefinedBehaviorSanitizer, libFuzzer
 #     coverage): the core unit tests (label core) and the recording tests that
 #     run in one process; then each fuzz target for FUZZ_SECONDS (default 20) on
@@ -8,6 +7,12 @@
 #     (fuzz/regressions/<target>).
 #  2. build-tsan (clang, ThreadSanitizer): the core tests, the recording tests
 #     and the nodes' bad-input and SIGINT tests, the nodes built with TSan too.
+#
+#   bash scripts/sanitize.sh              every stage, one after the other
+#   bash scripts/sanitize.sh STAGE ...    only these: build-asan, test-asan,
+#                                         fuzz, build-tsan, test-tsan
+# scripts/test.sh runs build-asan and build-tsan beside the main suite at idle
+# CPU priority, then the others (docs/benchmarks.md, "The whole test command").
 # Each test may take 600 s: the longest under ASan+UBSan take ~2 minutes on a
 # 2-core machine (docs/benchmarks.md, "Build").
 # A finding fails the run: sanitizers abort on the first report
@@ -27,19 +32,31 @@ export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 
 CORE_TESTS=(util_tests geometry_tests capture_tests reconstruction_tests collision_tests evaluation_tests segmentation_tests models_tests
             scenes_tests nodes_tests launch_support_tests)
+THREADED_CORE_TESTS=(util_tests capture_tests reconstruction_tests collision_tests evaluation_tests segmentation_tests
+                     scenes_tests nodes_tests launch_support_tests)  # for TSan: CORE_TESTS but geometry and models
 FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_csv_files fuzz_recordings fuzz_model_files fuzz_bridge_messages)  # as in scripts/fuzz.sh
 
-stage "ASan + UBSan build (clang-14)"
-cmake -S . -B build-asan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=address,undefined -DHULLPIPE_FUZZ=ON -DHULLPIPE_WERROR=OFF >/dev/null
-cmake --build build-asan --target "${CORE_TESTS[@]}" record_tests bridge_tests "${FUZZERS[@]}" fuzz_make_seeds
-ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -L core
-ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -R '^(Recording|RecordingStorage|McapStorage|Player|BridgeState)\.'
+build_asan() {
+  stage "ASan + UBSan build (clang-14)"
+  cmake -S . -B build-asan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=address,undefined -DHULLPIPE_FUZZ=ON -DHULLPIPE_WERROR=OFF >/dev/null
+  cmake --build build-asan --target "${CORE_TESTS[@]}" record_tests bridge_tests "${FUZZERS[@]}" fuzz_make_seeds
+}
 
-stage "fuzzing, ${FUZZ_SECONDS} s per target"
-FUZZ_SECONDS="$FUZZ_SECONDS" RIG="$RIG" bash scripts/fuzz.sh
+test_asan() {
+  stage "ASan + UBSan tests"
+  ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -L core
+  ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -R '^(Recording|RecordingStorage|McapStorage|Player|BridgeState)\.'
+}
 
-# ThreadSanitizer: the core tests (row-band threads, the rig source's parallel
-# reads and live readers, the sweep, the controllers), the recording tests (the
+fuzz() {
+  stage "fuzzing, ${FUZZ_SECONDS} s per target"
+  FUZZ_SECONDS="$FUZZ_SECONDS" RIG="$RIG" bash scripts/fuzz.sh
+}
+
+# ThreadSanitizer: the core tests of every library that starts threads (row-band
+# threads, the rig source's parallel reads, read-ahead and live readers, the
+# sweep, the controllers; not geometry_tests and models_tests: those libraries
+# start none, and ASan+UBSan runs them), the recording tests (the
 # recorder and the player with their threads) and the nodes' bad-input and
 # SIGINT tests, each node process built with TSan too. Third-party libraries
 # not built with TSan are suppressed by name in scripts/tsan.supp, each with
@@ -47,19 +64,39 @@ FUZZ_SECONDS="$FUZZ_SECONDS" RIG="$RIG" bash scripts/fuzz.sh
 # slows every process 5-15 fold; the main suite checks the specified bounds).
 # Left out: ReplayingTwiceIntoSimNode..., whose sim_node must keep up with a
 # 25-fps replay (17 of 50 frames under TSan). HULLPIPE_TSAN=0 skips the stage.
-if [ "${HULLPIPE_TSAN:-1}" = 0 ]; then
-  stage "clean (TSan stage skipped: HULLPIPE_TSAN=0)"
-  exit 0
+build_tsan() {
+  stage "TSan build (clang-14)"
+  cmake -S . -B build-tsan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=thread -DHULLPIPE_WERROR=OFF >/dev/null
+  cmake --build build-tsan --target "${THREADED_CORE_TESTS[@]}" record_tests node_tests hullpipe_record hullpipe_replay \
+      hullpipe_cmd node_bench capture_node recon_node sim_node render_node
+}
+
+test_tsan() {
+  stage "TSan tests"
+  export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp}"
+  export HULLPIPE_TEST_TIME_SCALE=4
+  # (Not under TSan: the sim replay twice and the rig demo read by the npm readers,
+  # whole pipelines that only time out at TSan's speed.)
+  ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -L 'core|record' \
+      -E 'ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports|TheRigsDemoAsMcapOpensInTheFieldsOwnReaders'
+  ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -R '^(NodeTest|CaptureFiles)\.'
+}
+
+stages=("$@")
+if [ ${#stages[@]} -eq 0 ]; then
+  stages=(build-asan test-asan fuzz build-tsan test-tsan)
 fi
-stage "TSan build (clang-14)"
-cmake -S . -B build-tsan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=thread -DHULLPIPE_WERROR=OFF >/dev/null
-cmake --build build-tsan --target "${CORE_TESTS[@]}" record_tests node_tests hullpipe_record hullpipe_replay \
-    hullpipe_cmd node_bench capture_node recon_node sim_node render_node
-export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp}"
-export HULLPIPE_TEST_TIME_SCALE=4
-# (Not under TSan: the sim replay twice and the rig demo read by the npm readers,
-# whole pipelines that only time out at TSan's speed.)
-ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -L 'core|record' \
-    -E 'ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports|TheRigsDemoAsMcapOpensInTheFieldsOwnReaders'
-ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -R '^(NodeTest|CaptureFiles)\.'
-stage "clean"
+for s in "${stages[@]}"; do
+  case "$s" in
+    build-asan) build_asan ;;
+    test-asan) test_asan ;;
+    fuzz) fuzz ;;
+    build-tsan|test-tsan)
+      if [ "${HULLPIPE_TSAN:-1}" = 0 ]; then
+        stage "$s skipped: HULLPIPE_TSAN=0"
+      elif [ "$s" = build-tsan ]; then build_tsan; else test_tsan; fi ;;
+    *) echo "sanitize.sh: unknown stage '$s' (build-asan, test-asan, fuzz, build-tsan, test-tsan)" >&2; exit 2 ;;
+  esac
+done
+[ $# -eq 0 ] && stage "clean"
+exit 0
