@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <opencv2/core/utils/logger.hpp>
 #include <spdlog/spdlog.h>
 

@@ -8,12 +8,14 @@
 #include <memory>
 #include <set>
 
-#include <CLI/CLI.hpp>
-
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/reconstruction/frameset.h"
+
+namespace CLI {
+class App;  // CLI11: only the files that register flags compile it (docs/benchmarks.md, "Build")
+}  // namespace CLI
 
 namespace hullpipe::dds {
 

@@ -6,11 +6,13 @@
 #include <memory>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/pipeline/node_counters.h"
+
+namespace CLI {
+class App;  // CLI11: only the files that register flags compile it (docs/benchmarks.md, "Build")
+}  // namespace CLI
 
 namespace hullpipe::dds {
 
