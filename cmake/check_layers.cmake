@@ -25,8 +25,9 @@ set(rules
   "core/hullpipe/models|util pipeline geometry reconstruction collision models"
   "core/hullpipe/scenes|util pipeline geometry reconstruction collision models scenes"
   "gl|util pipeline geometry reconstruction collision gl"
-  # (evaluation: the synthetic scene is a capture source, capture_flags.h opens it)
-  "nodes|util pipeline geometry capture reconstruction collision evaluation segmentation models scenes nodes"
+  # (evaluation: the synthetic scene is a capture source, capture_flags.h opens
+  # it; launch: launch_flags.h makes a launch description's context)
+  "nodes|util pipeline geometry capture reconstruction collision evaluation segmentation models scenes launch nodes"
   "record|util record"
   "launch/hullpipe|util launch")
 # The DDS wrapper (hullpipe_dds_base) sits on the pipeline's types alone; the

@@ -9,6 +9,7 @@
 #include "hullpipe/dds/node.h"
 #include "hullpipe/gl/backend.h"
 #include "hullpipe/nodes/recon_controller.h"
+#include "hullpipe/nodes/recon_flags.h"
 #include "hullpipe/util/logging.h"
 
 using namespace hullpipe;
@@ -36,55 +37,22 @@ int main(int argc, char** argv) {
   CommonOptions common;
   AddCommonOptions(app, common);
   AddRunIdOption(app, common);
-  nodes::ReconOptions o;
-  std::string tile_spec = "0/1", backend_name = "auto", out_of_view = "unknown";
-  app.add_option("--tile", tile_spec, "This node's tile i/N of the view (horizontal bands)")->capture_default_str();
-  app.add_option("--backend", backend_name, "Sweep backend: cpu|gl|auto")
-      ->check(CLI::IsMember({"cpu", "gl", "auto"}))->capture_default_str();
-  BackendOptions bo;
-  app.add_option("--gl-method", bo.gl_method,
-                 "GL sweep: march (compute-shader ray march, refinement on the GPU) or stencil (the paper's "
-                 "stencil counting)")
-      ->check(CLI::IsMember({"march", "stencil"}))->capture_default_str();
-  app.add_option("--gl-device", bo.gl_device, "EGL device index for GL (-1: the first hardware device)")
-      ->check(CLI::Range(-1, 64))->capture_default_str();
-  app.add_option("--planes", o.sweep.num_planes, "Sweep planes")->capture_default_str();
-  app.add_option("--threads", o.threads,
-                 "CPU threads of the sweep, visibility maps and hull box (0: this host's cores shared among its "
-                 "recon nodes)")
-      ->capture_default_str();
-  app.add_option("--refine", o.refine, "Depth refinement bisections after the sweep (0: the paper's plane depth)")
-      ->check(CLI::Range(0, 30))->capture_default_str();
-  app.add_option("--visibility-width", o.visibility_width,
-                 "Width of each camera's hull depth map for the texture visibility test (0: no test)")
-      ->check(CLI::Range(0, 4096))->capture_default_str();
-  app.add_option("--out-of-view", out_of_view,
-                 "A camera that cannot see a point: unknown (does not vote) or outside (vetoes, as the paper)")
-      ->check(CLI::IsMember({"unknown", "outside"}))->capture_default_str();
-  app.add_option("--failover", o.failover,
-                 "A peer recon node silent (no NodeStats) this many s: the lowest live tile renders its tile too")
-      ->capture_default_str();
-  app.add_option("--pose-timeout", o.pose_timeout, "Drop a pose whose frameset has not arrived after this many s")
-      ->capture_default_str();
+  nodes::ReconFlags flags;
+  flags.Register(app);
   FramesetOptions frameset_options;
   AddFramesetOptions(app, frameset_options);
   CLI11_PARSE(app, argc, argv);
-
   try {
-    o.ParseTile(tile_spec);
-    o.out_of_view = out_of_view == "outside" ? OutOfView::kOutside : OutOfView::kUnknown;
-    o.Check();
+    flags.Resolve();
   } catch (const std::invalid_argument& e) {
     spdlog::error("{}", e.what());  // one line, as every node's bad flag (exit 1)
     return 1;
   }
+  nodes::ReconOptions& o = flags.options;
   const std::string name = o.NodeName();
   try {
     auto participant = StartNode(name, common);
-    bo.name = backend_name;
-    bo.threads = std::max(1, o.threads);  // 0: decided per frameset (ReconController::ThreadsNow)
-    bo.refine = o.refine;
-    std::unique_ptr<SweepBackend> backend = gl::MakeSweepBackend(bo);
+    std::unique_ptr<SweepBackend> backend = gl::MakeSweepBackend(flags.backend);
     backend->set_stop(StopRequestFlag());  // SIGINT ends a long sweep too
     spdlog::info("tile {}/{}, backend {} ({})", o.tile, o.tile_count, backend->Name(), backend->reason());
     WaitSet ws(*participant);

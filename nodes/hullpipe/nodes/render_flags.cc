@@ -9,12 +9,48 @@
 
 namespace hullpipe::nodes {
 
+void RenderFlags::RegisterView(CLI::App& app) {
+  view_options_.clear();
+  auto keep = [this](CLI::Option* opt) {
+    view_options_.push_back(opt);
+    return opt;
+  };
+  keep(app.add_option("--width", options.width, "Novel view width")->capture_default_str());
+  keep(app.add_option("--height", options.height, "Novel view height")->capture_default_str());
+  up_opt_ = keep(app.add_option("--up", up_, "World up vector (default: the rig's; Utrecht rig: 0,0,-1)")
+                     ->delimiter(',')
+                     ->expected(3));
+  keep(app.add_option("--floor", world_.floor,
+                      "Floor: metres along up (plane up . x = H), 'hull' (under the first hull) or 'none' (default: "
+                      "the rig's; Utrecht: 0)"));
+  radius_opt_ = keep(app.add_option("--orbit-radius", orbit_radius_, "Orbit radius, metres (default: the rig's; 3)")
+                         ->check(FiniteRange(0.01, 1000.0)));
+  height_opt_ = keep(app.add_option("--orbit-height", orbit_height_,
+                                    "Eye height above the centre, metres (default: the rig's; 0.7)")
+                         ->check(FiniteRange(-1000.0, 1000.0)));
+  keep(app.add_option("--head-poses", head_poses,
+                      "Tracked head poses, CSV t,x,y,z,qw,qx,qy,qz (world_from_eye, OpenCV eye frame; t in seconds "
+                      "from the first frame)"));
+}
+
+std::vector<std::string> RenderFlags::GivenViewArguments(const std::string& head_poses_path) const {
+  std::vector<std::string> args;
+  for (const auto& [name, value] : given_view_) {
+    if (name == "--width" || name == "--height") continue;  // the description's ${width}, ${height}
+    if (name == "--head-poses") {
+      args.insert(args.end(), {"--view", "file", "--head-poses", head_poses_path});
+      continue;
+    }
+    args.insert(args.end(), {name, value});
+  }
+  return args;
+}
+
 void RenderFlags::Register(CLI::App& app) {
   RenderOptions& o = options;
+  RegisterView(app);
   app.add_option("--out", outputs.out_dir, "Output directory (video, PNGs, stats.json)")->capture_default_str();
   app.add_option("--frames", o.max_frames, "Stop after compositing the frameset with this sequence number");
-  app.add_option("--width", o.width, "Novel view width")->capture_default_str();
-  app.add_option("--height", o.height, "Novel view height")->capture_default_str();
   app.add_option("--hfov", o.hfov_deg, "Horizontal field of view, degrees")->capture_default_str();
   app.add_option("--tiles", o.tiles, "Recon tiles per frame (number of recon nodes)")->capture_default_str();
   app.add_option("--max-in-flight", o.max_in_flight, "Poses rendered concurrently")->capture_default_str();
@@ -35,28 +71,16 @@ void RenderFlags::Register(CLI::App& app) {
   app.add_option("--orbit-centre", orbit_centre_, "Orbit centre x,y,z in world metres (default: hull box centre)")
       ->delimiter(',')
       ->expected(3);
-  radius_opt_ = app.add_option("--orbit-radius", orbit_radius_, "Orbit radius, metres (default: the rig's; 3)");
-  height_opt_ =
-      app.add_option("--orbit-height", orbit_height_, "Eye height above the centre, metres (default: the rig's; 0.7)");
   app.add_option("--orbit-period", o.orbit_period, "Seconds per turn (frame time)")->capture_default_str();
   app.add_option("--view", view,
                  "Viewpoint: orbit (scripted), file (--head-poses CSV), topic (HeadPose from a tracker; "
                  "the orbit until the first arrives)")
       ->check(CLI::IsMember({"orbit", "file", "topic"}))
       ->capture_default_str();
-  app.add_option("--head-poses", head_poses,
-                 "Tracked head poses, CSV t,x,y,z,qw,qx,qy,qz (world_from_eye, OpenCV eye frame; t in seconds "
-                 "from the first frame)");
   app.add_option("--scene", scene, "Scene file: render_node uses its `light` (shadows); sim_node the rest");
-  up_opt_ = app.add_option("--up", up_, "World up vector (default: the rig's; Utrecht rig: 0,0,-1)")
-                ->delimiter(',')
-                ->expected(3);
   app.add_option("--rig", rig,
                  "Rig directory or YAML rig file: its world (up, floor, orbit) unless the flags say otherwise "
                  "(default: the Utrecht rig's world)");
-  app.add_option("--floor", world_.floor,
-                 "Floor: metres along up (plane up . x = H), 'hull' (under the first hull) or 'none' (default: the "
-                 "rig's; Utrecht: 0)");
   app.add_flag("--publish-view,!--no-publish-view", o.publish_composite,
                "Publish each composited frame as a JPEG (CompositedView: hullpipe_bridge's /foxglove/composited, "
                "recordings)")
@@ -73,6 +97,15 @@ void RenderFlags::Register(CLI::App& app) {
 
 void RenderFlags::Resolve(bool have_display) {
   RenderOptions& o = options;
+  // The view group as given, while the parse's options live (the app may go
+  // before this struct does).
+  given_view_.clear();
+  for (const CLI::Option* opt : view_options_) {
+    if (opt->count() == 0) continue;
+    std::string value;  // the values joined as the flag takes them (--up x,y,z)
+    for (const std::string& r : opt->results()) value += (value.empty() ? "" : ",") + r;
+    given_view_.emplace_back(opt->get_name(), value);
+  }
   if ((view == "file") != !head_poses.empty())
     throw std::invalid_argument("--view file goes with --head-poses FILE");
   o.view = view == "file" ? RenderOptions::View::kFile
