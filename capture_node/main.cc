@@ -29,11 +29,10 @@ class CaptureWriters final : public nodes::CaptureSink {
     timeline_.Write(m);
   }
   void PublishCameraInfo(const Camera& c, const Aabb& workspace) override { info_.Write(CameraToMsg(c, workspace)); }
-  nodes::PublishTimes PublishFrame(const FrameStamp& stamp, uint32_t count, const cv::Mat& map, const cv::Mat& image,
-                                   const Rigid3d* cam_from_world) override {
+  nodes::PublishTimes PublishFrame(const nodes::CameraFrameOut& f) override {
     const double t0 = MonotonicSeconds();
-    const auto map_msg = MakeMapMessage(stamp, count, map, cam_from_world);
-    const auto image_msg = MakeImageMessage(stamp.camera_id, stamp.seq, stamp.capture_time_ns, image, jpeg_);
+    const auto map_msg = MakeMapMessage(f.stamp, f.camera_count, f.map, f.cam_from_world);
+    const auto image_msg = MakeImageMessage(f.stamp.camera_id, f.stamp.seq, f.stamp.capture_time_ns, f.image, jpeg_);
     const double t1 = MonotonicSeconds();
     maps_.Write(map_msg.msg);
     images_.Write(image_msg.msg);

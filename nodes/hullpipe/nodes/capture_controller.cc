@@ -229,7 +229,8 @@ bool CaptureController::Step() {
         spent[i].encode_ms += (clock_.Now() - t_scale) * 1e3;
         const Rigid3d* pose = i < frame_.poses.size() && frame_.poses[i] ? &*frame_.poses[i] : nullptr;
         const FrameStamp stamp{uint32_t(source_.cameras()[i].id), seqs[i], stamps[i], frame_.time_s};
-        const PublishTimes t = sink_.PublishFrame(stamp, camera_count, frame_.maps[i], img, pose);
+        const PublishTimes t = sink_.PublishFrame({.stamp = stamp, .camera_count = camera_count,
+                                                   .map = frame_.maps[i], .image = img, .cam_from_world = pose});
         spent[i].encode_ms += t.encode_ms;
         spent[i].write_ms += t.write_ms;
       };

@@ -75,17 +75,23 @@ struct PublishTimes {
   double encode_ms = 0, write_ms = 0;
 };
 
+/// One camera's share of a frame, as capture hands it to its sink.
+struct CameraFrameOut {
+  FrameStamp stamp;           ///< The camera, its sequence number, capture and source time.
+  uint32_t camera_count = 0;  ///< Cameras in the rig's frameset.
+  cv::Mat map;                ///< Object-pixel map, CV_8UC1 (non-zero: object).
+  cv::Mat image;              ///< Colour image, CV_8UC3, already scaled (--image-scale).
+  const Rigid3d* cam_from_world = nullptr;  ///< A tracked camera's pose this frame; nullptr: fixed.
+};
+
 /// Where capture's outputs go (CameraInfo, ObjectPixelMap, CameraImage).
 class CaptureSink {
  public:
   virtual ~CaptureSink() = default;
   virtual void PublishCameraInfo(const Camera& camera, const Aabb& workspace) = 0;
-  /// One camera's map (CV_8UC1) and image (CV_8UC3, already scaled) of the frame
-  /// `stamp` names; camera_count: cameras in the rig's frameset; cam_from_world:
-  /// a tracked camera's pose of this frame (nullptr: fixed). Returns the time it
-  /// took (zeros: not timed).
-  virtual PublishTimes PublishFrame(const FrameStamp& stamp, uint32_t camera_count, const cv::Mat& map,
-                                    const cv::Mat& image, const Rigid3d* cam_from_world) = 0;
+  /// One camera's map and image of a frame. Returns the time it took (zeros:
+  /// not timed).
+  virtual PublishTimes PublishFrame(const CameraFrameOut& frame) = 0;
   /// The timeline this node starts (CaptureTimeline, transient-local).
   virtual void AnnounceTimeline(int64_t start_ns, double fps) = 0;
   /// True if PublishFrame may be called for different cameras at once (the

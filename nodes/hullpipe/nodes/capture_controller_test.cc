@@ -41,13 +41,13 @@ struct CaptureRecorder final : CaptureSink {
   void PublishCameraInfo(const Camera&, const Aabb&) override { ++infos; }
   std::vector<std::pair<int64_t, double>> timelines;
   void AnnounceTimeline(int64_t start_ns, double fps) override { timelines.push_back({start_ns, fps}); }
-  PublishTimes PublishFrame(const FrameStamp& stamp, uint32_t count, const cv::Mat& map, const cv::Mat& image,
-                            const Rigid3d*) override {
+  PublishTimes PublishFrame(const CameraFrameOut& f) override {
     // A writer's work, so the other threads find cameras left to take.
     if (concurrent) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     const std::lock_guard<std::mutex> lock(mutex);
     threads.insert(std::this_thread::get_id());
-    frames.push_back({stamp.camera_id, stamp.seq, stamp.capture_time_ns, count, map.size(), image.size()});
+    frames.push_back({f.stamp.camera_id, f.stamp.seq, f.stamp.capture_time_ns, f.camera_count, f.map.size(),
+                      f.image.size()});
     return times;
   }
 };
@@ -156,7 +156,7 @@ struct SlowSink final : CaptureSink {
   int published = 0;
   void PublishCameraInfo(const Camera&, const Aabb&) override {}
   void AnnounceTimeline(int64_t, double) override {}
-  PublishTimes PublishFrame(const FrameStamp&, uint32_t, const cv::Mat&, const cv::Mat&, const Rigid3d*) override {
+  PublishTimes PublishFrame(const CameraFrameOut&) override {
     clock->Advance(per_camera);
     ++published;
     return {};
@@ -428,12 +428,11 @@ TEST(Capture, ATrackedCameraSendsItsPoseAndTheHullUsesIt) {
       a.SetCamera(c);
       a.SetWorkspace(ws);
     }
-    PublishTimes PublishFrame(const FrameStamp& stamp, uint32_t count, const cv::Mat& map, const cv::Mat&,
-                              const Rigid3d* pose) override {
-      a.AddMap(MapSample{.camera_id = int(stamp.camera_id), .seq = stamp.seq, .capture_time_ns = stamp.capture_time_ns,
-          .camera_count = int(count), .map = map.clone(), .source_time_s = stamp.source_time_s, .source_id = 0,
-          .arrival_ns = 0,
-          .cam_from_world = pose ? std::optional<Rigid3d>(*pose) : std::nullopt});
+    PublishTimes PublishFrame(const CameraFrameOut& f) override {
+      a.AddMap(MapSample{.camera_id = int(f.stamp.camera_id), .seq = f.stamp.seq,
+          .capture_time_ns = f.stamp.capture_time_ns, .camera_count = int(f.camera_count), .map = f.map.clone(),
+          .source_time_s = f.stamp.source_time_s, .source_id = 0, .arrival_ns = 0,
+          .cam_from_world = f.cam_from_world ? std::optional<Rigid3d>(*f.cam_from_world) : std::nullopt});
       return {};
     }
     void AnnounceTimeline(int64_t, double) override {}
