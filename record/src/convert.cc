@@ -3,6 +3,8 @@
 #include <map>
 #include <vector>
 
+#include "hullpipe/record/storage.h"
+
 namespace hullpipe::record {
 namespace {
 
@@ -35,11 +37,12 @@ ConvertReport Convert(const std::string& in, const std::string& out, const Write
     for (const auto& [k, v] : before.meta)
       if (k != "format" && k != "compression" && k != "closed_ns") w.SetMeta(k, v);
     w.SetMeta("converted_from", in);
-    // SQLite recordings are CDR: other channels of an MCAP file (the viewable
-    // JSON ones `export --foxglove` adds) are not copied there.
+    // A storage of CDR alone (SQLite) does not take an MCAP file's other
+    // channels (the viewable JSON ones `export --foxglove` adds).
+    const bool cdr_only = StorageKindOf(storage).cdr_only;
     std::map<int64_t, int64_t> out_id;
     for (const auto& t : r.topics()) {
-      if (storage == Storage::kSqlite && t.message_encoding != "cdr") {
+      if (cdr_only && t.message_encoding != "cdr") {
         rep.skipped_topics.push_back(t.name);
         continue;
       }

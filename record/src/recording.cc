@@ -15,9 +15,6 @@
 
 namespace hullpipe::record {
 
-void AppendEncodedSqlite(StorageWriter* w, int64_t topic_id, int64_t source_ns, int64_t arrival_ns,
-                         const std::vector<uint8_t>& data, int codec, int64_t size, uint32_t crc);
-
 // CRC-32 (zlib) of a sample's row: topic id, source and arrival times (8 bytes
 // each, little-endian) and the data, so a flip in any of them is found.
 uint32_t RowCrc(int64_t topic_id, int64_t source_ns, int64_t arrival_ns, const uint8_t* data, size_t size) {
@@ -47,19 +44,25 @@ Compression ParseCompression(const std::string& name) {
   throw std::invalid_argument("--compression must be none, zstd or lz4, not '" + name + "'");
 }
 
-const char* StorageName(Storage s) { return s == Storage::kMcap ? "mcap" : "sqlite"; }
+const char* StorageName(Storage s) { return StorageKindOf(s).name; }
 
 Storage ParseStorage(const std::string& name) {
-  if (name == "sqlite") return Storage::kSqlite;
-  if (name == "mcap") return Storage::kMcap;
-  throw std::invalid_argument("--storage must be sqlite or mcap, not '" + name + "'");
+  std::string names;
+  for (const StorageKind& k : Storages()) {
+    if (name == k.name) return k.id;
+    names += (names.empty() ? "" : " or ") + std::string(k.name);
+  }
+  throw std::invalid_argument("--storage must be " + names + ", not '" + name + "'");
 }
 
 Storage StorageForPath(const std::string& path) {
-  return std::filesystem::path(path).extension() == ".mcap" ? Storage::kMcap : Storage::kSqlite;
+  const std::string ext = std::filesystem::path(path).extension().string();
+  for (const StorageKind& k : Storages())
+    if (ext == k.extension) return k.id;
+  return Storages().front().id;
 }
 
-const char* StorageExtension(Storage s) { return s == Storage::kMcap ? ".mcap" : ".hprec"; }
+const char* StorageExtension(Storage s) { return StorageKindOf(s).extension; }
 
 void WriterOptions::Check() const {
   if (zstd_level < 1 || zstd_level > 19) throw std::invalid_argument("--zstd-level must be in [1, 19]");
@@ -69,9 +72,16 @@ void WriterOptions::Check() const {
 }
 
 void WriterOptions::Check(Storage s) const {
-  if (compression == Compression::kLz4 && s != Storage::kMcap)
-    throw std::invalid_argument("--compression lz4 is for MCAP recordings (-o FILE.mcap or --storage mcap); "
-                                "SQLite recordings take none or zstd");
+  const StorageKind& k = StorageKindOf(s);
+  if (std::find(k.compressions.begin(), k.compressions.end(), compression) != k.compressions.end()) return;
+  std::string takes, others;
+  for (Compression c : k.compressions) takes += (takes.empty() ? "" : ", ") + std::string(CompressionName(c));
+  for (const StorageKind& o : Storages())
+    if (std::find(o.compressions.begin(), o.compressions.end(), compression) != o.compressions.end())
+      others += std::string(others.empty() ? "" : ", ") + "-o FILE" + o.extension + " or --storage " + o.name;
+  throw std::invalid_argument(std::string("--compression ") + CompressionName(compression) + " is not for " + k.name +
+                              " recordings (they take " + takes + ")" +
+                              (others.empty() ? "" : std::string("; for ") + CompressionName(compression) + ": " + others));
 }
 
 bool DecodeSampleData(const uint8_t* data, size_t n, int codec, int64_t size, std::vector<uint8_t>* out) {
@@ -119,15 +129,24 @@ std::unique_ptr<StorageReader> OpenStorageReader(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) throw RecordingError(path + ": no such recording (not a file)");
   if (std::filesystem::file_size(path, ec) == 0) throw RecordingError(path + ": empty file, not a hullpipe recording");
-  if (IsMcapFile(path)) return OpenMcapReader(path);
-  return OpenSqliteReader(path);
+  return StorageKindOfFile(path).open_reader(path);
+}
+
+void StorageWriter::AppendEncoded(const EncodedSample& e) {
+  Sample s;
+  s.topic_id = e.topic_id;
+  s.source_ns = e.source_ns;
+  s.arrival_ns = e.arrival_ns;
+  if (!DecodeSampleData(e.data.data(), e.data.size(), e.codec, e.size, &s.data))
+    throw RecordingError("a sample given encoded with codec " + std::to_string(e.codec) + " does not decode");
+  Append(s);
 }
 
 RecordingWriter::RecordingWriter(const std::string& path, const WriterOptions& options)
     : path_(path), storage_(options.storage.value_or(StorageForPath(path))) {
   options.Check();
   options.Check(storage_);
-  impl_ = storage_ == Storage::kMcap ? OpenMcapWriter(path, options) : OpenSqliteWriter(path, options);
+  impl_ = StorageKindOf(storage_).open_writer(path, options);
 }
 
 RecordingWriter::~RecordingWriter() = default;
@@ -141,19 +160,14 @@ int64_t RecordingWriter::samples_pending() const { return impl_->samples_pending
 int64_t RecordingWriter::stored_bytes() const { return impl_->stored_bytes(); }
 int64_t RecordingWriter::raw_bytes() const { return impl_->raw_bytes(); }
 
-void RecordingWriter::AppendEncoded(int64_t topic_id, int64_t source_ns, int64_t arrival_ns,
-                                    const std::vector<uint8_t>& data, int codec, int64_t size, uint32_t crc) {
-  if (storage_ == Storage::kSqlite) {
-    AppendEncodedSqlite(impl_.get(), topic_id, source_ns, arrival_ns, data, codec, size, crc);
-    return;
+void RecordingWriter::AppendEncoded(const EncodedSample& sample) {
+  try {
+    impl_->AppendEncoded(sample);
+  } catch (const RecordingError& e) {
+    const std::string what = e.what();
+    if (what.rfind(path_, 0) == 0) throw;
+    throw RecordingError(path_ + ": " + what);  // the storage's own message, the file named once
   }
-  Sample s;
-  s.topic_id = topic_id;
-  s.source_ns = source_ns;
-  s.arrival_ns = arrival_ns;
-  if (!DecodeSampleData(data.data(), data.size(), codec, size, &s.data))
-    throw RecordingError(path_ + ": a sample given encoded with codec " + std::to_string(codec) + " does not decode");
-  impl_->Append(s);
 }
 
 // One file of a recording.

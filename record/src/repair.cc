@@ -1,6 +1,7 @@
 // Page-level salvage of SQLite files (https://www.sqlite.org/fileformat2.html:
 // the database header, b-tree pages, cells, overflow pages, records, the WAL).
 #include "hullpipe/record/repair.h"
+#include "hullpipe/record/storage.h"
 
 #include <fcntl.h>
 #include <sys/mman.h>
@@ -222,9 +223,10 @@ const std::string& Str(const std::vector<Value>& r, size_t i) { return std::get<
 
 }  // namespace
 
-// An MCAP file is read by a scan of its records where it has no footer (storage.h):
-// every chunk that decompresses and matches its CRC is copied, in arrival order.
-RepairReport RepairMcap(const std::string& in, const std::string& out) {
+// What the storage's reader reads, copied in arrival order: for MCAP, a scan of
+// its records where it has no footer (storage.h), every chunk that decompresses
+// and matches its CRC.
+RepairReport RepairByReading(const std::string& in, const std::string& out) {
   RepairReport report;
   const RecordingReader r(in);
   const RecordingInfo info = r.Info();
@@ -261,7 +263,11 @@ RepairReport Repair(const std::string& in, const std::string& out) {
   if (!std::filesystem::is_regular_file(in, ec) && !std::filesystem::is_regular_file(in + "-wal", ec))
     throw RecordingError(in + ": no such file");
   if (std::filesystem::exists(out, ec)) throw RecordingError(out + ": exists; recordings are never overwritten");
-  if (IsMcapFile(in)) return RepairMcap(in, out);
+  const StorageKind& kind = StorageKindOfFile(in);
+  return kind.repair ? kind.repair(in, out) : RepairByReading(in, out);
+}
+
+RepairReport RepairSqlitePages(const std::string& in, const std::string& out) {
   const Pages ps = LoadPages(in);
   RepairReport report;
   report.pages = int64_t(ps.page.size());
@@ -371,7 +377,8 @@ RepairReport Repair(const std::string& in, const std::string& out) {
       DecodeSampleData(stored.data(), stored.size(), row->codec, row->size, &own);
       crc = RowCrc(id->second, row->source_ns, row->arrival_ns, own.data(), own.size());
     }
-    w.AppendEncoded(id->second, row->source_ns, row->arrival_ns, stored, row->codec, row->size, crc);
+    w.AppendEncoded({.topic_id = id->second, .source_ns = row->source_ns, .arrival_ns = row->arrival_ns,
+                     .data = stored, .codec = row->codec, .size = row->size, .crc = crc});
     ++report.samples;
     if (++batch % 256 == 0) w.Commit();
   }

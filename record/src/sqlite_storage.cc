@@ -69,8 +69,8 @@ class SqliteWriter final : public StorageWriter {
   ~SqliteWriter() override;
   int64_t AddTopic(const TopicInfo& topic) override;
   void Append(const Sample& sample) override;
-  void AppendEncoded(int64_t topic_id, int64_t source_ns, int64_t arrival_ns, const std::vector<uint8_t>& data,
-                     int codec, int64_t size, uint32_t crc);
+  /// Stored as it is: Repair's rows keep their codec and checksum.
+  void AppendEncoded(const EncodedSample& sample) override;
   void Commit() override;
   void SetMeta(const std::string& key, const std::string& value) override;
   int64_t samples_committed() const override { return committed_; }
@@ -179,28 +179,29 @@ void SqliteWriter::Append(const Sample& s) {
     if (ZSTD_isError(n)) throw RecordingError(path_ + ": ZSTD_compress2: " + ZSTD_getErrorName(n));
     if (n < s.data.size() && ZstdRatioPlausible(n, int64_t(s.data.size()))) {  // else stored as it is
       scratch_.resize(n);
-      AppendEncoded(s.topic_id, s.source_ns, s.arrival_ns, scratch_, 1, int64_t(s.data.size()), crc);
+      AppendEncoded({.topic_id = s.topic_id, .source_ns = s.source_ns, .arrival_ns = s.arrival_ns,
+                     .data = scratch_, .codec = 1, .size = int64_t(s.data.size()), .crc = crc});
       return;
     }
   }
-  AppendEncoded(s.topic_id, s.source_ns, s.arrival_ns, s.data, 0, int64_t(s.data.size()), crc);
+  AppendEncoded({.topic_id = s.topic_id, .source_ns = s.source_ns, .arrival_ns = s.arrival_ns, .data = s.data,
+                 .codec = 0, .size = int64_t(s.data.size()), .crc = crc});
 }
 
-void SqliteWriter::AppendEncoded(int64_t topic_id, int64_t source_ns, int64_t arrival_ns,
-                                 const std::vector<uint8_t>& data, int codec, int64_t size, uint32_t crc) {
+void SqliteWriter::AppendEncoded(const EncodedSample& e) {
   Begin();
   sqlite3_reset(insert_);
-  sqlite3_bind_int64(insert_, 1, topic_id);
-  sqlite3_bind_int64(insert_, 2, source_ns);
-  sqlite3_bind_int64(insert_, 3, arrival_ns);
-  sqlite3_bind_blob64(insert_, 4, data.data(), data.size(), SQLITE_STATIC);
-  sqlite3_bind_int64(insert_, 5, crc);
-  sqlite3_bind_int(insert_, 6, codec);
-  sqlite3_bind_int64(insert_, 7, size);
+  sqlite3_bind_int64(insert_, 1, e.topic_id);
+  sqlite3_bind_int64(insert_, 2, e.source_ns);
+  sqlite3_bind_int64(insert_, 3, e.arrival_ns);
+  sqlite3_bind_blob64(insert_, 4, e.data.data(), e.data.size(), SQLITE_STATIC);
+  sqlite3_bind_int64(insert_, 5, e.crc);
+  sqlite3_bind_int(insert_, 6, e.codec);
+  sqlite3_bind_int64(insert_, 7, e.size);
   CheckSql(sqlite3_step(insert_), db_, "INSERT INTO samples", path_);
   ++pending_;
-  stored_bytes_ += int64_t(data.size());
-  raw_bytes_ += size;
+  stored_bytes_ += int64_t(e.data.size());
+  raw_bytes_ += e.size;
 }
 
 void SqliteWriter::SetMeta(const std::string& key, const std::string& value) {
@@ -438,12 +439,6 @@ std::unique_ptr<StorageWriter> OpenSqliteWriter(const std::string& path, const W
 
 std::unique_ptr<StorageReader> OpenSqliteReader(const std::string& path) {
   return std::make_unique<SqliteReader>(path);
-}
-
-// Repair copies rows as stored: only the SQLite writer takes them so.
-void AppendEncodedSqlite(StorageWriter* w, int64_t topic_id, int64_t source_ns, int64_t arrival_ns,
-                         const std::vector<uint8_t>& data, int codec, int64_t size, uint32_t crc) {
-  static_cast<SqliteWriter*>(w)->AppendEncoded(topic_id, source_ns, arrival_ns, data, codec, size, crc);
 }
 
 }  // namespace hullpipe::record

@@ -36,6 +36,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -121,6 +122,19 @@ struct Sample {
   std::vector<uint8_t> data;  ///< Serialized sample, CDR with its 4-byte header.
 };
 
+/// A sample as a file stores it (Repair copies rows so): its bytes encoded with
+/// `codec` (0 none, 1 zstd), its own bytes `size` long with CRC-32 row checksum
+/// `crc` (RowCrc). `data` is not owned.
+struct EncodedSample {
+  int64_t topic_id = 0;
+  int64_t source_ns = 0;
+  int64_t arrival_ns = 0;
+  std::span<const uint8_t> data;
+  int codec = 0;
+  int64_t size = 0;
+  uint32_t crc = 0;
+};
+
 /// The SQLite error policy: every failing call throws this, naming the call and
 /// the file.
 class RecordingError : public std::runtime_error {
@@ -148,11 +162,10 @@ class RecordingWriter {
   /// Appends a sample to the open batch (a transaction or chunk opened on
   /// demand), compressed as the options say.
   void Append(const Sample& sample);
-  /// Appends a sample already encoded with `codec` (0 none, 1 zstd) whose own
-  /// bytes have CRC-32 row checksum `crc` and size `size` (Repair copies rows so;
-  /// MCAP decodes it and appends the sample).
-  void AppendEncoded(int64_t topic_id, int64_t source_ns, int64_t arrival_ns, const std::vector<uint8_t>& data,
-                     int codec, int64_t size, uint32_t crc);
+  /// Appends a sample as another file stored it (StorageWriter::AppendEncoded:
+  /// SQLite keeps it as it is, MCAP decodes it). Throws RecordingError naming
+  /// the file if it does not decode.
+  void AppendEncoded(const EncodedSample& sample);
   /// Commits the open batch: after this returns, the samples survive a crash.
   void Commit();
   /// Sets a meta value (committed with the next batch).

@@ -1,8 +1,10 @@
 // The storages a recording is kept in, behind one writer and one reader
 // interface (as rosbag2's storage plugins): SQLite (sqlite_storage.cc, the
 // format in recording.h) and MCAP (mcap_storage.cc, docs/recording.md "MCAP";
-// https://mcap.dev/spec). RecordingWriter and RecordingReader (recording.h) pick
-// the storage and hold one of these; the tools never see which.
+// https://mcap.dev/spec), each registered once in Storages() with its name,
+// extension, compressions, probe and openers. RecordingWriter and
+// RecordingReader (recording.h) pick the storage from that table and hold one
+// of these; the tools never see which.
 #pragma once
 
 #include <cstdint>
@@ -15,6 +17,7 @@
 #include <vector>
 
 #include "hullpipe/record/recording.h"
+#include "hullpipe/record/repair.h"
 
 namespace hullpipe::record {
 
@@ -27,6 +30,11 @@ class StorageWriter {
   virtual ~StorageWriter() = default;
   virtual int64_t AddTopic(const TopicInfo& topic) = 0;
   virtual void Append(const Sample& sample) = 0;
+  /// A sample as another file stored it (Repair copies rows so). The default
+  /// decodes it (DecodeSampleData) and appends it; a storage that keeps samples
+  /// as given (SQLite) stores it as it is. Throws RecordingError if it does not
+  /// decode.
+  virtual void AppendEncoded(const EncodedSample& sample);
   virtual void Commit() = 0;
   virtual void SetMeta(const std::string& key, const std::string& value) = 0;
   virtual int64_t samples_committed() const = 0;
@@ -78,11 +86,49 @@ class StorageReader {
   virtual int64_t FileBytes() const = 0;
 };
 
+/// One storage as registered (rosbag2's storage plugins): --storage's names,
+/// the extensions, what each may compress with and how a file is recognised and
+/// opened come from this table alone.
+struct StorageKind {
+  Storage id;
+  const char* name;       ///< --storage: "sqlite", "mcap"
+  const char* extension;  ///< ".hprec", ".mcap"
+  std::vector<Compression> compressions;  ///< What --compression may be.
+  /// True if it keeps CDR samples only (TopicInfo::message_encoding "cdr").
+  bool cdr_only = false;
+  /// True if the file's first bytes are this storage's; nullptr: the storage
+  /// of a file no other claims (its reader names what is wrong with it).
+  bool (*probe)(const std::string& path);
+  /// Writers: `path` must not exist (never overwritten). Throw RecordingError.
+  std::unique_ptr<StorageWriter> (*open_writer)(const std::string& path, const WriterOptions& options);
+  /// Readers. Throw RecordingError naming the file and what is wrong.
+  std::unique_ptr<StorageReader> (*open_reader)(const std::string& path);
+  /// Repair of a damaged file into `out` (repair.h); nullptr: what the reader
+  /// reads is copied (RepairByReading).
+  RepairReport (*repair)(const std::string& in, const std::string& out);
+};
+
+/// Every storage, SQLite first: the storage of a path with no other's extension.
+const std::vector<StorageKind>& Storages();
+/// The registered storage `id`.
+const StorageKind& StorageKindOf(Storage id);
+/// The registered storage whose probe claims the file at `path`, else the one
+/// registered without a probe (SQLite, whose reader says what the file is not).
+const StorageKind& StorageKindOfFile(const std::string& path);
+
+/// Repairs (repair.h's Repair, its checks of `in` and `out` done): every sample
+/// the storage's reader reads, copied in arrival order into a new recording.
+RepairReport RepairByReading(const std::string& in, const std::string& out);
+/// SQLite's page-level repair (docs/recording.md, "Repair"): rows read from the
+/// file's pages and its WAL log, each checked against its CRC.
+RepairReport RepairSqlitePages(const std::string& in, const std::string& out);
+
 /// Writers: `path` must not exist (never overwritten). Throw RecordingError.
 std::unique_ptr<StorageWriter> OpenSqliteWriter(const std::string& path, const WriterOptions& options);
 std::unique_ptr<StorageWriter> OpenMcapWriter(const std::string& path, const WriterOptions& options);
-/// Readers; OpenStorageReader picks by the file's first bytes (MCAP's magic, or
-/// SQLite's header). Throw RecordingError naming the file and what is wrong.
+/// Readers; OpenStorageReader picks by the file's first bytes (each registered
+/// storage's probe; a file none claims is SQLite's to refuse). Throw
+/// RecordingError naming the file and what is wrong.
 std::unique_ptr<StorageReader> OpenSqliteReader(const std::string& path);
 std::unique_ptr<StorageReader> OpenMcapReader(const std::string& path);
 std::unique_ptr<StorageReader> OpenStorageReader(const std::string& path);
