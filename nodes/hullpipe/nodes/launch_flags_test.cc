@@ -11,43 +11,29 @@
 namespace hullpipe::nodes {
 namespace {
 
-void Parse(CLI::App& app, std::vector<std::string> args, const std::string& exe) {
+// `Flags` (LaunchFlags, RenderFlags, ReconFlags) registered on an app, parsed
+// from `args` as the program `exe` parses them and resolved with `resolve`,
+// without starting anything.
+template <class Flags, class... ResolveArgs>
+Flags ParseAs(const std::string& exe, std::vector<std::string> args, ResolveArgs... resolve) {
+  CLI::App app;
+  Flags flags;
+  flags.Register(app);
   args.insert(args.begin(), exe);
   std::vector<const char*> argv;
   for (const auto& a : args) argv.push_back(a.c_str());
   app.parse(int(argv.size()), argv.data());
+  flags.Resolve(resolve...);
+  return flags;
 }
 
-// hullpipe_launch's flags parsed and resolved as the launcher does, without
-// spawning anything.
+// hullpipe_launch's flags as the launcher takes them; what render_node and
+// recon_node make of the arguments it hands them.
 LaunchFlags ParseLaunch(const std::vector<std::string>& args) {
-  CLI::App app;
-  LaunchFlags flags;
-  flags.Register(app);
-  Parse(app, args, "hullpipe_launch");
-  flags.Resolve(HULLPIPE_SOURCE_DIR);
-  return flags;
+  return ParseAs<LaunchFlags>("hullpipe_launch", args, std::string(HULLPIPE_SOURCE_DIR));
 }
-
-// What render_node makes of the arguments the launcher gives it.
-RenderFlags ParseRender(const std::vector<std::string>& args) {
-  CLI::App app;
-  RenderFlags flags;
-  flags.Register(app);
-  Parse(app, args, "render_node");
-  flags.Resolve(false);
-  return flags;
-}
-
-// What recon_node makes of them.
-ReconFlags ParseRecon(const std::vector<std::string>& args) {
-  CLI::App app;
-  ReconFlags flags;
-  flags.Register(app);
-  Parse(app, args, "recon_node");
-  flags.Resolve();
-  return flags;
-}
+RenderFlags ParseRender(const std::vector<std::string>& args) { return ParseAs<RenderFlags>("render_node", args, false); }
+ReconFlags ParseRecon(const std::vector<std::string>& args) { return ParseAs<ReconFlags>("recon_node", args); }
 
 TEST(LaunchFlags, DefaultsGiveTheDescriptionItsVariablesAndRenderNothingMore) {
   const LaunchFlags f = ParseLaunch({"--synthetic"});
