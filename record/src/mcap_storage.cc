@@ -277,6 +277,7 @@ class McapWriter final : public StorageWriter {
  public:
   McapWriter(const std::string& path, const WriterOptions& options);
   ~McapWriter() override;
+  const std::string& path() const override { return path_; }
   int64_t AddTopic(const TopicInfo& topic) override;
   void Append(const Sample& sample) override;
   void Commit() override;

@@ -138,7 +138,8 @@ void StorageWriter::AppendEncoded(const EncodedSample& e) {
   s.source_ns = e.source_ns;
   s.arrival_ns = e.arrival_ns;
   if (!DecodeSampleData(e.data.data(), e.data.size(), e.codec, e.size, &s.data))
-    throw RecordingError("a sample given encoded with codec " + std::to_string(e.codec) + " does not decode");
+    throw RecordingError(path() + ": a sample given encoded with codec " + std::to_string(e.codec) +
+                         " does not decode");
   Append(s);
 }
 
@@ -160,15 +161,7 @@ int64_t RecordingWriter::samples_pending() const { return impl_->samples_pending
 int64_t RecordingWriter::stored_bytes() const { return impl_->stored_bytes(); }
 int64_t RecordingWriter::raw_bytes() const { return impl_->raw_bytes(); }
 
-void RecordingWriter::AppendEncoded(const EncodedSample& sample) {
-  try {
-    impl_->AppendEncoded(sample);
-  } catch (const RecordingError& e) {
-    const std::string what = e.what();
-    if (what.rfind(path_, 0) == 0) throw;
-    throw RecordingError(path_ + ": " + what);  // the storage's own message, the file named once
-  }
-}
+void RecordingWriter::AppendEncoded(const EncodedSample& sample) { impl_->AppendEncoded(sample); }
 
 // One file of a recording.
 struct RecordingReader::Part {

@@ -67,6 +67,7 @@ class SqliteWriter final : public StorageWriter {
  public:
   SqliteWriter(const std::string& path, const WriterOptions& options);
   ~SqliteWriter() override;
+  const std::string& path() const override { return path_; }
   int64_t AddTopic(const TopicInfo& topic) override;
   void Append(const Sample& sample) override;
   /// Stored as it is: Repair's rows keep their codec and checksum.

@@ -12,7 +12,8 @@
 namespace hullpipe::launch {
 
 DomainLease::DomainLease(uint32_t first, uint32_t last) {
-  if (first > last || last > 232) throw std::invalid_argument("DomainLease: ids must lie in 0..232");
+  if (first > last || last > kMaxDomainId)
+    throw std::invalid_argument("DomainLease: ids must lie in 0.." + std::to_string(kMaxDomainId));
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "hullpipe-domains";
   std::filesystem::create_directories(dir);
   const uint32_t n = last - first + 1;

@@ -7,7 +7,10 @@
 
 namespace hullpipe::launch {
 
-/// An exclusively held DDS domain id in [first, last] (Cyclone allows 0..232).
+/// The largest DDS domain id Cyclone takes (the RTPS port formula's limit).
+constexpr uint32_t kMaxDomainId = 232;
+
+/// An exclusively held DDS domain id in [first, last] (0..kMaxDomainId).
 /// Released when destroyed (or when the process ends, even by SIGKILL).
 class DomainLease {
  public:

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "hullpipe/launch/domain.h"
 #include "hullpipe/util/cli_range.h"
 #include "hullpipe/util/run_id.h"
 
@@ -32,7 +33,7 @@ void LaunchFlags::Register(CLI::App& app) {
   render.RegisterView(app);
   recon.RegisterSweep(app);
   app.add_option("--domain", domain, "DDS domain id (default: unique per run, from the pid)")
-      ->check(CLI::Range(0, 232));
+      ->check(CLI::Range(0, int(launch::kMaxDomainId)));
   app.add_option("--run-id", run_id_text,
                  "This run's id, 1-16 hex digits, given to every node (default: a random one); render_node and "
                  "recon_node ignore samples of another run on the domain")
@@ -79,7 +80,7 @@ launch::LaunchContext LaunchFlags::Context(const std::string& out_dir, int64_t n
   ctx.synthetic = synthetic;
   if (!synthetic) ctx.rig = fs::absolute(rig).string();
   if (fps > 0) ctx.capture_fps = CLI::detail::to_string(fps);
-  ctx.parent_args = render.GivenViewArguments(render.head_poses.empty() ? "" : fs::absolute(render.head_poses).string());
+  ctx.parent_args = render.GivenViewArguments();
   ctx.run_id = RunIdText(run_id);
   return ctx;
 }

@@ -47,7 +47,7 @@ struct LaunchFlags {
   /// ${frames}, ${backend}, ${width}, ${height}, ${scene} (absolute), ${planes},
   /// ${start_time} (now_ns + --start-in, 0 without), the rig (absolute) or the
   /// synthetic source, capture's --fps, the run id and render_node's view flags
-  /// as given (RenderFlags::GivenViewArguments, the head-pose log absolute).
+  /// as given (RenderFlags::GivenViewArguments).
   /// The domain is left to the caller (a lease).
   launch::LaunchContext Context(const std::string& out_dir, int64_t now_ns) const;
 };

@@ -1,5 +1,6 @@
 #include "hullpipe/nodes/render_flags.h"
 
+#include <filesystem>
 #include <optional>
 #include <stdexcept>
 
@@ -33,12 +34,12 @@ void RenderFlags::RegisterView(CLI::App& app) {
                       "from the first frame)"));
 }
 
-std::vector<std::string> RenderFlags::GivenViewArguments(const std::string& head_poses_path) const {
+std::vector<std::string> RenderFlags::GivenViewArguments() const {
   std::vector<std::string> args;
   for (const auto& [name, value] : given_view_) {
     if (name == "--width" || name == "--height") continue;  // the description's ${width}, ${height}
     if (name == "--head-poses") {
-      args.insert(args.end(), {"--view", "file", "--head-poses", head_poses_path});
+      args.insert(args.end(), {"--view", "file", "--head-poses", std::filesystem::absolute(value).string()});
       continue;
     }
     args.insert(args.end(), {name, value});

@@ -33,8 +33,9 @@ struct RenderFlags {
   void RegisterView(CLI::App& app);
   /// After Resolve: the view group's flags that were given, but for --width and
   /// --height, as render_node's arguments: each as given (a list joined with
-  /// ','), --head-poses as "--view file --head-poses <head_poses_path>".
-  std::vector<std::string> GivenViewArguments(const std::string& head_poses_path) const;
+  /// ','), --head-poses as "--view file --head-poses <its absolute path>" (the
+  /// node may start in another directory).
+  std::vector<std::string> GivenViewArguments() const;
   /// After the parse: --view file with --head-poses (loaded), the scene's
   /// light, the rig's world with --up, --floor and --orbit-* over it
   /// (RenderOptions::ApplyWorld), the window (have_display: for `auto`), then

@@ -28,12 +28,13 @@ namespace hullpipe::record {
 class StorageWriter {
  public:
   virtual ~StorageWriter() = default;
+  virtual const std::string& path() const = 0;  ///< The file written.
   virtual int64_t AddTopic(const TopicInfo& topic) = 0;
   virtual void Append(const Sample& sample) = 0;
   /// A sample as another file stored it (Repair copies rows so). The default
   /// decodes it (DecodeSampleData) and appends it; a storage that keeps samples
-  /// as given (SQLite) stores it as it is. Throws RecordingError if it does not
-  /// decode.
+  /// as given (SQLite) stores it as it is. Throws RecordingError naming the
+  /// file if it does not decode.
   virtual void AppendEncoded(const EncodedSample& sample);
   virtual void Commit() = 0;
   virtual void SetMeta(const std::string& key, const std::string& value) = 0;
