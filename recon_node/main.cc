@@ -66,6 +66,7 @@ int main(int argc, char** argv) {
     nodes::ReconController recon(o, clock, input.assembler(), *backend, tiles);
     NodeReporter reporter(*participant, name, recon.counters(), common.run_id);
     input.SetCounters(&recon.counters());
+    if (frameset_options.input_thread) input.StartInputThread();
     while (!StopRequested()) {
       ws.Wait(0.1);
       input.Poll();

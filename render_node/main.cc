@@ -96,6 +96,7 @@ int main(int argc, char** argv) {
     render.set_stop(StopRequestFlag());  // SIGINT ends a long composite too
     NodeReporter reporter(*participant, "render", render.counters(), o.run_id);
     input.SetCounters(&render.counters());
+    if (frameset_options.input_thread) input.StartInputThread();
 
     // Converts one sample (use(m), or use(m, info) when it wants the sample
     // info); a malformed one is rejected on one line.

@@ -63,14 +63,15 @@ fuzz() {
 # recorder and the player with their threads) and the nodes' bad-input and
 # SIGINT tests, each node process built with TSan too. Third-party libraries
 # not built with TSan are suppressed by name in scripts/tsan.supp, each with
-# its reason. HULLPIPE_TEST_TIME_SCALE=4 relaxes the tests' timing bounds (TSan
+# its reason. The DDS layer's tests (dds_tests: the nodes' input thread) run
+# here too. HULLPIPE_TEST_TIME_SCALE=4 relaxes the tests' timing bounds (TSan
 # slows every process 5-15 fold; the main suite checks the specified bounds).
 # Left out: ReplayingTwiceIntoSimNode..., whose sim_node must keep up with a
 # 25-fps replay (17 of 50 frames under TSan). HULLPIPE_TSAN=0 skips the stage.
 build_tsan() {
   stage "TSan build (clang-14)"
   cmake -S . -B build-tsan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=thread -DHULLPIPE_WERROR=OFF >/dev/null
-  cmake --build build-tsan --target "${THREADED_CORE_TESTS[@]}" record_tests node_tests hullpipe_record hullpipe_replay \
+  cmake --build build-tsan --target "${THREADED_CORE_TESTS[@]}" dds_tests record_tests node_tests hullpipe_record hullpipe_replay \
       hullpipe_cmd node_bench capture_node recon_node sim_node render_node
 }
 
@@ -82,7 +83,7 @@ test_tsan() {
   # whole pipelines that only time out at TSan's speed.)
   # (Label nodes: NodeTest and CaptureFiles; the fuzz and security tests are
   # not built here, so their placeholders carry no label.) One ctest run, as above.
-  ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -L 'core|record|nodes' \
+  ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -L 'core|dds|record|nodes' \
       -E 'ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports|TheRigsDemoAsMcapOpensInTheFieldsOwnReaders'
 }
 

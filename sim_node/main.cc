@@ -7,6 +7,7 @@
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/frameset_input.h"
+#include "hullpipe/util/parallel.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/gl/backend.h"
 #include "hullpipe/nodes/sim_controller.h"
@@ -59,6 +60,12 @@ int main(int argc, char** argv) {
                  "nodes share this machine's cores)")
       ->check(CLI::Range(0, 256))
       ->capture_default_str();
+  int threads = 0;
+  app.add_option("--threads", threads,
+                 "Threads of each frameset's hull box search, its six faces at once (0: this host's cores, at most "
+                 "6); the box is the same with any number")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
   std::string backend_name = "auto";
   app.add_option("--backend", backend_name,
                  "Triangle query of the CAD models: cpu|gl|auto (auto: GL on a hardware GPU, the CPU on a software "
@@ -105,9 +112,11 @@ int main(int argc, char** argv) {
     nodes::SimController sim(config, clock, input.assembler(), writers);
     sim.set_stop(StopRequestFlag());  // SIGINT ends a long step too
     sim.set_every_frameset(every_frameset);
+    sim.set_query_threads(threads > 0 ? threads : std::min(6, ThreadsOrCores(0)));
     sim.counters().SetBackend(backend);
     NodeReporter reporter(*participant, "sim", sim.counters(), common.run_id);
     input.SetCounters(&sim.counters());
+    if (frameset_options.input_thread) input.StartInputThread();
     while (!StopRequested()) {
       ws.Wait(0.1);
       input.Poll();

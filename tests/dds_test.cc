@@ -568,8 +568,11 @@ TEST(Dds, LateJoinerGetsCameraInfo) {
 
 // The input of recon, sim and render: JPEG images are decoded together after
 // the take (several threads), raw ones as they come; a bad JPEG is rejected,
-// counted and costs its frameset nothing else.
-TEST(Dds, FramesetInputDecodesJpegImagesAndRejectsABadOne) {
+// counted and costs its frameset nothing else. The same on the caller's thread
+// and on the input's own (StartInputThread).
+class FramesetInputOnItsThreadOrNot : public ::testing::TestWithParam<bool> {};
+
+TEST_P(FramesetInputOnItsThreadOrNot, DecodesJpegImagesAndRejectsABadOne) {
   const auto dir = test::TempDir("dds_frameset_input");
   setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
   const uint32_t domain = test::UniqueDomain();
@@ -578,6 +581,8 @@ TEST(Dds, FramesetInputDecodesJpegImagesAndRejectsABadOne) {
   WaitSet ws(sub);
   FramesetInput input(sub, ws, 4, /*with_images=*/true);
   input.SetDecodeThreads(3);
+  if (GetParam()) input.StartInputThread();
+  EXPECT_EQ(input.input_thread(), GetParam());
   Writer<hullpipe_msg_CameraInfo> info(pub);
   Writer<hullpipe_msg_ObjectPixelMap> maps(pub);
   Writer<hullpipe_msg_CameraImage> images(pub);
@@ -625,6 +630,74 @@ TEST(Dds, FramesetInputDecodesJpegImagesAndRejectsABadOne) {
   }
   // Frameset 2 lacks camera 2's image: it never completes.
   EXPECT_FALSE(input.assembler().IsComplete(2));
+}
+
+INSTANTIATE_TEST_SUITE_P(Dds, FramesetInputOnItsThreadOrNot, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& i) { return i.param ? "thread" : "caller"; });
+
+// The input thread takes ahead of Poll only as far as the assembler keeps
+// (here 64 maps, the least it holds): past that the samples wait in the
+// readers' history (4 per camera). Control: once Poll drains it, the thread
+// takes again and the newest frameset completes. Stopping it takes under a
+// second (its waits are 50 ms).
+TEST(Dds, TheInputThreadTakesAheadOnlyAsFarAsTheAssemblerKeeps) {
+  const auto dir = test::TempDir("dds_input_thread");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  const std::vector<Camera> cams = RingCameras(3, 3, 2, Eigen::Vector3d::Zero(), 64, 48, 1.0, Distortion{});
+  Participant pub(domain), sub(domain);
+  WaitSet ws(sub);
+  auto input = std::make_unique<FramesetInput>(sub, ws, 2, /*with_images=*/false);
+  input->StartInputThread();
+  Writer<hullpipe_msg_CameraInfo> info(pub);
+  Writer<hullpipe_msg_ObjectPixelMap> maps(pub);
+  const double match_end = MonotonicSeconds() + 10;
+  while ((info.MatchedReaders() == 0 || maps.MatchedReaders() == 0) && MonotonicSeconds() < match_end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GT(maps.MatchedReaders(), 0u);
+  for (const Camera& c : cams) info.Write(CameraToMsg(c, {}));
+  const int64_t t0 = NowNs();
+  auto write_frame = [&](uint64_t seq) {
+    for (const Camera& c : cams) {
+      cv::Mat map(c.height, c.width, CV_8UC1, cv::Scalar(0));
+      map(cv::Rect(20, 10, 20, 20)) = 255;
+      const int64_t t = t0 + int64_t(seq) * 40'000'000;
+      maps.Write(MakeMapMessage(FrameStamp{uint32_t(c.id), seq, t, double(seq) / 25}, 3, map, nullptr).msg);
+    }
+  };
+  // One frame at a time, each taken before the next (the readers keep 4 maps
+  // a camera), until the thread pauses: 22 frames' 66 maps pass 64.
+  uint64_t seq = 0;
+  while (input->paused() == 0 && seq < 40) {
+    write_frame(++seq);
+    const double end = MonotonicSeconds() + 10;
+    while (input->queued() < 3 + 3 * seq && input->paused() == 0 && MonotonicSeconds() < end)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_GT(input->paused(), 0u);
+  EXPECT_EQ(seq, 22u);
+  EXPECT_EQ(input->queued(), 3u + 66u);
+  // Five frames more while it is full: after the thread has found it full
+  // three times more (a 50-ms wait each), it still holds the same.
+  for (int k = 0; k < 5; ++k) write_frame(++seq);
+  const uint64_t paused = input->paused();
+  const double end = MonotonicSeconds() + 10;
+  while (input->paused() < paused + 3 && MonotonicSeconds() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_GE(input->paused(), paused + 3);
+  EXPECT_EQ(input->queued(), 3u + 66u);
+  EXPECT_FALSE(input->assembler().HasCamera(cams[0].id));  // nothing reaches the assembler without Poll
+  // Control: Poll drains it and the thread takes the rest, the newest frame's included.
+  const double poll_end = MonotonicSeconds() + 10;
+  while (!input->assembler().IsComplete(seq) && MonotonicSeconds() < poll_end) {
+    ws.Wait(0.1);
+    input->Poll();
+  }
+  EXPECT_TRUE(input->assembler().IsComplete(seq));
+  EXPECT_EQ(input->malformed(), 0u);
+  const double t_stop = MonotonicSeconds();
+  input.reset();
+  EXPECT_LT(MonotonicSeconds() - t_stop, 1.0);
 }
 
 }  // namespace

@@ -52,6 +52,25 @@ Participant::Participant(uint32_t domain_id)
 WaitSet::WaitSet(const Participant& p)
     : Entity(Check(dds_create_waitset(p.handle()), "dds_create_waitset")) {}
 
+void WaitSet::AttachCondition(dds_entity_t condition) const {
+  Check(dds_waitset_attach(handle(), condition, 0), "dds_waitset_attach");
+}
+
+void WaitSet::DetachCondition(dds_entity_t condition) const {
+  Check(dds_waitset_detach(handle(), condition), "dds_waitset_detach");
+}
+
+GuardCondition::GuardCondition(const Participant& p)
+    : Entity(Check(dds_create_guardcondition(p.handle()), "dds_create_guardcondition")) {}
+
+void GuardCondition::Trigger() const { Check(dds_set_guardcondition(handle(), true), "dds_set_guardcondition"); }
+
+bool GuardCondition::Take() const {
+  bool was = false;
+  Check(dds_take_guardcondition(handle(), &was), "dds_take_guardcondition");
+  return was;
+}
+
 int WaitSet::Wait(double timeout_s) const {
   dds_attach_t xs[16];
   return int(Check(dds_waitset_wait(handle(), xs, 16, timeout_s > 0 ? dds_duration_t(timeout_s * 1e9) : 0),

@@ -51,7 +51,7 @@ void SimController::StepOne(const Frameset& fs) {
   last_source_time_ = fs.source_time_s;
   {
     StageTimer st(counters_, "step");
-    auto vq = std::make_unique<VolumeQuery>(fs.maps, assembler_.workspace());
+    auto vq = std::make_unique<VolumeQuery>(fs.maps, assembler_.workspace(), query_options_);
     // The hull's motion since the previous frameset stepped (hull_motion.h):
     // that one's hull is kept; an older one, a changed rig or a later time
     // gives no velocity (HullMotion says which). Timed on the clock the scene

@@ -9,6 +9,7 @@
 // DDS-free; tests drive it with a FakeClock.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -19,6 +20,7 @@
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/reconstruction/frameset.h"
+#include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/scenes/virtual_scene.h"
 
 namespace hullpipe::nodes {
@@ -55,6 +57,10 @@ class SimController {
   int Step();
   /// The flag a long step polls between substeps (nullptr: never stops).
   void set_stop(StopFlag stop) { stop_ = stop; }
+  /// Threads of each frameset's hull box search (VolumeQueryOptions::threads:
+  /// its six faces at once), clamped to [1, 256]; default 1. The box, and so
+  /// every step, is the same with any number.
+  void set_query_threads(int threads) { query_options_.threads = std::clamp(threads, 1, 256); }
   /// Step every complete frameset in order, oldest first, instead of the newest
   /// only: a replay into sim_node then gives the same steps however busy the
   /// machine, as long as sim_node falls no more than the history (4 framesets)
@@ -91,6 +97,7 @@ class SimController {
   uint64_t collisions_ = 0, commands_rejected_ = 0, malformed_input_ = 0;
   double last_source_time_ = -1;
   StopFlag stop_ = nullptr;
+  VolumeQueryOptions query_options_;
   // The previous stepped frameset's hull and its times (hull_motion.h).
   std::unique_ptr<VolumeQuery> previous_query_;
   TimedHull previous_hull_;

@@ -174,9 +174,24 @@ class WaitSet : public Entity {
   void Attach(const Reader<T>& r) const {
     Check(dds_waitset_attach(handle(), r.condition(), 0), "dds_waitset_attach");
   }
+  /// Attaches or detaches a condition (a reader's read condition, a guard
+  /// condition) by its handle. Throws DdsError.
+  void AttachCondition(dds_entity_t condition) const;
+  void DetachCondition(dds_entity_t condition) const;
   /// Blocks until some attached reader has data or timeout_s passes. Returns the
   /// number of triggered conditions (0 on timeout).
   int Wait(double timeout_s) const;
+};
+
+/// A guard condition of participant p's (dds_create_guardcondition): set by one
+/// thread, it wakes a waitset another waits on. Throws DdsError.
+class GuardCondition : public Entity {
+ public:
+  explicit GuardCondition(const Participant& p);
+  /// Sets it (wakes the waitsets it is attached to until Take).
+  void Trigger() const;
+  /// Clears it; returns whether it was set.
+  bool Take() const;
 };
 
 /// Process-wide stop request, set by SIGINT/SIGTERM once InstallStopHandler ran.
