@@ -171,12 +171,30 @@ TEST(Sim, AMovingHullThrowsTheBallItStrikesUnlessTurnedOff) {
     scene.balls[0].restitution = 0.5;
     SimRecorder sink;
     SimController sim(scene, clock, assembler, sink);
+    // The same run with the hull box searched on 4 threads: the same steps,
+    // bit for bit (the box is the same with any number of threads).
+    FakeClock clock4;
+    FramesetAssembler assembler4(6, false);
+    for (const auto& c : cams) assembler4.SetCamera(c);
+    assembler4.SetWorkspace(hullpipe::test::BigBox());
+    SimRecorder sink4;
+    SimController sim4(scene, clock4, assembler4, sink4);
+    sim4.set_query_threads(4);
     for (int k = 0; k <= 3; ++k) {
-      for (const auto& c : cams)
-        assembler.AddMap(MapSample{.camera_id = c.id, .seq = uint64_t(k + 1),
-                                   .capture_time_ns = 1'000'000'000 + int64_t(k) * 40'000'000, .camera_count = 4,
-                                   .map = RenderExactMap(c, scene_at(k)), .source_time_s = k / fps});
+      for (const auto& c : cams) {
+        MapSample m{.camera_id = c.id, .seq = uint64_t(k + 1),
+                    .capture_time_ns = 1'000'000'000 + int64_t(k) * 40'000'000, .camera_count = 4,
+                    .map = RenderExactMap(c, scene_at(k)), .source_time_s = k / fps};
+        assembler4.AddMap(m);
+        assembler.AddMap(std::move(m));
+      }
       ASSERT_EQ(sim.Step(), 1);
+      ASSERT_EQ(sim4.Step(), 1);
+    }
+    ASSERT_EQ(sink4.states.size(), sink.states.size());
+    for (size_t i = 0; i < sink.states.size(); ++i) {
+      EXPECT_EQ(sink4.states[i].position, sink.states[i].position) << i;
+      EXPECT_EQ(sink4.states[i].velocity, sink.states[i].velocity) << i;
     }
     const CollisionReportSample* hit = nullptr;
     for (const auto& r : sink.reports)
