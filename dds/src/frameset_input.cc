@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -123,8 +124,15 @@ void FramesetInput::Run() {
       if (any) wake_caller_->Trigger();
     } catch (const std::exception& e) {
       // A DDS call that fails here fails for good (the participant is gone):
-      // said once; the node's own loop sees its input stop.
-      spdlog::error("input thread: {}; no more input is taken", e.what());
+      // the next Poll throws it, and the node exits non-zero.
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        failure_ = e.what();
+      }
+      try {
+        wake_caller_->Trigger();
+      } catch (const DdsError&) {  // the caller's loop polls within its wait's timeout
+      }
       return;
     }
   }
@@ -142,6 +150,7 @@ void FramesetInput::Poll() {
   wake_caller_->Take();
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (!failure_.empty()) throw std::runtime_error("input thread: " + failure_);
     std::swap(r, queue_);
     refused_ = queue_refused_;
   }

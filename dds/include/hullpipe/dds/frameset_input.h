@@ -73,7 +73,8 @@ class FramesetInput {
   /// arrive, while the node works on the last frameset; Poll only hands them
   /// to the assembler, which stays the caller's alone. The readers leave the
   /// waitset given to the constructor; a guard condition there wakes it when
-  /// the thread has something for Poll. The thread holds at most as many
+  /// the thread has something for Poll; if a DDS call fails on the thread,
+  /// the next Poll throws std::runtime_error saying so. The thread holds at most as many
   /// decoded maps (and images) as the assembler keeps (max_pending framesets
   /// of the cameras seen, at least 64 samples) and takes no more until Poll
   /// drains them: past that the readers' history is the bound, as without the
@@ -158,6 +159,7 @@ class FramesetInput {
   std::condition_variable drained_;
   Received queue_;               ///< Guarded by mutex_.
   uint64_t queue_refused_ = 0;   ///< Guarded by mutex_: the readers' refused count at the last take.
+  std::string failure_;          ///< Guarded by mutex_: why the thread stopped taking (Poll throws it).
   std::thread thread_;
 };
 
