@@ -5,6 +5,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
+echo "== test: build ($(date -u +%H:%M:%S))"
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+cmake --build build
+
 # The whole run (no ctest arguments) goes on to the sanitizer builds, their
 # tests and the fuzz targets (scripts/sanitize.sh, docs/reliability.md);
 # HULLPIPE_SANITIZE=0 skips them.
@@ -12,17 +16,15 @@ whole=0
 if [ $# -eq 0 ] && [ "${HULLPIPE_SANITIZE:-1}" != 0 ]; then whole=1; fi
 declare -A bg=()
 if [ "$whole" = 1 ]; then
-  # The two sanitizer trees compile while the main tree builds and its suite
-  # runs, at idle CPU priority (SCHED_IDLE, else nice 19): they take only what
-  # those leave idle (the build's links and its last units; about 40% of two
-  # cores in the suite, whose multi-process tests wait on their timelines), so
-  # the main build and suite take as long as alone (docs/benchmarks.md, "The
-  # whole test command"). Each build runs in its own process group, stopped
-  # with its compilers if this script ends first.
+  # The two sanitizer trees compile while the main suite runs, at idle CPU
+  # priority (SCHED_IDLE, else nice 19): they take only what the suite leaves
+  # idle (about 40% of two cores: its multi-process tests wait on their
+  # timelines), so the suite's timing is as when it runs alone
+  # (docs/benchmarks.md, "The whole test command"). Each build runs in its own
+  # process group, stopped with its compilers if this script ends first.
   idle=(nice -n 19)
   chrt -i 0 true 2>/dev/null && idle=(chrt -i 0)
   set -m
-  mkdir -p build
   for b in build-asan build-tsan; do
     "${idle[@]}" bash scripts/sanitize.sh "$b" >"build/sanitize-$b.log" 2>&1 &
     bg[$b]=$!
@@ -30,10 +32,6 @@ if [ "$whole" = 1 ]; then
   set +m
   trap 'for p in "${bg[@]}"; do kill -- "-$p" 2>/dev/null || true; done' EXIT
 fi
-
-echo "== test: build ($(date -u +%H:%M:%S), ${SECONDS} s in)"
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
-cmake --build build
 
 echo "== test: ctest ($(date -u +%H:%M:%S), ${SECONDS} s in)"
 ctest --test-dir build -j2 --output-on-failure --timeout 300 "$@"

@@ -572,14 +572,27 @@ TEST(Dds, LateJoinerGetsCameraInfo) {
 // and on the input's own (StartInputThread).
 class FramesetInputOnItsThreadOrNot : public ::testing::TestWithParam<bool> {};
 
-TEST_P(FramesetInputOnItsThreadOrNot, DecodesJpegImagesAndRejectsABadOne) {
-  const auto dir = test::TempDir("dds_frameset_input");
-  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
-  const uint32_t domain = test::UniqueDomain();
+// A FramesetInput's test set-up: three 64x48 cameras, a publishing and a
+// subscribing participant on loopback in a domain of the test's own, and the
+// subscriber's waitset.
+struct InputLink {
+  explicit InputLink(const char* name) : domain(LoopbackDomain(name)), pub(domain), sub(domain), ws(sub) {}
+  static uint32_t LoopbackDomain(const char* name) {
+    setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(test::TempDir(name))).c_str(), 1);
+    return test::UniqueDomain();
+  }
   const std::vector<Camera> cams = RingCameras(3, 3, 2, Eigen::Vector3d::Zero(), 64, 48, 1.0, Distortion{});
-  Participant pub(domain), sub(domain);
-  WaitSet ws(sub);
-  FramesetInput input(sub, ws, 4, /*with_images=*/true);
+  uint32_t domain;
+  Participant pub, sub;
+  WaitSet ws;
+};
+
+TEST_P(FramesetInputOnItsThreadOrNot, DecodesJpegImagesAndRejectsABadOne) {
+  InputLink link("dds_frameset_input");
+  const std::vector<Camera>& cams = link.cams;
+  Participant& pub = link.pub;
+  WaitSet& ws = link.ws;
+  FramesetInput input(link.sub, ws, 4, /*with_images=*/true);
   input.SetDecodeThreads(3);
   if (GetParam()) input.StartInputThread();
   EXPECT_EQ(input.input_thread(), GetParam());
@@ -641,13 +654,11 @@ INSTANTIATE_TEST_SUITE_P(Dds, FramesetInputOnItsThreadOrNot, ::testing::Bool(),
 // takes again and the newest frameset completes. Stopping it takes under a
 // second (its waits are 50 ms).
 TEST(Dds, TheInputThreadTakesAheadOnlyAsFarAsTheAssemblerKeeps) {
-  const auto dir = test::TempDir("dds_input_thread");
-  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
-  const uint32_t domain = test::UniqueDomain();
-  const std::vector<Camera> cams = RingCameras(3, 3, 2, Eigen::Vector3d::Zero(), 64, 48, 1.0, Distortion{});
-  Participant pub(domain), sub(domain);
-  WaitSet ws(sub);
-  auto input = std::make_unique<FramesetInput>(sub, ws, 2, /*with_images=*/false);
+  InputLink link("dds_input_thread");
+  const std::vector<Camera>& cams = link.cams;
+  Participant& pub = link.pub;
+  WaitSet& ws = link.ws;
+  auto input = std::make_unique<FramesetInput>(link.sub, ws, 2, /*with_images=*/false);
   input->StartInputThread();
   Writer<hullpipe_msg_CameraInfo> info(pub);
   Writer<hullpipe_msg_ObjectPixelMap> maps(pub);
