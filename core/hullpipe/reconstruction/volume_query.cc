@@ -389,15 +389,25 @@ namespace {
 // `face` (axis face / 2; even faces the min side, as -axis), or nullopt when
 // every cell is proven empty. `known` caches cells' verdicts: cells are made by
 // halving, so one cell has the same bits whichever search made it.
-using CellCache = std::map<std::array<double, 6>, bool>;
+// Shared by the six searches, also when they run at once (then under its
+// mutex; two searches may classify one cell at the same time, to the same
+// verdict).
+struct CellCache {
+  std::map<std::array<double, 6>, bool> verdicts;
+  std::mutex mutex;
+};
 std::optional<double> FaceReach(const detail::CellProver& prover, const Aabb& box, double leaf, int face,
                                 CellCache& known, size_t& hint) {
   auto empty = [&](const Aabb& c) {
     const std::array<double, 6> key{c.min.x(), c.min.y(), c.min.z(), c.max.x(), c.max.y(), c.max.z()};
-    const auto it = known.find(key);
-    if (it != known.end()) return it->second;
+    {
+      std::lock_guard<std::mutex> lock(known.mutex);
+      const auto it = known.verdicts.find(key);
+      if (it != known.verdicts.end()) return it->second;
+    }
     const bool e = prover.Empty(c, &hint);
-    known.emplace(key, e);
+    std::lock_guard<std::mutex> lock(known.mutex);
+    known.verdicts.emplace(key, e);
     return e;
   };
   struct Item {
@@ -439,20 +449,21 @@ std::optional<double> FaceReach(const detail::CellProver& prover, const Aabb& bo
   return std::nullopt;  // every cell proven empty: no hull
 }
 
-// With threads > 1 the six faces are searched at once, each with its own cache
-// (a cell two searches meet is classified twice); the verdicts, and so the box,
-// are the same.
+// With threads > 1 the six faces are searched at once, sharing one cache (the
+// searches meet near the hull's edges and start from the same large cells: with
+// a cache each, the six searches classified those again, and on a real
+// 20-camera dome six threads took as long as one); the verdicts, and so the
+// box, are the same.
 Aabb TightenHullBox(const detail::CellProver& prover, const Aabb& box, int threads) {
   if (box.empty()) return box;
   const double leaf = std::clamp((box.max - box.min).maxCoeff() / 64, 5e-3, 0.02);
   std::array<std::optional<double>, 6> reach;
+  CellCache known;
   if (threads <= 1) {
-    CellCache known;  // shared: the searches meet near the hull's edges
     size_t hint = 0;
     for (int face = 0; face < 6; ++face) reach[size_t(face)] = FaceReach(prover, box, leaf, face, known, hint);
   } else {
     ForEachRowDynamic(6, threads, [&](int face, int) {
-      CellCache known;
       size_t hint = 0;
       reach[size_t(face)] = FaceReach(prover, box, leaf, face, known, hint);
     });

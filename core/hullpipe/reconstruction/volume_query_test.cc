@@ -165,6 +165,30 @@ TEST(HullBox, AKnownObjectRectangleGivesTheSameBoxAsAScan) {
   }
 }
 
+// The six face searches on several threads (recon's and sim's --threads),
+// sharing their cells' verdicts, give the one-thread box exactly, for both
+// out-of-view policies.
+TEST(HullBox, TheSameBoxOnOneThreadOrSix) {
+  SyntheticScene scene;
+  scene.shapes.push_back(Shape::Capsule({0.3, -0.2, -0.2}, {0.3, -0.2, -1.5}, 0.15));
+  scene.shapes.push_back(Shape::Sphere({0.6, 0.1, -0.8}, 0.12));
+  const auto cams = RingCameras(8, 3.0, 1.6, {0.3, -0.2, -0.9}, 240, 180, 1.1);
+  const Aabb workspace = CommonViewWorkspace(cams);
+  const std::vector<CameraMap> views = test::ExactViews(cams, scene);
+  for (const OutOfView policy : {OutOfView::kUnknown, OutOfView::kOutside}) {
+    VolumeQueryOptions o;
+    o.out_of_view = policy;
+    const Aabb one = VolumeQuery(views, workspace, o).hull_box();
+    ASSERT_FALSE(one.empty());
+    for (int threads : {2, 6}) {
+      o.threads = threads;
+      const Aabb many = VolumeQuery(views, workspace, o).hull_box();
+      EXPECT_EQ(many.min, one.min) << threads;
+      EXPECT_EQ(many.max, one.max) << threads;
+    }
+  }
+}
+
 TEST(HullBox, EmptyMapGivesEmptyBox) {
   auto views = test::SphereViews(3, 64, 48, kSphereCentre, kSphereRadius);
   views[1].map.setTo(0);
