@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -74,9 +73,10 @@ class FramesetInput {
   /// to the assembler, which stays the caller's alone. The readers leave the
   /// waitset given to the constructor; a guard condition there wakes it when
   /// the thread has something for Poll; if a DDS call fails on the thread,
-  /// the next Poll throws std::runtime_error saying so. The thread holds at most as many
-  /// decoded maps (and images) as the assembler keeps (max_pending framesets
-  /// of the cameras seen, at least 64 samples) and takes no more until Poll
+  /// the next Poll throws std::runtime_error saying so. The thread holds at
+  /// most as many decoded maps (and images) as the assembler keeps
+  /// (max_pending framesets of the cameras seen, at least 64 samples; one take
+  /// may pass that by what the readers hold) and takes no more until Poll
   /// drains them: past that the readers' history is the bound, as without the
   /// thread. Call after SetCounters and SetDecodeThreads (the thread reads
   /// them; the counters' clock, which stamps arrivals, must be safe to read
