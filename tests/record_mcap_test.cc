@@ -44,7 +44,7 @@ std::vector<Sample> WriteMcapStream(const std::string& path, Compression c, int 
                                     int64_t chunk_bytes = int64_t(4) << 20) {
   WriterOptions o;
   o.compression = c;
-  o.chunk_bytes = chunk_bytes;
+  o.mcap.chunk_bytes = chunk_bytes;
   RecordingWriter w(path, o);
   EXPECT_EQ(w.storage(), Storage::kMcap);
   const int64_t info = w.AddTopic(kInfoTopic), map = w.AddTopic(kMapTopic), pose = w.AddTopic(kPoseTopic);
@@ -211,7 +211,7 @@ TEST(McapStorage, OverlappingChunksMergeInArrivalOrder) {
   for (const auto& ext : {".mcap", ".hprec"}) {
     const std::string path = (dir / (std::string("a") + ext)).string();
     WriterOptions o;
-    o.chunk_bytes = 2048;  // about one sample a chunk
+    o.mcap.chunk_bytes = 2048;  // about one sample a chunk
     RecordingWriter w(path, o);
     const int64_t map = w.AddTopic(kMapTopic);
     written.clear();
@@ -499,7 +499,7 @@ TEST(McapStorage, TheWritersFilesStayWithinTheExpansionBound) {
   const std::string path = (dir / "zeros.mcap").string();
   WriterOptions o;
   o.compression = Compression::kZstd;
-  o.chunk_bytes = int64_t(1) << 20;
+  o.mcap.chunk_bytes = int64_t(1) << 20;
   std::vector<Sample> written;
   {
     RecordingWriter w(path, o);

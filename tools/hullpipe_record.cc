@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
   app.add_option("--storage", ro.storage, "sqlite or mcap (default: by -o's extension, .mcap is MCAP)");
   app.add_option("--compression", ro.compression, "Sample compression: none or zstd (MCAP chunks: also lz4)")
       ->capture_default_str();
-  app.add_option("--chunk-size", ro.writer.chunk_bytes, "MCAP: close a chunk at this size (e.g. 4MiB)")
+  app.add_option("--chunk-size", ro.writer.mcap.chunk_bytes, "MCAP: close a chunk at this size (e.g. 4MiB)")
       ->transform(CLI::AsSizeValue(true))
       ->capture_default_str();
   app.add_option("--zstd-level", ro.writer.zstd_level, "zstd level, 1 (fast) to 19 (small)")->capture_default_str();

@@ -66,7 +66,7 @@ const char* StorageExtension(Storage s) { return StorageKindOf(s).extension; }
 
 void WriterOptions::Check() const {
   if (zstd_level < 1 || zstd_level > 19) throw std::invalid_argument("--zstd-level must be in [1, 19]");
-  if (chunk_bytes < 1024 || chunk_bytes > (int64_t(128) << 20))
+  if (mcap.chunk_bytes < 1024 || mcap.chunk_bytes > (int64_t(128) << 20))
     throw std::invalid_argument("--chunk-size must be in [1 KiB, 128 MiB]");
   if (storage) Check(*storage);
 }

@@ -82,14 +82,23 @@ Storage StorageForPath(const std::string& path);
 const char* StorageExtension(Storage s);
 
 /// Settings of RecordingWriter.
+/// What only the MCAP storage reads (mcap_writer.cc): as rosbag2 keeps each
+/// storage plugin's settings apart from the writer's.
+struct McapWriterOptions {
+  /// A chunk is closed (compressed, indexed, written) once its records reach
+  /// this many bytes, and at every Commit(). 1 KiB .. 128 MiB (--chunk-size).
+  int64_t chunk_bytes = int64_t(4) << 20;
+};
+
+/// A recording writer's settings: those of every storage, then each storage's own.
 struct WriterOptions {
+  /// SQLite: each sample's; MCAP: each chunk's (what the storage's
+  /// StorageKind::compressions allow).
   Compression compression = Compression::kNone;
   int zstd_level = 1;  ///< 1 (fast) .. 19 (small); zstd's own scale.
-  /// MCAP: a chunk is closed (compressed, indexed, written) once its records reach
-  /// this many bytes, and at every Commit().
-  int64_t chunk_bytes = int64_t(4) << 20;
   /// nullopt: by the path's extension (StorageForPath).
   std::optional<Storage> storage;
+  McapWriterOptions mcap;
   /// Throws std::invalid_argument naming the flag (--zstd-level, --chunk-size,
   /// --compression lz4 on SQLite).
   void Check() const;

@@ -1,10 +1,10 @@
 // The storages a recording is kept in, behind one writer and one reader
 // interface (as rosbag2's storage plugins): SQLite (sqlite_storage.cc, the
-// format in recording.h) and MCAP (mcap_storage.cc, docs/recording.md "MCAP";
-// https://mcap.dev/spec), each registered once in Storages() with its name,
-// extension, compressions, probe and openers. RecordingWriter and
-// RecordingReader (recording.h) pick the storage from that table and hold one
-// of these; the tools never see which.
+// format in recording.h) and MCAP (mcap_writer.cc and mcap_reader.cc,
+// docs/recording.md "MCAP"; https://mcap.dev/spec), each registered once in
+// Storages() with its name, extension, compressions, probe and openers.
+// RecordingWriter and RecordingReader (recording.h) pick the storage from that
+// table and hold one of these; the tools never see which.
 #pragma once
 
 #include <cstdint>
