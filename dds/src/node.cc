@@ -10,14 +10,14 @@
 
 #include "hullpipe/dds/node_stats_convert.h"
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/cli_range.h"
 #include "hullpipe/util/run_id.h"
 #include "hullpipe/util/logging.h"
 
 namespace hullpipe::dds {
 
 void AddCommonOptions(CLI::App& app, CommonOptions& o) {
-  // Cyclone's domain ids are 0..232 (the RTPS port formula's limit).
-  app.add_option("--domain", o.domain, "DDS domain id")->check(CLI::Range(0, 232))->capture_default_str();
+  app.add_option("--domain", o.domain, "DDS domain id")->check(DomainIdRange())->capture_default_str();
   app.add_option("--dds-config", o.dds_config, "Cyclone DDS XML config file (sets CYCLONEDDS_URI)");
   // spdlog reads an unknown name as "off": a node that says nothing.
   app.add_option("--log-level", o.log_level, "trace|debug|info|warn|error")
@@ -28,14 +28,10 @@ void AddCommonOptions(CLI::App& app, CommonOptions& o) {
 void AddRunIdOption(CLI::App& app, CommonOptions& o) {
   app.add_option_function<std::string>(
          "--run-id",
-         [&o](const std::string& text) {
-           const auto id = ParseRunId(text);
-           if (!id) throw CLI::ValidationError("--run-id", "must be 1 to 16 hex digits, not zero: '" + text + "'");
-           o.run_id = *id;
-         },
+         [&o](const std::string& text) { o.run_id = ParseRunId(text).value_or(0); },  // checked below
          "This run's id (hex; hullpipe_launch gives every node one): NodeStats carry it, and render_node and "
          "recon_node ignore samples of another run on the domain")
-      ->type_name("HEX");
+      ->check(RunIdValidator());
 }
 
 

@@ -7,6 +7,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "hullpipe/util/run_id.h"
+
 namespace hullpipe {
 
 /// CLI::Range(lo, hi) that also refuses NaN: CLI::Range lets "nan" through, as
@@ -23,5 +25,19 @@ inline CLI::Validator FiniteRange(double lo, double hi) {
       },
       "NUMBER in " + range);
 }
+
+/// --run-id's check (run_id.h), for the nodes and the launcher alike: 1 to 16
+/// hex digits, not all zero; the error quotes the text, and CLI11 prefixes the
+/// flag.
+inline CLI::Validator RunIdValidator() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        return ParseRunId(s) ? std::string() : "must be 1 to 16 hex digits, not zero: '" + s + "'";
+      },
+      "HEX");
+}
+
+/// --domain's check: a DDS domain id, 0..kMaxDomainId.
+inline CLI::Validator DomainIdRange() { return CLI::Range(0, int(kMaxDomainId)); }
 
 }  // namespace hullpipe

@@ -1,6 +1,7 @@
 // Run ids (docs/reliability.md, "run id"): 64-bit tokens that every node of one
 // run carries (--run-id), so samples of another run on the same DDS domain can
-// be told apart. Written as 16 hex digits.
+// be told apart. Written as 16 hex digits. And the domain ids themselves
+// (--domain), whose bound every node and the launcher share.
 #pragma once
 
 #include <cstdint>
@@ -10,6 +11,10 @@
 #include <string>
 
 namespace hullpipe {
+
+/// The largest DDS domain id Cyclone takes (the RTPS port formula's limit):
+/// --domain is 0..kMaxDomainId in every node and the launcher.
+constexpr uint32_t kMaxDomainId = 232;
 
 /// The 16 hex digits --run-id takes.
 inline std::string RunIdText(uint64_t run_id) {

@@ -5,10 +5,9 @@
 
 #include <cstdint>
 
-namespace hullpipe::launch {
+#include "hullpipe/util/run_id.h"  // kMaxDomainId
 
-/// The largest DDS domain id Cyclone takes (the RTPS port formula's limit).
-constexpr uint32_t kMaxDomainId = 232;
+namespace hullpipe::launch {
 
 /// An exclusively held DDS domain id in [first, last] (0..kMaxDomainId).
 /// Released when destroyed (or when the process ends, even by SIGKILL).

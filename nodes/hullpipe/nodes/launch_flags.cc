@@ -3,7 +3,6 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include "hullpipe/launch/domain.h"
 #include "hullpipe/util/cli_range.h"
 #include "hullpipe/util/run_id.h"
 
@@ -33,13 +32,11 @@ void LaunchFlags::Register(CLI::App& app) {
   render.RegisterView(app);
   recon.RegisterSweep(app);
   app.add_option("--domain", domain, "DDS domain id (default: unique per run, from the pid)")
-      ->check(CLI::Range(0, int(launch::kMaxDomainId)));
+      ->check(DomainIdRange());
   app.add_option("--run-id", run_id_text,
                  "This run's id, 1-16 hex digits, given to every node (default: a random one); render_node and "
                  "recon_node ignore samples of another run on the domain")
-      ->check([](const std::string& t) {
-        return ParseRunId(t) ? std::string() : "--run-id must be 1 to 16 hex digits, not zero";
-      });
+      ->check(RunIdValidator());
   app.add_option("--dds-config", dds_config, "Cyclone XML config (default: loopback config written to --out)");
   app.add_option("--bin-dir", bin_dir, "Directory of the node executables (default: beside this one)");
   app.add_option("--grace", grace, "Seconds between SIGINT and SIGKILL at shutdown")
