@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
@@ -43,7 +44,7 @@ class VideoRig final : public RigSource {
         throw std::runtime_error("camera " + std::to_string(rc.camera.id) +
                                  ": key 'tracked': a pose log is keyed by source time and serves file sources; a "
                                  "live tracked camera is not supported");
-      if (rc.masks.empty() && !rc.background.empty()) cam.background = LearnBackground(rc);
+      if (rc.masks.empty()) cam.background_spec = rc.background;  // learnt below
       cams_.push_back(std::move(cam));
       cameras_.push_back(rc.camera);
     }
@@ -54,10 +55,15 @@ class VideoRig final : public RigSource {
         throw std::runtime_error(path + ": the selected cameras mix live sources and files; run them in separate "
                                         "capture nodes (--cameras)");
     for (Cam& c : cams_) {
-      if (!c.live && c.masks_spec.empty() && c.background.empty())
+      if (!c.live && c.masks_spec.empty() && c.background_spec.empty())
         throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": no background and no masks");
     }
-    OpenAll();
+    // Files: every video opens (or the node ends naming it) before seconds of
+    // background learning. Live cameras start streaming once the backgrounds
+    // from files are ready.
+    if (!live_) OpenAll();
+    LearnFileBackgrounds();
+    if (live_) OpenAll();
     for (Cam& c : cams_)
       if (c.live && c.background.empty()) LearnLiveBackground(c);
   }
@@ -135,6 +141,7 @@ class VideoRig final : public RigSource {
   struct Cam {
     Camera camera;
     std::string frames_spec, masks_spec;
+    std::string background_spec;  ///< Its background video or images (none with masks).
     std::unique_ptr<FileCameraReader> frames;  ///< A file camera's reader (live: reader).
     int mask_first = 0;      ///< Number of the first mask file (0..4, as OpenCV's image sequences).
     RigCamera mask_format;   ///< Its mask_threshold and mask_channel.
@@ -308,16 +315,45 @@ class VideoRig final : public RigSource {
     spdlog::info("camera {}: background learnt from {} frames; capturing", c.camera.id, frames.size());
   }
 
-  BackgroundModel LearnBackground(const RigCamera& rc) {
-    if (rc.background.empty())
-      throw std::runtime_error("camera " + std::to_string(rc.camera.id) + ": no background and no masks");
-    const std::vector<cv::Mat> frames = ReadCalibratedFrames(rc.camera.id, "background " + rc.background,
-                                                             rc.background, options_.background_frames,
-                                                             rc.camera.width, rc.camera.height);
+  static BackgroundModel LearnBackground(const Cam& c, int background_frames) {
+    const std::vector<cv::Mat> frames =
+        ReadCalibratedFrames(c.camera.id, "background " + c.background_spec, c.background_spec, background_frames,
+                             c.camera.width, c.camera.height);
     if (frames.empty())
-      throw std::runtime_error("camera " + std::to_string(rc.camera.id) + ": background " + rc.background +
+      throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": background " + c.background_spec +
                                " has no readable frame of the calibrated size");
     return BackgroundModel(frames);
+  }
+
+  // The frames that background learning may hold at once, all cameras together.
+  static constexpr int64_t kBackgroundBytes = int64_t(1) << 30;
+
+  // Every camera's background from its file, the cameras at once (one after
+  // the other, a 20-camera rig's start-up took twenty times one camera's), on
+  // up to the machine's cores while the frames held stay within
+  // kBackgroundBytes. A failure is the first camera's in camera order.
+  void LearnFileBackgrounds() {
+    std::vector<size_t> todo;
+    int64_t per_camera = 1;
+    for (size_t i = 0; i < cams_.size(); ++i) {
+      const Cam& c = cams_[i];
+      if (c.background_spec.empty()) continue;
+      todo.push_back(i);
+      per_camera = std::max(per_camera, int64_t(options_.background_frames) * c.camera.width * c.camera.height * 3);
+    }
+    const int by_memory = int(std::clamp<int64_t>(kBackgroundBytes / per_camera, 1, 64));
+    const int threads = std::min({int(todo.size()), ThreadsOrCores(0), by_memory});
+    std::vector<std::exception_ptr> failed(todo.size());
+    ForEachRowDynamic(int(todo.size()), threads, [&](int k, int) {
+      try {
+        Cam& c = cams_[todo[size_t(k)]];
+        c.background = LearnBackground(c, options_.background_frames);
+      } catch (...) {
+        failed[size_t(k)] = std::current_exception();
+      }
+    });
+    for (const std::exception_ptr& e : failed)
+      if (e) std::rethrow_exception(e);
   }
 
   // After reading frame index_ (alive: cameras that delivered it). A frameset

@@ -89,6 +89,48 @@ TEST(RigSource, FramesNamedByTheirFirstFileAreTheSequence) {
   }
 }
 
+// The backgrounds are learnt from the cameras' files at once: each camera's
+// object-pixel map is the one the camera gives when opened alone (one thread).
+TEST(RigSource, BackgroundsLearntTogetherEqualEachLearntAlone) {
+  const auto dir = test::TempDir("rig_backgrounds");
+  const std::string path = WriteImageRig(dir, false, 1);
+  RigFrame all;
+  ASSERT_TRUE(OpenVideoRig(path, {})->Next(&all));
+  for (const int id : {1, 2}) {
+    VideoRigOptions o;
+    o.camera_ids = {id};
+    RigFrame one;
+    ASSERT_TRUE(OpenVideoRig(path, o)->Next(&one));
+    EXPECT_EQ(cv::countNonZero(one.maps[0] != all.maps[size_t(id - 1)]), 0) << "camera " << id;
+  }
+}
+
+// Every camera's frames open before any background is learnt (learning takes
+// seconds a camera): with camera 2's frames gone and camera 1's background
+// broken, the line names camera 2's frames. With both backgrounds broken, it
+// names camera 1's, whichever thread failed first.
+TEST(RigSource, AMissingVideoIsNamedBeforeAnyBackgroundIsRead) {
+  const auto dir = test::TempDir("rig_open_first");
+  const std::string path = WriteImageRig(dir, false, 2);
+  for (const char* f : {"background.png"})
+    for (const char* cam : {"cam1", "cam2"}) std::ofstream(dir / cam / f, std::ios::binary) << "text, not a PNG";
+  try {
+    OpenVideoRig(path, {});
+    ADD_FAILURE() << "opened with broken backgrounds";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("camera 1: background"), std::string::npos) << e.what();
+  }
+  for (int k = 0; k < 2; ++k) std::filesystem::remove(dir / "cam2" / cv::format("frame_%03d.png", k));
+  try {
+    OpenVideoRig(path, {});
+    ADD_FAILURE() << "opened without camera 2's frames";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("camera 2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("frame_%03d.png"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find("background"), std::string::npos) << e.what();
+  }
+}
+
 TEST(RigSource, CameraSubsetKeepsTheRigSize) {
   const auto dir = test::TempDir("rig_subset");
   VideoRigOptions o;
