@@ -7,8 +7,6 @@
 #include <limits>
 #include <stdexcept>
 
-#include "hullpipe/collision/hull_motion.h"
-#include "hullpipe/util/percentile.h"
 #include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/reconstruction/tile_set.h"
 
@@ -146,6 +144,7 @@ void RenderController::OnMesh(VirtualMeshSample m) {
 }
 
 void RenderController::OnModelPart(ModelPartSample part) {
+  report_.OnModelPart(part);
   ModelPartDraw& d = model_parts_[part.object_id];
   d.part = std::move(part);
   d.world.triangles = d.part.triangles;
@@ -155,14 +154,7 @@ void RenderController::OnModelPart(ModelPartSample part) {
 
 void RenderController::OnModelState(ModelStateSample state) {
   auto& per = model_states_[state.model_id];
-  auto& stats = model_stats_[state.model_id];
-  if (per.find(state.frame_seq) == per.end()) {
-    ++stats.framesets;
-    stats.boxes_tested += state.boxes_tested;
-    stats.triangles_queried += state.triangles_queried;
-    stats.triangles = state.triangles;
-    if (stats.query_ms.size() < 100000) stats.query_ms.push_back(float(state.query_ms));
-  }
+  if (per.find(state.frame_seq) == per.end()) report_.OnModelFrameset(state);
   per[state.frame_seq] = std::move(state);
   while (per.size() > 8) per.erase(per.begin());
 }
@@ -194,79 +186,26 @@ void RenderController::DrawModels(uint64_t frame_seq, MeshDraws* draws) {
                        : ps.contact == kPartNear   ? kAmber
                                                    : d.part.colour;
       draws->push_back(&d.world);
-      d.frames_colliding += ps.contact == kPartColliding;
-      d.frames_near += ps.contact == kPartNear;
-      if (ps.clearance >= 0 && d.clearance_m.size() < 100000) d.clearance_m.push_back(float(ps.clearance));
+      report_.OnModelPartDrawn(it->first, ps.contact, ps.clearance);
     }
   }
-}
-
-nlohmann::json RenderController::ModelsJson() const {
-  nlohmann::json out = nlohmann::json::array();
-  for (const auto& [model_id, stats] : model_stats_) {
-    nlohmann::json m;
-    m["model_id"] = model_id;
-    m["triangles"] = stats.triangles;
-    m["framesets"] = stats.framesets;
-    const double n = double(std::max<uint64_t>(stats.framesets, 1));
-    m["boxes_tested_mean"] = double(stats.boxes_tested) / n;
-    m["triangles_queried_mean"] = double(stats.triangles_queried) / n;
-    std::vector<double> q(stats.query_ms.begin(), stats.query_ms.end());
-    m["query_ms_p50"] = q.empty() ? 0.0 : Percentile(q, 50);
-    m["query_ms_p95"] = q.empty() ? 0.0 : Percentile(q, 95);
-    nlohmann::json parts = nlohmann::json::array();
-    for (const auto& [id, d] : model_parts_) {
-      if (d.part.model_id != model_id) continue;
-      if (m.find("file") == m.end()) m["file"] = d.part.file;
-      std::vector<double> c(d.clearance_m.begin(), d.clearance_m.end());
-      parts.push_back({{"object_id", id},
-                       {"name", d.part.name},
-                       {"triangles", d.part.triangles.size()},
-                       {"frames_in_collision", d.frames_colliding},
-                       {"frames_near", d.frames_near},
-                       {"clearance_mm_p50", c.empty() ? nlohmann::json() : nlohmann::json(Percentile(c, 50) * 1e3)},
-                       {"clearance_mm_min", c.empty() ? nlohmann::json()
-                                                      : nlohmann::json(*std::min_element(c.begin(), c.end()) * 1e3)}});
-    }
-    m["parts"] = parts;
-    out.push_back(m);
-  }
-  return out;
 }
 
 void RenderController::OnHeadPose(const Rigid3d& world_from_eye) { tracked_ = world_from_eye; }
 
 void RenderController::OnCollisionReport(bool has_points, uint8_t hull_velocity_status, double hull_normal_speed) {
-  if (has_points) ++collision_reports_;
-  using S = HullVelocityStatus;
-  if (hull_velocity_status == uint8_t(S::kNone) || hull_velocity_status > uint8_t(S::kAppeared)) return;  // none, or unknown
-  ++hull_velocity_statuses_[hull_velocity_status];
-  if ((hull_velocity_status == uint8_t(S::kMeasured) || hull_velocity_status == uint8_t(S::kClamped)) &&
-      std::isfinite(hull_normal_speed)) {
-    hull_speed_max_ = std::max(hull_speed_max_, std::abs(hull_normal_speed));
-    hull_speed_sum_ += std::abs(hull_normal_speed);
-  }
+  report_.OnCollisionReport(has_points, hull_velocity_status, hull_normal_speed);
 }
 
 bool RenderController::AwaitingFinalReports() const {
-  for (const auto& [name, st] : node_stats_)
+  for (const auto& [name, st] : report_.node_stats())
     if (name != "render" && !st.final_report) return true;
   return false;
 }
 
 void RenderController::OnNodeStats(const NodeStatsSample& m) {
   if (!runs_.Accept(m.run_id, "NodeStats", /*take_unset=*/true, m.name)) return;
-  // Per-node state is bounded: a peer flooding reports under distinct names
-  // (render grew to 594 MB and wrote a 0.5-GB stats.json) is ignored past
-  // kMaxNodes names, counted and said once.
-  if (node_stats_.size() >= kMaxNodes && !node_stats_.count(m.name)) {
-    if (node_stats_over_limit_++ == 0)
-      spdlog::warn("NodeStats from more than {} node names (the latest '{}'): the rest are ignored and counted "
-                   "(a peer on this domain publishes reports of nodes that are not a run's)",
-                   kMaxNodes, m.name.substr(0, 64));
-    return;
-  }
-  node_stats_[m.name] = m;
+  if (!report_.OnNodeStats(m)) return;  // past RunReport::kMaxNodes names
   // Only this run's recon names ("recon0".."recon<tiles-1>") are watched for
   // silence: 1000 names "recon_<n>" from a peer made 1000 false fail-over lines.
   int k = -1;
@@ -376,15 +315,15 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     const float* row = depth.ptr<float>(r);
     for (int c = 0; c < depth.cols; ++c) hull_pixels += row[c] < kNoDepth;
   }
-  hull_fraction_sum_ += double(hull_pixels) / double(depth.total());
   std::vector<VirtualSphere> spheres;
+  uint64_t spheres_colliding = 0;
   for (const auto& [id, per] : states_) {
     // The state stepped against this frameset, else the newest before it.
     auto s = per.upper_bound(f.frame_seq);
     if (s == per.begin()) continue;
     --s;
     spheres.push_back({s->second.position, s->second.radius, s->second.colliding});
-    if (s->second.colliding) ++collisions_drawn_;
+    spheres_colliding += s->second.colliding != 0;
   }
   MeshDraws draws;  // pointers into meshes_ and model_parts_, unchanged until drawn
   for (const auto& [id, per] : meshes_) {
@@ -393,14 +332,11 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     --s;
     draws.push_back(&s->second.draw);
     if (s->second.kind == kMeshPart && s->second.clearance >= 0) {
-      auto [mc, fresh] = min_clearance_.try_emplace(id, s->second.clearance);
-      if (!fresh) mc->second = std::min(mc->second, s->second.clearance);
       const auto& c = s->second.draw.colliding;
-      if (std::find(c.begin(), c.end(), 1) != c.end()) ++part_collisions_[id];
+      report_.OnPayloadPartDrawn(id, s->second.clearance, std::find(c.begin(), c.end(), 1) != c.end());
     }
   }
   DrawModels(f.frame_seq, &draws);
-  meshes_drawn_ += draws.size();
   cv::Mat composited_depth;
   cv::Mat frame = hullpipe::Composite(f.view, depth, colour, spheres, comp_, &composited_depth, draws, stop_);
   st.reset();
@@ -408,8 +344,9 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     StageTimer lt(counters_, "light");
     const ShadowMap shadow = RenderShadowMap(*o_.light, orbit_.up, f.hull.get(), spheres, draws);
     ApplyLighting(f.view, composited_depth, depth, *o_.light, shadow, &frame, stop_);
-    ++lit_frames_;
   }
+  report_.OnFrameDrawn(spheres_colliding, draws.size(), o_.light.has_value(),
+                       double(hull_pixels) / double(depth.total()));
   {
     StageTimer wt(counters_, "write");
     sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1, f.view, depth, f.path_time_s);
@@ -514,152 +451,43 @@ std::string RenderController::IncompleteInput() const {
          " ended before the others, so the framesets after their end are incomplete (" + detail + ")";
 }
 
-nlohmann::json RenderController::StatsJson() const {
-  nlohmann::json j;
-  j["view"] = {{"width", o_.width}, {"height", o_.height}, {"tiles", o_.tiles}};
-  j["run_id"] = RunIdText(o_.run_id);
-  j["ignored_from_other_runs"] = runs_.ignored();  // samples by kind (HullView, NodeStats)
-  j["node_stats_over_limit"] = node_stats_over_limit_;  // reports of names past kMaxNodes, ignored
-  j["calibrations_refused"] = assembler_.calibrations_refused();  // CameraInfo changing a calibration mid-run
+RunFacts RenderController::Facts() const {
+  RunFacts f;
+  f.width = o_.width;
+  f.height = o_.height;
+  f.tiles = o_.tiles;
+  f.run_id = o_.run_id;
+  f.ignored_from_other_runs = runs_.ignored();
+  f.calibrations_refused = assembler_.calibrations_refused();
   if (capture_done_) {
-    j["cameras_ended_early"] = nlohmann::json::array();
-    for (const auto& e : assembler_.EndedEarly()) j["cameras_ended_early"].push_back(e.camera_id);
+    f.cameras_ended_early.emplace();
+    for (const auto& e : assembler_.EndedEarly()) f.cameras_ended_early->push_back(e.camera_id);
   }
-  j["frames_composited"] = counters_.frames_out();
-  j["last_frame_seq"] = last_composited_;
-  j["collision_frames_drawn"] = collisions_drawn_;
-  j["collision_reports_with_points"] = collision_reports_;
-  // Responses by their hull velocity (docs/collision.md, "Hull velocity").
-  {
-    // stats.json's keys, indexed by HullVelocityStatus (kNone is not counted).
-    static const char* kNames[] = {"none", "measured", "clamped", "no_previous", "too_far_apart", "appeared"};
-    static_assert(std::size(kNames) == size_t(HullVelocityStatus::kAppeared) + 1);
-    nlohmann::json hv = nlohmann::json::object();
-    for (int i = int(HullVelocityStatus::kMeasured); i <= int(HullVelocityStatus::kAppeared); ++i) {
-      const auto it = hull_velocity_statuses_.find(uint8_t(i));
-      hv[kNames[i]] = it == hull_velocity_statuses_.end() ? 0 : it->second;
-    }
-    const uint64_t valid = hv["measured"].get<uint64_t>() + hv["clamped"].get<uint64_t>();
-    hv["max_normal_speed_mps"] = hull_speed_max_;
-    hv["mean_normal_speed_mps"] = valid ? hull_speed_sum_ / double(valid) : 0.0;
-    j["hull_velocity"] = hv;
-  }
-  j["meshes_drawn"] = meshes_drawn_;  // cloth, particle sets and payload parts, summed over frames
-  j["lit_frames"] = lit_frames_;      // frames with the scene's light and shadows
-  j["recon_outages"] = recon_liveness_.outages();  // times each recon node fell silent
-  j["hull_pixel_fraction_mean"] =
-      counters_.frames_out() ? hull_fraction_sum_ / double(counters_.frames_out()) : 0.0;
+  f.frames_composited = counters_.frames_out();
+  f.last_frame_seq = last_composited_;
+  f.recon_outages = recon_liveness_.outages();
   // The world drawn (docs/rigs.md): up, the floor as drawn (null: none, or not
   // yet placed under a hull), the orbit, and the first hull's box in world
   // metres, from which a reader sees whether the person stands on the floor.
-  {
-    const auto vec = [](const Eigen::Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); };
-    nlohmann::json w;
-    w["up"] = vec(orbit_.up);
-    w["floor"] = o_.floor == RigWorld::Floor::kPlane ? "plane" : o_.floor == RigWorld::Floor::kNone ? "none" : "hull";
-    w["floor_height"] = comp_.draw_floor && floor_known_ ? nlohmann::json(comp_.floor_offset) : nlohmann::json();
-    w["orbit_radius"] = orbit_.radius;
-    w["orbit_centre"] = vec(orbit_.centre);
-    if (!first_hull_box_.empty())
-      w["first_hull_box"] = {{"min", vec(first_hull_box_.min)}, {"max", vec(first_hull_box_.max)}};
-    j["world"] = w;
-  }
-  if (!model_stats_.empty()) j["models"] = ModelsJson();
-  for (const auto& [id, c] : min_clearance_) {
-    const auto pc = part_collisions_.find(id);
-    j["payload"][std::to_string(id)] = {{"min_clearance_mm", c * 1e3},
-                                        {"frames_colliding", pc == part_collisions_.end() ? 0 : pc->second}};
-  }
-  auto row = [](const NodeStatsSample& r) {
-    nlohmann::json stages = nlohmann::json::object();
-    for (const auto& [n, s] : r.stages)
-      stages[n] = {{"ms_mean", s.ms_mean}, {"ms_p50", s.ms_p50}, {"ms_p95", s.ms_p95}, {"count", s.count}};
-    nlohmann::json out{{"fps", r.fps},           {"latency_ms_p50", r.latency_ms_p50},
-                       {"latency_ms_p95", r.latency_ms_p95}, {"frames_in", r.frames_in},
-                       {"frames_out", r.frames_out}, {"dropped", r.dropped},
-                       {"rejected", r.rejected}, {"stages_ms", stages}};
-    if (!r.backend.empty()) out["backend"] = r.backend;
-    return out;
-  };
-  auto assembly = [](const NodeStatsSample& r) {
-    nlohmann::json cams = nlohmann::json::object();
-    for (const auto& c : r.cameras)
-      cams[std::to_string(c.camera_id)] = {{"skew_ms_p50", c.skew_ms_p50}, {"skew_ms_p95", c.skew_ms_p95},
-                                           {"skew_ms_max", c.skew_ms_max}, {"period_ms", c.period_ms},
-                                           {"frames", c.frames},           {"unpartnered", c.unpartnered},
-                                           {"pauses", c.pauses},           {"restarts", c.restarts},
-                                           {"clock_offsets", c.clock_offsets}};
-    return nlohmann::json{{"dropped_for_skew", r.dropped_for_skew}, {"cameras", cams}};
-  };
-  j["nodes"] = nlohmann::json::object();
-  for (const auto& [name, r] : node_stats_)
-    if (name != "render") j["nodes"][name] = row(r);
-  j["nodes"]["render"] = row(counters_.Snapshot("render", true));
-  // Frameset assembly by capture time, per assembling node and camera.
-  j["framesets"] = nlohmann::json::object();
-  for (const auto& [name, r] : node_stats_)
-    if (name != "render" && !r.cameras.empty()) j["framesets"][name] = assembly(r);
-  j["framesets"]["render"] = assembly(counters_.Snapshot("render", true));
-  // How many framesets the cameras' streams made, apart from how many this node
-  // had time to composite (it takes the newest).
-  j["framesets"]["render"]["reference_frames"] = assembler_.reference_frames();
-  j["framesets"]["render"]["complete"] = assembler_.framesets_complete();
-  j["latency_budget"] = Budget().ToJson();
-  return j;
+  const auto vec = [](const Eigen::Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); };
+  nlohmann::json& w = f.world;
+  w["up"] = vec(orbit_.up);
+  w["floor"] = o_.floor == RigWorld::Floor::kPlane ? "plane" : o_.floor == RigWorld::Floor::kNone ? "none" : "hull";
+  w["floor_height"] = comp_.draw_floor && floor_known_ ? nlohmann::json(comp_.floor_offset) : nlohmann::json();
+  w["orbit_radius"] = orbit_.radius;
+  w["orbit_centre"] = vec(orbit_.centre);
+  if (!first_hull_box_.empty())
+    w["first_hull_box"] = {{"min", vec(first_hull_box_.min)}, {"max", vec(first_hull_box_.max)}};
+  f.render = counters_.Snapshot("render", true);
+  f.reference_frames = assembler_.reference_frames();
+  f.framesets_complete = assembler_.framesets_complete();
+  return f;
 }
 
-LatencyBudget RenderController::Budget() const {
-  std::map<std::string, NodeStatsSample> reports = node_stats_;
-  reports["render"] = counters_.Snapshot("render", true);
-  return BuildLatencyBudget(reports);
-}
+nlohmann::json RenderController::StatsJson() const { return report_.StatsJson(Facts()); }
 
-std::string RenderController::Table() const {
-  std::string out;
-  auto line = [&out](const char* fmt, auto... args) {
-    char buf[256];
-    std::snprintf(buf, sizeof buf, fmt, args...);
-    out += buf;
-  };
-  line("%-10s %8s %14s %14s %10s %10s %8s %8s\n", "node", "fps", "latency p50 ms", "latency p95 ms", "frames in",
-       "frames out", "dropped", "rejected");
-  auto row = [&](const NodeStatsSample& r) {
-    line("%-10s %8.1f %14.1f %14.1f %10llu %10llu %8llu %8llu\n", r.name.c_str(), r.fps, r.latency_ms_p50,
-         r.latency_ms_p95, (unsigned long long)r.frames_in, (unsigned long long)r.frames_out,
-         (unsigned long long)r.dropped, (unsigned long long)r.rejected);
-  };
-  for (const auto& [name, r] : node_stats_)
-    if (name != "render") row(r);
-  const NodeStatsSample self = counters_.Snapshot("render", true);
-  row(self);
-  // What computed each node's hull or collisions (CPU, or which GL renderer).
-  for (const auto& [name, r] : node_stats_)
-    if (!r.backend.empty()) line("%-10s backend: %.200s\n", name.c_str(), r.backend.c_str());
-  for (const auto& [kind, n] : runs_.ignored())
-    line("ignored %llu %s sample(s) of other runs (this run is %s)\n", (unsigned long long)n, kind.c_str(),
-         RunIdText(o_.run_id).c_str());
-  // CAD models (docs/models.md): what sim's hierarchy spared per frameset.
-  for (const auto& m : ModelsJson())
-    line("model %.120s: %llu triangles, per frameset %.0f boxes tested, %.0f triangles queried, %.2f ms p50 "
-         "(%llu framesets)\n",
-         m.value("file", std::string("?")).c_str(), (unsigned long long)m["triangles"].get<uint64_t>(),
-         m["boxes_tested_mean"].get<double>(), m["triangles_queried_mean"].get<double>(),
-         m["query_ms_p50"].get<double>(), (unsigned long long)m["framesets"].get<uint64_t>());
-  // Where the time from capture to composite goes (docs/latency.md).
-  line("\nlatency budget (ms after capture; * on the critical path):\n");
-  out += Budget().Table();
-  // How render's framesets were assembled (the recon and sim nodes' are in stats.json).
-  if (!self.cameras.empty()) {
-    line("\nframesets (render): %llu dropped for skew\n", (unsigned long long)self.dropped_for_skew);
-    line("%-7s %9s %9s %9s %9s %8s %11s %7s %9s %9s\n", "camera", "skew p50", "skew p95", "skew max", "period",
-         "frames", "unpartnered", "pauses", "restarts", "clock off");
-    for (const auto& c : self.cameras)
-      line("%-7d %9.2f %9.2f %9.2f %9.2f %8llu %11llu %7llu %9llu %9llu\n", c.camera_id, c.skew_ms_p50,
-           c.skew_ms_p95, c.skew_ms_max, c.period_ms, (unsigned long long)c.frames,
-           (unsigned long long)c.unpartnered, (unsigned long long)c.pauses, (unsigned long long)c.restarts,
-           (unsigned long long)c.clock_offsets);
-  }
-  return out;
-}
+LatencyBudget RenderController::Budget() const { return report_.Budget(counters_.Snapshot("render", true)); }
+
+std::string RenderController::Table() const { return report_.Table(Facts()); }
 
 }  // namespace hullpipe::nodes

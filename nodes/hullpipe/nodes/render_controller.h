@@ -27,6 +27,7 @@
 #include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/nodes/peer_liveness.h"
 #include "hullpipe/nodes/run_filter.h"
+#include "hullpipe/nodes/run_report.h"
 #include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/geometry/rig_world.h"
@@ -138,8 +139,8 @@ class RenderController {
   void OnNodeStats(const NodeStatsSample& stats);
   /// Most node names whose reports are kept; reports of further names are
   /// ignored and counted (stats.json "node_stats_over_limit").
-  static constexpr size_t kMaxNodes = 256;
-  uint64_t node_stats_over_limit() const { return node_stats_over_limit_; }
+  static constexpr size_t kMaxNodes = RunReport::kMaxNodes;
+  uint64_t node_stats_over_limit() const { return report_.node_stats_over_limit(); }
   /// Whether a peer heard from (any node name but render's own) has not yet
   /// sent its final report: render, stopping, waits for those (bounded by its
   /// caller) so stats.json holds every node's last figures.
@@ -166,12 +167,14 @@ class RenderController {
   /// render_node then exits 3, as capture_node does for its own cameras.
   std::string IncompleteInput() const;
 
-  /// stats.json: the view, counts, outages, payload clearances, the world drawn
-  /// (up, floor, orbit, the first hull's box) and every node's newest report
-  /// (this node's own under "render").
+  /// stats.json (RunReport::StatsJson): the view, counts, outages, payload
+  /// clearances, the world drawn (up, floor, orbit, the first hull's box) and
+  /// every node's newest report (this node's own under "render").
   nlohmann::json StatsJson() const;
-  /// The end-of-run table, one row per node, then the latency budget.
+  /// The end-of-run table (RunReport::Table), one row per node, then the latency budget.
   std::string Table() const;
+  /// What this controller knows of the run, for its report.
+  RunFacts Facts() const;
   /// The latency budget from every node's newest report and render's own
   /// (nodes/latency_budget.h); in stats.json as "latency_budget".
   LatencyBudget Budget() const;
@@ -210,19 +213,12 @@ class RenderController {
   // Appends the models' parts as of frame_seq to *draws (amber when near, red
   // when colliding), and counts them into the models' statistics.
   void DrawModels(uint64_t frame_seq, MeshDraws* draws);
-  nlohmann::json ModelsJson() const;
 
   struct ModelPartDraw {
     ModelPartSample part;
     VirtualMeshDraw world;               // vertices moved by `pose`
     Eigen::Vector3d position = Eigen::Vector3d::Constant(std::nan(""));
     Eigen::Vector4d orientation = Eigen::Vector4d::Zero();
-    uint64_t frames_colliding = 0, frames_near = 0;
-    std::vector<float> clearance_m;       // per frameset drawn, while measured (at most 100,000)
-  };
-  struct ModelStats {
-    uint64_t framesets = 0, boxes_tested = 0, triangles_queried = 0, triangles = 0;
-    std::vector<float> query_ms;          // at most 100,000
   };
 
   RenderOptions o_;
@@ -244,11 +240,7 @@ class RenderController {
   std::map<uint32_t, std::map<uint64_t, VirtualMeshSample>> meshes_;    // object -> frame -> mesh
   std::map<uint32_t, ModelPartDraw> model_parts_;                        // object id -> part
   std::map<uint32_t, std::map<uint64_t, ModelStateSample>> model_states_; // model -> frame -> state
-  std::map<uint32_t, ModelStats> model_stats_;                           // model -> what its steps cost
-  std::map<uint32_t, double> min_clearance_;     // payload part -> least clearance, metres
-  std::map<uint32_t, uint64_t> part_collisions_;  // payload part -> frames drawn colliding
-  std::map<std::string, NodeStatsSample> node_stats_;  // at most kMaxNodes names
-  uint64_t node_stats_over_limit_ = 0;
+  RunReport report_;  // what stats.json and the table tell
   uint64_t seen_restarts_ = 0, malformed_input_ = 0;
   uint64_t pose_seq_ = 0, last_requested_ = 0, last_composited_ = 0, rejected_ = 0, tiles_late_ = 0;
   double tile_timeout_ = 1.0;                // in force (see RenderOptions::tile_timeout)
@@ -258,10 +250,6 @@ class RenderController {
   std::map<uint64_t, InFlight> given_up_;
   static constexpr size_t kMaxGivenUp = 4;
   uint64_t late_composited_ = 0;
-  uint64_t collisions_drawn_ = 0, collision_reports_ = 0, meshes_drawn_ = 0, lit_frames_ = 0;
-  std::map<uint8_t, uint64_t> hull_velocity_statuses_;  // responses by hull velocity status
-  double hull_speed_max_ = 0, hull_speed_sum_ = 0;     // of |normal speed| measured or clamped, m/s
-  double hull_fraction_sum_ = 0;
   double first_source_time_ = 0;
   double last_new_frame_s_ = 0;
   bool any_frame_ = false, done_ = false, capture_done_ = false;
