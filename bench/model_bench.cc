@@ -101,7 +101,7 @@ int main(int argc, char** argv) {
       auto element = models->Make(config);
       std::vector<double> ms;
       for (int r = 0; r < element_only; ++r)
-        for (const auto& q : hulls) ms.push_back(Ms([&] { element->Step(0.04, &q, nullptr); }));
+        for (const auto& q : hulls) ms.push_back(Ms([&] { element->Step({.dt = 0.04, .hull = &q}); }));
       std::printf("sim step p50 %.2f ms over %zu steps\n", Median(ms), ms.size());
       return 0;
     }
@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
     // The scene element as sim_node runs it: per part, threads across parts.
     std::vector<double> step_ms;
     auto element = models->Make(config);
-    for (const auto& q : hulls) step_ms.push_back(Ms([&] { element->Step(0.04, &q, nullptr); }));
+    for (const auto& q : hulls) step_ms.push_back(Ms([&] { element->Step({.dt = 0.04, .hull = &q}); }));
     std::printf("\nsim step of the engine scene (%d parts, collision + clearance, %d thread(s), as sim_node's "
                 "--model-threads): p50 %.2f ms, max %.2f ms\n",
                 int(entry.imported->parts.size()), models->threads, Median(step_ms),

@@ -64,7 +64,7 @@ class BallSimulation {
 class BallsElement final : public SceneElement {
  public:
   explicit BallsElement(const SceneConfig& config) : sim_(config) {}
-  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override { sim_.Step(dt, hull, stop, hull_motion()); }
+  void Step(const StepContext& s) override { sim_.Step(s.dt, s.hull, s.stop, s.hull_motion); }
   void Output(double source_time_s, uint64_t frame_seq, ElementOutput* out) override;
   const BallSimulation& simulation() const { return sim_; }
 

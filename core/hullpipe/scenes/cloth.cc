@@ -196,7 +196,7 @@ namespace {
 class ClothElement final : public SceneElement {
  public:
   ClothElement(const ClothConfig& config, const Eigen::Vector3d& gravity) : sim_(config, gravity) {}
-  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override { sim_.Step(dt, hull, stop); }
+  void Step(const StepContext& s) override { sim_.Step(s.dt, s.hull, s.stop); }
   void Output(double, uint64_t, ElementOutput* out) override {
     VirtualMeshSample m;
     m.object_id = uint32_t(sim_.config().id);

@@ -180,7 +180,9 @@ class ModelsElement final : public SceneElement {
     query_ = config.query;
   }
 
-  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override {
+  void Step(const StepContext& step) override {
+    const VolumeQuery* hull = step.hull;
+    const StopFlag stop = step.stop;
     scene_.TakeFloorUnderHull(hull);  // as the balls take it
     for (Model& m : models_) {
       const auto t0 = std::chrono::steady_clock::now();
@@ -188,7 +190,7 @@ class ModelsElement final : public SceneElement {
       stats.triangles_in_scene = int64_t(m.triangles);
       for (auto& r : m.results) r = {};
       if (m.entry.motion == ModelEntry::Motion::kDynamic)
-        Move(m, std::clamp(dt, 0.0, 0.25), hull, stop, &stats);
+        Move(m, std::clamp(step.dt, 0.0, 0.25), hull, step.hull_motion, stop, &stats);
       else if (hull)
         Detect(m, *hull, stop, &stats);
       if (hull) Clearances(m, *hull, stop);
@@ -310,7 +312,8 @@ class ModelsElement final : public SceneElement {
   // normal velocity reflected about N_hull with the restitution. Substeps are
   // short in time (max_substep) and in space (no part moves more than its
   // smallest half extent), at most kMaxSubsteps a step.
-  void Move(Model& m, double dt, const VolumeQuery* hull, StopFlag stop, BvhQueryStats* stats) {
+  void Move(Model& m, double dt, const VolumeQuery* hull, const HullMotion* motion, StopFlag stop,
+            BvhQueryStats* stats) {
     const TriangleQueryOptions options{m.entry.max_pixel_size, 0, 32};
     int substeps = std::max(1, int(std::ceil(dt / scene_.max_substep)));
     const double g_norm = scene_.gravity.norm();
@@ -355,7 +358,7 @@ class ModelsElement final : public SceneElement {
         request.restitution = e;
         request.previous = previous;
         request.fallback_normal = -g_hat_;
-        request.motion = hull_motion();
+        request.motion = motion;
         b.response = RespondAsRigidBody(*hull, request, &c, &t, &b.velocity);
         collided[k] = true;
         m.results[k] = std::move(c);

@@ -147,7 +147,7 @@ class ParticlesElement final : public SceneElement {
  public:
   ParticlesElement(const ParticleConfig& config, const SceneConfig& scene)
       : system_(config, scene.gravity, scene.has_floor, scene.floor) {}
-  void Step(double dt, const VolumeQuery* hull, StopFlag stop) override { system_.Step(dt, hull, stop); }
+  void Step(const StepContext& s) override { system_.Step(s.dt, s.hull, s.stop); }
   void Output(double, uint64_t, ElementOutput* out) override {
     VirtualMeshSample m;
     m.object_id = uint32_t(system_.config().id);

@@ -275,7 +275,7 @@ namespace {
 class PayloadElement final : public SceneElement {
  public:
   explicit PayloadElement(const PayloadConfig& config) : config_(config) {}
-  void Step(double, const VolumeQuery* hull, StopFlag) override { frame_ = EvaluatePayload(config_, hull); }
+  void Step(const StepContext& s) override { frame_ = EvaluatePayload(config_, s.hull); }
   void Output(double source_time_s, uint64_t frame_seq, ElementOutput* out) override {
     colliding_.resize(frame_.parts.size(), false);
     for (size_t k = 0; k < frame_.parts.size(); ++k) {

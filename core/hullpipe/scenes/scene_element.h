@@ -48,15 +48,29 @@ struct ElementOutput {
   uint64_t colliding_bodies = 0;               ///< Rigid bodies (balls) colliding this step.
 };
 
+/// What one step gives every element of the scene (as FCL's request structs):
+/// the time to advance, the frameset's hull, its motion and the stop flag.
+struct StepContext {
+  double dt = 0;                      ///< Seconds of source time to advance (>= 0).
+  const VolumeQuery* hull = nullptr;  ///< The frameset's visual hull; nullptr: none this step.
+  /// The hull's motion (hull_motion.h: this and the previous frameset's
+  /// hulls), or nullptr (a stationary hull, the paper's §4.2). Elements with
+  /// rigid bodies (balls, dynamic model parts) reflect their velocity relative
+  /// to the moving surface; the rest ignore it. Valid while Step runs.
+  const HullMotion* hull_motion = nullptr;
+  /// Step throws Interrupted (util/interrupt.h) once it is set; nullptr: never.
+  StopFlag stop = nullptr;
+};
+
 /// A running element of the scene. Deterministic: the same steps against the
 /// same hulls give the same outputs.
 class SceneElement {
  public:
   virtual ~SceneElement() = default;
-  /// Advances by dt seconds (source time) against `hull` (nullptr: no hull this
-  /// step). Throws Interrupted (util/interrupt.h) once `stop` is set; the
-  /// element is then part-way through the step (good only for stopping).
-  virtual void Step(double dt, const VolumeQuery* hull, StopFlag stop) = 0;
+  /// Advances by step.dt against step.hull. Throws Interrupted once step.stop
+  /// is set; the element is then part-way through the step (good only for
+  /// stopping).
+  virtual void Step(const StepContext& step) = 0;
   /// Appends what the last step gives to publish; source_time_s and frame_seq
   /// are the frameset's (for events).
   virtual void Output(double source_time_s, uint64_t frame_seq, ElementOutput* out) = 0;
@@ -64,18 +78,6 @@ class SceneElement {
   /// element has no spacing. Throws std::invalid_argument (nothing changes) for a
   /// value it refuses.
   virtual bool SetSpacing(double /*spacing_m*/) { return false; }
-  /// The hull's motion for the next Step (hull_motion.h: the current and the
-  /// previous frameset's hulls), or nullptr (a stationary hull, the paper's
-  /// §4.2). Elements with rigid bodies (balls, dynamic model parts) reflect
-  /// their velocity relative to the moving surface; the rest ignore it. The
-  /// caller keeps it alive until that Step returns.
-  void set_hull_motion(const HullMotion* motion) { hull_motion_ = motion; }
-
- protected:
-  const HullMotion* hull_motion() const { return hull_motion_; }
-
- private:
-  const HullMotion* hull_motion_ = nullptr;
 };
 
 /// One element's settings as its scene-file section gives them. Immutable once

@@ -13,17 +13,8 @@ VirtualScene::VirtualScene(const SceneConfig& config) : config_(config) {
   for (const auto& e : config_.elements) elements_.push_back(e->Make(config_));
 }
 
-void VirtualScene::Step(double dt, const VolumeQuery* hull, StopFlag stop, const HullMotion* motion) {
-  for (auto& e : elements_) {
-    e->set_hull_motion(motion);
-    try {
-      e->Step(dt, hull, stop);
-    } catch (...) {
-      e->set_hull_motion(nullptr);
-      throw;
-    }
-    e->set_hull_motion(nullptr);
-  }
+void VirtualScene::Step(const StepContext& step) {
+  for (auto& e : elements_) e->Step(step);
 }
 
 ElementOutput VirtualScene::Output(double source_time_s, uint64_t frame_seq) {

@@ -19,12 +19,16 @@ class VirtualScene {
  public:
   /// Throws std::invalid_argument if the config fails Check().
   explicit VirtualScene(const SceneConfig& config);
-  /// Advances every element, balls first, by dt seconds against `hull`
-  /// (nullptr: none). Throws Interrupted (util/interrupt.h) once `stop` is
-  /// set; the scene is then part-way through the step (good only for stopping).
-  /// `motion` (optional): the hull's motion since the previous frameset
-  /// (hull_motion.h), given to every element for this step.
-  void Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr, const HullMotion* motion = nullptr);
+  /// Advances every element, balls first, by step.dt against step.hull
+  /// (scene_element.h StepContext: nullptr, none; its motion since the previous
+  /// frameset, given to every element). Throws Interrupted (util/interrupt.h)
+  /// once step.stop is set; the scene is then part-way through the step (good
+  /// only for stopping).
+  void Step(const StepContext& step);
+  /// The same, its context given field by field.
+  void Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr, const HullMotion* motion = nullptr) {
+    Step(StepContext{.dt = dt, .hull = hull, .hull_motion = motion, .stop = stop});
+  }
   /// What every element gives to publish after the last step, balls first
   /// (their frame_seq and capture_time_ns left for the caller).
   ElementOutput Output(double source_time_s, uint64_t frame_seq);

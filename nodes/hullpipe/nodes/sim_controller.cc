@@ -63,7 +63,7 @@ void SimController::StepOne(const Frameset& fs) {
     std::unique_ptr<HullMotion> motion;
     if (mo.enabled) motion = std::make_unique<HullMotion>(current, previous_hull_, mo);
     spdlog::debug("frameset {}: stepping the scene {:.3f} s", fs.seq, dt);
-    scene_.Step(dt, vq.get(), stop_, motion.get());
+    scene_.Step({.dt = dt, .hull = vq.get(), .hull_motion = motion.get(), .stop = stop_});
     motion.reset();
     previous_query_ = std::move(vq);
     previous_hull_ = std::move(current);  // points at *previous_query_, which moved with its pointer
