@@ -53,6 +53,7 @@ struct ClothConfig final : SceneElementConfig {
   std::string Describe() const override { return "a curtain"; }
   /// Check(), and a non-zero gravity (the curtain needs a down direction).
   void CheckIn(const SceneConfig& scene) const override;
+  std::vector<ObjectIdRange> ObjectIds() const override { return {{id, id, "cloth"}}; }
   /// A ClothSimulation under the scene's gravity, published as a VirtualMesh
   /// of kind cloth with its colliding triangles.
   std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const override;

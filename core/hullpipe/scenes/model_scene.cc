@@ -39,6 +39,15 @@ void ModelEntry::Check() const {
                                 " for motion: dynamic (use motion: static)");
 }
 
+std::vector<ObjectIdRange> ModelsConfig::ObjectIds() const {
+  std::vector<ObjectIdRange> out;
+  for (const ModelEntry& m : models) {
+    const int64_t parts = m.imported ? int64_t(std::max<size_t>(1, m.imported->parts.size())) : 1;
+    out.push_back({m.first_id, m.first_id + parts - 1, "models: " + m.file});
+  }
+  return out;
+}
+
 std::string ModelsConfig::Describe() const {
   std::ostringstream s;
   for (size_t k = 0; k < models.size(); ++k) {

@@ -118,6 +118,8 @@ struct ModelsConfig final : SceneElementConfig {
   std::string Key() const override { return "models"; }
   std::string Describe() const override;
   void CheckIn(const SceneConfig& scene) const override;
+  /// Per model, first_id + each part (one id where the file was not imported).
+  std::vector<ObjectIdRange> ObjectIds() const override;
   bool CanBeOnStage() const override { return true; }
   std::shared_ptr<const SceneElementConfig> PlaceOnStage(const Rigid3d& world_from_stage) const override;
   /// Each frameset: a dynamic model's parts moved in substeps (gravity, floor,

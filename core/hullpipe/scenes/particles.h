@@ -52,6 +52,7 @@ struct ParticleConfig final : SceneElementConfig {
   std::string Key() const override { return "particles"; }
   std::string Describe() const override { return "particles"; }
   void CheckIn(const SceneConfig& scene) const override;
+  std::vector<ObjectIdRange> ObjectIds() const override { return {{id, id, "particles"}}; }
   /// A ParticleSystem under the scene's gravity and floor, published as a
   /// VirtualMesh point set of kind particles with the touching ones.
   std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const override;

@@ -66,6 +66,8 @@ struct PayloadConfig final : SceneElementConfig {
   std::string Key() const override { return "payload"; }
   std::string Describe() const override { return "the payload task"; }
   void CheckIn(const SceneConfig& scene) const override;
+  /// PMT, payload A, shaft.
+  std::vector<ObjectIdRange> ObjectIds() const override { return {{first_id, first_id + 2, "payload"}}; }
   /// The task evaluated each step (EvaluatePayload): each part published as a
   /// VirtualMesh of kind part (id first_id + k, drawn red whole while it
   /// collides) with its clearance, and each part's collision starting or ending

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 
@@ -91,6 +92,24 @@ void SceneConfig::Check() const {
   if (triangles > kMaxBallTriangles)
     throw std::invalid_argument("scene: the balls have " + std::to_string(triangles) + " triangles together; at most " +
                                 std::to_string(kMaxBallTriangles) + " (fewer balls or subdivisions)");
+  // One object id, one thing drawn: render_node keys states and meshes by id.
+  std::vector<ObjectIdRange> ids;
+  for (const auto& b : balls) ids.push_back({b.id, b.id, "ball " + std::to_string(b.id)});
+  for (const auto& e : elements)
+    for (ObjectIdRange& r : e->ObjectIds()) ids.push_back(std::move(r));
+  std::sort(ids.begin(), ids.end(), [](const ObjectIdRange& a, const ObjectIdRange& b) { return a.first < b.first; });
+  auto text = [](const ObjectIdRange& r) {
+    return r.what + " (" + std::to_string(r.first) + (r.last > r.first ? ".." + std::to_string(r.last) : "") + ")";
+  };
+  for (const ObjectIdRange& r : ids)
+    if (r.first < 0 || r.last > int64_t(UINT32_MAX))
+      throw std::invalid_argument("scene: object id of " + text(r) + " must be in [0, 4294967295]");
+  for (size_t k = 1, widest = 0; k < ids.size(); ++k) {  // widest: the range reaching furthest so far
+    if (ids[k].first <= ids[widest].last)
+      throw std::invalid_argument("scene: object ids overlap: " + text(ids[widest]) + " and " + text(ids[k]) +
+                                  " (set id or first_id apart)");
+    widest = ids[k].last > ids[widest].last ? k : widest;
+  }
 }
 
 namespace {

@@ -69,6 +69,16 @@ TEST(SceneFiles, BadFilesNameTheKey) {
          return t;
        }(),
        "the balls have 1228800 triangles together; at most 1048576"},
+      // render_node keys what it draws by object id: a ball and the curtain
+      // both 100 drew one in place of the other.
+      {"balls: [{id: 100, radius: 0.1, start: [1, 0, -1], target: [0, 0, -1]}]\n"
+       "cloth: {rod_a: [0, -1, -2], rod_b: [0, 1, -2], length: 1}\n",
+       "object ids overlap: ball 100 (100) and cloth (100)"},
+      {"balls: []\ncloth: {id: 301, rod_a: [0, -1, -2], rod_b: [0, 1, -2], length: 1}\npayload: {spacing: 0.2}\n",
+       "object ids overlap: payload (300..302) and cloth (301)"},
+      {"balls: [{id: 2, radius: 0.1, start: [1, 0, -1], target: [0, 0, -1]},\n"
+       "        {radius: 0.1, start: [1, 0, -1], target: [0, 0, -1]}]\n",
+       "object ids overlap: ball 2 (2) and ball 2 (2)"},
       // A 2-MiB file is refused before it is parsed.
       {ball + "# " + std::string(2 << 20, 'x') + "\n", "2 MiB; a scene file is at most 1 MiB"},
   };

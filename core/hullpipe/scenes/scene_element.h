@@ -8,6 +8,7 @@
 // a scene element").
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -80,6 +81,13 @@ class SceneElement {
   virtual bool SetSpacing(double /*spacing_m*/) { return false; }
 };
 
+/// Object ids [first, last] that an element's outputs carry, and what carries
+/// them ("cloth", "models: engine.glb"), for the log line of a clash.
+struct ObjectIdRange {
+  int64_t first = 0, last = 0;
+  std::string what;
+};
+
 /// One element's settings as its scene-file section gives them. Immutable once
 /// read: a change (a new spacing) makes a new one.
 class SceneElementConfig {
@@ -94,6 +102,10 @@ class SceneElementConfig {
   virtual void CheckIn(const SceneConfig& scene) const = 0;
   /// The running element, in the scene's world (gravity, floor).
   virtual std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const = 0;
+  /// The object ids its states, meshes, parts and reports carry: render_node
+  /// keys what it draws by object id, so SceneConfig::Check refuses two
+  /// elements (or balls) sharing one.
+  virtual std::vector<ObjectIdRange> ObjectIds() const = 0;
   /// Whether a `frame: stage` scene may hold this kind (scene_config.h); false:
   /// its geometry is the world's, refused in a stage scene.
   virtual bool CanBeOnStage() const { return false; }
