@@ -2,8 +2,9 @@
 # newcomer finds each header's folder, library and purpose there. Run as a test:
 # cmake -DSOURCE_DIR=<repo> -P cmake/check_doc_headers.cmake. Prints one line per
 # header the document does not name and fails; prints a count otherwise.
-# Library headers: those of core/, gl/, nodes/, dds/, record/, launch/ and the
-# libraries in tools/ (tests, fuzz targets and benches have none to document).
+# Library headers: those of core/, gl/, nodes/, dds/, record/, launch/,
+# foxglove/ and the tools' own modules in tools/ (tests, fuzz targets and
+# benches have none to document).
 if(NOT SOURCE_DIR)
   message(FATAL_ERROR "check_doc_headers: pass -DSOURCE_DIR=<the repository>")
 endif()
@@ -14,7 +15,7 @@ endif()
 file(READ ${doc} text)
 file(GLOB_RECURSE headers RELATIVE ${SOURCE_DIR}
      ${SOURCE_DIR}/core/*.h ${SOURCE_DIR}/gl/*.h ${SOURCE_DIR}/nodes/*.h ${SOURCE_DIR}/dds/*.h
-     ${SOURCE_DIR}/record/*.h ${SOURCE_DIR}/launch/*.h ${SOURCE_DIR}/tools/*.h)
+     ${SOURCE_DIR}/record/*.h ${SOURCE_DIR}/launch/*.h ${SOURCE_DIR}/foxglove/*.h ${SOURCE_DIR}/tools/*.h)
 list(SORT headers)
 set(missing 0)
 foreach(h IN LISTS headers)

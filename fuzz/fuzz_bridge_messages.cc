@@ -1,5 +1,5 @@
 // libFuzzer: what a Foxglove WebSocket client sends hullpipe_bridge
-// (tools/bridge_state.h, BridgeState::OnText), as its text messages reach the
+// (hullpipe/foxglove/bridge_state.h, BridgeState::OnText), as its text messages reach the
 // protocol state: the input is one or more messages separated by NUL bytes,
 // from one client, with a sample routed after each. Beyond "no crash": every
 // reply is bounded (a status names at most kMaxEcho bytes of the input), a
@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "bridge_state.h"
+#include "hullpipe/foxglove/bridge_state.h"
 
 using hullpipe::bridge::BridgeState;
 using hullpipe::bridge::Channel;

@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "bridge_state.h"
-#include "foxglove_channels.h"
+#include "hullpipe/foxglove/bridge_state.h"
+#include "hullpipe/foxglove/channels.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/evaluation/synthetic.h"

@@ -4,7 +4,7 @@
 //                   [--queue-mib 16]
 // Then in Foxglove: Open connection -> Foxglove WebSocket -> ws://127.0.0.1:8765.
 // Advertises every hullpipe topic (cdr, with its type's omgidl schema) and the
-// viewable channels of foxglove_channels.h (Foxglove's well-known schemas, JSON:
+// viewable channels of hullpipe/foxglove/channels.h (Foxglove's well-known schemas, JSON:
 // camera images, object-pixel maps, calibrations and transforms, the composited
 // view and its hull points, the scene, node rates; a camera's channels from when
 // its calibration arrives), and streams what each client subscribes to. A
@@ -30,8 +30,8 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
-#include "bridge_state.h"
-#include "foxglove_channels.h"
+#include "hullpipe/foxglove/bridge_state.h"
+#include "hullpipe/foxglove/channels.h"
 #include "hullpipe/dds/cdr.h"
 #include "hullpipe/dds/node.h"
 #include "hullpipe/dds/topics.h"
@@ -40,7 +40,7 @@
 #include "hullpipe/pipeline/clock.h"
 #include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/util/logging.h"
-#include "ws_server.h"
+#include "hullpipe/foxglove/ws_server.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;

@@ -1,6 +1,6 @@
 // `hullpipe_record export --foxglove` (docs/recording.md, "Viewable channels"): an
 // MCAP file for people who want to look, not decode — the recording's own
-// channels (cdr, omgidl) beside the viewable channels of foxglove_channels.h
+// channels (cdr, omgidl) beside the viewable channels of hullpipe/foxglove/channels.h
 // (Foxglove's well-known schemas, JSON-encoded, `jsonschema` schemas), which
 // Foxglove and Lichtblick draw in their Image, 3D and Plot panels with no plugin.
 // Done at export, not while recording: the recorder keeps the traffic untouched
@@ -12,7 +12,7 @@
 #include <memory>
 #include <string>
 
-#include "foxglove_channels.h"
+#include "hullpipe/foxglove/channels.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/record/recording.h"
 

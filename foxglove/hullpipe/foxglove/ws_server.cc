@@ -1,4 +1,4 @@
-#include "ws_server.h"
+#include "hullpipe/foxglove/ws_server.h"
 
 #include <map>
 #include <set>

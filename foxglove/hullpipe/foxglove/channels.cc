@@ -1,4 +1,4 @@
-#include "foxglove_channels.h"
+#include "hullpipe/foxglove/channels.h"
 
 #include <cmath>
 #include <cstdlib>

@@ -1,4 +1,4 @@
-#include "bridge_state.h"
+#include "hullpipe/foxglove/bridge_state.h"
 
 #include <algorithm>
 
