@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "hullpipe/foxglove/bridge_channels.h"
 #include "hullpipe/foxglove/bridge_state.h"
 #include "hullpipe/foxglove/channels.h"
 #include "hullpipe/dds/cdr.h"
@@ -172,6 +173,56 @@ TEST(BridgeState, LateChannelsAreAdvertisedAndLatchedStateReachesLateSubscribers
 // for byte; a channel nobody wants costs nothing; a CAD model's part sent when
 // it first has a pose and again only when its contact changes; bytes that do
 // not decode refused; the per-camera topics parsed back.
+// The bridge's channel table: hullpipe's types first (type i on channel i + 1),
+// a camera's viewable channels added once when its first message comes, at
+// most kMaxCameras cameras; and the readers the wanted channels need.
+TEST(BridgeChannels, CamerasJoinOnceUpToTheBoundAndWantedChannelsNameTheirReaders) {
+  const auto& types = dds::KnownTypes();
+  foxglove::BridgeChannels table(types);
+  const size_t initial = table.channels().size();
+  ASSERT_GT(initial, types.size());  // the fixed viewable channels follow the types
+  for (size_t i = 0; i < types.size(); ++i) {
+    EXPECT_EQ(table.channels()[i].id, uint32_t(i + 1));
+    EXPECT_EQ(table.channels()[i].topic, types[i].topic_name);
+  }
+  std::vector<Channel> added;
+  const auto cam3 = table.ChannelOf("/foxglove/cam3/image", &added);
+  ASSERT_TRUE(cam3);
+  ASSERT_EQ(added.size(), 3u);  // image, object_pixel_map, calibration
+  EXPECT_EQ(table.channels().size(), initial + 3);
+  added.clear();
+  EXPECT_EQ(table.ChannelOf("/foxglove/cam3/calibration", &added).has_value(), true);
+  EXPECT_TRUE(added.empty()) << "a camera's channels are advertised once";
+  EXPECT_FALSE(table.ChannelOf("/foxglove/no_such_topic", &added));
+  // The bound: kMaxCameras cameras in all; the next is refused and counted.
+  for (uint32_t cam = 100; cam < 100 + foxglove::BridgeChannels::kMaxCameras - 1; ++cam)
+    ASSERT_TRUE(table.ChannelOf("/foxglove/cam" + std::to_string(cam) + "/image", &added)) << cam;
+  EXPECT_EQ(table.refused(), 0u);
+  EXPECT_FALSE(table.ChannelOf("/foxglove/cam999/image", &added));
+  EXPECT_FALSE(table.ChannelOf("/foxglove/cam999/image", &added));
+  EXPECT_EQ(table.refused(), 2u);
+  EXPECT_EQ(table.first_refused_camera(), 999);
+  // Readers: a raw channel needs its own type; camera 3's image channel needs
+  // the types it is derived from, never CameraInfo (always read).
+  auto index = [&](const std::string& type_name) {
+    for (size_t i = 0; i < types.size(); ++i)
+      if (types[i].type_name == type_name) return i;
+    return size_t(-1);
+  };
+  const size_t map_type = index("hullpipe::msg::ObjectPixelMap");
+  foxglove::BridgeChannels::Needs needs = table.ReadersFor({uint32_t(map_type + 1)});
+  EXPECT_EQ(needs.raw, std::set<size_t>{map_type});
+  EXPECT_TRUE(needs.derived.empty());
+  needs = table.ReadersFor({*cam3});
+  EXPECT_TRUE(needs.raw.empty());
+  EXPECT_EQ(needs.derived.count(index("hullpipe::msg::CameraImage")), 1u);
+  EXPECT_EQ(needs.derived.count(table.camera_info()), 0u);
+  EXPECT_EQ(needs.all, needs.derived);
+  EXPECT_TRUE(table.IsWanted("/foxglove/cam3/image", {*cam3}));
+  EXPECT_FALSE(table.IsWanted("/foxglove/cam3/image", {}));
+  EXPECT_TRUE(table.ReadersFor({}).all.empty());  // no client: no reader but the calibration's
+}
+
 TEST(Foxglove, DerivesTheViewableChannelsFromSamplesOnTheWire) {
   const auto dir = test::TempDir("foxglove_derive");
   setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);

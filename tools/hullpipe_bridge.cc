@@ -21,6 +21,7 @@
 #include <chrono>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <memory>
 #include <mutex>
 #include <random>
@@ -30,6 +31,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include "hullpipe/foxglove/bridge_channels.h"
 #include "hullpipe/foxglove/bridge_state.h"
 #include "hullpipe/foxglove/channels.h"
 #include "hullpipe/dds/cdr.h"
@@ -64,29 +66,10 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     auto participant = StartNode("bridge", common);
-    // Channels 1..N: the hullpipe topics (type i has channel i + 1); then the
-    // viewable ones.
-    std::vector<bridge::Channel> channels;
+    // The channels (foxglove/bridge_channels.h), used on this (the DDS) thread only.
     const auto& types = KnownTypes();
-    for (size_t i = 0; i < types.size(); ++i)
-      channels.push_back({uint32_t(i + 1), types[i].topic_name, "cdr", types[i].type_name, IdlText(), "omgidl"});
-    const auto type_index = [&](const std::string& type_name) {
-      for (size_t i = 0; i < types.size(); ++i)
-        if (types[i].type_name == type_name) return i;
-      throw std::logic_error("no hullpipe type " + type_name);
-    };
-    const size_t camera_info = type_index("hullpipe::msg::CameraInfo");
-    uint32_t next_id = uint32_t(types.size() + 1);
-    std::map<std::string, uint32_t> viewable;             // topic -> channel (DDS thread only)
-    std::map<uint32_t, std::vector<size_t>> sources;      // viewable channel -> the types it is made from
-    const auto add_viewable = [&](const foxglove::ChannelSpec& c) {
-      const uint32_t id = next_id++;
-      viewable[c.topic] = id;
-      for (const auto& t : foxglove::SourceTypes(c.topic)) sources[id].push_back(type_index(t));
-      return bridge::Channel{id, c.topic, "json", c.schema_name, c.schema, "jsonschema"};
-    };
-    for (const auto& c : foxglove::FixedChannels()) channels.push_back(add_viewable(c));
-    bridge::BridgeState state(channels, max_clients, "hullpipe_bridge");
+    foxglove::BridgeChannels table(types);
+    bridge::BridgeState state(table.channels(), max_clients, "hullpipe_bridge");
     SystemClock clock;
     NodeCounters counters(clock);
     NodeReporter reporter(*participant, "bridge", counters);
@@ -146,61 +129,45 @@ int main(int argc, char** argv) {
     spdlog::info("listening on ws://{}:{} (Foxglove: Open connection -> Foxglove WebSocket)", address, bound);
 
     // The viewable channels' derivation. A camera's channels are advertised
-    // when its calibration first arrives (at most Rig::kMaxCameras of them:
-    // further camera ids are counted as rejected and named once).
+    // when its calibration first arrives (at most BridgeChannels::kMaxCameras
+    // cameras: further camera ids are counted as rejected and named once).
     std::set<uint32_t> wanted;  // channels some client is subscribed to (refreshed each pass)
-    std::set<int64_t> cameras;
-    constexpr size_t kMaxCameras = Rig::kMaxCameras;
-    uint64_t cameras_refused = 0;
     const auto sink = [&](foxglove::Message m) {
-      auto it = viewable.find(m.topic);
-      if (it == viewable.end()) {
-        const int64_t cam = foxglove::CameraOfTopic(m.topic);
-        if (cam < 0 || cameras.count(cam)) return;
-        if (cameras.size() >= kMaxCameras) {
-          counters.Rejected();
-          if (cameras_refused++ == 0)
-            spdlog::warn("camera {} is past the bridge's {} cameras: its viewable channels are not advertised", cam,
-                         kMaxCameras);
-          return;
-        }
-        cameras.insert(cam);
-        std::vector<bridge::Channel> more;
-        for (const auto& c : foxglove::CameraChannels(uint32_t(cam))) more.push_back(add_viewable(c));
-        for (const auto& o : state.Advertise(more)) send(o);
-        it = viewable.find(m.topic);
+      std::vector<bridge::Channel> added;
+      const uint64_t refused = table.refused();
+      const std::optional<uint32_t> channel = table.ChannelOf(m.topic, &added);
+      if (!added.empty())
+        for (const auto& o : state.Advertise(added)) send(o);
+      if (table.refused() > refused) {
+        counters.Rejected();
+        if (refused == 0)
+          spdlog::warn("camera {} is past the bridge's {} cameras: its viewable channels are not advertised",
+                       table.first_refused_camera(), foxglove::BridgeChannels::kMaxCameras);
       }
+      if (!channel) return;
       const std::vector<uint8_t> bytes(m.json.begin(), m.json.end());
       const uint64_t now = uint64_t(NowNs());
-      if (!m.latch_key.empty()) state.Latch(it->second, m.latch_key, now, bytes);
-      for (const auto& o : state.Route(it->second, now, bytes)) send(o);
+      if (!m.latch_key.empty()) state.Latch(*channel, m.latch_key, now, bytes);
+      for (const auto& o : state.Route(*channel, now, bytes)) send(o);
     };
-    foxglove::Deriver deriver(*participant, sink, [&](const std::string& topic) {
-      const auto it = viewable.find(topic);
-      return it != viewable.end() && wanted.count(it->second) > 0;
-    });
+    foxglove::Deriver deriver(*participant, sink,
+                              [&](const std::string& topic) { return table.IsWanted(topic, wanted); });
 
     // DDS: the calibration always (the cameras' channels and latched state come
     // from it; reliable, transient-local, one sample per camera), and a reader
     // per type some subscribed channel needs, made when the first client
     // subscribes and removed when the last one leaves.
-    const KnownType& info_type = types[camera_info];
+    const KnownType& info_type = types[table.camera_info()];
     CdrReader calibration(*participant, info_type, QosSpec{true, true, 1});
     std::map<size_t, std::unique_ptr<CdrReader>> readers;  // by type index
     while (!StopRequested()) {
       wanted = state.Wanted();
-      std::set<size_t> raw, derived;
-      for (uint32_t ch : wanted) {
-        if (ch <= types.size()) raw.insert(ch - 1);
-        const auto src = sources.find(ch);
-        if (src != sources.end()) derived.insert(src->second.begin(), src->second.end());
-      }
-      derived.erase(camera_info);  // from the calibration reader above
-      std::set<size_t> needed = raw;
-      needed.insert(derived.begin(), derived.end());
+      const foxglove::BridgeChannels::Needs needs = table.ReadersFor(wanted);
+      const std::set<size_t>& raw = needs.raw;
+      const std::set<size_t>& derived = needs.derived;
       for (auto it = readers.begin(); it != readers.end();)
-        it = needed.count(it->first) ? std::next(it) : readers.erase(it);
-      for (size_t t : needed)
+        it = needs.all.count(it->first) ? std::next(it) : readers.erase(it);
+      for (size_t t : needs.all)
         if (!readers.count(t)) {
           const KnownType& kt = types[t];
           // Best-effort for streams (writers never wait for the bridge); reliable
