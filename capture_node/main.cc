@@ -53,12 +53,9 @@ class CaptureWriters final : public nodes::CaptureSink {
 }  // namespace
 
 int main(int argc, char** argv) {
-  hullpipe::LogToStderr("capture");  // stdout carries only what a user asked for
-  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe capture_node: cameras -> object-pixel maps + colour images over DDS"};
   CommonOptions common;
-  AddCommonOptions(app, common);
-  AddRunIdOption(app, common);
+  OpenCommandLine(argc, argv, "capture", app, common, /*with_run_id=*/true);
   nodes::CaptureFlags flags;
   flags.Register(app);
   CLI11_PARSE(app, argc, argv);

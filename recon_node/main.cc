@@ -31,12 +31,9 @@ class TileWriter final : public nodes::ReconSink {
 }  // namespace
 
 int main(int argc, char** argv) {
-  hullpipe::LogToStderr("recon");  // stdout carries only what a user asked for
-  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe recon_node: object-pixel maps + ViewPose -> HullView tile"};
   CommonOptions common;
-  AddCommonOptions(app, common);
-  AddRunIdOption(app, common);
+  OpenCommandLine(argc, argv, "recon", app, common, /*with_run_id=*/true);
   nodes::ReconFlags flags;
   flags.Register(app);
   FramesetOptions frameset_options;

@@ -50,12 +50,9 @@ class Outputs final : public nodes::RenderSink {
 }  // namespace
 
 int main(int argc, char** argv) {
-  hullpipe::LogToStderr("render");  // stdout carries only what a user asked for
-  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe render_node: viewpoint, tile assembly, compositing, outputs"};
   CommonOptions common;
-  AddCommonOptions(app, common);
-  AddRunIdOption(app, common);
+  OpenCommandLine(argc, argv, "render", app, common, /*with_run_id=*/true);
   nodes::RenderFlags flags;
   flags.Register(app);
   FramesetOptions frameset_options;

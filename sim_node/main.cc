@@ -40,12 +40,9 @@ class SimWriters final : public nodes::SimSink {
 }  // namespace
 
 int main(int argc, char** argv) {
-  hullpipe::LogToStderr("sim");  // stdout carries only what a user asked for
-  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe sim_node: virtual scene colliding with the visual hull"};
   CommonOptions common;
-  AddCommonOptions(app, common);
-  AddRunIdOption(app, common);
+  OpenCommandLine(argc, argv, "sim", app, common, /*with_run_id=*/true);
   std::string scene_path;
   app.add_option("--scene", scene_path, "Scene file (YAML); default: one ball");
   std::string rig_path;

@@ -49,11 +49,9 @@ using namespace hullpipe::dds;
 using hullpipe::bridge::WsServer;
 
 int main(int argc, char** argv) {
-  hullpipe::LogToStderr("hullpipe_bridge");
-  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_bridge: a live view of the pipeline over the Foxglove WebSocket protocol"};
   CommonOptions common;
-  AddCommonOptions(app, common);
+  OpenCommandLine(argc, argv, "hullpipe_bridge", app, common);
   std::string address = "127.0.0.1";
   int port = 8765, max_clients = 8;
   double queue_mib = 16;

@@ -53,11 +53,9 @@ int Send(const Participant& participant, const T& msg, double timeout, const std
 }  // namespace
 
 int main(int argc, char** argv) {
-  hullpipe::LogToStderr("hullpipe_cmd");  // stdout carries only what a user asked for
-  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_cmd: change the running virtual scene, trigger a recorder's snapshot, steer a replay"};
   CommonOptions common;
-  AddCommonOptions(app, common);
+  OpenCommandLine(argc, argv, "hullpipe_cmd", app, common);
   double timeout = 10;
   app.add_option("--timeout", timeout, "Seconds to wait for a listener")->capture_default_str();
   double spacing = 0, seek = 0, rate = 1;

@@ -33,12 +33,10 @@ using namespace hullpipe::dds;
 using namespace hullpipe::record;
 
 int main(int argc, char** argv) {
-  hullpipe::LogToStderr("hullpipe_record");  // stdout carries only what a user asked for
-  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_record: record a domain's DDS traffic (serialized) into SQLite or MCAP"};
   RecordOptions ro;
   const CommonOptions& common = ro.common;
-  AddCommonOptions(app, ro.common);
+  OpenCommandLine(argc, argv, "hullpipe_record", app, ro.common);
   ro.snapshot.seconds = 0;
   app.add_option("-o,--output", ro.out,
                  "Recording to create (never overwritten): a file, or a directory with --split-* and --snapshot-*");

@@ -47,11 +47,9 @@ const std::vector<std::string> kInputTopics = {"hullpipe/camera_info", "hullpipe
 }  // namespace
 
 int main(int argc, char** argv) {
-  hullpipe::LogToStderr("hullpipe_replay");  // stdout carries only what a user asked for
-  hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_replay: publish a recording with its original QoS and timing"};
   CommonOptions common;
-  AddCommonOptions(app, common);
+  OpenCommandLine(argc, argv, "hullpipe_replay", app, common);
   std::string path;
   PlayerOptions po;
   int wait_readers = 0;

@@ -25,6 +25,14 @@ void AddCommonOptions(CLI::App& app, CommonOptions& o) {
       ->capture_default_str();
 }
 
+void OpenCommandLine(int argc, char** argv, const std::string& log_name, CLI::App& app, CommonOptions& options,
+                     bool with_run_id) {
+  LogToStderr(log_name);
+  SetCommandLine(argc, argv);
+  AddCommonOptions(app, options);
+  if (with_run_id) AddRunIdOption(app, options);
+}
+
 void AddRunIdOption(CLI::App& app, CommonOptions& o) {
   app.add_option_function<std::string>(
          "--run-id",

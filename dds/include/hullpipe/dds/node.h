@@ -31,6 +31,12 @@ struct CommonOptions {
 void AddCommonOptions(CLI::App& app, CommonOptions& options);
 /// Adds the nodes' --run-id (1 to 16 hex digits, not zero) into options.run_id.
 void AddRunIdOption(CLI::App& app, CommonOptions& options);
+/// The opening every executable on the domain shares: its log on stderr as
+/// `log_name` (stdout carries only what a user asked for), its command line
+/// kept for its NodeStats (util/logging.h), and the common flags on `app`
+/// (AddCommonOptions; AddRunIdOption where `with_run_id`: the pipeline's nodes).
+void OpenCommandLine(int argc, char** argv, const std::string& log_name, CLI::App& app, CommonOptions& options,
+                     bool with_run_id = false);
 
 /// Sets up logging (one line per message, "[node] ..."), exports CYCLONEDDS_URI
 /// if --dds-config was given, installs the SIGINT/SIGTERM stop handler and
