@@ -221,23 +221,21 @@ std::unique_ptr<SceneElement> ClothConfig::Make(const SceneConfig& scene) const 
 
 std::shared_ptr<const SceneElementConfig> ReadClothSection(const YAML::Node& n, const std::string& path) {
   using namespace scene_yaml;
-  Keys(n, path, "cloth",
-       {"id", "rod_a", "rod_b", "length", "nx", "ny", "iterations", "damping", "max_substep", "clearance",
-        "max_search", "max_pixel_size"},
-       {"rod_a", "rod_b", "length"});
   auto c = std::make_shared<ClothConfig>();
-  Get(n, "id", &c->id);
-  c->rod_a = Vec3(n, path, "rod_a", c->rod_a);
-  c->rod_b = Vec3(n, path, "rod_b", c->rod_b);
-  Get(n, "length", &c->length);
-  Get(n, "nx", &c->nx);
-  Get(n, "ny", &c->ny);
-  Get(n, "iterations", &c->iterations);
-  Get(n, "damping", &c->damping);
-  Get(n, "max_substep", &c->max_substep);
-  Get(n, "clearance", &c->clearance);
-  Get(n, "max_search", &c->max_search);
-  Get(n, "max_pixel_size", &c->collision.max_pixel_size);
+  Section(n, path, "cloth")
+      .Field("id", &c->id)
+      .Vec("rod_a", &c->rod_a, Need::kRequired)
+      .Vec("rod_b", &c->rod_b, Need::kRequired)
+      .Field("length", &c->length, Need::kRequired)
+      .Field("nx", &c->nx)
+      .Field("ny", &c->ny)
+      .Field("iterations", &c->iterations)
+      .Field("damping", &c->damping)
+      .Field("max_substep", &c->max_substep)
+      .Field("clearance", &c->clearance)
+      .Field("max_search", &c->max_search)
+      .Field("max_pixel_size", &c->collision.max_pixel_size)
+      .Read();
   return c;
 }
 

@@ -171,25 +171,23 @@ std::unique_ptr<SceneElement> ParticleConfig::Make(const SceneConfig& scene) con
 
 std::shared_ptr<const SceneElementConfig> ReadParticlesSection(const YAML::Node& n, const std::string& path) {
   using namespace scene_yaml;
-  Keys(n, path, "particles",
-       {"id", "emitter", "emitter_radius", "velocity", "velocity_jitter", "rate", "max_particles", "lifetime",
-        "restitution", "friction", "radius", "clearance", "max_substep", "seed"},
-       {"emitter", "velocity"});
   auto c = std::make_shared<ParticleConfig>();
-  Get(n, "id", &c->id);
-  c->emitter = Vec3(n, path, "emitter", c->emitter);
-  Get(n, "emitter_radius", &c->emitter_radius);
-  c->velocity = Vec3(n, path, "velocity", c->velocity);
-  Get(n, "velocity_jitter", &c->velocity_jitter);
-  Get(n, "rate", &c->rate);
-  Get(n, "max_particles", &c->max_particles);
-  Get(n, "lifetime", &c->lifetime);
-  Get(n, "restitution", &c->restitution);
-  Get(n, "friction", &c->friction);
-  Get(n, "radius", &c->radius);
-  Get(n, "clearance", &c->clearance);
-  Get(n, "max_substep", &c->max_substep);
-  Get(n, "seed", &c->seed);
+  Section(n, path, "particles")
+      .Field("id", &c->id)
+      .Vec("emitter", &c->emitter, Need::kRequired)
+      .Field("emitter_radius", &c->emitter_radius)
+      .Vec("velocity", &c->velocity, Need::kRequired)
+      .Field("velocity_jitter", &c->velocity_jitter)
+      .Field("rate", &c->rate)
+      .Field("max_particles", &c->max_particles)
+      .Field("lifetime", &c->lifetime)
+      .Field("restitution", &c->restitution)
+      .Field("friction", &c->friction)
+      .Field("radius", &c->radius)
+      .Field("clearance", &c->clearance)
+      .Field("max_substep", &c->max_substep)
+      .Field("seed", &c->seed)
+      .Read();
   return c;
 }
 

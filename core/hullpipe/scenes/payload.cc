@@ -318,21 +318,20 @@ std::unique_ptr<SceneElement> PayloadConfig::Make(const SceneConfig&) const {
 
 std::shared_ptr<const SceneElementConfig> ReadPayloadSection(const YAML::Node& n, const std::string& path) {
   using namespace scene_yaml;
-  Keys(n, path, "payload",
-       {"first_id", "pmt_centre", "pmt_half", "axis", "direction", "spacing", "a_half", "shaft_radius",
-        "shaft_length", "max_clearance", "max_pixel_size"});
   auto c = std::make_shared<PayloadConfig>();
-  Get(n, "first_id", &c->first_id);
-  c->pmt_centre = Vec3(n, path, "pmt_centre", c->pmt_centre);
-  c->pmt_half = Vec3(n, path, "pmt_half", c->pmt_half);
-  Get(n, "axis", &c->axis);
-  Get(n, "direction", &c->direction);
-  Get(n, "spacing", &c->spacing);
-  c->a_half = Vec3(n, path, "a_half", c->a_half);
-  Get(n, "shaft_radius", &c->shaft_radius);
-  Get(n, "shaft_length", &c->shaft_length);
-  Get(n, "max_clearance", &c->max_clearance);
-  Get(n, "max_pixel_size", &c->collision.max_pixel_size);
+  Section(n, path, "payload")
+      .Field("first_id", &c->first_id)
+      .Vec("pmt_centre", &c->pmt_centre)
+      .Vec("pmt_half", &c->pmt_half)
+      .Field("axis", &c->axis)
+      .Field("direction", &c->direction)
+      .Field("spacing", &c->spacing)
+      .Vec("a_half", &c->a_half)
+      .Field("shaft_radius", &c->shaft_radius)
+      .Field("shaft_length", &c->shaft_length)
+      .Field("max_clearance", &c->max_clearance)
+      .Field("max_pixel_size", &c->collision.max_pixel_size)
+      .Read();
   return c;
 }
 

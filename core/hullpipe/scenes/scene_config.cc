@@ -114,24 +114,24 @@ void SceneConfig::Check() const {
 
 namespace {
 
-using scene_yaml::Get;
 using scene_yaml::Keys;
+using scene_yaml::Need;
+using scene_yaml::Section;
 using scene_yaml::Vec3;
 
 LightConfig ParseLight(const YAML::Node& n, const std::string& path) {
-  Keys(n, path, "light",
-       {"position", "target", "fov_deg", "map_size", "planes", "refine", "bias", "ambient", "hull_diffuse"},
-       {"position", "target"});
   LightConfig c;
-  c.position = Vec3(n, path, "position", c.position);
-  c.target = Vec3(n, path, "target", c.target);
-  Get(n, "fov_deg", &c.fov_deg);
-  Get(n, "map_size", &c.map_size);
-  Get(n, "planes", &c.planes);
-  Get(n, "refine", &c.refine);
-  Get(n, "bias", &c.bias);
-  Get(n, "ambient", &c.ambient);
-  Get(n, "hull_diffuse", &c.hull_diffuse);
+  Section(n, path, "light")
+      .Vec("position", &c.position, Need::kRequired)
+      .Vec("target", &c.target, Need::kRequired)
+      .Field("fov_deg", &c.fov_deg)
+      .Field("map_size", &c.map_size)
+      .Field("planes", &c.planes)
+      .Field("refine", &c.refine)
+      .Field("bias", &c.bias)
+      .Field("ambient", &c.ambient)
+      .Field("hull_diffuse", &c.hull_diffuse)
+      .Read();
   return c;
 }
 
@@ -181,10 +181,11 @@ SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& loa
       }
     }
     if (const YAML::Node c = root["collision"]) {
-      Keys(c, path, "collision", {"max_pixel_size", "fixed_viewport", "max_viewport"});
-      if (c["max_pixel_size"]) cfg.collision.max_pixel_size = c["max_pixel_size"].as<double>();
-      if (c["fixed_viewport"]) cfg.collision.fixed_viewport = c["fixed_viewport"].as<int>();
-      if (c["max_viewport"]) cfg.collision.max_viewport = c["max_viewport"].as<int>();
+      Section(c, path, "collision")
+          .Field("max_pixel_size", &cfg.collision.max_pixel_size)
+          .Field("fixed_viewport", &cfg.collision.fixed_viewport)
+          .Field("max_viewport", &cfg.collision.max_viewport)
+          .Read();
     }
     if (root["response"]) {
       const std::string r = root["response"].as<std::string>();
@@ -192,10 +193,11 @@ SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& loa
       cfg.response = r == "exact" ? SceneConfig::Response::kExact : SceneConfig::Response::kPaper;
     }
     if (const YAML::Node v = root["hull_velocity"]) {
-      Keys(v, path, "hull_velocity", {"enabled", "max_speed", "max_interval"});
-      if (v["enabled"]) cfg.hull_velocity.enabled = v["enabled"].as<bool>();
-      if (v["max_speed"]) cfg.hull_velocity.max_speed = v["max_speed"].as<double>();
-      if (v["max_interval"]) cfg.hull_velocity.max_interval = v["max_interval"].as<double>();
+      Section(v, path, "hull_velocity")
+          .Field("enabled", &cfg.hull_velocity.enabled)
+          .Field("max_speed", &cfg.hull_velocity.max_speed)
+          .Field("max_interval", &cfg.hull_velocity.max_interval)
+          .Read();
     }
     if (root["max_substep"]) cfg.max_substep = root["max_substep"].as<double>();
     if (const YAML::Node balls = root["balls"]) {
@@ -203,18 +205,18 @@ SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& loa
       cfg.balls.clear();
       int index = 0;
       for (const auto& b : balls) {
-        Keys(b, path, "balls[" + std::to_string(index) + "]",
-             {"id", "radius", "start", "target", "flight_time", "restitution", "rethrow_period", "subdivisions"},
-             {"radius", "start", "target"});
         BallConfig bc;
-        bc.id = b["id"] ? b["id"].as<int>() : index + 1;
-        if (b["radius"]) bc.radius = b["radius"].as<double>();
-        bc.start = Vec3(b, path, "start", bc.start);
-        bc.target = Vec3(b, path, "target", bc.target);
-        if (b["flight_time"]) bc.flight_time = b["flight_time"].as<double>();
-        if (b["restitution"]) bc.restitution = b["restitution"].as<double>();
-        if (b["rethrow_period"]) bc.rethrow_period = b["rethrow_period"].as<double>();
-        if (b["subdivisions"]) bc.subdivisions = b["subdivisions"].as<int>();
+        bc.id = index + 1;
+        Section(b, path, "balls[" + std::to_string(index) + "]")
+            .Field("id", &bc.id)
+            .Field("radius", &bc.radius, Need::kRequired)
+            .Vec("start", &bc.start, Need::kRequired)
+            .Vec("target", &bc.target, Need::kRequired)
+            .Field("flight_time", &bc.flight_time)
+            .Field("restitution", &bc.restitution)
+            .Field("rethrow_period", &bc.rethrow_period)
+            .Field("subdivisions", &bc.subdivisions)
+            .Read();
         cfg.balls.push_back(bc);
         ++index;
       }

@@ -3,9 +3,11 @@
 // misspelt ones the same way. Included by the scenes module's sources only.
 #pragma once
 
+#include <functional>
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -46,5 +48,51 @@ inline void Keys(const YAML::Node& n, const std::string& path, const std::string
   for (const char* k : required)
     if (!n[k]) throw std::runtime_error(path + ": key '" + where + k + "' is missing");
 }
+
+/// Whether a Section's key must be present.
+enum class Need { kOptional, kRequired };
+
+/// One section read field by field, each key named once: every Field and Vec
+/// binds a key to where its value goes; Read() first refuses a key no field
+/// names and a required key that is missing (as Keys: misspelt keys are named
+/// before any value is read), then reads each key present into its field.
+/// Errors: std::runtime_error naming the file and "section.key"; a value of the
+/// wrong type, YAML::Exception (LoadSceneConfig prefixes the file).
+class Section {
+ public:
+  Section(const YAML::Node& n, std::string path, std::string name)
+      : n_(n), path_(std::move(path)), name_(std::move(name)) {}
+  /// *out = the key's value, when present.
+  template <typename T>
+  Section& Field(const char* key, T* out, Need need = Need::kOptional) {
+    Bind(key, need, [this, key, out] { *out = n_[key].template as<T>(); });
+    return *this;
+  }
+  /// *out = the key's 3 numbers, when present.
+  Section& Vec(const char* key, Eigen::Vector3d* out, Need need = Need::kOptional) {
+    Bind(key, need, [this, key, out] { *out = Vec3(n_, path_, key, *out); });
+    return *this;
+  }
+  void Read() const {
+    Keys(n_, path_, name_, known_, {});
+    const std::string where = name_.empty() ? "" : name_ + ".";
+    for (const char* k : required_)
+      if (!n_[k]) throw std::runtime_error(path_ + ": key '" + where + k + "' is missing");
+    for (size_t i = 0; i < known_.size(); ++i)
+      if (n_[known_[i]]) readers_[i]();
+  }
+
+ private:
+  void Bind(const char* key, Need need, std::function<void()> read) {
+    known_.push_back(key);
+    if (need == Need::kRequired) required_.push_back(key);
+    readers_.push_back(std::move(read));
+  }
+  YAML::Node n_;
+  std::string path_, name_;
+  std::vector<std::string> known_;
+  std::vector<const char*> required_;
+  std::vector<std::function<void()>> readers_;
+};
 
 }  // namespace hullpipe::scene_yaml
