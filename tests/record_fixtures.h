@@ -6,11 +6,17 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
 #include <optional>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "hullpipe/record/recording.h"
+#include "hullpipe/record/repair.h"
 
 namespace hullpipe::test {
 
@@ -48,6 +54,51 @@ inline std::vector<record::Sample> ReadAll(const record::RecordingReader& r,
         return true;
       },
       ids);
+  return out;
+}
+
+/// What every storage's repair owes a file cut short (docs/recording.md,
+/// "Repair"): `path` holds `bytes` up to `cut`; it repairs into
+/// path + ".repaired" + extension, leaves its input as it was, and the repaired
+/// file reads whole, its samples as the report counts, each one of `original`
+/// (by arrival) unchanged, in arrival order. nullopt where repair refused the
+/// file, as it may only before `header_bytes` (the cut took the storage's
+/// header); then the one error names the file.
+struct RepairedCut {
+  record::RepairReport report;
+  std::vector<record::Sample> samples;
+};
+inline std::optional<RepairedCut> RepairTheCut(const std::string& path, const std::string& bytes, size_t cut,
+                                               size_t header_bytes, const std::string& extension,
+                                               const std::map<int64_t, record::Sample>& original) {
+  const std::string fixed = path + ".repaired" + extension;
+  std::filesystem::remove(fixed);
+  RepairedCut out;
+  try {
+    out.report = record::Repair(path, fixed);
+  } catch (const record::RecordingError& e) {
+    EXPECT_LT(cut, header_bytes) << "a file with its header was not repaired: " << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    return std::nullopt;
+  }
+  std::ifstream in(path, std::ios::binary);
+  const std::string now((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(now, bytes.substr(0, cut)) << "repair changed its input";
+  const record::RecordingReader r(fixed);
+  out.samples = ReadAll(r);
+  EXPECT_EQ(int64_t(out.samples.size()), out.report.samples) << cut;
+  EXPECT_EQ(r.Info().damage, "") << cut;
+  for (size_t i = 0; i < out.samples.size(); ++i) {
+    const auto it = original.find(out.samples[i].arrival_ns);
+    if (it == original.end()) {
+      ADD_FAILURE() << "cut " << cut << ": a sample that was never written";
+      break;
+    }
+    EXPECT_TRUE(it->second.data == out.samples[i].data) << "cut " << cut << ": a changed sample";
+    if (i) {
+      EXPECT_LT(out.samples[i - 1].arrival_ns, out.samples[i].arrival_ns) << "cut " << cut << ": out of order";
+    }
+  }
   return out;
 }
 

@@ -266,31 +266,11 @@ TEST(RecordingStorage, AFileCutAtAnyByteOpensRepairsAndReplaysWhatItHolds) {
       } catch (const RecordingError& e) {
         EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
       }
-      const std::string fixed = path + ".repaired.hprec";
-      std::filesystem::remove(fixed);
-      RepairReport rep;
-      try {
-        rep = Repair(path, fixed);
-      } catch (const RecordingError& e) {
-        EXPECT_LT(cut, 100u) << "a file with its header was not repaired: " << e.what();
-        continue;
-      }
-      EXPECT_EQ(test::ReadFile(path), bytes.substr(0, cut)) << "repair changed its input";
-      const RecordingReader r(fixed);
-      const auto got = ReadAll(r);
-      EXPECT_EQ(int64_t(got.size()), rep.samples);
-      EXPECT_EQ(r.Info().damage, "") << cut;
-      for (size_t i = 0; i < got.size(); ++i) {
-        const auto it = original.find(got[i].arrival_ns);
-        ASSERT_TRUE(it != original.end()) << "cut " << cut << ": a sample that was never written";
-        EXPECT_TRUE(it->second.data == got[i].data) << "cut " << cut << ": a changed sample";
-        if (i) {
-          EXPECT_LT(got[i - 1].arrival_ns, got[i].arrival_ns) << "out of order";
-        }
-      }
+      const std::optional<test::RepairedCut> repaired = test::RepairTheCut(path, bytes, cut, 100, ".hprec", original);
+      if (!repaired) continue;
       if (cut == bytes.size()) {
-        recovered_at_full = rep.samples;
-        EXPECT_FALSE(r.Info().interrupted);  // it was closed
+        recovered_at_full = repaired->report.samples;
+        EXPECT_FALSE(RecordingReader(path + ".repaired.hprec").Info().interrupted);  // it was closed
       }
     }
     EXPECT_EQ(recovered_at_full, int64_t(written.size())) << CompressionName(c);
