@@ -221,6 +221,20 @@ bool IsText(const std::vector<Value>& r, size_t i) { return i < r.size() && Kind
 int64_t Int(const std::vector<Value>& r, size_t i) { return std::get<int64_t>(r[i]); }
 const std::string& Str(const std::vector<Value>& r, size_t i) { return std::get<std::string>(r[i]); }
 
+// The repaired file's meta: the input's (but what its writer sets itself:
+// format, compression, closed_ns), where it came from and when, and whether the
+// input was interrupted (docs/recording.md, "Repair").
+void CarryMeta(const std::map<std::string, std::string>& meta, const std::string& in, bool was_closed,
+               RecordingWriter* w) {
+  for (const auto& [k, v] : meta)
+    if (k != "format" && k != "compression" && k != "closed_ns") w->SetMeta(k, v);
+  w->SetMeta("repaired_from", in);
+  w->SetMeta("repaired_ns", std::to_string(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                                std::chrono::system_clock::now().time_since_epoch())
+                                                .count()));
+  if (!was_closed) w->SetMeta("interrupted", "1");
+}
+
 }  // namespace
 
 // What the storage's reader reads, copied in arrival order: for MCAP, a scan of
@@ -233,13 +247,7 @@ RepairReport RepairByReading(const std::string& in, const std::string& out) {
   report.format = info.format;
   report.was_closed = !info.interrupted;
   RecordingWriter w(out);
-  for (const auto& [k, v] : info.meta)
-    if (k != "format" && k != "compression" && k != "closed_ns") w.SetMeta(k, v);
-  w.SetMeta("repaired_from", in);
-  w.SetMeta("repaired_ns", std::to_string(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                               std::chrono::system_clock::now().time_since_epoch())
-                                               .count()));
-  if (!report.was_closed) w.SetMeta("interrupted", "1");
+  CarryMeta(info.meta, in, report.was_closed, &w);
   std::map<int64_t, int64_t> new_id;
   for (const auto& t : r.topics()) new_id[t.id] = w.AddTopic(t);
   report.topics = int64_t(r.topics().size());
@@ -341,16 +349,10 @@ RepairReport RepairSqlitePages(const std::string& in, const std::string& out) {
   report.format = meta.count("format") ? meta.at("format") : "";
   report.was_closed = meta.count("closed_ns") || meta.count("stopped_ns");
   RecordingWriter w(out);
-  for (const auto& [k, v] : meta)
-    if (k != "format" && k != "compression" && k != "closed_ns") w.SetMeta(k, v);
+  CarryMeta(meta, in, report.was_closed, &w);
   // Which compression the rows use is per row (codec); the file's meta says what
   // the input's writer was asked for.
   w.SetMeta("compression", meta.count("compression") ? meta.at("compression") : "none");
-  w.SetMeta("repaired_from", in);
-  w.SetMeta("repaired_ns", std::to_string(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                               std::chrono::system_clock::now().time_since_epoch())
-                                               .count()));
-  if (!report.was_closed) w.SetMeta("interrupted", "1");
   std::map<int64_t, int64_t> new_id;
   for (const auto& [id, t] : topics) new_id[id] = w.AddTopic(t);
   report.topics = int64_t(topics.size());
