@@ -58,7 +58,9 @@ cv::VideoCapture OpenCameraCapture(const std::string& spec) {
     throw std::runtime_error("'" + spec +
                              "': not a regular file (a FIFO or a device is not read as a video; a live camera is "
                              "v4l2:<index> or a stream URL)");
-  if (NumberedFile(spec, 0) != spec) CheckImageSequence(spec);
+  // A pattern naming no file opens nothing: handed to OpenCV, it is probed by
+  // every backend in turn (GStreamer's and the USB cameras' leak as they fail).
+  if (NumberedFile(spec, 0) != spec && CheckImageSequence(spec, FirstFileNumber(spec)) == 0) return {};
   return cv::VideoCapture(spec, cv::CAP_ANY);
 }
 

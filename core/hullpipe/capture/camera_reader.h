@@ -24,8 +24,8 @@ namespace hullpipe {
 /// Opens a camera's frames: "v4l2:<index>" through V4L2, a stream URL through
 /// FFmpeg with open and read time-outs (and FFmpeg's stream probing cut to half a
 /// second unless OPENCV_FFMPEG_CAPTURE_OPTIONS is set), anything else as a video
-/// file or image pattern. The capture may be closed (not found, not yet up):
-/// callers check isOpened(). Throws std::runtime_error for a malformed
+/// file or image pattern. The capture may be closed (not found, not yet up, an
+/// image pattern naming no file): callers check isOpened(). Throws std::runtime_error for a malformed
 /// "v4l2:" spec, a file spec that is not a regular file, and an image sequence
 /// that CheckImageSequence refuses.
 cv::VideoCapture OpenCameraCapture(const std::string& spec);
