@@ -7,8 +7,6 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <map>
 #include <optional>
 #include <random>
@@ -17,6 +15,7 @@
 
 #include "hullpipe/record/recording.h"
 #include "hullpipe/record/repair.h"
+#include "test_util.h"
 
 namespace hullpipe::test {
 
@@ -81,9 +80,7 @@ inline std::optional<RepairedCut> RepairTheCut(const std::string& path, const st
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
     return std::nullopt;
   }
-  std::ifstream in(path, std::ios::binary);
-  const std::string now((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_EQ(now, bytes.substr(0, cut)) << "repair changed its input";
+  EXPECT_EQ(ReadFile(path), bytes.substr(0, cut)) << "repair changed its input";
   const record::RecordingReader r(fixed);
   out.samples = ReadAll(r);
   EXPECT_EQ(int64_t(out.samples.size()), out.report.samples) << cut;

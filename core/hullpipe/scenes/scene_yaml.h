@@ -4,7 +4,6 @@
 #pragma once
 
 #include <functional>
-#include <initializer_list>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -40,7 +39,7 @@ void Get(const YAML::Node& n, const char* key, T* out) {
 /// (as "section.key").
 /// `known` may be made at run time (the top level adds the registered kinds).
 inline void Keys(const YAML::Node& n, const std::string& path, const std::string& section,
-                 const std::vector<std::string>& known, std::initializer_list<const char*> required = {}) {
+                 const std::vector<std::string>& known, const std::vector<const char*>& required = {}) {
   const std::string where = section.empty() ? "" : section + ".";
   if (!n.IsMap()) throw std::runtime_error(path + ": '" + section + "' must be a map of keys");
   if (const auto key = FirstUnknownKey(n, known))
@@ -74,10 +73,7 @@ class Section {
     return *this;
   }
   void Read() const {
-    Keys(n_, path_, name_, known_, {});
-    const std::string where = name_.empty() ? "" : name_ + ".";
-    for (const char* k : required_)
-      if (!n_[k]) throw std::runtime_error(path_ + ": key '" + where + k + "' is missing");
+    Keys(n_, path_, name_, known_, required_);
     for (size_t i = 0; i < known_.size(); ++i)
       if (n_[known_[i]]) readers_[i]();
   }

@@ -112,8 +112,8 @@ TEST(RigSource, BackgroundsLearntTogetherEqualEachLearntAlone) {
 TEST(RigSource, AMissingVideoIsNamedBeforeAnyBackgroundIsRead) {
   const auto dir = test::TempDir("rig_open_first");
   const std::string path = WriteImageRig(dir, false, 2);
-  for (const char* f : {"background.png"})
-    for (const char* cam : {"cam1", "cam2"}) std::ofstream(dir / cam / f, std::ios::binary) << "text, not a PNG";
+  for (const char* cam : {"cam1", "cam2"})
+    std::ofstream(dir / cam / "background.png", std::ios::binary) << "text, not a PNG";
   try {
     OpenVideoRig(path, {});
     ADD_FAILURE() << "opened with broken backgrounds";

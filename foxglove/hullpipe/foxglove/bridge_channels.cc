@@ -6,13 +6,14 @@
 
 namespace hullpipe::foxglove {
 
+size_t BridgeChannels::TypeIndex(const std::string& type_name) const {
+  for (size_t i = 0; i < types_.size(); ++i)
+    if (types_[i].type_name == type_name) return i;
+  throw std::logic_error("no hullpipe type " + type_name);
+}
+
 BridgeChannels::BridgeChannels(const std::vector<dds::KnownType>& types) : types_(types) {
-  auto index = [&](const std::string& type_name) {
-    for (size_t i = 0; i < types_.size(); ++i)
-      if (types_[i].type_name == type_name) return i;
-    throw std::logic_error("no hullpipe type " + type_name);
-  };
-  camera_info_ = index("hullpipe::msg::CameraInfo");
+  camera_info_ = TypeIndex("hullpipe::msg::CameraInfo");
   for (size_t i = 0; i < types_.size(); ++i)
     channels_.push_back(
         {uint32_t(i + 1), types_[i].topic_name, "cdr", types_[i].type_name, dds::IdlText(), "omgidl"});
@@ -24,9 +25,7 @@ bridge::Channel BridgeChannels::AddViewable(const std::string& topic, const std:
                                             const std::string& schema) {
   const uint32_t id = next_id_++;
   viewable_[topic] = id;
-  for (const std::string& t : SourceTypes(topic))
-    for (size_t i = 0; i < types_.size(); ++i)
-      if (types_[i].type_name == t) sources_[id].push_back(i);
+  for (const std::string& t : SourceTypes(topic)) sources_[id].push_back(TypeIndex(t));
   return bridge::Channel{id, topic, "json", schema_name, schema, "jsonschema"};
 }
 

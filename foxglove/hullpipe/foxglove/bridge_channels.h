@@ -27,7 +27,8 @@ class BridgeChannels {
   static constexpr size_t kMaxCameras = Rig::kMaxCameras;
 
   /// `types`: hullpipe's topics (dds::KnownTypes()); they must hold
-  /// "hullpipe::msg::CameraInfo" (std::logic_error otherwise).
+  /// "hullpipe::msg::CameraInfo" and every type a viewable channel is made
+  /// from (std::logic_error otherwise).
   explicit BridgeChannels(const std::vector<dds::KnownType>& types);
 
   /// Every channel known now: the types', the fixed viewable ones, then each
@@ -59,6 +60,8 @@ class BridgeChannels {
 
  private:
   bridge::Channel AddViewable(const std::string& topic, const std::string& schema_name, const std::string& schema);
+  /// The index of `type_name` among the types; std::logic_error if it is none.
+  size_t TypeIndex(const std::string& type_name) const;
 
   const std::vector<dds::KnownType>& types_;
   std::vector<bridge::Channel> channels_;
