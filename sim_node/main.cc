@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
     SceneLoadOptions load;
     load.stop = StopRequestFlag();
     if (!scene_path.empty()) spdlog::info("loading {} (and importing its models)", scene_path);
-    SceneConfig config = scene_path.empty() ? SceneConfig{} : LoadSceneConfig(scene_path, load);
+    SceneConfig config = scene_path.empty() ? DefaultScene() : LoadSceneConfig(scene_path, load);
     RigWorld world;  // the Utrecht rig's: up -z, the floor z = 0
     world.floor = RigWorld::Floor::kPlane;
     Aabb workspace;  // none: a stage's origin is the world's, on the floor

@@ -4,13 +4,86 @@
 #include <cmath>
 
 #include "hullpipe/reconstruction/exact_hull.h"
+#include "hullpipe/scenes/limits.h"
+#include "hullpipe/scenes/scene_yaml.h"
 
 namespace hullpipe {
 
-BallSimulation::BallSimulation(SceneConfig config) : config_(std::move(config)) {
+std::string BallsConfig::Describe() const { return std::to_string(balls.size()) + " ball(s)"; }
+
+void BallsConfig::CheckIn(const SceneConfig&) const {
+  if (balls.size() > size_t(kMaxBalls))
+    throw std::invalid_argument("scene: " + std::to_string(balls.size()) + " balls; at most " +
+                                std::to_string(kMaxBalls));
+  long long triangles = 0;
+  for (const auto& b : balls) {
+    if (!(b.radius > 0)) throw std::invalid_argument("scene: ball radius must be > 0");
+    if (!b.start.allFinite() || !b.target.allFinite())
+      throw std::invalid_argument("scene: ball start and target must be finite");
+    if (!(b.flight_time > 0)) throw std::invalid_argument("scene: ball flight_time must be > 0");
+    if (b.restitution < 0 || b.restitution > 1)
+      throw std::invalid_argument("scene: ball restitution must be in [0, 1]");
+    if (b.subdivisions < 0 || b.subdivisions > 5)
+      throw std::invalid_argument("scene: ball subdivisions must be in [0, 5]");
+    triangles += 20LL << (2 * b.subdivisions);
+  }
+  if (triangles > kMaxBallTriangles)
+    throw std::invalid_argument("scene: the balls have " + std::to_string(triangles) + " triangles together; at most " +
+                                std::to_string(kMaxBallTriangles) + " (fewer balls or subdivisions)");
+}
+
+std::unique_ptr<SceneElement> BallsConfig::Make(const SceneConfig& scene) const {
+  return std::make_unique<BallsElement>(scene, *this);
+}
+
+std::vector<ObjectIdRange> BallsConfig::ObjectIds() const {
+  std::vector<ObjectIdRange> ids;
+  for (const auto& b : balls) ids.push_back({b.id, b.id, "ball " + std::to_string(b.id)});
+  return ids;
+}
+
+std::shared_ptr<const SceneElementConfig> BallsConfig::PlaceOnStage(const Rigid3d& world_from_stage) const {
+  auto placed = std::make_shared<BallsConfig>(*this);
+  for (auto& b : placed->balls) {
+    b.start = world_from_stage.rotation * b.start;
+    b.target = world_from_stage.rotation * b.target;
+    b.relative_to_hull = true;
+  }
+  return placed;
+}
+
+std::shared_ptr<const SceneElementConfig> ReadBallsSection(const YAML::Node& n, const std::string& path) {
+  if (!n.IsSequence()) throw std::runtime_error(path + ": 'balls' must be a list ([] for none)");
+  auto c = std::make_shared<BallsConfig>();
+  int index = 0;
+  for (const auto& b : n) {
+    BallConfig bc;
+    bc.id = index + 1;
+    scene_yaml::Section(b, path, "balls[" + std::to_string(index) + "]")
+        .Field("id", &bc.id)
+        .Field("radius", &bc.radius, scene_yaml::Need::kRequired)
+        .Vec("start", &bc.start, scene_yaml::Need::kRequired)
+        .Vec("target", &bc.target, scene_yaml::Need::kRequired)
+        .Field("flight_time", &bc.flight_time)
+        .Field("restitution", &bc.restitution)
+        .Field("rethrow_period", &bc.rethrow_period)
+        .Field("subdivisions", &bc.subdivisions)
+        .Read();
+    c->balls.push_back(bc);
+    ++index;
+  }
+  return c;
+}
+
+BallSimulation::BallSimulation(const SceneConfig& scene)
+    : BallSimulation(scene, scene.Find<BallsConfig>() ? *scene.Find<BallsConfig>() : BallsConfig{}) {}
+
+BallSimulation::BallSimulation(SceneConfig scene, BallsConfig balls)
+    : config_(std::move(scene)), balls_(std::move(balls)) {
   config_.Check();
-  for (size_t i = 0; i < config_.balls.size(); ++i) {
-    const BallConfig& b = config_.balls[i];
+  balls_.CheckIn(config_);
+  for (size_t i = 0; i < balls_.balls.size(); ++i) {
+    const BallConfig& b = balls_.balls[i];
     meshes_.push_back(TriangleMesh::Icosphere(b.radius, b.subdivisions));
     BodyState s;
     s.id = b.id;
@@ -23,7 +96,7 @@ BallSimulation::BallSimulation(SceneConfig config) : config_(std::move(config)) 
 }
 
 void BallSimulation::Throw(size_t i, const VolumeQuery* hull) {
-  const BallConfig& b = config_.balls[i];
+  const BallConfig& b = balls_.balls[i];
   BodyState& s = bodies_[i];
   Eigen::Vector3d start = b.start, target = b.target;
   if (b.relative_to_hull) {
@@ -87,7 +160,7 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop, con
       if (config_.has_floor && g_hat.dot(s.position) + s.radius > config_.floor) {
         s.position -= (g_hat.dot(s.position) + s.radius - config_.floor) * g_hat;
         const double vn = s.velocity.dot(g_hat);
-        if (vn > 0) s.velocity -= (1 + config_.balls[i].restitution) * vn * g_hat;
+        if (vn > 0) s.velocity -= (1 + balls_.balls[i].restitution) * vn * g_hat;
       }
       if (!hull) continue;
       const TriangleMesh mesh = WorldMesh(i);
@@ -101,7 +174,7 @@ void BallSimulation::Step(double dt, const VolumeQuery* hull, StopFlag stop, con
       request.rp_obj = s.position;
       request.query = config_.collision;
       request.exact = config_.response == SceneConfig::Response::kExact;
-      request.restitution = config_.balls[i].restitution;
+      request.restitution = balls_.balls[i].restitution;
       request.previous = previous;
       request.fallback_normal =
           s.velocity.norm() > 1e-9 ? Eigen::Vector3d(-s.velocity.normalized()) : Eigen::Vector3d(-g_hat);

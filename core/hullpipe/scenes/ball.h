@@ -1,10 +1,13 @@
 // Balls thrown under gravity against the visual hull and the floor (paper §4):
 // detection by §4.1's box test then per-triangle volume queries, response by
 // §4.2 (D_rec along V_rec so CP_obj reaches CP_hull, velocity reflected about
-// N_hull). Settings come from the scene file (scene_config.h).
+// N_hull). Settings come from the scene file's `balls` section (scene_config.h),
+// a registered kind of scene element (scene_element.h).
 #pragma once
 
+#include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -17,6 +20,50 @@
 #include "hullpipe/util/interrupt.h"
 
 namespace hullpipe {
+
+/// One thrown ball.
+struct BallConfig {
+  int id = 1;
+  double radius = 0.12;
+  Eigen::Vector3d start{2.0, 0.2, -1.2};
+  Eigen::Vector3d target{0.35, 0.05, -1.0};
+  double flight_time = 0.9;
+  double restitution = 0.7;
+  double rethrow_period = 4.0;
+  int subdivisions = 2;
+  /// start and target are world-frame offsets from the hull box's centre at each
+  /// throw (a `frame: stage` scene, after PlaceInWorld); false: world points.
+  bool relative_to_hull = false;
+};
+
+/// The scene file's `balls` (a list; `[]` for none): a kind of scene element
+/// (scene_element.h) that a stage scene may hold (its start and target are then
+/// offsets from the hull's box centre along the stage's axes).
+struct BallsConfig final : SceneElementConfig {
+  std::vector<BallConfig> balls;
+  BallsConfig() = default;
+  explicit BallsConfig(std::vector<BallConfig> b) : balls(std::move(b)) {}
+
+  std::string Key() const override { return "balls"; }
+  /// "2 ball(s)".
+  std::string Describe() const override;
+  /// Throws std::invalid_argument naming the field: radius > 0, finite start and
+  /// target, flight_time > 0, restitution and subdivisions in range, at most
+  /// kMaxBalls balls and kMaxBallTriangles triangles together (limits.h).
+  void CheckIn(const SceneConfig& scene) const override;
+  std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const override;
+  /// One id per ball ("ball 2").
+  std::vector<ObjectIdRange> ObjectIds() const override;
+  bool CanBeOnStage() const override { return true; }
+  /// Start and target turned into the world's axes by world_from_stage's
+  /// rotation, and marked relative_to_hull.
+  std::shared_ptr<const SceneElementConfig> PlaceOnStage(const Rigid3d& world_from_stage) const override;
+};
+
+/// Reads the `balls` list (each ball's radius, start and target required; id
+/// defaults to its place in the list from 1). Throws std::runtime_error naming
+/// `path` and the key ("balls[1].radius").
+std::shared_ptr<const SceneElementConfig> ReadBallsSection(const YAML::Node& section, const std::string& path);
 
 /// State of one body after a step.
 struct BodyState {
@@ -33,7 +80,12 @@ struct BodyState {
 /// Deterministic simulation: the same steps with the same hulls give the same states.
 class BallSimulation {
  public:
-  explicit BallSimulation(SceneConfig config);
+  /// `balls` in `scene`'s world (gravity, floor, collision and response
+  /// settings, max_substep). Throws std::invalid_argument if either fails its
+  /// check.
+  BallSimulation(SceneConfig scene, BallsConfig balls);
+  /// The scene's own balls (none if it has no `balls`).
+  explicit BallSimulation(const SceneConfig& scene);
   /// Advances by dt seconds (clamped to [0, 0.25]) in substeps of at most
   /// max_substep and short enough that no ball moves more than its radius in one
   /// (so it cannot tunnel through a thin part of the hull), each checked against
@@ -51,6 +103,7 @@ class BallSimulation {
  private:
   void Throw(size_t i, const VolumeQuery* hull);
   SceneConfig config_;
+  BallsConfig balls_;
   std::vector<TriangleMesh> meshes_;  // body frame
   std::vector<BodyState> bodies_;
   std::vector<double> next_throw_;
@@ -63,7 +116,7 @@ class BallSimulation {
 /// response) every step.
 class BallsElement final : public SceneElement {
  public:
-  explicit BallsElement(const SceneConfig& config) : sim_(config) {}
+  BallsElement(const SceneConfig& scene, const BallsConfig& balls) : sim_(scene, balls) {}
   void Step(const StepContext& s) override { sim_.Step(s.dt, s.hull, s.stop, s.hull_motion); }
   void Output(double source_time_s, uint64_t frame_seq, ElementOutput* out) override;
   const BallSimulation& simulation() const { return sim_; }

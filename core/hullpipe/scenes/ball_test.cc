@@ -31,26 +31,25 @@ constexpr double kRadius = test::kSphereRadius;
 
 // One ball and nothing else (no floor, no gravity, never thrown again), thrown
 // from `start` to reach `target` after flight_time seconds.
-SceneConfig OneBall(const Eigen::Vector3d& start, const Eigen::Vector3d& target, double flight_time) {
+SceneConfig OneBall(const Eigen::Vector3d& start, const Eigen::Vector3d& target, double flight_time,
+                    double radius = BallConfig{}.radius, double restitution = BallConfig{}.restitution) {
   SceneConfig cfg;
   cfg.has_floor = false;
   cfg.gravity.setZero();
-  cfg.balls[0].start = start;
-  cfg.balls[0].target = target;
-  cfg.balls[0].flight_time = flight_time;
-  cfg.balls[0].rethrow_period = 0;
+  BallConfig b;
+  b.start = start;
+  b.target = target;
+  b.flight_time = flight_time;
+  b.rethrow_period = 0;
+  b.radius = radius;
+  b.restitution = restitution;
+  cfg.Set(BallsConfig({b}));
   return cfg;
 }
 
 // One ball of 5 cm radius at rest at `at`, nothing else.
-SceneConfig RestingBall(const Eigen::Vector3d& at) {
-  SceneConfig cfg;
-  cfg.has_floor = false;
-  cfg.gravity.setZero();
-  cfg.balls[0].radius = 0.05;
-  cfg.balls[0].start = cfg.balls[0].target = at;
-  cfg.balls[0].rethrow_period = 0;
-  return cfg;
+SceneConfig RestingBall(const Eigen::Vector3d& at, double restitution = BallConfig{}.restitution) {
+  return OneBall(at, at, BallConfig{}.flight_time, 0.05, restitution);
 }
 
 TEST(BallSimulation, BouncesOffTheHullAndIsDeterministic) {
@@ -85,9 +84,8 @@ TEST(BallSimulation, AFastBallDoesNotTunnelThroughAThinHull) {
   std::vector<CameraMap> views;
   for (const auto& c : RingCameras(4, 3.0, 1.8, kCentre, 640, 480, 1.0)) views.push_back({c, RenderExactMap(c, scene)});
   const VolumeQuery q(views, test::BigBox());
-  SceneConfig cfg = OneBall(kCentre + Eigen::Vector3d(1.2, 0, 0), kCentre - Eigen::Vector3d(1.8, 0, 0),
-                            0.15);  // 3 m in 0.15 s: 20 m/s
-  cfg.balls[0].radius = 0.05;
+  const SceneConfig cfg = OneBall(kCentre + Eigen::Vector3d(1.2, 0, 0), kCentre - Eigen::Vector3d(1.8, 0, 0),
+                                  0.15, 0.05);  // 3 m in 0.15 s: 20 m/s
   BallSimulation sim(cfg);
   bool collided = false;
   for (int i = 0; i < 10; ++i) {
@@ -114,7 +112,6 @@ TEST(BallAndBlocks, BounceOffABoxFaceIsTheExactReflection) {
   SceneConfig cfg;
   cfg.gravity = Eigen::Vector3d::Zero();
   cfg.has_floor = false;
-  cfg.balls.clear();
   for (double restitution : {1.0, 0.6}) {
     BallConfig b;
     b.radius = 0.05;
@@ -123,7 +120,7 @@ TEST(BallAndBlocks, BounceOffABoxFaceIsTheExactReflection) {
     b.flight_time = 0.5;
     b.restitution = restitution;
     b.rethrow_period = 0;
-    cfg.balls = {b};
+    cfg.Set(BallsConfig({b}));
     BallSimulation sim(cfg);
     const Eigen::Vector3d v_in = sim.bodies()[0].velocity;
     bool bounced = false;
@@ -189,8 +186,7 @@ TEST_P(BatsABall, AtOnePlusRestitutionTimesTheSurfacesNormalSpeed) {
   const ShotFrame first = ShootSphere(cams, 0, b.fps, at);
   const auto front = FirstHullPointAlong(*first.query, c0 + d, -d, 1.0);
   ASSERT_TRUE(front);
-  SceneConfig cfg = RestingBall(*front + (0.05 + 0.6 * b.speed / b.fps) * d);  // struck in frame 1
-  cfg.balls[0].restitution = 0.5;
+  const SceneConfig cfg = RestingBall(*front + (0.05 + 0.6 * b.speed / b.fps) * d, 0.5);  // struck in frame 1
   BallSimulation sim(cfg);
   ASSERT_EQ(sim.bodies()[0].velocity, Eigen::Vector3d::Zero());
   sim.Step(0, first.query.get());

@@ -37,7 +37,6 @@ namespace {
 // stepping. Balls and particles honour a flag already set.
 TEST(VirtualScene, AStopFlagEndsTheHeaviestStepWithinHalfASecond) {
   SceneConfig cfg;
-  cfg.balls.clear();
   ClothConfig cloth;
   cloth.nx = 400;
   cloth.ny = 250;
@@ -52,7 +51,7 @@ TEST(VirtualScene, AStopFlagEndsTheHeaviestStepWithinHalfASecond) {
   EXPECT_NE(t.what.find("cloth"), std::string::npos) << t.what;
 
   std::atomic<bool> stop{false};
-  SceneConfig small;  // one ball (the default scene) and a few particles
+  SceneConfig small = DefaultScene();  // one ball and a few particles
   small.Set(ParticleConfig{});
   VirtualScene quick(small);
   stop = false;

@@ -81,7 +81,6 @@ TEST(PayloadTask, ClearanceOfABoxFromASphereHull) {
 
 TEST(PayloadTask, SpacingChangesWhileRunningAndBadValuesAreRefused) {
   SceneConfig cfg;
-  cfg.balls.clear();
   cfg.Set(PayloadConfig{});
   VirtualScene scene(cfg);
   scene.SetSpacing(0.2);

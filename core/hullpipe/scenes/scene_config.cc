@@ -25,11 +25,6 @@ void SceneConfig::PlaceInWorld(const RigWorld& world, const Aabb& workspace) {
     e = std::move(placed);
   }
   gravity = r * gravity;
-  for (auto& b : balls) {
-    b.start = r * b.start;
-    b.target = r * b.target;
-    b.relative_to_hull = true;
-  }
   const Eigen::Vector3d up = world.up.normalized();
   // Floor along g_hat = -up: g_hat . x = floor.
   has_floor = world.floor == RigWorld::Floor::kPlane;  // under the hull: once a hull is seen
@@ -38,6 +33,25 @@ void SceneConfig::PlaceInWorld(const RigWorld& world, const Aabb& workspace) {
   if (gravity.norm() > 0 && std::abs(gravity.normalized().dot(up) + 1) > 1e-9)
     throw std::invalid_argument("scene: frame stage: gravity must point down the stage's z axis");
   frame = Frame::kWorld;
+}
+
+void SceneConfig::Put(std::shared_ptr<const SceneElementConfig> config) {
+  for (auto& e : elements)
+    if (e->Key() == config->Key()) {
+      e = std::move(config);
+      return;
+    }
+  // Where the registry orders it (the order elements step and publish in).
+  auto rank = [](const std::string& key) {
+    const auto& kinds = SceneElementKinds();
+    size_t i = 0;
+    while (i < kinds.size() && kinds[i].key != key) ++i;
+    return i;
+  };
+  const size_t r = rank(config->Key());
+  auto at = elements.begin();
+  while (at != elements.end() && rank((*at)->Key()) <= r) ++at;
+  elements.insert(at, std::move(config));
 }
 
 void SceneConfig::TakeFloorUnderHull(const VolumeQuery* hull) {
@@ -72,29 +86,15 @@ void SceneConfig::Check() const {
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("scene: ") + e.what());
   }
-  for (const auto& e : elements) e->CheckIn(*this);
-  if (light) light->Check();
-  if (balls.size() > size_t(kMaxBalls))
-    throw std::invalid_argument("scene: " + std::to_string(balls.size()) + " balls; at most " +
-                                std::to_string(kMaxBalls));
-  long long triangles = 0;
-  for (const auto& b : balls) {
-    if (!(b.radius > 0)) throw std::invalid_argument("scene: ball radius must be > 0");
-    if (!b.start.allFinite() || !b.target.allFinite())
-      throw std::invalid_argument("scene: ball start and target must be finite");
-    if (!(b.flight_time > 0)) throw std::invalid_argument("scene: ball flight_time must be > 0");
-    if (b.restitution < 0 || b.restitution > 1)
-      throw std::invalid_argument("scene: ball restitution must be in [0, 1]");
-    if (b.subdivisions < 0 || b.subdivisions > 5)
-      throw std::invalid_argument("scene: ball subdivisions must be in [0, 5]");
-    triangles += 20LL << (2 * b.subdivisions);
+  for (size_t i = 0; i < elements.size(); ++i) {
+    elements[i]->CheckIn(*this);
+    for (size_t j = 0; j < i; ++j)
+      if (elements[j]->Key() == elements[i]->Key())
+        throw std::invalid_argument("scene: two '" + elements[i]->Key() + "' elements; at most one of each kind");
   }
-  if (triangles > kMaxBallTriangles)
-    throw std::invalid_argument("scene: the balls have " + std::to_string(triangles) + " triangles together; at most " +
-                                std::to_string(kMaxBallTriangles) + " (fewer balls or subdivisions)");
+  if (light) light->Check();
   // One object id, one thing drawn: render_node keys states and meshes by id.
   std::vector<ObjectIdRange> ids;
-  for (const auto& b : balls) ids.push_back({b.id, b.id, "ball " + std::to_string(b.id)});
   for (const auto& e : elements)
     for (ObjectIdRange& r : e->ObjectIds()) ids.push_back(std::move(r));
   std::sort(ids.begin(), ids.end(), [](const ObjectIdRange& a, const ObjectIdRange& b) { return a.first < b.first; });
@@ -154,12 +154,14 @@ SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& loa
     const YAML::Node root = YAML::LoadFile(path);
     if (!root.IsMap() || root.size() == 0)
       throw std::runtime_error(path + ": not a scene (empty, or not a YAML map of keys)");
-    // 'balls' is required (balls: [] for none): a file without it would get the
-    // default ball unasked.
     std::vector<std::string> known = {"gravity", "floor", "collision", "response", "hull_velocity",
-                                      "max_substep", "balls", "light", "frame"};
-    for (const auto& kind : SceneElementKinds()) known.push_back(kind.key);
-    Keys(root, path, "", known, {"balls"});
+                                      "max_substep", "light", "frame"};
+    std::vector<const char*> required;
+    for (const auto& kind : SceneElementKinds()) {
+      known.push_back(kind.key);
+      if (kind.required) required.push_back(kind.key.c_str());
+    }
+    Keys(root, path, "", known, required);
     if (const YAML::Node f = root["frame"]) {
       const std::string frame = f.as<std::string>("?");
       if (frame != "world" && frame != "stage")
@@ -200,27 +202,6 @@ SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& loa
           .Read();
     }
     if (root["max_substep"]) cfg.max_substep = root["max_substep"].as<double>();
-    if (const YAML::Node balls = root["balls"]) {
-      if (!balls.IsSequence()) throw std::runtime_error(path + ": 'balls' must be a list ([] for none)");
-      cfg.balls.clear();
-      int index = 0;
-      for (const auto& b : balls) {
-        BallConfig bc;
-        bc.id = index + 1;
-        Section(b, path, "balls[" + std::to_string(index) + "]")
-            .Field("id", &bc.id)
-            .Field("radius", &bc.radius, Need::kRequired)
-            .Vec("start", &bc.start, Need::kRequired)
-            .Vec("target", &bc.target, Need::kRequired)
-            .Field("flight_time", &bc.flight_time)
-            .Field("restitution", &bc.restitution)
-            .Field("rethrow_period", &bc.rethrow_period)
-            .Field("subdivisions", &bc.subdivisions)
-            .Read();
-        cfg.balls.push_back(bc);
-        ++index;
-      }
-    }
     for (const auto& kind : SceneElementKinds())
       if (const YAML::Node section = root[kind.key]) cfg.elements.push_back(kind.read(section, path, load));
     if (root["light"]) cfg.light = ParseLight(root["light"], path);

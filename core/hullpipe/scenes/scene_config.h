@@ -1,6 +1,6 @@
 // Scene files (paper §4–§5): the schema of every hybrid scene sim_node and
-// render_node read. The scene-wide settings and the balls are here; every other
-// element (cloth, particles, payload) is a registered kind of scene element
+// render_node read. The scene-wide settings are here; every element (the balls,
+// cloth, particles, payload, models) is a registered kind of scene element
 // (scene_element.h, scene_elements.cc) read from its own section. The balls'
 // simulation is ball.h: balls thrown under gravity that collide with the visual
 // hull and the floor. Collision detection is the paper's (§4.1: box test,
@@ -82,21 +82,6 @@
 
 namespace hullpipe {
 
-/// One thrown ball.
-struct BallConfig {
-  int id = 1;
-  double radius = 0.12;
-  Eigen::Vector3d start{2.0, 0.2, -1.2};
-  Eigen::Vector3d target{0.35, 0.05, -1.0};
-  double flight_time = 0.9;
-  double restitution = 0.7;
-  double rethrow_period = 4.0;
-  int subdivisions = 2;
-  /// start and target are world-frame offsets from the hull box's centre at each
-  /// throw (a `frame: stage` scene, after PlaceInWorld); false: world points.
-  bool relative_to_hull = false;
-};
-
 /// Scene settings; see the file format above.
 struct SceneConfig {
   Eigen::Vector3d gravity{0, 0, 9.81};
@@ -111,10 +96,10 @@ struct SceneConfig {
   HullMotionOptions hull_velocity;
   /// Longest integration step (s), limits tunnelling; in [kMinSubstepS, kMaxSubstepS].
   double max_substep = 0.01;
-  std::vector<BallConfig> balls{BallConfig{}};
-  /// Every other element (cloth, particles, payload, ...), in the order of
+  /// Every element (balls, cloth, particles, payload, models), in the order of
   /// SceneElementKinds(), at most one of each kind. Shared and immutable: a
-  /// change replaces the element's settings (Set).
+  /// change replaces the element's settings (Set). None by default (see
+  /// DefaultScene).
   std::vector<std::shared_ptr<const SceneElementConfig>> elements;
   std::optional<LightConfig> light;         ///< A virtual light casting shadows (render_node).
   /// `frame`: world (the rig's coordinates) or stage (see above).
@@ -145,17 +130,18 @@ struct SceneConfig {
       if (const auto* c = dynamic_cast<const C*>(e.get())) return c;
     return nullptr;
   }
-  /// Puts `config` in place of the element of its type, or adds it.
+  /// Puts `config` in place of the element of its kind (its Key), or adds it
+  /// where SceneElementKinds() orders it.
+  void Put(std::shared_ptr<const SceneElementConfig> config);
   template <typename C>
   void Set(C config) {
-    for (auto& e : elements)
-      if (dynamic_cast<const C*>(e.get())) {
-        e = std::make_shared<C>(std::move(config));
-        return;
-      }
-    elements.push_back(std::make_shared<C>(std::move(config)));
+    Put(std::make_shared<C>(std::move(config)));
   }
 };
+
+/// sim_node's scene when it is given no file: one ball (BallConfig's
+/// defaults), gravity and floor as SceneConfig's.
+SceneConfig DefaultScene();
 
 /// Reads a scene file (and, unless `load` says not to, the model files it
 /// names). Throws std::runtime_error naming the file and key (a ModelError,

@@ -13,6 +13,7 @@
 #include "hullpipe/scenes/cloth.h"
 #include "hullpipe/geometry/head_pose.h"
 #include "hullpipe/scenes/particles.h"
+#include "hullpipe/scenes/payload.h"
 #include "hullpipe/geometry/rigid3.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/scenes/virtual_scene.h"
@@ -98,7 +99,8 @@ TEST(SceneFiles, BadFilesNameTheKey) {
   // Control: the smallest valid file.
   const std::string ok = dir + "/scene_ok.yaml";
   std::ofstream(ok) << ball;
-  EXPECT_EQ(LoadSceneConfig(ok).balls.size(), 1u);
+  ASSERT_NE(LoadSceneConfig(ok).Find<BallsConfig>(), nullptr);
+  EXPECT_EQ(LoadSceneConfig(ok).Find<BallsConfig>()->balls.size(), 1u);
 }
 
 }  // namespace
@@ -152,6 +154,44 @@ TEST(SceneElements, EveryRegisteredKindIsReadSteppedAndPublished) {
     EXPECT_NE(what.find("unknown key 'curtain'"), std::string::npos) << what;
     for (const auto& kind : SceneElementKinds()) EXPECT_NE(what.find(kind.key), std::string::npos) << what;
   }
+}
+
+// Elements set in code take the registry's order (the order they step and
+// publish in), whatever order they are set in; setting a kind again replaces
+// it; a scene with two of one kind is refused naming it.
+TEST(SceneElements, SetKeepsTheRegistrysOrderAndOneOfEachKind) {
+  SceneConfig cfg;
+  cfg.Set(PayloadConfig{});
+  cfg.Set(ParticleConfig{});
+  BallConfig ball;
+  ball.id = 7;
+  cfg.Set(BallsConfig({ball}));
+  cfg.Set(BallsConfig({ball, [] {
+                         BallConfig b;
+                         b.id = 8;
+                         return b;
+                       }()}));  // replaces the first
+  ASSERT_EQ(cfg.elements.size(), 3u);
+  EXPECT_EQ(cfg.elements[0]->Key(), "balls");
+  EXPECT_EQ(cfg.elements[1]->Key(), "particles");
+  EXPECT_EQ(cfg.elements[2]->Key(), "payload");
+  EXPECT_EQ(cfg.Find<BallsConfig>()->balls.size(), 2u);
+  EXPECT_NO_THROW(cfg.Check());
+  VirtualScene scene(cfg);
+  ASSERT_NE(scene.balls(), nullptr);
+  EXPECT_EQ(scene.balls()->bodies().size(), 2u);
+  EXPECT_EQ(scene.Describe().rfind("2 ball(s), particles, the payload task", 0), 0u) << scene.Describe();
+
+  cfg.elements.push_back(std::make_shared<BallsConfig>());
+  try {
+    cfg.Check();
+    ADD_FAILURE() << "two balls elements were accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("two 'balls' elements"), std::string::npos) << e.what();
+  }
+  SceneConfig none;  // control: no elements, no balls
+  EXPECT_EQ(VirtualScene(none).balls(), nullptr);
+  EXPECT_EQ(VirtualScene(DefaultScene()).balls()->bodies().size(), 1u);
 }
 
 }  // namespace

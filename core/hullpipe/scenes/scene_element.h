@@ -2,7 +2,7 @@
 // (paper §4–§5): a kind of scene element is its settings (read from its section
 // of a scene file, checked, turned into a simulation) and the simulation (a step
 // against a frameset's hull, then what to publish: states, collision reports,
-// meshes, log lines). The balls, the cloth curtain, the particle stream and the
+// meshes, log lines). The thrown balls, the cloth curtain, the particle stream and the
 // payload task are such kinds; a new kind is one module that implements these
 // two classes and one line in scene_elements.cc (docs/architecture.md, "Adding
 // a scene element").
@@ -135,10 +135,14 @@ struct SceneElementKind {
   std::function<std::shared_ptr<const SceneElementConfig>(const YAML::Node& section, const std::string& path,
                                                           const SceneLoadOptions& load)>
       read;
+  /// Every scene file names it (the balls: `balls: []` for none, so a file
+  /// without the key does not get a default ball unasked).
+  bool required = false;
 };
 
-/// Every kind a scene file may hold besides its balls, in the order their
-/// sections are read (scene_elements.cc: the one registration per kind).
+/// Every kind a scene file may hold, in the order their sections are read and
+/// their elements step and publish (scene_elements.cc: the one registration
+/// per kind).
 const std::vector<SceneElementKind>& SceneElementKinds();
 
 }  // namespace hullpipe

@@ -56,7 +56,7 @@ TEST(StageScene, TheSameBallReachesTheHullOnAZUpAndAZDownRig) {
     bool hit = false;
     for (int k = 0; k < 50 && !hit; ++k) {
       scene.Step(0.02, &hull);
-      hit = scene.balls().bodies()[0].colliding;
+      hit = scene.balls()->bodies()[0].colliding;
     }
     EXPECT_TRUE(hit) << "the ball never reached the hull";
     // Positive control of "reaches": the same scene in world coordinates (no
@@ -67,7 +67,7 @@ TEST(StageScene, TheSameBallReachesTheHullOnAZUpAndAZDownRig) {
     bool missed_hit = false;
     for (int k = 0; k < 50; ++k) {
       miss.Step(0.02, &hull);
-      missed_hit |= miss.balls().bodies()[0].colliding;
+      missed_hit |= miss.balls()->bodies()[0].colliding;
     }
     EXPECT_FALSE(missed_hit);
   }
@@ -83,16 +83,16 @@ TEST(StageScene, FloorUnderTheHullAndWaitingForAHull) {
   EXPECT_FALSE(cfg.has_floor);
   VirtualScene scene(cfg);
   scene.Step(0.1, nullptr);  // no hull: the ball waits, motionless
-  EXPECT_EQ(scene.balls().bodies()[0].velocity.norm(), 0.0);
+  EXPECT_EQ(scene.balls()->bodies()[0].velocity.norm(), 0.0);
   const VolumeQuery hull = SphereHull({0, 0, 1});
   scene.Step(0.02, &hull);
-  EXPECT_TRUE(scene.balls().config().has_floor);
+  EXPECT_TRUE(scene.balls()->config().has_floor);
   // g_hat = -z: the floor g_hat . x = floor is the hull's lowest z: at or
   // below the sphere's (0.7 m), within its box.
-  EXPECT_NEAR(-scene.balls().config().floor, -*HullExtentAlong(hull, {0, 0, -1}), 1e-12);
-  EXPECT_LE(-scene.balls().config().floor, 0.7 + 1e-9);
-  EXPECT_GE(-scene.balls().config().floor, hull.hull_box().min.z() - 1e-9);
-  EXPECT_GT(scene.balls().bodies()[0].velocity.norm(), 1.0);  // thrown
+  EXPECT_NEAR(-scene.balls()->config().floor, -*HullExtentAlong(hull, {0, 0, -1}), 1e-12);
+  EXPECT_LE(-scene.balls()->config().floor, 0.7 + 1e-9);
+  EXPECT_GE(-scene.balls()->config().floor, hull.hull_box().min.z() - 1e-9);
+  EXPECT_GT(scene.balls()->bodies()[0].velocity.norm(), 1.0);  // thrown
   // A stage scene refuses what stays in world coordinates, naming it.
   std::ofstream(dir / "bad.yaml") << "frame: stage\nfloor: 0\nballs: []\n";
   try {

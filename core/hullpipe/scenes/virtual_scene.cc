@@ -7,10 +7,10 @@ namespace hullpipe {
 
 VirtualScene::VirtualScene(const SceneConfig& config) : config_(config) {
   config_.Check();
-  auto balls = std::make_unique<BallsElement>(config_);
-  balls_ = balls.get();
-  elements_.push_back(std::move(balls));
-  for (const auto& e : config_.elements) elements_.push_back(e->Make(config_));
+  for (const auto& e : config_.elements) {
+    elements_.push_back(e->Make(config_));
+    if (const auto* b = dynamic_cast<const BallsElement*>(elements_.back().get())) balls_ = b;
+  }
 }
 
 void VirtualScene::Step(const StepContext& step) {
@@ -34,8 +34,9 @@ void VirtualScene::SetSpacing(double spacing_m) {
 }
 
 std::string VirtualScene::Describe() const {
-  std::string s = std::to_string(config_.balls.size()) + " ball(s)";
-  for (const auto& e : config_.elements) s += ", " + e->Describe();
+  std::string s;
+  for (const auto& e : config_.elements) s += (s.empty() ? "" : ", ") + e->Describe();
+  if (s.empty()) s = "nothing";
   std::ostringstream g;
   g << ", gravity [" << config_.gravity.x() << ", " << config_.gravity.y() << ", " << config_.gravity.z() << "]";
   return s + g.str();

@@ -1,7 +1,7 @@
-// Everything sim_node simulates against the visual hull (paper §4–§5): the
-// thrown balls (ball.h) and every other element of the scene file (cloth,
-// particles, the payload task: scene_element.h), stepped together,
-// deterministically, frame by frame.
+// Everything sim_node simulates against the visual hull (paper §4–§5): every
+// element of the scene file (the thrown balls, cloth, particles, the payload
+// task, CAD models: scene_element.h), stepped together, deterministically,
+// frame by frame.
 #pragma once
 
 #include <memory>
@@ -19,7 +19,7 @@ class VirtualScene {
  public:
   /// Throws std::invalid_argument if the config fails Check().
   explicit VirtualScene(const SceneConfig& config);
-  /// Advances every element, balls first, by step.dt against step.hull
+  /// Advances every element, in the registry's order, by step.dt against step.hull
   /// (scene_element.h StepContext: nullptr, none; its motion since the previous
   /// frameset, given to every element). Throws Interrupted (util/interrupt.h)
   /// once step.stop is set; the scene is then part-way through the step (good
@@ -29,10 +29,11 @@ class VirtualScene {
   void Step(double dt, const VolumeQuery* hull, StopFlag stop = nullptr, const HullMotion* motion = nullptr) {
     Step(StepContext{.dt = dt, .hull = hull, .hull_motion = motion, .stop = stop});
   }
-  /// What every element gives to publish after the last step, balls first
-  /// (their frame_seq and capture_time_ns left for the caller).
+  /// What every element gives to publish after the last step, in the
+  /// registry's order (their frame_seq and capture_time_ns left for the caller).
   ElementOutput Output(double source_time_s, uint64_t frame_seq);
-  const BallSimulation& balls() const { return balls_->simulation(); }
+  /// The balls' simulation, or nullptr when the scene has no `balls`.
+  const BallSimulation* balls() const { return balls_ ? &balls_->simulation() : nullptr; }
   /// The payload task's settings, if any (spacing as last set; config() agrees).
   const PayloadConfig* payload() const { return config_.Find<PayloadConfig>(); }
   /// Changes the PMT-to-payload-A spacing while running (paper §5.2). Throws
@@ -40,13 +41,14 @@ class VirtualScene {
   /// spacing fails PayloadConfig::Check().
   void SetSpacing(double spacing_m);
   const SceneConfig& config() const { return config_; }
-  /// "2 ball(s), a curtain, gravity [0, 0, 9.81]": what the scene holds, for the log.
+  /// "2 ball(s), a curtain, gravity [0, 0, 9.81]": what the scene holds (each
+  /// element's Describe), for the log.
   std::string Describe() const;
 
  private:
   SceneConfig config_;
-  std::vector<std::unique_ptr<SceneElement>> elements_;  ///< The balls first.
-  BallsElement* balls_ = nullptr;
+  std::vector<std::unique_ptr<SceneElement>> elements_;  ///< As config_.elements.
+  const BallsElement* balls_ = nullptr;
 };
 
 }  // namespace hullpipe

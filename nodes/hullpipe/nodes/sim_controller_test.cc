@@ -11,6 +11,7 @@
 #include "hullpipe/collision/hull_surface.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/nodes/test_rig.h"
+#include "hullpipe/scenes/ball.h"
 #include "hullpipe/scenes/scene_config.h"
 
 namespace hullpipe::nodes {
@@ -84,7 +85,7 @@ TEST(Sim, StepsByTheFramesSourceTimeAndPublishesEachBody) {
   FramesetAssembler assembler(6, false);
   test::TinyRig rig;
   rig.Calibrate(assembler);
-  SceneConfig scene;  // one ball
+  const SceneConfig scene = DefaultScene();  // one ball
   SimRecorder sink;
   SimController sim(scene, clock, assembler, sink);
   EXPECT_EQ(sim.Step(), 0);
@@ -97,7 +98,7 @@ TEST(Sim, StepsByTheFramesSourceTimeAndPublishesEachBody) {
   ASSERT_EQ(sink.reports.size(), 2u);
   EXPECT_EQ(sink.states[1].frame_seq, 3u);
   EXPECT_NEAR(sink.states[1].sim_time - sink.states[0].sim_time, 2.0 / 25.0, 1e-12);
-  EXPECT_EQ(sink.states[0].object_id, uint32_t(scene.balls[0].id));
+  EXPECT_EQ(sink.states[0].object_id, uint32_t(scene.Find<BallsConfig>()->balls[0].id));
   EXPECT_TRUE(sink.meshes.empty()) << "no cloth, particles or payload in the default scene";
   EXPECT_EQ(sim.counters().frames_out(), 2u);
 }
@@ -111,7 +112,7 @@ TEST(Sim, EveryFramesetStepsEachCompleteFramesetInOrder) {
     test::TinyRig rig;
     rig.Calibrate(assembler);
     SimRecorder sink;
-    SimController sim(SceneConfig{}, clock, assembler, sink);
+    SimController sim(DefaultScene(), clock, assembler, sink);
     sim.set_every_frameset(every);
     for (uint64_t seq = 1; seq <= 3; ++seq) rig.AddFrame(assembler, seq, clock.WallNs());
     EXPECT_EQ(sim.Step(), every ? 3 : 1);
@@ -165,10 +166,12 @@ TEST(Sim, AMovingHullThrowsTheBallItStrikesUnlessTurnedOff) {
     scene.has_floor = false;
     scene.gravity.setZero();
     scene.hull_velocity.enabled = enabled;
-    scene.balls[0].radius = 0.05;
-    scene.balls[0].start = scene.balls[0].target = *front + (0.05 + 0.6 * speed / fps) * d;
-    scene.balls[0].rethrow_period = 0;
-    scene.balls[0].restitution = 0.5;
+    BallConfig ball;
+    ball.radius = 0.05;
+    ball.start = ball.target = *front + (0.05 + 0.6 * speed / fps) * d;
+    ball.rethrow_period = 0;
+    ball.restitution = 0.5;
+    scene.Set(BallsConfig({ball}));
     SimRecorder sink;
     SimController sim(scene, clock, assembler, sink);
     // The same run with the hull box searched on 4 threads: the same steps,
