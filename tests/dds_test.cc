@@ -205,6 +205,7 @@ TEST(Convert, VirtualMeshRoundTripAndMalformed) {
   m.draw.triangles = {{0, 1, 2}, {1, 3, 2}};
   m.draw.colliding = {0, 1};
   m.clearance = 0.05;
+  m.element = "cloth";
   auto s = MakeVirtualMeshMessage(m);
   const VirtualMeshSample back = VirtualMeshFromMsg(s.msg);
   EXPECT_EQ(back.object_id, 100u);
@@ -215,7 +216,19 @@ TEST(Convert, VirtualMeshRoundTripAndMalformed) {
   EXPECT_EQ(back.draw.triangles[1], Eigen::Vector3i(1, 3, 2));
   EXPECT_EQ(back.draw.colliding, m.draw.colliding);
   EXPECT_DOUBLE_EQ(back.clearance, 0.05);
+  EXPECT_EQ(back.element, "cloth");
   // Malformed samples from outside are refused, never drawn.
+  for (const char* bad : {"", "Cloth", "a b", "x123456789012345678901234567890123"}) {
+    std::string text = bad;
+    s.msg.element = text.data();
+    EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError) << bad;
+  }
+  s.msg.element = nullptr;
+  EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
+  m.element = "no good";
+  EXPECT_THROW(MakeVirtualMeshMessage(m), MessageError);
+  s.msg.element = const_cast<char*>(s.strings[0].c_str());
+  ASSERT_NO_THROW(VirtualMeshFromMsg(s.msg));  // control
   s.words[5] = 7;  // index past the vertices
   EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
   s.words[5] = 2;

@@ -362,9 +362,16 @@ nlohmann::json RunScene(const std::string& scene, bool rig, int frames) {
     EXPECT_EQ(j["nodes"][node]["rejected"].get<int>(), 0) << scene << " " << node;
   if (scene == "curtain" || scene == "particles") {
     EXPECT_GE(j["meshes_drawn"].get<int>(), 5) << scene;
+    // Its mesh reported under its element's key, drawn every frame it was.
+    const std::string key = scene == "curtain" ? "cloth" : "particles";
+    EXPECT_EQ(j["elements"][key].size(), 1u) << j.dump(2);
+    for (const auto& [id, mesh] : j["elements"][key].items()) EXPECT_GE(mesh["frames_drawn"].get<int>(), 5) << id;
   }
   if (scene == "payload") {
-    EXPECT_EQ(j["payload"].size(), 3u) << j.dump(2);  // PMT, payload A, shaft
+    EXPECT_EQ(j["elements"]["payload"].size(), 3u) << j.dump(2);  // PMT, payload A, shaft
+    for (const auto& [id, part] : j["elements"]["payload"].items())
+      EXPECT_FALSE(part["min_clearance_mm"].is_null()) << id;  // every part measures its clearance
+    EXPECT_EQ(j["elements"].size(), 1u) << j.dump(2);  // nothing else under another key
     EXPECT_GE(j["meshes_drawn"].get<int>(), 15);
   }
   if (scene == "lighting") {

@@ -261,6 +261,7 @@ class Exporter {
         int colliding = 0;
         for (auto flag : mesh.draw.colliding) colliding += flag != 0;
         (*j)["colliding_triangles"] = colliding, (*j)["clearance"] = mesh.clearance;
+        (*j)["element"] = mesh.element;
       });
     if (type == "hullpipe::msg::SceneCommand")
       return With<hullpipe_msg_SceneCommand>(w, s, [&](const auto& m) {

@@ -1,6 +1,7 @@
 #include "hullpipe/dds/convert.h"
 
 #include <cmath>
+#include <cstring>
 #include <optional>
 
 #include <opencv2/imgcodecs.hpp>
@@ -326,6 +327,14 @@ HullTile TileFromMsg(const hullpipe_msg_HullView& m) {
 
 namespace {
 constexpr size_t kMaxMeshVertices = 200000;
+
+// A scene element's key (VirtualMesh.element): [a-z0-9_], 1 to 32 characters.
+bool IsElementKey(const std::string& key) {
+  if (key.empty() || key.size() > kMaxElementKeyChars) return false;
+  for (const char c : key)
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
+  return true;
+}
 }  // namespace
 
 OwnedSample<hullpipe_msg_VirtualMesh> MakeVirtualMeshMessage(const VirtualMeshSample& mesh) {
@@ -334,7 +343,11 @@ OwnedSample<hullpipe_msg_VirtualMesh> MakeVirtualMeshMessage(const VirtualMeshSa
   if (d.vertices.size() > kMaxMeshVertices) throw MessageError("VirtualMesh: more than 200000 vertices");
   if (!d.colliding.empty() && d.colliding.size() != items)
     throw MessageError("VirtualMesh: colliding must have one flag per triangle (or per point)");
+  if (!IsElementKey(mesh.element))
+    throw MessageError("VirtualMesh: element '" + mesh.element.substr(0, 40) + "' is not a scene element's key");
   OwnedSample<hullpipe_msg_VirtualMesh> s;
+  s.strings.reserve(1);
+  s.strings.push_back(mesh.element);
   s.floats.reserve(d.vertices.size() * 3);
   for (const auto& v : d.vertices)
     for (int k = 0; k < 3; ++k) s.floats.push_back(float(v[k]));
@@ -353,6 +366,7 @@ OwnedSample<hullpipe_msg_VirtualMesh> MakeVirtualMeshMessage(const VirtualMeshSa
   m.point_radius = d.point_radius;
   for (int k = 0; k < 3; ++k) m.colour[k] = d.colour[k];
   m.clearance = mesh.clearance;
+  m.element = const_cast<char*>(s.strings[0].c_str());
   return s;
 }
 
@@ -372,7 +386,10 @@ VirtualMeshSample VirtualMeshFromMsg(const hullpipe_msg_VirtualMesh& m) {
                        std::to_string(items) + " items");
   if (!std::isfinite(m.point_radius) || m.point_radius < 0 || m.point_radius > 1)
     throw MessageError(who + "point_radius out of range");
+  const std::string element = m.element ? std::string(m.element, strnlen(m.element, kMaxElementKeyChars + 1)) : "";
+  if (!IsElementKey(element)) throw MessageError(who + "element is not a scene element's key ([a-z0-9_], 1 to 32)");
   VirtualMeshSample out;
+  out.element = element;
   out.object_id = m.object_id;
   out.kind = m.kind;
   out.frame_seq = m.frame_seq;

@@ -58,7 +58,14 @@ struct VirtualMeshSample {
   int64_t capture_time_ns = 0;
   VirtualMeshDraw draw;    ///< Vertices (world metres), triangles, colliding flags, colour.
   double clearance = -1;   ///< Least distance from the hull, metres (< 0: not measured).
+  /// The scene element that publishes it: its scene-file section ("cloth",
+  /// "payload"; scene_element.h Key()); render_node's stats.json keys what it
+  /// drew by it. [a-z0-9_], 1 to kMaxElementKeyChars characters.
+  std::string element = "mesh";
 };
+
+/// The longest VirtualMesh element key.
+constexpr size_t kMaxElementKeyChars = 32;
 
 /// One part of a CAD model in the scene (ModelPart), sent once: its geometry in
 /// its body frame and what the file calls it (paper §5: the engine's parts).

@@ -138,6 +138,10 @@ TEST(SceneElements, EveryRegisteredKindIsReadSteppedAndPublished) {
   EXPECT_EQ(out.meshes[1].kind, kMeshParticles);
   EXPECT_GT(out.meshes[1].draw.vertices.size(), 0u);  // emitted in 0.1 s at 100/s
   for (size_t k = 2; k < 5; ++k) EXPECT_EQ(out.meshes[k].kind, kMeshPart);
+  // Each mesh names the element that published it (render_node's stats.json).
+  EXPECT_EQ(out.meshes[0].element, "cloth");
+  EXPECT_EQ(out.meshes[1].element, "particles");
+  for (size_t k = 2; k < 5; ++k) EXPECT_EQ(out.meshes[k].element, "payload");
   EXPECT_TRUE(out.events.empty());  // no hull: nothing collides
   ASSERT_EQ(out.model_parts.size(), 1u);  // the model's one part, once
   ASSERT_EQ(out.model_states.size(), 1u);

@@ -19,7 +19,12 @@ void VirtualScene::Step(const StepContext& step) {
 
 ElementOutput VirtualScene::Output(double source_time_s, uint64_t frame_seq) {
   ElementOutput out;
-  for (auto& e : elements_) e->Output(source_time_s, frame_seq, &out);
+  for (size_t i = 0; i < elements_.size(); ++i) {
+    const size_t before = out.meshes.size();
+    elements_[i]->Output(source_time_s, frame_seq, &out);
+    // Each mesh names its element, for what render_node reports per element.
+    for (size_t k = before; k < out.meshes.size(); ++k) out.meshes[k].element = config_.elements[i]->Key();
+  }
   return out;
 }
 

@@ -331,10 +331,8 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     if (s == per.begin()) continue;
     --s;
     draws.push_back(&s->second.draw);
-    if (s->second.kind == kMeshPart && s->second.clearance >= 0) {
-      const auto& c = s->second.draw.colliding;
-      report_.OnPayloadPartDrawn(id, s->second.clearance, std::find(c.begin(), c.end(), 1) != c.end());
-    }
+    const auto& c = s->second.draw.colliding;
+    report_.OnMeshDrawn(s->second.element, id, s->second.clearance, std::find(c.begin(), c.end(), 1) != c.end());
   }
   DrawModels(f.frame_seq, &draws);
   cv::Mat composited_depth;

@@ -71,10 +71,21 @@ void RunReport::OnModelPartDrawn(uint32_t object_id, uint8_t contact, double cle
   if (clearance >= 0 && p.clearance_m.size() < kMaxSamples) p.clearance_m.push_back(float(clearance));
 }
 
-void RunReport::OnPayloadPartDrawn(uint32_t object_id, double clearance, bool colliding) {
-  auto [mc, fresh] = min_clearance_.try_emplace(object_id, clearance);
-  if (!fresh) mc->second = std::min(mc->second, clearance);
-  if (colliding) ++part_collisions_[object_id];
+void RunReport::OnMeshDrawn(const std::string& element, uint32_t object_id, double clearance, bool colliding) {
+  auto key = std::make_pair(element, object_id);
+  auto it = mesh_stats_.find(key);
+  if (it == mesh_stats_.end()) {
+    if (mesh_stats_.size() >= kMaxMeshObjects) {
+      ++meshes_over_limit_;
+      return;
+    }
+    it = mesh_stats_.emplace(std::move(key), MeshStats{}).first;
+  }
+  MeshStats& m = it->second;
+  ++m.frames_drawn;
+  m.frames_colliding += colliding;
+  if (clearance >= 0 && std::isfinite(clearance))
+    m.min_clearance_m = m.min_clearance_m < 0 ? clearance : std::min(m.min_clearance_m, clearance);
 }
 
 nlohmann::json RunReport::ModelsJson() const {
@@ -150,11 +161,13 @@ nlohmann::json RunReport::StatsJson(const RunFacts& facts) const {
       facts.frames_composited ? hull_fraction_sum_ / double(facts.frames_composited) : 0.0;
   j["world"] = facts.world;
   if (!model_stats_.empty()) j["models"] = ModelsJson();
-  for (const auto& [id, c] : min_clearance_) {
-    const auto pc = part_collisions_.find(id);
-    j["payload"][std::to_string(id)] = {{"min_clearance_mm", c * 1e3},
-                                        {"frames_colliding", pc == part_collisions_.end() ? 0 : pc->second}};
-  }
+  // Each scene element's meshes, by the element's key and the object id.
+  for (const auto& [key, m] : mesh_stats_)
+    j["elements"][key.first][std::to_string(key.second)] = {
+        {"frames_drawn", m.frames_drawn},
+        {"frames_colliding", m.frames_colliding},
+        {"min_clearance_mm", m.min_clearance_m < 0 ? nlohmann::json() : nlohmann::json(m.min_clearance_m * 1e3)}};
+  if (meshes_over_limit_) j["meshes_over_limit"] = meshes_over_limit_;
   auto row = [](const NodeStatsSample& r) {
     nlohmann::json stages = nlohmann::json::object();
     for (const auto& [n, s] : r.stages)

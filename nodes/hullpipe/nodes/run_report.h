@@ -63,8 +63,14 @@ class RunReport {
   /// A CAD model part drawn in one frame: its contact (PartContact) and its
   /// clearance, metres (negative: not measured).
   void OnModelPartDrawn(uint32_t object_id, uint8_t contact, double clearance);
-  /// A payload part drawn in one frame: its clearance, metres, and whether it collides.
-  void OnPayloadPartDrawn(uint32_t object_id, double clearance, bool colliding);
+  /// Most (element, object) pairs whose meshes are reported; later ones are
+  /// counted (meshes_over_limit).
+  static constexpr size_t kMaxMeshObjects = 4096;
+  /// A scene element's mesh drawn in one frame (VirtualMesh): the element's key
+  /// ("payload", "cloth"), the object, its clearance, metres (negative: not
+  /// measured), and whether any of it collides. stats.json's "elements" keys
+  /// them by element, then object id.
+  void OnMeshDrawn(const std::string& element, uint32_t object_id, double clearance, bool colliding);
 
   /// The latency budget from every node's newest report and `render`
   /// (nodes/latency_budget.h).
@@ -101,8 +107,12 @@ class RunReport {
   double hull_fraction_sum_ = 0;
   std::map<uint32_t, ModelStats> model_stats_;  // model id -> what its steps cost
   std::map<uint32_t, PartStats> parts_;         // object id -> a model part's contacts
-  std::map<uint32_t, double> min_clearance_;    // payload part -> least clearance, metres
-  std::map<uint32_t, uint64_t> part_collisions_;  // payload part -> frames drawn colliding
+  struct MeshStats {
+    uint64_t frames_drawn = 0, frames_colliding = 0;
+    double min_clearance_m = -1;  // < 0: never measured
+  };
+  std::map<std::pair<std::string, uint32_t>, MeshStats> mesh_stats_;  // (element, object); at most kMaxMeshObjects
+  uint64_t meshes_over_limit_ = 0;
 };
 
 }  // namespace hullpipe::nodes

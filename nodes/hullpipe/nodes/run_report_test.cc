@@ -34,9 +34,11 @@ TEST(RunReport, HullVelocityCountsEveryStatusAndAveragesOnlyMeasuredSpeeds) {
 
 TEST(RunReport, PartsKeepTheirLeastClearanceAndTheirFramesInCollision) {
   RunReport r;
-  r.OnPayloadPartDrawn(7, 0.010, false);
-  r.OnPayloadPartDrawn(7, 0.002, true);
-  r.OnPayloadPartDrawn(7, 0.005, true);
+  r.OnMeshDrawn("payload", 7, 0.010, false);
+  r.OnMeshDrawn("payload", 7, 0.002, true);
+  r.OnMeshDrawn("payload", 7, 0.005, true);
+  r.OnMeshDrawn("blocks", 7, 0.001, false);  // another element's object 7: its own entry
+  r.OnMeshDrawn("cloth", 100, -1, true);      // no clearance measured
   ModelPartSample part;
   part.object_id = 101;
   part.model_id = 100;
@@ -58,8 +60,21 @@ TEST(RunReport, PartsKeepTheirLeastClearanceAndTheirFramesInCollision) {
   RunFacts facts;
   facts.frames_composited = 2;
   const nlohmann::json j = r.StatsJson(facts);
-  EXPECT_NEAR(j["payload"]["7"]["min_clearance_mm"].get<double>(), 2.0, 1e-9);
-  EXPECT_EQ(j["payload"]["7"]["frames_colliding"], 2);
+  const auto& e = j["elements"];
+  EXPECT_NEAR(e["payload"]["7"]["min_clearance_mm"].get<double>(), 2.0, 1e-9);
+  EXPECT_EQ(e["payload"]["7"]["frames_colliding"], 2);
+  EXPECT_EQ(e["payload"]["7"]["frames_drawn"], 3);
+  EXPECT_NEAR(e["blocks"]["7"]["min_clearance_mm"].get<double>(), 1.0, 1e-9);
+  EXPECT_TRUE(e["cloth"]["100"]["min_clearance_mm"].is_null());
+  EXPECT_EQ(e["cloth"]["100"]["frames_colliding"], 1);
+  EXPECT_FALSE(j.contains("payload"));
+  EXPECT_FALSE(j.contains("meshes_over_limit"));
+  // Objects past the bound are counted, not kept (a peer publishing endless ids).
+  RunReport flood;
+  for (uint32_t id = 0; id <= RunReport::kMaxMeshObjects; ++id) flood.OnMeshDrawn("cloth", id, -1, false);
+  const nlohmann::json f = flood.StatsJson(facts);
+  EXPECT_EQ(f["elements"]["cloth"].size(), RunReport::kMaxMeshObjects);
+  EXPECT_EQ(f["meshes_over_limit"], 1);
   ASSERT_EQ(j["models"].size(), 1u);
   const auto& m = j["models"][0];
   EXPECT_EQ(m["file"], "engine.glb");
