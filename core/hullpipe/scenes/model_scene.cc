@@ -417,16 +417,6 @@ class ModelsElement final : public SceneElement {
   TriangleQueryFunction query_;
 };
 
-Eigen::Vector3d Axis(const std::string& s, const std::string& path) {
-  static const std::vector<std::pair<std::string, Eigen::Vector3d>> axes = {
-      {"+x", Eigen::Vector3d::UnitX()},  {"x", Eigen::Vector3d::UnitX()},  {"-x", -Eigen::Vector3d::UnitX()},
-      {"+y", Eigen::Vector3d::UnitY()},  {"y", Eigen::Vector3d::UnitY()},  {"-y", -Eigen::Vector3d::UnitY()},
-      {"+z", Eigen::Vector3d::UnitZ()},  {"z", Eigen::Vector3d::UnitZ()},  {"-z", -Eigen::Vector3d::UnitZ()}};
-  for (const auto& [name, v] : axes)
-    if (name == s) return v;
-  throw std::runtime_error(path + ": 'models.up' must be one of +x -x +y -y +z -z, not " + s);
-}
-
 }  // namespace
 
 std::unique_ptr<SceneElement> ModelsConfig::Make(const SceneConfig& scene) const {
@@ -444,53 +434,46 @@ std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& n,
   for (size_t k = 0; k < n.size(); ++k) {
     const YAML::Node m = n[k];
     const std::string where = "models[" + std::to_string(k) + "]";
-    Keys(m, path, where,
-         {"file", "units", "scale", "up", "anchor", "position", "yaw_deg", "motion", "restitution", "first_id",
-          "warn_distance", "max_clearance", "max_pixel_size"},
-         {"file"});
     ModelEntry e;
-    e.file = m["file"].as<std::string>();
+    e.first_id = next_id;
+    std::optional<double> units;  // metres per file unit
+    std::optional<Eigen::Vector3d> up;
+    const Eigen::Vector3d ux = Eigen::Vector3d::UnitX(), uy = Eigen::Vector3d::UnitY(), uz = Eigen::Vector3d::UnitZ();
+    using Motion = ModelEntry::Motion;
+    using Anchor = ModelEntry::Anchor;
+    Section entry(m, path, where);
+    entry.Field("file", &e.file, Need::kRequired)
+        .Choice<std::optional<double>>("units", &units, {{"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}})
+        .Field("scale", &e.scale)
+        .Choice<std::optional<Eigen::Vector3d>>(
+            "up", &up, {{"+x", ux}, {"x", ux}, {"-x", -ux}, {"+y", uy}, {"y", uy}, {"-y", -uy}, {"+z", uz}, {"z", uz}, {"-z", -uz}},
+            "one of +x -x +y -y +z -z")
+        .Choice("anchor", &e.anchor,
+                {{"origin", Anchor::kOrigin}, {"centre", Anchor::kCentre}, {"center", Anchor::kCentre},
+                 {"bottom", Anchor::kBottom}},
+                "origin, centre or bottom")
+        .Vec("position", &e.position)
+        .Field("yaw_deg", &e.yaw_deg)
+        .Choice("motion", &e.motion, {{"static", Motion::kStatic}, {"dynamic", Motion::kDynamic}})
+        .Field("restitution", &e.restitution)
+        .Field("first_id", &e.first_id)
+        .Field("warn_distance", &e.warn_distance)
+        .Field("max_clearance", &e.max_clearance)
+        .Field("max_pixel_size", &e.max_pixel_size)
+        .Read();
     e.path = !e.file.empty() && e.file[0] == '/' ? e.file : dir + e.file;
     const std::string ext = ModelFileExtension(e.file);
-    const bool metres_by_spec = ext == "gltf" || ext == "glb";
-    if (m["units"] && m["scale"]) throw std::runtime_error(path + ": '" + where + "': give units or scale, not both");
-    if (m["units"]) {
-      const std::string u = m["units"].as<std::string>();
-      if (u == "m") e.scale = 1;
-      else if (u == "cm") e.scale = 0.01;
-      else if (u == "mm") e.scale = 0.001;
-      else if (u == "in") e.scale = 0.0254;
-      else throw std::runtime_error(path + ": '" + where + ".units' must be m, cm, mm or in, not " + u);
-    } else if (m["scale"]) {
-      e.scale = m["scale"].as<double>();
-    } else if (!metres_by_spec) {
+    if (units && entry.Has("scale"))
+      throw std::runtime_error(path + ": '" + where + "': give units or scale, not both");
+    if (units) {
+      e.scale = *units;
+    } else if (!entry.Has("scale") && ext != "gltf" && ext != "glb") {  // glTF: metres by its specification
       throw std::runtime_error(path + ": '" + where + "': " + e.file +
                                " carries no units (only glTF is metres by its specification): give units (m, cm, "
                                "mm, in) or scale");
     }
-    e.up_file = (ext == "stl" || ext == "ply") ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
-    if (m["up"]) e.up_file = Axis(m["up"].as<std::string>(), path);
-    if (m["anchor"]) {
-      const std::string a = m["anchor"].as<std::string>();
-      if (a == "origin") e.anchor = ModelEntry::Anchor::kOrigin;
-      else if (a == "centre" || a == "center") e.anchor = ModelEntry::Anchor::kCentre;
-      else if (a == "bottom") e.anchor = ModelEntry::Anchor::kBottom;
-      else throw std::runtime_error(path + ": '" + where + ".anchor' must be origin, centre or bottom, not " + a);
-    }
-    e.position = Vec3(m, path, "position", e.position);
-    Get(m, "yaw_deg", &e.yaw_deg);
-    if (m["motion"]) {
-      const std::string mo = m["motion"].as<std::string>();
-      if (mo != "static" && mo != "dynamic")
-        throw std::runtime_error(path + ": '" + where + ".motion' must be static or dynamic, not " + mo);
-      e.motion = mo == "dynamic" ? ModelEntry::Motion::kDynamic : ModelEntry::Motion::kStatic;
-    }
-    e.first_id = next_id;
-    Get(m, "first_id", &e.first_id);
-    Get(m, "restitution", &e.restitution);
-    Get(m, "warn_distance", &e.warn_distance);
-    Get(m, "max_clearance", &e.max_clearance);
-    Get(m, "max_pixel_size", &e.max_pixel_size);
+    // The file's up: as said, else its format's convention (STL and PLY +z, the rest +y).
+    e.up_file = up ? *up : (ext == "stl" || ext == "ply") ? uz : uy;
     try {
       e.Check();
     } catch (const std::invalid_argument& x) {

@@ -93,7 +93,13 @@ TEST(ModelScene, BadEntriesNameTheKey) {
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj}\n").find("carries no units"), std::string::npos);
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: furlong}\n").find("models[0].units"), std::string::npos);
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, scale: 2}\n").find("not both"), std::string::npos);
-  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, up: w}\n").find("models.up"), std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, up: w}\n").find("'models[0].up' must be one of"),
+            std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, anchor: top}\n")
+                .find("'models[0].anchor' must be origin, centre or bottom, not top"),
+            std::string::npos);
+  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, unit: m}\n").find("unknown key 'models[0].unit'"),
+            std::string::npos);
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, motion: rolling}\n").find("models[0].motion"),
             std::string::npos);
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, motion: dynamic, restitution: 2}\n").find("restitution"),

@@ -27,12 +27,6 @@ inline Eigen::Vector3d Vec3(const YAML::Node& n, const std::string& path, const 
   return {v[0], v[1], v[2]};
 }
 
-/// *out = n[key] when present.
-template <typename T>
-void Get(const YAML::Node& n, const char* key, T* out) {
-  if (n[key]) *out = n[key].as<T>();
-}
-
 /// A section must be a map with only the keys this build reads (a misspelt key
 /// would otherwise be ignored and its default used without a word) and the ones
 /// it cannot do without. Throws std::runtime_error naming the file and the key
@@ -72,6 +66,30 @@ class Section {
     Bind(key, need, [this, key, out] { *out = Vec3(n_, path_, key, *out); });
     return *this;
   }
+  /// *out = the value of the word the key gives, when present; another word
+  /// throws std::runtime_error "'section.key' must be a, b or c, not w" (the
+  /// words as `said`, default every word in order).
+  template <typename T>
+  Section& Choice(const char* key, T* out, std::vector<std::pair<std::string, T>> words, std::string said = "",
+                  Need need = Need::kOptional) {
+    if (said.empty())
+      for (size_t i = 0; i < words.size(); ++i)
+        said += (i == 0 ? "" : i + 1 == words.size() ? " or " : ", ") + words[i].first;
+    Bind(key, need, [this, key, out, words = std::move(words), said = std::move(said)] {
+      const std::string w = n_[key].template as<std::string>();
+      for (const auto& [word, value] : words)
+        if (word == w) {
+          *out = value;
+          return;
+        }
+      throw std::runtime_error(path_ + ": '" + Where() + key + "' must be " + said + ", not " + w);
+    });
+    return *this;
+  }
+  /// Whether the section gives `key` (for settings that exclude each other).
+  bool Has(const char* key) const { return bool(n_[key]); }
+  /// "section." ("" at the top level).
+  std::string Where() const { return name_.empty() ? "" : name_ + "."; }
   void Read() const {
     Keys(n_, path_, name_, known_, required_);
     for (size_t i = 0; i < known_.size(); ++i)
