@@ -151,7 +151,7 @@ double BoxDistance2(const Aabb& b, const Eigen::Vector3d& p) {
 }  // namespace
 
 double TriangleBvh::Distance(const TriangleMesh& mesh, const Eigen::Vector3d& p, double bound,
-                             Eigen::Vector3d* closest) const {
+                             Eigen::Vector3d* closest, int* triangle) const {
   if (nodes_.empty()) return bound;
   double best2 = bound * bound;
   bool found = false;
@@ -173,6 +173,7 @@ double TriangleBvh::Distance(const TriangleMesh& mesh, const Eigen::Vector3d& p,
           best2 = d2;
           found = true;
           if (closest) *closest = q;
+          if (triangle) *triangle = order_[size_t(k)];
         }
       }
       continue;

@@ -50,9 +50,10 @@ class TriangleBvh {
 
   /// Least distance (metres) from p_body to the mesh's triangles, if below
   /// `bound`; else returns `bound`. *closest (optional) gets the nearest mesh
-  /// point, body frame, when found.
+  /// point, body frame, and *triangle (optional) its triangle's index, when
+  /// found.
   double Distance(const TriangleMesh& mesh, const Eigen::Vector3d& p_body, double bound,
-                  Eigen::Vector3d* closest = nullptr) const;
+                  Eigen::Vector3d* closest = nullptr, int* triangle = nullptr) const;
 
  private:
   std::vector<Node> nodes_;
