@@ -52,6 +52,11 @@ MeshSignedDistance::MeshSignedDistance(TriangleMesh mesh) : mesh_(std::move(mesh
     for (int k = 0; k < 3; ++k)
       directed[{weld_[size_t(tri[k])], weld_[size_t(tri[(k + 1) % 3])]}].push_back(3 * t + size_t(k));
   }
+  // Its volume's sign says which way it is wound (divergence theorem).
+  double volume6 = 0;
+  for (const auto& tri : mesh_.triangles)
+    volume6 += mesh_.vertices[size_t(tri[0])].dot(mesh_.vertices[size_t(tri[1])].cross(mesh_.vertices[size_t(tri[2])]));
+  inside_out_ = volume6 < 0;
   closed_ = true;
   for (const auto& [edge, uses] : directed) {
     const auto twin = directed.find({edge.second, edge.first});
@@ -94,7 +99,7 @@ double MeshSignedDistance::Signed(const Eigen::Vector3d& p, Eigen::Vector3d* clo
       normal = vertex_normal_[size_t(weld_[size_t(tri[nonzero])])];  // at the one vertex left
     }
   }
-  return (p - q).dot(normal) < 0 ? -d : d;
+  return ((p - q).dot(normal) < 0) != inside_out_ ? -d : d;
 }
 
 double WindingNumber(const TriangleMesh& mesh, const Eigen::Vector3d& p) {

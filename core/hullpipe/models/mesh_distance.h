@@ -26,7 +26,8 @@ class MeshSignedDistance {
   explicit MeshSignedDistance(TriangleMesh mesh);
   /// Every edge (of welded vertices) is shared by exactly two triangles that
   /// run it in opposite directions: the mesh bounds a volume and the sign is
-  /// exact. False: Signed gives the unsigned distance (a surface has no inside).
+  /// exact (a mesh wound inside out, negative volume, is read the right way
+  /// out). False: Signed gives the unsigned distance (a surface has no inside).
   bool closed() const { return closed_; }
   /// Least distance from p (body frame) to the mesh, metres; negative inside
   /// when closed(). *closest (optional): the nearest mesh point.
@@ -42,6 +43,7 @@ class MeshSignedDistance {
   TriangleBvh bvh_;
   Aabb bounds_;
   bool closed_ = false;
+  bool inside_out_ = false;  // closed with its triangles wound clockwise seen from outside
   std::vector<int> weld_;                        // vertex -> its welded representative
   std::vector<Eigen::Vector3d> face_normal_;     // unit, per triangle
   std::vector<Eigen::Vector3d> vertex_normal_;   // angle-weighted, per welded vertex

@@ -104,6 +104,14 @@ TEST(MeshSignedDistance, PerFaceVertexCopiesAreWeldedAndAnOpenMeshIsUnsigned) {
   TriangleMesh flipped = box;
   std::swap(flipped.triangles[0][1], flipped.triangles[0][2]);
   EXPECT_FALSE(MeshSignedDistance(flipped).closed());
+  // Every triangle wound the other way (a file's inside-out part): still
+  // closed, its inside still inside.
+  TriangleMesh inverted = box;
+  for (auto& t : inverted.triangles) std::swap(t[1], t[2]);
+  const MeshSignedDistance turned(inverted);
+  EXPECT_TRUE(turned.closed());
+  EXPECT_NEAR(turned.Signed(Eigen::Vector3d(0.02, 0, 0)), -0.08, 1e-12);
+  EXPECT_NEAR(turned.Signed(Eigen::Vector3d(0.3, 0, 0)), 0.2, 1e-12);
 
   EXPECT_THROW(MeshSignedDistance(TriangleMesh{}), std::invalid_argument);
   TriangleMesh bad = box;

@@ -6,6 +6,10 @@
 #include <limits>
 #include <stdexcept>
 
+#include <Eigen/Geometry>
+
+#include "hullpipe/models/model_import.h"
+#include "hullpipe/scenes/model_scene.h"
 #include "hullpipe/scenes/scene_config.h"
 #include "hullpipe/scenes/scene_yaml.h"
 #include "hullpipe/util/csv.h"
@@ -14,6 +18,7 @@ namespace hullpipe {
 
 double PayloadPart::SignedDistance(const Eigen::Vector3d& p) const {
   const Eigen::Vector3d d = p - centre;
+  if (type == Type::kMesh) return shape->Signed(d);
   if (type == Type::kBox) {
     const Eigen::Vector3d q = d.cwiseAbs() - half_extents;
     return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
@@ -38,6 +43,11 @@ Aabb PayloadPart::Bounds() const {
 }
 
 TriangleMesh PayloadPart::Mesh() const {
+  if (type == Type::kMesh) {
+    Rigid3d pose;
+    pose.translation = centre;
+    return shape->mesh().Transformed(pose);
+  }
   if (type == Type::kBox) {
     Rigid3d pose;
     pose.translation = centre;
@@ -79,6 +89,10 @@ void PayloadConfig::Check() const {
   if (!pmt_centre.allFinite()) throw std::invalid_argument("payload: pmt_centre must be finite");
   if (!(pmt_half.minCoeff() > 0) || !(a_half.minCoeff() > 0))
     throw std::invalid_argument("payload: pmt_half and a_half must be > 0");
+  for (const auto* m : {&pmt_model, &a_model})
+    if (*m && !(std::isfinite((*m)->scale) && (*m)->scale >= 1e-6 && (*m)->scale <= 1000))
+      throw std::invalid_argument(std::string("payload: ") + (m == &pmt_model ? "pmt_model" : "a_model") +
+                                  ".scale must be in [1e-06, 1000] metres per file unit");
   if (axis < 0 || axis > 2) throw std::invalid_argument("payload: axis must be 0, 1 or 2");
   if (direction != 1 && direction != -1) throw std::invalid_argument("payload: direction must be 1 or -1");
   if (!(spacing >= 0 && spacing < 10)) throw std::invalid_argument("payload: spacing must be in [0, 10) m");
@@ -91,15 +105,27 @@ void PayloadConfig::Check() const {
 }
 
 std::vector<PayloadPart> PayloadConfig::Parts() const {
+  // A model part: its mesh, its box's half extents standing for the box's.
+  auto as_model = [](const std::optional<PayloadModel>& model, PayloadPart* part) {
+    if (!model) return;
+    if (!model->shape) throw std::logic_error("payload: " + part->name + "'s model " + model->file + " not imported");
+    part->type = PayloadPart::Type::kMesh;
+    part->shape = model->shape;
+    const Aabb box = model->shape->bounds();
+    part->half_extents = 0.5 * (box.max - box.min);
+  };
   PayloadPart pmt;
   pmt.name = "PMT";
   pmt.centre = pmt_centre;
   pmt.half_extents = pmt_half;
+  as_model(pmt_model, &pmt);
   PayloadPart a;
   a.name = "payload A";
-  a.centre = pmt_centre;
-  a.centre[axis] += direction * (pmt_half[axis] + spacing + a_half[axis]);
   a.half_extents = a_half;
+  as_model(a_model, &a);
+  a.centre = pmt_centre;
+  a.centre[axis] += direction * (pmt.half_extents[axis] + spacing + a.half_extents[axis]);
+  if (a_model) return {pmt, a};
   PayloadPart shaft;
   shaft.name = "payload A shaft";
   shaft.type = PayloadPart::Type::kCylinder;
@@ -107,7 +133,7 @@ std::vector<PayloadPart> PayloadConfig::Parts() const {
   shaft.radius = shaft_radius;
   shaft.half_length = 0.5 * shaft_length;
   shaft.centre = a.centre;
-  shaft.centre[axis] += direction * (a_half[axis] + 0.5 * shaft_length);
+  shaft.centre[axis] += direction * (a.half_extents[axis] + 0.5 * shaft_length);
   return {pmt, a, shaft};
 }
 
@@ -270,6 +296,19 @@ SpacingSweepResult SweepSpacing(const PayloadConfig& config, const std::vector<V
 
 void PayloadConfig::CheckIn(const SceneConfig&) const { Check(); }
 
+std::string PayloadConfig::Describe() const {
+  std::string s = "the payload task";
+  auto said = [](const char* who, const std::optional<PayloadModel>& m) {
+    if (!m) return std::string();
+    std::string t = std::string(who) + ": " + m->file + (m->part.empty() ? "" : " part '" + m->part + "'");
+    if (m->shape && !m->shape->closed()) t += ", not closed: clearance to its surface";
+    return t;
+  };
+  const std::string p = said("PMT", pmt_model), a = said("payload A", a_model);
+  if (!p.empty() || !a.empty()) s += " (" + p + (p.empty() || a.empty() ? "" : "; ") + a + ")";
+  return s;
+}
+
 namespace {
 
 class PayloadElement final : public SceneElement {
@@ -316,22 +355,106 @@ std::unique_ptr<SceneElement> PayloadConfig::Make(const SceneConfig&) const {
   return std::make_unique<PayloadElement>(*this);
 }
 
-std::shared_ptr<const SceneElementConfig> ReadPayloadSection(const YAML::Node& n, const std::string& path) {
+namespace {
+
+// One of the payload's model entries ({file, part, units | scale,
+// rotation_deg}), imported unless `load` says not to.
+PayloadModel ReadPayloadModel(const YAML::Node& n, const std::string& path, const std::string& where,
+                              const SceneLoadOptions& load) {
+  using namespace scene_yaml;
+  PayloadModel m;
+  std::optional<double> units;
+  Section entry(n, path, where);
+  entry.Field("file", &m.file, Need::kRequired)
+      .Field("part", &m.part)
+      .Choice<std::optional<double>>("units", &units, {{"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}})
+      .Field("scale", &m.scale)
+      .Vec("rotation_deg", &m.rotation_deg)
+      .Read();
+  const std::string dir = path.find('/') == std::string::npos ? "" : path.substr(0, path.rfind('/') + 1);
+  m.path = !m.file.empty() && m.file[0] == '/' ? m.file : dir + m.file;
+  const std::string ext = ModelFileExtension(m.file);
+  if (units && entry.Has("scale")) throw std::runtime_error(path + ": '" + where + "': give units or scale, not both");
+  if (units) {
+    m.scale = *units;
+  } else if (!entry.Has("scale") && ext != "gltf" && ext != "glb") {
+    throw std::runtime_error(path + ": '" + where + "': " + m.file +
+                             " carries no units (only glTF is metres by its specification): give units (m, cm, mm, "
+                             "in) or scale");
+  }
+  if (!(std::isfinite(m.scale) && m.scale >= 1e-6 && m.scale <= 1000))
+    throw std::runtime_error(path + ": '" + where + ".scale' must be in [1e-06, 1000] metres per file unit");
+  if (!m.rotation_deg.allFinite()) throw std::runtime_error(path + ": '" + where + ".rotation_deg' must be finite");
+  if (!load.import_models) return m;
+  ImportLimits limits;
+  limits.max_file_bytes = kMaxModelFileBytes;
+  limits.max_triangles = kMaxSceneModelTriangles;  // the whole file; the part taken is capped below
+  limits.stop = load.stop;
+  const ImportedModel model = ImportModel(m.path, limits);
+  const Eigen::Matrix3d r = (Eigen::AngleAxisd(m.rotation_deg.z() * M_PI / 180, Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(m.rotation_deg.y() * M_PI / 180, Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(m.rotation_deg.x() * M_PI / 180, Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  TriangleMesh mesh;
+  std::string names;
+  for (const ImportedPart& p : model.parts) {
+    if (names.size() < 200) names += (names.empty() ? "" : ", ") + p.name;
+    if (!m.part.empty() && p.name != m.part) continue;
+    const int base = int(mesh.vertices.size());
+    for (const auto& v : p.vertices) mesh.vertices.push_back(m.scale * (r * v.cast<double>()));
+    for (const auto& t : p.triangles) mesh.triangles.emplace_back(t + Eigen::Vector3i::Constant(base));
+  }
+  if (mesh.triangles.empty())
+    throw std::runtime_error(path + ": '" + where + ".part': " + m.file + " has no part '" + m.part +
+                             "' (its parts: " + names + ")");
+  if (int64_t(mesh.triangles.size()) > kMaxPayloadModelTriangles)
+    throw std::runtime_error(path + ": '" + where + "': " + m.file + " gives " +
+                             std::to_string(mesh.triangles.size()) + " triangles; a payload part is at most " +
+                             std::to_string(kMaxPayloadModelTriangles) + " (take one of its parts: 'part')");
+  if (mesh.vertices.size() > 200000)
+    throw std::runtime_error(path + ": '" + where + "': " + m.file + " has " + std::to_string(mesh.vertices.size()) +
+                             " vertices; a payload part is drawn whole every frame: at most 200000");
+  const Aabb box = mesh.Bounds();
+  const Eigen::Vector3d size = box.max - box.min, centre = box.Center();
+  if (!(size.maxCoeff() <= 10))
+    throw std::runtime_error(path + ": '" + where + "': " + m.file + " placed is " + std::to_string(size.maxCoeff()) +
+                             " m across; a payload part is at most 10 m (units or scale?)");
+  for (auto& v : mesh.vertices) v -= centre;
+  m.shape = std::make_shared<const MeshSignedDistance>(std::move(mesh));
+  return m;
+}
+
+}  // namespace
+
+std::shared_ptr<const SceneElementConfig> ReadPayloadSection(const YAML::Node& n, const std::string& path,
+                                                             const SceneLoadOptions& load) {
   using namespace scene_yaml;
   auto c = std::make_shared<PayloadConfig>();
-  Section(n, path, "payload")
-      .Field("first_id", &c->first_id)
+  YAML::Node pmt_model, a_model;
+  Section section(n, path, "payload");
+  section.Field("first_id", &c->first_id)
       .Vec("pmt_centre", &c->pmt_centre)
       .Vec("pmt_half", &c->pmt_half)
+      .Field("pmt_model", &pmt_model)
       .Field("axis", &c->axis)
       .Field("direction", &c->direction)
       .Field("spacing", &c->spacing)
       .Vec("a_half", &c->a_half)
       .Field("shaft_radius", &c->shaft_radius)
       .Field("shaft_length", &c->shaft_length)
+      .Field("a_model", &a_model)
       .Field("max_clearance", &c->max_clearance)
       .Field("max_pixel_size", &c->collision.max_pixel_size)
       .Read();
+  // A model stands for its box: the box's keys beside it would be unused.
+  for (const auto& [model, unused] : {std::pair<const char*, std::vector<const char*>>{"pmt_model", {"pmt_half"}},
+                                      {"a_model", {"a_half", "shaft_radius", "shaft_length"}}})
+    for (const char* key : unused)
+      if (section.Has(model) && section.Has(key))
+        throw std::runtime_error(path + ": 'payload." + key + "' with 'payload." + model + "': the model's box is " +
+                                 "used (give one or the other)");
+  if (section.Has("pmt_model")) c->pmt_model = ReadPayloadModel(pmt_model, path, "payload.pmt_model", load);
+  if (section.Has("a_model")) c->a_model = ReadPayloadModel(a_model, path, "payload.a_model", load);
   return c;
 }
 

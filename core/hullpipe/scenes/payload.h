@@ -5,6 +5,14 @@
 // PMT and payload A can change while the system runs. World metres, frame of the
 // rig; the parts are axis-aligned in the world frame.
 //
+// The paper's task used the payload's CAD models: the PMT and payload A may each
+// be a model file instead of a box (`pmt_model`, `a_model`: a file, one of its
+// parts or all of them, its units and a rotation into the world's axes), placed
+// by its box as the box part would be, measured by its exact signed distance
+// (models/mesh_distance.h; a mesh that bounds no volume: the distance to its
+// surface, its collisions by the triangle query). A model payload A has no
+// separate shaft (the model holds what it holds).
+//
 // Clearance (the least distance from any hull point to a part) is found from
 // the parts' exact signed distances and volume queries: the hull is sampled on a
 // grid (2 cm) over the part's box grown by `max_clearance`, and the inside sample
@@ -16,6 +24,8 @@
 // as found).
 #pragma once
 
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,17 +33,21 @@
 
 #include "hullpipe/collision/collision.h"
 #include "hullpipe/geometry/mesh.h"
+#include "hullpipe/models/mesh_distance.h"
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/scenes/scene_element.h"
 
 namespace hullpipe {
 
-/// An analytic, axis-aligned part: a box or a cylinder along a world axis.
+/// A part: an analytic, axis-aligned box or cylinder along a world axis, or a
+/// model's mesh (world axes) whose box is centred on `centre`.
 struct PayloadPart {
   std::string name;
-  enum class Type { kBox, kCylinder } type = Type::kBox;
+  enum class Type { kBox, kCylinder, kMesh } type = Type::kBox;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  Eigen::Vector3d half_extents = Eigen::Vector3d::Constant(0.1);  ///< Box.
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Constant(0.1);  ///< Box; a mesh's box.
+  /// kMesh: the mesh, world axes, metres, its box centred on the origin.
+  std::shared_ptr<const MeshSignedDistance> shape;
   int axis = 0;               ///< Cylinder axis: 0 x, 1 y, 2 z.
   double radius = 0.05;       ///< Cylinder radius.
   double half_length = 0.1;   ///< Cylinder half length along its axis.
@@ -43,6 +57,23 @@ struct PayloadPart {
   TriangleMesh Mesh() const;
   Aabb Bounds() const;
 };
+
+/// The PMT or payload A as a model file (scene keys `pmt_model`, `a_model`).
+struct PayloadModel {
+  std::string file;  ///< As the scene names it (relative to the scene file).
+  std::string path;  ///< Where it was read.
+  std::string part;  ///< The file's part (node) to take; "": every part, as one mesh.
+  double scale = 1;  ///< Metres per file unit (`units` m, cm, mm, in, or `scale`; glTF: metres).
+  /// The file's axes turned into the world's: about world x, then y, then z, degrees.
+  Eigen::Vector3d rotation_deg = Eigen::Vector3d::Zero();
+  /// The mesh in world axes and metres, its box centred on the origin; null
+  /// when the scene was read without importing models (SceneLoadOptions).
+  std::shared_ptr<const MeshSignedDistance> shape;
+};
+
+/// Most triangles of a payload model part (each is published whole every
+/// frame as a VirtualMesh: at most 200,000 vertices).
+constexpr int64_t kMaxPayloadModelTriangles = 100'000;
 
 /// Settings of the task (scene file key `payload`; a scene element:
 /// scene_element.h).
@@ -56,18 +87,28 @@ struct PayloadConfig final : SceneElementConfig {
   Eigen::Vector3d a_half{0.15, 0.10, 0.15};            ///< Payload A box half extents.
   double shaft_radius = 0.03;                          ///< Central shaft (far side of A), metres.
   double shaft_length = 0.25;
+  std::optional<PayloadModel> pmt_model;               ///< The PMT as a model (pmt_half unused).
+  std::optional<PayloadModel> a_model;                 ///< Payload A as a model (a_half and shaft unused).
   double max_clearance = 0.15;                         ///< Clearance searched up to this, metres.
   TriangleQueryOptions collision{0.004, 0, 32};        ///< Viewports of the parts' triangles.
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
-  /// The parts at the current spacing: PMT, payload A, A's shaft.
+  /// The parts at the current spacing: PMT, payload A, A's shaft (none when A
+  /// is a model). A model's part is its mesh, placed as the box part would be
+  /// with the model's box. Throws std::logic_error for a model not imported.
   std::vector<PayloadPart> Parts() const;
+  /// PMT, payload A and the shaft: 3; 2 when A is a model.
+  int PartCount() const { return a_model ? 2 : 3; }
 
   std::string Key() const override { return "payload"; }
-  std::string Describe() const override { return "the payload task"; }
+  /// "the payload task" (with its models: "the payload task (PMT: engine.glb
+  /// part 'piston')").
+  std::string Describe() const override;
   void CheckIn(const SceneConfig& scene) const override;
   /// PMT, payload A, shaft.
-  std::vector<ObjectIdRange> ObjectIds() const override { return {{first_id, first_id + 2, "payload"}}; }
+  std::vector<ObjectIdRange> ObjectIds() const override {
+    return {{first_id, first_id + PartCount() - 1, "payload"}};
+  }
   /// The task evaluated each step (EvaluatePayload): each part published as a
   /// VirtualMesh of kind part (id first_id + k, drawn red whole while it
   /// collides) with its clearance, and each part's collision starting or ending
@@ -75,9 +116,12 @@ struct PayloadConfig final : SceneElementConfig {
   std::unique_ptr<SceneElement> Make(const SceneConfig& scene) const override;
 };
 
-/// Reads a scene file's `payload` section (keys as PayloadConfig's). Throws
-/// std::runtime_error naming the file and key.
-std::shared_ptr<const SceneElementConfig> ReadPayloadSection(const YAML::Node& section, const std::string& path);
+/// Reads a scene file's `payload` section (keys as PayloadConfig's; `pmt_model`
+/// and `a_model` as {file, part, units | scale, rotation_deg}, imported unless
+/// `load` says not to). Throws std::runtime_error naming the file and key (a
+/// ModelError for a bad model file).
+std::shared_ptr<const SceneElementConfig> ReadPayloadSection(const YAML::Node& section, const std::string& path,
+                                                             const SceneLoadOptions& load = {});
 
 /// Clearance of one part from the hull (FCL-style distance result).
 struct ClearanceResult {

@@ -23,7 +23,7 @@ namespace hullpipe {
 namespace {
 
 TEST(SceneFiles, EveryShippedSceneLoads) {
-  for (const char* name : {"ball", "ball_blocks", "bat", "bat_rig", "curtain", "particles", "payload", "lighting"}) {
+  for (const char* name : {"ball", "ball_blocks", "bat", "bat_rig", "curtain", "particles", "payload", "payload_engine", "lighting"}) {
     const std::string path = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/" + name + ".yaml";
     EXPECT_NO_THROW(VirtualScene(LoadSceneConfig(path))) << path;
   }

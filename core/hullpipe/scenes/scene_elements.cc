@@ -14,7 +14,7 @@ const std::vector<SceneElementKind>& SceneElementKinds() {
       {"balls", [](const auto& n, const auto& path, const auto&) { return ReadBallsSection(n, path); }, true},
       {"cloth", [](const auto& n, const auto& path, const auto&) { return ReadClothSection(n, path); }},
       {"particles", [](const auto& n, const auto& path, const auto&) { return ReadParticlesSection(n, path); }},
-      {"payload", [](const auto& n, const auto& path, const auto&) { return ReadPayloadSection(n, path); }},
+      {"payload", ReadPayloadSection},
       {"models", ReadModelsSection},
   };
   return kinds;
