@@ -367,7 +367,7 @@ nlohmann::json RunScene(const std::string& scene, bool rig, int frames) {
     EXPECT_EQ(j["elements"][key].size(), 1u) << j.dump(2);
     for (const auto& [id, mesh] : j["elements"][key].items()) EXPECT_GE(mesh["frames_drawn"].get<int>(), 5) << id;
   }
-  if (scene == "payload") {
+  if (scene == "payload" || scene == "payload_engine") {  // the PMT a box, or the engine's block
     EXPECT_EQ(j["elements"]["payload"].size(), 3u) << j.dump(2);  // PMT, payload A, shaft
     for (const auto& [id, part] : j["elements"]["payload"].items())
       EXPECT_FALSE(part["min_clearance_mm"].is_null()) << id;  // every part measures its clearance
@@ -392,7 +392,8 @@ nlohmann::json RunScene(const std::string& scene, bool rig, int frames) {
 TEST_P(SceneRun, OnTheSyntheticSource) { RunScene(GetParam(), false, 30); }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, SceneRun,
-                         ::testing::Values("ball_blocks", "bat", "curtain", "particles", "lighting", "payload"));
+                         ::testing::Values("ball_blocks", "bat", "curtain", "particles", "lighting", "payload",
+                                           "payload_engine"));
 
 // The engine demo (docs/models.md): Debian's 2CylinderEngine at real size in
 // front of the seated person; its geometry goes once (transient-local), then
