@@ -294,6 +294,26 @@ TEST(Foxglove, DerivesTheViewableChannelsFromSamplesOnTheWire) {
   ASSERT_TRUE(d.Add("hullpipe::msg::ModelState", encode("hullpipe::msg::ModelState", &touched.msg), 6));
   ASSERT_EQ(got.size(), 2u) << "its contact changed";
   EXPECT_DOUBLE_EQ(json::parse(got[1].json)["entities"][0]["triangles"][0]["color"]["r"].get<double>(), 1.0);
+  got.clear();
+
+  // A box state is a cube at its pose (SceneUpdate's cubes), red while it
+  // collides; a ball's state a sphere.
+  VirtualObjectSample box;
+  box.object_id = 9;
+  box.shape = VirtualObjectSample::Shape::kBox;
+  box.half_extents = Eigen::Vector3d(0.1, 0.2, 0.3);
+  box.position = Eigen::Vector3d(1, 2, 3);
+  box.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()));
+  box.colliding = true;
+  const hullpipe_msg_VirtualObjectState box_msg = dds::VirtualObjectToMsg(box);
+  ASSERT_TRUE(d.Add("hullpipe::msg::VirtualObjectState", encode("hullpipe::msg::VirtualObjectState", &box_msg), 8));
+  ASSERT_EQ(got.size(), 1u);
+  const json cube = json::parse(got[0].json)["entities"][0]["cubes"][0];
+  EXPECT_DOUBLE_EQ(cube["size"]["z"].get<double>(), 0.6);
+  EXPECT_DOUBLE_EQ(cube["pose"]["position"]["y"].get<double>(), 2.0);
+  EXPECT_NEAR(cube["pose"]["orientation"]["z"].get<double>(), std::sin(0.25), 1e-12);
+  EXPECT_DOUBLE_EQ(cube["color"]["r"].get<double>(), 1.0);
+  EXPECT_TRUE(json::parse(got[0].json)["entities"][0]["spheres"].empty());
 
   EXPECT_FALSE(d.Add("hullpipe::msg::CameraInfo", {0, 1, 0, 0, 1, 2}, 7));
   EXPECT_FALSE(d.Add("no::such::Type", {0, 1, 0, 0}, 7));

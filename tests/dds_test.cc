@@ -196,6 +196,50 @@ TEST(Convert, ViewAndTile) {
   EXPECT_THROW(TileFromMsg(s.msg), MessageError);
 }
 
+// A state carries a sphere or a box (SHAPE_BOX: half extents and orientation);
+// an unknown shape, a box with no size, a quaternion that is not unit, or an
+// absurd size from outside is refused.
+TEST(Convert, VirtualObjectStateCarriesSpheresAndBoxes) {
+  VirtualObjectSample box;
+  box.object_id = 5;
+  box.shape = VirtualObjectSample::Shape::kBox;
+  box.half_extents = Eigen::Vector3d(0.1, 0.2, 0.3);
+  box.position = Eigen::Vector3d(1, 2, 3);
+  box.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+  box.colliding = true;
+  hullpipe_msg_VirtualObjectState m = VirtualObjectToMsg(box);
+  const VirtualObjectSample back = VirtualObjectFromMsg(m);
+  EXPECT_EQ(back.shape, VirtualObjectSample::Shape::kBox);
+  EXPECT_EQ(back.half_extents, box.half_extents);
+  EXPECT_TRUE(back.orientation.isApprox(box.orientation, 1e-12));
+  EXPECT_EQ(back.position, box.position);
+  EXPECT_TRUE(back.colliding);
+  VirtualObjectSample ball;
+  ball.radius = 0.12;
+  EXPECT_EQ(VirtualObjectFromMsg(VirtualObjectToMsg(ball)).shape, VirtualObjectSample::Shape::kSphere);
+  EXPECT_EQ(VirtualObjectFromMsg(VirtualObjectToMsg(ball)).radius, 0.12);
+
+  auto refused = [](hullpipe_msg_VirtualObjectState bad) {
+    EXPECT_THROW(VirtualObjectFromMsg(bad), MessageError);
+  };
+  hullpipe_msg_VirtualObjectState bad = m;
+  bad.shape = 9;
+  refused(bad);
+  bad = m;
+  bad.half_extents.y = 0;
+  refused(bad);
+  bad = m;
+  bad.half_extents.x = 1e6;
+  refused(bad);
+  bad = m;
+  bad.orientation[0] = 2;
+  refused(bad);
+  bad = m;
+  bad.orientation[1] = std::nan("");
+  refused(bad);
+  EXPECT_NO_THROW(VirtualObjectFromMsg(m));  // control
+}
+
 TEST(Convert, VirtualMeshRoundTripAndMalformed) {
   VirtualMeshSample m;
   m.object_id = 100;

@@ -213,7 +213,9 @@ class Exporter {
       return With<hullpipe_msg_VirtualObjectState>(w, s, [&](const auto& m) {
         const VirtualObjectSample o = VirtualObjectFromMsg(m);
         (*j)["object_id"] = o.object_id, (*j)["frame_seq"] = o.frame_seq, (*j)["sim_time"] = o.sim_time;
+        (*j)["shape"] = o.shape == VirtualObjectSample::Shape::kBox ? "box" : "sphere";
         (*j)["radius"] = o.radius, (*j)["position"] = Vec(m.position), (*j)["velocity"] = Vec(m.velocity);
+        (*j)["orientation_wxyz"] = Arr(m.orientation), (*j)["half_extents"] = Vec(m.half_extents);
         (*j)["colliding"] = o.colliding;
       });
     if (type == "hullpipe::msg::CollisionReport")

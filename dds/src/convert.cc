@@ -450,11 +450,13 @@ hullpipe_msg_VirtualObjectState VirtualObjectToMsg(const VirtualObjectSample& v)
   s.frame_seq = v.frame_seq;
   s.capture_time_ns = v.capture_time_ns;
   s.sim_time = v.sim_time;
-  s.shape = hullpipe_msg_SHAPE_SPHERE;
+  s.shape = uint8_t(v.shape);
   s.radius = v.radius;
+  s.half_extents = ToMsg(v.half_extents);
   s.position = ToMsg(v.position);
   s.velocity = ToMsg(v.velocity);
-  s.orientation[0] = 1;
+  const Eigen::Quaterniond q = v.orientation.normalized();
+  s.orientation[0] = q.w(), s.orientation[1] = q.x(), s.orientation[2] = q.y(), s.orientation[3] = q.z();
   s.colliding = v.colliding;
   return s;
 }
@@ -466,11 +468,24 @@ VirtualObjectSample VirtualObjectFromMsg(const hullpipe_msg_VirtualObjectState& 
   v.capture_time_ns = m.capture_time_ns;
   v.sim_time = m.sim_time;
   v.radius = m.radius;
+  v.half_extents = FromMsg(m.half_extents);
   v.position = FromMsg(m.position);
   v.velocity = FromMsg(m.velocity);
   v.colliding = m.colliding;
+  const std::string who = "VirtualObjectState " + std::to_string(m.object_id) + ": ";
+  if (m.shape != hullpipe_msg_SHAPE_SPHERE && m.shape != hullpipe_msg_SHAPE_BOX)
+    throw MessageError(who + "unknown shape " + std::to_string(m.shape));
+  v.shape = VirtualObjectSample::Shape(m.shape);
   if (!v.position.allFinite() || !v.velocity.allFinite() || !std::isfinite(v.radius) || v.radius < 0)
-    throw MessageError("VirtualObjectState: position, velocity and radius must be finite (radius >= 0)");
+    throw MessageError(who + "position, velocity and radius must be finite (radius >= 0)");
+  // Drawn sizes: at most 100 m (kMaxStatedExtentM's order), a box's positive.
+  if (v.radius > 100 || !v.half_extents.allFinite() || v.half_extents.maxCoeff() > 100 ||
+      (v.shape == VirtualObjectSample::Shape::kBox && !(v.half_extents.minCoeff() > 0)))
+    throw MessageError(who + "radius and half_extents must be at most 100 m (a box's half_extents > 0)");
+  const Eigen::Quaterniond q(m.orientation[0], m.orientation[1], m.orientation[2], m.orientation[3]);
+  if (!q.coeffs().allFinite() || !(std::abs(q.norm() - 1) < 1e-6))
+    throw MessageError(who + "orientation must be a unit quaternion");
+  v.orientation = q.normalized();
   return v;
 }
 

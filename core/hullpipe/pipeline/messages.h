@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 namespace hullpipe {
@@ -107,12 +108,17 @@ struct ModelStateSample {
 /// One virtual sphere's state after the step against a frameset
 /// (VirtualObjectState), world metres and m/s.
 struct VirtualObjectSample {
+  /// What the body is (VirtualObjectState SHAPE_*): drawn from the state alone.
+  enum class Shape : uint8_t { kSphere = 0, kBox = 1 };
   uint32_t object_id = 0;
   uint64_t frame_seq = 0;
   int64_t capture_time_ns = 0;
   double sim_time = 0;
-  double radius = 0;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Shape shape = Shape::kSphere;
+  double radius = 0;                                         ///< kSphere, metres.
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Zero();    ///< kBox: along the body's axes, metres.
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();        ///< Centre, world metres.
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  ///< world_from_body, unit.
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
   bool colliding = false;
 };

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/geometry/mesh.h"
 
 namespace hullpipe {
 
@@ -111,6 +112,19 @@ void DrawMeshes(const NovelView& view, const MeshDraws& meshes, const Eigen::Vec
 }
 
 }  // namespace
+
+VirtualMeshDraw BoxDraw(const VirtualObjectSample& box, const cv::Vec3b& colour) {
+  Rigid3d world_from_body;
+  world_from_body.rotation = box.orientation.normalized().toRotationMatrix();
+  world_from_body.translation = box.position;
+  const TriangleMesh mesh = TriangleMesh::Box(box.half_extents, 1e9).Transformed(world_from_body);
+  VirtualMeshDraw d;
+  d.vertices = mesh.vertices;
+  d.triangles = mesh.triangles;
+  d.colliding.assign(mesh.triangles.size(), box.colliding ? 1 : 0);
+  d.colour = colour;
+  return d;
+}
 
 cv::Mat Composite(const NovelView& view, const cv::Mat& hull_depth, const cv::Mat& hull_colour,
                   const std::vector<VirtualSphere>& spheres, const CompositeOptions& o,

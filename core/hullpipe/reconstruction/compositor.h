@@ -34,6 +34,11 @@ struct CompositeOptions {
 /// from geometry the caller keeps (no copy per frame).
 using MeshDraws = std::vector<const VirtualMeshDraw*>;
 
+/// A box state (VirtualObjectSample kBox) as the triangles Composite draws: its
+/// 12 faces' triangles at position, turned by orientation, all drawn red while
+/// it collides, else in `colour` (BGR).
+VirtualMeshDraw BoxDraw(const VirtualObjectSample& box, const cv::Vec3b& colour);
+
 /// Draws the view: hull_depth (CV_32FC1 eye z, kNoDepth = none) and hull_colour
 /// (CV_8UC3), both of the view's size, with the spheres, meshes (rasterised,
 /// two-sided, flat-shaded; points as discs) and floor, depth-tested on eye z.

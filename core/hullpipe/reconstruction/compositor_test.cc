@@ -46,6 +46,44 @@ TEST(Composite, ATriangleCoversThePixelCentresItHolds) {
   EXPECT_GT(covered, 50);
 }
 
+// A box state is drawn from its state alone (VirtualObjectState SHAPE_BOX): a
+// box turned 45 degrees about the view axis shows its near face as a diamond,
+// |x| + |y| <= h sqrt(2) at its depth, red while it collides; nothing outside.
+TEST(Composite, ABoxStateIsDrawnAtItsPoseAndRedWhileColliding) {
+  Fixture f;
+  VirtualObjectSample box;
+  box.shape = VirtualObjectSample::Shape::kBox;
+  box.position = Eigen::Vector3d(0, 0, 2);
+  box.half_extents = Eigen::Vector3d(0.3, 0.3, 0.1);
+  box.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 4, Eigen::Vector3d::UnitZ()));
+  box.colliding = true;
+  const VirtualMeshDraw d = BoxDraw(box, f.options.ball_colour);
+  cv::Mat depth;
+  const cv::Mat img = Composite(f.view, f.depth, f.colour, {}, f.options, &depth, {&d});
+  const double reach = 0.3 * std::sqrt(2.0);
+  int covered = 0;
+  for (int r = 0; r < 48; ++r)
+    for (int c = 0; c < 64; ++c) {
+      const Eigen::Vector3d p = 1.9 * f.view.EyeRay(c + 0.5, r + 0.5);  // on the near face's plane
+      const double l1 = std::abs(p.x()) + std::abs(p.y());
+      if (std::abs(l1 - reach) < 0.01) continue;  // a pixel centre on the edge, either way
+      const float dz = depth.at<float>(r, c);
+      if (l1 < reach) {
+        ++covered;
+        EXPECT_NEAR(dz, 1.9, 1e-5) << r << "," << c;
+        const cv::Vec3b px = img.at<cv::Vec3b>(r, c);  // red, flat-shaded
+        EXPECT_TRUE(px[2] > 150 && px[2] > 3 * px[0] && px[2] > 3 * px[1]) << r << "," << c << ": " << px;
+      } else {
+        EXPECT_EQ(dz, kNoDepth) << r << "," << c;
+      }
+    }
+  EXPECT_GT(covered, 100);
+  box.colliding = false;  // control: the state's flag, not the geometry, makes it red
+  const VirtualMeshDraw calm = BoxDraw(box, f.options.ball_colour);
+  EXPECT_EQ(calm.colliding, std::vector<uint8_t>(12, 0));
+  EXPECT_EQ(d.colliding, std::vector<uint8_t>(12, 1));
+}
+
 // Vertices and points whose projections lie ~1e13 px away (just in front of
 // the eye, far to the side): pixel bounds clamp in floating point before they
 // become ints (FloorPixel), so nothing overflows; what is in view is drawn.

@@ -40,7 +40,10 @@ struct PartCollisionEvent {
 /// What an element gives sim_node to publish after a step. The samples'
 /// frame_seq and capture_time_ns are the caller's to fill (the frameset's).
 struct ElementOutput {
-  std::vector<VirtualObjectSample> states;     ///< Spheres (VirtualObjectState).
+  /// Rigid bodies drawn from their state alone (VirtualObjectState): spheres,
+  /// boxes at a pose. A body of any other shape is a ModelPart sent once and
+  /// moved by ModelState.
+  std::vector<VirtualObjectSample> states;
   std::vector<CollisionReportSample> reports;  ///< §4.1 points and §4.2 response per body.
   std::vector<VirtualMeshSample> meshes;       ///< Meshes and point sets to draw (VirtualMesh).
   std::vector<PartCollisionEvent> events;      ///< Collisions starting or ending.

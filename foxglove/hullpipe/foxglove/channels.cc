@@ -436,6 +436,15 @@ void Deriver::HullPoints(int64_t stamp_ns, const NovelView& view, const cv::Mat&
 
 void Deriver::Object(int64_t stamp_ns, const VirtualObjectSample& o) {
   if (!impl_->Want("/foxglove/scene")) return;
+  if (o.shape == VirtualObjectSample::Shape::kBox) {
+    const json cube = {{"pose", Pose(o.position, o.orientation)},
+                       {"size", Vec(2 * o.half_extents.x(), 2 * o.half_extents.y(), 2 * o.half_extents.z())},
+                       {"color", Color(o.colliding)}};
+    json entity = Entity(stamp_ns, "box" + std::to_string(o.object_id), json::array());
+    entity["cubes"] = json::array({cube});
+    impl_->Send("/foxglove/scene", "foxglove.SceneUpdate", stamp_ns, Scene(std::move(entity)));
+    return;
+  }
   impl_->Send("/foxglove/scene", "foxglove.SceneUpdate", stamp_ns,
               Scene(Entity(stamp_ns, "ball" + std::to_string(o.object_id),
                            json::array({Sphere(o.position, 2 * o.radius, Color(o.colliding))}))));

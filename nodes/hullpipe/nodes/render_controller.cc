@@ -316,16 +316,22 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     for (int c = 0; c < depth.cols; ++c) hull_pixels += row[c] < kNoDepth;
   }
   std::vector<VirtualSphere> spheres;
+  std::vector<VirtualMeshDraw> boxes;  // box states' triangles, drawn with the meshes
   uint64_t spheres_colliding = 0;
   for (const auto& [id, per] : states_) {
     // The state stepped against this frameset, else the newest before it.
     auto s = per.upper_bound(f.frame_seq);
     if (s == per.begin()) continue;
     --s;
-    spheres.push_back({s->second.position, s->second.radius, s->second.colliding});
+    if (s->second.shape == VirtualObjectSample::Shape::kBox) {
+      boxes.push_back(BoxDraw(s->second, comp_.ball_colour));
+    } else {
+      spheres.push_back({s->second.position, s->second.radius, s->second.colliding});
+    }
     spheres_colliding += s->second.colliding != 0;
   }
-  MeshDraws draws;  // pointers into meshes_ and model_parts_, unchanged until drawn
+  MeshDraws draws;  // pointers into meshes_, model_parts_ and boxes, unchanged until drawn
+  for (const VirtualMeshDraw& b : boxes) draws.push_back(&b);
   for (const auto& [id, per] : meshes_) {
     auto s = per.upper_bound(f.frame_seq);
     if (s == per.begin()) continue;
@@ -343,7 +349,7 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     const ShadowMap shadow = RenderShadowMap(*o_.light, orbit_.up, f.hull.get(), spheres, draws);
     ApplyLighting(f.view, composited_depth, depth, *o_.light, shadow, &frame, stop_);
   }
-  report_.OnFrameDrawn(spheres_colliding, draws.size(), o_.light.has_value(),
+  report_.OnFrameDrawn(spheres_colliding, draws.size() - boxes.size(), o_.light.has_value(),
                        double(hull_pixels) / double(depth.total()));
   {
     StageTimer wt(counters_, "write");

@@ -308,6 +308,17 @@ TEST_F(Render, ATileOutsideTheViewIsRejectedAndNotComposited) {
   EXPECT_EQ(r.counters().rejected(), 3u);
 }
 
+// A ball's state: object id, frameset, centre (world), colliding; 0.2 m radius.
+VirtualObjectSample Ball(uint32_t id, uint64_t frame_seq, const Eigen::Vector3d& centre, bool colliding) {
+  VirtualObjectSample s;
+  s.object_id = id;
+  s.frame_seq = frame_seq;
+  s.radius = 0.2;
+  s.position = centre;
+  s.colliding = colliding;
+  return s;
+}
+
 TEST_F(Render, CompositesWithTheDepthTestAndDrawsCollidingObjectsRed) {
   RenderOptions o = Options();
   o.max_in_flight = 1;
@@ -317,7 +328,7 @@ TEST_F(Render, CompositesWithTheDepthTestAndDrawsCollidingObjectsRed) {
   const Recorder::Pose& p = sink_.poses[0];
   // A colliding ball 2 m in front of the eye, on its optical axis.
   const Eigen::Vector3d ahead = p.view.world_from_eye * Eigen::Vector3d(0, 0, 2.0);
-  r.OnObjectState({7, 1, 0, 0, 0.2, ahead, Eigen::Vector3d::Zero(), true});
+  r.OnObjectState(Ball(7, 1, ahead, true));
   // No hull in the view: the ball shows, red.
   r.OnTile(WholeTile(p, kNoDepth, {0, 0, 0}));
   ASSERT_EQ(r.Step(), 1);
@@ -339,12 +350,25 @@ TEST_F(Render, CompositesWithTheDepthTestAndDrawsCollidingObjectsRed) {
   // The same ball not colliding is not drawn red.
   rig_.AddFrame(assembler_, 4, clock_.WallNs());
   r.Step();
-  r.OnObjectState({7, 4, 0, 0, 0.2, ahead, Eigen::Vector3d::Zero(), false});
+  r.OnObjectState(Ball(7, 4, ahead, false));
   r.OnTile(WholeTile(sink_.poses.back(), kNoDepth, {0, 0, 0}));
   ASSERT_EQ(r.Step(), 1);
   const cv::Vec3b calm = sink_.frames.back().second.at<cv::Vec3b>(24, 32);
   EXPECT_FALSE(Red(calm)) << calm;
   EXPECT_NE(calm, cv::Vec3b(0, 0, 0)) << "the ball is drawn";
+  // A box state (SHAPE_BOX) in the ball's place, turned, colliding: drawn red
+  // from its state alone, where the ball was.
+  rig_.AddFrame(assembler_, 5, clock_.WallNs());
+  r.Step();
+  VirtualObjectSample box = Ball(8, 5, ahead, true);
+  box.shape = VirtualObjectSample::Shape::kBox;
+  box.half_extents = Eigen::Vector3d(0.2, 0.1, 0.3);
+  box.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 1, 0).normalized()));
+  r.OnObjectState(Ball(7, 5, ahead + Eigen::Vector3d(0, 0, 100), false));  // the ball gone far away
+  r.OnObjectState(box);
+  r.OnTile(WholeTile(sink_.poses.back(), kNoDepth, {0, 0, 0}));
+  ASSERT_EQ(r.Step(), 1);
+  EXPECT_TRUE(Red(sink_.frames.back().second.at<cv::Vec3b>(24, 32))) << sink_.frames.back().second.at<cv::Vec3b>(24, 32);
 }
 
 TEST_F(Render, ASilentReconIsNoticedAndItsReturnLogged) {

@@ -52,7 +52,7 @@ class RunReport {
   /// normal speed, m/s, counted where measured or clamped and finite).
   void OnCollisionReport(bool has_points, uint8_t hull_velocity_status, double hull_normal_speed);
 
-  /// One composited frame: spheres drawn colliding, meshes drawn, whether lit,
+  /// One composited frame: states (spheres, boxes) drawn colliding, meshes drawn, whether lit,
   /// and the fraction of its pixels that are hull.
   void OnFrameDrawn(uint64_t spheres_colliding, uint64_t meshes, bool lit, double hull_fraction);
 
