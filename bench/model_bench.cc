@@ -11,14 +11,18 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <limits>
+#include <random>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/models/mesh_distance.h"
 #include "hullpipe/models/part_bvh.h"
 #include "hullpipe/reconstruction/compositor.h"
 #include "hullpipe/scenes/model_scene.h"
+#include "hullpipe/scenes/payload.h"
 #include "hullpipe/scenes/scene_config.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/percentile.h"
@@ -175,6 +179,66 @@ int main(int argc, char** argv) {
       for (int r = 0; r < 9; ++r) empty_ms.push_back(Ms([&] { (void)Composite(view, depth, colour, {}); }));
       std::printf("render composite at 320x240 (CPU): with the model %.2f ms p50, without %.2f ms\n", Median(ms),
                   Median(empty_ms));
+    }
+    // The exact signed distance (models/mesh_distance.h) on each closed part
+    // of the engine, against its reference (every triangle for the distance,
+    // the winding number for the sign), at points spread over the part's box
+    // grown by 5 cm; then the payload task's sim step with the engine's block
+    // as the PMT (scenes/payload_engine.yaml) against the boxes
+    // (scenes/payload.yaml), on the same hulls.
+    {
+      std::mt19937 rng(11);
+      std::uniform_real_distribution<double> u(0, 1);
+      double hierarchy_ns = 0, brute_ns = 0, max_error = 0;
+      int64_t queries = 0, sign_errors = 0, closed = 0, parts = 0, tris = 0;
+      for (const ScenePart& p : PlaceModel(*entry.imported, entry, up)) {
+        ++parts;
+        const MeshSignedDistance sdf(p.mesh);
+        if (!sdf.closed() || p.mesh.triangles.size() < 100) continue;
+        ++closed;
+        tris += int64_t(p.mesh.triangles.size());
+        Aabb box = sdf.bounds();
+        box.min -= Eigen::Vector3d::Constant(0.05);
+        box.max += Eigen::Vector3d::Constant(0.05);
+        std::vector<Eigen::Vector3d> points(200);
+        for (auto& q : points)
+          q = box.min + (box.max - box.min).cwiseProduct(Eigen::Vector3d(u(rng), u(rng), u(rng)));
+        std::vector<double> fast(points.size()), slow(points.size());
+        hierarchy_ns += 1e6 * Ms([&] {
+          for (size_t i = 0; i < points.size(); ++i) fast[i] = sdf.Signed(points[i]);
+        });
+        brute_ns += 1e6 * Ms([&] {
+          for (size_t i = 0; i < points.size(); ++i) {
+            double d = std::numeric_limits<double>::infinity();
+            for (const auto& t : p.mesh.triangles)
+              d = std::min(d, (ClosestPointOnTriangle(points[i], p.mesh.vertices[size_t(t[0])],
+                                                      p.mesh.vertices[size_t(t[1])], p.mesh.vertices[size_t(t[2])]) -
+                               points[i])
+                                  .norm());
+            slow[i] = WindingNumber(p.mesh, points[i]) > 0.5 ? -d : d;
+          }
+        });
+        for (size_t i = 0; i < points.size(); ++i) {
+          max_error = std::max(max_error, std::abs(std::abs(fast[i]) - std::abs(slow[i])));
+          sign_errors += (fast[i] < 0) != (slow[i] < 0);
+        }
+        queries += int64_t(points.size());
+      }
+      std::printf("\nsigned distance (mesh_distance.h) on the engine's %lld closed parts of %lld (100+ triangles, "
+                  "%lld triangles): %.1f us/query through the hierarchy, %.1f us by every triangle + winding "
+                  "number; %lld queries, largest distance difference %.3g m, %lld sign disagreements\n",
+                  (long long)closed, (long long)parts, (long long)tris, hierarchy_ns / 1e3 / double(std::max<int64_t>(queries, 1)),
+                  brute_ns / 1e3 / double(std::max<int64_t>(queries, 1)), (long long)queries, max_error,
+                  (long long)sign_errors);
+      for (const char* name : {"payload", "payload_engine"}) {
+        const SceneConfig pc = LoadSceneConfig(std::string(HULLPIPE_SOURCE_DIR) + "/scenes/" + name + ".yaml");
+        const PayloadConfig& payload = *pc.Find<PayloadConfig>();
+        std::vector<double> ms;
+        for (const auto& q : hulls) ms.push_back(Ms([&] { (void)EvaluatePayload(payload, &q); }));
+        std::printf("payload task step (%s.yaml: %s): p50 %.2f ms, max %.2f ms\n", name,
+                    payload.pmt_model ? "the engine's block as the PMT" : "boxes and a cylinder", Median(ms),
+                    *std::max_element(ms.begin(), ms.end()));
+      }
     }
     std::printf("GL triangle query: not measured (no GPU machine in this run)\n");
   } catch (const std::exception& e) {

@@ -194,7 +194,16 @@ PayloadFrame EvaluatePayload(const PayloadConfig& config, const VolumeQuery* hul
       f.clearance.push_back(none);
       continue;
     }
-    f.collisions.push_back(DetectCollisions(*hull, part.Mesh(), config.collision));
+    if (part.type == PayloadPart::Type::kMesh) {
+      // A model part through its hierarchy: the same result as every triangle
+      // (part_bvh.h), without querying the triangles the hull cannot reach.
+      Rigid3d world_from_body;
+      world_from_body.translation = part.centre;
+      f.collisions.push_back(
+          DetectCollisionsBvh(*hull, part.shape->mesh(), part.shape->bvh(), world_from_body, config.collision));
+    } else {
+      f.collisions.push_back(DetectCollisions(*hull, part.Mesh(), config.collision));
+    }
     f.clearance.push_back(HullClearance(*hull, part, config.max_clearance));
   }
   return f;
