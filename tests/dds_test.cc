@@ -262,13 +262,14 @@ TEST(Convert, VirtualMeshRoundTripAndMalformed) {
   EXPECT_DOUBLE_EQ(back.clearance, 0.05);
   EXPECT_EQ(back.element, "cloth");
   // Malformed samples from outside are refused, never drawn.
-  for (const char* bad : {"", "Cloth", "a b", "x123456789012345678901234567890123"}) {
+  for (const char* bad : {"Cloth", "a b", "x123456789012345678901234567890123"}) {
     std::string text = bad;
     s.msg.element = text.data();
     EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError) << bad;
   }
-  s.msg.element = nullptr;
-  EXPECT_THROW(VirtualMeshFromMsg(s.msg), MessageError);
+  std::string empty;
+  s.msg.element = empty.data();  // a recording from before elements were named
+  EXPECT_EQ(VirtualMeshFromMsg(s.msg).element, "unnamed");
   m.element = "no good";
   EXPECT_THROW(MakeVirtualMeshMessage(m), MessageError);
   s.msg.element = const_cast<char*>(s.strings[0].c_str());
@@ -595,6 +596,68 @@ TEST(Dds, ACollisionReportOfTheEarlierLayoutReadsWithNoHullVelocity) {
     std::vector<uint8_t> bad(cdr.begin(), cdr.end() - std::ptrdiff_t(cut));
     hullpipe_msg_CollisionReport none{};
     EXPECT_FALSE(w.Decode(bad, &none)) << cut;
+  }
+}
+
+// Recordings made before VirtualObjectState carried boxes, and before
+// VirtualMesh named its element, hold samples without those fields last: they
+// read as what they are, a sphere and an unnamed element, the rest exactly.
+TEST(Dds, ObjectStatesAndMeshesOfTheEarlierLayoutsRead) {
+  const auto dir = test::TempDir("dds_old_layouts");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  Participant p(test::UniqueDomain());
+  {
+    const KnownType& kt = *FindKnownType("hullpipe::msg::VirtualObjectState");
+    CdrWriter w(p, kt, kt.qos, CdrWriter::Scope::kDecodeOnly);
+    VirtualObjectSample ball;
+    ball.object_id = 3, ball.radius = 0.12, ball.position = {1, 2, 3}, ball.colliding = true;
+    const hullpipe_msg_VirtualObjectState msg = VirtualObjectToMsg(ball);
+    const std::vector<uint8_t> cdr = w.Encode(&msg);
+    // The earlier layout: the body through `colliding` (129 bytes after the header), padded to 4.
+    std::vector<uint8_t> old(cdr.begin(), cdr.begin() + 4 + 129);
+    old.resize(old.size() + 3, 0);
+    old[3] = 3;
+    hullpipe_msg_VirtualObjectState back{};
+    ASSERT_TRUE(w.Decode(old, &back));
+    const VirtualObjectSample s = VirtualObjectFromMsg(back);
+    EXPECT_EQ(s.shape, VirtualObjectSample::Shape::kSphere);
+    EXPECT_EQ(s.radius, 0.12);
+    EXPECT_EQ(s.position, Eigen::Vector3d(1, 2, 3));
+    EXPECT_TRUE(s.colliding);
+    std::vector<uint8_t> cut(cdr.begin(), cdr.end() - 8);  // cut elsewhere: refused
+    hullpipe_msg_VirtualObjectState none{};
+    EXPECT_FALSE(w.Decode(cut, &none));
+  }
+  {
+    const KnownType& kt = *FindKnownType("hullpipe::msg::VirtualMesh");
+    CdrWriter w(p, kt, kt.qos, CdrWriter::Scope::kDecodeOnly);
+    VirtualMeshSample m;
+    m.object_id = 100;
+    m.kind = hullpipe_msg_MESH_KIND_CLOTH;
+    m.draw.vertices = {{0, 0, -1}, {0.1, 0, -1}, {0, 0.1, -1}};
+    m.draw.triangles = {{0, 1, 2}};
+    m.clearance = 0.05;
+    m.element = "cloth";
+    const auto msg = MakeVirtualMeshMessage(m);
+    const std::vector<uint8_t> cdr = w.Encode(&msg.msg);
+    // The earlier layout ends with `clearance`, a double: the body less the
+    // string (4 bytes of length, "cloth" and its NUL) and its padding.
+    const size_t padding = cdr[3] & 3u;
+    std::vector<uint8_t> old(cdr.begin(), cdr.end() - std::ptrdiff_t(padding + 4 + 6));
+    old[2] = old[3] = 0;
+    ASSERT_EQ((old.size() - 4) % 8, 0u);
+    hullpipe_msg_VirtualMesh back{};
+    ASSERT_TRUE(w.Decode(old, &back));
+    const VirtualMeshSample s = VirtualMeshFromMsg(back);
+    EXPECT_EQ(s.element, "unnamed");
+    EXPECT_EQ(s.object_id, 100u);
+    EXPECT_EQ(s.draw.triangles.size(), 1u);
+    EXPECT_EQ(s.clearance, 0.05);
+    dds_sample_free(&back, kt.descriptor, DDS_FREE_CONTENTS);
+    hullpipe_msg_VirtualMesh whole{};
+    ASSERT_TRUE(w.Decode(cdr, &whole));  // control: the current layout keeps its name
+    EXPECT_EQ(VirtualMeshFromMsg(whole).element, "cloth");
+    dds_sample_free(&whole, kt.descriptor, DDS_FREE_CONTENTS);
   }
 }
 

@@ -43,8 +43,13 @@ std::vector<KnownType> MakeKnownTypes() {
       Make<hullpipe_msg_ModelState>(),   Make<hullpipe_msg_CompositedView>()};
   // Fields appended since the first recordings (idl/hullpipe.idl): the hull
   // velocity of CollisionReport, uint8 + 7 bytes of alignment + 2 doubles.
-  for (KnownType& t : types)
+  // VirtualObjectState's box (7 bytes of alignment after its boolean, a Vec3)
+  // and VirtualMesh's element key (a string).
+  for (KnownType& t : types) {
     if (t.type_name == "hullpipe::msg::CollisionReport") t.appended_bytes = 24;
+    if (t.type_name == "hullpipe::msg::VirtualObjectState") t.appended_bytes = 31;
+    if (t.type_name == "hullpipe::msg::VirtualMesh") t.appended_empty_string = true;
+  }
   return types;
 }
 
@@ -110,6 +115,7 @@ CdrWriter::CdrWriter(const Participant& p, const KnownType& type, const QosSpec&
     : topic_(Check(dds_create_topic(p.handle(), type.descriptor, type.topic_name.c_str(), nullptr, nullptr),
                    "dds_create_topic")),
       appended_bytes_(type.appended_bytes),
+      appended_empty_string_(type.appended_empty_string),
       scope_(scope),
       descriptor_(type.descriptor) {
   if (scope == Scope::kPublish) {
@@ -156,7 +162,7 @@ struct ddsi_serdata* CdrWriter::FromSer(const std::vector<uint8_t>& cdr) const {
     return ddsi_serdata_from_ser_iov(sertype_, SDK_DATA, 1, &iov, bytes.size());
   };
   struct ddsi_serdata* d = from(cdr);
-  if (d || appended_bytes_ == 0 || cdr.size() < 4) return d;
+  if (d || (appended_bytes_ == 0 && !appended_empty_string_) || cdr.size() < 4) return d;
   // An earlier layout: its body (less the padding its header declares, the low
   // two bits of the options) with the appended fields' zeros after it.
   const size_t padding = cdr[3] & 3u;
@@ -164,6 +170,18 @@ struct ddsi_serdata* CdrWriter::FromSer(const std::vector<uint8_t>& cdr) const {
   std::vector<uint8_t> completed(cdr.begin(), cdr.end() - std::ptrdiff_t(padding));
   completed[2] = completed[3] = 0;
   completed.resize(completed.size() + appended_bytes_, 0);
+  if (appended_empty_string_) {
+    // Alignment is counted from the body, after the 4-byte header.
+    while ((completed.size() - 4) % 4 != 0) completed.push_back(0);
+    const bool little = (cdr[1] & 1u) != 0;  // CDR_LE 00 01, CDR_BE 00 00
+    const uint8_t one_le[4] = {1, 0, 0, 0}, one_be[4] = {0, 0, 0, 1};
+    completed.insert(completed.end(), little ? one_le : one_be, (little ? one_le : one_be) + 4);
+    completed.push_back(0);  // the NUL
+    // The serialized length is a multiple of 4; the header says how much is padding.
+    const size_t pad = (4 - (completed.size() - 4) % 4) % 4;
+    completed.resize(completed.size() + pad, 0);
+    completed[3] = uint8_t(pad);
+  }
   d = from(completed);
   if (!d) return nullptr;
   // Cyclone reads a sample with bytes left over: a current sample cut short

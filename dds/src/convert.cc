@@ -386,7 +386,8 @@ VirtualMeshSample VirtualMeshFromMsg(const hullpipe_msg_VirtualMesh& m) {
                        std::to_string(items) + " items");
   if (!std::isfinite(m.point_radius) || m.point_radius < 0 || m.point_radius > 1)
     throw MessageError(who + "point_radius out of range");
-  const std::string element = m.element ? std::string(m.element, strnlen(m.element, kMaxElementKeyChars + 1)) : "";
+  std::string element = m.element ? std::string(m.element, strnlen(m.element, kMaxElementKeyChars + 1)) : "";
+  if (element.empty()) element = "unnamed";  // a recording from before meshes named their element
   if (!IsElementKey(element)) throw MessageError(who + "element is not a scene element's key ([a-z0-9_], 1 to 32)");
   VirtualMeshSample out;
   out.element = element;

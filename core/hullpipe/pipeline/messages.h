@@ -61,7 +61,8 @@ struct VirtualMeshSample {
   double clearance = -1;   ///< Least distance from the hull, metres (< 0: not measured).
   /// The scene element that publishes it: its scene-file section ("cloth",
   /// "payload"; scene_element.h Key()); render_node's stats.json keys what it
-  /// drew by it. [a-z0-9_], 1 to kMaxElementKeyChars characters.
+  /// drew by it. [a-z0-9_], 1 to kMaxElementKeyChars characters; "unnamed"
+  /// for a mesh recorded before meshes named their element.
   std::string element = "mesh";
 };
 

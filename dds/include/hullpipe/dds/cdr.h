@@ -33,8 +33,13 @@ struct KnownType {
   /// were first made of it (0: none). A recorded sample of the earlier layout
   /// is the new one's prefix: CdrWriter completes it with this many zeros (the
   /// appended fields' zero values, alignment included) when it does not
-  /// deserialize as it is. CollisionReport: 24 (its hull velocity fields).
+  /// deserialize as it is. CollisionReport: 24 (its hull velocity fields);
+  /// VirtualObjectState: 31 (7 of alignment and its box's half extents).
   size_t appended_bytes = 0;
+  /// After those zeros, an empty string (the appended string field's empty
+  /// value: length 1 and its NUL, in the sample's byte order, 4-aligned).
+  /// VirtualMesh: its element key (read as an unnamed element).
+  bool appended_empty_string = false;
 };
 
 /// Every topic of idl/hullpipe.idl.
@@ -99,6 +104,7 @@ class CdrWriter : public Entity {
   Entity topic_;
   struct ddsi_sertype* sertype_ = nullptr;
   size_t appended_bytes_ = 0;
+  bool appended_empty_string_ = false;
   Scope scope_ = Scope::kPublish;
   const dds_topic_descriptor_t* descriptor_ = nullptr;
 };
