@@ -3,7 +3,7 @@
 # cmake -DSOURCE_DIR=<repo> -P cmake/check_doc_headers.cmake. Prints one line per
 # header the document does not name and fails; prints a count otherwise.
 # Library headers: those of core/, gl/, nodes/, dds/, record/, launch/,
-# foxglove/ and the tools' own modules in tools/ (tests, fuzz targets and
+# foxglove/, ros2/ and the tools' own modules in tools/ (tests, fuzz targets and
 # benches have none to document).
 if(NOT SOURCE_DIR)
   message(FATAL_ERROR "check_doc_headers: pass -DSOURCE_DIR=<the repository>")
@@ -15,7 +15,8 @@ endif()
 file(READ ${doc} text)
 file(GLOB_RECURSE headers RELATIVE ${SOURCE_DIR}
      ${SOURCE_DIR}/core/*.h ${SOURCE_DIR}/gl/*.h ${SOURCE_DIR}/nodes/*.h ${SOURCE_DIR}/dds/*.h
-     ${SOURCE_DIR}/record/*.h ${SOURCE_DIR}/launch/*.h ${SOURCE_DIR}/foxglove/*.h ${SOURCE_DIR}/tools/*.h)
+     ${SOURCE_DIR}/record/*.h ${SOURCE_DIR}/launch/*.h ${SOURCE_DIR}/foxglove/*.h ${SOURCE_DIR}/ros2/*.h
+     ${SOURCE_DIR}/tools/*.h)
 list(SORT headers)
 set(missing 0)
 foreach(h IN LISTS headers)

@@ -1,0 +1,151 @@
+#include "hullpipe/ros2/ros2_messages.h"
+
+#include <cmath>
+#include <cstring>
+
+#include <Eigen/Geometry>
+
+#include "hullpipe/geometry/conventions.h"
+
+namespace hullpipe::ros2 {
+
+namespace {
+
+// Points a message's string field at strings[k] (reserved by the caller).
+char* Text(std::vector<std::string>* strings, std::string s) {
+  strings->push_back(std::move(s));
+  return const_cast<char*>(strings->back().c_str());
+}
+
+std_msgs_msg_dds__Header_ Header(std::vector<std::string>* strings, int64_t stamp_ns, const std::string& frame_id) {
+  std_msgs_msg_dds__Header_ h{};
+  h.stamp = RosTime(stamp_ns);
+  h.frame_id = Text(strings, frame_id);
+  return h;
+}
+
+geometry_msgs_msg_dds__Quaternion_ Quaternion(const Eigen::Matrix3d& r) {
+  const Eigen::Quaterniond q = Eigen::Quaterniond(r).normalized();
+  return {q.x(), q.y(), q.z(), q.w()};
+}
+
+}  // namespace
+
+std::string CameraFrameId(int id) { return "hullpipe_cam" + std::to_string(id); }
+
+builtin_interfaces_msg_dds__Time_ RosTime(int64_t ns) {
+  int64_t sec = ns / 1000000000, rem = ns % 1000000000;
+  if (rem < 0) rem += 1000000000, --sec;
+  return {int32_t(sec), uint32_t(rem)};
+}
+
+int64_t NanosecondsOf(const builtin_interfaces_msg_dds__Time_& t) {
+  if (t.nanosec >= 1000000000u) throw dds::MessageError("stamp.nanosec " + std::to_string(t.nanosec) + " >= 1e9");
+  return int64_t(t.sec) * 1000000000 + int64_t(t.nanosec);
+}
+
+RosSample<sensor_msgs_msg_dds__CameraInfo_> MakeCameraInfo(const Camera& c, int64_t stamp_ns) {
+  RosSample<sensor_msgs_msg_dds__CameraInfo_> s;
+  s.strings.reserve(2);
+  auto& m = s.msg;
+  m.header = Header(&s.strings, stamp_ns, CameraFrameId(c.id));
+  m.height = uint32_t(c.height);
+  m.width = uint32_t(c.width);
+  m.distortion_model = Text(&s.strings, "plumb_bob");
+  s.doubles.assign(c.distortion.begin(), c.distortion.end());
+  dds::Borrow(&m.d, s.doubles);
+  // ROS pixel centres at integers: the principal point moves by half a pixel.
+  const double cx = c.cx - kOpenCvToHullpipePixelOffset, cy = c.cy - kOpenCvToHullpipePixelOffset;
+  const double k[9] = {c.fx, c.skew, cx, 0, c.fy, cy, 0, 0, 1};
+  std::memcpy(m.k, k, sizeof k);
+  const double r[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  std::memcpy(m.r, r, sizeof r);
+  const double p[12] = {c.fx, c.skew, cx, 0, 0, c.fy, cy, 0, 0, 0, 1, 0};
+  std::memcpy(m.p, p, sizeof p);
+  m.binning_x = m.binning_y = 0;  // ROS: 0 and 1 both mean no binning
+  m.roi = {0, 0, 0, 0, false};    // all zeros: the full image
+  return s;
+}
+
+RosSample<sensor_msgs_msg_dds__Image_> MakeMono8Image(const cv::Mat& map, int64_t stamp_ns,
+                                                      const std::string& frame_id) {
+  if (map.empty() || map.type() != CV_8UC1) throw dds::MessageError("Image: an object-pixel map is CV_8UC1");
+  RosSample<sensor_msgs_msg_dds__Image_> s;
+  s.strings.reserve(2);
+  auto& m = s.msg;
+  m.header = Header(&s.strings, stamp_ns, frame_id);
+  m.height = uint32_t(map.rows);
+  m.width = uint32_t(map.cols);
+  m.encoding = Text(&s.strings, "mono8");
+  m.is_bigendian = 0;
+  m.step = uint32_t(map.cols);
+  s.bytes.resize(map.total());
+  for (int r = 0; r < map.rows; ++r) std::memcpy(s.bytes.data() + size_t(r) * size_t(map.cols), map.ptr(r), size_t(map.cols));
+  dds::Borrow(&m.data, s.bytes);
+  return s;
+}
+
+RosSample<sensor_msgs_msg_dds__CompressedImage_> MakeCompressedImage(std::vector<uint8_t> jpeg, int64_t stamp_ns,
+                                                                     const std::string& frame_id) {
+  if (jpeg.empty()) throw dds::MessageError("CompressedImage: no bytes");
+  RosSample<sensor_msgs_msg_dds__CompressedImage_> s;
+  s.strings.reserve(2);
+  s.msg.header = Header(&s.strings, stamp_ns, frame_id);
+  s.msg.format = Text(&s.strings, "jpeg");
+  s.bytes = std::move(jpeg);
+  dds::Borrow(&s.msg.data, s.bytes);
+  return s;
+}
+
+RosSample<tf2_msgs_msg_dds__TFMessage_> MakeCameraTransforms(const std::vector<Camera>& cameras, int64_t stamp_ns) {
+  RosSample<tf2_msgs_msg_dds__TFMessage_> s;
+  s.strings.reserve(2 * cameras.size());
+  for (const Camera& c : cameras) {
+    geometry_msgs_msg_dds__TransformStamped_ t{};
+    t.header = Header(&s.strings, stamp_ns, kWorldFrame);
+    t.child_frame_id = Text(&s.strings, CameraFrameId(c.id));
+    const Rigid3d world_from_cam = c.cam_from_world.Inverse();
+    t.transform.translation = {world_from_cam.translation.x(), world_from_cam.translation.y(),
+                               world_from_cam.translation.z()};
+    t.transform.rotation = Quaternion(world_from_cam.rotation);
+    s.transforms.push_back(t);
+  }
+  dds::Borrow(&s.msg.transforms, s.transforms);
+  return s;
+}
+
+RosSample<geometry_msgs_msg_dds__PoseStamped_> MakePoseStamped(const Rigid3d& world_from_eye, int64_t stamp_ns,
+                                                               const std::string& frame_id) {
+  RosSample<geometry_msgs_msg_dds__PoseStamped_> s;
+  s.strings.reserve(1);
+  s.msg.header = Header(&s.strings, stamp_ns, frame_id);
+  s.msg.pose.position = {world_from_eye.translation.x(), world_from_eye.translation.y(),
+                         world_from_eye.translation.z()};
+  s.msg.pose.orientation = Quaternion(world_from_eye.rotation);
+  return s;
+}
+
+Rigid3d HeadFromPoseStamped(const geometry_msgs_msg_dds__PoseStamped_& m, const PoseCheck& check) {
+  const std::string frame = m.header.frame_id ? std::string(m.header.frame_id, strnlen(m.header.frame_id, 256)) : "";
+  if (frame != check.frame_id)
+    throw dds::MessageError("PoseStamped: header.frame_id '" + frame.substr(0, 64) + "' is not '" + check.frame_id +
+                            "' (poses in other frames are not looked up)");
+  const int64_t stamp = NanosecondsOf(m.header.stamp);
+  const double skew_s = double(stamp - check.now_ns) * 1e-9;
+  if (!(std::abs(skew_s) <= check.max_skew_s))
+    throw dds::MessageError("PoseStamped: header.stamp is " + std::to_string(skew_s) + " s from now (at most " +
+                            std::to_string(check.max_skew_s) + ")");
+  const Eigen::Vector3d p(m.pose.position.x, m.pose.position.y, m.pose.position.z);
+  if (!p.allFinite() || !(p.norm() <= check.max_position_m))
+    throw dds::MessageError("PoseStamped: pose.position not finite or past " + std::to_string(check.max_position_m) +
+                            " m");
+  const Eigen::Quaterniond q(m.pose.orientation.w, m.pose.orientation.x, m.pose.orientation.y, m.pose.orientation.z);
+  if (!q.coeffs().allFinite() || !(std::abs(q.norm() - 1) <= 1e-3))
+    throw dds::MessageError("PoseStamped: pose.orientation is not a unit quaternion");
+  Rigid3d world_from_eye;
+  world_from_eye.rotation = q.normalized().toRotationMatrix();
+  world_from_eye.translation = p;
+  return world_from_eye;
+}
+
+}  // namespace hullpipe::ros2

@@ -1,0 +1,100 @@
+// hullpipe's samples as ROS 2 messages (docs/ros2.md): the ROS 2 Humble types of
+// idl/ros2.idl (sensor_msgs, geometry_msgs, tf2_msgs, std_msgs), made from
+// hullpipe's cameras, maps and images, and a ROS 2 tracker's pose read back as
+// hullpipe's head pose. ROS 2's conventions, stated once here:
+//   - time: builtin_interfaces/Time of hullpipe's capture time, nanoseconds
+//     split into sec and nanosec (sec may be negative; nanosec in [0, 1e9));
+//   - frames: a camera's optical frame is "hullpipe_cam<id>" (REP 103's
+//     optical convention: x right, y down, z forward, which is hullpipe's and
+//     OpenCV's camera frame); the rig's world frame is "hullpipe_world";
+//   - pixels: ROS's (and OpenCV's) pixel centres are at integers, hullpipe's
+//     at +0.5 (geometry/conventions.h): cx and cy move by 0.5 on the way out;
+//   - CameraInfo: K = [fx skew cx; 0 fy cy; 0 0 1] (ROS pixels), D plumb_bob
+//     (k1 k2 p1 p2 k3, OpenCV's), R the identity (one camera, no rectification
+//     pair), P = [K | 0] (the rectified image taken at the camera's own
+//     intrinsics: image_proc's undistortion keeps K);
+//   - tf: each camera's transform is parent "hullpipe_world" -> child
+//     "hullpipe_cam<id>", translation the camera centre and rotation R^T of
+//     x_cam = R x_world + t (world_from_cam, as tf2 composes).
+// Errors: MessageError (dds/owned_sample.h) naming the field.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "hullpipe/dds/owned_sample.h"
+#include "hullpipe/geometry/camera.h"
+#include "hullpipe/geometry/rigid3.h"
+#include "ros2.h"  // idlc-generated from idl/ros2.idl
+
+namespace hullpipe::ros2 {
+
+/// A ROS 2 message with the storage its sequences and strings point into (as
+/// dds::OwnedSample): valid while it lives; move-only.
+template <typename Msg>
+struct RosSample {
+  Msg msg{};
+  std::vector<double> doubles;
+  std::vector<uint8_t> bytes;
+  std::vector<std::string> strings;  ///< Reserved before use: their c_str() stay put.
+  std::vector<geometry_msgs_msg_dds__TransformStamped_> transforms;
+  RosSample() = default;
+  RosSample(const RosSample&) = delete;
+  RosSample& operator=(const RosSample&) = delete;
+  RosSample(RosSample&&) = default;
+  RosSample& operator=(RosSample&&) = default;
+};
+
+/// The rig's world frame id.
+inline constexpr const char* kWorldFrame = "hullpipe_world";
+/// Camera `id`'s optical frame id: "hullpipe_cam<id>".
+std::string CameraFrameId(int id);
+
+/// builtin_interfaces/Time of `ns` nanoseconds (sec = floor(ns / 1e9)).
+builtin_interfaces_msg_dds__Time_ RosTime(int64_t ns);
+/// Nanoseconds of a ROS 2 time. Throws MessageError if nanosec >= 1e9.
+int64_t NanosecondsOf(const builtin_interfaces_msg_dds__Time_& t);
+
+/// sensor_msgs/CameraInfo of `camera` (conventions above), stamped `stamp_ns`,
+/// frame CameraFrameId(camera.id).
+RosSample<sensor_msgs_msg_dds__CameraInfo_> MakeCameraInfo(const Camera& camera, int64_t stamp_ns);
+
+/// sensor_msgs/Image, encoding mono8, of an object-pixel map (CV_8UC1: 255
+/// object, 0 background). Throws MessageError for another type or an empty map.
+RosSample<sensor_msgs_msg_dds__Image_> MakeMono8Image(const cv::Mat& map, int64_t stamp_ns,
+                                                      const std::string& frame_id);
+
+/// sensor_msgs/CompressedImage of a JPEG file's bytes (format "jpeg"), passed
+/// on as they are. Throws MessageError if `jpeg` is empty.
+RosSample<sensor_msgs_msg_dds__CompressedImage_> MakeCompressedImage(std::vector<uint8_t> jpeg, int64_t stamp_ns,
+                                                                     const std::string& frame_id);
+
+/// tf2_msgs/TFMessage with one transform per camera, kWorldFrame ->
+/// CameraFrameId(id) (for /tf_static: every camera in one message, as
+/// tf2_ros's static broadcaster sends them).
+RosSample<tf2_msgs_msg_dds__TFMessage_> MakeCameraTransforms(const std::vector<Camera>& cameras, int64_t stamp_ns);
+
+/// geometry_msgs/PoseStamped of world_from_eye (the head pose a tracker sends),
+/// in frame `frame_id`.
+RosSample<geometry_msgs_msg_dds__PoseStamped_> MakePoseStamped(const Rigid3d& world_from_eye, int64_t stamp_ns,
+                                                               const std::string& frame_id);
+
+/// What a tracker's pose must satisfy to drive the view.
+struct PoseCheck {
+  std::string frame_id = kWorldFrame;  ///< The only frame accepted (no tf lookup).
+  int64_t now_ns = 0;                  ///< The reader's clock, nanoseconds.
+  double max_skew_s = 60;              ///< |stamp - now| at most this, seconds.
+  double max_position_m = 1000;        ///< |position| at most this, metres.
+};
+
+/// The world_from_eye of a tracker's PoseStamped. Throws MessageError naming
+/// the field: a frame other than check.frame_id, a stamp more than max_skew_s
+/// from now (or nanosec >= 1e9), a position not finite or past
+/// max_position_m, an orientation not finite or whose norm is not 1 within
+/// 1e-3 (it is then normalized).
+Rigid3d HeadFromPoseStamped(const geometry_msgs_msg_dds__PoseStamped_& pose, const PoseCheck& check);
+
+}  // namespace hullpipe::ros2
