@@ -39,16 +39,16 @@ FUZZERS=(fuzz_wire_samples fuzz_map_runs fuzz_rig_files fuzz_scene_files fuzz_cs
 build_asan() {
   stage "ASan + UBSan build (clang-14)"
   cmake -S . -B build-asan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=address,undefined -DHULLPIPE_FUZZ=ON -DHULLPIPE_WERROR=OFF >/dev/null
-  cmake --build build-asan --target "${CORE_TESTS[@]}" record_tests bridge_tests "${FUZZERS[@]}" fuzz_make_seeds
+  cmake --build build-asan --target "${CORE_TESTS[@]}" record_tests bridge_tests ros2_tests "${FUZZERS[@]}" fuzz_make_seeds
 }
 
 test_asan() {
   stage "ASan + UBSan tests"
-  # The core tests and the recording and bridge tests that run in one process
-  # (not the tools and the bridge as processes: they are not built here), in one
-  # ctest run, so that no long test's tail leaves a core idle between two.
+  # The core tests and the recording, bridge and ROS 2 tests that run in one
+  # process (not the tools, the bridges as processes: they are not built here),
+  # in one ctest run, so that no long test's tail leaves a core idle between two.
   ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -L 'core|record|bridge' \
-      -E '^(RecordTools|Storage/RecordToolsOn|BridgeProcess|Foxglove)\.'
+      -E '^(RecordTools|Storage/RecordToolsOn|BridgeProcess|Foxglove|Ros2Process)\.'
 }
 
 fuzz() {

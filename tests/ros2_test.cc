@@ -3,8 +3,12 @@
 // Foxglove's ROS 2 deserializer and the ROS 2 Humble definitions Foxglove ships
 // (tests/js/decode_ros2.mjs), field by field; and a tracker's pose is refused
 // when it is not one.
+#include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <thread>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -12,9 +16,14 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "hullpipe/dds/cdr.h"
+#include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/dds.h"
+#include "hullpipe/dds/topics.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/ros2/ros2_messages.h"
+#include "hullpipe/ros2/ros2_topics.h"
+#include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/testing/stop_timing.h"
 #include "test_util.h"
 
 namespace hullpipe {
@@ -117,6 +126,9 @@ TEST_F(Ros2Messages, FoxglovesRos2DecoderReadsEveryFieldHullpipeWrites) {
   head.rotation = Eigen::AngleAxisd(-1.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   head.translation = Eigen::Vector3d(0.5, 1.5, -1.7);
   const auto pose = ros2::MakePoseStamped(head, stamp, ros2::kWorldFrame);
+  cv::Mat frame(2, 3, CV_8UC3);
+  for (int i = 0; i < 18; ++i) frame.data[i] = uint8_t(10 * i + 1);
+  const auto bgr = ros2::MakeBgr8Image(frame, stamp, ros2::CameraFrameId(3));
 
   auto probe_info = [] { return ros2::MakeCameraInfo(Camera{}, 0); };
   auto probe_image = [] { return ros2::MakeMono8Image(cv::Mat(1, 1, CV_8UC1, cv::Scalar(0)), 0, ""); };
@@ -136,8 +148,10 @@ TEST_F(Ros2Messages, FoxglovesRos2DecoderReadsEveryFieldHullpipeWrites) {
       {"geometry_msgs/msg/PoseStamped",
        Encode(RosType<geometry_msgs_msg_dds__PoseStamped_>(&geometry_msgs_msg_dds__PoseStamped__desc, probe_pose),
               &pose.msg)},
+      {"sensor_msgs/msg/Image",
+       Encode(RosType<sensor_msgs_msg_dds__Image_>(&sensor_msgs_msg_dds__Image__desc, probe_image), &bgr.msg)},
   });
-  ASSERT_EQ(decoded.size(), 5u);
+  ASSERT_EQ(decoded.size(), 6u);
   for (const json& d : decoded) ASSERT_FALSE(d.contains("error")) << d.dump();
 
   // CameraInfo: the header, K and P in ROS pixels (centres at integers), D, R.
@@ -201,6 +215,15 @@ TEST_F(Ros2Messages, FoxglovesRos2DecoderReadsEveryFieldHullpipeWrites) {
   const Rigid3d back = ros2::HeadFromPoseStamped(pose.msg, check);
   EXPECT_TRUE(back.rotation.isApprox(head.rotation, 1e-12));
   EXPECT_EQ(back.translation, head.translation);
+
+  // A raw frame: bgr8, rows packed (step = 3 * width), bytes in order.
+  const json& raw = decoded[5];
+  EXPECT_EQ(raw["encoding"], "bgr8");
+  EXPECT_EQ(raw["width"], 3);
+  EXPECT_EQ(raw["height"], 2);
+  EXPECT_EQ(raw["step"], 9);
+  ASSERT_EQ(raw["data"].size(), 18u);
+  for (int i = 0; i < 18; ++i) EXPECT_EQ(raw["data"][size_t(i)], 10 * i + 1) << i;
 }
 
 // A tracker's pose that is not one is refused naming the field: NaN, a
@@ -244,6 +267,146 @@ TEST(Ros2Pose, BadTrackerPosesAreRefusedNamingTheField) {
   EXPECT_EQ(t.sec, -1);
   EXPECT_EQ(t.nanosec, 999'999'999u);
   EXPECT_EQ(ros2::NanosecondsOf(t), -1);
+}
+
+// hullpipe_ros2 beside a pipeline: a camera's calibration, map and JPEG frame
+// come out as ROS 2 topics a plain ROS 2 peer reads (rmw_cyclonedds' names and
+// types), /tf_static reaches a reader that joins late, and a tracker's
+// PoseStamped becomes the HeadPose render_node follows; a NaN pose is refused,
+// named once however often it comes, and counted, while the good pose that
+// follows it passes (the positive control). Stops within a second of SIGINT.
+TEST(Ros2Process, PublishesTheRigAsRos2TopicsAndFollowsATracker) {
+  const auto dir = test::TempDir("ros2_process");
+  const std::string config = test::WriteLoopbackConfig(dir), log = (dir / "ros2.log").string();
+  setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  auto bridge = test::StartExe("hullpipe_ros2", {}, domain, config, log);
+  dds::Participant p(domain);
+  // The pipeline's side: camera 1's calibration (transient-local), then maps and frames.
+  Camera cam = RingCameras(1, 3, 2, Eigen::Vector3d::Zero(), 64, 48, 1.0, Distortion{})[0];
+  cam.id = 1;
+  dds::Writer<hullpipe_msg_CameraInfo> infos(p);
+  infos.Write(dds::CameraToMsg(cam, {}));
+  dds::Writer<hullpipe_msg_ObjectPixelMap> maps(p);
+  dds::Writer<hullpipe_msg_CameraImage> images(p);
+  cv::Mat map(48, 64, CV_8UC1, cv::Scalar(0));
+  map(cv::Rect(8, 4, 16, 12)).setTo(255);
+  // The ROS 2 side, as a ROS 2 node would subscribe.
+  dds::Reader<sensor_msgs_msg_dds__CameraInfo_> ros_info(p, "rt/hullpipe/cam1/camera_info", ros2::kDefaultQos);
+  dds::Reader<sensor_msgs_msg_dds__Image_> ros_map(p, "rt/hullpipe/cam1/object_pixel_map", ros2::kDefaultQos);
+  dds::Reader<sensor_msgs_msg_dds__CompressedImage_> ros_image(p, "rt/hullpipe/cam1/image/compressed",
+                                                               ros2::kDefaultQos);
+  dds::Reader<sensor_msgs_msg_dds__Image_> ros_raw(p, "rt/hullpipe/cam1/image", ros2::kDefaultQos);
+  bool got_info = false, got_map = false, got_image = false, got_raw = false;
+  int64_t info_stamp = 0;
+  uint32_t map_bytes_on = 0;
+  const int64_t t0 = 1'700'000'000'000'000'000;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  for (uint64_t seq = 1; !(got_info && got_map && got_image && got_raw) && std::chrono::steady_clock::now() < deadline;
+       ++seq) {
+    const int64_t t = t0 + int64_t(seq) * 40'000'000;
+    maps.Write(dds::MakeMapMessage({1, seq, t, 0.04 * double(seq)}, 1, map).msg);
+    // JPEG and raw frames by turns (a camera sends one or the other).
+    images.Write(
+        dds::MakeImageMessage(1, seq, t, cv::Mat(48, 64, CV_8UC3, cv::Scalar(1, 2, 3)), seq % 2 ? 80 : 0).msg);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    ros_info.TakeEach([&](const sensor_msgs_msg_dds__CameraInfo_& m, const dds_sample_info_t&) {
+      got_info = true;
+      info_stamp = ros2::NanosecondsOf(m.header.stamp);
+      EXPECT_STREQ(m.header.frame_id, "hullpipe_cam1");
+      EXPECT_DOUBLE_EQ(m.k[2], cam.cx - 0.5);
+    });
+    ros_map.TakeEach([&](const sensor_msgs_msg_dds__Image_& m, const dds_sample_info_t&) {
+      got_map = true;
+      EXPECT_STREQ(m.encoding, "mono8");
+      map_bytes_on = 0;
+      for (uint32_t i = 0; i < m.data._length; ++i) map_bytes_on += m.data._buffer[i] == 255;
+    });
+    ros_image.TakeEach([&](const sensor_msgs_msg_dds__CompressedImage_& m, const dds_sample_info_t&) {
+      got_image = true;
+      EXPECT_STREQ(m.format, "jpeg");
+      ASSERT_GT(m.data._length, 2u);
+      EXPECT_EQ(m.data._buffer[0], 0xFF);  // a JPEG's SOI
+      EXPECT_EQ(m.data._buffer[1], 0xD8);
+    });
+    ros_raw.TakeEach([&](const sensor_msgs_msg_dds__Image_& m, const dds_sample_info_t&) {
+      got_raw = true;
+      EXPECT_STREQ(m.encoding, "bgr8");
+      ASSERT_EQ(m.data._length, 64u * 48u * 3u);
+      EXPECT_EQ(m.data._buffer[0], 1);  // B G R as captured
+      EXPECT_EQ(m.data._buffer[2], 3);
+    });
+  }
+  ASSERT_TRUE(got_info && got_map && got_image && got_raw) << test::ReadFile(log);
+  EXPECT_GT(info_stamp, t0);  // the capture time, not the wall clock
+  EXPECT_EQ(map_bytes_on, 16u * 12u);
+
+  // /tf_static is transient-local: a reader that joins now still gets it.
+  dds::Reader<tf2_msgs_msg_dds__TFMessage_> tf(p, "rt/tf_static", ros2::kTfStaticQos);
+  bool got_tf = false;
+  for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+       !got_tf && std::chrono::steady_clock::now() < until;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    tf.TakeEach([&](const tf2_msgs_msg_dds__TFMessage_& m, const dds_sample_info_t&) {
+      got_tf = true;
+      ASSERT_EQ(m.transforms._length, 1u);
+      EXPECT_STREQ(m.transforms._buffer[0].child_frame_id, "hullpipe_cam1");
+      EXPECT_NEAR(m.transforms._buffer[0].transform.translation.x, cam.Center().x(), 1e-12);
+    });
+  }
+  EXPECT_TRUE(got_tf);
+
+  // A tracker: NaN poses until the bridge says it refused one, then a good one.
+  dds::Writer<geometry_msgs_msg_dds__PoseStamped_> tracker(p, "rt/hullpipe/head_pose", ros2::kDefaultQos);
+  dds::Reader<hullpipe_msg_HeadPose> heads(p);
+  Rigid3d head;
+  head.translation = Eigen::Vector3d(0.3, -0.2, -1.6);
+  head.rotation = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  int nan_sent = 0;
+  for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+       (nan_sent < 3 || test::ReadFile(log).find("refused") == std::string::npos) &&
+       std::chrono::steady_clock::now() < until;) {
+    auto bad = ros2::MakePoseStamped(head, std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                               std::chrono::system_clock::now().time_since_epoch())
+                                               .count(),
+                                     ros2::kWorldFrame);
+    bad.msg.pose.position.x = std::nan("");
+    tracker.Write(bad.msg);
+    ++nan_sent;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  bool got_head = false;
+  for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+       !got_head && std::chrono::steady_clock::now() < until;) {
+    const auto good = ros2::MakePoseStamped(head, std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                                      std::chrono::system_clock::now().time_since_epoch())
+                                                      .count(),
+                                            ros2::kWorldFrame);
+    tracker.Write(good.msg);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    heads.TakeEach([&](const hullpipe_msg_HeadPose& m, const dds_sample_info_t&) {
+      const Rigid3d got = dds::HeadPoseFromMsg(m);
+      ASSERT_TRUE(got.translation.allFinite()) << "a NaN pose was passed on";
+      EXPECT_TRUE(got.translation.isApprox(head.translation, 1e-12));
+      EXPECT_TRUE(got.rotation.isApprox(head.rotation, 1e-12));
+      got_head = true;
+    });
+  }
+  EXPECT_TRUE(got_head) << test::ReadFile(log);
+  const auto stop = std::chrono::steady_clock::now();
+  EXPECT_EQ(bridge->Stop(10), 0);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - stop).count(), 1.0 * test::TimeScale());
+  const std::string text = test::ReadFile(log);
+  size_t said = 0;
+  for (size_t at = text.find("tracker pose"); at != std::string::npos; at = text.find("tracker pose", at + 1)) ++said;
+  EXPECT_EQ(said, 1u) << nan_sent << " NaN poses sent:\n" << text;
+  // The end line counts every refusal: each NaN pose that reached it (a
+  // best-effort reader of depth 1 may miss some, never all but the last).
+  const size_t at = text.find(" poses passed on, ");
+  ASSERT_NE(at, std::string::npos) << text;
+  const int refused = std::atoi(text.c_str() + at + std::strlen(" poses passed on, "));
+  EXPECT_GE(refused, 1) << text;
+  EXPECT_LE(refused, nan_sent) << text;
 }
 
 }  // namespace

@@ -12,7 +12,10 @@
 namespace hullpipe::launch {
 namespace {
 
-const char* const kNodeExecs[] = {"render_node", "recon_node", "sim_node", "capture_node"};
+// The pipeline's nodes, and the processes that run beside it (the Foxglove
+// bridge, the ROS 2 bridge: docs/recording.md, docs/ros2.md).
+const char* const kNodeExecs[] = {"render_node", "recon_node", "sim_node", "capture_node", "hullpipe_bridge",
+                                  "hullpipe_ros2"};
 
 bool PlainName(const std::string& s) {
   if (s.empty() || s.size() > 64) return false;
@@ -69,7 +72,8 @@ NodeSpec ParseNode(const YAML::Node& n) {
   for (const char* e : kNodeExecs) known |= s.exec == e;
   if (!known)
     throw std::runtime_error("node " + s.name + ": exec '" + s.exec +
-                             "' is not a hullpipe node (render_node, recon_node, sim_node, capture_node)");
+                             "' is not a hullpipe node (render_node, recon_node, sim_node, capture_node, hullpipe_bridge, "
+                             "hullpipe_ros2)");
   if (n["start_delay"]) {
     s.start_delay = n["start_delay"].as<double>(-1.0);  // not a number: refused here, naming the key
     if (!(s.start_delay >= 0 && s.start_delay <= 60))

@@ -67,22 +67,38 @@ RosSample<sensor_msgs_msg_dds__CameraInfo_> MakeCameraInfo(const Camera& c, int6
   return s;
 }
 
-RosSample<sensor_msgs_msg_dds__Image_> MakeMono8Image(const cv::Mat& map, int64_t stamp_ns,
-                                                      const std::string& frame_id) {
-  if (map.empty() || map.type() != CV_8UC1) throw dds::MessageError("Image: an object-pixel map is CV_8UC1");
+namespace {
+
+// sensor_msgs/Image of an 8-bit image, rows packed (step = width * channels).
+RosSample<sensor_msgs_msg_dds__Image_> PackedImage(const cv::Mat& image, int64_t stamp_ns, const std::string& frame_id,
+                                                   const char* encoding) {
   RosSample<sensor_msgs_msg_dds__Image_> s;
   s.strings.reserve(2);
   auto& m = s.msg;
   m.header = Header(&s.strings, stamp_ns, frame_id);
-  m.height = uint32_t(map.rows);
-  m.width = uint32_t(map.cols);
-  m.encoding = Text(&s.strings, "mono8");
+  m.height = uint32_t(image.rows);
+  m.width = uint32_t(image.cols);
+  m.encoding = Text(&s.strings, encoding);
   m.is_bigendian = 0;
-  m.step = uint32_t(map.cols);
-  s.bytes.resize(map.total());
-  for (int r = 0; r < map.rows; ++r) std::memcpy(s.bytes.data() + size_t(r) * size_t(map.cols), map.ptr(r), size_t(map.cols));
+  const size_t row = size_t(image.cols) * image.elemSize();
+  m.step = uint32_t(row);
+  s.bytes.resize(row * size_t(image.rows));
+  for (int r = 0; r < image.rows; ++r) std::memcpy(s.bytes.data() + size_t(r) * row, image.ptr(r), row);
   dds::Borrow(&m.data, s.bytes);
   return s;
+}
+
+}  // namespace
+
+RosSample<sensor_msgs_msg_dds__Image_> MakeMono8Image(const cv::Mat& map, int64_t stamp_ns,
+                                                      const std::string& frame_id) {
+  if (map.empty() || map.type() != CV_8UC1) throw dds::MessageError("Image: an object-pixel map is CV_8UC1");
+  return PackedImage(map, stamp_ns, frame_id, "mono8");
+}
+
+RosSample<sensor_msgs_msg_dds__Image_> MakeBgr8Image(const cv::Mat& bgr, int64_t stamp_ns, const std::string& frame_id) {
+  if (bgr.empty() || bgr.type() != CV_8UC3) throw dds::MessageError("Image: a camera frame is CV_8UC3");
+  return PackedImage(bgr, stamp_ns, frame_id, "bgr8");
 }
 
 RosSample<sensor_msgs_msg_dds__CompressedImage_> MakeCompressedImage(std::vector<uint8_t> jpeg, int64_t stamp_ns,

@@ -67,6 +67,11 @@ RosSample<sensor_msgs_msg_dds__CameraInfo_> MakeCameraInfo(const Camera& camera,
 RosSample<sensor_msgs_msg_dds__Image_> MakeMono8Image(const cv::Mat& map, int64_t stamp_ns,
                                                       const std::string& frame_id);
 
+/// sensor_msgs/Image, encoding bgr8, of a camera frame (CV_8UC3, B G R as
+/// hullpipe's raw CameraImage). Throws MessageError for another type or an
+/// empty image.
+RosSample<sensor_msgs_msg_dds__Image_> MakeBgr8Image(const cv::Mat& bgr, int64_t stamp_ns, const std::string& frame_id);
+
 /// sensor_msgs/CompressedImage of a JPEG file's bytes (format "jpeg"), passed
 /// on as they are. Throws MessageError if `jpeg` is empty.
 RosSample<sensor_msgs_msg_dds__CompressedImage_> MakeCompressedImage(std::vector<uint8_t> jpeg, int64_t stamp_ns,

@@ -78,9 +78,8 @@ struct TopicTraits;
 
 /// Creates the topic of T in the participant (one topic entity per reader/writer).
 template <typename T>
-Entity CreateTopic(const Participant& p) {
-  return Entity(Check(dds_create_topic(p.handle(), TopicTraits<T>::Descriptor(), TopicTraits<T>::kName,
-                                       nullptr, nullptr),
+Entity CreateTopic(const Participant& p, const char* name = TopicTraits<T>::kName) {
+  return Entity(Check(dds_create_topic(p.handle(), TopicTraits<T>::Descriptor(), name, nullptr, nullptr),
                       "dds_create_topic"));
 }
 
@@ -88,7 +87,11 @@ Entity CreateTopic(const Participant& p) {
 template <typename T>
 class Writer : public Entity {
  public:
-  explicit Writer(const Participant& p) : Writer(p, CreateTopic<T>(p)) {}
+  explicit Writer(const Participant& p) : Writer(p, CreateTopic<T>(p), TopicTraits<T>::kQos) {}
+  /// On topic `name` with `qos` (a type published on many topics: ROS 2's
+  /// per-camera topics, docs/ros2.md).
+  Writer(const Participant& p, const std::string& name, const QosSpec& qos)
+      : Writer(p, CreateTopic<T>(p, name.c_str()), qos) {}
   /// Publishes one sample (serialized by Cyclone; the sample is not kept).
   void Write(const T& sample) const { Check(dds_write(handle(), &sample), "dds_write"); }
   /// Number of matched readers right now.
@@ -99,10 +102,8 @@ class Writer : public Entity {
   }
 
  private:
-  Writer(const Participant& p, Entity topic)
-      : Entity(Check(dds_create_writer(p.handle(), topic.handle(),
-                                       Qos(TopicTraits<T>::kQos).get(), nullptr),
-                     "dds_create_writer")),
+  Writer(const Participant& p, Entity topic, const QosSpec& qos)
+      : Entity(Check(dds_create_writer(p.handle(), topic.handle(), Qos(qos).get(), nullptr), "dds_create_writer")),
         topic_(std::move(topic)) {}
   Entity topic_;
 };
@@ -134,14 +135,17 @@ size_t TakeXcdr1(dds_entity_t reader, const dds_topic_descriptor_t* descriptor, 
 template <typename T>
 class Reader : public Entity {
  public:
-  explicit Reader(const Participant& p) : Reader(p, CreateTopic<T>(p)) {}
+  explicit Reader(const Participant& p) : Reader(p, CreateTopic<T>(p), TopicTraits<T>::kQos, TopicTraits<T>::kName) {}
+  /// On topic `name` with `qos`.
+  Reader(const Participant& p, const std::string& name, const QosSpec& qos)
+      : Reader(p, CreateTopic<T>(p, name.c_str()), qos, name) {}
 
   /// Takes every available sample and calls f(const T&, const dds_sample_info_t&)
   /// for each valid one (TakeXcdr1: a sample not in XCDR1 is refused, counted in
   /// refused(), never deserialized). Returns how many.
   template <typename F>
   size_t TakeEach(F&& f) const {
-    return TakeXcdr1(handle(), TopicTraits<T>::Descriptor(), sizeof(T), TopicTraits<T>::kName, &refused_,
+    return TakeXcdr1(handle(), TopicTraits<T>::Descriptor(), sizeof(T), name_.c_str(), &refused_,
                      [&](const void* s, const dds_sample_info_t& info) { f(*static_cast<const T*>(s), info); });
   }
   /// Samples refused for their encapsulation since creation.
@@ -155,14 +159,14 @@ class Reader : public Entity {
   }
 
  private:
-  Reader(const Participant& p, Entity topic)
-      : Entity(Check(dds_create_reader(p.handle(), topic.handle(),
-                                       Qos(TopicTraits<T>::kQos).get(), nullptr),
-                     "dds_create_reader")),
+  Reader(const Participant& p, Entity topic, const QosSpec& qos, std::string name)
+      : Entity(Check(dds_create_reader(p.handle(), topic.handle(), Qos(qos).get(), nullptr), "dds_create_reader")),
         topic_(std::move(topic)),
-        condition_(Check(dds_create_readcondition(handle(), DDS_ANY_STATE), "dds_create_readcondition")) {}
+        condition_(Check(dds_create_readcondition(handle(), DDS_ANY_STATE), "dds_create_readcondition")),
+        name_(std::move(name)) {}
   Entity topic_;
   Entity condition_;
+  std::string name_;  // the topic's, for the refusal's warning
   mutable uint64_t refused_ = 0;
 };
 

@@ -1,0 +1,77 @@
+// hullpipe_ros2: hullpipe on a lab's ROS 2 network (docs/ros2.md), beside the
+// pipeline as hullpipe_bridge is: its cameras, object-pixel maps and frames as
+// ROS 2 topics (sensor_msgs, tf2_msgs), and a ROS 2 tracker's PoseStamped as
+// render_node's head pose, over plain Cyclone DDS (rmw_cyclonedds' wire form:
+// nothing from ROS installed).
+//   hullpipe_ros2 --domain 7 [--ros-domain 0] [--no-maps] [--no-images]
+//                 [--head-pose-topic /hullpipe/head_pose] [--pose-frame hullpipe_world]
+// Then on a ROS 2 machine (ROS_DOMAIN_ID = --ros-domain, rmw_cyclonedds or any
+// DDS rmw): ros2 topic list; rviz2 with the fixed frame hullpipe_world.
+// Stops within a second of SIGINT.
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "hullpipe/dds/node.h"
+#include "hullpipe/pipeline/clock.h"
+#include "hullpipe/pipeline/node_counters.h"
+#include "hullpipe/ros2/ros2_bridge.h"
+#include "hullpipe/util/cli_range.h"
+
+using namespace hullpipe;
+using namespace hullpipe::dds;
+
+int main(int argc, char** argv) {
+  CLI::App app{"hullpipe_ros2: hullpipe's cameras and maps as ROS 2 topics, a ROS 2 tracker as the head pose"};
+  CommonOptions common;
+  OpenCommandLine(argc, argv, "hullpipe_ros2", app, common, /*with_run_id=*/true);
+  int ros_domain = -1;
+  ros2::Ros2BridgeOptions o;
+  bool no_maps = false, no_images = false;
+  app.add_option("--ros-domain", ros_domain, "The ROS 2 network's domain (ROS_DOMAIN_ID; default: --domain)")
+      ->check(DomainIdRange());
+  app.add_flag("--no-maps", no_maps, "Do not publish the object-pixel maps");
+  app.add_flag("--no-images", no_images, "Do not publish the camera frames");
+  app.add_option("--head-pose-topic", o.head_pose_topic,
+                 "ROS 2 topic of the tracker's geometry_msgs/PoseStamped (\"\": none)")
+      ->capture_default_str();
+  app.add_option("--pose-frame", o.pose.frame_id, "The frame a tracker's pose must be in")->capture_default_str();
+  app.add_option("--max-pose-skew", o.pose.max_skew_s, "Most seconds between a pose's stamp and now")
+      ->capture_default_str()
+      ->check(CLI::Range(0.001, 86400.0));
+  app.add_option("--tracker-id", o.tracker_id, "HeadPose.tracker_id of the poses passed on")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  o.maps = !no_maps;
+  o.images = !no_images;
+  try {
+    o.Check();
+    auto participant = StartNode("ros2", common);
+    std::unique_ptr<Participant> ros_participant;
+    if (ros_domain >= 0 && uint32_t(ros_domain) != common.domain)
+      ros_participant = std::make_unique<Participant>(uint32_t(ros_domain));
+    const Participant& ros = ros_participant ? *ros_participant : *participant;
+    SystemClock clock;
+    NodeCounters counters(clock);
+    NodeReporter reporter(*participant, "ros2", counters);
+    ros2::Ros2Bridge bridge(*participant, ros, o, clock);
+    WaitSet ws(*participant);
+    for (dds_entity_t c : bridge.Conditions())
+      if (!ros_participant || c != bridge.Conditions().back() || o.head_pose_topic.empty()) ws.AttachCondition(c);
+    // The pose reader lives on the ROS participant when the domains differ:
+    // polled each turn (a waitset belongs to one participant).
+    spdlog::info("publishing hullpipe's cameras on ROS 2 domain {}{}", ros_participant ? ros_domain : int(common.domain),
+                 o.head_pose_topic.empty() ? "" : "; following " + o.head_pose_topic);
+    while (!StopRequested()) {
+      ws.Wait(ros_participant ? 0.02 : 0.2);
+      counters.FrameIn(bridge.Step());
+      const auto& c = bridge.counts();
+      counters.SetRejected(c.poses_refused + c.cameras_refused + c.samples_refused);
+    }
+    const auto& c = bridge.counts();
+    spdlog::info("published {} camera infos, {} maps, {} images, /tf_static {} times; {} poses passed on, {} refused",
+                 c.camera_infos, c.maps, c.images, c.tf_static, c.poses, c.poses_refused);
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}
