@@ -22,6 +22,7 @@
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/ros2/ros2_messages.h"
 #include "hullpipe/ros2/ros2_topics.h"
+#include "hullpipe/record/recording.h"
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/testing/stop_timing.h"
 #include "test_util.h"
@@ -407,6 +408,87 @@ TEST(Ros2Process, PublishesTheRigAsRos2TopicsAndFollowsATracker) {
   const int refused = std::atoi(text.c_str() + at + std::strlen(" poses passed on, "));
   EXPECT_GE(refused, 1) << text;
   EXPECT_LE(refused, nan_sent) << text;
+}
+
+// `hullpipe_record export --ros2`: a recording of a camera's calibration, map
+// and frames becomes an MCAP file as rosbag2 writes one (profile ros2,
+// schemas ros2msg, messages cdr, offered_qos_profiles), which @mcap/core reads
+// and Foxglove's ROS 2 parser and decoder decode in full, field by field.
+TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
+  const auto dir = test::TempDir("ros2_export");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  const std::string rec = (dir / "run.hprec").string();
+  Camera cam = RingCameras(1, 3, 2, Eigen::Vector3d::Zero(), 64, 48, 1.0, Distortion{})[0];
+  cam.id = 2;
+  cv::Mat map(48, 64, CV_8UC1, cv::Scalar(0));
+  map(cv::Rect(4, 4, 10, 6)).setTo(255);
+  const int64_t t0 = 1'700'000'000'000'000'000;
+  {
+    dds::Participant p(domain);
+    auto codec = [&](const char* type) {
+      const dds::KnownType& kt = *dds::FindKnownType(type);
+      return std::make_unique<dds::CdrWriter>(p, kt, kt.qos, dds::CdrWriter::Scope::kDecodeOnly);
+    };
+    auto info_codec = codec("hullpipe::msg::CameraInfo"), map_codec = codec("hullpipe::msg::ObjectPixelMap"),
+         image_codec = codec("hullpipe::msg::CameraImage");
+    record::RecordingWriter w(rec);
+    const int64_t ti = w.AddTopic({0, "hullpipe/camera_info", "hullpipe::msg::CameraInfo", true, true, true, 1, ""});
+    const int64_t tm = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
+    const int64_t tc = w.AddTopic({0, "hullpipe/camera_image", "hullpipe::msg::CameraImage", true, true, false, 4, ""});
+    const hullpipe_msg_CameraInfo info = dds::CameraToMsg(cam, {});
+    w.Append({ti, t0, t0, info_codec->Encode(&info)});
+    for (uint64_t k = 1; k <= 3; ++k) {
+      const int64_t t = t0 + int64_t(k) * 40'000'000;
+      const auto m = dds::MakeMapMessage({2, k, t, 0.04 * double(k)}, 1, map);
+      w.Append({tm, t + 1000, t, map_codec->Encode(&m.msg)});
+      const auto img = dds::MakeImageMessage(2, k, t, cv::Mat(48, 64, CV_8UC3, cv::Scalar(5, 6, 7)), k == 2 ? 0 : 80);
+      w.Append({tc, t + 2000, t, image_codec->Encode(&img.msg)});
+    }
+  }
+  const std::string out = (dir / "export").string(), log = (dir / "export.log").string();
+  test::Process exp({test::BinDir() + "/hullpipe_record", "export", rec, "-o", out, "--ros2", "--no-media",
+                     "--no-jsonl", "--domain", std::to_string(domain)},
+                    log);
+  ASSERT_EQ(exp.Wait(120), 0) << test::ReadFile(log);
+  const std::string js = std::string(HULLPIPE_SOURCE_DIR) + "/tests/js", node_out = (dir / "ros2.json").string();
+  test::Process node({"/usr/bin/env", "node", js + "/read_ros2_mcap.mjs", out + "/ros2.mcap"}, node_out, {},
+                     node_out + ".err");
+  ASSERT_EQ(node.Wait(120), 0) << test::ReadFile(node_out + ".err");
+  const json j = json::parse(test::ReadFile(node_out));
+  EXPECT_EQ(j["profile"], "ros2");
+  EXPECT_TRUE(j["invalid"].empty()) << j["invalid"].dump();
+  const json& ch = j["channels"];
+  const std::map<std::string, std::pair<std::string, int>> want = {
+      {"/tf_static", {"tf2_msgs/msg/TFMessage", 1}},
+      {"/hullpipe/cam2/camera_info", {"sensor_msgs/msg/CameraInfo", 3}},
+      {"/hullpipe/cam2/object_pixel_map", {"sensor_msgs/msg/Image", 3}},
+      {"/hullpipe/cam2/image/compressed", {"sensor_msgs/msg/CompressedImage", 2}},
+      {"/hullpipe/cam2/image", {"sensor_msgs/msg/Image", 1}}};
+  EXPECT_EQ(ch.size(), want.size()) << ch.dump(1);
+  for (const auto& [topic, w] : want) {
+    ASSERT_TRUE(ch.contains(topic)) << topic << " " << ch.dump(1);
+    const json& c = ch[topic];
+    EXPECT_EQ(c["schema"], w.first) << topic;
+    EXPECT_EQ(c["schemaEncoding"], "ros2msg") << topic;
+    EXPECT_EQ(c["messageEncoding"], "cdr") << topic;
+    EXPECT_EQ(c["count"], w.second) << topic;
+    EXPECT_EQ(c["decoded"], w.second) << topic;
+    // rosbag2's QoS metadata, as ros2 bag play offers it again.
+    const std::string qos = c["metadata"].value("offered_qos_profiles", "");
+    EXPECT_NE(qos.find("reliability: 1"), std::string::npos) << topic << ": " << qos;
+    EXPECT_NE(qos.find(topic == "/tf_static" ? "durability: 1" : "durability: 2"), std::string::npos) << qos;
+  }
+  const json& first = j["first"];
+  EXPECT_EQ(first["/hullpipe/cam2/camera_info"]["header"]["frame_id"], "hullpipe_cam2");
+  EXPECT_EQ(first["/hullpipe/cam2/camera_info"]["header"]["stamp"]["sec"], 1'700'000'000);
+  EXPECT_EQ(first["/hullpipe/cam2/camera_info"]["header"]["stamp"]["nanosec"], 40'000'000);  // the first map's capture time
+  EXPECT_DOUBLE_EQ(first["/hullpipe/cam2/camera_info"]["k"][2].get<double>(), cam.cx - 0.5);
+  EXPECT_EQ(first["/hullpipe/cam2/object_pixel_map"]["encoding"], "mono8");
+  EXPECT_EQ(first["/hullpipe/cam2/object_pixel_map"]["data"]["length"], 64 * 48);
+  EXPECT_EQ(first["/hullpipe/cam2/image"]["encoding"], "bgr8");
+  EXPECT_EQ(first["/hullpipe/cam2/image/compressed"]["format"], "jpeg");
+  EXPECT_EQ(first["/tf_static"]["transforms"][0]["child_frame_id"], "hullpipe_cam2");
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 #include "hullpipe/reconstruction/tile_set.h"
 #include "hullpipe/util/logging.h"
 #include "record_foxglove.h"
+#include "record_ros2.h"
 
 namespace hullpipe::record {
 namespace {
@@ -47,8 +48,10 @@ class Exporter {
   Exporter(const ExportOptions& o, const Participant& p) : o_(o), participant_(p) {
     if (o.foxglove)
       fox_ = std::make_unique<FoxgloveExport>((std::filesystem::path(o.out) / "foxglove.mcap").string(), p);
+    if (o.ros2) ros2_ = std::make_unique<Ros2Export>((std::filesystem::path(o.out) / "ros2.mcap").string(), p);
   }
   const FoxgloveExport* foxglove() const { return fox_.get(); }
+  const Ros2Export* ros2() const { return ros2_.get(); }
 
   // Decodes `s` of topic `t`, writes what its type exports; false if it did not decode.
   bool Add(const TopicInfo& t, const Sample& s, Counts* c) {
@@ -58,6 +61,12 @@ class Exporter {
     if (!w) w = std::make_unique<CdrWriter>(participant_, *kt, QosSpec{t.reliable, t.transient_local, t.depth});
     json j = {{"topic", t.name}, {"arrival_ns", s.arrival_ns}, {"source_ns", s.source_ns}};
     if (fox_) fox_->Add(t, s);
+    if (ros2_) {
+      try {
+        ros2_->Add(t, s);
+      } catch (const std::exception&) {  // a sample the nodes would refuse: counted below as undecodable
+      }
+    }
     bool ok = false;
     try {
       ok = Decode(t, s, *w, &j, c);
@@ -293,6 +302,7 @@ class Exporter {
   std::map<std::string, cv::Size> video_size_;
   TileSet tiles_;  // HullView tiles by pose, until a view is whole
   std::unique_ptr<FoxgloveExport> fox_;
+  std::unique_ptr<Ros2Export> ros2_;
   int64_t write_failures_ = 0;
   std::string first_failure_;
 };
@@ -310,6 +320,9 @@ void AddExportOptions(CLI::App* sub, ExportOptions& o, bool echo) {
   sub->add_flag("!--no-jsonl", o.jsonl, "No JSON lines");
   sub->add_flag("!--no-media", o.media, "No PNG, video or CSV");
   sub->add_option("--fps", o.video_fps, "Frame rate of the videos")->capture_default_str();
+  sub->add_flag("--ros2", o.ros2,
+                "Also OUT/ros2.mcap: the cameras, maps and frames as ROS 2 topics, as rosbag2 writes MCAP "
+                "(ros2 bag play, Foxglove; docs/ros2.md)");
   sub->add_flag("--foxglove", o.foxglove,
                 "Also OUT/foxglove.mcap: the recording's channels and viewable ones in Foxglove's schemas (images, "
                 "maps, calibration, transforms, balls and collision points, node rates)");
@@ -382,6 +395,11 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
     for (const auto& [channel, n] : fox->counts()) summary["foxglove"]["channels"][channel] = n;
     spdlog::info("{}: the recording's channels and {} viewable ones (open it in Foxglove or Lichtblick)", fox->path(),
                  fox->counts().size());
+  }
+  if (const Ros2Export* r = ex.ros2()) {
+    summary["ros2"]["file"] = r->path();
+    for (const auto& [topic, n] : r->counts()) summary["ros2"]["topics"][topic] = n;
+    spdlog::info("{}: {} ROS 2 topics (ros2 bag play, Foxglove)", r->path(), r->counts().size());
   }
   summary["command"] = CommandLine();
   if (!o.echo) {

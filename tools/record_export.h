@@ -24,6 +24,9 @@ struct ExportOptions {
   /// Also out/foxglove.mcap: the selected channels and viewable ones in
   /// Foxglove's schemas (record_foxglove.h).
   bool foxglove = false;
+  /// Also out/ros2.mcap: the cameras, maps and frames as ROS 2 topics, as
+  /// rosbag2 writes MCAP (record_ros2.h, docs/ros2.md).
+  bool ros2 = false;
 };
 
 /// --topic, --start, --end, --no-jsonl, --no-media, --fps, --foxglove and the positionals;

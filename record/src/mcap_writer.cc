@@ -94,7 +94,7 @@ McapWriter::McapWriter(const std::string& path, const WriterOptions& options) : 
     Out o;
     o.raw(kMagic, 8);
     const size_t h = o.Begin(kHeader);
-    o.str("");  // profile: none of the well-known ones (ros1/ros2 need ROS schemas)
+    o.str(options_.mcap.profile);  // "" (hullpipe's), or "ros2" for a file of ROS 2 channels only
     o.str("hullpipe");
     o.End(h);
     Write(o.b);
@@ -161,7 +161,8 @@ int64_t McapWriter::AddTopic(const TopicInfo& t) {
   rec.u16(s->second);
   rec.str(t.name);
   rec.str(t.message_encoding);
-  if (t.message_encoding == "cdr") rec.map({{"qos", QosYaml(t)}});
+  if (!t.offered_qos_profiles.empty()) rec.map({{"offered_qos_profiles", t.offered_qos_profiles}});
+  else if (t.message_encoding == "cdr") rec.map({{"qos", QosYaml(t)}});
   else rec.map({});
   rec.End(at);
   channel_records_.push_back(rec.b);

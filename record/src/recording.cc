@@ -68,6 +68,7 @@ void WriterOptions::Check() const {
   if (zstd_level < 1 || zstd_level > 19) throw std::invalid_argument("--zstd-level must be in [1, 19]");
   if (mcap.chunk_bytes < 1024 || mcap.chunk_bytes > (int64_t(128) << 20))
     throw std::invalid_argument("--chunk-size must be in [1 KiB, 128 MiB]");
+  if (mcap.profile != "" && mcap.profile != "ros2") throw std::invalid_argument("an MCAP profile is \"\" or ros2");
   if (storage) Check(*storage);
 }
 

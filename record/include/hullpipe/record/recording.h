@@ -62,6 +62,10 @@ struct TopicInfo {
   /// is given, else none).
   std::string message_encoding = "cdr";
   std::string schema_encoding;
+  /// MCAP only: a ROS 2 channel's `offered_qos_profiles` (rosbag2's channel
+  /// metadata: ros2/hullpipe/ros2/ros2_schemas.h), written instead of
+  /// hullpipe's `qos` when given.
+  std::string offered_qos_profiles;
 };
 
 /// How sample data is stored: per sample (SQLite) or per chunk (MCAP). lz4 (the
@@ -88,6 +92,9 @@ struct McapWriterOptions {
   /// A chunk is closed (compressed, indexed, written) once its records reach
   /// this many bytes, and at every Commit(). 1 KiB .. 128 MiB (--chunk-size).
   int64_t chunk_bytes = int64_t(4) << 20;
+  /// The header's profile: "" (hullpipe's channels) or "ros2" (a file of ROS 2
+  /// channels only, as rosbag2 writes: `export --ros2`, docs/ros2.md).
+  std::string profile;
 };
 
 /// A recording writer's settings: those of every storage, then each storage's own.

@@ -1,0 +1,126 @@
+#include "hullpipe/ros2/ros2_schemas.h"
+
+#include <map>
+#include <stdexcept>
+
+#include "hullpipe/ros2/ros2_messages.h"
+#include "hullpipe/ros2/ros2_topics.h"
+
+namespace hullpipe::ros2 {
+
+namespace {
+
+// Each type's own definition (ROS 2 Humble's fields, package-qualified types).
+const std::map<std::string, std::string>& Definitions() {
+  static const std::map<std::string, std::string> d = {
+      {"builtin_interfaces/msg/Time", "int32 sec\nuint32 nanosec\n"},
+      {"std_msgs/msg/Header", "builtin_interfaces/Time stamp\nstring frame_id\n"},
+      {"geometry_msgs/msg/Vector3", "float64 x\nfloat64 y\nfloat64 z\n"},
+      {"geometry_msgs/msg/Point", "float64 x\nfloat64 y\nfloat64 z\n"},
+      {"geometry_msgs/msg/Quaternion", "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n"},
+      {"geometry_msgs/msg/Pose", "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n"},
+      {"geometry_msgs/msg/PoseStamped", "std_msgs/Header header\ngeometry_msgs/Pose pose\n"},
+      {"geometry_msgs/msg/Transform", "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"},
+      {"geometry_msgs/msg/TransformStamped",
+       "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n"},
+      {"tf2_msgs/msg/TFMessage", "geometry_msgs/TransformStamped[] transforms\n"},
+      {"sensor_msgs/msg/RegionOfInterest",
+       "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n"},
+      {"sensor_msgs/msg/CameraInfo",
+       "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\nfloat64[] d\nfloat64[9] k\n"
+       "float64[9] r\nfloat64[12] p\nuint32 binning_x\nuint32 binning_y\nsensor_msgs/RegionOfInterest roi\n"},
+      {"sensor_msgs/msg/Image",
+       "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\n"
+       "uint8[] data\n"},
+      {"sensor_msgs/msg/CompressedImage", "std_msgs/Header header\nstring format\nuint8[] data\n"},
+  };
+  return d;
+}
+
+// The types `type` uses, depth first, each once.
+void Uses(const std::string& type, std::vector<std::string>* out) {
+  const std::string& text = Definitions().at(type);
+  size_t at = 0;
+  while (at < text.size()) {
+    const size_t end = text.find('\n', at);
+    std::string field_type = text.substr(at, text.find(' ', at) - at);
+    at = end + 1;
+    const size_t bracket = field_type.find('[');
+    if (bracket != std::string::npos) field_type.resize(bracket);
+    const size_t slash = field_type.find('/');
+    if (slash == std::string::npos) continue;  // a primitive
+    const std::string full = field_type.substr(0, slash) + "/msg" + field_type.substr(slash);
+    bool seen = false;
+    for (const auto& s : *out) seen |= s == full;
+    if (seen) continue;
+    out->push_back(full);
+    Uses(full, out);
+  }
+}
+
+template <typename Msg, typename Probe>
+dds::KnownType Known(const dds_topic_descriptor_t* desc, Probe probe) {
+  dds::KnownType k;
+  k.descriptor = desc;
+  k.type_name = desc->m_typename;
+  k.topic_name = "hullpipe_ros2_probe/" + std::string(desc->m_typename);
+  for (char& c : k.topic_name)
+    if (c == ':') c = '_';
+  k.qos = kDefaultQos;
+  k.write_probe = [probe](dds_entity_t writer) {
+    auto sample = probe();
+    dds::Check(dds_write(writer, &sample.msg), "dds_write (sertype probe)");
+  };
+  return k;
+}
+
+}  // namespace
+
+const std::vector<std::string>& Ros2TypeNames() {
+  static const std::vector<std::string> names = {"sensor_msgs/msg/CameraInfo", "sensor_msgs/msg/Image",
+                                                  "sensor_msgs/msg/CompressedImage", "tf2_msgs/msg/TFMessage",
+                                                  "geometry_msgs/msg/PoseStamped"};
+  return names;
+}
+
+std::string Ros2MsgSchema(const std::string& type) {
+  if (!Definitions().count(type)) throw std::invalid_argument("no ROS 2 definition of " + type);
+  std::string s = Definitions().at(type);
+  std::vector<std::string> uses;
+  Uses(type, &uses);
+  for (const std::string& u : uses) {
+    const size_t msg = u.find("/msg/");
+    s += std::string(80, '=') + "\nMSG: " + u.substr(0, msg) + "/" + u.substr(msg + 5) + "\n" + Definitions().at(u);
+  }
+  return s;
+}
+
+std::string OfferedQosProfiles(const dds::QosSpec& q) {
+  const std::string infinite = "\n    sec: 2147483647\n    nsec: 4294967295";
+  return "- history: 1\n  depth: " + std::to_string(q.depth) + "\n  reliability: " + (q.reliable ? "1" : "2") +
+         "\n  durability: " + (q.transient_local ? "1" : "2") + "\n  deadline:" + infinite + "\n  lifespan:" +
+         infinite + "\n  liveliness: 1\n  liveliness_lease_duration:" + infinite +
+         "\n  avoid_ros_namespace_conventions: false\n";
+}
+
+dds::KnownType Ros2KnownType(const std::string& type) {
+  if (type == "sensor_msgs/msg/CameraInfo")
+    return Known<sensor_msgs_msg_dds__CameraInfo_>(&sensor_msgs_msg_dds__CameraInfo__desc,
+                                                   [] { return MakeCameraInfo(Camera{}, 0); });
+  if (type == "sensor_msgs/msg/Image")
+    return Known<sensor_msgs_msg_dds__Image_>(&sensor_msgs_msg_dds__Image__desc, [] {
+      return MakeMono8Image(cv::Mat(1, 1, CV_8UC1, cv::Scalar(0)), 0, "");
+    });
+  if (type == "sensor_msgs/msg/CompressedImage")
+    return Known<sensor_msgs_msg_dds__CompressedImage_>(&sensor_msgs_msg_dds__CompressedImage__desc,
+                                                        [] { return MakeCompressedImage({0}, 0, ""); });
+  if (type == "tf2_msgs/msg/TFMessage")
+    return Known<tf2_msgs_msg_dds__TFMessage_>(&tf2_msgs_msg_dds__TFMessage__desc,
+                                               [] { return MakeCameraTransforms({}, 0); });
+  if (type == "geometry_msgs/msg/PoseStamped")
+    return Known<geometry_msgs_msg_dds__PoseStamped_>(&geometry_msgs_msg_dds__PoseStamped__desc,
+                                                      [] { return MakePoseStamped(Rigid3d{}, 0, ""); });
+  throw std::invalid_argument("no ROS 2 type " + type);
+}
+
+}  // namespace hullpipe::ros2
