@@ -1033,8 +1033,8 @@ TEST_F(RecordTools, AWholeRecordingReplayedIntoALiveRunIsNotMixedIn) {
   // and as a point cloud once per composited pose, valid against Foxglove's own
   // JSON Schemas (tests/js/read_mcap.mjs).
   const std::string fox = (dir_ / "fox").string(), fox_log = (dir_ / "fox.log").string();
-  test::Process exp({test::BinDir() + "/hullpipe_record", "export", path, "-o", fox, "--foxglove", "--no-media",
-                     "--no-jsonl", "--domain", std::to_string(test::UniqueDomain())},
+  test::Process exp({test::BinDir() + "/hullpipe_record", "export", path, "-o", fox, "--foxglove", "--ros2",
+                     "--no-media", "--no-jsonl", "--domain", std::to_string(test::UniqueDomain())},
                     fox_log);
   ASSERT_EQ(exp.Wait(120), 0) << test::ReadFile(fox_log);
   const std::string js = std::string(HULLPIPE_SOURCE_DIR) + "/tests/js", node_out = (dir_ / "fox.json").string();
@@ -1054,6 +1054,30 @@ TEST_F(RecordTools, AWholeRecordingReplayedIntoALiveRunIsNotMixedIn) {
   EXPECT_EQ(composited["schema"], "foxglove.CompressedImage");
   EXPECT_GT(composited["decoded"].get<int>(), 0) << fj["channels"].dump();
   EXPECT_LE(composited["decoded"].get<int>(), run_a["frames_composited"].get<int>());
+
+  // The same run as a ROS 2 bag (export --ros2, docs/ros2.md): every channel's
+  // ros2msg schema parsed and every message decoded by Foxglove's ROS 2 reader
+  // (tests/js/read_ros2_mcap.mjs): the cameras, the view and its pose, the
+  // hull's points (one cloud per hull view). (This run has no sim_node: the
+  // markers are Ros2Export.TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader's.)
+  const std::string ros_out = (dir_ / "ros2.json").string();
+  test::Process ros({"/usr/bin/env", "node", js + "/read_ros2_mcap.mjs", fox + "/ros2.mcap"}, ros_out, {},
+                    ros_out + ".err");
+  ASSERT_EQ(ros.Wait(120), 0) << test::ReadFile(ros_out + ".err");
+  const auto rj = nlohmann::json::parse(test::ReadFile(ros_out));
+  EXPECT_EQ(rj["invalid"].size(), 0u) << rj["invalid"].dump();
+  const auto& rc = rj["channels"];
+  for (const char* topic : {"/tf_static", "/tf", "/hullpipe/cam1/camera_info", "/hullpipe/cam1/object_pixel_map",
+                            "/hullpipe/view/compressed", "/hullpipe/hull_points"}) {
+    ASSERT_TRUE(rc.contains(topic)) << topic << ": " << rc.dump(1);
+    EXPECT_GT(rc[topic]["decoded"].get<int>(), 0) << topic;
+    EXPECT_EQ(rc[topic]["decoded"], rc[topic]["count"]) << topic;
+  }
+  EXPECT_EQ(rc["/hullpipe/hull_points"]["decoded"], points["decoded"]);  // one cloud per whole hull view
+  const auto& cloud = rj["first"]["/hullpipe/hull_points"];
+  EXPECT_EQ(cloud["point_step"], 16);
+  EXPECT_EQ(cloud["fields"].size(), 4u);
+  EXPECT_GT(cloud["width"].get<int>(), 0);
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/ros2/ros2_messages.h"
+#include "hullpipe/ros2/ros2_schemas.h"
 #include "hullpipe/ros2/ros2_topics.h"
 #include "hullpipe/record/recording.h"
 #include "hullpipe/evaluation/synthetic.h"
@@ -431,7 +432,8 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
       return std::make_unique<dds::CdrWriter>(p, kt, kt.qos, dds::CdrWriter::Scope::kDecodeOnly);
     };
     auto info_codec = codec("hullpipe::msg::CameraInfo"), map_codec = codec("hullpipe::msg::ObjectPixelMap"),
-         image_codec = codec("hullpipe::msg::CameraImage");
+         image_codec = codec("hullpipe::msg::CameraImage"), state_codec = codec("hullpipe::msg::VirtualObjectState"),
+         report_codec = codec("hullpipe::msg::CollisionReport"), mesh_codec = codec("hullpipe::msg::VirtualMesh");
     record::RecordingWriter w(rec);
     const int64_t ti = w.AddTopic({0, "hullpipe/camera_info", "hullpipe::msg::CameraInfo", true, true, true, 1, ""});
     const int64_t tm = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
@@ -445,6 +447,34 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
       const auto img = dds::MakeImageMessage(2, k, t, cv::Mat(48, 64, CV_8UC3, cv::Scalar(5, 6, 7)), k == 2 ? 0 : 80);
       w.Append({tc, t + 2000, t, image_codec->Encode(&img.msg)});
     }
+    // sim_node's: a ball (colliding, with its collision points), a box, a curtain.
+    const int64_t ts = w.AddTopic({0, "hullpipe/object_state", "hullpipe::msg::VirtualObjectState", true, true, false, 1, ""});
+    const int64_t tr = w.AddTopic({0, "hullpipe/collision_report", "hullpipe::msg::CollisionReport", true, true, false, 16, ""});
+    const int64_t tv = w.AddTopic({0, "hullpipe/virtual_mesh", "hullpipe::msg::VirtualMesh", true, true, false, 1, ""});
+    VirtualObjectSample ball;
+    ball.object_id = 1, ball.radius = 0.1, ball.position = {0.2, 0.3, -1}, ball.colliding = true;
+    ball.capture_time_ns = t0 + 40'000'000;
+    const hullpipe_msg_VirtualObjectState ball_msg = dds::VirtualObjectToMsg(ball);
+    w.Append({ts, t0 + 50'000'000, ball.capture_time_ns, state_codec->Encode(&ball_msg)});
+    VirtualObjectSample box = ball;
+    box.object_id = 2, box.shape = VirtualObjectSample::Shape::kBox, box.half_extents = {0.1, 0.2, 0.3};
+    box.colliding = false;
+    const hullpipe_msg_VirtualObjectState box_msg = dds::VirtualObjectToMsg(box);
+    w.Append({ts, t0 + 50'000'001, ball.capture_time_ns, state_codec->Encode(&box_msg)});
+    CollisionReportSample report;
+    report.object_id = 1, report.capture_time_ns = ball.capture_time_ns;
+    report.triangle_ids = {4};
+    report.collision_points = {{0.1, 0.3, -1}, {0.12, 0.31, -1}};
+    const auto report_msg = dds::MakeCollisionReportMessage(report);
+    w.Append({tr, t0 + 50'000'002, ball.capture_time_ns, report_codec->Encode(&report_msg.msg)});
+    VirtualMeshSample curtain;
+    curtain.object_id = 100, curtain.kind = kMeshCloth, curtain.element = "cloth";
+    curtain.capture_time_ns = ball.capture_time_ns;
+    curtain.draw.vertices = {{0, 0, -1}, {0.1, 0, -1}, {0, 0.1, -1}, {0.1, 0.1, -1}};
+    curtain.draw.triangles = {{0, 1, 2}, {1, 3, 2}};
+    curtain.draw.colliding = {0, 1};
+    const auto mesh_msg = dds::MakeVirtualMeshMessage(curtain);
+    w.Append({tv, t0 + 50'000'003, ball.capture_time_ns, mesh_codec->Encode(&mesh_msg.msg)});
   }
   const std::string out = (dir / "export").string(), log = (dir / "export.log").string();
   test::Process exp({test::BinDir() + "/hullpipe_record", "export", rec, "-o", out, "--ros2", "--no-media",
@@ -464,7 +494,8 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
       {"/hullpipe/cam2/camera_info", {"sensor_msgs/msg/CameraInfo", 3}},
       {"/hullpipe/cam2/object_pixel_map", {"sensor_msgs/msg/Image", 3}},
       {"/hullpipe/cam2/image/compressed", {"sensor_msgs/msg/CompressedImage", 2}},
-      {"/hullpipe/cam2/image", {"sensor_msgs/msg/Image", 1}}};
+      {"/hullpipe/cam2/image", {"sensor_msgs/msg/Image", 1}},
+      {"/hullpipe/markers", {"visualization_msgs/msg/MarkerArray", 4}}};
   EXPECT_EQ(ch.size(), want.size()) << ch.dump(1);
   for (const auto& [topic, w] : want) {
     ASSERT_TRUE(ch.contains(topic)) << topic << " " << ch.dump(1);
@@ -489,6 +520,51 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
   EXPECT_EQ(first["/hullpipe/cam2/image"]["encoding"], "bgr8");
   EXPECT_EQ(first["/hullpipe/cam2/image/compressed"]["format"], "jpeg");
   EXPECT_EQ(first["/tf_static"]["transforms"][0]["child_frame_id"], "hullpipe_cam2");
+  // The first marker: the colliding ball, a red sphere of its diameter.
+  const json& ball_marker = first["/hullpipe/markers"]["markers"][0];
+  EXPECT_EQ(ball_marker["ns"], "hullpipe_objects");
+  EXPECT_EQ(ball_marker["type"], 2);  // SPHERE
+  EXPECT_DOUBLE_EQ(ball_marker["scale"]["x"].get<double>(), 0.2);
+  EXPECT_NEAR(ball_marker["color"]["r"].get<double>(), 0.9, 1e-6);
+  EXPECT_DOUBLE_EQ(ball_marker["pose"]["position"]["z"].get<double>(), -1.0);
+}
+
+// The markers of a box, a contact and a mesh, field by field as Foxglove's ROS 2
+// Humble reader decodes them (the ball's is above).
+TEST_F(Ros2Messages, BoxesContactsAndMeshesAreMarkersFoxglovesDecoderReads) {
+  VirtualObjectSample box;
+  box.object_id = 2, box.shape = VirtualObjectSample::Shape::kBox, box.half_extents = {0.1, 0.2, 0.3};
+  box.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()));
+  const auto box_marker = ros2::MakeObjectMarker(box, 5);
+  const auto contacts = ros2::MakeContactMarker(1, {{0.1, 0.2, 0.3}, {0.4, 0.5, 0.6}}, 5);
+  VirtualMeshSample mesh;
+  mesh.object_id = 100;
+  mesh.draw.vertices = {{0, 0, -1}, {0.1, 0, -1}, {0, 0.1, -1}, {0.1, 0.1, -1}};
+  mesh.draw.triangles = {{0, 1, 2}, {1, 3, 2}};
+  mesh.draw.colliding = {0, 1};
+  mesh.draw.colour = cv::Vec3b(255, 0, 0);  // BGR blue
+  const auto mesh_marker = ros2::MakeMeshMarker(mesh, 5);
+  const dds::KnownType kt = ros2::Ros2KnownType("visualization_msgs/msg/MarkerArray");
+  const auto decoded = Decode({{"visualization_msgs/msg/MarkerArray", Encode(kt, &box_marker.msg)},
+                               {"visualization_msgs/msg/MarkerArray", Encode(kt, &contacts.msg)},
+                               {"visualization_msgs/msg/MarkerArray", Encode(kt, &mesh_marker.msg)}});
+  ASSERT_EQ(decoded.size(), 3u);
+  for (const json& d : decoded) ASSERT_FALSE(d.contains("error")) << d.dump();
+  const json& b = decoded[0]["markers"][0];
+  EXPECT_EQ(b["type"], 1);  // CUBE
+  EXPECT_DOUBLE_EQ(b["scale"]["z"].get<double>(), 0.6);
+  EXPECT_NEAR(b["pose"]["orientation"]["z"].get<double>(), std::sin(0.25), 1e-12);
+  const json& c = decoded[1]["markers"][0];
+  EXPECT_EQ(c["type"], 7);  // SPHERE_LIST
+  ASSERT_EQ(c["points"].size(), 2u);
+  EXPECT_DOUBLE_EQ(c["points"][1]["y"].get<double>(), 0.5);
+  const json& m = decoded[2]["markers"][0];
+  EXPECT_EQ(m["type"], 11);  // TRIANGLE_LIST: each triangle's vertices in turn
+  ASSERT_EQ(m["points"].size(), 6u);
+  EXPECT_DOUBLE_EQ(m["points"][3]["x"].get<double>(), 0.1);  // triangle 1's first vertex, vertex 1
+  ASSERT_EQ(m["colors"].size(), 6u);
+  EXPECT_NEAR(m["colors"][0]["b"].get<double>(), 1.0, 1e-6);  // triangle 0: its colour
+  EXPECT_NEAR(m["colors"][3]["r"].get<double>(), 0.9, 1e-6);  // triangle 1 collides: red
 }
 
 }  // namespace

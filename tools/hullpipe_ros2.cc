@@ -26,11 +26,17 @@ int main(int argc, char** argv) {
   OpenCommandLine(argc, argv, "hullpipe_ros2", app, common, /*with_run_id=*/true);
   int ros_domain = -1;
   ros2::Ros2BridgeOptions o;
-  bool no_maps = false, no_images = false;
+  bool no_maps = false, no_images = false, no_view = false, no_hull = false, no_markers = false;
   app.add_option("--ros-domain", ros_domain, "The ROS 2 network's domain (ROS_DOMAIN_ID; default: --domain)")
       ->check(DomainIdRange());
   app.add_flag("--no-maps", no_maps, "Do not publish the object-pixel maps");
   app.add_flag("--no-images", no_images, "Do not publish the camera frames");
+  app.add_flag("--no-view", no_view, "Do not publish the composited view and its pose on /tf");
+  app.add_flag("--no-hull-points", no_hull, "Do not publish the hull's points (PointCloud2)");
+  app.add_flag("--no-markers", no_markers, "Do not publish the virtual objects, meshes and contacts as markers");
+  app.add_option("--hull-point-stride", o.derive.hull_point_stride, "Every this many view pixels, each way")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   app.add_option("--head-pose-topic", o.head_pose_topic,
                  "ROS 2 topic of the tracker's geometry_msgs/PoseStamped (\"\": none)")
       ->capture_default_str();
@@ -40,8 +46,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.001, 86400.0));
   app.add_option("--tracker-id", o.tracker_id, "HeadPose.tracker_id of the poses passed on")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
-  o.maps = !no_maps;
-  o.images = !no_images;
+  o.derive.maps = !no_maps;
+  o.derive.images = !no_images;
+  o.derive.view = !no_view;
+  o.derive.hull_points = !no_hull;
+  o.derive.markers = !no_markers;
   try {
     o.Check();
     auto participant = StartNode("ros2", common);
@@ -54,21 +63,26 @@ int main(int argc, char** argv) {
     NodeReporter reporter(*participant, "ros2", counters);
     ros2::Ros2Bridge bridge(*participant, ros, o, clock);
     WaitSet ws(*participant);
-    for (dds_entity_t c : bridge.Conditions())
-      if (!ros_participant || c != bridge.Conditions().back() || o.head_pose_topic.empty()) ws.AttachCondition(c);
-    // The pose reader lives on the ROS participant when the domains differ:
-    // polled each turn (a waitset belongs to one participant).
-    spdlog::info("publishing hullpipe's cameras on ROS 2 domain {}{}", ros_participant ? ros_domain : int(common.domain),
+    for (dds_entity_t c : bridge.HullpipeConditions()) ws.AttachCondition(c);
+    // The tracker's reader lives on the ROS 2 participant: on the same one it
+    // wakes the waitset; on another (a waitset is one participant's) it is
+    // polled every 20 ms.
+    if (!ros_participant && bridge.PoseCondition()) ws.AttachCondition(bridge.PoseCondition());
+    const double wait_s = ros_participant && bridge.PoseCondition() ? 0.02 : 0.2;
+    spdlog::info("publishing hullpipe's topics on ROS 2 domain {}{}",
+                 ros_participant ? ros_domain : int(common.domain),
                  o.head_pose_topic.empty() ? "" : "; following " + o.head_pose_topic);
     while (!StopRequested()) {
-      ws.Wait(ros_participant ? 0.02 : 0.2);
+      ws.Wait(wait_s);
       counters.FrameIn(bridge.Step());
       const auto& c = bridge.counts();
-      counters.SetRejected(c.poses_refused + c.cameras_refused + c.samples_refused);
+      counters.SetRejected(c.poses_refused + c.samples_refused);
     }
     const auto& c = bridge.counts();
-    spdlog::info("published {} camera infos, {} maps, {} images, /tf_static {} times; {} poses passed on, {} refused",
-                 c.camera_infos, c.maps, c.images, c.tf_static, c.poses, c.poses_refused);
+    std::string topics;
+    for (const auto& [topic, n] : c.published) topics += fmt::format("{}{} {}", topics.empty() ? "" : ", ", topic, n);
+    spdlog::info("published {}; {} poses passed on, {} refused; {} samples refused", topics.empty() ? "nothing" : topics,
+                 c.poses, c.poses_refused, c.samples_refused);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -2,6 +2,8 @@
 
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/topics.h"
+#include <type_traits>
+
 #include "hullpipe/ros2/ros2_messages.h"
 #include "hullpipe/ros2/ros2_schemas.h"
 #include "hullpipe/ros2/ros2_topics.h"
@@ -33,7 +35,10 @@ bool With(const dds::CdrWriter& codec, const std::vector<uint8_t>& data, F&& f) 
 }  // namespace
 
 Ros2Export::Ros2Export(const std::string& path, const dds::Participant& participant)
-    : path_(path), participant_(participant), w_(path, McapRos2()) {
+    : path_(path),
+      participant_(participant),
+      w_(path, McapRos2()),
+      deriver_({}, [this](const ros2::Ros2Message& m) { Write(m.topic, m.type, m.qos, m.msg, log_ns_, m.stamp_ns); }) {
   w_.SetMeta("ros2", "hullpipe's topics as ROS 2 Humble messages, by hullpipe_record export --ros2 (docs/ros2.md)");
 }
 
@@ -75,46 +80,32 @@ void Ros2Export::Write(const std::string& ros_topic, const std::string& type, co
 
 bool Ros2Export::Add(const TopicInfo& topic, const Sample& sample) {
   const std::string& type = topic.type;
-  const int64_t log_ns = sample.arrival_ns;
-  if (type == "hullpipe::msg::CameraInfo") {
-    return With<hullpipe_msg_CameraInfo>(Codec(type), sample.data, [&](const hullpipe_msg_CameraInfo& m) {
-      const Camera c = dds::CameraFromMsg(m, nullptr);
-      cameras_[c.id] = c;
-      std::vector<Camera> all;
-      for (const auto& [id, cam] : cameras_) all.push_back(cam);
-      const auto tf = ros2::MakeCameraTransforms(all, log_ns);
-      Write("/tf_static", "tf2_msgs/msg/TFMessage", ros2::kTfStaticQos, &tf.msg, log_ns, log_ns);
-    });
-  }
-  if (type == "hullpipe::msg::ObjectPixelMap") {
-    return With<hullpipe_msg_ObjectPixelMap>(Codec(type), sample.data, [&](const hullpipe_msg_ObjectPixelMap& m) {
-      const auto cam = cameras_.find(int(m.camera_id));
-      if (cam == cameras_.end()) return;  // before its calibration: nothing to say where it is
-      const std::string base = "/hullpipe/cam" + std::to_string(m.camera_id);
-      const auto info = ros2::MakeCameraInfo(cam->second, m.capture_time_ns);
-      Write(base + "/camera_info", "sensor_msgs/msg/CameraInfo", ros2::kDefaultQos, &info.msg, log_ns,
-            m.capture_time_ns);
-      const auto map = ros2::MakeMono8Image(dds::MapFromMsg(m), m.capture_time_ns, ros2::CameraFrameId(cam->first));
-      Write(base + "/object_pixel_map", "sensor_msgs/msg/Image", ros2::kDefaultQos, &map.msg, log_ns,
-            m.capture_time_ns);
-    });
-  }
-  if (type == "hullpipe::msg::CameraImage") {
-    return With<hullpipe_msg_CameraImage>(Codec(type), sample.data, [&](const hullpipe_msg_CameraImage& m) {
-      const std::string base = "/hullpipe/cam" + std::to_string(m.camera_id), frame = ros2::CameraFrameId(int(m.camera_id));
-      if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG) {
-        dds::CheckJpegOfSize("CameraImage: ", m.data._buffer, m.data._length, m.width, m.height);
-        const auto jpeg = ros2::MakeCompressedImage(std::vector<uint8_t>(m.data._buffer, m.data._buffer + m.data._length),
-                                                    m.capture_time_ns, frame);
-        Write(base + "/image/compressed", "sensor_msgs/msg/CompressedImage", ros2::kDefaultQos, &jpeg.msg, log_ns,
-              m.capture_time_ns);
-      } else {
-        const auto raw = ros2::MakeBgr8Image(dds::ImageFromMsg(m), m.capture_time_ns, frame);
-        Write(base + "/image", "sensor_msgs/msg/Image", ros2::kDefaultQos, &raw.msg, log_ns, m.capture_time_ns);
-      }
-    });
-  }
-  return true;  // no ROS 2 form (yet): docs/ros2.md, "Not yet"
+  log_ns_ = sample.arrival_ns;
+  std::string why;
+  auto with = [&](auto tag, auto&& derive) {
+    using T = typename decltype(tag)::type;
+    return With<T>(Codec(type), sample.data, [&](const T& m) { why = derive(m); });
+  };
+  bool decoded = true;
+  if (type == "hullpipe::msg::CameraInfo")
+    decoded = with(std::type_identity<hullpipe_msg_CameraInfo>{}, [&](const auto& m) { return deriver_.OnCameraInfo(m, log_ns_); });
+  else if (type == "hullpipe::msg::ObjectPixelMap")
+    decoded = with(std::type_identity<hullpipe_msg_ObjectPixelMap>{}, [&](const auto& m) { return deriver_.OnMap(m); });
+  else if (type == "hullpipe::msg::CameraImage")
+    decoded = with(std::type_identity<hullpipe_msg_CameraImage>{}, [&](const auto& m) { return deriver_.OnImage(m); });
+  else if (type == "hullpipe::msg::ViewPose")
+    decoded = with(std::type_identity<hullpipe_msg_ViewPose>{}, [&](const auto& m) { return deriver_.OnViewPose(m); });
+  else if (type == "hullpipe::msg::HullView")
+    decoded = with(std::type_identity<hullpipe_msg_HullView>{}, [&](const auto& m) { return deriver_.OnHullView(m); });
+  else if (type == "hullpipe::msg::CompositedView")
+    decoded = with(std::type_identity<hullpipe_msg_CompositedView>{}, [&](const auto& m) { return deriver_.OnCompositedView(m); });
+  else if (type == "hullpipe::msg::VirtualObjectState")
+    decoded = with(std::type_identity<hullpipe_msg_VirtualObjectState>{}, [&](const auto& m) { return deriver_.OnObjectState(m); });
+  else if (type == "hullpipe::msg::CollisionReport")
+    decoded = with(std::type_identity<hullpipe_msg_CollisionReport>{}, [&](const auto& m) { return deriver_.OnCollisionReport(m); });
+  else if (type == "hullpipe::msg::VirtualMesh")
+    decoded = with(std::type_identity<hullpipe_msg_VirtualMesh>{}, [&](const auto& m) { return deriver_.OnMesh(m); });
+  return decoded && why.empty();
 }
 
 }  // namespace hullpipe::record

@@ -15,6 +15,7 @@
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/geometry/camera.h"
 #include "hullpipe/record/recording.h"
+#include "hullpipe/ros2/ros2_deriver.h"
 
 namespace hullpipe::record {
 
@@ -24,10 +25,11 @@ class Ros2Export {
   /// Creates `path` (MCAP, zstd chunks, profile ros2; never overwritten);
   /// `participant` (de)serializes samples. Throws RecordingError.
   Ros2Export(const std::string& path, const dds::Participant& participant);
-  /// A recorded sample of hullpipe's: what it gives as ROS 2 messages (a
-  /// CameraInfo: /tf_static with every camera so far; a map: the camera's
-  /// CameraInfo and the mono8 map; a frame: bgr8 or the JPEG). False if it does
-  /// not decode (nothing written). Other types are passed over (true).
+  /// A recorded sample of hullpipe's: what it gives as ROS 2 messages
+  /// (ros2_deriver.h: calibrations on /tf_static, maps, frames, the view and
+  /// its pose, the hull's points, markers), logged at its arrival. False if it
+  /// does not decode or convert (nothing written). Other types are passed over
+  /// (true).
   bool Add(const TopicInfo& topic, const Sample& sample);
   /// Messages written, per ROS 2 topic.
   const std::map<std::string, int64_t>& counts() const { return counts_; }
@@ -43,8 +45,9 @@ class Ros2Export {
   std::map<std::string, std::unique_ptr<dds::CdrWriter>> codecs_;  // by type (hullpipe's and ROS 2's)
   std::map<std::string, int64_t> ids_;                              // ROS 2 topic -> channel id
   std::map<std::string, int64_t> counts_;
-  std::map<int, Camera> cameras_;
+  ros2::Ros2Deriver deriver_;
   int64_t appended_ = 0;
+  int64_t log_ns_ = 0;  // the arrival of the sample being derived
 };
 
 }  // namespace hullpipe::record

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/reconstruction/tile_set.h"
 
 namespace hullpipe::ros2 {
 
@@ -138,6 +139,147 @@ RosSample<geometry_msgs_msg_dds__PoseStamped_> MakePoseStamped(const Rigid3d& wo
   s.msg.pose.position = {world_from_eye.translation.x(), world_from_eye.translation.y(),
                          world_from_eye.translation.z()};
   s.msg.pose.orientation = Quaternion(world_from_eye.rotation);
+  return s;
+}
+
+RosSample<tf2_msgs_msg_dds__TFMessage_> MakeViewTransform(const Rigid3d& world_from_eye, int64_t stamp_ns) {
+  RosSample<tf2_msgs_msg_dds__TFMessage_> s;
+  s.strings.reserve(2);
+  geometry_msgs_msg_dds__TransformStamped_ t{};
+  t.header = Header(&s.strings, stamp_ns, kWorldFrame);
+  t.child_frame_id = Text(&s.strings, kViewFrame);
+  t.transform.translation = {world_from_eye.translation.x(), world_from_eye.translation.y(),
+                             world_from_eye.translation.z()};
+  t.transform.rotation = Quaternion(world_from_eye.rotation);
+  s.transforms.push_back(t);
+  dds::Borrow(&s.msg.transforms, s.transforms);
+  return s;
+}
+
+RosSample<sensor_msgs_msg_dds__PointCloud2_> MakeHullPointCloud(const NovelView& view, const cv::Mat& depth,
+                                                                const cv::Mat& colour, int stride, int64_t stamp_ns) {
+  if (depth.type() != CV_32FC1 || colour.type() != CV_8UC3 || depth.size() != colour.size() || stride < 1)
+    throw dds::MessageError("PointCloud2: depth CV_32FC1 and colour CV_8UC3 of one size, stride >= 1");
+  RosSample<sensor_msgs_msg_dds__PointCloud2_> s;
+  s.strings.reserve(5);
+  auto& m = s.msg;
+  m.header = Header(&s.strings, stamp_ns, kWorldFrame);
+  uint32_t offset = 0;
+  for (const char* name : {"x", "y", "z", "rgb"}) {
+    s.fields.push_back({Text(&s.strings, name), offset, 7 /* FLOAT32 */, 1});
+    offset += 4;
+  }
+  dds::Borrow(&m.fields, s.fields);
+  uint32_t n = 0;
+  for (int v = 0; v < depth.rows; v += stride)
+    for (int u = 0; u < depth.cols; u += stride) {
+      const float z = depth.at<float>(v, u);
+      if (!(z > 0) || !std::isfinite(z) || z >= kNoDepth) continue;
+      // Pixel centres at +0.5 (geometry/conventions.h).
+      const Eigen::Vector3d p = view.world_from_eye * (view.EyeRay(u + 0.5, v + 0.5) * double(z));
+      const cv::Vec3b bgr = colour.at<cv::Vec3b>(v, u);
+      const uint32_t rgb = uint32_t(bgr[2]) << 16 | uint32_t(bgr[1]) << 8 | uint32_t(bgr[0]);
+      float point[4] = {float(p.x()), float(p.y()), float(p.z()), 0};
+      std::memcpy(&point[3], &rgb, 4);
+      const auto* b = reinterpret_cast<const uint8_t*>(point);
+      s.bytes.insert(s.bytes.end(), b, b + sizeof point);
+      ++n;
+    }
+  m.height = 1;
+  m.width = n;
+  m.is_bigendian = false;
+  m.point_step = 16;
+  m.row_step = 16 * n;
+  dds::Borrow(&m.data, s.bytes);
+  m.is_dense = true;
+  return s;
+}
+
+namespace {
+
+std_msgs_msg_dds__ColorRGBA_ Rgba(const cv::Vec3b& bgr) {
+  return {float(bgr[2]) / 255.f, float(bgr[1]) / 255.f, float(bgr[0]) / 255.f, 1.f};
+}
+constexpr std_msgs_msg_dds__ColorRGBA_ kRed{0.9f, 0.1f, 0.1f, 1.f};
+
+// One marker of the array, its strings in s.strings (reserved by the caller).
+visualization_msgs_msg_dds__Marker_& OneMarker(RosSample<visualization_msgs_msg_dds__MarkerArray_>* s,
+                                               const char* ns, uint32_t id, int32_t type, int64_t stamp_ns) {
+  visualization_msgs_msg_dds__Marker_ m{};
+  m.header = Header(&s->strings, stamp_ns, kWorldFrame);
+  m.ns = Text(&s->strings, ns);
+  m.id = int32_t(id & 0x7fffffff);
+  m.type = type;
+  m.action = 0;  // ADD (or modify)
+  m.pose.orientation.w = 1;
+  m.texture_resource = Text(&s->strings, "");
+  m.texture.header = Header(&s->strings, 0, "");
+  m.texture.format = Text(&s->strings, "");
+  m.text = Text(&s->strings, "");
+  m.mesh_resource = Text(&s->strings, "");
+  m.mesh_file.filename = Text(&s->strings, "");
+  s->markers.push_back(m);
+  dds::Borrow(&s->msg.markers, s->markers);
+  return s->markers.back();
+}
+
+}  // namespace
+
+RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeObjectMarker(const VirtualObjectSample& o, int64_t stamp_ns) {
+  RosSample<visualization_msgs_msg_dds__MarkerArray_> s;
+  s.strings.reserve(16);
+  const bool box = o.shape == VirtualObjectSample::Shape::kBox;
+  auto& m = OneMarker(&s, "hullpipe_objects", o.object_id, box ? 1 /* CUBE */ : 2 /* SPHERE */, stamp_ns);
+  m.pose.position = {o.position.x(), o.position.y(), o.position.z()};
+  const Eigen::Quaterniond q = o.orientation.normalized();
+  m.pose.orientation = {q.x(), q.y(), q.z(), q.w()};
+  m.scale = box ? geometry_msgs_msg_dds__Vector3_{2 * o.half_extents.x(), 2 * o.half_extents.y(),
+                                                   2 * o.half_extents.z()}
+                : geometry_msgs_msg_dds__Vector3_{2 * o.radius, 2 * o.radius, 2 * o.radius};
+  m.color = o.colliding ? kRed : std_msgs_msg_dds__ColorRGBA_{0.16f, 0.7f, 0.86f, 1.f};
+  return s;
+}
+
+RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeMeshMarker(const VirtualMeshSample& mesh, int64_t stamp_ns) {
+  RosSample<visualization_msgs_msg_dds__MarkerArray_> s;
+  s.strings.reserve(16);
+  const VirtualMeshDraw& d = mesh.draw;
+  const bool points = d.triangles.empty();
+  auto& m = OneMarker(&s, "hullpipe_meshes", mesh.object_id, points ? 7 /* SPHERE_LIST */ : 11 /* TRIANGLE_LIST */,
+                      stamp_ns);
+  const double size = points ? 2 * d.point_radius : 1.0;
+  m.scale = {size, size, size};
+  m.color = Rgba(d.colour);
+  auto flagged = [&](size_t i) { return i < d.colliding.size() && d.colliding[i] != 0; };
+  if (points) {
+    for (size_t i = 0; i < d.vertices.size(); ++i) {
+      s.points.push_back({d.vertices[i].x(), d.vertices[i].y(), d.vertices[i].z()});
+      s.colors.push_back(flagged(i) ? kRed : Rgba(d.colour));
+    }
+  } else {
+    for (size_t t = 0; t < d.triangles.size(); ++t)
+      for (int k = 0; k < 3; ++k) {
+        const int i = d.triangles[t][k];
+        if (i < 0 || size_t(i) >= d.vertices.size()) continue;  // validated at the wire
+        s.points.push_back({d.vertices[size_t(i)].x(), d.vertices[size_t(i)].y(), d.vertices[size_t(i)].z()});
+        s.colors.push_back(flagged(t) ? kRed : Rgba(d.colour));
+      }
+  }
+  dds::Borrow(&m.points, s.points);
+  dds::Borrow(&m.colors, s.colors);
+  return s;
+}
+
+RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeContactMarker(uint32_t object_id,
+                                                                      const std::vector<Eigen::Vector3d>& points,
+                                                                      int64_t stamp_ns) {
+  RosSample<visualization_msgs_msg_dds__MarkerArray_> s;
+  s.strings.reserve(16);
+  auto& m = OneMarker(&s, "hullpipe_contacts", object_id, 7 /* SPHERE_LIST */, stamp_ns);
+  m.scale = {0.01, 0.01, 0.01};
+  m.color = kRed;
+  for (const auto& p : points) s.points.push_back({p.x(), p.y(), p.z()});
+  dds::Borrow(&m.points, s.points);
   return s;
 }
 

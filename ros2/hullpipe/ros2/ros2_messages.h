@@ -28,6 +28,8 @@
 #include "hullpipe/dds/owned_sample.h"
 #include "hullpipe/geometry/camera.h"
 #include "hullpipe/geometry/rigid3.h"
+#include "hullpipe/pipeline/messages.h"
+#include "hullpipe/reconstruction/plane_sweep.h"
 #include "ros2.h"  // idlc-generated from idl/ros2.idl
 
 namespace hullpipe::ros2 {
@@ -41,6 +43,10 @@ struct RosSample {
   std::vector<uint8_t> bytes;
   std::vector<std::string> strings;  ///< Reserved before use: their c_str() stay put.
   std::vector<geometry_msgs_msg_dds__TransformStamped_> transforms;
+  std::vector<sensor_msgs_msg_dds__PointField_> fields;
+  std::vector<geometry_msgs_msg_dds__Point_> points;
+  std::vector<std_msgs_msg_dds__ColorRGBA_> colors;
+  std::vector<visualization_msgs_msg_dds__Marker_> markers;
   RosSample() = default;
   RosSample(const RosSample&) = delete;
   RosSample& operator=(const RosSample&) = delete;
@@ -50,6 +56,8 @@ struct RosSample {
 
 /// The rig's world frame id.
 inline constexpr const char* kWorldFrame = "hullpipe_world";
+/// render_node's view (the head pose it composites for; OpenCV eye frame).
+inline constexpr const char* kViewFrame = "hullpipe_view";
 /// Camera `id`'s optical frame id: "hullpipe_cam<id>".
 std::string CameraFrameId(int id);
 
@@ -86,6 +94,32 @@ RosSample<tf2_msgs_msg_dds__TFMessage_> MakeCameraTransforms(const std::vector<C
 /// in frame `frame_id`.
 RosSample<geometry_msgs_msg_dds__PoseStamped_> MakePoseStamped(const Rigid3d& world_from_eye, int64_t stamp_ns,
                                                                const std::string& frame_id);
+
+/// tf2_msgs/TFMessage with the view's pose: kWorldFrame -> kViewFrame (for /tf).
+RosSample<tf2_msgs_msg_dds__TFMessage_> MakeViewTransform(const Rigid3d& world_from_eye, int64_t stamp_ns);
+
+/// sensor_msgs/PointCloud2 of the visual hull as the view sees it: every
+/// `stride`-th pixel's hull point (depth: CV_32FC1 eye z, colour: CV_8UC3 BGR,
+/// the view's size), in kWorldFrame, fields x y z (float32) and rgb (float32
+/// holding 0x00RRGGBB, as PCL and RViz pack it), little-endian, dense, one row.
+RosSample<sensor_msgs_msg_dds__PointCloud2_> MakeHullPointCloud(const NovelView& view, const cv::Mat& depth,
+                                                                const cv::Mat& colour, int stride, int64_t stamp_ns);
+
+/// visualization_msgs/MarkerArray (namespace "hullpipe_objects", id the object
+/// id) of one virtual object's state: a SPHERE (scale its diameter) or a CUBE
+/// (its size, at its orientation), red while it collides.
+RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeObjectMarker(const VirtualObjectSample& state,
+                                                                     int64_t stamp_ns);
+/// The same of a mesh (namespace "hullpipe_meshes"): a TRIANGLE_LIST, each
+/// triangle's vertices in turn, coloured per vertex (red on a colliding
+/// triangle); a point set (no triangles): a SPHERE_LIST of its point radius.
+RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeMeshMarker(const VirtualMeshSample& mesh, int64_t stamp_ns);
+/// The same of a collision's points (namespace "hullpipe_contacts", id the
+/// object id): a SPHERE_LIST of 1-cm red spheres (none: an empty list, which
+/// clears the last).
+RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeContactMarker(uint32_t object_id,
+                                                                      const std::vector<Eigen::Vector3d>& points,
+                                                                      int64_t stamp_ns);
 
 /// What a tracker's pose must satisfy to drive the view.
 struct PoseCheck {

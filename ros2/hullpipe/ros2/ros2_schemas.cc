@@ -33,6 +33,26 @@ const std::map<std::string, std::string>& Definitions() {
        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\n"
        "uint8[] data\n"},
       {"sensor_msgs/msg/CompressedImage", "std_msgs/Header header\nstring format\nuint8[] data\n"},
+      {"builtin_interfaces/msg/Duration", "int32 sec\nuint32 nanosec\n"},
+      {"std_msgs/msg/ColorRGBA", "float32 r\nfloat32 g\nfloat32 b\nfloat32 a\n"},
+      {"sensor_msgs/msg/PointField",
+       "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\nuint8 UINT32=6\n"
+       "uint8 FLOAT32=7\nuint8 FLOAT64=8\nstring name\nuint32 offset\nuint8 datatype\nuint32 count\n"},
+      {"sensor_msgs/msg/PointCloud2",
+       "std_msgs/Header header\nuint32 height\nuint32 width\nsensor_msgs/PointField[] fields\nbool is_bigendian\n"
+       "uint32 point_step\nuint32 row_step\nuint8[] data\nbool is_dense\n"},
+      {"visualization_msgs/msg/UVCoordinate", "float32 u\nfloat32 v\n"},
+      {"visualization_msgs/msg/MeshFile", "string filename\nuint8[] data\n"},
+      {"visualization_msgs/msg/Marker",
+       "int32 ARROW=0\nint32 CUBE=1\nint32 SPHERE=2\nint32 CYLINDER=3\nint32 LINE_STRIP=4\nint32 LINE_LIST=5\n"
+       "int32 CUBE_LIST=6\nint32 SPHERE_LIST=7\nint32 POINTS=8\nint32 TEXT_VIEW_FACING=9\nint32 MESH_RESOURCE=10\n"
+       "int32 TRIANGLE_LIST=11\nint32 ADD=0\nint32 MODIFY=0\nint32 DELETE=2\nint32 DELETEALL=3\n"
+       "std_msgs/Header header\nstring ns\nint32 id\nint32 type\nint32 action\ngeometry_msgs/Pose pose\n"
+       "geometry_msgs/Vector3 scale\nstd_msgs/ColorRGBA color\nbuiltin_interfaces/Duration lifetime\n"
+       "bool frame_locked\ngeometry_msgs/Point[] points\nstd_msgs/ColorRGBA[] colors\nstring texture_resource\n"
+       "sensor_msgs/CompressedImage texture\nvisualization_msgs/UVCoordinate[] uv_coordinates\nstring text\n"
+       "string mesh_resource\nvisualization_msgs/MeshFile mesh_file\nbool mesh_use_embedded_materials\n"},
+      {"visualization_msgs/msg/MarkerArray", "visualization_msgs/Marker[] markers\n"},
   };
   return d;
 }
@@ -79,7 +99,8 @@ dds::KnownType Known(const dds_topic_descriptor_t* desc, Probe probe) {
 const std::vector<std::string>& Ros2TypeNames() {
   static const std::vector<std::string> names = {"sensor_msgs/msg/CameraInfo", "sensor_msgs/msg/Image",
                                                   "sensor_msgs/msg/CompressedImage", "tf2_msgs/msg/TFMessage",
-                                                  "geometry_msgs/msg/PoseStamped"};
+                                                  "geometry_msgs/msg/PoseStamped", "sensor_msgs/msg/PointCloud2",
+                                                  "visualization_msgs/msg/MarkerArray"};
   return names;
 }
 
@@ -120,6 +141,14 @@ dds::KnownType Ros2KnownType(const std::string& type) {
   if (type == "geometry_msgs/msg/PoseStamped")
     return Known<geometry_msgs_msg_dds__PoseStamped_>(&geometry_msgs_msg_dds__PoseStamped__desc,
                                                       [] { return MakePoseStamped(Rigid3d{}, 0, ""); });
+  if (type == "sensor_msgs/msg/PointCloud2")
+    return Known<sensor_msgs_msg_dds__PointCloud2_>(&sensor_msgs_msg_dds__PointCloud2__desc, [] {
+      return MakeHullPointCloud(NovelView::FromFov(1, 1, 1.0, Rigid3d{}), cv::Mat(1, 1, CV_32FC1, cv::Scalar(0)),
+                                cv::Mat(1, 1, CV_8UC3, cv::Scalar(0, 0, 0)), 1, 0);
+    });
+  if (type == "visualization_msgs/msg/MarkerArray")
+    return Known<visualization_msgs_msg_dds__MarkerArray_>(&visualization_msgs_msg_dds__MarkerArray__desc,
+                                                           [] { return MakeContactMarker(0, {}, 0); });
   throw std::invalid_argument("no ROS 2 type " + type);
 }
 

@@ -25,6 +25,8 @@ HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__Image_)
 HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__CompressedImage_)
 HULLPIPE_ROS2_TYPE(tf2_msgs_msg_dds__TFMessage_)
 HULLPIPE_ROS2_TYPE(geometry_msgs_msg_dds__PoseStamped_)
+HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__PointCloud2_)
+HULLPIPE_ROS2_TYPE(visualization_msgs_msg_dds__MarkerArray_)
 #undef HULLPIPE_ROS2_TYPE
 
 }  // namespace hullpipe::dds

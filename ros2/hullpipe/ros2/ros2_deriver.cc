@@ -1,0 +1,142 @@
+#include "hullpipe/ros2/ros2_deriver.h"
+
+#include "hullpipe/dds/convert.h"
+#include "hullpipe/ros2/ros2_messages.h"
+#include "hullpipe/ros2/ros2_topics.h"
+
+namespace hullpipe::ros2 {
+
+namespace {
+std::string CameraBase(uint32_t id) { return "/hullpipe/cam" + std::to_string(id); }
+}  // namespace
+
+template <typename F>
+std::string Ros2Deriver::Guard(F&& f) {
+  try {
+    f();
+    return "";
+  } catch (const dds::MessageError& e) {
+    ++counts_.refused;
+    return e.what();
+  }
+}
+
+const Camera* Ros2Deriver::camera(int id) const {
+  const auto it = cameras_.find(id);
+  return it == cameras_.end() ? nullptr : &it->second;
+}
+
+std::string Ros2Deriver::OnCameraInfo(const hullpipe_msg_CameraInfo& m, int64_t now_ns) {
+  return Guard([&] {
+    const Camera c = dds::CameraFromMsg(m, nullptr);
+    if (!cameras_.count(c.id) && cameras_.size() >= kMaxCameras) {
+      ++counts_.cameras_refused;
+      throw dds::MessageError("camera " + std::to_string(c.id) + ": more than " + std::to_string(kMaxCameras) +
+                              " cameras");
+    }
+    cameras_[c.id] = c;
+    std::vector<Camera> all;
+    for (const auto& [id, cam] : cameras_) all.push_back(cam);
+    const auto tf = MakeCameraTransforms(all, now_ns);
+    emit_({"/tf_static", "tf2_msgs/msg/TFMessage", kTfStaticQos, &tf.msg, now_ns});
+  });
+}
+
+std::string Ros2Deriver::OnMap(const hullpipe_msg_ObjectPixelMap& m) {
+  return Guard([&] {
+    const auto cam = cameras_.find(int(m.camera_id));
+    if (cam == cameras_.end()) return;  // its calibration first (transient-local: it comes)
+    const std::string base = CameraBase(m.camera_id);
+    const auto info = MakeCameraInfo(cam->second, m.capture_time_ns);
+    emit_({base + "/camera_info", "sensor_msgs/msg/CameraInfo", kDefaultQos, &info.msg, m.capture_time_ns});
+    if (!o_.maps) return;
+    const auto map = MakeMono8Image(dds::MapFromMsg(m), m.capture_time_ns, CameraFrameId(cam->first));
+    emit_({base + "/object_pixel_map", "sensor_msgs/msg/Image", kDefaultQos, &map.msg, m.capture_time_ns});
+  });
+}
+
+std::string Ros2Deriver::OnImage(const hullpipe_msg_CameraImage& m) {
+  return Guard([&] {
+    if (!o_.images || !cameras_.count(int(m.camera_id))) return;
+    const std::string base = CameraBase(m.camera_id), frame = CameraFrameId(int(m.camera_id));
+    if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG) {
+      // Passed on as they are, once checked to be a JPEG of the stated size.
+      dds::CheckJpegOfSize("CameraImage: ", m.data._buffer, m.data._length, m.width, m.height);
+      const auto jpeg = MakeCompressedImage(std::vector<uint8_t>(m.data._buffer, m.data._buffer + m.data._length),
+                                            m.capture_time_ns, frame);
+      emit_({base + "/image/compressed", "sensor_msgs/msg/CompressedImage", kDefaultQos, &jpeg.msg,
+             m.capture_time_ns});
+    } else {
+      const auto raw = MakeBgr8Image(dds::ImageFromMsg(m), m.capture_time_ns, frame);
+      emit_({base + "/image", "sensor_msgs/msg/Image", kDefaultQos, &raw.msg, m.capture_time_ns});
+    }
+  });
+}
+
+std::string Ros2Deriver::OnViewPose(const hullpipe_msg_ViewPose& m) {
+  return Guard([&] {
+    const NovelView view = dds::ViewFromMsg(m);
+    views_[m.pose_seq] = view;
+    while (views_.size() > 256) views_.erase(views_.begin());
+    if (!o_.view) return;
+    const auto tf = MakeViewTransform(view.world_from_eye, m.stamp_ns);
+    emit_({"/tf", "tf2_msgs/msg/TFMessage", kDefaultQos, &tf.msg, m.stamp_ns});
+  });
+}
+
+std::string Ros2Deriver::OnHullView(const hullpipe_msg_HullView& m) {
+  return Guard([&] {
+    if (!o_.hull_points) return;
+    const uint64_t pose = m.pose_seq;
+    const auto whole = tiles_.Add(dds::TileFromMsg(m));
+    if (!whole) return;
+    const auto view = views_.find(pose);
+    if (view == views_.end()) return;  // its pose not seen: nowhere to put the points
+    const auto cloud =
+        MakeHullPointCloud(view->second, whole->depth, whole->colour, o_.hull_point_stride, m.capture_time_ns);
+    emit_({"/hullpipe/hull_points", "sensor_msgs/msg/PointCloud2", kDefaultQos, &cloud.msg, m.capture_time_ns});
+  });
+}
+
+std::string Ros2Deriver::OnCompositedView(const hullpipe_msg_CompositedView& m) {
+  return Guard([&] {
+    if (!o_.view) return;
+    dds::CheckCompositedViewMsg(m);  // render_node's JPEG, passed on once its header is checked
+    const auto jpeg = MakeCompressedImage(std::vector<uint8_t>(m.data._buffer, m.data._buffer + m.data._length),
+                                          m.capture_time_ns, kViewFrame);
+    emit_({"/hullpipe/view/compressed", "sensor_msgs/msg/CompressedImage", kDefaultQos, &jpeg.msg,
+           m.capture_time_ns});
+  });
+}
+
+std::string Ros2Deriver::OnObjectState(const hullpipe_msg_VirtualObjectState& m) {
+  return Guard([&] {
+    if (!o_.markers) return;
+    const auto marker = MakeObjectMarker(dds::VirtualObjectFromMsg(m), m.capture_time_ns);
+    emit_({"/hullpipe/markers", "visualization_msgs/msg/MarkerArray", kDefaultQos, &marker.msg, m.capture_time_ns});
+  });
+}
+
+std::string Ros2Deriver::OnCollisionReport(const hullpipe_msg_CollisionReport& m) {
+  return Guard([&] {
+    if (!o_.markers) return;
+    std::vector<Eigen::Vector3d> points;
+    for (uint32_t i = 0; i < m.collision_points._length; ++i) {
+      const Eigen::Vector3d p = dds::FromMsg(m.collision_points._buffer[i]);
+      if (!p.allFinite()) throw dds::MessageError("CollisionReport: a collision point is not finite");
+      points.push_back(p);
+    }
+    const auto marker = MakeContactMarker(m.object_id, points, m.capture_time_ns);
+    emit_({"/hullpipe/markers", "visualization_msgs/msg/MarkerArray", kDefaultQos, &marker.msg, m.capture_time_ns});
+  });
+}
+
+std::string Ros2Deriver::OnMesh(const hullpipe_msg_VirtualMesh& m) {
+  return Guard([&] {
+    if (!o_.markers) return;
+    const auto marker = MakeMeshMarker(dds::VirtualMeshFromMsg(m), m.capture_time_ns);
+    emit_({"/hullpipe/markers", "visualization_msgs/msg/MarkerArray", kDefaultQos, &marker.msg, m.capture_time_ns});
+  });
+}
+
+}  // namespace hullpipe::ros2
