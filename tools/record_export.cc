@@ -120,14 +120,7 @@ class Exporter {
  private:
   template <typename T, typename F>
   bool With(const CdrWriter& w, const Sample& s, F&& f) {
-    T m{};
-    if (!w.Decode(s.data, &m)) return false;
-    struct Free {
-      T* m;
-      ~Free() { dds_sample_free(m, TopicTraits<T>::Descriptor(), DDS_FREE_CONTENTS); }
-    } free_it{&m};
-    f(m);
-    return true;
+    return w.DecodeWith<T>(s.data, std::forward<F>(f));
   }
 
   void Frame(const std::string& name, const cv::Mat& bgr, Counts* c) {

@@ -19,19 +19,6 @@ WriterOptions McapRos2() {
   return o;
 }
 
-// Decodes `data` as hullpipe's T and calls f with it; false if it does not decode.
-template <typename T, typename F>
-bool With(const dds::CdrWriter& codec, const std::vector<uint8_t>& data, F&& f) {
-  T m{};
-  if (!codec.Decode(data, &m)) return false;
-  struct Free {
-    T* m;
-    ~Free() { dds_sample_free(m, dds::TopicTraits<T>::Descriptor(), DDS_FREE_CONTENTS); }
-  } free_it{&m};
-  f(m);
-  return true;
-}
-
 }  // namespace
 
 Ros2Export::Ros2Export(const std::string& path, const dds::Participant& participant)
@@ -84,7 +71,7 @@ bool Ros2Export::Add(const TopicInfo& topic, const Sample& sample) {
   std::string why;
   auto with = [&](auto tag, auto&& derive) {
     using T = typename decltype(tag)::type;
-    return With<T>(Codec(type), sample.data, [&](const T& m) { why = derive(m); });
+    return Codec(type).template DecodeWith<T>(sample.data, [&](const T& m) { why = derive(m); });
   };
   bool decoded = true;
   if (type == "hullpipe::msg::CameraInfo")

@@ -10,36 +10,13 @@
 //     cameraInfo: [first decoded CameraInfo per camera_id], invalid: [first errors] }
 // Exit 1 with the error on stderr where any reader refuses the file.
 // Usage: node read_mcap.mjs FILE.mcap
-import { open } from "node:fs/promises";
 import { readFileSync } from "node:fs";
 import { McapIndexedReader, McapStreamReader } from "@mcap/core";
 import { parseIDL } from "@foxglove/omgidl-parser";
 import { MessageReader } from "@foxglove/omgidl-serialization";
-import { decompress as zstdDecompress } from "fzstd";
-import lz4 from "lz4js";
+import { decompressHandlers, openReadable, plain } from "./mcap_common.mjs";
 import Ajv from "ajv";
 import * as foxgloveSchemas from "@foxglove/schemas/jsonschema.js";
-
-const decompressHandlers = {
-  zstd: (buffer, size) => zstdDecompress(buffer, new Uint8Array(Number(size))),
-  lz4: (buffer, size) => {
-    const out = lz4.decompress(buffer, Number(size));
-    return out instanceof Uint8Array ? out : Uint8Array.from(out);
-  },
-};
-
-function plain(value) {
-  // JSON for what the deserializer gives: bigints as numbers (ns fit in 2^53 for
-  // a check), short typed arrays (K, poses) as arrays, long ones (images, runs)
-  // as their length.
-  return JSON.parse(
-    JSON.stringify(value, (_k, v) => {
-      if (typeof v === "bigint") return Number(v);
-      if (ArrayBuffer.isView(v)) return v.length <= 64 ? Array.from(v, (x) => (typeof x === "bigint" ? Number(x) : x)) : { length: v.length };
-      return v;
-    }),
-  );
-}
 
 async function main() {
   const path = process.argv[2];
@@ -51,16 +28,7 @@ async function main() {
   if (!stream.done()) throw new Error(`${path}: the stream reader did not reach the end`);
 
   // 2. The indexed reader: summary, then every message by its index.
-  const handle = await open(path, "r");
-  const size = BigInt((await handle.stat()).size);
-  const readable = {
-    size: async () => size,
-    read: async (offset, length) => {
-      const buf = new Uint8Array(Number(length));
-      await handle.read(buf, 0, Number(length), Number(offset));
-      return buf;
-    },
-  };
+  const { readable, close } = await openReadable(path);
   const reader = await McapIndexedReader.Initialize({ readable, decompressHandlers });
   const channels = {};
   const decoders = new Map();
@@ -131,7 +99,7 @@ async function main() {
   }
   const metadata = {};
   for await (const md of reader.readMetadata()) metadata[md.name] = Object.fromEntries(md.metadata);
-  await handle.close();
+  await close();
   const stats = reader.statistics;
   process.stdout.write(
     JSON.stringify({

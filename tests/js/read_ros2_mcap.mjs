@@ -9,42 +9,13 @@
 // (typed arrays of more than 64 elements as their length). Exit 1 with the
 // error on stderr where the file cannot be read.
 // Usage: node read_ros2_mcap.mjs FILE.mcap
-import { open } from "node:fs/promises";
 import { McapIndexedReader } from "@mcap/core";
 import { parse } from "@foxglove/rosmsg";
 import { MessageReader } from "@foxglove/rosmsg2-serialization";
-import { decompress as zstdDecompress } from "fzstd";
-import lz4 from "lz4js";
-
-const decompressHandlers = {
-  zstd: (buffer, size) => zstdDecompress(buffer, new Uint8Array(Number(size))),
-  lz4: (buffer, size) => {
-    const out = lz4.decompress(buffer, Number(size));
-    return out instanceof Uint8Array ? out : Uint8Array.from(out);
-  },
-};
-
-function plain(value) {
-  return JSON.parse(
-    JSON.stringify(value, (_k, v) => {
-      if (typeof v === "bigint") return Number(v);
-      if (ArrayBuffer.isView(v)) return v.length <= 64 ? Array.from(v, (x) => (typeof x === "bigint" ? Number(x) : x)) : { length: v.length };
-      return v;
-    }),
-  );
-}
+import { decompressHandlers, openReadable, plain } from "./mcap_common.mjs";
 
 async function main(path) {
-  const handle = await open(path, "r");
-  const size = BigInt((await handle.stat()).size);
-  const readable = {
-    size: async () => size,
-    read: async (offset, length) => {
-      const buf = new Uint8Array(Number(length));
-      await handle.read(buf, 0, Number(length), Number(offset));
-      return buf;
-    },
-  };
+  const { readable, close } = await openReadable(path);
   const reader = await McapIndexedReader.Initialize({ readable, decompressHandlers });
   const channels = {};
   const readers = new Map();
@@ -82,7 +53,7 @@ async function main(path) {
       if (invalid.length < 20) invalid.push(`${ch.topic}: ${e.message}`);
     }
   }
-  await handle.close();
+  await close();
   process.stdout.write(JSON.stringify({ profile: reader.header.profile, channels, first, invalid }) + "\n");
 }
 

@@ -20,6 +20,7 @@ import { parseIDL } from "@foxglove/omgidl-parser";
 import { MessageReader } from "@foxglove/omgidl-serialization";
 import Ajv from "ajv";
 import * as foxgloveSchemas from "@foxglove/schemas/jsonschema.js";
+import { plain } from "./mcap_common.mjs";
 
 const ajv = new Ajv({ strict: false, allErrors: false });
 const invalid = [];
@@ -78,15 +79,6 @@ const fail = (msg) => {
 };
 setTimeout(() => fail(`timed out after ${timeoutArg} s: ${JSON.stringify(state())}`), Number(timeoutArg) * 1000);
 
-function plain(value) {
-  return JSON.parse(
-    JSON.stringify(value, (_k, v) => {
-      if (typeof v === "bigint") return Number(v);
-      if (ArrayBuffer.isView(v)) return v.length <= 64 ? Array.from(v, (x) => (typeof x === "bigint" ? Number(x) : x)) : { length: v.length };
-      return v;
-    }),
-  );
-}
 
 let serverInfo = null;
 let channels = [];

@@ -256,14 +256,7 @@ struct Deriver::Impl {
   // Decodes `cdr` as T and calls f(m); false if it does not decode.
   template <typename T, typename F>
   bool With(const std::string& type_name, const std::vector<uint8_t>& cdr, F&& f) {
-    T m{};
-    if (!Decoder(type_name).Decode(cdr, &m)) return false;
-    struct Free {
-      T* m;
-      ~Free() { dds_sample_free(m, dds::TopicTraits<T>::Descriptor(), DDS_FREE_CONTENTS); }
-    } free_it{&m};
-    f(m);
-    return true;
+    return Decoder(type_name).template DecodeWith<T>(cdr, std::forward<F>(f));
   }
 };
 

@@ -92,6 +92,21 @@ class CdrWriter : public Entity {
   /// Returns false if the bytes are not a valid XCDR1 sample of the type (or of
   /// its earlier layout: KnownType::appended_bytes).
   bool Decode(const std::vector<uint8_t>& cdr, void* sample) const;
+  /// Decodes `cdr` into a T (the idlc struct of this writer's type), calls
+  /// f(const T&) and frees what Cyclone allocated; false (f not called) if it
+  /// does not decode.
+  template <typename T, typename F>
+  bool DecodeWith(const std::vector<uint8_t>& cdr, F&& f) const {
+    T m{};
+    if (!Decode(cdr, &m)) return false;
+    struct Free {
+      const CdrWriter* w;
+      T* m;
+      ~Free() { dds_sample_free(m, w->descriptor_, DDS_FREE_CONTENTS); }
+    } free_it{this, &m};
+    f(static_cast<const T&>(m));
+    return true;
+  }
   /// Serializes a sample of this writer's type (the struct Decode fills) into
   /// CDR with its 4-byte header, as a recording stores it. Throws DdsError if
   /// Cyclone cannot serialize it.
