@@ -411,6 +411,70 @@ TEST(Ros2Process, PublishesTheRigAsRos2TopicsAndFollowsATracker) {
   EXPECT_LE(refused, nan_sent) << text;
 }
 
+// A tracker that broadcasts its frame on /tf drives the view (--head-frame):
+// in a message of 1500 transforms (a flood) the frame among the first 1000 is
+// found and passed on, the rest counted and named once; the same frame under
+// another parent is refused naming the field.
+TEST(Ros2Process, ATfFrameDrivesTheViewAndAFloodOfFramesIsBounded) {
+  const auto dir = test::TempDir("ros2_tf");
+  const std::string config = test::WriteLoopbackConfig(dir), log = (dir / "ros2.log").string();
+  setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  auto bridge = test::StartExe("hullpipe_ros2", {"--head-pose-topic", "", "--head-frame", "tracker_head"}, domain,
+                               config, log);
+  dds::Participant p(domain);
+  dds::Writer<tf2_msgs_msg_dds__TFMessage_> tf(p, "rt/tf", ros2::kDefaultQos);
+  dds::Reader<hullpipe_msg_HeadPose> heads(p);
+  const auto now = [] {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+        .count();
+  };
+  // 1500 frames; ours (index 700) 1.25 m up, turned about z.
+  auto flood = [&](const char* parent) {
+    Camera c;  // MakeCameraTransforms gives world -> camera frames; renamed below
+    std::vector<Camera> cams(1500, c);
+    for (int i = 0; i < 1500; ++i) cams[size_t(i)].id = i;
+    auto msg = ros2::MakeCameraTransforms(cams, now());
+    std::vector<std::string> names = {"tracker_head", parent};
+    auto& ours = msg.transforms[700];
+    ours.child_frame_id = const_cast<char*>(names[0].c_str());
+    ours.header.frame_id = const_cast<char*>(names[1].c_str());
+    ours.transform.translation = {0.1, 0.2, 1.25};
+    ours.transform.rotation = {0, 0, std::sin(0.2), std::cos(0.2)};
+    tf.Write(msg.msg);
+  };
+  bool got = false;
+  for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+       !got && std::chrono::steady_clock::now() < until;) {
+    flood(ros2::kWorldFrame);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    heads.TakeEach([&](const hullpipe_msg_HeadPose& m, const dds_sample_info_t&) {
+      const Rigid3d h = dds::HeadPoseFromMsg(m);
+      EXPECT_NEAR(h.translation.z(), 1.25, 1e-12);
+      EXPECT_TRUE(h.rotation.isApprox(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()).toRotationMatrix(), 1e-12));
+      got = true;
+    });
+  }
+  EXPECT_TRUE(got) << test::ReadFile(log);
+  // The same frame under a parent hullpipe does not look up: refused, said.
+  for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+       test::ReadFile(log).find("header.frame_id 'map'") == std::string::npos &&
+       std::chrono::steady_clock::now() < until;) {
+    flood("map");
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(bridge->Stop(10), 0);
+  const std::string text = test::ReadFile(log);
+  EXPECT_NE(text.find("header.frame_id 'map'"), std::string::npos) << text;
+  size_t said = 0;
+  for (size_t at = text.find("a /tf message of 1500"); at != std::string::npos;
+       at = text.find("a /tf message of 1500", at + 1))
+    ++said;
+  EXPECT_EQ(said, 1u) << text;
+  EXPECT_NE(text.find("tf transforms past the bound"), std::string::npos) << text;
+  EXPECT_EQ(text.find(" 0 tf transforms past the bound"), std::string::npos) << text;
+}
+
 // `hullpipe_record export --ros2`: a recording of a camera's calibration, map
 // and frames becomes an MCAP file as rosbag2 writes one (profile ros2,
 // schemas ros2msg, messages cdr, offered_qos_profiles), which @mcap/core reads

@@ -4,7 +4,8 @@
 // render_node's head pose, over plain Cyclone DDS (rmw_cyclonedds' wire form:
 // nothing from ROS installed).
 //   hullpipe_ros2 --domain 7 [--ros-domain 0] [--no-maps] [--no-images]
-//                 [--head-pose-topic /hullpipe/head_pose] [--pose-frame hullpipe_world]
+//                 [--head-pose-topic /hullpipe/head_pose] [--head-frame FRAME]
+//                 [--pose-frame hullpipe_world]
 // Then on a ROS 2 machine (ROS_DOMAIN_ID = --ros-domain, rmw_cyclonedds or any
 // DDS rmw): ros2 topic list; rviz2 with the fixed frame hullpipe_world.
 // Stops within a second of SIGINT.
@@ -40,6 +41,8 @@ int main(int argc, char** argv) {
   app.add_option("--head-pose-topic", o.head_pose_topic,
                  "ROS 2 topic of the tracker's geometry_msgs/PoseStamped (\"\": none)")
       ->capture_default_str();
+  app.add_option("--head-frame", o.head_frame,
+                 "A tf frame as the head pose: /tf's transforms from --pose-frame to this frame (\"\": none)");
   app.add_option("--pose-frame", o.pose.frame_id, "The frame a tracker's pose must be in")->capture_default_str();
   app.add_option("--max-pose-skew", o.pose.max_skew_s, "Most seconds between a pose's stamp and now")
       ->capture_default_str()
@@ -67,8 +70,10 @@ int main(int argc, char** argv) {
     // The tracker's reader lives on the ROS 2 participant: on the same one it
     // wakes the waitset; on another (a waitset is one participant's) it is
     // polled every 20 ms.
-    if (!ros_participant && bridge.PoseCondition()) ws.AttachCondition(bridge.PoseCondition());
-    const double wait_s = ros_participant && bridge.PoseCondition() ? 0.02 : 0.2;
+    const auto tracker = bridge.TrackerConditions();
+    if (!ros_participant)
+      for (dds_entity_t c : tracker) ws.AttachCondition(c);
+    const double wait_s = ros_participant && !tracker.empty() ? 0.02 : 0.2;
     spdlog::info("publishing hullpipe's topics on ROS 2 domain {}{}",
                  ros_participant ? ros_domain : int(common.domain),
                  o.head_pose_topic.empty() ? "" : "; following " + o.head_pose_topic);
@@ -76,13 +81,14 @@ int main(int argc, char** argv) {
       ws.Wait(wait_s);
       counters.FrameIn(bridge.Step());
       const auto& c = bridge.counts();
-      counters.SetRejected(c.poses_refused + c.samples_refused);
+      counters.SetRejected(c.poses_refused + c.samples_refused + c.transforms_skipped);
     }
     const auto& c = bridge.counts();
     std::string topics;
     for (const auto& [topic, n] : c.published) topics += fmt::format("{}{} {}", topics.empty() ? "" : ", ", topic, n);
-    spdlog::info("published {}; {} poses passed on, {} refused; {} samples refused", topics.empty() ? "nothing" : topics,
-                 c.poses, c.poses_refused, c.samples_refused);
+    spdlog::info("published {}; {} poses passed on, {} refused; {} samples refused; {} tf transforms past the bound",
+                 topics.empty() ? "nothing" : topics, c.poses, c.poses_refused, c.samples_refused,
+                 c.transforms_skipped);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -1,5 +1,8 @@
 #include "hullpipe/ros2/ros2_bridge.h"
 
+#include <algorithm>
+#include <cstring>
+
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/dds/convert.h"
@@ -28,6 +31,7 @@ void Ros2BridgeOptions::Check() const {
     }
   }
   if (!(pose.max_skew_s > 0)) throw std::invalid_argument("--max-pose-skew must be > 0 s");
+  if (head_frame.size() > 256) throw std::invalid_argument("--head-frame: longer than 256 characters");
   if (derive.hull_point_stride < 1 || derive.hull_point_stride > 64)
     throw std::invalid_argument("--hull-point-stride must be in [1, 64]");
 }
@@ -47,11 +51,19 @@ Ros2Bridge::Ros2Bridge(const dds::Participant& hullpipe, const dds::Participant&
       objects_(Tap<hullpipe_msg_VirtualObjectState>(hullpipe)),
       reports_(Tap<hullpipe_msg_CollisionReport>(hullpipe)),
       meshes_(Tap<hullpipe_msg_VirtualMesh>(hullpipe)) {
-  if (!o_.head_pose_topic.empty()) {
+  if (!o_.head_pose_topic.empty())
     poses_ = std::make_unique<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>>(ros, DdsTopicOf(o_.head_pose_topic),
                                                                                  kPoseReaderQos);
-    head_ = std::make_unique<dds::Writer<hullpipe_msg_HeadPose>>(hullpipe);
-  }
+  if (!o_.head_frame.empty())
+    tf_ = std::make_unique<dds::Reader<tf2_msgs_msg_dds__TFMessage_>>(ros, DdsTopicOf("/tf"), kTfReaderQos);
+  if (poses_ || tf_) head_ = std::make_unique<dds::Writer<hullpipe_msg_HeadPose>>(hullpipe);
+}
+
+std::vector<dds_entity_t> Ros2Bridge::TrackerConditions() const {
+  std::vector<dds_entity_t> c;
+  if (poses_) c.push_back(poses_->condition());
+  if (tf_) c.push_back(tf_->condition());
+  return c;
 }
 
 std::vector<dds_entity_t> Ros2Bridge::HullpipeConditions() const {
@@ -103,15 +115,37 @@ size_t Ros2Bridge::Step() {
   take(meshes_, "VirtualMesh", [&](const auto& m) { return deriver_.OnMesh(m); });
   if (poses_)
     n += poses_->TakeEach([&](const geometry_msgs_msg_dds__PoseStamped_& m, const dds_sample_info_t&) { OnPose(m); });
+  if (tf_) n += tf_->TakeEach([&](const tf2_msgs_msg_dds__TFMessage_& m, const dds_sample_info_t&) { OnTf(m); });
   return n;
 }
 
 void Ros2Bridge::OnPose(const geometry_msgs_msg_dds__PoseStamped_& m) {
+  PassOn([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, m.header.stamp);
+}
+
+void Ros2Bridge::OnTf(const tf2_msgs_msg_dds__TFMessage_& m) {
+  const uint32_t n = std::min(m.transforms._length, kMaxTransformsPerMessage);
+  if (m.transforms._length > n) {
+    counts_.transforms_skipped += m.transforms._length - n;
+    if (said_.size() < 64 && said_.insert("a flood of tf frames").second)
+      spdlog::warn("a /tf message of {} transforms: only the first {} are looked at (said once; counted)",
+                   m.transforms._length, n);
+  }
+  for (uint32_t i = 0; i < n; ++i) {
+    const auto& t = m.transforms._buffer[i];
+    if (!t.child_frame_id || std::strncmp(t.child_frame_id, o_.head_frame.c_str(), o_.head_frame.size() + 1) != 0)
+      continue;  // another frame: not ours to check
+    PassOn([&](const PoseCheck& check) { return HeadFromTransform(t, check); }, t.header.stamp);
+  }
+}
+
+void Ros2Bridge::PassOn(const std::function<Rigid3d(const PoseCheck&)>& head,
+                        const builtin_interfaces_msg_dds__Time_& stamp) {
   PoseCheck check = o_.pose;
   check.now_ns = clock_.WallNs();
   Rigid3d world_from_eye;
   try {
-    world_from_eye = HeadFromPoseStamped(m, check);
+    world_from_eye = head(check);
   } catch (const dds::MessageError& e) {
     // Named once per kind of fault (the field the message names).
     const std::string what = e.what();
@@ -119,7 +153,7 @@ void Ros2Bridge::OnPose(const geometry_msgs_msg_dds__PoseStamped_& m) {
     Refused(&counts_.poses_refused, "a tracker pose (" + kind + ")", what);
     return;
   }
-  head_->Write(dds::HeadPoseToMsg(world_from_eye, o_.tracker_id, NanosecondsOf(m.header.stamp)));
+  head_->Write(dds::HeadPoseToMsg(world_from_eye, o_.tracker_id, NanosecondsOf(stamp)));  // checked: valid
   ++counts_.poses;
 }
 

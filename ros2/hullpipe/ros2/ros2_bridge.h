@@ -30,6 +30,10 @@ struct Ros2BridgeOptions {
   Ros2DeriverOptions derive;  ///< What is published.
   /// The ROS 2 topic of the tracker's PoseStamped ("" : none).
   std::string head_pose_topic = "/hullpipe/head_pose";
+  /// A tf frame as the head pose ("" : none): /tf's transforms from
+  /// pose.frame_id to this frame (a tracker's broadcaster), at most
+  /// kMaxTransformsPerMessage looked at per message.
+  std::string head_frame;
   /// HeadPose.tracker_id of the poses it passes on.
   uint32_t tracker_id = 20;
   /// What a pose must satisfy (frame, stamp skew, position bound); now_ns is
@@ -43,6 +47,7 @@ struct Ros2BridgeOptions {
 struct Ros2BridgeCounts {
   std::map<std::string, uint64_t> published;  ///< Per ROS 2 topic.
   uint64_t poses = 0, poses_refused = 0, samples_refused = 0;
+  uint64_t transforms_skipped = 0;  ///< /tf transforms past kMaxTransformsPerMessage in a message.
 };
 
 class Ros2Bridge {
@@ -56,8 +61,8 @@ class Ros2Bridge {
   size_t Step();
   /// The conditions of the readers on `hullpipe`, for a waitset there.
   std::vector<dds_entity_t> HullpipeConditions() const;
-  /// The tracker's reader's condition (on `ros`), or 0.
-  dds_entity_t PoseCondition() const { return poses_ ? poses_->condition() : 0; }
+  /// The tracker's readers' conditions (on `ros`): its pose topic, /tf.
+  std::vector<dds_entity_t> TrackerConditions() const;
   const Ros2BridgeCounts& counts() const { return counts_; }
 
  private:
@@ -66,6 +71,10 @@ class Ros2Bridge {
   };
   void Publish(const Ros2Message& m);
   void OnPose(const geometry_msgs_msg_dds__PoseStamped_& m);
+  void OnTf(const tf2_msgs_msg_dds__TFMessage_& m);
+  // Checks a tracker's pose (head throws MessageError) and passes it on as
+  // HeadPose stamped `stamp`, or refuses it once per kind, counted.
+  void PassOn(const std::function<Rigid3d(const PoseCheck&)>& head, const builtin_interfaces_msg_dds__Time_& stamp);
   void Refused(uint64_t* counter, const std::string& kind, const std::string& why);
 
   const dds::Participant& ros_;
@@ -82,6 +91,7 @@ class Ros2Bridge {
   dds::Reader<hullpipe_msg_CollisionReport> reports_;
   dds::Reader<hullpipe_msg_VirtualMesh> meshes_;
   std::unique_ptr<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>> poses_;
+  std::unique_ptr<dds::Reader<tf2_msgs_msg_dds__TFMessage_>> tf_;
   std::unique_ptr<dds::Writer<hullpipe_msg_HeadPose>> head_;
   std::map<std::string, Publication> publications_;  // by ROS 2 topic (bounded by the deriver's topics)
   std::set<std::string> said_;                       // kinds of refusal named once

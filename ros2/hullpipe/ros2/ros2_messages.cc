@@ -306,4 +306,12 @@ Rigid3d HeadFromPoseStamped(const geometry_msgs_msg_dds__PoseStamped_& m, const 
   return world_from_eye;
 }
 
+Rigid3d HeadFromTransform(const geometry_msgs_msg_dds__TransformStamped_& t, const PoseCheck& check) {
+  geometry_msgs_msg_dds__PoseStamped_ pose{};
+  pose.header = t.header;
+  pose.pose.position = {t.transform.translation.x, t.transform.translation.y, t.transform.translation.z};
+  pose.pose.orientation = t.transform.rotation;
+  return HeadFromPoseStamped(pose, check);
+}
+
 }  // namespace hullpipe::ros2

@@ -136,4 +136,12 @@ struct PoseCheck {
 /// 1e-3 (it is then normalized).
 Rigid3d HeadFromPoseStamped(const geometry_msgs_msg_dds__PoseStamped_& pose, const PoseCheck& check);
 
+/// The same of a tf transform parent -> child (the child frame a tracker
+/// publishes on /tf: parent_from_child is the pose), checked as a pose.
+Rigid3d HeadFromTransform(const geometry_msgs_msg_dds__TransformStamped_& transform, const PoseCheck& check);
+
+/// Most transforms of one /tf message looked at (the rest counted, not read):
+/// a flood of frames costs a bounded time per message.
+inline constexpr uint32_t kMaxTransformsPerMessage = 1000;
+
 }  // namespace hullpipe::ros2

@@ -24,6 +24,7 @@ HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__CameraInfo_)
 HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__Image_)
 HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__CompressedImage_)
 HULLPIPE_ROS2_TYPE(tf2_msgs_msg_dds__TFMessage_)
+HULLPIPE_ROS2_TYPE(geometry_msgs_msg_dds__TransformStamped_)
 HULLPIPE_ROS2_TYPE(geometry_msgs_msg_dds__PoseStamped_)
 HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__PointCloud2_)
 HULLPIPE_ROS2_TYPE(visualization_msgs_msg_dds__MarkerArray_)
@@ -41,6 +42,8 @@ inline constexpr dds::QosSpec kTfStaticQos{true, true, 1};
 /// A tracker's poses are read best-effort, the newest only: a best-effort
 /// reader matches reliable and best-effort (sensor-data) writers alike.
 inline constexpr dds::QosSpec kPoseReaderQos{false, false, 1};
+/// /tf read best-effort, a few messages deep (a tracker's frame among others').
+inline constexpr dds::QosSpec kTfReaderQos{false, false, 16};
 
 /// The DDS topic of a ROS 2 topic name: "rt" + the name ("/tf" -> "rt/tf").
 /// Throws std::invalid_argument unless the name is absolute ("/...") and only
