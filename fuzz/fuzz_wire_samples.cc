@@ -1,9 +1,13 @@
 // libFuzzer: samples on the wire. The first byte picks one of the topics of
-// idl/hullpipe.idl (dds/cdr.h KnownTypes); the rest is that sample's CDR with
-// its 4-byte header, as a writer on the domain (or a recording) could send it.
+// idl/hullpipe.idl (dds/cdr.h KnownTypes; bytes below kRos2First), or from
+// kRos2First on one of the ROS 2 types hullpipe_ros2 reads from a ROS 2
+// network (a tracker's PoseStamped, /tf's TFMessage: docs/ros2.md); the rest is
+// that sample's CDR with its 4-byte header, as a writer on the domain (or a
+// recording) could send it.
 // Cyclone deserializes it (its own checks); what it accepts goes through the
 // same converters the nodes use (dds/convert.h: sizes, lengths, finiteness,
 // run-length decoding, UTF-8), which may only refuse with MessageError.
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
@@ -14,6 +18,8 @@
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/launch/cyclone_config.h"
 #include "hullpipe/launch/domain.h"
+#include "hullpipe/ros2/ros2_messages.h"
+#include "hullpipe/ros2/ros2_schemas.h"
 
 namespace {
 
@@ -24,7 +30,31 @@ struct Decoders {
   launch::DomainLease domain;  // a domain of our own, as every multi-process run
   std::unique_ptr<Participant> participant;
   std::vector<std::unique_ptr<CdrWriter>> writers;  // one per known type, for its sertype
+  std::vector<KnownType> ros2_types;                 // what hullpipe_ros2 reads
+  std::vector<std::unique_ptr<CdrWriter>> ros2_writers;
 };
+
+constexpr uint8_t kRos2First = 200;
+
+// hullpipe_ros2's checks of a tracker's pose (the clock at its own stamp, so
+// the skew check passes and the rest is reached).
+void ConvertRos2(const std::string& type, const void* sample) {
+  ros2::PoseCheck check;
+  if (type == "geometry_msgs/msg/PoseStamped") {
+    const auto& m = *static_cast<const geometry_msgs_msg_dds__PoseStamped_*>(sample);
+    check.now_ns = m.header.stamp.nanosec < 1000000000u ? ros2::NanosecondsOf(m.header.stamp) : 0;
+    ros2::HeadFromPoseStamped(m, check);
+  } else if (type == "tf2_msgs/msg/TFMessage") {
+    const auto& m = *static_cast<const tf2_msgs_msg_dds__TFMessage_*>(sample);
+    const uint32_t n = std::min(m.transforms._length, ros2::kMaxTransformsPerMessage);
+    for (uint32_t i = 0; i < n; ++i) {
+      try {
+        ros2::HeadFromTransform(m.transforms._buffer[i], check);
+      } catch (const MessageError&) {
+      }
+    }
+  }
+}
 
 Decoders* g = nullptr;
 
@@ -74,23 +104,34 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   g = new Decoders;
   g->participant = std::make_unique<Participant>(g->domain.id());
   for (const KnownType& t : KnownTypes()) g->writers.push_back(std::make_unique<CdrWriter>(*g->participant, t, t.qos));
+  for (const char* name : {"geometry_msgs/msg/PoseStamped", "tf2_msgs/msg/TFMessage"}) {
+    g->ros2_types.push_back(ros2::Ros2KnownType(name));
+    g->ros2_types.back().type_name = name;
+    g->ros2_writers.push_back(std::make_unique<CdrWriter>(*g->participant, g->ros2_types.back(), g->ros2_types.back().qos,
+                                                          CdrWriter::Scope::kDecodeOnly));
+  }
   return 0;
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
-  const auto& types = KnownTypes();
-  const size_t which = data[0] % types.size();
+  const bool ros = data[0] >= kRos2First;
+  const auto& types = ros ? g->ros2_types : KnownTypes();
+  const size_t which = (ros ? data[0] - kRos2First : data[0]) % types.size();
   const KnownType& type = types[which];
+  const CdrWriter& decoder = ros ? *g->ros2_writers[which] : *g->writers[which];
   const std::vector<uint8_t> cdr(data + 1, data + size);
   // A zeroed sample of the type, aligned for any of its members.
   std::vector<std::max_align_t> storage((type.descriptor->m_size + sizeof(std::max_align_t) - 1) /
                                         sizeof(std::max_align_t));
   void* sample = storage.data();
   std::memset(sample, 0, type.descriptor->m_size);
-  if (g->writers[which]->Decode(cdr, sample)) {
+  if (decoder.Decode(cdr, sample)) {
     try {
-      Convert(type.type_name, sample);
+      if (ros)
+        ConvertRos2(type.type_name, sample);
+      else
+        Convert(type.type_name, sample);
     } catch (const MessageError&) {
     }
   }

@@ -16,6 +16,8 @@
 #include "hullpipe/launch/cyclone_config.h"
 #include "hullpipe/launch/domain.h"
 #include "hullpipe/record/recording.h"
+#include "hullpipe/ros2/ros2_messages.h"
+#include "hullpipe/ros2/ros2_schemas.h"
 #include "hullpipe/segmentation/object_pixel_map.h"
 #include "hullpipe/testing/fixtures.h"
 
@@ -92,6 +94,22 @@ int main(int argc, char** argv) {
     }
     rec.Commit();
     for (record::RecordingWriter* w : {&rec_zstd, &rec_mcap, &rec_lz4, &rec_mcap_zstd}) w->Commit();
+    // The ROS 2 types hullpipe_ros2 reads (first byte 200 on: fuzz_wire_samples).
+    {
+      Rigid3d head;
+      head.translation = Eigen::Vector3d(0.3, 0.2, -1.6);
+      const auto pose = ros2::MakePoseStamped(head, 1'000'000'000, ros2::kWorldFrame);
+      const auto tf = ros2::MakeCameraTransforms({sphere.camera}, 1'000'000'000);
+      int k = 0;
+      for (const auto& [name, msg] : std::vector<std::pair<std::string, const void*>>{
+               {"geometry_msgs/msg/PoseStamped", &pose.msg}, {"tf2_msgs/msg/TFMessage", &tf.msg}}) {
+        const KnownType kt = ros2::Ros2KnownType(name);
+        std::vector<uint8_t> seed{uint8_t(200 + k)};
+        const auto cdr = CdrWriter(p, kt, kt.qos, CdrWriter::Scope::kDecodeOnly).Encode(msg);
+        seed.insert(seed.end(), cdr.begin(), cdr.end());
+        WriteFile(out / "fuzz_wire_samples" / ("ros2_" + std::to_string(k++)), seed);
+      }
+    }
     // Maps: a silhouette of the sphere fixture, and the all-empty map.
     for (const auto& [name, map] : {std::pair{"sphere", sphere.map}, {"empty", cv::Mat(cv::Mat::zeros(48, 64, CV_8UC1))}}) {
       const auto runs = RunLengthEncode(map);
