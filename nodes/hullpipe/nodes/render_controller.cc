@@ -128,16 +128,21 @@ void RenderController::OnTile(HullTile t, int64_t sent_ns) {
   auto& tiles = it->second.tiles;
   tiles[t.tile_index] = std::move(t);
   // The tiles' round trip: the pose sent to its last tile in (beside recon's stages).
-  if (int(tiles.size()) == o_.tiles) counters_.Stage("tiles", (clock_.Now() - it->second.sent_s) * 1e3);
+  if (int(tiles.size()) == o_.tiles) {
+    counters_.Stage("tiles", (clock_.Now() - it->second.sent_s) * 1e3);
+    it->second.tiles_in_s = clock_.Now();
+  }
 }
 
 void RenderController::OnObjectState(const VirtualObjectSample& s) {
+  SimStepped(s.frame_seq);
   auto& per = states_[s.object_id];
   per[s.frame_seq] = s;
   while (per.size() > 32) per.erase(per.begin());
 }
 
 void RenderController::OnMesh(VirtualMeshSample m) {
+  SimStepped(m.frame_seq);
   auto& per = meshes_[m.object_id];
   per[m.frame_seq] = std::move(m);
   while (per.size() > 8) per.erase(per.begin());
@@ -153,6 +158,7 @@ void RenderController::OnModelPart(ModelPartSample part) {
 }
 
 void RenderController::OnModelState(ModelStateSample state) {
+  SimStepped(state.frame_seq);
   auto& per = model_states_[state.model_id];
   if (per.find(state.frame_seq) == per.end()) report_.OnModelFrameset(state);
   per[state.frame_seq] = std::move(state);
@@ -397,6 +403,11 @@ int RenderController::Step() {
       } else {
         ++it;
       }
+      continue;
+    }
+    // The simulation's output of this frameset, briefly (RenderOptions::sim_wait).
+    if (sim_seen_ && sim_seq_ < f.frame_seq && clock_.Now() - f.tiles_in_s < o_.sim_wait) {
+      ++it;
       continue;
     }
     Composite(it->first, f);

@@ -8,6 +8,7 @@
 // it samples and gives it a RenderSink; tests drive it with a FakeClock.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <cmath>
 #include <map>
@@ -56,6 +57,12 @@ struct RenderOptions {
   /// that tile's round trip (at most kMaxTileTimeoutS), so a rig whose recon
   /// nodes need longer (many cameras) composites at the rate it can, not none.
   double tile_timeout = 1.0;
+  /// Once a pose's tiles are all in, wait at most this long (seconds) for the
+  /// simulation's output of its frameset (sim_node publishes every object
+  /// after each step; paper §4: objects drawn where that frame's hull put
+  /// them), where a simulation is publishing and has not reached the frameset
+  /// yet; past it, the newest states before it are drawn.
+  double sim_wait = 0.1;
   double recon_silence = 1.0;     ///< A recon node without NodeStats this long is silent.
   double end_grace = 0.5;         ///< After capture's final report, time for its last samples.
   /// The scripted orbit (used until a tracked pose exists).
@@ -204,6 +211,7 @@ class RenderController {
     int64_t capture_time_ns = 0;
     double path_time_s = 0;
     double sent_s = 0;
+    double tiles_in_s = 0;  // when its last tile came
     NovelView view;
     std::map<uint32_t, HullTile> tiles;        // by tile index
     std::shared_ptr<const VolumeQuery> hull;   // for the light's shadow map
@@ -237,6 +245,14 @@ class RenderController {
   std::optional<Rigid3d> tracked_;
   std::map<uint64_t, InFlight> in_flight_;  // by pose_seq
   std::map<uint32_t, std::map<uint64_t, VirtualObjectSample>> states_;  // object -> frame -> state
+  // The simulation's newest frameset (any state, mesh or model state), and
+  // whether one is publishing at all (else nothing is waited for).
+  uint64_t sim_seq_ = 0;
+  bool sim_seen_ = false;
+  void SimStepped(uint64_t frame_seq) {
+    sim_seen_ = true;
+    sim_seq_ = std::max(sim_seq_, frame_seq);
+  }
   std::map<uint32_t, std::map<uint64_t, VirtualMeshSample>> meshes_;    // object -> frame -> mesh
   std::map<uint32_t, ModelPartDraw> model_parts_;                        // object id -> part
   std::map<uint32_t, std::map<uint64_t, ModelStateSample>> model_states_; // model -> frame -> state

@@ -339,6 +339,7 @@ TEST_F(Render, CompositesWithTheDepthTestAndDrawsCollidingObjectsRed) {
     const uint64_t seq = hull_m < 2 ? 2 : 3;
     rig_.AddFrame(assembler_, seq, clock_.WallNs());
     r.Step();
+    r.OnObjectState(Ball(7, seq, ahead, true));  // sim's step of this frameset
     r.OnTile(WholeTile(sink_.poses.back(), hull_m, {0, 200, 0}));
     ASSERT_EQ(r.Step(), 1);
     const cv::Vec3b c = sink_.frames.back().second.at<cv::Vec3b>(24, 32);
@@ -369,6 +370,46 @@ TEST_F(Render, CompositesWithTheDepthTestAndDrawsCollidingObjectsRed) {
   r.OnTile(WholeTile(sink_.poses.back(), kNoDepth, {0, 0, 0}));
   ASSERT_EQ(r.Step(), 1);
   EXPECT_TRUE(Red(sink_.frames.back().second.at<cv::Vec3b>(24, 32))) << sink_.frames.back().second.at<cv::Vec3b>(24, 32);
+}
+
+// Once a pose's tiles are in, render waits briefly for the simulation's step of
+// that frameset, so a ball is drawn where that frame put it, not a frame late
+// (a lab run and a one-machine run composite the same images); past
+// sim_wait it draws the newest state before. No simulation: no wait.
+TEST_F(Render, WaitsBrieflyForTheSimulationsStepOfTheFrameset) {
+  RenderOptions o = Options();
+  o.max_in_flight = 1;
+  o.sim_wait = 0.1;
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  const Recorder::Pose& p = sink_.poses[0];
+  const Eigen::Vector3d ahead = p.view.world_from_eye * Eigen::Vector3d(0, 0, 2.0);
+  const Eigen::Vector3d aside = p.view.world_from_eye * Eigen::Vector3d(0.6, 0, 2.0);
+  r.OnObjectState(Ball(7, 1, aside, true));
+  r.OnTile(WholeTile(p, kNoDepth, {0, 0, 0}));
+  ASSERT_EQ(r.Step(), 1);  // its state was in
+  rig_.AddFrame(assembler_, 2, clock_.WallNs());
+  r.Step();
+  r.OnTile(WholeTile(sink_.poses.back(), kNoDepth, {0, 0, 0}));
+  EXPECT_EQ(r.Step(), 0) << "composited before the simulation's step of frame 2";
+  r.OnObjectState(Ball(7, 2, ahead, true));  // frame 2's step: the ball moved to the centre
+  ASSERT_EQ(r.Step(), 1);
+  EXPECT_TRUE(Red(sink_.frames.back().second.at<cv::Vec3b>(24, 32))) << "frame 2's ball, where frame 2 put it";
+  // Frame 3's step never comes: after sim_wait, frame 2's state is drawn.
+  rig_.AddFrame(assembler_, 3, clock_.WallNs());
+  r.Step();
+  r.OnTile(WholeTile(sink_.poses.back(), kNoDepth, {0, 0, 0}));
+  EXPECT_EQ(r.Step(), 0);
+  clock_.Advance(0.11);
+  ASSERT_EQ(r.Step(), 1);
+  EXPECT_TRUE(Red(sink_.frames.back().second.at<cv::Vec3b>(24, 32)));
+  // Control: with no simulation publishing, a pose is composited at once.
+  RenderController plain(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 4, clock_.WallNs());
+  plain.Step();
+  plain.OnTile(WholeTile(sink_.poses.back(), kNoDepth, {0, 0, 0}));
+  EXPECT_EQ(plain.Step(), 1);
 }
 
 TEST_F(Render, ASilentReconIsNoticedAndItsReturnLogged) {
