@@ -30,6 +30,18 @@ geometry_msgs_msg_dds__Quaternion_ Quaternion(const Eigen::Matrix3d& r) {
   return {q.x(), q.y(), q.z(), q.w()};
 }
 
+// tf's transform kWorldFrame -> `child` of world_from_child.
+geometry_msgs_msg_dds__TransformStamped_ WorldTransform(std::vector<std::string>* strings, int64_t stamp_ns,
+                                                        const std::string& child, const Rigid3d& world_from_child) {
+  geometry_msgs_msg_dds__TransformStamped_ t{};
+  t.header = Header(strings, stamp_ns, kWorldFrame);
+  t.child_frame_id = Text(strings, child);
+  t.transform.translation = {world_from_child.translation.x(), world_from_child.translation.y(),
+                             world_from_child.translation.z()};
+  t.transform.rotation = Quaternion(world_from_child.rotation);
+  return t;
+}
+
 }  // namespace
 
 std::string CameraFrameId(int id) { return "hullpipe_cam" + std::to_string(id); }
@@ -117,16 +129,8 @@ RosSample<sensor_msgs_msg_dds__CompressedImage_> MakeCompressedImage(std::vector
 RosSample<tf2_msgs_msg_dds__TFMessage_> MakeCameraTransforms(const std::vector<Camera>& cameras, int64_t stamp_ns) {
   RosSample<tf2_msgs_msg_dds__TFMessage_> s;
   s.strings.reserve(2 * cameras.size());
-  for (const Camera& c : cameras) {
-    geometry_msgs_msg_dds__TransformStamped_ t{};
-    t.header = Header(&s.strings, stamp_ns, kWorldFrame);
-    t.child_frame_id = Text(&s.strings, CameraFrameId(c.id));
-    const Rigid3d world_from_cam = c.cam_from_world.Inverse();
-    t.transform.translation = {world_from_cam.translation.x(), world_from_cam.translation.y(),
-                               world_from_cam.translation.z()};
-    t.transform.rotation = Quaternion(world_from_cam.rotation);
-    s.transforms.push_back(t);
-  }
+  for (const Camera& c : cameras)
+    s.transforms.push_back(WorldTransform(&s.strings, stamp_ns, CameraFrameId(c.id), c.cam_from_world.Inverse()));
   dds::Borrow(&s.msg.transforms, s.transforms);
   return s;
 }
@@ -145,13 +149,7 @@ RosSample<geometry_msgs_msg_dds__PoseStamped_> MakePoseStamped(const Rigid3d& wo
 RosSample<tf2_msgs_msg_dds__TFMessage_> MakeViewTransform(const Rigid3d& world_from_eye, int64_t stamp_ns) {
   RosSample<tf2_msgs_msg_dds__TFMessage_> s;
   s.strings.reserve(2);
-  geometry_msgs_msg_dds__TransformStamped_ t{};
-  t.header = Header(&s.strings, stamp_ns, kWorldFrame);
-  t.child_frame_id = Text(&s.strings, kViewFrame);
-  t.transform.translation = {world_from_eye.translation.x(), world_from_eye.translation.y(),
-                             world_from_eye.translation.z()};
-  t.transform.rotation = Quaternion(world_from_eye.rotation);
-  s.transforms.push_back(t);
+  s.transforms.push_back(WorldTransform(&s.strings, stamp_ns, kViewFrame, world_from_eye));
   dds::Borrow(&s.msg.transforms, s.transforms);
   return s;
 }
