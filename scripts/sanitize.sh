@@ -48,7 +48,7 @@ test_asan() {
   # process (not the tools, the bridges as processes: they are not built here),
   # in one ctest run, so that no long test's tail leaves a core idle between two.
   ctest --test-dir build-asan -j2 --output-on-failure --timeout 600 -L 'core|record|bridge' \
-      -E '^(RecordTools|Storage/RecordToolsOn|BridgeProcess|Foxglove|Ros2Process)\.'
+      -E '^(RecordTools|Storage/RecordToolsOn|BridgeProcess|Foxglove|Ros2Process|Ros2Export)\.'
 }
 
 fuzz() {
