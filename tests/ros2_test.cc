@@ -51,24 +51,6 @@ std::string Base64(const std::vector<uint8_t>& in) {
   return out;
 }
 
-// A ROS 2 type as hullpipe's serializer knows one: its descriptor and a valid
-// sample for Cyclone's sertype probe.
-template <typename Msg, typename MakeProbe>
-dds::KnownType RosType(const dds_topic_descriptor_t* desc, MakeProbe make_probe) {
-  dds::KnownType k;
-  k.descriptor = desc;
-  k.type_name = desc->m_typename;
-  k.topic_name = std::string("rt/hullpipe_test/") + desc->m_typename;
-  for (char& c : k.topic_name)
-    if (c == ':') c = '_';
-  k.qos = {true, false, 10};
-  k.write_probe = [make_probe](dds_entity_t writer) {
-    auto probe = make_probe();
-    dds::Check(dds_write(writer, &probe.msg), "dds_write (sertype probe)");
-  };
-  return k;
-}
-
 class Ros2Messages : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -132,26 +114,15 @@ TEST_F(Ros2Messages, FoxglovesRos2DecoderReadsEveryFieldHullpipeWrites) {
   for (int i = 0; i < 18; ++i) frame.data[i] = uint8_t(10 * i + 1);
   const auto bgr = ros2::MakeBgr8Image(frame, stamp, ros2::CameraFrameId(3));
 
-  auto probe_info = [] { return ros2::MakeCameraInfo(Camera{}, 0); };
-  auto probe_image = [] { return ros2::MakeMono8Image(cv::Mat(1, 1, CV_8UC1, cv::Scalar(0)), 0, ""); };
-  auto probe_jpeg = [] { return ros2::MakeCompressedImage({0}, 0, ""); };
-  auto probe_tf = [] { return ros2::MakeCameraTransforms({}, 0); };
-  auto probe_pose = [] { return ros2::MakePoseStamped(Rigid3d{}, 0, ""); };
+  // Each as Cyclone serializes the type (ros2_schemas.h Ros2KnownType).
+  auto encode = [&](const char* type, const void* msg) { return Encode(ros2::Ros2KnownType(type), msg); };
   const auto decoded = Decode({
-      {"sensor_msgs/msg/CameraInfo",
-       Encode(RosType<sensor_msgs_msg_dds__CameraInfo_>(&sensor_msgs_msg_dds__CameraInfo__desc, probe_info), &info.msg)},
-      {"sensor_msgs/msg/Image",
-       Encode(RosType<sensor_msgs_msg_dds__Image_>(&sensor_msgs_msg_dds__Image__desc, probe_image), &mono.msg)},
-      {"sensor_msgs/msg/CompressedImage",
-       Encode(RosType<sensor_msgs_msg_dds__CompressedImage_>(&sensor_msgs_msg_dds__CompressedImage__desc, probe_jpeg),
-              &compressed.msg)},
-      {"tf2_msgs/msg/TFMessage",
-       Encode(RosType<tf2_msgs_msg_dds__TFMessage_>(&tf2_msgs_msg_dds__TFMessage__desc, probe_tf), &tf.msg)},
-      {"geometry_msgs/msg/PoseStamped",
-       Encode(RosType<geometry_msgs_msg_dds__PoseStamped_>(&geometry_msgs_msg_dds__PoseStamped__desc, probe_pose),
-              &pose.msg)},
-      {"sensor_msgs/msg/Image",
-       Encode(RosType<sensor_msgs_msg_dds__Image_>(&sensor_msgs_msg_dds__Image__desc, probe_image), &bgr.msg)},
+      {"sensor_msgs/msg/CameraInfo", encode("sensor_msgs/msg/CameraInfo", &info.msg)},
+      {"sensor_msgs/msg/Image", encode("sensor_msgs/msg/Image", &mono.msg)},
+      {"sensor_msgs/msg/CompressedImage", encode("sensor_msgs/msg/CompressedImage", &compressed.msg)},
+      {"tf2_msgs/msg/TFMessage", encode("tf2_msgs/msg/TFMessage", &tf.msg)},
+      {"geometry_msgs/msg/PoseStamped", encode("geometry_msgs/msg/PoseStamped", &pose.msg)},
+      {"sensor_msgs/msg/Image", encode("sensor_msgs/msg/Image", &bgr.msg)},
   });
   ASSERT_EQ(decoded.size(), 6u);
   for (const json& d : decoded) ASSERT_FALSE(d.contains("error")) << d.dump();

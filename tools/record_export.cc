@@ -61,12 +61,9 @@ class Exporter {
     if (!w) w = std::make_unique<CdrWriter>(participant_, *kt, QosSpec{t.reliable, t.transient_local, t.depth});
     json j = {{"topic", t.name}, {"arrival_ns", s.arrival_ns}, {"source_ns", s.source_ns}};
     if (fox_) fox_->Add(t, s);
-    if (ros2_) {
-      try {
-        ros2_->Add(t, s);
-      } catch (const std::exception&) {  // a sample the nodes would refuse: counted below as undecodable
-      }
-    }
+    // (A sample that does not convert is counted below as undecodable; a file
+    // that cannot be written ends the export with its error.)
+    if (ros2_) ros2_->Add(t, s);
     bool ok = false;
     try {
       ok = Decode(t, s, *w, &j, c);

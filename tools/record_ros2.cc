@@ -1,12 +1,8 @@
 #include "record_ros2.h"
 
-#include "hullpipe/dds/convert.h"
-#include "hullpipe/dds/topics.h"
 #include <type_traits>
 
-#include "hullpipe/ros2/ros2_messages.h"
 #include "hullpipe/ros2/ros2_schemas.h"
-#include "hullpipe/ros2/ros2_topics.h"
 
 namespace hullpipe::record {
 namespace {

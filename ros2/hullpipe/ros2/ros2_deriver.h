@@ -15,6 +15,7 @@
 
 #include "hullpipe.h"  // idlc-generated: hullpipe's own types
 #include "hullpipe/dds/dds.h"
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/camera.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/reconstruction/tile_set.h"
@@ -47,7 +48,7 @@ struct Ros2DeriverCounts {
 
 class Ros2Deriver {
  public:
-  static constexpr size_t kMaxCameras = 64;
+  static constexpr size_t kMaxCameras = Rig::kMaxCameras;
   using Emit = std::function<void(const Ros2Message&)>;
   Ros2Deriver(Ros2DeriverOptions options, Emit emit) : o_(options), emit_(std::move(emit)) {}
 
