@@ -86,9 +86,13 @@ void Convert(const std::string& type, const void* sample) {
     ModelStateFromMsg(*static_cast<const hullpipe_msg_ModelState*>(sample));
   } else if (type == "hullpipe::msg::CompositedView") {
     CompositedViewFromMsg(*static_cast<const hullpipe_msg_CompositedView*>(sample));
+  } else if (type == "hullpipe::msg::CollisionReport") {
+    // hullpipe_ros2 and the bag export read it whole, then make ROS 2's.
+    const CollisionReportSample r = CollisionReportFromMsg(*static_cast<const hullpipe_msg_CollisionReport*>(sample));
+    (void)ros2::MakeCollisionReport(r);
   }
-  // CollisionReport and SceneCommand: only counted or range-checked by the
-  // nodes; Cyclone's deserialization above is what they rely on.
+  // SceneCommand: only range-checked by sim_node; Cyclone's deserialization
+  // above is what it relies on.
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/ros2/ros2_deriver.h"
 #include "hullpipe/ros2/ros2_messages.h"
 #include "hullpipe/ros2/ros2_schemas.h"
 #include "hullpipe/ros2/ros2_topics.h"
@@ -510,12 +511,38 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
     curtain.draw.colliding = {0, 1};
     const auto mesh_msg = dds::MakeVirtualMeshMessage(curtain);
     w.Append({tv, t0 + 50'000'003, ball.capture_time_ns, mesh_codec->Encode(&mesh_msg.msg)});
+    // A CAD model's one part, sent once, and its state after two steps.
+    auto part_codec = codec("hullpipe::msg::ModelPart"), model_codec = codec("hullpipe::msg::ModelState");
+    const int64_t tp = w.AddTopic({0, "hullpipe/model_part", "hullpipe::msg::ModelPart", true, true, true, 1, ""});
+    const int64_t tq = w.AddTopic({0, "hullpipe/model_state", "hullpipe::msg::ModelState", true, true, false, 2, ""});
+    ModelPartSample part;
+    part.object_id = 300, part.model_id = 300, part.name = "block", part.file = "block.obj";
+    part.vertices = {{0, 0, 0}, {0.2f, 0, 0}, {0, 0.2f, 0}};
+    part.triangles = {{0, 1, 2}};
+    const auto part_msg = dds::MakeModelPartMessage(part);
+    w.Append({tp, t0 + 1, t0, part_codec->Encode(&part_msg.msg)});
+    ModelStateSample model;
+    model.model_id = 300, model.parts.resize(1);
+    for (int k = 1; k <= 2; ++k) {
+      model.capture_time_ns = t0 + k * 40'000'000;
+      model.parts[0].position = {0.1 * k, 0, -1};
+      const auto model_msg = dds::MakeModelStateMessage(model);
+      w.Append({tq, model.capture_time_ns + 5, model.capture_time_ns, model_codec->Encode(&model_msg.msg)});
+    }
   }
   const std::string out = (dir / "export").string(), log = (dir / "export.log").string();
   test::Process exp({test::BinDir() + "/hullpipe_record", "export", rec, "-o", out, "--ros2", "--no-media",
-                     "--no-jsonl", "--domain", std::to_string(domain)},
+                     "--domain", std::to_string(domain)},
                     log);
   ASSERT_EQ(exp.Wait(120), 0) << test::ReadFile(log);
+  // The model's topics export as JSON lines too (every sample decoded: exit 0).
+  const json part_line = json::parse(test::ReadFile(out + "/hullpipe_model_part.jsonl"));
+  EXPECT_EQ(part_line["name"], "block");
+  EXPECT_EQ(part_line["triangles"], 1);
+  std::ifstream state_lines(out + "/hullpipe_model_state.jsonl");
+  std::string state_line;
+  ASSERT_TRUE(std::getline(state_lines, state_line));
+  EXPECT_DOUBLE_EQ(json::parse(state_line)["parts"][0]["position"][0].get<double>(), 0.1);
   const std::string js = std::string(HULLPIPE_SOURCE_DIR) + "/tests/js", node_out = (dir / "ros2.json").string();
   test::Process node({"/usr/bin/env", "node", js + "/read_ros2_mcap.mjs", out + "/ros2.mcap"}, node_out, {},
                      node_out + ".err");
@@ -530,7 +557,10 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
       {"/hullpipe/cam2/object_pixel_map", {"sensor_msgs/msg/Image", 3}},
       {"/hullpipe/cam2/image/compressed", {"sensor_msgs/msg/CompressedImage", 2}},
       {"/hullpipe/cam2/image", {"sensor_msgs/msg/Image", 1}},
-      {"/hullpipe/markers", {"visualization_msgs/msg/MarkerArray", 4}}};
+      {"/hullpipe/markers", {"visualization_msgs/msg/MarkerArray", 4}},
+      {"/hullpipe/collisions", {"hullpipe_msgs/msg/CollisionReport", 1}},
+      {"/hullpipe/model_markers", {"visualization_msgs/msg/MarkerArray", 1}},
+      {"/tf", {"tf2_msgs/msg/TFMessage", 2}}};
   EXPECT_EQ(ch.size(), want.size()) << ch.dump(1);
   for (const auto& [topic, w] : want) {
     ASSERT_TRUE(ch.contains(topic)) << topic << " " << ch.dump(1);
@@ -543,7 +573,8 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
     // rosbag2's QoS metadata, as ros2 bag play offers it again.
     const std::string qos = c["metadata"].value("offered_qos_profiles", "");
     EXPECT_NE(qos.find("reliability: 1"), std::string::npos) << topic << ": " << qos;
-    EXPECT_NE(qos.find(topic == "/tf_static" ? "durability: 1" : "durability: 2"), std::string::npos) << qos;
+    const bool latched = topic == "/tf_static" || topic == "/hullpipe/model_markers";
+    EXPECT_NE(qos.find(latched ? "durability: 1" : "durability: 2"), std::string::npos) << topic << ": " << qos;
   }
   const json& first = j["first"];
   EXPECT_EQ(first["/hullpipe/cam2/camera_info"]["header"]["frame_id"], "hullpipe_cam2");
@@ -555,6 +586,15 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
   EXPECT_EQ(first["/hullpipe/cam2/image"]["encoding"], "bgr8");
   EXPECT_EQ(first["/hullpipe/cam2/image/compressed"]["format"], "jpeg");
   EXPECT_EQ(first["/tf_static"]["transforms"][0]["child_frame_id"], "hullpipe_cam2");
+  // The collision report with hullpipe_msgs' schema from the bag itself; the
+  // model's part in its own frame, posed on /tf.
+  EXPECT_EQ(first["/hullpipe/collisions"]["object_id"], 1);
+  EXPECT_EQ(first["/hullpipe/collisions"]["triangle_ids"], json::array({4}));
+  EXPECT_DOUBLE_EQ(first["/hullpipe/collisions"]["collision_points"][1]["x"].get<double>(), 0.12);
+  EXPECT_EQ(first["/hullpipe/model_markers"]["markers"][0]["header"]["frame_id"], "hullpipe_part300");
+  EXPECT_EQ(first["/hullpipe/model_markers"]["markers"][0]["points"].size(), 3u);
+  EXPECT_EQ(first["/tf"]["transforms"][0]["child_frame_id"], "hullpipe_part300");
+  EXPECT_DOUBLE_EQ(first["/tf"]["transforms"][0]["transform"]["translation"]["x"].get<double>(), 0.1);
   // The first marker: the colliding ball, a red sphere of its diameter.
   const json& ball_marker = first["/hullpipe/markers"]["markers"][0];
   EXPECT_EQ(ball_marker["ns"], "hullpipe_objects");
@@ -600,6 +640,154 @@ TEST_F(Ros2Messages, BoxesContactsAndMeshesAreMarkersFoxglovesDecoderReads) {
   ASSERT_EQ(m["colors"].size(), 6u);
   EXPECT_NEAR(m["colors"][0]["b"].get<double>(), 1.0, 1e-6);  // triangle 0: its colour
   EXPECT_NEAR(m["colors"][3]["r"].get<double>(), 0.9, 1e-6);  // triangle 1 collides: red
+}
+
+// A collision report with §4.2's response as hullpipe_msgs/CollisionReport,
+// decoded with the fields of the ament package's .msg file (parsed by
+// Foxglove's parser), not hullpipe's IDL; and CAD model parts as markers in
+// their own frames with their poses on /tf.
+TEST_F(Ros2Messages, CollisionReportsAndModelPartsDecodeWithTheirDefinitions) {
+  CollisionReportSample r;
+  r.object_id = 7, r.frame_seq = 123456789012ull, r.capture_time_ns = 1'700'000'000'250'000'000;
+  r.triangle_ids = {4, 9, 4000000000u};
+  r.collision_points = {{0.1, -0.2, -1.25}, {0.125, -0.5, -1.0}};
+  r.has_response = true;
+  r.cp_obj = {0.5, 0.25, -1.5}, r.cp_hull = {0.5, 0.25, -1.375};
+  r.v_rec = {0, 0, 1}, r.d_rec = 0.125, r.n_hull = {0, 0.6, 0.8};
+  r.hull_velocity_status = 2, r.hull_normal_speed = -0.75, r.hull_velocity_interval = 0.02;
+  const auto report = ros2::MakeCollisionReport(r);
+
+  ModelPartSample a, b;
+  a.object_id = 500, a.model_id = 500, a.part_index = 0, a.part_count = 2;
+  a.vertices = {{0, 0, 0}, {0.5f, 0, 0}, {0, 0.25f, 0}, {0, 0, 0.125f}};
+  a.triangles = {{0, 2, 1}, {0, 1, 3}};
+  a.colour = cv::Vec3b(0, 255, 0);  // BGR green
+  b = a;
+  b.object_id = 501, b.part_index = 1;
+  b.triangles = {{1, 2, 3}};
+  const auto markers = ros2::MakeModelMarkers({{&a, kPartClear}, {&b, kPartColliding}}, 5);
+  ModelStateSample state;
+  state.model_id = 500, state.capture_time_ns = 5;
+  state.parts.resize(2);
+  state.parts[1].position = {1, 2, 3};
+  state.parts[1].orientation = {std::cos(0.25), 0, 0, std::sin(0.25)};  // 0.5 rad about z
+  const auto tf = ros2::MakePartTransforms(state);
+
+  auto encode = [&](const char* type, const void* msg) { return Encode(ros2::Ros2KnownType(type), msg); };
+  const auto decoded = Decode({{"hullpipe_msgs/msg/CollisionReport", encode("hullpipe_msgs/msg/CollisionReport", &report.msg)},
+                               {"visualization_msgs/msg/MarkerArray", encode("visualization_msgs/msg/MarkerArray", &markers.msg)},
+                               {"tf2_msgs/msg/TFMessage", encode("tf2_msgs/msg/TFMessage", &tf.msg)}});
+  ASSERT_EQ(decoded.size(), 3u);
+  for (const json& d : decoded) ASSERT_FALSE(d.contains("error")) << d.dump();
+  const json& c = decoded[0];
+  EXPECT_EQ(c["header"]["frame_id"], "hullpipe_world");
+  EXPECT_EQ(c["header"]["stamp"]["sec"], 1'700'000'000);
+  EXPECT_EQ(c["header"]["stamp"]["nanosec"], 250'000'000);
+  EXPECT_EQ(c["object_id"], 7);
+  EXPECT_EQ(c["frame_seq"].get<uint64_t>(), 123456789012ull);
+  EXPECT_EQ(c["triangle_ids"], json::array({4, 9, 4000000000u}));
+  ASSERT_EQ(c["collision_points"].size(), 2u);
+  EXPECT_DOUBLE_EQ(c["collision_points"][1]["y"].get<double>(), -0.5);
+  EXPECT_EQ(c["has_response"], true);
+  EXPECT_DOUBLE_EQ(c["cp_obj"]["y"].get<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(c["cp_hull"]["z"].get<double>(), -1.375);
+  EXPECT_DOUBLE_EQ(c["v_rec"]["z"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(c["d_rec"].get<double>(), 0.125);
+  EXPECT_DOUBLE_EQ(c["n_hull"]["y"].get<double>(), 0.6);
+  EXPECT_EQ(c["hull_velocity_status"], 2);
+  EXPECT_DOUBLE_EQ(c["hull_normal_speed"].get<double>(), -0.75);
+  EXPECT_DOUBLE_EQ(c["hull_velocity_interval"].get<double>(), 0.02);
+
+  const json& parts = decoded[1]["markers"];
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(parts[0]["ns"], "hullpipe_models");
+  EXPECT_EQ(parts[0]["id"], 500);
+  EXPECT_EQ(parts[0]["type"], 11);  // TRIANGLE_LIST
+  EXPECT_EQ(parts[0]["header"]["frame_id"], "hullpipe_part500");
+  EXPECT_EQ(parts[0]["frame_locked"], true);
+  ASSERT_EQ(parts[0]["points"].size(), 6u);
+  EXPECT_DOUBLE_EQ(parts[0]["points"][1]["y"].get<double>(), 0.25);  // triangle 0's second vertex: vertex 2
+  EXPECT_DOUBLE_EQ(parts[0]["points"][5]["z"].get<double>(), 0.125);
+  EXPECT_NEAR(parts[0]["color"]["g"].get<double>(), 1.0, 1e-6);  // its material, clear
+  EXPECT_EQ(parts[1]["header"]["frame_id"], "hullpipe_part501");
+  ASSERT_EQ(parts[1]["points"].size(), 3u);
+  EXPECT_NEAR(parts[1]["color"]["r"].get<double>(), 0.9, 1e-6);  // colliding: red
+  const json& transforms = decoded[2]["transforms"];
+  ASSERT_EQ(transforms.size(), 2u);
+  EXPECT_EQ(transforms[1]["header"]["frame_id"], "hullpipe_world");
+  EXPECT_EQ(transforms[1]["child_frame_id"], "hullpipe_part501");
+  EXPECT_DOUBLE_EQ(transforms[1]["transform"]["translation"]["z"].get<double>(), 3.0);
+  EXPECT_NEAR(transforms[1]["transform"]["rotation"]["z"].get<double>(), std::sin(0.25), 1e-12);
+  EXPECT_NEAR(transforms[1]["transform"]["rotation"]["w"].get<double>(), std::cos(0.25), 1e-12);
+}
+
+// The deriver draws a model's parts once their geometry came, sends the
+// geometry again only when a part's contact state changes (and at most every
+// model_marker_period_s of capture time, the latest state sent once it is
+// due), and refuses parts past its bound, counted.
+TEST(Ros2Deriver, ModelPartsAreSentAgainOnlyWhenAContactChangesAndAreBounded) {
+  std::vector<std::pair<std::string, int64_t>> out;
+  std::vector<std::vector<float>> colours;  // per model_markers message: each part's red
+  ros2::Ros2Deriver deriver({}, [&](const ros2::Ros2Message& m) {
+    out.push_back({m.topic, m.stamp_ns});
+    if (m.topic != "/hullpipe/model_markers") return;
+    const auto* a = static_cast<const visualization_msgs_msg_dds__MarkerArray_*>(m.msg);
+    std::vector<float> reds;
+    for (uint32_t i = 0; i < a->markers._length; ++i) reds.push_back(a->markers._buffer[i].color.r);
+    colours.push_back(reds);
+  });
+  auto count = [&](const std::string& topic) {
+    return std::count_if(out.begin(), out.end(), [&](const auto& o) { return o.first == topic; });
+  };
+  ModelPartSample part;
+  part.model_id = 10, part.part_count = 2;
+  part.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  part.triangles = {{0, 1, 2}};
+  part.colour = cv::Vec3b(0, 0, 0);  // black: red 0 when clear
+  ModelStateSample state;
+  state.model_id = 10;
+  state.parts.resize(2);
+  auto step = [&](int64_t t_ms, uint8_t contact1) {
+    state.capture_time_ns = t_ms * 1'000'000;
+    state.parts[1].contact = contact1;
+    const auto m = dds::MakeModelStateMessage(state);
+    EXPECT_EQ(deriver.OnModelState(m.msg), "");
+  };
+  step(0, kPartClear);  // no geometry yet: nothing
+  EXPECT_TRUE(out.empty());
+  for (uint32_t i : {0u, 1u}) {
+    part.object_id = 10 + i, part.part_index = i;
+    EXPECT_EQ(deriver.OnModelPart(dds::MakeModelPartMessage(part).msg), "");
+  }
+  step(20, kPartClear);  // first: the geometry and the poses
+  EXPECT_EQ(count("/hullpipe/model_markers"), 1);
+  EXPECT_EQ(count("/tf"), 2 - 1);
+  step(40, kPartClear);  // nothing changed: poses only
+  EXPECT_EQ(count("/hullpipe/model_markers"), 1);
+  EXPECT_EQ(count("/tf"), 2);
+  step(60, kPartColliding);  // changed within 0.2 s of the last: held
+  EXPECT_EQ(count("/hullpipe/model_markers"), 1);
+  step(219, kPartColliding);
+  EXPECT_EQ(count("/hullpipe/model_markers"), 1);
+  step(220, kPartColliding);  // due: the colliding part red
+  ASSERT_EQ(count("/hullpipe/model_markers"), 2);
+  EXPECT_EQ(colours.back(), (std::vector<float>{0.f, 0.9f}));
+  EXPECT_EQ(out.back().second, 220'000'000);
+  step(500, kPartColliding);  // unchanged: none
+  EXPECT_EQ(count("/hullpipe/model_markers"), 2);
+  EXPECT_EQ(count("/tf"), 6);
+
+  // Past the bound of triangles in all: refused, named, counted; the others stay.
+  ModelPartSample big;
+  big.object_id = 99, big.model_id = 99;
+  big.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  big.triangles.assign(ros2::Ros2Deriver::kMaxModelTriangles, Eigen::Vector3i(0, 1, 2));
+  const std::string why = deriver.OnModelPart(dds::MakeModelPartMessage(big).msg);
+  EXPECT_NE(why.find("ModelPart 99: past the markers' bound"), std::string::npos) << why;
+  EXPECT_EQ(deriver.counts().parts_refused, 1u);
+  step(800, kPartClear);
+  ASSERT_EQ(count("/hullpipe/model_markers"), 3);
+  EXPECT_EQ(colours.back().size(), 2u);  // the two parts, not the refused one
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // hullpipe_ros2: hullpipe on a lab's ROS 2 network (docs/ros2.md), beside the
 // pipeline as hullpipe_bridge is: its cameras, object-pixel maps and frames as
-// ROS 2 topics (sensor_msgs, tf2_msgs), and a ROS 2 tracker's PoseStamped as
+// ROS 2 topics (sensor_msgs, tf2_msgs), the view, the hull's points, the
+// virtual objects and model parts as markers, the collision reports, and a ROS 2 tracker's PoseStamped as
 // render_node's head pose, over plain Cyclone DDS (rmw_cyclonedds' wire form:
 // nothing from ROS installed).
 //   hullpipe_ros2 --domain 7 [--ros-domain 0] [--no-maps] [--no-images]
@@ -27,14 +28,22 @@ int main(int argc, char** argv) {
   OpenCommandLine(argc, argv, "hullpipe_ros2", app, common, /*with_run_id=*/true);
   int ros_domain = -1;
   ros2::Ros2BridgeOptions o;
-  bool no_maps = false, no_images = false, no_view = false, no_hull = false, no_markers = false;
+  bool no_maps = false, no_images = false, no_view = false, no_hull = false, no_markers = false,
+       no_collisions = false;
   app.add_option("--ros-domain", ros_domain, "The ROS 2 network's domain (ROS_DOMAIN_ID; default: --domain)")
       ->check(DomainIdRange());
   app.add_flag("--no-maps", no_maps, "Do not publish the object-pixel maps");
   app.add_flag("--no-images", no_images, "Do not publish the camera frames");
   app.add_flag("--no-view", no_view, "Do not publish the composited view and its pose on /tf");
   app.add_flag("--no-hull-points", no_hull, "Do not publish the hull's points (PointCloud2)");
-  app.add_flag("--no-markers", no_markers, "Do not publish the virtual objects, meshes and contacts as markers");
+  app.add_flag("--no-markers", no_markers,
+               "Do not publish the virtual objects, meshes, model parts and contacts as markers");
+  app.add_flag("--no-collisions", no_collisions, "Do not publish the collision reports (hullpipe_msgs/CollisionReport)");
+  app.add_option("--model-marker-period", o.derive.model_marker_period_s,
+                 "Least seconds between two /hullpipe/model_markers (every part's geometry, sent again when a "
+                 "part's contact state changes)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 60.0));
   app.add_option("--hull-point-stride", o.derive.hull_point_stride, "Every this many view pixels, each way")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
@@ -54,6 +63,7 @@ int main(int argc, char** argv) {
   o.derive.view = !no_view;
   o.derive.hull_points = !no_hull;
   o.derive.markers = !no_markers;
+  o.derive.collisions = !no_collisions;
   try {
     o.Check();
     auto participant = StartNode("ros2", common);

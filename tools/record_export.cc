@@ -264,6 +264,31 @@ class Exporter {
         (*j)["colliding_triangles"] = colliding, (*j)["clearance"] = mesh.clearance;
         (*j)["element"] = mesh.element;
       });
+    if (type == "hullpipe::msg::ModelPart")
+      return With<hullpipe_msg_ModelPart>(w, s, [&](const auto& m) {
+        const ModelPartSample p = ModelPartFromMsg(m);
+        (*j)["object_id"] = p.object_id, (*j)["model_id"] = p.model_id, (*j)["part_index"] = p.part_index;
+        (*j)["part_count"] = p.part_count, (*j)["name"] = p.name, (*j)["file"] = p.file;
+        (*j)["vertices"] = p.vertices.size(), (*j)["triangles"] = p.triangles.size();
+        (*j)["colour_bgr"] = {p.colour[0], p.colour[1], p.colour[2]};
+      });
+    if (type == "hullpipe::msg::ModelState")
+      return With<hullpipe_msg_ModelState>(w, s, [&](const auto& m) {
+        const ModelStateSample st = ModelStateFromMsg(m);
+        (*j)["model_id"] = st.model_id, (*j)["frame_seq"] = st.frame_seq, (*j)["capture_time_ns"] = st.capture_time_ns;
+        (*j)["triangles"] = st.triangles, (*j)["boxes_tested"] = st.boxes_tested;
+        (*j)["triangles_queried"] = st.triangles_queried, (*j)["query_ms"] = st.query_ms;
+        // Each part's pose and contact; past 64 parts only counted (a line per step stays small).
+        json parts = json::array();
+        for (size_t i = 0; i < st.parts.size() && i < 64; ++i) {
+          const PartStateSample& ps = st.parts[i];
+          parts.push_back({{"position", {ps.position.x(), ps.position.y(), ps.position.z()}},
+                           {"orientation_wxyz", {ps.orientation[0], ps.orientation[1], ps.orientation[2], ps.orientation[3]}},
+                           {"contact", ps.contact},
+                           {"clearance", ps.clearance}});
+        }
+        (*j)["parts"] = std::move(parts), (*j)["part_count"] = st.parts.size();
+      });
     if (type == "hullpipe::msg::SceneCommand")
       return With<hullpipe_msg_SceneCommand>(w, s, [&](const auto& m) {
         (*j)["command_seq"] = m.command_seq, (*j)["stamp_ns"] = m.stamp_ns, (*j)["command"] = m.command;

@@ -88,6 +88,10 @@ bool Ros2Export::Add(const TopicInfo& topic, const Sample& sample) {
     decoded = with(std::type_identity<hullpipe_msg_CollisionReport>{}, [&](const auto& m) { return deriver_.OnCollisionReport(m); });
   else if (type == "hullpipe::msg::VirtualMesh")
     decoded = with(std::type_identity<hullpipe_msg_VirtualMesh>{}, [&](const auto& m) { return deriver_.OnMesh(m); });
+  else if (type == "hullpipe::msg::ModelPart")
+    decoded = with(std::type_identity<hullpipe_msg_ModelPart>{}, [&](const auto& m) { return deriver_.OnModelPart(m); });
+  else if (type == "hullpipe::msg::ModelState")
+    decoded = with(std::type_identity<hullpipe_msg_ModelState>{}, [&](const auto& m) { return deriver_.OnModelState(m); });
   return decoded && why.empty();
 }
 

@@ -514,6 +514,40 @@ OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const Colli
   return o;
 }
 
+CollisionReportSample CollisionReportFromMsg(const hullpipe_msg_CollisionReport& m) {
+  const std::string who = "CollisionReport " + std::to_string(m.object_id) + ": ";
+  if (m.triangle_ids._length > kMaxReportEntries || m.collision_points._length > kMaxReportEntries)
+    throw MessageError(who + "more than " + std::to_string(kMaxReportEntries) + " triangle_ids or collision_points");
+  CollisionReportSample r;
+  r.object_id = m.object_id;
+  r.frame_seq = m.frame_seq;
+  r.capture_time_ns = m.capture_time_ns;
+  r.triangle_ids.assign(m.triangle_ids._buffer, m.triangle_ids._buffer + m.triangle_ids._length);
+  r.collision_points.reserve(m.collision_points._length);
+  for (uint32_t i = 0; i < m.collision_points._length; ++i) {
+    r.collision_points.push_back(FromMsg(m.collision_points._buffer[i]));
+    if (!r.collision_points.back().allFinite()) throw MessageError(who + "collision_points must be finite");
+  }
+  r.has_response = m.has_response;
+  if (!m.has_response) return r;
+  r.cp_obj = FromMsg(m.cp_obj);
+  r.cp_hull = FromMsg(m.cp_hull);
+  r.v_rec = FromMsg(m.v_rec);
+  r.n_hull = FromMsg(m.n_hull);
+  r.d_rec = m.d_rec;
+  if (!r.cp_obj.allFinite() || !r.cp_hull.allFinite() || !r.v_rec.allFinite() || !r.n_hull.allFinite() ||
+      !std::isfinite(r.d_rec))
+    throw MessageError(who + "cp_obj, cp_hull, v_rec, n_hull and d_rec must be finite");
+  if (m.hull_velocity_status > hullpipe_msg_HULL_VELOCITY_APPEARED)
+    throw MessageError(who + "hull_velocity_status must be a HULL_VELOCITY_* value");
+  if (!std::isfinite(m.hull_normal_speed) || !std::isfinite(m.hull_velocity_interval))
+    throw MessageError(who + "hull_normal_speed and hull_velocity_interval must be finite");
+  r.hull_velocity_status = m.hull_velocity_status;
+  r.hull_normal_speed = m.hull_normal_speed;
+  r.hull_velocity_interval = m.hull_velocity_interval;
+  return r;
+}
+
 }  // namespace hullpipe::dds
 
 namespace hullpipe::dds {

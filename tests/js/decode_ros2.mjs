@@ -4,15 +4,31 @@
 // hullpipe's IDL. Reads lines "TYPE BASE64" on stdin (TYPE as
 // "sensor_msgs/msg/CameraInfo"), prints one JSON line per message: the decoded
 // fields (typed arrays as arrays, bigints as numbers), or {"error": "..."}.
+// hullpipe's own hullpipe_msgs types are read from the ament package's .msg
+// files (ros2/hullpipe_msgs/msg, the definitions a ROS 2 machine builds), parsed
+// by Foxglove's .msg parser (@foxglove/rosmsg), not from hullpipe's IDL.
 // Usage: node decode_ros2.mjs FILE
 import { readFileSync } from "node:fs";
+import { dirname, join } from "node:path";
+import { fileURLToPath } from "node:url";
+import { parse } from "@foxglove/rosmsg";
 import { MessageReader } from "@foxglove/rosmsg2-serialization";
 import { ros2humble } from "@foxglove/rosmsg-msgs-common";
+
+const hullpipeMsgs = join(dirname(fileURLToPath(import.meta.url)), "../../ros2/hullpipe_msgs/msg");
+
+// hullpipe_msgs/Type's root definition from its .msg file (complex fields left
+// named, resolved against the Humble definitions).
+function hullpipeDefinition(name) {
+  const text = readFileSync(join(hullpipeMsgs, name.split("/")[1] + ".msg"), "utf8");
+  const [root] = parse(text, { ros2: true, skipTypeFixup: true });
+  return root;
+}
 
 // The definition of `name` ("sensor_msgs/CameraInfo") first, then every
 // definition it may reference (the reader resolves complex fields by name).
 function definitionsOf(name) {
-  const root = ros2humble[name];
+  const root = name.startsWith("hullpipe_msgs/") ? hullpipeDefinition(name) : ros2humble[name];
   if (!root) throw new Error(`no ROS 2 Humble definition of ${name}`);
   const rest = Object.entries(ros2humble)
     .filter(([key]) => key !== name)

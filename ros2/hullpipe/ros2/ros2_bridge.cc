@@ -50,7 +50,10 @@ Ros2Bridge::Ros2Bridge(const dds::Participant& hullpipe, const dds::Participant&
       composited_(Tap<hullpipe_msg_CompositedView>(hullpipe)),
       objects_(Tap<hullpipe_msg_VirtualObjectState>(hullpipe)),
       reports_(Tap<hullpipe_msg_CollisionReport>(hullpipe)),
-      meshes_(Tap<hullpipe_msg_VirtualMesh>(hullpipe)) {
+      meshes_(Tap<hullpipe_msg_VirtualMesh>(hullpipe)),
+      // A part's geometry is sent once, transient-local: read as it is offered.
+      model_parts_(hullpipe),
+      model_states_(Tap<hullpipe_msg_ModelState>(hullpipe, kTapDeepQos)) {
   if (!o_.head_pose_topic.empty())
     poses_ = std::make_unique<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>>(ros, DdsTopicOf(o_.head_pose_topic),
                                                                                  kPoseReaderQos);
@@ -69,7 +72,8 @@ std::vector<dds_entity_t> Ros2Bridge::TrackerConditions() const {
 std::vector<dds_entity_t> Ros2Bridge::HullpipeConditions() const {
   return {infos_.condition(),      maps_.condition(),    images_.condition(),
           views_.condition(),      tiles_.condition(),   composited_.condition(),
-          objects_.condition(),    reports_.condition(), meshes_.condition()};
+          objects_.condition(),    reports_.condition(), meshes_.condition(),
+          model_parts_.condition(), model_states_.condition()};
 }
 
 void Ros2Bridge::Refused(uint64_t* counter, const std::string& kind, const std::string& why) {
@@ -113,6 +117,8 @@ size_t Ros2Bridge::Step() {
   take(objects_, "VirtualObjectState", [&](const auto& m) { return deriver_.OnObjectState(m); });
   take(reports_, "CollisionReport", [&](const auto& m) { return deriver_.OnCollisionReport(m); });
   take(meshes_, "VirtualMesh", [&](const auto& m) { return deriver_.OnMesh(m); });
+  take(model_parts_, "ModelPart", [&](const auto& m) { return deriver_.OnModelPart(m); });
+  take(model_states_, "ModelState", [&](const auto& m) { return deriver_.OnModelState(m); });
   if (poses_)
     n += poses_->TakeEach([&](const geometry_msgs_msg_dds__PoseStamped_& m, const dds_sample_info_t&) { OnPose(m); });
   if (tf_) n += tf_->TakeEach([&](const tf2_msgs_msg_dds__TFMessage_& m, const dds_sample_info_t&) { OnTf(m); });

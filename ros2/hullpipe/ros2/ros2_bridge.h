@@ -1,6 +1,7 @@
 // hullpipe_ros2's work (docs/ros2.md): hullpipe's samples published as ROS 2
 // topics (what Ros2Deriver gives: cameras, maps, frames, /tf_static, the view
-// and its pose on /tf, the hull's points, the virtual objects as markers), and
+// and its pose on /tf, the hull's points, the virtual objects and CAD model
+// parts as markers, the collision reports), and
 // a ROS 2 tracker's PoseStamped turned into hullpipe's HeadPose, between two
 // DDS participants (hullpipe's domain and the ROS 2 network's, which may be
 // the same). The pipeline's nodes and topics are unchanged: it only reads
@@ -90,6 +91,8 @@ class Ros2Bridge {
   dds::Reader<hullpipe_msg_VirtualObjectState> objects_;
   dds::Reader<hullpipe_msg_CollisionReport> reports_;
   dds::Reader<hullpipe_msg_VirtualMesh> meshes_;
+  dds::Reader<hullpipe_msg_ModelPart> model_parts_;
+  dds::Reader<hullpipe_msg_ModelState> model_states_;
   std::unique_ptr<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>> poses_;
   std::unique_ptr<dds::Reader<tf2_msgs_msg_dds__TFMessage_>> tf_;
   std::unique_ptr<dds::Writer<hullpipe_msg_HeadPose>> head_;

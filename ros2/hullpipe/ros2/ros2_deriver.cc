@@ -119,15 +119,18 @@ std::string Ros2Deriver::OnObjectState(const hullpipe_msg_VirtualObjectState& m)
 
 std::string Ros2Deriver::OnCollisionReport(const hullpipe_msg_CollisionReport& m) {
   return Guard([&] {
-    if (!o_.markers) return;
-    std::vector<Eigen::Vector3d> points;
-    for (uint32_t i = 0; i < m.collision_points._length; ++i) {
-      const Eigen::Vector3d p = dds::FromMsg(m.collision_points._buffer[i]);
-      if (!p.allFinite()) throw dds::MessageError("CollisionReport: a collision point is not finite");
-      points.push_back(p);
+    if (!o_.markers && !o_.collisions) return;
+    const CollisionReportSample report = dds::CollisionReportFromMsg(m);
+    if (o_.markers) {
+      const auto marker = MakeContactMarker(report.object_id, report.collision_points, report.capture_time_ns);
+      emit_({"/hullpipe/markers", "visualization_msgs/msg/MarkerArray", kDefaultQos, &marker.msg,
+             report.capture_time_ns});
     }
-    const auto marker = MakeContactMarker(m.object_id, points, m.capture_time_ns);
-    emit_({"/hullpipe/markers", "visualization_msgs/msg/MarkerArray", kDefaultQos, &marker.msg, m.capture_time_ns});
+    if (o_.collisions) {
+      const auto ros = MakeCollisionReport(report);
+      emit_({"/hullpipe/collisions", "hullpipe_msgs/msg/CollisionReport", kDefaultQos, &ros.msg,
+             report.capture_time_ns});
+    }
   });
 }
 
@@ -136,6 +139,56 @@ std::string Ros2Deriver::OnMesh(const hullpipe_msg_VirtualMesh& m) {
     if (!o_.markers) return;
     const auto marker = MakeMeshMarker(dds::VirtualMeshFromMsg(m), m.capture_time_ns);
     emit_({"/hullpipe/markers", "visualization_msgs/msg/MarkerArray", kDefaultQos, &marker.msg, m.capture_time_ns});
+  });
+}
+
+std::string Ros2Deriver::OnModelPart(const hullpipe_msg_ModelPart& m) {
+  return Guard([&] {
+    if (!o_.markers) return;
+    ModelPartSample part = dds::ModelPartFromMsg(m);
+    const auto known = parts_.find(part.object_id);
+    const size_t before = known == parts_.end() ? 0 : known->second.part.triangles.size();
+    if ((known == parts_.end() && parts_.size() >= kMaxModelParts) ||
+        part_triangles_ - before + part.triangles.size() > kMaxModelTriangles) {
+      ++counts_.parts_refused;
+      throw dds::MessageError("ModelPart " + std::to_string(part.object_id) + ": past the markers' bound (" +
+                              std::to_string(kMaxModelParts) + " parts, " + std::to_string(kMaxModelTriangles) +
+                              " triangles in all): not drawn");
+    }
+    part_triangles_ = part_triangles_ - before + part.triangles.size();
+    parts_[part.object_id].part = std::move(part);
+    parts_changed_ = true;
+  });
+}
+
+std::string Ros2Deriver::OnModelState(const hullpipe_msg_ModelState& m) {
+  return Guard([&] {
+    if (!o_.markers) return;
+    const ModelStateSample state = dds::ModelStateFromMsg(m);
+    // Only the parts whose geometry came (at most kMaxModelParts): their frames.
+    std::vector<bool> known(state.parts.size(), false);
+    bool any = false;
+    for (size_t i = 0; i < state.parts.size() && i < kMaxModelParts; ++i) {
+      const auto it = parts_.find(state.model_id + uint32_t(i));
+      if (it == parts_.end()) continue;
+      known[i] = any = true;
+      if (it->second.contact != state.parts[i].contact) parts_changed_ = true;
+      it->second.contact = state.parts[i].contact;
+    }
+    if (!any) return;
+    const int64_t t = state.capture_time_ns;
+    const auto tf = MakePartTransforms(state, known);
+    emit_({"/tf", "tf2_msgs/msg/TFMessage", kDefaultQos, &tf.msg, t});
+    const bool due = parts_sent_ns_ == INT64_MIN || t < parts_sent_ns_ ||
+                     double(t - parts_sent_ns_) * 1e-9 >= o_.model_marker_period_s;
+    if (!parts_changed_ || !due) return;
+    std::vector<PartDrawing> drawings;
+    drawings.reserve(parts_.size());
+    for (const auto& [id, p] : parts_) drawings.push_back({&p.part, p.contact});
+    const auto markers = MakeModelMarkers(drawings, t);
+    emit_({"/hullpipe/model_markers", "visualization_msgs/msg/MarkerArray", kLatchedQos, &markers.msg, t});
+    parts_changed_ = false;
+    parts_sent_ns_ = t;
   });
 }
 

@@ -4,9 +4,12 @@
 // calibration, the views' poses, the tiles of a view) and hands each ROS 2
 // message to a callback with its topic, type and QoS (docs/ros2.md's table).
 // Bounded: at most kMaxCameras cameras (a later one is refused and counted),
-// 256 view poses, the tiles TileSet holds.
+// 256 view poses, the tiles TileSet holds, kMaxModelParts model parts of at
+// most kMaxModelTriangles triangles in all (a later part is refused and
+// counted).
 #pragma once
 
+#include <climits>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -37,18 +40,28 @@ struct Ros2DeriverOptions {
   bool view = true;         ///< The composited view (JPEG) and /tf's view pose.
   bool hull_points = true;  ///< The hull as a point cloud from the view's tiles.
   int hull_point_stride = 4;  ///< Every this many pixels, each way.
-  bool markers = true;      ///< Virtual objects, meshes and contacts as markers.
+  bool markers = true;      ///< Virtual objects, meshes, model parts and contacts as markers.
+  bool collisions = true;   ///< Collision reports (hullpipe_msgs/CollisionReport).
+  /// Least capture-time interval between two /hullpipe/model_markers messages
+  /// (each carries every part's geometry, sent again when a part's contact
+  /// state changes), seconds; a change within it is sent at the first model
+  /// state after it.
+  double model_marker_period_s = 0.2;
 };
 
 /// What a derivation refused or left out, counted.
 struct Ros2DeriverCounts {
   uint64_t cameras_refused = 0;  ///< Cameras past kMaxCameras.
   uint64_t refused = 0;          ///< Samples that did not convert (MessageError).
+  uint64_t parts_refused = 0;    ///< Model parts past kMaxModelParts or kMaxModelTriangles.
 };
 
 class Ros2Deriver {
  public:
   static constexpr size_t kMaxCameras = Rig::kMaxCameras;
+  /// Model parts drawn as markers, and their triangles in all (a marker array
+  /// of 500,000 triangles is 36 MB).
+  static constexpr size_t kMaxModelParts = 4096, kMaxModelTriangles = 500000;
   using Emit = std::function<void(const Ros2Message&)>;
   Ros2Deriver(Ros2DeriverOptions options, Emit emit) : o_(options), emit_(std::move(emit)) {}
 
@@ -64,6 +77,8 @@ class Ros2Deriver {
   std::string OnObjectState(const hullpipe_msg_VirtualObjectState& m);
   std::string OnCollisionReport(const hullpipe_msg_CollisionReport& m);
   std::string OnMesh(const hullpipe_msg_VirtualMesh& m);
+  std::string OnModelPart(const hullpipe_msg_ModelPart& m);
+  std::string OnModelState(const hullpipe_msg_ModelState& m);
 
   const Ros2DeriverCounts& counts() const { return counts_; }
   /// A camera's calibration as last received (nullptr: none).
@@ -77,6 +92,14 @@ class Ros2Deriver {
   std::map<int, Camera> cameras_;
   std::map<uint64_t, NovelView> views_;  // pose_seq -> view, newest 256
   TileSet tiles_;
+  struct Part {
+    ModelPartSample part;
+    uint8_t contact = 0;
+  };
+  std::map<uint32_t, Part> parts_;  // by object id
+  size_t part_triangles_ = 0;
+  bool parts_changed_ = false;          // since the last model markers
+  int64_t parts_sent_ns_ = INT64_MIN;   // capture time of the last model markers
   Ros2DeriverCounts counts_;
 };
 

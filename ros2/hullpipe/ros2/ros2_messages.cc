@@ -281,6 +281,84 @@ RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeContactMarker(uint32_t o
   return s;
 }
 
+std::string PartFrameId(uint32_t object_id) { return "hullpipe_part" + std::to_string(object_id); }
+
+RosSample<tf2_msgs_msg_dds__TFMessage_> MakePartTransforms(const ModelStateSample& state,
+                                                           const std::vector<bool>& known) {
+  RosSample<tf2_msgs_msg_dds__TFMessage_> s;
+  s.strings.reserve(2 * state.parts.size());
+  for (size_t i = 0; i < state.parts.size(); ++i) {
+    if (!known.empty() && (i >= known.size() || !known[i])) continue;
+    const PartStateSample& p = state.parts[i];
+    Rigid3d world_from_body;
+    world_from_body.rotation =
+        Eigen::Quaterniond(p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3])
+            .normalized()
+            .toRotationMatrix();
+    world_from_body.translation = p.position;
+    s.transforms.push_back(WorldTransform(&s.strings, state.capture_time_ns,
+                                          PartFrameId(state.model_id + uint32_t(i)), world_from_body));
+  }
+  dds::Borrow(&s.msg.transforms, s.transforms);
+  return s;
+}
+
+RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeModelMarkers(const std::vector<PartDrawing>& parts,
+                                                                     int64_t stamp_ns) {
+  RosSample<visualization_msgs_msg_dds__MarkerArray_> s;
+  size_t points = 0;
+  for (const PartDrawing& d : parts) points += 3 * d.part->triangles.size();
+  // Every marker's string and point storage reserved first: the markers point into it.
+  s.strings.reserve(10 * parts.size());  // OneMarker's 8 and the part's frame
+  s.markers.reserve(parts.size());
+  s.points.reserve(points);
+  for (const PartDrawing& d : parts) {
+    const ModelPartSample& part = *d.part;
+    auto& m = OneMarker(&s, "hullpipe_models", part.object_id, 11 /* TRIANGLE_LIST */, stamp_ns);
+    m.header.frame_id = Text(&s.strings, PartFrameId(part.object_id));
+    m.frame_locked = true;
+    m.scale = {1, 1, 1};
+    m.color = d.contact == kPartColliding ? kRed
+              : d.contact == kPartNear    ? std_msgs_msg_dds__ColorRGBA_{1.f, 0.62f, 0.f, 1.f}
+                                          : Rgba(part.colour);
+    const size_t first = s.points.size();
+    for (const Eigen::Vector3i& t : part.triangles)
+      for (int k = 0; k < 3; ++k) {
+        const int i = t[k];
+        if (i < 0 || size_t(i) >= part.vertices.size()) continue;  // validated at the wire
+        const Eigen::Vector3f& v = part.vertices[size_t(i)];
+        s.points.push_back({v.x(), v.y(), v.z()});
+      }
+    m.points._buffer = s.points.data() + first;
+    m.points._length = m.points._maximum = uint32_t(s.points.size() - first);
+    m.points._release = false;
+  }
+  return s;
+}
+
+RosSample<hullpipe_msgs_msg_dds__CollisionReport_> MakeCollisionReport(const CollisionReportSample& r) {
+  RosSample<hullpipe_msgs_msg_dds__CollisionReport_> s;
+  s.strings.reserve(1);
+  auto& m = s.msg;
+  m.header = Header(&s.strings, r.capture_time_ns, kWorldFrame);
+  m.object_id = r.object_id;
+  m.frame_seq = r.frame_seq;
+  s.uints = r.triangle_ids;
+  dds::Borrow(&m.triangle_ids, s.uints);
+  for (const auto& p : r.collision_points) s.points.push_back({p.x(), p.y(), p.z()});
+  dds::Borrow(&m.collision_points, s.points);
+  m.has_response = r.has_response;
+  m.cp_obj = {r.cp_obj.x(), r.cp_obj.y(), r.cp_obj.z()};
+  m.cp_hull = {r.cp_hull.x(), r.cp_hull.y(), r.cp_hull.z()};
+  m.v_rec = {r.v_rec.x(), r.v_rec.y(), r.v_rec.z()};
+  m.d_rec = r.d_rec;
+  m.n_hull = {r.n_hull.x(), r.n_hull.y(), r.n_hull.z()};
+  m.hull_velocity_status = r.hull_velocity_status;
+  m.hull_normal_speed = r.hull_normal_speed;
+  m.hull_velocity_interval = r.hull_velocity_interval;
+  return s;
+}
+
 Rigid3d HeadFromPoseStamped(const geometry_msgs_msg_dds__PoseStamped_& m, const PoseCheck& check) {
   const std::string frame = m.header.frame_id ? std::string(m.header.frame_id, strnlen(m.header.frame_id, 256)) : "";
   if (frame != check.frame_id)

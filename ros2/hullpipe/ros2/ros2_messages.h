@@ -47,6 +47,7 @@ struct RosSample {
   std::vector<geometry_msgs_msg_dds__Point_> points;
   std::vector<std_msgs_msg_dds__ColorRGBA_> colors;
   std::vector<visualization_msgs_msg_dds__Marker_> markers;
+  std::vector<uint32_t> uints;
   RosSample() = default;
   RosSample(const RosSample&) = delete;
   RosSample& operator=(const RosSample&) = delete;
@@ -120,6 +121,36 @@ RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeMeshMarker(const Virtual
 RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeContactMarker(uint32_t object_id,
                                                                       const std::vector<Eigen::Vector3d>& points,
                                                                       int64_t stamp_ns);
+
+/// A CAD model part's body frame (ModelPart): "hullpipe_part<object_id>".
+std::string PartFrameId(uint32_t object_id);
+
+/// tf2_msgs/TFMessage with each part's pose after a step: kWorldFrame ->
+/// PartFrameId(model_id + i) of world_from_body, for the parts i whose
+/// `known[i]` is true (every part when `known` is empty), stamped with the
+/// frameset's capture time (for /tf).
+RosSample<tf2_msgs_msg_dds__TFMessage_> MakePartTransforms(const ModelStateSample& state,
+                                                           const std::vector<bool>& known = {});
+
+/// One model part's drawing for MakeModelMarkers: its geometry (body frame)
+/// and its contact state (PartContact).
+struct PartDrawing {
+  const ModelPartSample* part = nullptr;
+  uint8_t contact = kPartClear;
+};
+
+/// visualization_msgs/MarkerArray of CAD model parts (namespace
+/// "hullpipe_models", id the part's object id): per part one TRIANGLE_LIST in
+/// its own frame PartFrameId (frame_locked: it moves with the part's /tf), each
+/// triangle's vertices in turn, in the material's colour, amber when near the
+/// hull and red while colliding (docs/models.md's contact states).
+RosSample<visualization_msgs_msg_dds__MarkerArray_> MakeModelMarkers(const std::vector<PartDrawing>& parts,
+                                                                     int64_t stamp_ns);
+
+/// hullpipe_msgs/CollisionReport (ros2/hullpipe_msgs/msg/CollisionReport.msg)
+/// of one object's collision with the hull: the same fields as hullpipe's
+/// CollisionReport, in kWorldFrame, stamped with the frameset's capture time.
+RosSample<hullpipe_msgs_msg_dds__CollisionReport_> MakeCollisionReport(const CollisionReportSample& report);
 
 /// What a tracker's pose must satisfy to drive the view.
 struct PoseCheck {

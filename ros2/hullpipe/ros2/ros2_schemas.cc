@@ -1,10 +1,12 @@
 #include "hullpipe/ros2/ros2_schemas.h"
 
+#include <algorithm>
 #include <map>
 #include <stdexcept>
 
 #include "hullpipe/ros2/ros2_messages.h"
 #include "hullpipe/ros2/ros2_topics.h"
+#include "hullpipe_msgs_definitions.h"  // generated from ros2/hullpipe_msgs/msg
 
 namespace hullpipe::ros2 {
 
@@ -53,18 +55,25 @@ const std::map<std::string, std::string>& Definitions() {
        "sensor_msgs/CompressedImage texture\nvisualization_msgs/UVCoordinate[] uv_coordinates\nstring text\n"
        "string mesh_resource\nvisualization_msgs/MeshFile mesh_file\nbool mesh_use_embedded_materials\n"},
       {"visualization_msgs/msg/MarkerArray", "visualization_msgs/Marker[] markers\n"},
+      {"hullpipe_msgs/msg/CollisionReport", kCollisionReportMsg},
   };
   return d;
 }
 
-// The types `type` uses, depth first, each once.
+// The types `type` uses, depth first, each once. A definition's line is a
+// field ("type name"), a constant ("type NAME=value"), a comment or blank.
 void Uses(const std::string& type, std::vector<std::string>* out) {
   const std::string& text = Definitions().at(type);
   size_t at = 0;
   while (at < text.size()) {
-    const size_t end = text.find('\n', at);
-    std::string field_type = text.substr(at, text.find(' ', at) - at);
+    size_t end = text.find('\n', at);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(at, end - at);
     at = end + 1;
+    line.resize(std::min(line.size(), line.find('#')));
+    const size_t start = line.find_first_not_of(" \t");
+    if (start == std::string::npos) continue;  // blank or a comment
+    std::string field_type = line.substr(start, line.find_first_of(" \t", start) - start);
     const size_t bracket = field_type.find('[');
     if (bracket != std::string::npos) field_type.resize(bracket);
     const size_t slash = field_type.find('/');
@@ -100,7 +109,8 @@ const std::vector<std::string>& Ros2TypeNames() {
   static const std::vector<std::string> names = {"sensor_msgs/msg/CameraInfo", "sensor_msgs/msg/Image",
                                                   "sensor_msgs/msg/CompressedImage", "tf2_msgs/msg/TFMessage",
                                                   "geometry_msgs/msg/PoseStamped", "sensor_msgs/msg/PointCloud2",
-                                                  "visualization_msgs/msg/MarkerArray"};
+                                                  "visualization_msgs/msg/MarkerArray",
+                                                  "hullpipe_msgs/msg/CollisionReport"};
   return names;
 }
 
@@ -149,6 +159,9 @@ dds::KnownType Ros2KnownType(const std::string& type) {
   if (type == "visualization_msgs/msg/MarkerArray")
     return Known<visualization_msgs_msg_dds__MarkerArray_>(&visualization_msgs_msg_dds__MarkerArray__desc,
                                                            [] { return MakeContactMarker(0, {}, 0); });
+  if (type == "hullpipe_msgs/msg/CollisionReport")
+    return Known<hullpipe_msgs_msg_dds__CollisionReport_>(&hullpipe_msgs_msg_dds__CollisionReport__desc,
+                                                          [] { return MakeCollisionReport(CollisionReportSample{}); });
   throw std::invalid_argument("no ROS 2 type " + type);
 }
 

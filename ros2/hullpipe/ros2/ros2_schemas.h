@@ -3,7 +3,8 @@
 // it uses, each after a line of 80 '=' and "MSG: pkg/Type", as rosbag2's
 // MCAP storage plugin concatenates them), and each channel's
 // `offered_qos_profiles` (the YAML rosbag2 writes, so `ros2 bag play` offers the
-// same QoS). The definitions are ROS 2 Humble's, the fields of idl/ros2.idl.
+// same QoS). The definitions are ROS 2 Humble's, the fields of idl/ros2.idl,
+// and hullpipe's own hullpipe_msgs (ros2/hullpipe_msgs/msg, compiled in).
 #pragma once
 
 #include <string>

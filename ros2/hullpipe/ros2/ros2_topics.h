@@ -28,6 +28,7 @@ HULLPIPE_ROS2_TYPE(geometry_msgs_msg_dds__TransformStamped_)
 HULLPIPE_ROS2_TYPE(geometry_msgs_msg_dds__PoseStamped_)
 HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__PointCloud2_)
 HULLPIPE_ROS2_TYPE(visualization_msgs_msg_dds__MarkerArray_)
+HULLPIPE_ROS2_TYPE(hullpipe_msgs_msg_dds__CollisionReport_)
 #undef HULLPIPE_ROS2_TYPE
 
 }  // namespace hullpipe::dds
@@ -39,6 +40,9 @@ inline constexpr dds::QosSpec kDefaultQos{true, false, 10};
 /// /tf_static's: reliable, transient-local, keep-last 1 (the last message holds
 /// every static transform).
 inline constexpr dds::QosSpec kTfStaticQos{true, true, 1};
+/// A latched topic's (/hullpipe/model_markers): reliable, transient-local,
+/// keep-last 1 (the last message holds every part; a late RViz gets it).
+inline constexpr dds::QosSpec kLatchedQos{true, true, 1};
 /// A tracker's poses are read best-effort, the newest only: a best-effort
 /// reader matches reliable and best-effort (sensor-data) writers alike.
 inline constexpr dds::QosSpec kPoseReaderQos{false, false, 1};

@@ -121,4 +121,13 @@ hullpipe_msg_VirtualObjectState VirtualObjectToMsg(const VirtualObjectSample& s)
 VirtualObjectSample VirtualObjectFromMsg(const hullpipe_msg_VirtualObjectState& msg);
 /// CollisionReport of one object's step.
 OwnedSample<hullpipe_msg_CollisionReport> MakeCollisionReportMessage(const CollisionReportSample& r);
+/// Validated report: at most kMaxReportEntries triangle ids and collision
+/// points, every point and response vector finite, hull_velocity_status a
+/// HULL_VELOCITY_* value. The response fields are read only when has_response
+/// (zero otherwise, as MakeCollisionReportMessage writes them). Throws
+/// MessageError naming the field.
+CollisionReportSample CollisionReportFromMsg(const hullpipe_msg_CollisionReport& msg);
+/// Most triangle ids or collision points one CollisionReport may carry (the
+/// largest mesh VirtualMesh carries: 200,000 vertices).
+inline constexpr uint32_t kMaxReportEntries = 2000000;
 }  // namespace hullpipe::dds
