@@ -3,6 +3,8 @@
 // CameraInfo once (transient-local), then per frame an ObjectPixelMap and a
 // CameraImage per camera under one frame sequence number. Parses flags, opens
 // the source and connects DDS to a CaptureController (nodes/capture_controller.h).
+#include <utility>
+
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -71,6 +73,24 @@ int main(int argc, char** argv) {
     Reader<hullpipe_msg_CaptureTimeline> timelines(*participant);
     SystemClock clock;
     nodes::CaptureController capture(flags.options, clock, *source, writers);
+    // A camera posed live (rig 'tracked: topic'): the tracker's samples, taken
+    // just before each frame is posed.
+    std::unique_ptr<Reader<hullpipe_msg_CameraPose>> camera_poses;
+    bool bad_pose_said = false;
+    for (const bool t : source->tracked_by_topic()) {
+      if (!t || camera_poses) continue;
+      camera_poses = std::make_unique<Reader<hullpipe_msg_CameraPose>>(*participant);
+      capture.SetPoseRefresh([&] {
+        camera_poses->TakeEach([&](const hullpipe_msg_CameraPose& m, const dds_sample_info_t&) {
+          try {
+            capture.OnCameraPose(m.camera_id, m.stamp_ns, CameraPoseFromMsg(m));
+          } catch (const MessageError& e) {
+            capture.counters().Rejected();
+            if (!std::exchange(bad_pose_said, true)) spdlog::warn("{} (said once; counted)", e.what());
+          }
+        });
+      });
+    }
     auto hear_timelines = [&] {
       timelines.TakeEach([&](const hullpipe_msg_CaptureTimeline& m, const dds_sample_info_t&) {
         capture.OnTimeline(m.start_ns, m.fps);
@@ -99,6 +119,9 @@ int main(int argc, char** argv) {
     // Give reliable readers a moment to receive the tail before the writers go.
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     spdlog::info("published {} frames, {} rejected", capture.published(), capture.counters().rejected());
+    if (capture.unposed_frames() > 0)
+      spdlog::warn("{} frame(s) of cameras posed live not published: no CameraPose near them",
+                   capture.unposed_frames());
     if (capture.timelines_refused() > 0)
       spdlog::warn("{} announced capture timeline(s) refused (beyond --timeline-window)", capture.timelines_refused());
     if (!capture.incomplete().empty()) {

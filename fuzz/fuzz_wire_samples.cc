@@ -86,6 +86,8 @@ void Convert(const std::string& type, const void* sample) {
     ModelStateFromMsg(*static_cast<const hullpipe_msg_ModelState*>(sample));
   } else if (type == "hullpipe::msg::CompositedView") {
     CompositedViewFromMsg(*static_cast<const hullpipe_msg_CompositedView*>(sample));
+  } else if (type == "hullpipe::msg::CameraPose") {
+    CameraPoseFromMsg(*static_cast<const hullpipe_msg_CameraPose*>(sample));
   } else if (type == "hullpipe::msg::CollisionReport") {
     // hullpipe_ros2 and the bag export read it whole, then make ROS 2's.
     const CollisionReportSample r = CollisionReportFromMsg(*static_cast<const hullpipe_msg_CollisionReport*>(sample));

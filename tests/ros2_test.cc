@@ -19,6 +19,7 @@
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/ros2/ros2_deriver.h"
 #include "hullpipe/ros2/ros2_messages.h"
@@ -381,6 +382,76 @@ TEST(Ros2Process, PublishesTheRigAsRos2TopicsAndFollowsATracker) {
   const int refused = std::atoi(text.c_str() + at + std::strlen(" poses passed on, "));
   EXPECT_GE(refused, 1) << text;
   EXPECT_LE(refused, nan_sent) << text;
+}
+
+// The paper's head-mounted camera, tracked by a ROS 2 tracker: the rig says
+// camera 2 is `tracked: topic`, hullpipe_ros2 passes the tracker's PoseStamped
+// on as CameraPose (--camera-pose 2=/lab/hmd_camera), and capture_node poses
+// each of camera 2's frames by it. Before the tracker sends, camera 2's frames
+// are held back (named, counted: no map on the domain, the absence); once it
+// sends, each map carries the tracker's pose (the positive control).
+TEST(Ros2Process, ATrackersPoseStampedPosesTheHeadMountedCamerasFrames) {
+  if (!test::HaveRig()) GTEST_SKIP() << "no rig at " << test::RigDir();
+  const auto dir = test::TempDir("ros2_camera_pose");
+  const std::string config = test::WriteLoopbackConfig(dir), log = (dir / "ros2.log").string(),
+                    capture_log = (dir / "capture.log").string();
+  setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  Rig rig = LoadRig(test::RigDir());
+  Camera calibrated;
+  for (auto& rc : rig.cameras)
+    if (rc.camera.id == 2) rc.tracked = RigCamera::kTrackedByTopic, calibrated = rc.camera;
+  const std::string rig_file = (dir / "tracked.yaml").string();
+  WriteRigYaml(rig, rig_file);
+  dds::Participant p(domain);
+  dds::Reader<hullpipe_msg_ObjectPixelMap> maps(p);
+  auto capture = test::StartExe("capture_node", {"--rig", rig_file, "--cameras", "2", "--loop", "--fps", "25"}, domain,
+                                config, capture_log);
+  auto bridge = test::StartExe("hullpipe_ros2",
+                               {"--head-pose-topic", "", "--camera-pose", "2=/lab/hmd_camera", "--no-maps",
+                                "--no-images"},
+                               domain, config, log);
+  // No pose yet: camera 2's frames are held back, said once.
+  int early_maps = 0;
+  for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+       test::ReadFile(capture_log).find("no CameraPose within") == std::string::npos &&
+       std::chrono::steady_clock::now() < until;)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_NE(test::ReadFile(capture_log).find("no CameraPose within"), std::string::npos) << test::ReadFile(capture_log);
+  early_maps += int(maps.TakeEach([](const hullpipe_msg_ObjectPixelMap&, const dds_sample_info_t&) {}));
+  EXPECT_EQ(early_maps, 0) << "a frame of the tracked camera went out unposed";
+  // The tracker: the camera 0.25 m along world x from its calibration, turned
+  // 0.1 rad about its own y axis, at 100 Hz, stamped now.
+  const Rigid3d calibrated_world = calibrated.cam_from_world.Inverse();
+  Rigid3d tracked_world;
+  tracked_world.rotation = calibrated_world.rotation * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  tracked_world.translation = calibrated_world.translation + Eigen::Vector3d(0.25, 0, 0);
+  dds::Writer<geometry_msgs_msg_dds__PoseStamped_> tracker(p, "rt/lab/hmd_camera", ros2::kDefaultQos);
+  int posed = 0;
+  for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+       posed < 5 && std::chrono::steady_clock::now() < until;) {
+    const int64_t now = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                            std::chrono::system_clock::now().time_since_epoch())
+                            .count();
+    tracker.Write(ros2::MakePoseStamped(tracked_world, now, ros2::kWorldFrame).msg);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    maps.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t&) {
+      ASSERT_EQ(m.camera_id, 2u);
+      const auto pose = dds::MapPoseFromMsg(m);
+      ASSERT_TRUE(pose) << "a map of the tracked camera without its pose";
+      // One pose all along: interpolating between its samples gives it back
+      // (to rounding: the quaternion's slerp, the ROS message's doubles).
+      EXPECT_LT((pose->Inverse().translation - tracked_world.translation).norm(), 1e-9);
+      EXPECT_LT((pose->Inverse().rotation - tracked_world.rotation).norm(), 1e-9);
+      ++posed;
+    });
+  }
+  EXPECT_GE(posed, 5) << test::ReadFile(log) << test::ReadFile(capture_log);
+  EXPECT_EQ(bridge->Stop(10), 0);
+  EXPECT_EQ(capture->Stop(10), 0);
+  const std::string text = test::ReadFile(log);
+  EXPECT_NE(text.find(" camera poses passed on"), std::string::npos) << text;
+  EXPECT_EQ(text.find(" 0 camera poses passed on"), std::string::npos) << text;
 }
 
 // A tracker that broadcasts its frame on /tf drives the view (--head-frame):

@@ -10,6 +10,11 @@
 // Then on a ROS 2 machine (ROS_DOMAIN_ID = --ros-domain, rmw_cyclonedds or any
 // DDS rmw): ros2 topic list; rviz2 with the fixed frame hullpipe_world.
 // Stops within a second of SIGINT.
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <vector>
+
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -57,6 +62,12 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.001, 86400.0));
   app.add_option("--tracker-id", o.tracker_id, "HeadPose.tracker_id of the poses passed on")->capture_default_str();
+  std::vector<std::string> camera_pose_specs, camera_frame_specs;
+  app.add_option("--camera-pose", camera_pose_specs,
+                 "ID=TOPIC: a ROS 2 PoseStamped topic as tracked camera ID's pose (its optical frame in "
+                 "--pose-frame), passed on to capture_node (rig 'tracked: topic'); repeatable");
+  app.add_option("--camera-frame", camera_frame_specs,
+                 "ID=FRAME: a tf frame (a child of --pose-frame on /tf) as tracked camera ID's pose; repeatable");
   CLI11_PARSE(app, argc, argv);
   o.derive.maps = !no_maps;
   o.derive.images = !no_images;
@@ -65,6 +76,22 @@ int main(int argc, char** argv) {
   o.derive.markers = !no_markers;
   o.derive.collisions = !no_collisions;
   try {
+    // ID=VALUE, ID a camera id in [1, 1e6].
+    auto camera_specs = [](const std::vector<std::string>& specs, const char* flag) {
+      std::map<uint32_t, std::string> out;
+      for (const std::string& s : specs) {
+        const size_t eq = s.find('=');
+        char* end = nullptr;
+        const long id = eq == std::string::npos ? 0 : std::strtol(s.c_str(), &end, 10);
+        if (eq == std::string::npos || end != s.c_str() + eq || id < 1 || id > 1000000 || eq + 1 == s.size())
+          throw std::invalid_argument(std::string(flag) + " '" + s + "': give ID=VALUE, ID a camera id");
+        if (!out.emplace(uint32_t(id), s.substr(eq + 1)).second)
+          throw std::invalid_argument(std::string(flag) + ": camera " + std::to_string(id) + " given twice");
+      }
+      return out;
+    };
+    o.camera_pose_topics = camera_specs(camera_pose_specs, "--camera-pose");
+    o.camera_frames = camera_specs(camera_frame_specs, "--camera-frame");
     o.Check();
     auto participant = StartNode("ros2", common);
     std::unique_ptr<Participant> ros_participant;
@@ -96,8 +123,9 @@ int main(int argc, char** argv) {
     const auto& c = bridge.counts();
     std::string topics;
     for (const auto& [topic, n] : c.published) topics += fmt::format("{}{} {}", topics.empty() ? "" : ", ", topic, n);
-    spdlog::info("published {}; {} poses passed on, {} refused; {} samples refused; {} tf transforms past the bound",
-                 topics.empty() ? "nothing" : topics, c.poses, c.poses_refused, c.samples_refused,
+    spdlog::info("published {}; {} head poses and {} camera poses passed on, {} refused; {} samples refused; {} tf "
+                 "transforms past the bound",
+                 topics.empty() ? "nothing" : topics, c.poses, c.camera_poses, c.poses_refused, c.samples_refused,
                  c.transforms_skipped);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());

@@ -264,6 +264,13 @@ class Exporter {
         (*j)["colliding_triangles"] = colliding, (*j)["clearance"] = mesh.clearance;
         (*j)["element"] = mesh.element;
       });
+    if (type == "hullpipe::msg::CameraPose")
+      return With<hullpipe_msg_CameraPose>(w, s, [&](const auto& m) {
+        (void)CameraPoseFromMsg(m);
+        (*j)["camera_id"] = m.camera_id, (*j)["stamp_ns"] = m.stamp_ns;
+        (*j)["world_from_camera_rotation"] = Arr(m.world_from_camera_rotation);
+        (*j)["world_from_camera_translation"] = Arr(m.world_from_camera_translation);
+      });
     if (type == "hullpipe::msg::ModelPart")
       return With<hullpipe_msg_ModelPart>(w, s, [&](const auto& m) {
         const ModelPartSample p = ModelPartFromMsg(m);

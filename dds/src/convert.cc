@@ -442,6 +442,31 @@ Rigid3d HeadPoseFromMsg(const hullpipe_msg_HeadPose& m) {
   return X;
 }
 
+hullpipe_msg_CameraPose CameraPoseToMsg(const Rigid3d& X, uint32_t camera_id, int64_t stamp_ns) {
+  hullpipe_msg_CameraPose m{};
+  m.camera_id = camera_id;
+  m.stamp_ns = stamp_ns;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) m.world_from_camera_rotation[3 * r + c] = X.rotation(r, c);
+    m.world_from_camera_translation[r] = X.translation[r];
+  }
+  return m;
+}
+
+Rigid3d CameraPoseFromMsg(const hullpipe_msg_CameraPose& m) {
+  Rigid3d X;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) X.rotation(r, c) = m.world_from_camera_rotation[3 * r + c];
+    X.translation[r] = m.world_from_camera_translation[r];
+  }
+  const std::string who = "CameraPose of camera " + std::to_string(m.camera_id) + ": ";
+  if (!X.rotation.allFinite() || !X.translation.allFinite()) throw MessageError(who + "not finite");
+  if (!((X.rotation.transpose() * X.rotation - Eigen::Matrix3d::Identity()).norm() < 1e-6) ||
+      !(X.rotation.determinant() > 0))
+    throw MessageError(who + "rotation not orthonormal");
+  return X;
+}
+
 static_assert(kMeshCloth == hullpipe_msg_MESH_KIND_CLOTH && kMeshParticles == hullpipe_msg_MESH_KIND_PARTICLES &&
               kMeshPart == hullpipe_msg_MESH_KIND_PART);
 

@@ -11,7 +11,8 @@ PrefetchingSource::PrefetchingSource(std::unique_ptr<RigSource> inner)
       workspace_(inner_->workspace()),
       fps_(inner_->fps()),
       frame_count_(inner_->frame_count()),
-      live_(inner_->live()) {}
+      live_(inner_->live()),
+      tracked_by_topic_(inner_->tracked_by_topic()) {}
 
 PrefetchingSource::~PrefetchingSource() {
   if (read_.valid()) read_.wait();  // the reader thread uses inner_ and ahead_

@@ -22,7 +22,7 @@ class PrefetchingSource final : public RigSource {
   /// Wraps `inner`, which it owns. The wrapped source's Next/Skip/Rewind are
   /// called from one thread at a time (the reader thread or the caller's, never
   /// both at once), so it needs no locking of its own; its const queries
-  /// (cameras, rig_camera_count, workspace, fps) are read once here.
+  /// (cameras, rig_camera_count, workspace, fps, tracked_by_topic) are read once here.
   explicit PrefetchingSource(std::unique_ptr<RigSource> inner);
   /// Waits for a read in flight (at most one frame's read) and ends.
   ~PrefetchingSource() override;
@@ -52,6 +52,7 @@ class PrefetchingSource final : public RigSource {
   /// after Rewind).
   int64_t frame_count() const override { return frame_count_; }
   bool live() const override { return live_; }
+  std::vector<bool> tracked_by_topic() const override { return tracked_by_topic_; }
   /// The wrapped source's, once a read in flight has ended.
   std::string IncompleteEnd() const override;
   /// Frames read ahead and handed out by Next, and read ahead and then skipped
@@ -71,6 +72,7 @@ class PrefetchingSource final : public RigSource {
   double fps_ = 0;
   int64_t frame_count_ = 0;
   bool live_ = false;
+  std::vector<bool> tracked_by_topic_;  // read once: a rig's setting
   RigFrame ahead_;                  ///< The frame being read ahead (the reader thread's while in flight).
   mutable std::future<bool> read_;  ///< The read in flight, if valid().
   int64_t prefetched_ = 0, discarded_ = 0;

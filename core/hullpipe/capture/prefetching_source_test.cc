@@ -28,6 +28,7 @@ class CountingSource final : public RigSource {
   double fps() const override { return 10; }
   int64_t frame_count() const override { return n_; }
   bool live() const override { return live_; }
+  std::vector<bool> tracked_by_topic() const override { return {true}; }
   bool Next(RigFrame* f) override {
     {
       std::unique_lock<std::mutex> lock(mutex_);
@@ -95,6 +96,7 @@ TEST(PrefetchingSource, GivesTheWrappedSourcesFramesErrorsAndEndUnchanged) {
   EXPECT_EQ(source.cameras().size(), 1u);
   EXPECT_EQ(source.cameras()[0].id, 7);
   EXPECT_EQ(source.frame_count(), 5);
+  EXPECT_EQ(source.tracked_by_topic(), std::vector<bool>{true});  // capture_node poses it live
   RigFrame f;
   for (int k = 0; k < 5; ++k) {
     ASSERT_TRUE(source.Next(&f)) << k;

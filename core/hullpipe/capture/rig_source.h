@@ -76,6 +76,11 @@ class RigSource {
   /// input ends at the first camera to end), or a video ended well before the
   /// frame count its container declares (truncated or damaged). Cleared by Rewind.
   virtual std::string IncompleteEnd() const { return {}; }
+  /// Per selected camera: true if its pose comes live from a tracker (the rig
+  /// entry's `tracked: topic`, geometry/calibration.h): the source leaves its
+  /// RigFrame::poses empty and capture_node poses its frames by the tracker's
+  /// samples (capture/live_pose_track.h). Empty: none.
+  virtual std::vector<bool> tracked_by_topic() const { return {}; }
 };
 
 /// True if `ids` is empty (every camera) or holds `id`: a source's camera subset.

@@ -266,7 +266,11 @@ Rig LoadYamlRig(const fs::path& file) {
     rc.background = resolve(cam["background"]);
     rc.frames = resolve(cam["frames"]);
     rc.masks = resolve(cam["masks"]);
-    rc.tracked = resolve(cam["tracked"]);
+    // The word `topic` (a live tracker) is not a path.
+    const YAML::Node tracked = cam["tracked"];
+    rc.tracked = tracked && tracked.IsScalar() && tracked.Scalar() == RigCamera::kTrackedByTopic
+                     ? std::string(RigCamera::kTrackedByTopic)
+                     : resolve(tracked);
     if (const YAML::Node l = cam["latency"]) {
       try {
         rc.latency_s = l.as<double>();

@@ -135,9 +135,13 @@ struct RigCamera {
   double latency_s = 0;
   /// A tracked camera (paper §5: the one on the head-mounted display): a pose log
   /// in the head-pose CSV format (geometry/head_pose.h; world_from_camera, t = the
-  /// frame's source time) giving its pose per frame; empty: a fixed camera. YAML
-  /// key `tracked`.
+  /// frame's source time) giving its pose per frame; or kTrackedByTopic: its
+  /// poses come live on hullpipe's CameraPose topic (a tracker, or hullpipe_ros2
+  /// from a ROS 2 pose), sampled at each frame's capture time
+  /// (capture/live_pose_track.h); empty: a fixed camera. YAML key `tracked`.
   std::string tracked;
+  static constexpr const char* kTrackedByTopic = "topic";
+  bool tracked_by_topic() const { return tracked == kTrackedByTopic; }
   /// Ready-made masks: a pixel is object iff its value (after taking the channel)
   /// is >= mask_threshold, in [1, 255]. YAML key `mask_threshold`; default 128
   /// (published masks are 0/255, and some carry background values up to ~25).

@@ -36,14 +36,15 @@ class VideoRig final : public RigSource {
       cam.masks_spec = rc.masks;
       cam.mask_format = rc;
       cam.latency_ns = int64_t(rc.latency_s * 1e9);
-      if (!rc.tracked.empty()) cam.track = LoadPoseTrack(rc.tracked);
+      if (!rc.tracked.empty() && !rc.tracked_by_topic()) cam.track = LoadPoseTrack(rc.tracked);
+      cam.by_topic = rc.tracked_by_topic();
       cam.live = rc.live();
       if (cam.live && !rc.masks.empty())
         throw std::runtime_error("camera " + std::to_string(rc.camera.id) + ": a live camera cannot have masks");
-      if (cam.live && !rc.tracked.empty())
+      if (cam.live && !rc.tracked.empty() && !rc.tracked_by_topic())
         throw std::runtime_error("camera " + std::to_string(rc.camera.id) +
                                  ": key 'tracked': a pose log is keyed by source time and serves file sources; a "
-                                 "live tracked camera is not supported");
+                                 "live tracked camera takes its poses live ('tracked: topic')");
       if (rc.masks.empty()) cam.background_spec = rc.background;  // learnt below
       cams_.push_back(std::move(cam));
       cameras_.push_back(rc.camera);
@@ -104,6 +105,11 @@ class VideoRig final : public RigSource {
   }
   std::string IncompleteEnd() const override { return incomplete_; }
   const std::vector<Camera>& cameras() const override { return cameras_; }
+  std::vector<bool> tracked_by_topic() const override {
+    std::vector<bool> t;
+    for (const Cam& c : cams_) t.push_back(c.by_topic);
+    return t;
+  }
   int rig_camera_count() const override { return rig_camera_count_; }
   Aabb workspace() const override { return workspace_; }
   double fps() const override { return fps_; }
@@ -151,6 +157,7 @@ class VideoRig final : public RigSource {
     int64_t latency_ns = 0;
     std::unique_ptr<LiveCameraReader> reader;
     PoseTrack track;  ///< A tracked camera's world_from_camera by source time.
+    bool by_topic = false;  ///< Posed live by capture_node (RigSource::tracked_by_topic).
   };
 
   // Calls one_camera(i) for every camera, the cameras on up to the machine's

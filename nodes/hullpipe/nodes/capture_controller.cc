@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
@@ -21,6 +22,8 @@ void CaptureOptions::Check() const {
   if (!(timeline_window_s >= 1 && timeline_window_s <= 86400))
     throw std::invalid_argument("--timeline-window must be in [1, 86400] seconds");
   if (threads < 0 || threads > 256) throw std::invalid_argument("--threads must be in [0, 256] (0: the machine's cores)");
+  if (!(camera_pose_hold_s > 0 && camera_pose_hold_s <= 1))
+    throw std::invalid_argument("--camera-pose-hold must be in (0, 1] seconds");
 }
 
 CaptureController::CaptureController(CaptureOptions options, const Clock& clock, RigSource& source,
@@ -31,6 +34,19 @@ CaptureController::CaptureController(CaptureOptions options, const Clock& clock,
     throw std::invalid_argument("the source's frame rate is " + std::to_string(rate_) + ": give --fps");
   last_seq_.assign(source_.cameras().size(), 0);
   start_ns_ = o_.start_ns;
+  const std::vector<bool> by_topic = source_.tracked_by_topic();
+  for (size_t i = 0; i < by_topic.size() && i < source_.cameras().size(); ++i)
+    if (by_topic[i]) live_poses_.emplace(uint32_t(source_.cameras()[i].id), LivePoseTrack(o_.camera_pose_hold_s));
+}
+
+void CaptureController::OnCameraPose(uint32_t camera_id, int64_t stamp_ns, const Rigid3d& world_from_camera) {
+  const auto it = live_poses_.find(camera_id);
+  if (it == live_poses_.end()) return;  // not a camera of this node posed live
+  const std::string why = it->second.Add(stamp_ns, world_from_camera);
+  if (why.empty()) return;
+  counters_.Rejected();
+  if (pose_said_.size() < 64 && pose_said_.insert("sample " + std::to_string(camera_id)).second)
+    spdlog::warn("a CameraPose of camera {} refused: {} (said once per camera; counted)", camera_id, why);
 }
 
 void CaptureController::PublishCalibration() {
@@ -205,6 +221,8 @@ bool CaptureController::Step() {
       // sink allows it: one core did all of it for 20 HD cameras.
       std::vector<int64_t> stamps(n, t_ns);
       std::vector<uint64_t> seqs(n, 0);
+      std::vector<std::optional<Rigid3d>> live_pose(n);  // cam_from_world of the cameras posed live
+      if (!live_poses_.empty() && pose_refresh_) pose_refresh_();
       for (size_t i = 0; i < n; ++i) {
         if (frame_.maps[i].empty()) continue;
         int64_t stamp = t_ns;
@@ -219,6 +237,21 @@ bool CaptureController::Step() {
         last_seq_[i] = seq;
         stamps[i] = stamp;
         seqs[i] = seq;
+        const auto live = live_poses_.find(uint32_t(source_.cameras()[i].id));
+        if (live == live_poses_.end()) continue;
+        if (const auto world_from_camera = live->second.At(stamp)) {
+          live_pose[i] = world_from_camera->Inverse();
+          continue;
+        }
+        // No tracker sample near the frame: its map would be carved at a
+        // wrong pose. Not published (the frameset waits or drops), counted.
+        ++unposed_frames_;
+        counters_.Rejected();
+        if (pose_said_.insert("unposed " + std::to_string(live->first)).second)
+          spdlog::warn("camera {} (tracked: topic): no CameraPose within --camera-pose-hold {:g} s of its frame (the "
+                       "nearest {:.3g} s away): frame not published (said once; counted)",
+                       live->first, o_.camera_pose_hold_s, live->second.DistanceS(stamp));
+        frame_.maps[i].release();
       }
       std::vector<PublishTimes> spent(n);
       auto publish = [&](size_t i) {
@@ -227,7 +260,9 @@ bool CaptureController::Step() {
         cv::Mat img = frame_.images[i];
         if (o_.image_scale < 1.0) cv::resize(img, img, cv::Size(), o_.image_scale, o_.image_scale, cv::INTER_AREA);
         spent[i].encode_ms += (clock_.Now() - t_scale) * 1e3;
-        const Rigid3d* pose = i < frame_.poses.size() && frame_.poses[i] ? &*frame_.poses[i] : nullptr;
+        const Rigid3d* pose = live_pose[i]                                     ? &*live_pose[i]
+                              : i < frame_.poses.size() && frame_.poses[i] ? &*frame_.poses[i]
+                                                                           : nullptr;
         const FrameStamp stamp{uint32_t(source_.cameras()[i].id), seqs[i], stamps[i], frame_.time_s};
         const PublishTimes t = sink_.PublishFrame({.stamp = stamp, .camera_count = camera_count,
                                                    .map = frame_.maps[i], .image = img, .cam_from_world = pose});

@@ -15,6 +15,9 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
+#include <map>
+#include <set>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -24,6 +27,7 @@
 #include "hullpipe/pipeline/clock.h"
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/pipeline/node_counters.h"
+#include "hullpipe/capture/live_pose_track.h"
 #include "hullpipe/capture/rig_source.h"
 
 namespace hullpipe::nodes {
@@ -50,6 +54,12 @@ struct CaptureOptions {
   /// Threads that scale, encode and write the cameras' frames at once when the
   /// sink allows it (CaptureSink::Concurrent); 0: the machine's cores (--threads).
   int threads = 0;
+  /// A camera posed live (RigSource::tracked_by_topic): how far a frame may be
+  /// from the tracker's nearest sample and still take it (LivePoseTrack's
+  /// max_hold_s), (0, 1] s (--camera-pose-hold). A frame further from every
+  /// sample is not published for that camera (counted): a wrong pose would
+  /// carve the hull wrongly.
+  double camera_pose_hold_s = 0.05;
   /// Throws std::invalid_argument naming the flag out of range.
   void Check() const;
 };
@@ -109,6 +119,17 @@ class CaptureController {
   /// starts within timeline_window_s of now; one outside the window is refused
   /// (warned once, counted in timelines_refused()).
   void OnTimeline(int64_t start_ns, double fps);
+  /// A tracker's sample of camera `camera_id`'s pose (CameraPose): kept for a
+  /// camera of this node posed live (RigSource::tracked_by_topic), ignored for
+  /// any other (another node's camera). A sample LivePoseTrack refuses (out of
+  /// order, not a pose) is named once and counted rejected.
+  void OnCameraPose(uint32_t camera_id, int64_t stamp_ns, const Rigid3d& world_from_camera);
+  /// Called in Step just before a frame's live-posed cameras are posed, so the
+  /// samples that came while it waited for the frame are in (capture_node takes
+  /// its CameraPose reader there).
+  void SetPoseRefresh(std::function<void()> refresh) { pose_refresh_ = std::move(refresh); }
+  /// Frames of live-posed cameras not published for want of a pose near them.
+  int64_t unposed_frames() const { return unposed_frames_; }
   /// Announced timelines refused for their start (outside the window).
   int64_t timelines_refused() const { return timelines_refused_; }
   /// Starts: on the --start-time timeline, else on one heard of (OnTimeline before
@@ -153,6 +174,10 @@ class CaptureController {
   int64_t published_ = 0;
   std::string incomplete_;
   RigFrame frame_;
+  std::map<uint32_t, LivePoseTrack> live_poses_;  // by camera id: the cameras posed live
+  std::function<void()> pose_refresh_;
+  std::set<std::string> pose_said_;  // kinds of pose refusal named once
+  int64_t unposed_frames_ = 0;
   /// At the source's end: logs and keeps an incomplete end. Returns true to go on
   /// (--loop rewound the source).
   bool AtEnd();

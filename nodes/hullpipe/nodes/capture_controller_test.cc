@@ -472,5 +472,120 @@ TEST(Capture, ATrackedCameraSendsItsPoseAndTheHullUsesIt) {
   EXPECT_GT(misses(unmoved), 100) << "control: the calibrated pose must carve the moved camera's sphere away";
 }
 
+// The same camera posed live (rig 'tracked: topic'): its frames carry no pose;
+// a tracker's samples at 200 Hz, 2.5 ms off the frames' times, arrive as
+// CameraPose, the one after each frame's time by the time it is posed (as for a
+// live camera, whose frame arrives after its exposure). Each frame takes the
+// pose interpolated at its capture time: the
+// path's own pose to 1e-5 (linear interpolation over 5 ms of a path turning at
+// most 0.35 rad/s and moving at most 0.6 m/s errs by about 2e-6; a frame
+// posed by the sample before it, 2.5 ms stale, is 1e-3 off), and the hull
+// holds the sphere (the calibrated pose, the control, carves it away). When the
+// tracker stops, the camera's frames are not published and are counted; the
+// other cameras' still are.
+TEST(Capture, ACameraPosedLiveByATrackerTakesThePoseAtItsFramesTime) {
+  FakeClock clock;
+  SyntheticRigOptions so;
+  so.cameras = 4;
+  so.width = 192;
+  so.height = 144;
+  so.fps = 25;
+  so.frames = 30;
+  so.scene = "sphere";
+  so.tracked_camera = 2;
+  // The synthetic source moves camera 2 and says its pose with each frame;
+  // posed live, the pose must come from the tracker instead.
+  struct PosedLive final : RigSource {
+    std::unique_ptr<RigSource> inner;
+    const std::vector<Camera>& cameras() const override { return inner->cameras(); }
+    int rig_camera_count() const override { return inner->rig_camera_count(); }
+    Aabb workspace() const override { return inner->workspace(); }
+    double fps() const override { return inner->fps(); }
+    bool Next(RigFrame* f) override {
+      const bool ok = inner->Next(f);
+      f->poses.clear();
+      return ok;
+    }
+    bool Rewind() override { return inner->Rewind(); }
+    std::vector<bool> tracked_by_topic() const override { return {false, true, false, false}; }
+  } source;
+  source.inner = OpenSyntheticRig(so);
+  struct ToAssembler final : CaptureSink {
+    FramesetAssembler a{8};
+    std::vector<std::pair<uint32_t, std::optional<Rigid3d>>> sent;
+    void PublishCameraInfo(const Camera& c, const Aabb& ws) override {
+      a.SetCamera(c);
+      a.SetWorkspace(ws);
+    }
+    PublishTimes PublishFrame(const CameraFrameOut& f) override {
+      sent.push_back({f.stamp.camera_id, f.cam_from_world ? std::optional<Rigid3d>(*f.cam_from_world) : std::nullopt});
+      a.AddMap(MapSample{.camera_id = int(f.stamp.camera_id), .seq = f.stamp.seq,
+          .capture_time_ns = f.stamp.capture_time_ns, .camera_count = int(f.camera_count), .map = f.map.clone(),
+          .source_time_s = f.stamp.source_time_s, .source_id = 0, .arrival_ns = 0,
+          .cam_from_world = f.cam_from_world ? std::optional<Rigid3d>(*f.cam_from_world) : std::nullopt});
+      return {};
+    }
+    void AnnounceTimeline(int64_t, double) override {}
+  } sink;
+  CaptureController c({}, clock, source, sink);
+  const Camera calibrated = source.cameras()[1];
+  const Eigen::Vector3d target(0, 0, -1.0);
+  // The tracker: samples at start + 2.5 ms + k 5 ms, up to 5 ms past now, until it stops.
+  int64_t next_sample = -1, tracker_stops = INT64_MAX;
+  c.SetPoseRefresh([&] {
+    const int64_t start = c.timeline_start_ns();
+    if (next_sample < 0) next_sample = start + 2'500'000 - 50'000'000;
+    for (; next_sample <= clock.WallNs() + 5'000'000 && next_sample < tracker_stops; next_sample += 5'000'000) {
+      const double t = double(next_sample - start) * 1e-9;  // the source's time at that instant
+      c.OnCameraPose(2, next_sample, SyntheticTrackedPose(calibrated, target, t).Inverse());
+    }
+  });
+  c.OnCameraPose(7, 0, Rigid3d{});  // another node's camera: ignored, not counted
+  c.PublishCalibration();
+  c.Start();
+  for (int k = 0; k < 7; ++k) ASSERT_TRUE(c.Step());
+  EXPECT_EQ(c.unposed_frames(), 0);
+  EXPECT_EQ(c.counters().rejected(), 0);
+  auto fs = sink.a.TakeNewest();
+  ASSERT_TRUE(fs);
+  const Rigid3d expected = SyntheticTrackedPose(calibrated, target, fs->source_time_s);
+  ASSERT_EQ(fs->maps[1].camera.id, 2);
+  EXPECT_LT((fs->maps[1].camera.cam_from_world.rotation - expected.rotation).norm(), 1e-5);
+  EXPECT_LT((fs->maps[1].camera.cam_from_world.translation - expected.translation).norm(), 1e-5);
+  EXPECT_GT((expected.Inverse().translation - calibrated.Center()).norm(), 0.2) << "the camera moved";
+  const SyntheticScene scene = NamedScene("sphere", fs->source_time_s);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.6, 0.6);
+  std::vector<Eigen::Vector3d> inside;
+  while (inside.size() < 2000) {
+    const Eigen::Vector3d p = target + Eigen::Vector3d(u(rng), u(rng), u(rng));
+    double d = 1e9;
+    for (const auto& sh : scene.shapes) d = std::min(d, sh.SignedDistance(p));
+    if (d < -0.03) inside.push_back(p);  // 3 cm inside: more than a pixel (2.3 cm at the sphere)
+  }
+  auto misses = [&](const std::vector<CameraMap>& maps) {
+    const VolumeQuery hull(maps, sink.a.workspace());
+    return std::count_if(inside.begin(), inside.end(), [&](const Eigen::Vector3d& p) { return !hull.Inside(p); });
+  };
+  EXPECT_EQ(misses(fs->maps), 0);
+  std::vector<CameraMap> unmoved = fs->maps;
+  unmoved[1].camera = calibrated;
+  EXPECT_GT(misses(unmoved), 100) << "control: the calibrated pose must carve the moved camera's sphere away";
+
+  // The tracker stops: once its last sample is more than 50 ms behind a frame,
+  // camera 2's frames are held back and counted; the others go on.
+  tracker_stops = clock.WallNs();
+  const auto sent_before = sink.sent.size();
+  for (int k = 0; k < 5; ++k) ASSERT_TRUE(c.Step());
+  EXPECT_GE(c.unposed_frames(), 3);
+  EXPECT_EQ(c.counters().rejected(), c.unposed_frames());
+  int camera2 = 0, others = 0;
+  for (size_t i = sent_before; i < sink.sent.size(); ++i) (sink.sent[i].first == 2 ? camera2 : others)++;
+  EXPECT_EQ(others, 15);
+  EXPECT_EQ(camera2, 5 - c.unposed_frames());
+  for (size_t i = 0; i < sink.sent.size(); ++i)
+    EXPECT_EQ(sink.sent[i].second.has_value(), sink.sent[i].first == 2) << "only the tracked camera carries a pose";
+}
+
 }  // namespace
 }  // namespace hullpipe::nodes

@@ -70,6 +70,11 @@ void CaptureFlags::Register(CLI::App& app) {
                  "Threads that scale, encode and write the cameras' frames at once (0: the machine's cores)")
       ->check(CLI::Range(0, 256))
       ->capture_default_str();
+  app.add_option("--camera-pose-hold", o.camera_pose_hold_s,
+                 "A camera posed live (rig 'tracked: topic'): most seconds between a frame and the tracker's "
+                 "nearest CameraPose for the frame to take it")
+      ->check(CLI::Range(0.001, 1.0))
+      ->capture_default_str();
   app.add_flag("!--no-read-ahead", read_ahead,
                "Read and segment each frame only when it is due (default: file and synthetic sources read the "
                "next frame while this one is published)");

@@ -32,6 +32,21 @@ void Ros2BridgeOptions::Check() const {
   }
   if (!(pose.max_skew_s > 0)) throw std::invalid_argument("--max-pose-skew must be > 0 s");
   if (head_frame.size() > 256) throw std::invalid_argument("--head-frame: longer than 256 characters");
+  if (camera_pose_topics.size() + camera_frames.size() > kMaxTrackedCameras)
+    throw std::invalid_argument("--camera-pose and --camera-frame: more than " + std::to_string(kMaxTrackedCameras) +
+                                " tracked cameras");
+  for (const auto& [id, topic] : camera_pose_topics) {
+    try {
+      DdsTopicOf(topic);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("--camera-pose " + std::to_string(id) + "=" + topic + ": " + e.what());
+    }
+    if (camera_frames.count(id))
+      throw std::invalid_argument("camera " + std::to_string(id) + ": both --camera-pose and --camera-frame");
+  }
+  for (const auto& [id, frame] : camera_frames)
+    if (frame.empty() || frame.size() > 256)
+      throw std::invalid_argument("--camera-frame " + std::to_string(id) + ": a frame name of 1 to 256 characters");
   if (derive.hull_point_stride < 1 || derive.hull_point_stride > 64)
     throw std::invalid_argument("--hull-point-stride must be in [1, 64]");
 }
@@ -57,15 +72,22 @@ Ros2Bridge::Ros2Bridge(const dds::Participant& hullpipe, const dds::Participant&
   if (!o_.head_pose_topic.empty())
     poses_ = std::make_unique<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>>(ros, DdsTopicOf(o_.head_pose_topic),
                                                                                  kPoseReaderQos);
-  if (!o_.head_frame.empty())
+  if (!o_.head_frame.empty() || !o_.camera_frames.empty())
     tf_ = std::make_unique<dds::Reader<tf2_msgs_msg_dds__TFMessage_>>(ros, DdsTopicOf("/tf"), kTfReaderQos);
-  if (poses_ || tf_) head_ = std::make_unique<dds::Writer<hullpipe_msg_HeadPose>>(hullpipe);
+  if (poses_ || !o_.head_frame.empty()) head_ = std::make_unique<dds::Writer<hullpipe_msg_HeadPose>>(hullpipe);
+  for (const auto& [id, topic] : o_.camera_pose_topics)
+    camera_topics_.push_back(
+        {id, std::make_unique<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>>(ros, DdsTopicOf(topic),
+                                                                                 kCameraPoseReaderQos)});
+  if (!o_.camera_pose_topics.empty() || !o_.camera_frames.empty())
+    camera_poses_ = std::make_unique<dds::Writer<hullpipe_msg_CameraPose>>(hullpipe);
 }
 
 std::vector<dds_entity_t> Ros2Bridge::TrackerConditions() const {
   std::vector<dds_entity_t> c;
   if (poses_) c.push_back(poses_->condition());
   if (tf_) c.push_back(tf_->condition());
+  for (const auto& t : camera_topics_) c.push_back(t.reader->condition());
   return c;
 }
 
@@ -122,11 +144,18 @@ size_t Ros2Bridge::Step() {
   if (poses_)
     n += poses_->TakeEach([&](const geometry_msgs_msg_dds__PoseStamped_& m, const dds_sample_info_t&) { OnPose(m); });
   if (tf_) n += tf_->TakeEach([&](const tf2_msgs_msg_dds__TFMessage_& m, const dds_sample_info_t&) { OnTf(m); });
+  for (const auto& t : camera_topics_)
+    n += t.reader->TakeEach([&](const geometry_msgs_msg_dds__PoseStamped_& m, const dds_sample_info_t&) {
+      const std::string what = "camera " + std::to_string(t.camera_id) + "'s pose";
+      if (const auto pose = Checked([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, what))
+        PassOnCamera(t.camera_id, *pose, m.header.stamp);
+    });
   return n;
 }
 
 void Ros2Bridge::OnPose(const geometry_msgs_msg_dds__PoseStamped_& m) {
-  PassOn([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, m.header.stamp);
+  if (const auto pose = Checked([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, "a tracker pose"))
+    PassOnHead(*pose, m.header.stamp);
 }
 
 void Ros2Bridge::OnTf(const tf2_msgs_msg_dds__TFMessage_& m) {
@@ -139,28 +168,43 @@ void Ros2Bridge::OnTf(const tf2_msgs_msg_dds__TFMessage_& m) {
   }
   for (uint32_t i = 0; i < n; ++i) {
     const auto& t = m.transforms._buffer[i];
-    if (!t.child_frame_id || std::strncmp(t.child_frame_id, o_.head_frame.c_str(), o_.head_frame.size() + 1) != 0)
-      continue;  // another frame: not ours to check
-    PassOn([&](const PoseCheck& check) { return HeadFromTransform(t, check); }, t.header.stamp);
+    if (!t.child_frame_id) continue;
+    const std::string child(t.child_frame_id, strnlen(t.child_frame_id, 257));
+    auto check = [&](const PoseCheck& c) { return HeadFromTransform(t, c); };
+    if (!o_.head_frame.empty() && child == o_.head_frame) {
+      if (const auto pose = Checked(check, "a tracker pose")) PassOnHead(*pose, t.header.stamp);
+    }
+    for (const auto& [id, frame] : o_.camera_frames)  // at most kMaxTrackedCameras
+      if (child == frame)
+        if (const auto pose = Checked(check, "camera " + std::to_string(id) + "'s pose"))
+          PassOnCamera(id, *pose, t.header.stamp);
   }
 }
 
-void Ros2Bridge::PassOn(const std::function<Rigid3d(const PoseCheck&)>& head,
-                        const builtin_interfaces_msg_dds__Time_& stamp) {
+std::optional<Rigid3d> Ros2Bridge::Checked(const std::function<Rigid3d(const PoseCheck&)>& pose,
+                                           const std::string& what) {
   PoseCheck check = o_.pose;
   check.now_ns = clock_.WallNs();
-  Rigid3d world_from_eye;
   try {
-    world_from_eye = head(check);
+    return pose(check);
   } catch (const dds::MessageError& e) {
-    // Named once per kind of fault (the field the message names).
-    const std::string what = e.what();
-    const std::string kind = what.substr(0, what.find(' ', what.find(": ") + 2));
-    Refused(&counts_.poses_refused, "a tracker pose (" + kind + ")", what);
-    return;
+    // Named once per kind of fault (the field the message names), per whose pose.
+    const std::string text = e.what();
+    const std::string kind = text.substr(0, text.find(' ', text.find(": ") + 2));
+    Refused(&counts_.poses_refused, what + " (" + kind + ")", text);
+    return std::nullopt;
   }
+}
+
+void Ros2Bridge::PassOnHead(const Rigid3d& world_from_eye, const builtin_interfaces_msg_dds__Time_& stamp) {
   head_->Write(dds::HeadPoseToMsg(world_from_eye, o_.tracker_id, NanosecondsOf(stamp)));  // checked: valid
   ++counts_.poses;
+}
+
+void Ros2Bridge::PassOnCamera(uint32_t camera_id, const Rigid3d& world_from_camera,
+                              const builtin_interfaces_msg_dds__Time_& stamp) {
+  camera_poses_->Write(dds::CameraPoseToMsg(world_from_camera, camera_id, NanosecondsOf(stamp)));  // checked: valid
+  ++counts_.camera_poses;
 }
 
 }  // namespace hullpipe::ros2

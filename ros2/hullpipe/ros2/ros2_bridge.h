@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -37,6 +38,14 @@ struct Ros2BridgeOptions {
   std::string head_frame;
   /// HeadPose.tracker_id of the poses it passes on.
   uint32_t tracker_id = 20;
+  /// Tracked cameras (paper §5: the camera on the head-mounted display), by
+  /// hullpipe camera id: a ROS 2 PoseStamped topic, or a tf frame (a child of
+  /// pose.frame_id on /tf), whose poses are the camera's optical frame in the
+  /// world (world_from_camera, REP 103's optical convention = hullpipe's), passed
+  /// on as CameraPose for capture_node (rig 'tracked: topic'). At most
+  /// kMaxTrackedCameras in all.
+  std::map<uint32_t, std::string> camera_pose_topics, camera_frames;
+  static constexpr size_t kMaxTrackedCameras = 64;
   /// What a pose must satisfy (frame, stamp skew, position bound); now_ns is
   /// the clock's at each pose.
   PoseCheck pose;
@@ -48,6 +57,7 @@ struct Ros2BridgeOptions {
 struct Ros2BridgeCounts {
   std::map<std::string, uint64_t> published;  ///< Per ROS 2 topic.
   uint64_t poses = 0, poses_refused = 0, samples_refused = 0;
+  uint64_t camera_poses = 0;  ///< Tracked cameras' poses passed on (refused ones are in poses_refused).
   uint64_t transforms_skipped = 0;  ///< /tf transforms past kMaxTransformsPerMessage in a message.
 };
 
@@ -73,9 +83,11 @@ class Ros2Bridge {
   void Publish(const Ros2Message& m);
   void OnPose(const geometry_msgs_msg_dds__PoseStamped_& m);
   void OnTf(const tf2_msgs_msg_dds__TFMessage_& m);
-  // Checks a tracker's pose (head throws MessageError) and passes it on as
-  // HeadPose stamped `stamp`, or refuses it once per kind, counted.
-  void PassOn(const std::function<Rigid3d(const PoseCheck&)>& head, const builtin_interfaces_msg_dds__Time_& stamp);
+  // Checks a tracker's pose (`pose` throws MessageError) and returns it, or
+  // refuses it once per kind (`what` names whose pose), counted.
+  std::optional<Rigid3d> Checked(const std::function<Rigid3d(const PoseCheck&)>& pose, const std::string& what);
+  void PassOnHead(const Rigid3d& world_from_eye, const builtin_interfaces_msg_dds__Time_& stamp);
+  void PassOnCamera(uint32_t camera_id, const Rigid3d& world_from_camera, const builtin_interfaces_msg_dds__Time_& stamp);
   void Refused(uint64_t* counter, const std::string& kind, const std::string& why);
 
   const dds::Participant& ros_;
@@ -96,6 +108,12 @@ class Ros2Bridge {
   std::unique_ptr<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>> poses_;
   std::unique_ptr<dds::Reader<tf2_msgs_msg_dds__TFMessage_>> tf_;
   std::unique_ptr<dds::Writer<hullpipe_msg_HeadPose>> head_;
+  struct CameraTopic {
+    uint32_t camera_id;
+    std::unique_ptr<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>> reader;
+  };
+  std::vector<CameraTopic> camera_topics_;
+  std::unique_ptr<dds::Writer<hullpipe_msg_CameraPose>> camera_poses_;
   std::map<std::string, Publication> publications_;  // by ROS 2 topic (bounded by the deriver's topics)
   std::set<std::string> said_;                       // kinds of refusal named once
   Ros2BridgeCounts counts_;

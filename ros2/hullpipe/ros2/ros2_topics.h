@@ -46,6 +46,9 @@ inline constexpr dds::QosSpec kLatchedQos{true, true, 1};
 /// A tracker's poses are read best-effort, the newest only: a best-effort
 /// reader matches reliable and best-effort (sensor-data) writers alike.
 inline constexpr dds::QosSpec kPoseReaderQos{false, false, 1};
+/// A tracked camera's poses: best-effort, deep enough to keep a 1 kHz
+/// tracker's samples between two takes (capture_node interpolates them).
+inline constexpr dds::QosSpec kCameraPoseReaderQos{false, false, 64};
 /// /tf read best-effort, a few messages deep (a tracker's frame among others').
 inline constexpr dds::QosSpec kTfReaderQos{false, false, 16};
 

@@ -115,6 +115,13 @@ hullpipe_msg_HeadPose HeadPoseToMsg(const Rigid3d& world_from_eye, uint32_t trac
 /// Throws MessageError.
 Rigid3d HeadPoseFromMsg(const hullpipe_msg_HeadPose& msg);
 
+/// A tracked camera's pose message of world_from_camera (metres, OpenCV
+/// camera frame), measured at `stamp_ns`.
+hullpipe_msg_CameraPose CameraPoseToMsg(const Rigid3d& world_from_camera, uint32_t camera_id, int64_t stamp_ns);
+/// Validated world_from_camera (finite, rotation orthonormal with det +1 to
+/// 1e-6). Throws MessageError naming the camera.
+Rigid3d CameraPoseFromMsg(const hullpipe_msg_CameraPose& msg);
+
 /// VirtualObjectState of a sphere's state.
 hullpipe_msg_VirtualObjectState VirtualObjectToMsg(const VirtualObjectSample& s);
 /// Validated state (finite position, velocity and radius >= 0). Throws MessageError.
