@@ -3,11 +3,13 @@
 // Foxglove's ROS 2 deserializer and the ROS 2 Humble definitions Foxglove ships
 // (tests/js/decode_ros2.mjs), field by field; and a tracker's pose is refused
 // when it is not one.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <set>
 #include <thread>
 
 #include <Eigen/Geometry>
@@ -315,6 +317,55 @@ TEST(Ros2Process, PublishesTheRigAsRos2TopicsAndFollowsATracker) {
   ASSERT_TRUE(got_info && got_map && got_image && got_raw) << test::ReadFile(log);
   EXPECT_GT(info_stamp, t0);  // the capture time, not the wall clock
   EXPECT_EQ(map_bytes_on, 16u * 12u);
+
+  // The node on ros_discovery_info (transient-local): named, its gid the
+  // participant's GUID and its writers' gids the GUIDs Cyclone's own discovery
+  // reports for the rt/ writers (DCPSPublication), as rmw_cyclonedds makes them.
+  {
+    dds::Reader<rmw_dds_common_msg_dds__ParticipantEntitiesInfo_> discovery(p, "ros_discovery_info",
+                                                                            ros2::kDiscoveryQos);
+    dds::Entity publications(dds_create_reader(p.handle(), DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr));
+    std::set<std::string> rt_writers;  // GUIDs of the bridge's rt/ writers, as bytes
+    std::string participant_guid, info_gid;
+    std::set<std::string> info_writers;
+    std::string node_name;
+    auto guid = [](const void* bytes) { return std::string(static_cast<const char*>(bytes), 16); };
+    for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+         std::chrono::steady_clock::now() < until;) {
+      void* samples[16] = {nullptr};
+      dds_sample_info_t si[16];
+      const int32_t n = dds_take(publications.handle(), samples, si, 16, 16);
+      for (int32_t i = 0; i < n; ++i) {
+        const auto* ep = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
+        if (si[i].valid_data && ep->topic_name && std::string(ep->topic_name).rfind("rt/hullpipe/cam1/", 0) == 0) {
+          rt_writers.insert(guid(ep->key.v));
+          participant_guid = guid(ep->participant_key.v);
+        }
+      }
+      if (n > 0) dds_return_loan(publications.handle(), samples, n);
+      discovery.TakeEach([&](const rmw_dds_common_msg_dds__ParticipantEntitiesInfo_& m, const dds_sample_info_t&) {
+        info_gid = guid(m.gid.data);
+        EXPECT_EQ(std::count(m.gid.data + 16, m.gid.data + 24, 0), 8) << "zero-padded";
+        ASSERT_EQ(m.node_entities_info_seq._length, 1u);
+        const auto& node = m.node_entities_info_seq._buffer[0];
+        node_name = node.node_name;
+        EXPECT_STREQ(node.node_namespace, "/");
+        info_writers.clear();
+        for (uint32_t k = 0; k < node.writer_gid_seq._length; ++k)
+          info_writers.insert(guid(node.writer_gid_seq._buffer[k].data));
+        EXPECT_EQ(node.reader_gid_seq._length, 1u);  // the tracker's PoseStamped
+      });
+      if (rt_writers.size() >= 3 && !info_gid.empty() &&
+          std::includes(info_writers.begin(), info_writers.end(), rt_writers.begin(), rt_writers.end()))
+        break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    EXPECT_EQ(node_name, "hullpipe_ros2");
+    EXPECT_GE(rt_writers.size(), 3u);  // camera_info, object_pixel_map, image(s)
+    EXPECT_TRUE(std::includes(info_writers.begin(), info_writers.end(), rt_writers.begin(), rt_writers.end()))
+        << rt_writers.size() << " rt/ writers, " << info_writers.size() << " named";
+    EXPECT_EQ(info_gid, participant_guid);
+  }
 
   // /tf_static is transient-local: a reader that joins now still gets it.
   dds::Reader<tf2_msgs_msg_dds__TFMessage_> tf(p, "rt/tf_static", ros2::kTfStaticQos);

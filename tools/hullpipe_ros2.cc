@@ -61,6 +61,9 @@ int main(int argc, char** argv) {
   app.add_option("--max-pose-skew", o.pose.max_skew_s, "Most seconds between a pose's stamp and now")
       ->capture_default_str()
       ->check(CLI::Range(0.001, 86400.0));
+  app.add_option("--ros-node-name", o.node_name,
+                 "The ROS node named on ros_discovery_info for ros2 node list (\"\": none)")
+      ->capture_default_str();
   app.add_option("--tracker-id", o.tracker_id, "HeadPose.tracker_id of the poses passed on")->capture_default_str();
   std::vector<std::string> camera_pose_specs, camera_frame_specs;
   app.add_option("--camera-pose", camera_pose_specs,

@@ -1,6 +1,8 @@
 #include "hullpipe/ros2/ros2_bridge.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cstdio>
 #include <cstring>
 
 #include <spdlog/spdlog.h>
@@ -44,6 +46,11 @@ void Ros2BridgeOptions::Check() const {
     if (camera_frames.count(id))
       throw std::invalid_argument("camera " + std::to_string(id) + ": both --camera-pose and --camera-frame");
   }
+  if (!node_name.empty()) {
+    bool ok = node_name.size() <= 256 && !std::isdigit(static_cast<unsigned char>(node_name[0]));
+    for (const char ch : node_name) ok = ok && (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_');
+    if (!ok) throw std::invalid_argument("--ros-node-name '" + node_name + "': [A-Za-z_][A-Za-z0-9_]*, at most 256");
+  }
   for (const auto& [id, frame] : camera_frames)
     if (frame.empty() || frame.size() > 256)
       throw std::invalid_argument("--camera-frame " + std::to_string(id) + ": a frame name of 1 to 256 characters");
@@ -81,6 +88,11 @@ Ros2Bridge::Ros2Bridge(const dds::Participant& hullpipe, const dds::Participant&
                                                                                  kCameraPoseReaderQos)});
   if (!o_.camera_pose_topics.empty() || !o_.camera_frames.empty())
     camera_poses_ = std::make_unique<dds::Writer<hullpipe_msg_CameraPose>>(hullpipe);
+  if (!o_.node_name.empty()) {
+    discovery_ = std::make_unique<dds::Writer<rmw_dds_common_msg_dds__ParticipantEntitiesInfo_>>(
+        ros, "ros_discovery_info", kDiscoveryQos);
+    PublishDiscovery();
+  }
 }
 
 std::vector<dds_entity_t> Ros2Bridge::TrackerConditions() const {
@@ -116,6 +128,7 @@ void Ros2Bridge::Publish(const Ros2Message& m) {
         dds::Check(dds_create_writer(ros_.handle(), p.topic.handle(), dds::Qos(m.qos).get(), nullptr),
                    "dds_create_writer"));
     it = publications_.emplace(m.topic, std::move(p)).first;
+    discovery_stale_ = true;
     spdlog::info("publishing {} ({})", m.topic, m.type);
   }
   dds::Check(dds_write(it->second.writer.handle(), m.msg), "dds_write");
@@ -150,6 +163,7 @@ size_t Ros2Bridge::Step() {
       if (const auto pose = Checked([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, what))
         PassOnCamera(t.camera_id, *pose, m.header.stamp);
     });
+  if (discovery_stale_) PublishDiscovery();
   return n;
 }
 
@@ -179,6 +193,36 @@ void Ros2Bridge::OnTf(const tf2_msgs_msg_dds__TFMessage_& m) {
         if (const auto pose = Checked(check, "camera " + std::to_string(id) + "'s pose"))
           PassOnCamera(id, *pose, t.header.stamp);
   }
+}
+
+void Ros2Bridge::PublishDiscovery() {
+  discovery_stale_ = false;
+  if (!discovery_) return;
+  // rmw_cyclonedds' gid: the entity's DDS GUID, zero-padded.
+  auto gid = [](dds_entity_t e) {
+    rmw_dds_common_msg_dds__Gid_ g{};
+    dds_guid_t guid;
+    dds::Check(dds_get_guid(e, &guid), "dds_get_guid");
+    static_assert(sizeof guid.v <= sizeof g.data);
+    std::memcpy(g.data, guid.v, sizeof guid.v);
+    return g;
+  };
+  std::vector<rmw_dds_common_msg_dds__Gid_> readers, writers;
+  if (poses_) readers.push_back(gid(poses_->handle()));
+  if (tf_) readers.push_back(gid(tf_->handle()));
+  for (const auto& t : camera_topics_) readers.push_back(gid(t.reader->handle()));
+  for (const auto& [topic, p] : publications_) writers.push_back(gid(p.writer.handle()));
+  rmw_dds_common_msg_dds__NodeEntitiesInfo_ node{};
+  std::snprintf(node.node_namespace, sizeof node.node_namespace, "%s", "/");
+  std::snprintf(node.node_name, sizeof node.node_name, "%s", o_.node_name.c_str());
+  dds::Borrow(&node.reader_gid_seq, readers);
+  dds::Borrow(&node.writer_gid_seq, writers);
+  rmw_dds_common_msg_dds__ParticipantEntitiesInfo_ info{};
+  info.gid = gid(ros_.handle());
+  info.node_entities_info_seq._buffer = &node;
+  info.node_entities_info_seq._length = info.node_entities_info_seq._maximum = 1;
+  info.node_entities_info_seq._release = false;
+  discovery_->Write(info);
 }
 
 std::optional<Rigid3d> Ros2Bridge::Checked(const std::function<Rigid3d(const PoseCheck&)>& pose,

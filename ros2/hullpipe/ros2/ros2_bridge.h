@@ -46,6 +46,12 @@ struct Ros2BridgeOptions {
   /// kMaxTrackedCameras in all.
   std::map<uint32_t, std::string> camera_pose_topics, camera_frames;
   static constexpr size_t kMaxTrackedCameras = 64;
+  /// The ROS node its ROS 2 readers and writers belong to, published on
+  /// `ros_discovery_info` (rmw_dds_common's ParticipantEntitiesInfo, as every
+  /// rmw does) so `ros2 node list` names it; "": not published (ROS 2 tools
+  /// then list the topics under a placeholder node). [A-Za-z_][A-Za-z0-9_]*,
+  /// at most 256 characters; the namespace is "/".
+  std::string node_name = "hullpipe_ros2";
   /// What a pose must satisfy (frame, stamp skew, position bound); now_ns is
   /// the clock's at each pose.
   PoseCheck pose;
@@ -81,6 +87,9 @@ class Ros2Bridge {
     dds::Entity topic, writer;
   };
   void Publish(const Ros2Message& m);
+  // ros_discovery_info: this participant's node with its ROS 2 readers and
+  // writers (their GUIDs as gids), sent again whenever one is added.
+  void PublishDiscovery();
   void OnPose(const geometry_msgs_msg_dds__PoseStamped_& m);
   void OnTf(const tf2_msgs_msg_dds__TFMessage_& m);
   // Checks a tracker's pose (`pose` throws MessageError) and returns it, or
@@ -115,6 +124,8 @@ class Ros2Bridge {
   std::vector<CameraTopic> camera_topics_;
   std::unique_ptr<dds::Writer<hullpipe_msg_CameraPose>> camera_poses_;
   std::map<std::string, Publication> publications_;  // by ROS 2 topic (bounded by the deriver's topics)
+  std::unique_ptr<dds::Writer<rmw_dds_common_msg_dds__ParticipantEntitiesInfo_>> discovery_;
+  bool discovery_stale_ = true;
   std::set<std::string> said_;                       // kinds of refusal named once
   Ros2BridgeCounts counts_;
 };

@@ -29,6 +29,7 @@ HULLPIPE_ROS2_TYPE(geometry_msgs_msg_dds__PoseStamped_)
 HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__PointCloud2_)
 HULLPIPE_ROS2_TYPE(visualization_msgs_msg_dds__MarkerArray_)
 HULLPIPE_ROS2_TYPE(hullpipe_msgs_msg_dds__CollisionReport_)
+HULLPIPE_ROS2_TYPE(rmw_dds_common_msg_dds__ParticipantEntitiesInfo_)
 #undef HULLPIPE_ROS2_TYPE
 
 }  // namespace hullpipe::dds
@@ -46,6 +47,9 @@ inline constexpr dds::QosSpec kLatchedQos{true, true, 1};
 /// A tracker's poses are read best-effort, the newest only: a best-effort
 /// reader matches reliable and best-effort (sensor-data) writers alike.
 inline constexpr dds::QosSpec kPoseReaderQos{false, false, 1};
+/// ros_discovery_info's, as rmw_dds_common's graph cache writes it: reliable,
+/// transient-local, keep-last 1.
+inline constexpr dds::QosSpec kDiscoveryQos{true, true, 1};
 /// A tracked camera's poses: best-effort, deep enough to keep a 1 kHz
 /// tracker's samples between two takes (capture_node interpolates them).
 inline constexpr dds::QosSpec kCameraPoseReaderQos{false, false, 64};
