@@ -72,6 +72,8 @@ inline std::map<std::string, std::vector<uint8_t>> ValidSampleOfEachTopic(const 
   encode("hullpipe::msg::SceneCommand", &command);
   const auto head = HeadPoseToMsg(Rigid3d{}, 1, kStampNs);
   encode("hullpipe::msg::HeadPose", &head);
+  const auto camera_pose = CameraPoseToMsg(camera.cam_from_world.Inverse(), uint32_t(camera.id), kStampNs);
+  encode("hullpipe::msg::CameraPose", &camera_pose);
   ModelPartSample part;
   part.object_id = 1000, part.model_id = 1000, part.name = "part", part.file = "model.glb";
   part.vertices = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}};
