@@ -417,54 +417,54 @@ VirtualMeshSample VirtualMeshFromMsg(const hullpipe_msg_VirtualMesh& m) {
   return out;
 }
 
+namespace {
+// A pose as the messages carry it: rotation row-major, translation.
+void PoseToArrays(const Rigid3d& X, double rotation[9], double translation[3]) {
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) rotation[3 * r + c] = X.rotation(r, c);
+    translation[r] = X.translation[r];
+  }
+}
+// The pose of those arrays, checked: finite, the rotation orthonormal with
+// det +1 to 1e-6. Throws MessageError starting with `who`.
+Rigid3d PoseFromArrays(const double rotation[9], const double translation[3], const std::string& who) {
+  Rigid3d X;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) X.rotation(r, c) = rotation[3 * r + c];
+    X.translation[r] = translation[r];
+  }
+  if (!X.rotation.allFinite() || !X.translation.allFinite()) throw MessageError(who + "not finite");
+  if (!((X.rotation.transpose() * X.rotation - Eigen::Matrix3d::Identity()).norm() < 1e-6) ||
+      !(X.rotation.determinant() > 0))
+    throw MessageError(who + "rotation not orthonormal");
+  return X;
+}
+}  // namespace
+
 hullpipe_msg_HeadPose HeadPoseToMsg(const Rigid3d& X, uint32_t tracker_id, int64_t stamp_ns) {
   hullpipe_msg_HeadPose m{};
   m.tracker_id = tracker_id;
   m.stamp_ns = stamp_ns;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) m.world_from_eye_rotation[3 * r + c] = X.rotation(r, c);
-    m.world_from_eye_translation[r] = X.translation[r];
-  }
+  PoseToArrays(X, m.world_from_eye_rotation, m.world_from_eye_translation);
   return m;
 }
 
 Rigid3d HeadPoseFromMsg(const hullpipe_msg_HeadPose& m) {
-  Rigid3d X;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) X.rotation(r, c) = m.world_from_eye_rotation[3 * r + c];
-    X.translation[r] = m.world_from_eye_translation[r];
-  }
-  if (!X.rotation.allFinite() || !X.translation.allFinite())
-    throw MessageError("HeadPose from tracker " + std::to_string(m.tracker_id) + ": not finite");
-  if (!((X.rotation.transpose() * X.rotation - Eigen::Matrix3d::Identity()).norm() < 1e-6) ||
-      !(X.rotation.determinant() > 0))
-    throw MessageError("HeadPose from tracker " + std::to_string(m.tracker_id) + ": rotation not orthonormal");
-  return X;
+  return PoseFromArrays(m.world_from_eye_rotation, m.world_from_eye_translation,
+                        "HeadPose from tracker " + std::to_string(m.tracker_id) + ": ");
 }
 
 hullpipe_msg_CameraPose CameraPoseToMsg(const Rigid3d& X, uint32_t camera_id, int64_t stamp_ns) {
   hullpipe_msg_CameraPose m{};
   m.camera_id = camera_id;
   m.stamp_ns = stamp_ns;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) m.world_from_camera_rotation[3 * r + c] = X.rotation(r, c);
-    m.world_from_camera_translation[r] = X.translation[r];
-  }
+  PoseToArrays(X, m.world_from_camera_rotation, m.world_from_camera_translation);
   return m;
 }
 
 Rigid3d CameraPoseFromMsg(const hullpipe_msg_CameraPose& m) {
-  Rigid3d X;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) X.rotation(r, c) = m.world_from_camera_rotation[3 * r + c];
-    X.translation[r] = m.world_from_camera_translation[r];
-  }
-  const std::string who = "CameraPose of camera " + std::to_string(m.camera_id) + ": ";
-  if (!X.rotation.allFinite() || !X.translation.allFinite()) throw MessageError(who + "not finite");
-  if (!((X.rotation.transpose() * X.rotation - Eigen::Matrix3d::Identity()).norm() < 1e-6) ||
-      !(X.rotation.determinant() > 0))
-    throw MessageError(who + "rotation not orthonormal");
-  return X;
+  return PoseFromArrays(m.world_from_camera_rotation, m.world_from_camera_translation,
+                        "CameraPose of camera " + std::to_string(m.camera_id) + ": ");
 }
 
 static_assert(kMeshCloth == hullpipe_msg_MESH_KIND_CLOTH && kMeshParticles == hullpipe_msg_MESH_KIND_PARTICLES &&

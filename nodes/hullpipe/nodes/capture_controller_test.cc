@@ -406,6 +406,67 @@ TEST(Capture, ATimelineFarFromNowIsRefusedAndCounted) {
   EXPECT_EQ(sink2.frames.front().t_ns, now - 500'000'000'000 + 12'500 * 40'000'000LL);
 }
 
+// Four cameras 192x144 at 25 fps around the sphere, camera 2 moving on
+// SyntheticTrackedPose's path.
+SyntheticRigOptions TrackedSphereRig(int frames) {
+  SyntheticRigOptions so;
+  so.cameras = 4;
+  so.width = 192;
+  so.height = 144;
+  so.fps = 25;
+  so.frames = frames;
+  so.scene = "sphere";
+  so.tracked_camera = 2;
+  return so;
+}
+
+// A sink that assembles framesets as recon does, keeping each camera's pose.
+struct ToAssembler final : CaptureSink {
+  FramesetAssembler a{8};
+  std::vector<std::pair<uint32_t, std::optional<Rigid3d>>> sent;  ///< camera id, pose of each frame out
+  void PublishCameraInfo(const Camera& c, const Aabb& ws) override {
+    a.SetCamera(c);
+    a.SetWorkspace(ws);
+  }
+  PublishTimes PublishFrame(const CameraFrameOut& f) override {
+    const auto pose = f.cam_from_world ? std::optional<Rigid3d>(*f.cam_from_world) : std::nullopt;
+    sent.push_back({f.stamp.camera_id, pose});
+    a.AddMap(MapSample{.camera_id = int(f.stamp.camera_id), .seq = f.stamp.seq,
+        .capture_time_ns = f.stamp.capture_time_ns, .camera_count = int(f.camera_count), .map = f.map.clone(),
+        .source_time_s = f.stamp.source_time_s, .source_id = 0, .arrival_ns = 0, .cam_from_world = pose});
+    return {};
+  }
+  void AnnounceTimeline(int64_t, double) override {}
+};
+
+// Ground truth for a tracked camera's frameset: the visual hull contains the
+// object, so every point 3 cm inside the synthetic sphere (more than a pixel:
+// a pixel spans 2.3 cm at the sphere, 1 rad over 192 pixels 4.5 m away) must
+// be inside the hull of the frameset's maps; the same maps with the calibrated
+// (unmoved) pose for the tracked camera are the control: they carve the sphere
+// away.
+void ExpectTheHullHoldsTheSphere(const Frameset& fs, const Aabb& workspace, const Camera& calibrated,
+                                 size_t tracked_index) {
+  const SyntheticScene scene = NamedScene("sphere", fs.source_time_s);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.6, 0.6);
+  std::vector<Eigen::Vector3d> inside;
+  while (inside.size() < 2000) {
+    const Eigen::Vector3d p = Eigen::Vector3d(0, 0, -1.0) + Eigen::Vector3d(u(rng), u(rng), u(rng));
+    double d = 1e9;
+    for (const auto& sh : scene.shapes) d = std::min(d, sh.SignedDistance(p));
+    if (d < -0.03) inside.push_back(p);
+  }
+  auto misses = [&](const std::vector<CameraMap>& maps) {
+    const VolumeQuery hull(maps, workspace);
+    return std::count_if(inside.begin(), inside.end(), [&](const Eigen::Vector3d& p) { return !hull.Inside(p); });
+  };
+  EXPECT_EQ(misses(fs.maps), 0);
+  std::vector<CameraMap> unmoved = fs.maps;
+  unmoved[tracked_index].camera = calibrated;
+  EXPECT_GT(misses(unmoved), 100) << "control: the calibrated pose must carve the moved camera's sphere away";
+}
+
 // The paper's head-mounted camera: a tracked camera's pose travels with each of
 // its frames and the frameset uses it. Ground truth: the visual hull contains the
 // object, so every point 3 cm (more than a pixel) inside the synthetic sphere must be inside
@@ -413,30 +474,9 @@ TEST(Capture, ATimelineFarFromNowIsRefusedAndCounted) {
 // pose for the tracked camera are the control — they carve the sphere away.
 TEST(Capture, ATrackedCameraSendsItsPoseAndTheHullUsesIt) {
   FakeClock clock;
-  SyntheticRigOptions so;
-  so.cameras = 4;
-  so.width = 192;
-  so.height = 144;
-  so.fps = 25;
-  so.frames = 10;
-  so.scene = "sphere";
-  so.tracked_camera = 2;
+  const SyntheticRigOptions so = TrackedSphereRig(10);
   auto source = OpenSyntheticRig(so);
-  struct ToAssembler final : CaptureSink {
-    FramesetAssembler a{8};
-    void PublishCameraInfo(const Camera& c, const Aabb& ws) override {
-      a.SetCamera(c);
-      a.SetWorkspace(ws);
-    }
-    PublishTimes PublishFrame(const CameraFrameOut& f) override {
-      a.AddMap(MapSample{.camera_id = int(f.stamp.camera_id), .seq = f.stamp.seq,
-          .capture_time_ns = f.stamp.capture_time_ns, .camera_count = int(f.camera_count), .map = f.map.clone(),
-          .source_time_s = f.stamp.source_time_s, .source_id = 0, .arrival_ns = 0,
-          .cam_from_world = f.cam_from_world ? std::optional<Rigid3d>(*f.cam_from_world) : std::nullopt});
-      return {};
-    }
-    void AnnounceTimeline(int64_t, double) override {}
-  } sink;
+  ToAssembler sink;
   CaptureController c({}, clock, *source, sink);
   c.PublishCalibration();
   c.Start();
@@ -450,49 +490,23 @@ TEST(Capture, ATrackedCameraSendsItsPoseAndTheHullUsesIt) {
   EXPECT_LT((fs->maps[1].camera.cam_from_world.translation - expected.translation).norm(), 1e-12);
   const Eigen::Vector3d moved_centre = expected.Inverse().translation;
   EXPECT_GT((moved_centre - calibrated.Center()).norm(), 0.2) << "the camera moved";
-  const SyntheticScene scene = NamedScene("sphere", fs->source_time_s);
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> u(-0.6, 0.6);
-  std::vector<Eigen::Vector3d> inside;
-  while (inside.size() < 2000) {
-    const Eigen::Vector3d p = Eigen::Vector3d(0, 0, -1.0) + Eigen::Vector3d(u(rng), u(rng), u(rng));
-    double d = 1e9;
-    for (const auto& sh : scene.shapes) d = std::min(d, sh.SignedDistance(p));
-    // A pixel spans 2.3 cm at the sphere (1 rad over 192 pixels, 4.5 m away): a
-    // point 3 cm inside projects onto pixels whose centres see the sphere.
-    if (d < -0.03) inside.push_back(p);
-  }
-  auto misses = [&](const std::vector<CameraMap>& maps) {
-    const VolumeQuery hull(maps, sink.a.workspace());
-    return std::count_if(inside.begin(), inside.end(), [&](const Eigen::Vector3d& p) { return !hull.Inside(p); });
-  };
-  EXPECT_EQ(misses(fs->maps), 0);
-  std::vector<CameraMap> unmoved = fs->maps;
-  unmoved[1].camera = calibrated;
-  EXPECT_GT(misses(unmoved), 100) << "control: the calibrated pose must carve the moved camera's sphere away";
+  ExpectTheHullHoldsTheSphere(*fs, sink.a.workspace(), calibrated, 1);
 }
 
 // The same camera posed live (rig 'tracked: topic'): its frames carry no pose;
 // a tracker's samples at 200 Hz, 2.5 ms off the frames' times, arrive as
 // CameraPose, the one after each frame's time by the time it is posed (as for a
 // live camera, whose frame arrives after its exposure). Each frame takes the
-// pose interpolated at its capture time: the
-// path's own pose to 1e-5 (linear interpolation over 5 ms of a path turning at
-// most 0.35 rad/s and moving at most 0.6 m/s errs by about 2e-6; a frame
-// posed by the sample before it, 2.5 ms stale, is 1e-3 off), and the hull
+// pose interpolated at its capture time: the path's own pose to 1e-5 (linear
+// interpolation over 5 ms of a path turning at most 0.35 rad/s and moving at
+// most 0.6 m/s errs by about 2e-6; a frame posed by the sample before it,
+// 2.5 ms stale, is 1e-3 off), and the hull
 // holds the sphere (the calibrated pose, the control, carves it away). When the
 // tracker stops, the camera's frames are not published and are counted; the
 // other cameras' still are.
 TEST(Capture, ACameraPosedLiveByATrackerTakesThePoseAtItsFramesTime) {
   FakeClock clock;
-  SyntheticRigOptions so;
-  so.cameras = 4;
-  so.width = 192;
-  so.height = 144;
-  so.fps = 25;
-  so.frames = 30;
-  so.scene = "sphere";
-  so.tracked_camera = 2;
+  const SyntheticRigOptions so = TrackedSphereRig(30);
   // The synthetic source moves camera 2 and says its pose with each frame;
   // posed live, the pose must come from the tracker instead.
   struct PosedLive final : RigSource {
@@ -510,23 +524,7 @@ TEST(Capture, ACameraPosedLiveByATrackerTakesThePoseAtItsFramesTime) {
     std::vector<bool> tracked_by_topic() const override { return {false, true, false, false}; }
   } source;
   source.inner = OpenSyntheticRig(so);
-  struct ToAssembler final : CaptureSink {
-    FramesetAssembler a{8};
-    std::vector<std::pair<uint32_t, std::optional<Rigid3d>>> sent;
-    void PublishCameraInfo(const Camera& c, const Aabb& ws) override {
-      a.SetCamera(c);
-      a.SetWorkspace(ws);
-    }
-    PublishTimes PublishFrame(const CameraFrameOut& f) override {
-      sent.push_back({f.stamp.camera_id, f.cam_from_world ? std::optional<Rigid3d>(*f.cam_from_world) : std::nullopt});
-      a.AddMap(MapSample{.camera_id = int(f.stamp.camera_id), .seq = f.stamp.seq,
-          .capture_time_ns = f.stamp.capture_time_ns, .camera_count = int(f.camera_count), .map = f.map.clone(),
-          .source_time_s = f.stamp.source_time_s, .source_id = 0, .arrival_ns = 0,
-          .cam_from_world = f.cam_from_world ? std::optional<Rigid3d>(*f.cam_from_world) : std::nullopt});
-      return {};
-    }
-    void AnnounceTimeline(int64_t, double) override {}
-  } sink;
+  ToAssembler sink;
   CaptureController c({}, clock, source, sink);
   const Camera calibrated = source.cameras()[1];
   const Eigen::Vector3d target(0, 0, -1.0);
@@ -553,24 +551,7 @@ TEST(Capture, ACameraPosedLiveByATrackerTakesThePoseAtItsFramesTime) {
   EXPECT_LT((fs->maps[1].camera.cam_from_world.rotation - expected.rotation).norm(), 1e-5);
   EXPECT_LT((fs->maps[1].camera.cam_from_world.translation - expected.translation).norm(), 1e-5);
   EXPECT_GT((expected.Inverse().translation - calibrated.Center()).norm(), 0.2) << "the camera moved";
-  const SyntheticScene scene = NamedScene("sphere", fs->source_time_s);
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> u(-0.6, 0.6);
-  std::vector<Eigen::Vector3d> inside;
-  while (inside.size() < 2000) {
-    const Eigen::Vector3d p = target + Eigen::Vector3d(u(rng), u(rng), u(rng));
-    double d = 1e9;
-    for (const auto& sh : scene.shapes) d = std::min(d, sh.SignedDistance(p));
-    if (d < -0.03) inside.push_back(p);  // 3 cm inside: more than a pixel (2.3 cm at the sphere)
-  }
-  auto misses = [&](const std::vector<CameraMap>& maps) {
-    const VolumeQuery hull(maps, sink.a.workspace());
-    return std::count_if(inside.begin(), inside.end(), [&](const Eigen::Vector3d& p) { return !hull.Inside(p); });
-  };
-  EXPECT_EQ(misses(fs->maps), 0);
-  std::vector<CameraMap> unmoved = fs->maps;
-  unmoved[1].camera = calibrated;
-  EXPECT_GT(misses(unmoved), 100) << "control: the calibrated pose must carve the moved camera's sphere away";
+  ExpectTheHullHoldsTheSphere(*fs, sink.a.workspace(), calibrated, 1);
 
   // The tracker stops: once its last sample is more than 50 ms behind a frame,
   // camera 2's frames are held back and counted; the others go on.
