@@ -505,41 +505,50 @@ TEST(Ros2Process, ATrackersPoseStampedPosesTheHeadMountedCamerasFrames) {
   EXPECT_EQ(text.find(" 0 camera poses passed on"), std::string::npos) << text;
 }
 
-// A tracker that broadcasts its frame on /tf drives the view (--head-frame):
-// in a message of 1500 transforms (a flood) the frame among the first 1000 is
-// found and passed on, the rest counted and named once; the same frame under
-// another parent is refused naming the field.
+// A tracker that broadcasts its frame on /tf drives the view (--head-frame),
+// and another frame poses the head-mounted camera (--camera-frame): in a
+// message of 1500 transforms (a flood) the frames among the first 1000 are
+// found and passed on, the rest counted and named once; the same frames under
+// another parent are refused naming the field.
 TEST(Ros2Process, ATfFrameDrivesTheViewAndAFloodOfFramesIsBounded) {
   const auto dir = test::TempDir("ros2_tf");
   const std::string config = test::WriteLoopbackConfig(dir), log = (dir / "ros2.log").string();
   setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
   const uint32_t domain = test::UniqueDomain();
-  auto bridge = test::StartExe("hullpipe_ros2", {"--head-pose-topic", "", "--head-frame", "tracker_head"}, domain,
-                               config, log);
+  auto bridge = test::StartExe(
+      "hullpipe_ros2", {"--head-pose-topic", "", "--head-frame", "tracker_head", "--camera-frame", "3=hmd_camera"},
+      domain, config, log);
   dds::Participant p(domain);
   dds::Writer<tf2_msgs_msg_dds__TFMessage_> tf(p, "rt/tf", ros2::kDefaultQos);
   dds::Reader<hullpipe_msg_HeadPose> heads(p);
+  dds::Reader<hullpipe_msg_CameraPose> camera_poses(p);
   const auto now = [] {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
         .count();
   };
-  // 1500 frames; ours (index 700) 1.25 m up, turned about z.
+  // 1500 frames; the head's (index 700) 1.25 m up, turned about z; the
+  // head-mounted camera's (index 900, --camera-frame) 0.5 m along x.
   auto flood = [&](const char* parent) {
     Camera c;  // MakeCameraTransforms gives world -> camera frames; renamed below
     std::vector<Camera> cams(1500, c);
     for (int i = 0; i < 1500; ++i) cams[size_t(i)].id = i;
     auto msg = ros2::MakeCameraTransforms(cams, now());
-    std::vector<std::string> names = {"tracker_head", parent};
+    std::vector<std::string> names = {"tracker_head", parent, "hmd_camera"};
     auto& ours = msg.transforms[700];
     ours.child_frame_id = const_cast<char*>(names[0].c_str());
     ours.header.frame_id = const_cast<char*>(names[1].c_str());
     ours.transform.translation = {0.1, 0.2, 1.25};
     ours.transform.rotation = {0, 0, std::sin(0.2), std::cos(0.2)};
+    auto& camera = msg.transforms[900];
+    camera.child_frame_id = const_cast<char*>(names[2].c_str());
+    camera.header.frame_id = const_cast<char*>(names[1].c_str());
+    camera.transform.translation = {0.5, 0, 1.0};
+    camera.transform.rotation = {0, 0, 0, 1};
     tf.Write(msg.msg);
   };
-  bool got = false;
+  bool got = false, got_camera = false;
   for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-       !got && std::chrono::steady_clock::now() < until;) {
+       !(got && got_camera) && std::chrono::steady_clock::now() < until;) {
     flood(ros2::kWorldFrame);
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     heads.TakeEach([&](const hullpipe_msg_HeadPose& m, const dds_sample_info_t&) {
@@ -548,8 +557,16 @@ TEST(Ros2Process, ATfFrameDrivesTheViewAndAFloodOfFramesIsBounded) {
       EXPECT_TRUE(h.rotation.isApprox(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()).toRotationMatrix(), 1e-12));
       got = true;
     });
+    camera_poses.TakeEach([&](const hullpipe_msg_CameraPose& m, const dds_sample_info_t&) {
+      EXPECT_EQ(m.camera_id, 3u);
+      const Rigid3d c = dds::CameraPoseFromMsg(m);
+      EXPECT_NEAR(c.translation.x(), 0.5, 1e-12);
+      EXPECT_TRUE(c.rotation.isIdentity(1e-12));
+      got_camera = true;
+    });
   }
   EXPECT_TRUE(got) << test::ReadFile(log);
+  EXPECT_TRUE(got_camera) << test::ReadFile(log);
   // The same frame under a parent hullpipe does not look up: refused, said.
   for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
        test::ReadFile(log).find("header.frame_id 'map'") == std::string::npos &&
