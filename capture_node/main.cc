@@ -77,8 +77,7 @@ int main(int argc, char** argv) {
     // just before each frame is posed.
     std::unique_ptr<Reader<hullpipe_msg_CameraPose>> camera_poses;
     bool bad_pose_said = false;
-    for (const bool t : source->tracked_by_topic()) {
-      if (!t || camera_poses) continue;
+    if (capture.posed_live()) {
       camera_poses = std::make_unique<Reader<hullpipe_msg_CameraPose>>(*participant);
       capture.SetPoseRefresh([&] {
         camera_poses->TakeEach([&](const hullpipe_msg_CameraPose& m, const dds_sample_info_t&) {

@@ -434,9 +434,7 @@ Rigid3d PoseFromArrays(const double rotation[9], const double translation[3], co
     X.translation[r] = translation[r];
   }
   if (!X.rotation.allFinite() || !X.translation.allFinite()) throw MessageError(who + "not finite");
-  if (!((X.rotation.transpose() * X.rotation - Eigen::Matrix3d::Identity()).norm() < 1e-6) ||
-      !(X.rotation.determinant() > 0))
-    throw MessageError(who + "rotation not orthonormal");
+  if (!IsRotation(X.rotation)) throw MessageError(who + "rotation not orthonormal");
   return X;
 }
 }  // namespace

@@ -14,9 +14,7 @@ LivePoseTrack::LivePoseTrack(double max_hold_s) : max_hold_ns_(int64_t(std::llro
 }
 
 std::string LivePoseTrack::Add(int64_t stamp_ns, const Rigid3d& pose) {
-  const Eigen::Matrix3d& R = pose.rotation;
-  if (!R.allFinite() || !((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() < 1e-6) || !(R.determinant() > 0))
-    return "its rotation is not a rotation";
+  if (!IsRotation(pose.rotation)) return "its rotation is not a rotation";
   if (!pose.translation.allFinite()) return "its translation is not finite";
   if (!samples_.empty() && !(stamp_ns > samples_.back().stamp_ns))
     return "its stamp is not after the newest sample's (" + std::to_string(samples_.back().stamp_ns) + " ns)";

@@ -27,7 +27,7 @@ class LivePoseTrack {
 
   /// Adds one sample. Returns "" or why it is refused (the caller names it and
   /// counts it): a stamp not after the newest kept (a tracker's samples come in
-  /// order), a rotation that is not one (orthonormal within 1e-6, det +1), a
+  /// order), a rotation that is not one (IsRotation: orthonormal within 1e-6, det > 0), a
   /// translation that is not finite. The oldest sample goes past kMaxSamples.
   std::string Add(int64_t stamp_ns, const Rigid3d& world_from_camera);
 

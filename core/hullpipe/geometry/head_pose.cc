@@ -11,8 +11,7 @@ namespace hullpipe {
 PoseTrack::PoseTrack(std::vector<TimedPose> poses) : poses_(std::move(poses)) {
   std::sort(poses_.begin(), poses_.end(), [](const TimedPose& a, const TimedPose& b) { return a.t < b.t; });
   for (size_t i = 0; i < poses_.size(); ++i) {
-    const Eigen::Matrix3d& R = poses_[i].world_from_eye.rotation;
-    if (!((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() < 1e-6) || !(R.determinant() > 0))
+    if (!IsRotation(poses_[i].world_from_eye.rotation))
       throw std::invalid_argument("PoseTrack: pose " + std::to_string(i) + " has no rotation");
     if (i > 0 && !(poses_[i].t > poses_[i - 1].t))
       throw std::invalid_argument("PoseTrack: two poses at t = " + std::to_string(poses_[i].t));

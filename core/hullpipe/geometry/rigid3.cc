@@ -2,6 +2,10 @@
 
 namespace hullpipe {
 
+bool IsRotation(const Eigen::Matrix3d& r, double tolerance) {
+  return r.allFinite() && (r.transpose() * r - Eigen::Matrix3d::Identity()).norm() < tolerance && r.determinant() > 0;
+}
+
 Rigid3d LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
                const Eigen::Vector3d& world_up) {
   Eigen::Vector3d z = target - eye;

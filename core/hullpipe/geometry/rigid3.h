@@ -27,6 +27,11 @@ struct Rigid3d {
   }
 };
 
+/// True if `r` is a rotation: finite, orthonormal (||r^T r - I|| below `tolerance`,
+/// Frobenius) and of determinant > 0 (no reflection). The check a pose read from
+/// outside (a tracker, a log, a message) must pass before it is used.
+bool IsRotation(const Eigen::Matrix3d& r, double tolerance = 1e-6);
+
 /// A camera-frame (x right, y down, z forward) pose at `eye` looking at `target`,
 /// with image "up" as close as possible to `world_up`. Returns world_from_cam.
 /// Errors: eye == target or view direction parallel to world_up gives an arbitrary

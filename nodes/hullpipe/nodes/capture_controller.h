@@ -128,6 +128,8 @@ class CaptureController {
   /// samples that came while it waited for the frame are in (capture_node takes
   /// its CameraPose reader there).
   void SetPoseRefresh(std::function<void()> refresh) { pose_refresh_ = std::move(refresh); }
+  /// True if any of this node's cameras is posed live (its CameraPose samples wanted).
+  bool posed_live() const { return !live_poses_.empty(); }
   /// Frames of live-posed cameras not published for want of a pose near them.
   int64_t unposed_frames() const { return unposed_frames_; }
   /// Announced timelines refused for their start (outside the window).
