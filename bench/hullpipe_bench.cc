@@ -26,6 +26,7 @@
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/gl/backend.h"
 #include "hullpipe/gl/egl_context.h"
+#include "hullpipe/gl/gl_objects.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
 #include "hullpipe/gl/gl_triangle_query.h"
 #include "hullpipe/geometry/mesh.h"
@@ -123,21 +124,29 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
               std::thread::hardware_concurrency(), gpu ? gpu->GlSummary().c_str() : "not run");
   std::printf("frame = upload + visibility maps (4..16 x 80 px, 48 planes) + sweep (refine 6) + texture; median of %d\n\n",
               repeats);
-  std::printf("| view      | cams | planes | CPU sweep ms | CPU frame ms | GL sweep ms | GL frame ms | frame CPU/GL |\n");
-  std::printf("|-----------|------|--------|--------------|--------------|-------------|-------------|--------------|\n");
+  std::printf("| view      | cams | planes | CPU sweep ms | CPU frame ms | GL sweep ms | GL frame ms | GL two waits ms | frame CPU/GL |\n");
+  std::printf("|-----------|------|--------|--------------|--------------|-------------|-------------|-------------------|--------------|\n");
+  // The frame as recon_node renders it (SweepTextured: on GL one wait for the
+  // GPU per tile); *two_waits_ms the same with Sweep and Texture called apart
+  // (a read-back each), as recon did before.
   auto frame = [&](SweepBackend& b, const BackendInput& in, const VolumeQuery& q, const NovelView& view,
-                   const std::vector<double>& depths, double* sweep_ms) {
+                   const std::vector<double>& depths, double* sweep_ms, double* two_waits_ms) {
     std::vector<Camera> cams;
     for (const auto& im : in.images) cams.push_back(im.camera);
     PlaneSweepOptions vo;
     vo.num_planes = 48;
     const cv::Rect all(0, 0, view.width, view.height);
     *sweep_ms = MedianMs(repeats, [&] { (void)b.Sweep(q, view, depths, all); });
-    return MedianMs(repeats, [&] {
+    *two_waits_ms = MedianMs(repeats, [&] {
       b.BeginFrameset(q, in.images);
       b.ComputeVisibility(q, cams, 80, vo);
       const cv::Mat d = b.Sweep(q, view, depths, all);
       (void)b.Texture(d, all, view, in.images, true);
+    });
+    return MedianMs(repeats, [&] {
+      b.BeginFrameset(q, in.images);
+      b.ComputeVisibility(q, cams, 80, vo);
+      (void)b.SweepTextured(q, view, depths, all, in.images, true);
     });
   };
   // The same frame stage by stage, each waited for (SweepBackend::Finish):
@@ -168,9 +177,37 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       (void)b.Texture(d, all, view, in.images, true);
       lap(3);
     }
-    char row[160];
-    std::snprintf(row, sizeof row, "| %dx%d | %d | %zu | %.2f | %.2f | %.2f | %.2f |", view.width, view.height,
-                  int(in.images.size()), depths.size(), Median(t[0]), Median(t[1]), Median(t[2]), Median(t[3]));
+    // The GPU's own timeline of the frame as recon renders it, nothing waited
+    // for between stages (GL timestamps after each call; the last call's
+    // read-back waits): what each stage adds to the GPU's span, and the span
+    // itself against the frame's wall time (the rest is the CPU's and the
+    // driver's: waits, set-up, copies).
+    std::vector<double> g[4], span, wall;
+    b.Finish();  // makes the backend's context current here
+    gl::Query stamp[4] = {gl::MakeQuery(GL_TIMESTAMP), gl::MakeQuery(GL_TIMESTAMP), gl::MakeQuery(GL_TIMESTAMP),
+                          gl::MakeQuery(GL_TIMESTAMP)};
+    for (int r = 0; r <= repeats; ++r) {
+      b.Finish();
+      const double w0 = MonotonicSeconds();
+      glQueryCounter(stamp[0].get(), GL_TIMESTAMP);
+      b.BeginFrameset(q, in.images);
+      glQueryCounter(stamp[1].get(), GL_TIMESTAMP);
+      b.ComputeVisibility(q, cams, 80, vo);
+      glQueryCounter(stamp[2].get(), GL_TIMESTAMP);
+      (void)b.SweepTextured(q, view, depths, all, in.images, true);
+      glQueryCounter(stamp[3].get(), GL_TIMESTAMP);
+      const double w1 = MonotonicSeconds();
+      GLuint64 ns[4];
+      for (int k = 0; k < 4; ++k) glGetQueryObjectui64v(stamp[k].get(), GL_QUERY_RESULT, &ns[k]);
+      if (r == 0) continue;  // warm-up
+      for (int k = 0; k < 3; ++k) g[k].push_back(double(ns[k + 1] - ns[k]) * 1e-6);
+      span.push_back(double(ns[3] - ns[0]) * 1e-6);
+      wall.push_back((w1 - w0) * 1e3);
+    }
+    char row[240];
+    std::snprintf(row, sizeof row, "| %dx%d | %d | %zu | %.2f | %.2f | %.2f | %.2f | %.2f / %.2f / %.2f | %.2f | %.2f |",
+                  view.width, view.height, int(in.images.size()), depths.size(), Median(t[0]), Median(t[1]),
+                  Median(t[2]), Median(t[3]), Median(g[0]), Median(g[1]), Median(g[2]), Median(span), Median(wall));
     stage_rows.push_back(row);
   };
   for (const int ncam : rows.cameras) {
@@ -193,28 +230,67 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
         PlaneSweepOptions o;
         o.num_planes = planes;
         const auto depths = SweepPlaneDepths(q, view, o);
-        double cs = 0, cf = 0, gs = 0, gf = 0;
+        double cs = 0, cf = 0, gs = 0, gf = 0, c2 = 0, g2 = 0;
         if (cpu) {
           cpu->BeginFrameset(q, in.images);
-          cf = frame(*cpu, in, q, view, depths, &cs);
+          cf = frame(*cpu, in, q, view, depths, &cs, &c2);
         }
         if (gpu) {
           gpu->BeginFrameset(q, in.images);
-          gf = frame(*gpu, in, q, view, depths, &gs);
+          gf = frame(*gpu, in, q, view, depths, &gs, &g2);
           stages(*gpu, in, q, view, depths);
         }
         auto cell = [](double v) { return v > 0 ? std::to_string(v).substr(0, std::to_string(v).find('.') + 3) : std::string("-"); };
-        std::printf("| %4dx%-4d | %4d | %6d | %12s | %12s | %11s | %11s | %12s |\n", w, h, ncam, planes,
-                    cell(cs).c_str(), cell(cf).c_str(), cell(gs).c_str(), cell(gf).c_str(),
+        std::printf("| %4dx%-4d | %4d | %6d | %12s | %12s | %11s | %11s | %17s | %12s |\n", w, h, ncam, planes,
+                    cell(cs).c_str(), cell(cf).c_str(), cell(gs).c_str(), cell(gf).c_str(), cell(g2).c_str(),
                     cpu && gpu ? cell(cf / gf).c_str() : "-");
         std::fflush(stdout);
       }
     }
   }
+  // A node's first frameset on a fresh backend (a new context: programs built,
+  // nothing allocated at the frameset's sizes), with and without the backend's
+  // warm-up frame at creation; then its second. One run each: a first is once.
+  if (gpu) {
+    std::printf("\nGL backend's first framesets (16 cameras 640x480 in the view, 100 planes; one fresh backend each):\n\n"
+                "| warm-up at creation | creation ms | first frame ms | second frame ms |\n|---|---|---|---|\n");
+    const BackendInput in = MakeBackendInput(16);
+    std::vector<Camera> cams;
+    for (const auto& v : in.views) cams.push_back(v.camera);
+    const VolumeQuery q(in.views, DefaultWorkspace(cams));
+    OrbitPath orbit;
+    orbit.centre = in.centre;
+    const NovelView view = NovelView::FromFov(640, 480, 50 * M_PI / 180, orbit.WorldFromEye(1.0));
+    PlaneSweepOptions o;
+    o.num_planes = 100;
+    const auto depths = SweepPlaneDepths(q, view, o);
+    PlaneSweepOptions vo;
+    vo.num_planes = 48;
+    for (const bool warm : {false, true}) {
+      BackendOptions bo;
+      bo.name = "gl";
+      bo.refine = 6;
+      bo.gl_device = gl_device;
+      bo.warm_up = warm;
+      const double c0 = MonotonicSeconds();
+      auto b = gl::MakeSweepBackend(bo);
+      const double c1 = MonotonicSeconds();
+      double ms[2];
+      for (double& m : ms) {
+        const double t0 = MonotonicSeconds();
+        b->BeginFrameset(q, in.images);
+        b->ComputeVisibility(q, cams, 80, vo);
+        (void)b->SweepTextured(q, view, depths, cv::Rect(0, 0, view.width, view.height), in.images, true);
+        m = (MonotonicSeconds() - t0) * 1e3;
+      }
+      std::printf("| %s | %.1f | %.2f | %.2f |\n", warm ? "yes" : "no", (c1 - c0) * 1e3, ms[0], ms[1]);
+    }
+  }
   if (!stage_rows.empty()) {
     std::printf("\nGL frame stage by stage, each waited for (median ms):\n\n"
-                "| view | cams | planes | upload | visibility maps | sweep (read back) | texture (read back) |\n"
-                "|---|---|---|---|---|---|---|\n");
+                "| view | cams | planes | upload | visibility maps | sweep (read back) | texture (read back) | "
+                "GPU timeline, not waited: upload / visibility / sweep + texture | GPU span | frame wall |\n"
+                "|---|---|---|---|---|---|---|---|---|---|\n");
     for (const auto& r : stage_rows) std::printf("%s\n", r.c_str());
   }
   if (rows.triangles.empty()) return 0;

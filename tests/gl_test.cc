@@ -13,6 +13,7 @@
 #include "hullpipe/gl/gl_ray_sweep.h"
 #include "hullpipe/gl/gl_texture.h"
 #include "hullpipe/gl/gl_triangle_query.h"
+#include "hullpipe/geometry/conventions.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/evaluation/synthetic.h"
@@ -547,6 +548,28 @@ TEST_F(Gl, GlBackendRendersAFramesetAsTheCpuBackend) {
   const cv::Mat uploaded = gpu->Texture(dg.clone(), tile, view, images, true);
   EXPECT_EQ(cv::norm(from_gpu, uploaded, cv::NORM_INF), 0.0);
   EXPECT_GT(cv::countNonZero(from_gpu.reshape(1)), 100) << "hull pixels textured";
+  // SweepTextured (both passes queued, one read-back on GL) gives exactly the two
+  // calls' depth and colour, with and without the visibility test, on both
+  // backends; and the GL one's equals the CPU's as the two calls do.
+  for (const bool vis : {true, false}) {
+    SCOPED_TRACE(vis ? "with visibility" : "without visibility");
+    const cv::Mat two_calls = gpu->Texture(gpu->Sweep(q, view, depths, tile), tile, view, images, vis);
+    const TexturedTile g = gpu->SweepTextured(q, view, depths, tile, images, vis);
+    EXPECT_EQ(cv::norm(g.depth != dg, cv::NORM_INF), 0.0) << "the same depths, +inf included";
+    EXPECT_EQ(cv::norm(g.colour, two_calls, cv::NORM_INF), 0.0);
+    const TexturedTile c = cpu->SweepTextured(q, view, depths, tile, images, vis);
+    EXPECT_EQ(cv::norm(c.depth != dc, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(c.colour, cpu->Texture(dc, tile, view, images, vis), cv::NORM_INF), 0.0);
+    ExpectColoursMatch(g.colour, c.colour, 0.02, "SweepTextured, GL against CPU");
+  }
+  // A tile off the hull: nothing dispatched, every depth kNoDepth, black.
+  const Eigen::Vector3d eye = view.world_from_eye.translation;
+  const NovelView away = NovelView::FromFov(200, 150, 0.3,
+                                            LookAt(eye, eye - view.world_from_eye.rotation.col(2),
+                                                   -view.world_from_eye.rotation.col(1)));  // facing away
+  const TexturedTile off = gpu->SweepTextured(q, away, SweepPlaneDepths(q, away, PlaneSweepOptions{}), tile, images, true);
+  EXPECT_EQ(cv::countNonZero(off.depth != kNoDepth), 0);
+  EXPECT_EQ(cv::countNonZero(off.colour.reshape(1)), 0);
 }
 
 TEST_F(Gl, FiveProcessesWithTheGlBackend) {

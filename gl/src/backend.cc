@@ -6,6 +6,8 @@
 #include <functional>
 #include <stdexcept>
 
+#include <opencv2/imgproc.hpp>
+
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/gl/egl_context.h"
@@ -17,9 +19,41 @@
 namespace hullpipe::gl {
 namespace {
 
+// The synthetic frameset both start-up probes use (the triangle query's timing
+// and the backend's warm-up frame): four cameras of w x h 3 m around a 0.3-m
+// sphere at kProbeCentre, each map the sphere's exact silhouette (a pixel is
+// object iff its ray meets the sphere).
+const Eigen::Vector3d kProbeCentre(0, 0, -1);
+
+std::vector<CameraMap> ProbeViews(int w, int h) {
+  const Eigen::Vector3d centre = kProbeCentre;
+  const double radius = 0.3;
+  std::vector<CameraMap> views;
+  for (int k = 0; k < 4; ++k) {
+    const double a = 2 * M_PI * k / 4;
+    Camera c;
+    c.id = k + 1;
+    c.width = w, c.height = h;
+    c.fx = c.fy = 300.0 * w / 320, c.cx = w / 2.0, c.cy = h / 2.0;
+    c.cam_from_world =
+        LookAt(centre + Eigen::Vector3d(3 * std::cos(a), 3 * std::sin(a), -1.0), centre, Eigen::Vector3d(0, 0, -1))
+            .Inverse();
+    cv::Mat map(c.height, c.width, CV_8UC1, cv::Scalar(0));
+    const Eigen::Vector3d o = c.Center();
+    for (int v = 0; v < c.height; ++v)
+      for (int u = 0; u < c.width; ++u) {
+        const Eigen::Vector3d d = c.PixelRayWorld({u + 0.5, v + 0.5});
+        const double t = (centre - o).dot(d);
+        map.at<uint8_t>(v, u) = t > 0 && (o + t * d - centre).norm() < radius ? 255 : 0;
+      }
+    views.push_back({c, map});
+  }
+  return views;
+}
+
 class GlBackend final : public SweepBackend {
  public:
-  GlBackend(EglContext ctx, bool stencil, int threads, int refine)
+  GlBackend(EglContext ctx, bool stencil, int threads, int refine, bool warm_up)
       : ctx_(std::move(ctx)), stencil_(stencil), refine_(refine) {
     set_threads(threads);
     // The programs are built here, with the context current: a driver that cannot
@@ -27,6 +61,34 @@ class GlBackend final : public SweepBackend {
     if (stencil_) stencil_sweep_ = std::make_unique<GlPlaneSweep>();
     march_ = std::make_unique<GlRaySweep>();
     texture_ = std::make_unique<GlTexture>();
+    if (warm_up) WarmUp();
+  }
+  // One small frame through every pass (upload, visibility maps, march and
+  // silhouette pass, texture, read-backs): a driver may finish compiling a
+  // program at its first dispatch, and the first frameset a node renders should
+  // not pay for it (the first framesets were each run's slowest on a GPU).
+  void WarmUp() {
+    const std::vector<CameraMap> views = ProbeViews(64, 48);
+    Aabb ws;
+    ws.min = kProbeCentre - Eigen::Vector3d::Constant(1.0), ws.max = kProbeCentre + Eigen::Vector3d::Constant(1.0);
+    const VolumeQuery q(views, ws);
+    std::vector<CameraImage> images;
+    std::vector<Camera> cams;
+    for (const CameraMap& v : views) {
+      cv::Mat img;
+      cv::cvtColor(v.map, img, cv::COLOR_GRAY2BGR);
+      images.push_back({v.camera, img});
+      cams.push_back(v.camera);
+    }
+    const NovelView view = NovelView::FromFov(
+        32, 24, 0.5, LookAt(kProbeCentre + Eigen::Vector3d(2, 0, -0.5), kProbeCentre, Eigen::Vector3d(0, 0, -1)));
+    PlaneSweepOptions o;
+    o.num_planes = 16;
+    BeginFrameset(q, images);
+    ComputeVisibility(q, cams, 16, o);
+    (void)SweepTextured(q, view, SweepPlaneDepths(q, view, o), cv::Rect(0, 0, view.width, view.height), images, true,
+                        nullptr);
+    BeginFrameset(q, images);  // nothing of the probe is kept for a real frameset
   }
   void BeginFrameset(const VolumeQuery& q, const std::vector<CameraImage>& images) override {
     ctx_.MakeCurrent();
@@ -80,6 +142,35 @@ class GlBackend final : public SweepBackend {
     const bool on_gpu = !last_tile_.empty() && depth.data == last_tile_.data && depth.size() == last_tile_.size();
     return texture_->Texture(depth, tile, view, images, {}, vis_views_, march_->views_texture(),
                              on_gpu ? march_->tile_texture() : 0);
+  }
+  TexturedTile SweepTextured(const VolumeQuery& q, const NovelView& v, const std::vector<double>& d,
+                             const cv::Rect& tile, const std::vector<CameraImage>& images, bool with_visibility,
+                             SweepStats* stats) override {
+    // The stencil method refines on the CPU between its pass and the texture.
+    if (stencil_) return SweepBackend::SweepTextured(q, v, d, tile, images, with_visibility, stats);
+    ctx_.MakeCurrent();
+    if (with_visibility && !has_vis_) throw std::logic_error("Texture with visibility before ComputeVisibility");
+    const double t0 = MonotonicSeconds();
+    TexturedTile out;
+    if (march_->SweepOnGpu(q, v, d, tile, refine_)) {
+      // Both passes queued, then one wait: the texture reads the tile's depth
+      // where the march left it.
+      texture_->Dispatch(tile, v, images, {}, with_visibility ? &vis_views_ : nullptr,
+                         with_visibility ? march_->views_texture() : 0, march_->tile_texture());
+      out.depth = march_->ReadTile();
+      const double t1 = MonotonicSeconds();
+      out.colour = texture_->ReadBack();
+      out.texture_ms = (MonotonicSeconds() - t1) * 1e3;
+      if (stats) stats->sweep_ms += (t1 - t0) * 1e3;
+    } else {
+      out.depth = march_->ReadTile();  // all kNoDepth: nothing was swept
+      const double t1 = MonotonicSeconds();
+      out.colour = Texture(out.depth, tile, v, images, with_visibility);
+      out.texture_ms = (MonotonicSeconds() - t1) * 1e3;
+      if (stats) stats->sweep_ms += (t1 - t0) * 1e3;
+    }
+    last_tile_ = out.depth;
+    return out;
   }
   std::string Name() const override {
     return std::string("gl ") + (stencil_ ? "stencil" : "march") + " (" + ctx_.renderer() + ")";
@@ -137,7 +228,8 @@ std::unique_ptr<SweepBackend> MakeSweepBackend(const BackendOptions& o) {
   if (!ctx) return cpu(why);
   const std::string summary = ctx->info().Summary();
   try {
-    auto b = std::make_unique<GlBackend>(std::move(*ctx), o.gl_method == "stencil", o.threads, o.refine);
+    auto b = std::make_unique<GlBackend>(std::move(*ctx), o.gl_method == "stencil", o.threads, o.refine,
+                                         o.warm_up);
     b->set_reason((o.name == "auto" ? "auto: hardware GL renderer " : "--backend gl: ") + summary);
     return b;
   } catch (const std::exception& e) {
@@ -172,30 +264,8 @@ struct QueryCost {
 // sphere, an icosphere cutting it: triangles inside, outside and across) at
 // 80 and 5,120 triangles, medians of three after a warm-up.
 void Calibrate(GlTriangleQuery& gl, int cpu_threads, QueryCost* gpu, QueryCost* cpu) {
-  // Four 320x240 cameras 3 m around the sphere, each map the sphere's exact
-  // silhouette (a pixel is object iff its ray meets the sphere).
-  const Eigen::Vector3d centre(0, 0, -1);
-  const double radius = 0.3;
-  std::vector<CameraMap> views;
-  for (int k = 0; k < 4; ++k) {
-    const double a = 2 * M_PI * k / 4;
-    Camera c;
-    c.id = k + 1;
-    c.width = 320, c.height = 240;
-    c.fx = c.fy = 300, c.cx = 160, c.cy = 120;
-    c.cam_from_world =
-        LookAt(centre + Eigen::Vector3d(3 * std::cos(a), 3 * std::sin(a), -1.0), centre, Eigen::Vector3d(0, 0, -1))
-            .Inverse();
-    cv::Mat map(c.height, c.width, CV_8UC1, cv::Scalar(0));
-    const Eigen::Vector3d o = c.Center();
-    for (int v = 0; v < c.height; ++v)
-      for (int u = 0; u < c.width; ++u) {
-        const Eigen::Vector3d d = c.PixelRayWorld({u + 0.5, v + 0.5});
-        const double t = (centre - o).dot(d);
-        map.at<uint8_t>(v, u) = t > 0 && (o + t * d - centre).norm() < radius ? 255 : 0;
-      }
-    views.push_back({c, map});
-  }
+  const Eigen::Vector3d centre = kProbeCentre;
+  const std::vector<CameraMap> views = ProbeViews(320, 240);
   Aabb ws;
   ws.min = centre - Eigen::Vector3d::Constant(1.0), ws.max = centre + Eigen::Vector3d::Constant(1.0);
   const VolumeQuery q(views, ws);

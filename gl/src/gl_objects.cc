@@ -36,6 +36,13 @@ Renderbuffer MakeRenderbuffer() {
   glGenRenderbuffers(1, &n);
   return Renderbuffer(n);
 }
+Query MakeQuery(GLenum target) {
+  GLuint n = 0;
+  glCreateQueries(target, 1, &n);
+  if (!n) throw GlError("glCreateQueries failed");
+  return Query(n);
+}
+
 Buffer MakeBuffer() {
   GLuint n = 0;
   glCreateBuffers(1, &n);  // exists at once: usable with the DSA calls

@@ -382,18 +382,30 @@ void GlRaySweep::Run(const VolumeQuery& q, const std::vector<NovelView>& views,
 
 cv::Mat GlRaySweep::Sweep(const VolumeQuery& q, const NovelView& view, const std::vector<double>& depths,
                           const cv::Rect& tile, int refine) {
+  SweepOnGpu(q, view, depths, tile, refine);
+  return ReadTile();
+}
+
+bool GlRaySweep::SweepOnGpu(const VolumeQuery& q, const NovelView& view, const std::vector<double>& depths,
+                            const cv::Rect& tile, int refine) {
   view.Check();
   if (refine < 0) throw std::invalid_argument("GlRaySweep: refine iterations must be >= 0");
   if (q.size() != uploaded_cameras_)
     throw std::invalid_argument("GlRaySweep: the query has " + std::to_string(q.size()) +
                                 " cameras, the last Upload " + std::to_string(uploaded_cameras_));
-  cv::Mat out(tile.height, tile.width, CV_32FC1, cv::Scalar(kNoDepth));
   tile_valid_ = false;
-  if (depths.empty() || tile.area() == 0 || q.hull_box().empty()) return out;
+  tile_size_ = tile.size();
+  if (depths.empty() || tile.area() == 0 || q.hull_box().empty()) return false;
   Run(q, {view}, {depths}, {tile}, refine, *tile_target_);
   tile_valid_ = true;
+  return true;
+}
+
+cv::Mat GlRaySweep::ReadTile() const {
+  cv::Mat out(tile_size_, CV_32FC1, cv::Scalar(kNoDepth));
+  if (!tile_valid_ || tile_size_.area() == 0) return out;
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  glGetTextureSubImage(tile_target_->result, 0, 0, 0, 0, tile.width, tile.height, 1, GL_RED, GL_FLOAT,
+  glGetTextureSubImage(tile_target_->result, 0, 0, 0, 0, tile_size_.width, tile_size_.height, 1, GL_RED, GL_FLOAT,
                        GLsizei(out.total() * sizeof(float)), out.data);
   CheckGl("ray-march sweep read-back");
   return out;

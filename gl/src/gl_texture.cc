@@ -155,17 +155,29 @@ cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const Nov
 cv::Mat GlTexture::Run(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
                        const std::vector<CameraImage>& images, const TextureOptions& options,
                        const std::vector<NovelView>* vis_views, GLuint vis_texture, GLuint depth_texture) {
+  CV_Assert(depth.type() == CV_32FC1 && depth.size() == tile.size());
+  Dispatch(tile, view, images, options, vis_views, vis_texture, depth_texture, depth_texture ? nullptr : &depth);
+  return ReadBack();
+}
+
+void GlTexture::Dispatch(const cv::Rect& tile, const NovelView& view, const std::vector<CameraImage>& images,
+                         const TextureOptions& options, const std::vector<NovelView>* vis_views, GLuint vis_texture,
+                         GLuint depth_texture, const cv::Mat* depth) {
   options.Check();
   view.Check();
-  CV_Assert(depth.type() == CV_32FC1 && depth.size() == tile.size());
+  if (!depth_texture && !depth) throw std::invalid_argument("GlTexture: no depth tile (neither on the GPU nor given)");
+  if (vis_views && vis_views->size() != images.size())
+    throw std::invalid_argument("GlTexture: visibility has " + std::to_string(vis_views->size()) +
+                                " cameras, images " + std::to_string(images.size()));
   const bool vis = vis_views != nullptr;
   if (images.size() != uploaded_)
     throw std::invalid_argument("GlTexture: " + std::to_string(images.size()) + " images, the last upload " +
                                 std::to_string(uploaded_));
   if (options.max_cameras > kMaxTextureCameras)
     throw std::invalid_argument("GlTexture: max_cameras above " + std::to_string(kMaxTextureCameras));
-  cv::Mat out(tile.size(), CV_8UC3, cv::Scalar(0, 0, 0));
-  if (tile.area() == 0 || images.empty()) return out;
+  out_size_ = tile.size();
+  dispatched_ = false;
+  if (tile.area() == 0 || images.empty()) return;
 
   std::vector<GpuCamera> cams;
   std::vector<TexExtra> extra(images.size());
@@ -200,8 +212,8 @@ cv::Mat GlTexture::Run(const cv::Mat& depth, const cv::Rect& tile, const NovelVi
   }
   if (!depth_texture) {
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    glPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(depth.step[0] / sizeof(float)));
-    glTextureSubImage3D(depth_.get(), 0, 0, 0, 0, tile.width, tile.height, 1, GL_RED, GL_FLOAT, depth.data);
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(depth->step[0] / sizeof(float)));
+    glTextureSubImage3D(depth_.get(), 0, 0, 0, 0, tile.width, tile.height, 1, GL_RED, GL_FLOAT, depth->data);
     glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   }
 
@@ -225,11 +237,18 @@ cv::Mat GlTexture::Run(const cv::Mat& depth, const cv::Rect& tile, const NovelVi
   glUniform1i(glGetUniformLocation(p, "u_depth"), 2);
   glDispatchCompute(GLuint((tile.width + 7) / 8), GLuint((tile.height + 7) / 8), 1);
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
-  cv::Mat bgra(tile.size(), CV_8UC4);
-  glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  glGetTextureSubImage(out_.get(), 0, 0, 0, 0, tile.width, tile.height, 1, GL_RGBA_INTEGER, GL_UNSIGNED_BYTE,
-                       GLsizei(bgra.total() * 4), bgra.data);
   CheckGl("texture hull");
+  dispatched_ = true;
+}
+
+cv::Mat GlTexture::ReadBack() const {
+  cv::Mat out(out_size_, CV_8UC3, cv::Scalar(0, 0, 0));
+  if (!dispatched_) return out;
+  cv::Mat bgra(out_size_, CV_8UC4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glGetTextureSubImage(out_.get(), 0, 0, 0, 0, out_size_.width, out_size_.height, 1, GL_RGBA_INTEGER,
+                       GL_UNSIGNED_BYTE, GLsizei(bgra.total() * 4), bgra.data);
+  CheckGl("texture hull read-back");
   cv::cvtColor(bgra, out, cv::COLOR_BGRA2BGR);
   return out;
 }

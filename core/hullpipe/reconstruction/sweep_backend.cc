@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "hullpipe/geometry/conventions.h"
+
 namespace hullpipe {
 namespace {
 
@@ -36,6 +38,18 @@ class CpuBackend final : public SweepBackend {
 };
 
 }  // namespace
+
+TexturedTile SweepBackend::SweepTextured(const VolumeQuery& query, const NovelView& view,
+                                         const std::vector<double>& depths, const cv::Rect& tile,
+                                         const std::vector<CameraImage>& images, bool with_visibility,
+                                         SweepStats* stats) {
+  TexturedTile out;
+  out.depth = Sweep(query, view, depths, tile, stats);
+  const double t0 = MonotonicSeconds();
+  out.colour = Texture(out.depth, tile, view, images, with_visibility);
+  out.texture_ms = (MonotonicSeconds() - t0) * 1e3;
+  return out;
+}
 
 void BackendOptions::Check() const {
   if (name != "cpu" && name != "gl" && name != "auto")

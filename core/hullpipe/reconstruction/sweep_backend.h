@@ -19,6 +19,16 @@
 
 namespace hullpipe {
 
+/// A tile swept and textured (SweepBackend::SweepTextured).
+struct TexturedTile {
+  cv::Mat depth;   ///< CV_32FC1 eye-z depths, metres, kNoDepth off the hull (as Sweep).
+  cv::Mat colour;  ///< CV_8UC3 BGR (as Texture).
+  /// Wall milliseconds of the texture (the latency budget's recon "texture",
+  /// docs/latency.md): the CPU's texturing; on the GL backend only what follows
+  /// the one read-back, whose wait for both passes counts as the sweep's.
+  double texture_ms = 0;
+};
+
 /// What renders a frameset's hull: sweep, visibility maps and texture.
 /// Per frameset: BeginFrameset, then ComputeVisibility (if the texture is to
 /// use it), then any number of Sweep / Texture calls on that frameset's query
@@ -50,6 +60,16 @@ class SweepBackend {
   /// last one from its own copy on the GPU.
   virtual cv::Mat Texture(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
                           const std::vector<CameraImage>& images, bool with_visibility) = 0;
+  /// Sweep, then Texture of the depth it returns, in one call: what recon_node
+  /// does for each tile (paper §3.3: the hull's depth, then its colour), with
+  /// the same results as the two calls. The GL march queues both passes and
+  /// reads the depth and the colour back together, so the frame waits for the
+  /// GPU once, not once per pass. stats as Sweep's (on GL the sweep's wall time
+  /// includes the texture pass, which runs before the one read-back).
+  virtual TexturedTile SweepTextured(const VolumeQuery& query, const NovelView& view,
+                                     const std::vector<double>& depths, const cv::Rect& tile,
+                                     const std::vector<CameraImage>& images, bool with_visibility,
+                                     SweepStats* stats = nullptr);
   /// "cpu", "gl march (renderer)" or "gl stencil (renderer)".
   virtual std::string Name() const = 0;
   /// The GL implementation in use in one line (vendor, renderer, version), or
@@ -94,6 +114,10 @@ struct BackendOptions {
   /// "stencil" (the paper's stencil counting; refinement on the CPU).
   std::string gl_method = "march";
   int gl_device = -1;  ///< EGL device (EglOptions::device); -1 picks.
+  /// GL: render one small synthetic frame at creation, so that the first
+  /// frameset does not pay for the driver's first dispatches (off only for the
+  /// benchmark that measures what it saves).
+  bool warm_up = true;
   /// Throws std::invalid_argument naming the bad flag (--backend, --gl-method,
   /// --refine, --threads, --gl-device).
   void Check() const;

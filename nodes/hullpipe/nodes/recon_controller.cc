@@ -182,13 +182,12 @@ int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
     const cv::Rect rect = TileRect(t, o_.tile_count, pose.view.width, pose.view.height);
     HullTile tile;
     SweepStats sweep_stats;
-    tile.depth = backend_.Sweep(vq, pose.view, depths, rect, &sweep_stats);
+    TexturedTile swept = backend_.SweepTextured(vq, pose.view, depths, rect, fs.images, with_visibility, &sweep_stats);
+    tile.depth = std::move(swept.depth);
+    tile.colour = std::move(swept.colour);
     counters_.Stage("sweep", sweep_stats.sweep_ms);
     counters_.Stage("refine", sweep_stats.refine_ms);
-    {
-      StageTimer st(counters_, "texture");
-      tile.colour = backend_.Texture(tile.depth, rect, pose.view, fs.images, with_visibility);
-    }
+    counters_.Stage("texture", swept.texture_ms);
     tile.rect = rect;
     tile.node_id = uint32_t(o_.tile);
     tile.tile_index = uint32_t(t);

@@ -52,6 +52,7 @@ inline void DeleteRenderbuffer(GLuint n) { glDeleteRenderbuffers(1, &n); }
 inline void DeleteBuffer(GLuint n) { glDeleteBuffers(1, &n); }
 inline void DeleteVertexArray(GLuint n) { glDeleteVertexArrays(1, &n); }
 inline void DeleteProgram(GLuint n) { glDeleteProgram(n); }
+inline void DeleteQuery(GLuint n) { glDeleteQueries(1, &n); }
 }  // namespace detail
 
 using Texture = GlName<detail::DeleteTexture>;
@@ -60,6 +61,7 @@ using Renderbuffer = GlName<detail::DeleteRenderbuffer>;
 using Buffer = GlName<detail::DeleteBuffer>;
 using VertexArray = GlName<detail::DeleteVertexArray>;
 using Program = GlName<detail::DeleteProgram>;
+using Query = GlName<detail::DeleteQuery>;
 
 Texture MakeTexture();
 /// A texture created for `target` (glCreateTextures: usable with the DSA calls at once).
@@ -68,6 +70,9 @@ Framebuffer MakeFramebuffer();
 Renderbuffer MakeRenderbuffer();
 Buffer MakeBuffer();
 VertexArray MakeVertexArray();
+/// A query object of `target` (glCreateQueries), e.g. GL_TIMESTAMP for
+/// glQueryCounter: where the GPU's time goes, for the benchmarks.
+Query MakeQuery(GLenum target);
 
 /// Compiles and links a vertex + fragment shader pair (GLSL 450 core). Throws
 /// GlError with the compiler's log.

@@ -48,6 +48,16 @@ class GlRaySweep {
   /// of cameras than the upload, GlError on a GL error.
   cv::Mat Sweep(const VolumeQuery& query, const NovelView& view, const std::vector<double>& plane_depths,
                 const cv::Rect& tile, int refine_iterations = 0);
+  /// Sweep's passes without its read-back: queues the march (and the
+  /// silhouette pass) over `tile` and returns at once, true with the tile left
+  /// on the GPU (tile_texture(), ReadTile), false where nothing is dispatched
+  /// (no planes, an empty tile or hull box: every pixel is kNoDepth). Throws as
+  /// Sweep.
+  bool SweepOnGpu(const VolumeQuery& query, const NovelView& view, const std::vector<double>& plane_depths,
+                  const cv::Rect& tile, int refine_iterations = 0);
+  /// Reads the tile the last SweepOnGpu left (CV_32FC1 of its tile's size; all
+  /// kNoDepth where it dispatched nothing). Waits for the GPU.
+  cv::Mat ReadTile() const;
   /// The R32F texture array whose layer 0 holds the last Sweep's tile at (0, 0)
   /// on the GPU (what Sweep read back), or 0 when that Sweep dispatched nothing
   /// (no planes, an empty tile or hull box).
@@ -78,6 +88,7 @@ class GlRaySweep {
   std::unique_ptr<Target> tile_target_, view_target_;
   std::vector<cv::Size> view_sizes_;
   bool tile_valid_ = false;
+  cv::Size tile_size_;  // the last SweepOnGpu's tile
 };
 
 }  // namespace hullpipe::gl

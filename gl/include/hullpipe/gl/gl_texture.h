@@ -53,6 +53,20 @@ class GlTexture {
                   const std::vector<NovelView>& visibility_views, GLuint visibility_texture,
                   GLuint depth_texture = 0);
 
+  /// Texture's pass without its read-back: queues the pass over `tile` and
+  /// returns at once; ReadBack reads its colour. The tile's depth is layer 0 of
+  /// depth_texture (an R32F texture array, GlRaySweep::tile_texture after
+  /// GlRaySweep::SweepOnGpu), or, with depth_texture 0, `depth` (CV_32FC1 of the
+  /// tile's size, uploaded). visibility_views: as Texture's (one per image,
+  /// layer k of visibility_texture), or nullptr for no visibility test. Throws
+  /// as Texture, and std::invalid_argument with neither depth given.
+  void Dispatch(const cv::Rect& tile, const NovelView& view, const std::vector<CameraImage>& images,
+                const TextureOptions& options, const std::vector<NovelView>* visibility_views,
+                GLuint visibility_texture, GLuint depth_texture, const cv::Mat* depth = nullptr);
+  /// The last Dispatch's tile (CV_8UC3 BGR of its size; black where it
+  /// dispatched nothing: an empty tile or no images). Waits for the GPU.
+  cv::Mat ReadBack() const;
+
  private:
   cv::Mat Run(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
               const std::vector<CameraImage>& images, const TextureOptions& options,
@@ -63,6 +77,8 @@ class GlTexture {
   Buffer cams_, extra_;
   gl::Texture depth_, out_;
   int w_ = 0, h_ = 0;
+  cv::Size out_size_;       // the last Dispatch's tile
+  bool dispatched_ = false;  // whether it queued a pass
 };
 
 }  // namespace hullpipe::gl
