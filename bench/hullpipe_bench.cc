@@ -441,6 +441,14 @@ int main(int argc, char** argv) {
         size_note(pyramids));
     Row("volume query set-up + box", cfg, MedianMs(repeats * 3, [&] { (void)VolumeQuery(views, src->workspace()); }),
         size_note(q.hull_box()));
+    // On the threads recon_node gives it (--threads 0: the host's cores shared
+    // by the recon nodes on it; 8 each on a 16-core machine with two).
+    for (const int threads : {2, 6, 8}) {
+      VolumeQueryOptions qo;
+      qo.threads = threads;
+      Row("volume query set-up + box", cfg + ", " + std::to_string(threads) + " threads",
+          MedianMs(repeats * 3, [&] { (void)VolumeQuery(views, src->workspace(), qo); }), size_note(q.hull_box()));
+    }
   }
 
   if (!synthetic) {
