@@ -29,8 +29,8 @@ class Outputs final : public nodes::RenderSink {
     poses_.Write(ViewToMsg(view, pose_seq, frame_seq, NowNs(), o_.run_id));
   }
   void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
-                  const cv::Mat& hull_depth, double path_time_s) override {
-    files_.WriteFrame(frame, frame_seq, count, view, hull_depth, path_time_s);
+                  const cv::Mat& hull_depth, double path_time_s, const RightEye* right) override {
+    files_.WriteFrame(frame, frame_seq, count, view, hull_depth, path_time_s, right);
   }
   void PublishComposite(const cv::Mat& frame, uint64_t pose_seq, uint64_t frame_seq,
                         int64_t capture_time_ns) override {

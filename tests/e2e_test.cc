@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <limits>
 #include <optional>
 #include <set>
@@ -25,6 +26,7 @@
 #include "hullpipe/geometry/head_pose.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/evaluation/run_check.h"
+#include "hullpipe/reconstruction/stereo_views.h"
 #include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "test_util.h"
@@ -208,6 +210,9 @@ struct ExactRun {
   int width = 160, height = 120;  ///< The view.
   int frames_checked = 3;         ///< Composited frames compared with the exact hull.
   int min_hull_px = 200;          ///< The figure's exact hull pixels in each (it is in view).
+  /// render_node --stereo: both eyes (width x height each, the default ipd and
+  /// fields of view) checked, and against each other (their disparity).
+  bool stereo = false;
 };
 
 nlohmann::json ExpectTheCompositedHullIsExact(const std::string& name, const SyntheticRigOptions& so,
@@ -225,12 +230,13 @@ nlohmann::json ExpectTheCompositedHullIsExact(const std::string& name, const Syn
   description.insert(wait, capture_args + "--fps, \"" + std::to_string(fps) + "\", ");
   std::ofstream(out / "save_depth.yaml") << description;
   const std::string track_csv = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/head_track_example.csv";
-  test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", std::to_string(so.frames),
-                        "--out", (out / "run").string(), "--width", std::to_string(run.width), "--height",
-                        std::to_string(run.height), "--description",
-                        (out / "save_depth.yaml").string(), "--head-poses", track_csv, "--domain",
-                        std::to_string(test::UniqueDomain())},
-                       (out / "launch.log").string());
+  std::vector<std::string> args{test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames",
+                                std::to_string(so.frames), "--out", (out / "run").string(), "--width",
+                                std::to_string(run.width), "--height", std::to_string(run.height), "--description",
+                                (out / "save_depth.yaml").string(), "--head-poses", track_csv, "--domain",
+                                std::to_string(test::UniqueDomain())};
+  if (run.stereo) args.push_back("--stereo");
+  test::Process launch(args, (out / "launch.log").string());
   EXPECT_EQ(launch.Wait(timeout_s), 0) << test::ReadFile((out / "launch.log").string());
   const PoseTrack track = LoadPoseTrack(track_csv);
 
@@ -243,9 +249,16 @@ nlohmann::json ExpectTheCompositedHullIsExact(const std::string& name, const Syn
   }
   auto source = OpenSyntheticRig(so);
   const std::string run_dir = (out / "run").string();
+  StereoOptions stereo;
+  stereo.width = run.width, stereo.height = run.height;
+  // Each eye's depths by frame (for the disparity check).
+  std::map<uint64_t, std::array<cv::Mat, 2>> eye_depth;
+  std::map<uint64_t, std::array<NovelView, 2>> eye_view;
+  for (const int eye : run.stereo ? std::vector<int>{0, 1} : std::vector<int>{0}) {
+  SCOPED_TRACE(run.stereo ? (eye ? "right eye" : "left eye") : "mono");
   std::vector<RunView> views;
   try {
-    views = ReadRunViews(run_dir + "/views.csv");
+    views = ReadRunViews(run_dir + (eye ? "/views_right.csv" : "/views.csv"));
   } catch (const std::runtime_error& e) {
     ADD_FAILURE() << e.what();
   }
@@ -256,19 +269,28 @@ nlohmann::json ExpectTheCompositedHullIsExact(const std::string& name, const Syn
     EXPECT_LE(seq, frames.size());
     if (seq > frames.size()) break;
     const NovelView& view = rv.view;
-    // The view is the tracker log's pose at the frame's time.
-    const Rigid3d logged = track.At(rv.path_time_s);
+    // The view is the tracker log's pose at the frame's time (in stereo, the
+    // head's: the eye's pose and asymmetric projection from it).
+    const Rigid3d logged = run.stereo ? MakeStereoViews(track.At(rv.path_time_s), stereo).eye[size_t(eye)].world_from_eye
+                                      : track.At(rv.path_time_s);
     EXPECT_LT((logged.rotation - view.world_from_eye.rotation).norm(), 1e-9) << "frame " << seq;
     EXPECT_LT((logged.translation - view.world_from_eye.translation).norm(), 1e-9) << "frame " << seq;
+    if (run.stereo) {
+      const NovelView want = MakeStereoViews(track.At(rv.path_time_s), stereo).eye[size_t(eye)];
+      EXPECT_NEAR(view.cx, want.cx, 1e-9) << "the eye's own off-axis projection";
+      EXPECT_NEAR(view.fx, want.fx, 1e-9);
+    }
     // The hull: frame seq is the source's (seq)-th frame.
     std::vector<CameraMap> maps;
     for (size_t c = 0; c < source->cameras().size(); ++c)
       maps.push_back({source->cameras()[c], frames[seq - 1].maps[c]});
     const VolumeQuery q(maps, source->workspace());
-    const cv::Mat got = cv::imread(RunDepthPath(run_dir, seq), cv::IMREAD_UNCHANGED);
+    const cv::Mat got = cv::imread(RunDepthPath(run_dir, seq, eye == 1), cv::IMREAD_UNCHANGED);
     EXPECT_EQ(got.type(), CV_32FC1);
     EXPECT_EQ(got.size(), cv::Size(view.width, view.height));
     if (got.type() != CV_32FC1 || got.size() != cv::Size(view.width, view.height)) break;
+    eye_depth[seq][size_t(eye)] = got;
+    eye_view[seq][size_t(eye)] = view;
     // 1. The pipeline computed what the sweep computes: the two recon nodes'
     // tiles, assembled, equal recon's sweep (50 planes, 6 bisections, the
     // launcher's settings) of this frame and view run here, pixel for pixel.
@@ -295,6 +317,60 @@ nlohmann::json ExpectTheCompositedHullIsExact(const std::string& name, const Syn
     ++checked;
   }
   EXPECT_GE(checked, run.frames_checked) << "views.csv rows";
+  }
+  // The two eyes see one surface: the eyes' axes are parallel, ipd apart along
+  // x, so a hull point at eye depth z in the left eye is at the same z in the
+  // right eye, fx_r (x_l - ipd) / z + cx_r pixels across. The right eye's depth
+  // there, interpolated between its four nearest pixel centres (all on the
+  // hull, none across a step of more than 5 cm), is z wherever that point is
+  // not hidden from the right eye (at the figure's edges it may be).
+  // Tolerance: each eye's depth is within ~0.1 mm of the exact hull (checked
+  // above); a pixel of these wide-angle 320x240 eyes spans ~2 cm at 3 m, and
+  // interpolating across it on the figure's curved surface (radii from ~5 cm)
+  // errs by up to a few millimetres at the limbs (nearest-pixel sampling erred
+  // by a median 8 mm at 160x120); an eye offset the wrong way is ~6 px off.
+  if (run.stereo) {
+    int compared_frames = 0;
+    for (const auto& [seq, d] : eye_depth) {
+      if (d[0].empty() || d[1].empty()) continue;
+      const NovelView& l = eye_view[seq][0];
+      const NovelView& r = eye_view[seq][1];
+      const Rigid3d right_from_left = r.world_from_eye.Inverse() * l.world_from_eye;
+      EXPECT_LT((right_from_left.rotation - Eigen::Matrix3d::Identity()).norm(), 1e-9) << "parallel eyes";
+      EXPECT_NEAR(right_from_left.translation.x(), -stereo.ipd_m, 1e-9);
+      std::vector<double> err;
+      int near = 0;
+      for (int v = 0; v < d[0].rows; ++v)
+        for (int u = 0; u < d[0].cols; ++u) {
+          const float z = d[0].at<float>(v, u);
+          if (!(z < kNoDepth)) continue;
+          const Eigen::Vector3d X_l = z * Eigen::Vector3d((u + 0.5 - l.cx) / l.fx, (v + 0.5 - l.cy) / l.fy, 1.0);
+          const Eigen::Vector3d X_r = right_from_left * X_l;
+          // Pixel-centre coordinates of the projection (centres at +0.5).
+          const double x = r.fx * X_r.x() / X_r.z() + r.cx - 0.5, y = r.fy * X_r.y() / X_r.z() + r.cy - 0.5;
+          const int x0 = int(std::floor(x)), y0 = int(std::floor(y));
+          if (x0 < 0 || y0 < 0 || x0 + 1 >= d[1].cols || y0 + 1 >= d[1].rows) continue;
+          const float q[4] = {d[1].at<float>(y0, x0), d[1].at<float>(y0, x0 + 1), d[1].at<float>(y0 + 1, x0),
+                              d[1].at<float>(y0 + 1, x0 + 1)};
+          if (!(std::max({q[0], q[1], q[2], q[3]}) < kNoDepth)) continue;
+          if (std::max({q[0], q[1], q[2], q[3]}) - std::min({q[0], q[1], q[2], q[3]}) > 0.05f) continue;
+          const double a = x - x0, b = y - y0;
+          const double zr = (1 - b) * ((1 - a) * q[0] + a * q[1]) + b * ((1 - a) * q[2] + a * q[3]);
+          err.push_back(std::abs(zr - X_r.z()));
+          near += std::abs(zr - X_r.z()) < 0.01;
+        }
+      EXPECT_GT(err.size(), 100u) << "frame " << seq << ": the figure in both eyes";
+      if (err.size() <= 100) continue;
+      std::nth_element(err.begin(), err.begin() + long(err.size() / 2), err.end());
+      const double median_mm = err[err.size() / 2] * 1e3;
+      std::printf("%s frame %llu: %zu points in both eyes, %d within 1 cm, median depth difference %.2f mm\n",
+                  name.c_str(), (unsigned long long)seq, err.size(), near, median_mm);
+      EXPECT_LT(median_mm, 1.0) << "frame " << seq;  // measured 0.17-0.18 mm
+      EXPECT_GT(near, int(err.size() * 9 / 10)) << "frame " << seq << ": most of the left eye's surface seen by both";
+      ++compared_frames;
+    }
+    EXPECT_GE(compared_frames, run.frames_checked);
+  }
   std::ifstream stats((out / "run" / "stats.json").string());
   return stats ? nlohmann::json::parse(stats, nullptr, false) : nlohmann::json{};
 }
@@ -303,6 +379,19 @@ TEST(EndToEnd, TheCompositedHullIsTheExactHullFromTheTrackedView) {
   SyntheticRigOptions so;  // capture_node's defaults: four 320x240 ring cameras
   so.frames = 12;
   ExpectTheCompositedHullIsExact("e2e_exact", so, "", 5, 180);
+}
+
+// A head-mounted display (render_node --stereo): each eye's composited hull,
+// from its own pose and off-axis projection, equals the direct sweep and the
+// exact hull, as one view's does; and the eyes agree with each other by the
+// disparity of the interpupillary distance.
+TEST(EndToEnd, EachEyesCompositedHullIsTheExactHullAndTheEyesAgree) {
+  SyntheticRigOptions so;
+  so.frames = 12;
+  ExactRun run;
+  run.stereo = true;
+  run.width = 320, run.height = 240;  // each eye; the wide fields of view make the figure small
+  ExpectTheCompositedHullIsExact("e2e_stereo", so, "", 5, 180, run);
 }
 
 // Many distorted cameras (a 20-camera dome with radial distortion, as published

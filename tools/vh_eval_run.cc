@@ -32,11 +32,16 @@ void AddRunEvalOptions(CLI::App* sub, RunEvalOptions& o) {
       ->capture_default_str();
   sub->add_option("--threads", o.threads, "Threads")->check(CLI::Range(1, 256))->capture_default_str();
   sub->add_flag("--json", o.json, "Print one JSON object");
+  sub->add_option("--eye", o.eye, "A stereo run's eye (render_node --stereo): left (views.csv) or right (views_right.csv)")
+      ->check(CLI::IsMember({"left", "right"}))
+      ->capture_default_str();
 }
 
 int RunRunEval(const RunEvalOptions& o) {
-  const auto views = ReadRunViews(o.run + "/views.csv");
-  if (views.empty()) throw std::runtime_error(o.run + "/views.csv: no frame saved");
+  const bool right = o.eye == "right";
+  const std::string views_csv = o.run + (right ? "/views_right.csv" : "/views.csv");
+  const auto views = ReadRunViews(views_csv);
+  if (views.empty()) throw std::runtime_error(views_csv + ": no frame saved");
   RunCheckOptions co;
   co.sweep.num_planes = o.planes;
   co.refine = o.refine;
@@ -46,7 +51,7 @@ int RunRunEval(const RunEvalOptions& o) {
   VolumeQueryOptions qo;
   qo.out_of_view = o.out_of_view == "outside" ? OutOfView::kOutside : OutOfView::kUnknown;
   auto src = OpenVideoRig(o.rig, {});
-  nlohmann::json j = {{"rig", o.rig},          {"run", o.run},       {"planes", o.planes},
+  nlohmann::json j = {{"rig", o.rig},          {"run", o.run},       {"eye", o.eye},     {"planes", o.planes},
                       {"refine", o.refine},    {"out_of_view", o.out_of_view},
                       {"exact_stride", o.exact_stride},              {"frames", nlohmann::json::array()}};
   if (!o.json)
@@ -60,7 +65,7 @@ int RunRunEval(const RunEvalOptions& o) {
   for (const RunView& rv : views) {
     if (o.max_frames > 0 && checked + failed >= o.max_frames) break;
     if (rv.frame_seq <= at)
-      throw std::runtime_error(o.run + "/views.csv: frame " + std::to_string(rv.frame_seq) + " is not after frame " +
+      throw std::runtime_error(views_csv + ": frame " + std::to_string(rv.frame_seq) + " is not after frame " +
                                std::to_string(at));
     while (at < rv.frame_seq) {
       if (!src->Next(&f))
@@ -68,7 +73,7 @@ int RunRunEval(const RunEvalOptions& o) {
                                  std::to_string(rv.frame_seq) + " (is it the rig the run read?)");
       ++at;
     }
-    const std::string depth_path = RunDepthPath(o.run, rv.frame_seq);
+    const std::string depth_path = RunDepthPath(o.run, rv.frame_seq, right);
     const cv::Mat depth = cv::imread(depth_path, cv::IMREAD_UNCHANGED);
     std::vector<CameraMap> maps;
     for (size_t i = 0; i < src->cameras().size(); ++i)

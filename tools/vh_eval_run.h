@@ -23,6 +23,9 @@ struct RunEvalOptions {
   int exact_stride = 4;    ///< The exact intervals at every N-th pixel in x and y.
   int threads = 2;
   bool json = false;       ///< One JSON object on stdout.
+  /// A stereo run's eye (render_node --stereo): "left" (views.csv, the frames'
+  /// depths) or "right" (views_right.csv, frame_N_right_depth.tiff).
+  std::string eye = "left";
 };
 
 /// Registers the subcommand's flags on `sub`, into `options`.

@@ -68,9 +68,10 @@ std::vector<RunView> ReadRunViews(const std::string& csv_path) {
   return rows;
 }
 
-std::string RunDepthPath(const std::string& run_dir, uint64_t frame_seq) {
-  char name[48];
-  std::snprintf(name, sizeof name, "/frame_%05llu_depth.tiff", (unsigned long long)frame_seq);
+std::string RunDepthPath(const std::string& run_dir, uint64_t frame_seq, bool right) {
+  char name[64];
+  std::snprintf(name, sizeof name, right ? "/frame_%05llu_right_depth.tiff" : "/frame_%05llu_depth.tiff",
+                (unsigned long long)frame_seq);
   return run_dir + name;
 }
 

@@ -31,8 +31,10 @@ struct RunView {
 /// finite numbers with a valid view (NovelView::Check, a rotation).
 std::vector<RunView> ReadRunViews(const std::string& csv_path);
 
-/// The path render_node writes a frame's depth to: DIR/frame_%05llu_depth.tiff.
-std::string RunDepthPath(const std::string& run_dir, uint64_t frame_seq);
+/// The path render_node writes a frame's depth to: DIR/frame_%05llu_depth.tiff,
+/// or with `right` (render_node --stereo: the right eye's, whose views are in
+/// views_right.csv) DIR/frame_%05llu_right_depth.tiff.
+std::string RunDepthPath(const std::string& run_dir, uint64_t frame_seq, bool right = false);
 
 /// How the recon nodes swept (their flags' defaults: 50 planes, 6 bisections),
 /// and how much of the exact reference to compute.

@@ -117,8 +117,15 @@ int ReconController::Step() {
   while (!poses_.empty()) {
     const PendingPose& p = poses_.front();
     const uint64_t want = p.frame_seq;
-    const bool newer_pose_waiting = poses_.size() > 1;
-    const bool ready = want == 0 ? assembler_.NewestComplete().has_value() : assembler_.IsComplete(want);
+    // The frameset rendered last is still here for another view of it.
+    auto served = [&](uint64_t seq) { return seq != 0 && last_.frameset && seq == last_.seq; };
+    // The first later pose that names another frameset: the poses between name
+    // this one (the other eye of a stereo pair) and supersede nothing.
+    size_t next = 1;
+    while (want != 0 && next < poses_.size() && poses_[next].frame_seq == want) ++next;
+    const bool newer_pose_waiting = poses_.size() > next;
+    const bool ready =
+        served(want) || (want == 0 ? assembler_.NewestComplete().has_value() : assembler_.IsComplete(want));
     if (!ready) {
       const bool gone = want != 0 && assembler_.IsGone(want);
       if (gone || newer_pose_waiting || clock_.Now() - p.received_s > o_.pose_timeout) {
@@ -129,18 +136,23 @@ int ReconController::Step() {
       break;
     }
     if (newer_pose_waiting) {
-      const uint64_t next_want = poses_[1].frame_seq;
-      if (next_want == 0 || assembler_.IsComplete(next_want)) {
+      const uint64_t next_want = poses_[next].frame_seq;
+      if (next_want == 0 || served(next_want) || assembler_.IsComplete(next_want)) {
         ++poses_dropped_;
         poses_.pop_front();
         continue;
       }
     }
-    std::optional<Frameset> fs = want == 0 ? assembler_.TakeNewest() : assembler_.Take(want);
     const PendingPose pose = p;
     poses_.pop_front();
+    if (served(want)) {
+      published += Render(pose, last_.frameset, /*again=*/true);
+      continue;
+    }
+    std::optional<Frameset> fs = want == 0 ? assembler_.TakeNewest() : assembler_.Take(want);
     if (!fs) continue;
-    published += Render(pose, *fs);
+    last_ = Served{};  // the backend is about to begin another frameset
+    published += Render(pose, std::make_shared<const Frameset>(std::move(*fs)), /*again=*/false);
   }
   counters_.SetDropped(assembler_.dropped() + poses_dropped_);
   counters_.SetAssembly(assembler_.SkewReports(), assembler_.dropped_for_skew());
@@ -148,31 +160,40 @@ int ReconController::Step() {
   return published;
 }
 
-int ReconController::Render(const PendingPose& pose, const Frameset& fs) {
+int ReconController::Render(const PendingPose& pose, const std::shared_ptr<const Frameset>& frameset, bool again) {
+  const Frameset& fs = *frameset;
   counters_.FrameIn();
   // The budget's recon stages (docs/latency.md): wait (the frameset's last
   // sample taken to this start: a pose naming it, or this node busy), hull_box,
-  // upload, visibility, sweep, refine, texture, publish.
-  counters_.StageSince("wait", fs.last_arrival_ns);
+  // upload, visibility, sweep, refine, texture, publish. A second view of the
+  // frameset rendered last has only its own plane depths, sweep and texture.
   const int threads = ThreadsNow();
   backend_.set_threads(threads);
   query_options_.threads = threads;
   const double t0 = clock_.Now();
-  const VolumeQuery vq(fs.maps, assembler_.workspace(), query_options_);  // includes the hull box
-  const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, o_.sweep);
-  counters_.Stage("hull_box", (clock_.Now() - t0) * 1e3);
-  {
-    StageTimer st(counters_, "upload");
-    backend_.BeginFrameset(vq, fs.images);
-  }
   const bool with_visibility = o_.visibility_width > 0;
-  if (with_visibility) {
-    StageTimer st(counters_, "visibility");
-    std::vector<Camera> cams;
-    for (const auto& im : fs.images) cams.push_back(im.camera);
-    PlaneSweepOptions vis_sweep = o_.sweep;
-    vis_sweep.num_planes = std::min(o_.sweep.num_planes, 48);
-    backend_.ComputeVisibility(vq, cams, o_.visibility_width, vis_sweep);
+  std::shared_ptr<const VolumeQuery> query = last_.query;
+  if (!again) {
+    counters_.StageSince("wait", fs.last_arrival_ns);
+    query = std::make_shared<const VolumeQuery>(fs.maps, assembler_.workspace(), query_options_);  // the hull box
+  }
+  const VolumeQuery& vq = *query;
+  const std::vector<double> depths = SweepPlaneDepths(vq, pose.view, o_.sweep);
+  if (!again) {
+    counters_.Stage("hull_box", (clock_.Now() - t0) * 1e3);
+    {
+      StageTimer st(counters_, "upload");
+      backend_.BeginFrameset(vq, fs.images);
+    }
+    if (with_visibility) {
+      StageTimer st(counters_, "visibility");
+      std::vector<Camera> cams;
+      for (const auto& im : fs.images) cams.push_back(im.camera);
+      PlaneSweepOptions vis_sweep = o_.sweep;
+      vis_sweep.num_planes = std::min(o_.sweep.num_planes, 48);
+      backend_.ComputeVisibility(vq, cams, o_.visibility_width, vis_sweep);
+    }
+    last_ = Served{fs.seq, frameset, query};
   }
   int published = 0;
   spdlog::debug("frameset {}, pose {}: sweeping a {}x{} view, {} planes", fs.seq, pose.pose_seq, pose.view.width,

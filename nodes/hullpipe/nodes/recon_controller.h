@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -78,6 +79,9 @@ class ReconController {
   /// assembler (counted into this node's rejected, with the assembler's own).
   void SetMalformedInput(uint64_t n) { malformed_input_ = n; }
   /// Serves every pose that can be served now; returns the tiles published.
+  /// A pose is superseded by a later one naming a newer frameset that is
+  /// ready; poses naming the same frameset (a stereo pair's eyes) are each
+  /// served, the second from the first's query, upload and visibility maps.
   /// Throws Interrupted (util/interrupt.h) when the backend's stop flag is set
   /// mid-render: the node is stopping, and the pose is dropped.
   int Step();
@@ -97,7 +101,19 @@ class ReconController {
     double received_s = 0;
     uint64_t run_id = 0;
   };
-  int Render(const PendingPose& pose, const Frameset& fs);
+  // Renders `pose` from frameset *fs; again: *fs is the frameset rendered last
+  // (last_), whose query, upload and visibility maps are reused.
+  int Render(const PendingPose& pose, const std::shared_ptr<const Frameset>& fs, bool again);
+  // The frameset rendered last and its volume query, kept while poses may still
+  // name it: another view of the same frameset (the other eye of a stereo
+  // pair) is swept against the same maps, hull box, upload and visibility maps
+  // (the backend still holds them: no frameset has begun since).
+  struct Served {
+    uint64_t seq = 0;
+    std::shared_ptr<const Frameset> frameset;
+    std::shared_ptr<const VolumeQuery> query;
+  };
+  Served last_;
 
   ReconOptions o_;
   const Clock& clock_;

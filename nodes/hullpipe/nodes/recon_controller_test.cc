@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "hullpipe/nodes/test_rig.h"
+#include "hullpipe/reconstruction/stereo_views.h"
 
 namespace hullpipe::nodes {
 namespace {
@@ -139,6 +140,70 @@ TEST_F(Recon, ANewerReadyPoseSupersedesAndAMissingFramesetTimesOut) {
   r.OnPose(View(), 4, 1);
   r.Step();
   EXPECT_EQ(r.poses_dropped(), 3u);
+}
+
+// A head-mounted display's two eyes (render_node --stereo): two poses naming one
+// frameset, whether they arrive together or the second after the first was
+// served. Each is served with its own view's sweep, equal to a direct sweep
+// from that eye, and the frameset's query, upload and visibility maps are made
+// once for both. Control: a pose naming a newer ready frameset still
+// supersedes the older frameset's poses.
+TEST_F(Recon, TwoEyesOfOneFramesetAreBothServedFromOneQuery) {
+  ReconOptions o = Options("0/1");
+  o.visibility_width = 24;
+  ReconController r(o, clock_, assembler_, *cpu_, sink_);
+  const StereoOptions so = [] {
+    StereoOptions s;
+    s.width = 48, s.height = 36;
+    return s;
+  }();
+  const StereoViews eyes = MakeStereoViews(View().world_from_eye, so);
+  const auto& stages = r.counters().stages();
+  auto direct = [&](const NovelView& v, const cv::Rect& rect) {
+    const VolumeQuery q(rig_.views, hullpipe::test::BigBox());
+    PlaneSweepOptions ps;
+    ps.num_planes = 24;
+    return PlaneSweepCpu(q, v, SweepPlaneDepths(q, v, ps), rect);
+  };
+  rig_.AddFrame(assembler_, 1, clock_.WallNs(), true);
+  r.OnPose(eyes.eye[0], 1, 1);
+  r.OnPose(eyes.eye[1], 2, 1);
+  ASSERT_EQ(r.Step(), 2) << "both eyes, queued together";
+  ASSERT_EQ(sink_.tiles.size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(sink_.tiles[size_t(k)].pose_seq, uint64_t(k + 1));
+    EXPECT_EQ(sink_.tiles[size_t(k)].frame_seq, 1u);
+    EXPECT_EQ(cv::norm(sink_.tiles[size_t(k)].depth, direct(eyes.eye[size_t(k)], sink_.tiles[size_t(k)].rect),
+                       cv::NORM_INF),
+              0.0)
+        << "eye " << k;
+  }
+  EXPECT_GT(cv::norm(sink_.tiles[0].depth != sink_.tiles[1].depth, cv::NORM_L1), 0.0) << "the eyes differ";
+  for (const char* st : {"hull_box", "upload", "visibility", "wait"})
+    EXPECT_LE(stages.count(st) ? stages.at(st).count() : 0u, 1u) << st << ": once for the frameset";
+  EXPECT_EQ(stages.at("hull_box").count(), 1u);
+  EXPECT_EQ(stages.at("sweep").count(), 2u);
+  EXPECT_EQ(r.poses_dropped(), 0u);
+  // The right eye's pose after the left was served: from the same query.
+  rig_.AddFrame(assembler_, 2, clock_.WallNs(), true);
+  r.OnPose(eyes.eye[0], 3, 2);
+  ASSERT_EQ(r.Step(), 1);
+  r.OnPose(eyes.eye[1], 4, 2);
+  ASSERT_EQ(r.Step(), 1) << "the frameset was taken, but is kept for its other eye";
+  EXPECT_EQ(sink_.tiles.back().pose_seq, 4u);
+  EXPECT_EQ(cv::norm(sink_.tiles.back().depth, direct(eyes.eye[1], sink_.tiles.back().rect), cv::NORM_INF), 0.0);
+  EXPECT_EQ(stages.at("hull_box").count(), 2u);
+  EXPECT_EQ(stages.at("sweep").count(), 4u);
+  // Control: frameset 3's eyes queued behind frameset 4's, both ready: 3's are
+  // superseded, 4's both served.
+  rig_.AddFrame(assembler_, 3, clock_.WallNs(), true);
+  rig_.AddFrame(assembler_, 4, clock_.WallNs(), true);
+  for (uint64_t k = 0; k < 4; ++k) r.OnPose(eyes.eye[k % 2], 5 + k, 3 + k / 2);
+  ASSERT_EQ(r.Step(), 2);
+  EXPECT_EQ(r.poses_dropped(), 2u);
+  EXPECT_EQ(sink_.tiles[sink_.tiles.size() - 2].pose_seq, 7u);
+  EXPECT_EQ(sink_.tiles.back().pose_seq, 8u);
+  EXPECT_EQ(sink_.tiles.back().frame_seq, 4u);
 }
 
 TEST_F(Recon, TheLowestLiveNodeAdoptsASilentPeersTileUntilItIsHeardAgain) {

@@ -65,6 +65,21 @@ void RenderOptions::Check() const {
   if (view == View::kFile && track.empty()) bad("--view file goes with --head-poses FILE");
   if (publish_max_side < 16 || publish_max_side > 16384) bad("--publish-max-side must be 16..16384 pixels");
   if (publish_jpeg_quality < 1 || publish_jpeg_quality > 100) bad("--publish-jpeg-quality must be 1..100");
+  if (stereo) {
+    StereoOptions s = *stereo;
+    s.width = width, s.height = height;
+    s.Check();
+  }
+}
+
+std::map<uint64_t, RenderController::InFlight>::iterator RenderController::FindPose(
+    std::map<uint64_t, InFlight>& poses, uint64_t pose_seq, size_t* eye) {
+  auto it = poses.upper_bound(pose_seq);
+  if (it == poses.begin()) return poses.end();
+  --it;
+  if (pose_seq - it->first >= it->second.eyes.size()) return poses.end();
+  *eye = size_t(pose_seq - it->first);
+  return it;
 }
 
 RenderController::RenderController(RenderOptions options, const Clock& clock, FramesetAssembler& assembler,
@@ -103,13 +118,14 @@ void RenderController::OnTile(HullTile t, int64_t sent_ns) {
   // always carry it, so one without it is another run's too.
   if (!runs_.Accept(t.run_id, "HullView", /*take_unset=*/o_.run_id == 0, "recon" + std::to_string(t.node_id)))
     return;
-  auto it = in_flight_.find(t.pose_seq);
+  size_t eye = 0;
+  auto it = FindPose(in_flight_, t.pose_seq, &eye);
   if (it == in_flight_.end()) {
     ++tiles_late_;
     // A tile for a pose given up on: the recon nodes need longer than the
     // time-out. Wait twice what this one took from now on (docs/latency.md),
     // and keep the tile: Step composites the pose if all its tiles come.
-    it = given_up_.find(t.pose_seq);
+    it = FindPose(given_up_, t.pose_seq, &eye);
     if (it == given_up_.end()) return;
     const double took = clock_.Now() - it->second.sent_s;
     if (took > tile_timeout_ && tile_timeout_ < kMaxTileTimeoutS) {
@@ -119,16 +135,18 @@ void RenderController::OnTile(HullTile t, int64_t sent_ns) {
                    t.pose_seq, took, tile_timeout_);
     }
   }
-  if (t.rect.x < 0 || t.rect.y < 0 || t.rect.x + t.rect.width > it->second.view.width ||
-      t.rect.y + t.rect.height > it->second.view.height) {
+  const NovelView& view = it->second.eyes[eye].view;
+  if (t.rect.x < 0 || t.rect.y < 0 || t.rect.x + t.rect.width > view.width ||
+      t.rect.y + t.rect.height > view.height) {
     Reject("HullView tile rectangle lies outside the view");
     return;
   }
   counters_.StageSince("transport_tile", sent_ns);
-  auto& tiles = it->second.tiles;
+  auto& tiles = it->second.eyes[eye].tiles;
+  const bool was_complete = it->second.Complete(o_.tiles);
   tiles[t.tile_index] = std::move(t);
   // The tiles' round trip: the pose sent to its last tile in (beside recon's stages).
-  if (int(tiles.size()) == o_.tiles) {
+  if (!was_complete && it->second.Complete(o_.tiles)) {
     counters_.Stage("tiles", (clock_.Now() - it->second.sent_s) * 1e3);
     it->second.tiles_in_s = clock_.Now();
   }
@@ -165,7 +183,7 @@ void RenderController::OnModelState(ModelStateSample state) {
   while (per.size() > 8) per.erase(per.begin());
 }
 
-void RenderController::DrawModels(uint64_t frame_seq, MeshDraws* draws) {
+void RenderController::DrawModels(uint64_t frame_seq, MeshDraws* draws, bool count) {
   static const cv::Vec3b kAmber(0, 170, 255);
   for (const auto& [model_id, per] : model_states_) {
     auto s = per.upper_bound(frame_seq);
@@ -192,7 +210,7 @@ void RenderController::DrawModels(uint64_t frame_seq, MeshDraws* draws) {
                        : ps.contact == kPartNear   ? kAmber
                                                    : d.part.colour;
       draws->push_back(&d.world);
-      report_.OnModelPartDrawn(it->first, ps.contact, ps.clearance);
+      if (count) report_.OnModelPartDrawn(it->first, ps.contact, ps.clearance);
     }
   }
 }
@@ -298,22 +316,30 @@ void RenderController::IssuePoses() {
     Rigid3d world_from_eye = orbit_.WorldFromEye(t);
     if (o_.view == RenderOptions::View::kFile) world_from_eye = o_.track.At(t);
     if (o_.view == RenderOptions::View::kTopic && tracked_) world_from_eye = *tracked_;
-    f.view = NovelView::FromFov(o_.width, o_.height, o_.hfov_deg * M_PI / 180.0, world_from_eye);
-    ++pose_seq_;
-    sink_.PublishPose(f.view, pose_seq_, fset->seq);
+    if (o_.stereo) {
+      // The head pose's two eyes (stereo_views.h), poses key and key + 1.
+      StereoOptions so = *o_.stereo;
+      so.width = o_.width, so.height = o_.height;
+      const StereoViews eyes = MakeStereoViews(world_from_eye, so);
+      for (const NovelView& v : eyes.eye) f.eyes.push_back({v, {}});
+    } else {
+      f.eyes.push_back({NovelView::FromFov(o_.width, o_.height, o_.hfov_deg * M_PI / 180.0, world_from_eye), {}});
+    }
+    const uint64_t key = pose_seq_ + 1;
+    for (const auto& e : f.eyes) sink_.PublishPose(e.view, ++pose_seq_, fset->seq);
     // Render's own frameset in (its last sample taken) to its pose out.
     counters_.StageSince("issue", fset->last_arrival_ns);
-    in_flight_[pose_seq_] = std::move(f);
+    in_flight_[key] = std::move(f);
     last_requested_ = fset->seq;
   }
 }
 
-void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
-  spdlog::debug("compositing a {}x{} view (frame {})", o_.width, o_.height, f.frame_seq);
+cv::Mat RenderController::CompositeEye(const InFlight& f, const InFlight::Eye& eye, cv::Mat* hull_depth,
+                                       double* hull_fraction, uint64_t* spheres_colliding, size_t* meshes_drawn) {
   std::optional<StageTimer> st(std::in_place, counters_, "composite");
   std::vector<const HullTile*> tiles;
-  for (const auto& [idx, t] : f.tiles) tiles.push_back(&t);
-  const HullViewImage hull = PasteTiles(tiles, {o_.width, o_.height}, stop_);
+  for (const auto& [idx, t] : eye.tiles) tiles.push_back(&t);
+  const HullViewImage hull = PasteTiles(tiles, {eye.view.width, eye.view.height}, stop_);
   const cv::Mat& depth = hull.depth;
   const cv::Mat& colour = hull.colour;
   int64_t hull_pixels = 0;
@@ -323,7 +349,7 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
   }
   std::vector<VirtualSphere> spheres;
   std::vector<VirtualMeshDraw> boxes;  // box states' triangles, drawn with the meshes
-  uint64_t spheres_colliding = 0;
+  *spheres_colliding = 0;
   for (const auto& [id, per] : states_) {
     // The state stepped against this frameset, else the newest before it.
     auto s = per.upper_bound(f.frame_seq);
@@ -334,8 +360,10 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     } else {
       spheres.push_back({s->second.position, s->second.radius, s->second.colliding});
     }
-    spheres_colliding += s->second.colliding != 0;
+    *spheres_colliding += s->second.colliding != 0;
   }
+  // The statistics count a frame's objects once, from its first eye.
+  const bool count = &eye == &f.eyes.front();
   MeshDraws draws;  // pointers into meshes_, model_parts_ and boxes, unchanged until drawn
   for (const VirtualMeshDraw& b : boxes) draws.push_back(&b);
   for (const auto& [id, per] : meshes_) {
@@ -344,26 +372,54 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     --s;
     draws.push_back(&s->second.draw);
     const auto& c = s->second.draw.colliding;
-    report_.OnMeshDrawn(s->second.element, id, s->second.clearance, std::find(c.begin(), c.end(), 1) != c.end());
+    if (count)
+      report_.OnMeshDrawn(s->second.element, id, s->second.clearance, std::find(c.begin(), c.end(), 1) != c.end());
   }
-  DrawModels(f.frame_seq, &draws);
+  DrawModels(f.frame_seq, &draws, count);
   cv::Mat composited_depth;
-  cv::Mat frame = hullpipe::Composite(f.view, depth, colour, spheres, comp_, &composited_depth, draws, stop_);
+  cv::Mat frame = hullpipe::Composite(eye.view, depth, colour, spheres, comp_, &composited_depth, draws, stop_);
   st.reset();
   if (o_.light) {
     StageTimer lt(counters_, "light");
     const ShadowMap shadow = RenderShadowMap(*o_.light, orbit_.up, f.hull.get(), spheres, draws);
-    ApplyLighting(f.view, composited_depth, depth, *o_.light, shadow, &frame, stop_);
+    ApplyLighting(eye.view, composited_depth, depth, *o_.light, shadow, &frame, stop_);
   }
-  report_.OnFrameDrawn(spheres_colliding, draws.size() - boxes.size(), o_.light.has_value(),
-                       double(hull_pixels) / double(depth.total()));
+  *meshes_drawn = draws.size() - boxes.size();
+  *hull_fraction = double(hull_pixels) / double(depth.total());
+  *hull_depth = depth;
+  return frame;
+}
+
+void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
+  spdlog::debug("compositing {} {}x{} view(s) (frame {})", f.eyes.size(), o_.width, o_.height, f.frame_seq);
+  std::vector<cv::Mat> frames, depths;
+  uint64_t spheres_colliding = 0;
+  size_t meshes_drawn = 0;
+  double hull_fraction = 0;
+  for (const InFlight::Eye& eye : f.eyes) {
+    cv::Mat depth;
+    frames.push_back(CompositeEye(f, eye, &depth, &hull_fraction, &spheres_colliding, &meshes_drawn));
+    depths.push_back(depth);
+    if (&eye == &f.eyes.front())
+      report_.OnFrameDrawn(spheres_colliding, meshes_drawn, o_.light.has_value(), hull_fraction);
+  }
+  cv::Mat frame;
+  if (frames.size() == 1) {
+    frame = frames[0];
+  } else {
+    cv::hconcat(frames, frame);  // left eye, right eye
+  }
   {
     StageTimer wt(counters_, "write");
-    sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1, f.view, depth, f.path_time_s);
+    const RenderSink::RightEye right{f.eyes.back().view, depths.back()};
+    sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1, f.eyes[0].view, depths[0], f.path_time_s,
+                     frames.size() > 1 ? &right : nullptr);
   }
   if (o_.publish_composite) {
     StageTimer pt(counters_, "publish");
-    sink_.PublishComposite(frame, pose_seq, f.frame_seq, f.capture_time_ns);
+    // Each eye's composite with its own pose (a headset shows each to its eye).
+    for (size_t k = 0; k < frames.size(); ++k)
+      sink_.PublishComposite(frames[k], pose_seq + k, f.frame_seq, f.capture_time_ns);
   }
   counters_.FrameOut(f.capture_time_ns);
   last_composited_ = std::max(last_composited_, f.frame_seq);
@@ -375,7 +431,7 @@ int RenderController::Step() {
   // A pose given up on whose tiles all came after all: composited if nothing
   // newer was (it was counted as dropped when given up; no longer).
   for (auto it = given_up_.begin(); it != given_up_.end();) {
-    if (int(it->second.tiles.size()) < o_.tiles) {
+    if (!it->second.Complete(o_.tiles)) {
       ++it;
       continue;
     }
@@ -392,10 +448,10 @@ int RenderController::Step() {
   // Composite every pose whose tiles are all in; give up on stale ones.
   for (auto it = in_flight_.begin(); it != in_flight_.end();) {
     InFlight& f = it->second;
-    if (int(f.tiles.size()) < o_.tiles) {
+    if (!f.Complete(o_.tiles)) {
       if (clock_.Now() - f.sent_s > tile_timeout_) {
         spdlog::warn("pose {} (frame {}): {} of {} tiles after {:.1f} s; dropped", it->first, f.frame_seq,
-                     f.tiles.size(), o_.tiles, tile_timeout_);
+                     f.TilesIn(), size_t(o_.tiles) * f.eyes.size(), tile_timeout_);
         counters_.Dropped();
         given_up_[it->first] = std::move(f);
         while (given_up_.size() > kMaxGivenUp) given_up_.erase(given_up_.begin());

@@ -31,6 +31,7 @@
 #include "hullpipe/nodes/run_report.h"
 #include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/stereo_views.h"
 #include "hullpipe/geometry/rig_world.h"
 #include "hullpipe/scenes/lighting.h"
 
@@ -77,6 +78,16 @@ struct RenderOptions {
   enum class View { kOrbit, kFile, kTopic } view = View::kOrbit;
   PoseTrack track;                   ///< For View::kFile.
   std::optional<LightConfig> light;  ///< The scene's light (shadows), if any.
+  /// A head-mounted display's two eyes (--stereo, --ipd, --fov-left,
+  /// --fov-right; reconstruction/stereo_views.h): each frame's head pose (the
+  /// orbit's, the pose log's or the tracker's) gives a left and a right eye,
+  /// each width x height with its own off-axis projection (StereoOptions'
+  /// width and height are taken from these), asked of the recon nodes as two
+  /// ViewPoses of one frameset; each eye is composited and lit on its own, the
+  /// video and PNGs show them side by side (left, right: 2 width x height), and
+  /// each eye's composite is published with its own pose. nullopt: one view
+  /// (hfov_deg).
+  std::optional<StereoOptions> stereo;
   /// Each composited frame also goes to RenderSink::PublishComposite (the
   /// CompositedView topic, for viewers and recordings), scaled down to at most
   /// publish_max_side px on its longer side (16..16384) and JPEG-encoded at
@@ -107,8 +118,15 @@ class RenderSink {
   /// from `view`; hull_depth: the assembled tiles' eye-z depth (CV_32FC1 metres,
   /// kNoDepth where no hull), path_time_s: the time along the viewpoint's path
   /// (orbit or tracker log: the frameset's source time less the first one's).
+  /// In stereo (RenderOptions::stereo) `frame` holds both eyes side by side,
+  /// `view` and hull_depth are the left eye's, and right (non-null) the right
+  /// eye's.
+  struct RightEye {
+    const NovelView& view;
+    const cv::Mat& hull_depth;
+  };
   virtual void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
-                          const cv::Mat& hull_depth, double path_time_s) = 0;
+                          const cv::Mat& hull_depth, double path_time_s, const RightEye* right = nullptr) = 0;
   /// The same frame for viewers (RenderOptions::publish_composite): composited
   /// for pose pose_seq from frameset frame_seq, captured at capture_time_ns.
   /// A sink that publishes nothing may ignore it.
@@ -212,15 +230,37 @@ class RenderController {
     double path_time_s = 0;
     double sent_s = 0;
     double tiles_in_s = 0;  // when its last tile came
-    NovelView view;
-    std::map<uint32_t, HullTile> tiles;        // by tile index
+    struct Eye {
+      NovelView view;
+      std::map<uint32_t, HullTile> tiles;  // by tile index
+    };
+    std::vector<Eye> eyes;                     // one, or left and right: eye k's pose_seq is the key + k
     std::shared_ptr<const VolumeQuery> hull;   // for the light's shadow map
+    bool Complete(int tiles_per_eye) const {
+      for (const Eye& e : eyes)
+        if (int(e.tiles.size()) < tiles_per_eye) return false;
+      return true;
+    }
+    size_t TilesIn() const {
+      size_t n = 0;
+      for (const Eye& e : eyes) n += e.tiles.size();
+      return n;
+    }
   };
+  // The pose (in `poses`, keyed by its first eye's pose_seq) that pose_seq
+  // names, and which of its eyes; poses.end() if none.
+  static std::map<uint64_t, InFlight>::iterator FindPose(std::map<uint64_t, InFlight>& poses, uint64_t pose_seq,
+                                                         size_t* eye);
+  // Composites one eye of f: its tiles pasted, the virtual objects drawn,
+  // lit; *hull_depth the pasted tiles' depth, *hull_fraction their share.
+  cv::Mat CompositeEye(const InFlight& f, const InFlight::Eye& eye, cv::Mat* hull_depth, double* hull_fraction,
+                       uint64_t* spheres_colliding, size_t* meshes_drawn);
   void IssuePoses();
   void Composite(uint64_t pose_seq, InFlight& f);
   // Appends the models' parts as of frame_seq to *draws (amber when near, red
-  // when colliding), and counts them into the models' statistics.
-  void DrawModels(uint64_t frame_seq, MeshDraws* draws);
+  // when colliding), and with `count` counts them into the models' statistics
+  // (a stereo frame's second eye draws them without counting them again).
+  void DrawModels(uint64_t frame_seq, MeshDraws* draws, bool count = true);
 
   struct ModelPartDraw {
     ModelPartSample part;

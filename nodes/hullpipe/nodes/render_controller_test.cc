@@ -24,8 +24,11 @@ struct Recorder final : RenderSink {
   void PublishPose(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq) override {
     poses.push_back({v, pose_seq, frame_seq});
   }
-  void WriteFrame(const cv::Mat& f, uint64_t frame_seq, uint64_t, const NovelView&, const cv::Mat&, double) override {
+  std::vector<NovelView> right_views;  // the right eye's, for each stereo frame
+  void WriteFrame(const cv::Mat& f, uint64_t frame_seq, uint64_t, const NovelView&, const cv::Mat&, double,
+                  const RightEye* right) override {
     frames.push_back({frame_seq, f.clone()});
+    if (right) right_views.push_back(right->view);
   }
   struct Published {
     cv::Mat frame;
@@ -432,6 +435,75 @@ TEST_F(Render, ASilentReconIsNoticedAndItsReturnLogged) {
   r.Step();
   EXPECT_EQ(r.recon_liveness().outages().at("recon1"), 1);
   EXPECT_EQ(r.StatsJson()["recon_outages"]["recon1"], 1);
+}
+
+// A head-mounted display (--stereo): each frameset's head pose gives two
+// ViewPoses, the eyes ipd apart along the head's x axis with their own
+// off-axis projections (stereo_views.h); the frame is composited when both
+// eyes' tiles are in, written side by side (left, right), and each eye's
+// composite published with its own pose. The views written carry both eyes.
+TEST_F(Render, StereoAsksForBothEyesAndCompositesThemSideBySide) {
+  RenderOptions o = Options();
+  o.stereo = StereoOptions{};
+  o.stereo->ipd_m = 0.07;
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  ASSERT_EQ(sink_.poses.size(), 2u) << "one pose per eye";
+  const auto& left = sink_.poses[0];
+  const auto& right = sink_.poses[1];
+  EXPECT_EQ(left.frame_seq, 1u);
+  EXPECT_EQ(right.frame_seq, 1u);
+  EXPECT_EQ(right.pose_seq, left.pose_seq + 1);
+  // The eyes: the head's orbit pose, ipd apart along its x axis, parallel.
+  const Rigid3d head = r.orbit().WorldFromEye(0.0);
+  StereoOptions so = *o.stereo;
+  so.width = o.width, so.height = o.height;
+  const StereoViews want = MakeStereoViews(head, so);
+  for (int k = 0; k < 2; ++k) {
+    const NovelView& got = sink_.poses[size_t(k)].view;
+    EXPECT_EQ(got.width, 64);
+    EXPECT_NEAR((got.world_from_eye.translation - want.eye[size_t(k)].world_from_eye.translation).norm(), 0, 1e-12);
+    EXPECT_NEAR(got.cx, want.eye[size_t(k)].cx, 1e-12);
+  }
+  EXPECT_NEAR((right.view.world_from_eye.translation - left.view.world_from_eye.translation).norm(), 0.07, 1e-12);
+  EXPECT_NEAR((right.view.world_from_eye.translation - left.view.world_from_eye.translation)
+                  .dot(head.rotation.col(0)),
+              0.07, 1e-12)
+      << "the right eye along the head's +x";
+  EXPECT_GT(left.view.cx, right.view.cx) << "asymmetric frusta, mirrored: each eye's principal point off centre";
+  // One eye's tile alone composites nothing.
+  r.OnTile(WholeTile(left, 1.0f, {0, 0, 200}));
+  EXPECT_EQ(r.Step(), 0);
+  EXPECT_EQ(r.in_flight(), 1u);
+  r.OnTile(WholeTile(right, 1.0f, {200, 0, 0}));
+  ASSERT_EQ(r.Step(), 1);
+  ASSERT_EQ(sink_.frames.size(), 1u);
+  const cv::Mat& frame = sink_.frames[0].second;
+  ASSERT_EQ(frame.size(), cv::Size(128, 48)) << "the two eyes side by side";
+  EXPECT_EQ(frame.at<cv::Vec3b>(24, 32), cv::Vec3b(0, 0, 200)) << "left eye's tile, left";
+  EXPECT_EQ(frame.at<cv::Vec3b>(24, 96), cv::Vec3b(200, 0, 0)) << "right eye's tile, right";
+  ASSERT_EQ(sink_.right_views.size(), 1u);
+  EXPECT_EQ(sink_.right_views[0].world_from_eye.translation, right.view.world_from_eye.translation);
+  ASSERT_EQ(sink_.published.size(), 2u) << "each eye's composite on its own";
+  EXPECT_EQ(sink_.published[0].pose_seq, left.pose_seq);
+  EXPECT_EQ(sink_.published[1].pose_seq, right.pose_seq);
+  EXPECT_EQ(sink_.published[0].frame.size(), cv::Size(64, 48));
+  EXPECT_EQ(sink_.published[1].frame.at<cv::Vec3b>(24, 32), cv::Vec3b(200, 0, 0));
+  EXPECT_EQ(r.counters().frames_out(), 1u) << "one frame, two eyes";
+  // A late tile for a right eye whose pose is gone is late, not a new frame.
+  r.OnTile(WholeTile(right, 1.0f, {200, 0, 0}));
+  EXPECT_EQ(r.tiles_late(), 1u);
+  // Bad settings name their flag.
+  RenderOptions bad = Options();
+  bad.stereo = StereoOptions{};
+  bad.stereo->ipd_m = 0.2;
+  try {
+    bad.Check();
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--ipd"), std::string::npos) << e.what();
+  }
 }
 
 // Replaying a whole recording into a live run mixed the recorded tiles and

@@ -29,6 +29,20 @@ void RenderFlags::RegisterView(CLI::App& app) {
   height_opt_ = keep(app.add_option("--orbit-height", orbit_height_,
                                     "Eye height above the centre, metres (default: the rig's; 0.7)")
                          ->check(FiniteRange(-1000.0, 1000.0)));
+  keep(app.add_flag("--stereo", stereo_,
+                                  "A head-mounted display's two eyes: each head pose gives a left and a right eye "
+                                  "(--width x --height each, side by side in the video; docs/hmd.md)"));
+  ipd_opt_ = keep(app.add_option("--ipd", ipd_, "With --stereo: interpupillary distance, metres [0.04, 0.09] (0.064)")
+                      ->check(FiniteRange(0.0, 1.0)));
+  fov_left_opt_ = keep(app.add_option("--fov-left", fov_left_,
+                                      "With --stereo: the left eye's field of view as OpenXR's XrFovf, "
+                                      "left,right,up,down in radians (-0.9425,0.6981,0.8378,-0.8378)")
+                           ->delimiter(',')
+                           ->expected(4));
+  fov_right_opt_ = keep(app.add_option("--fov-right", fov_right_,
+                                       "With --stereo: the right eye's (default: the left's mirrored)")
+                            ->delimiter(',')
+                            ->expected(4));
   keep(app.add_option("--head-poses", head_poses,
                       "Tracked head poses, CSV t,x,y,z,qw,qx,qy,qz (world_from_eye, OpenCV eye frame; t in seconds "
                       "from the first frame)"));
@@ -38,6 +52,10 @@ std::vector<std::string> RenderFlags::GivenViewArguments() const {
   std::vector<std::string> args;
   for (const auto& [name, value] : given_view_) {
     if (name == "--width" || name == "--height") continue;  // the description's ${width}, ${height}
+    if (name == "--stereo") {  // a flag: no value
+      args.push_back(name);
+      continue;
+    }
     if (name == "--head-poses") {
       args.insert(args.end(), {"--view", "file", "--head-poses", std::filesystem::absolute(value).string()});
       continue;
@@ -119,6 +137,17 @@ void RenderFlags::Resolve(bool have_display) {
   if (height_opt_ && height_opt_->count()) world_.orbit_height = orbit_height_;
   const std::optional<RigWorld> rig_world = rig.empty() ? std::nullopt : std::optional<RigWorld>(LoadRig(rig).world);
   o.ApplyWorld(rig_world ? &*rig_world : nullptr, world_);
+  const bool stereo_settings = ipd_opt_->count() || fov_left_opt_->count() || fov_right_opt_->count();
+  if (stereo_settings && !stereo_) throw std::invalid_argument("--ipd, --fov-left and --fov-right go with --stereo");
+  if (stereo_) {
+    StereoOptions so;
+    if (ipd_opt_->count()) so.ipd_m = ipd_;
+    auto fov = [](const std::vector<double>& v) { return EyeFov{v[0], v[1], v[2], v[3]}; };
+    if (fov_left_opt_->count()) so.left = so.right = fov(fov_left_);
+    so.right = so.left.Mirrored();
+    if (fov_right_opt_->count()) so.right = fov(fov_right_);
+    o.stereo = so;
+  }
   if (orbit_centre_.size() == 3) o.orbit_centre = Eigen::Vector3d(orbit_centre_[0], orbit_centre_[1], orbit_centre_[2]);
   outputs.show = window == "on" || (window == "auto" && have_display);
   o.Check();

@@ -29,7 +29,7 @@ struct RenderFlags {
   void Register(CLI::App& app);
   /// The view group alone, the flags hullpipe_launch takes for render_node:
   /// --width, --height, --up, --floor, --orbit-radius, --orbit-height,
-  /// --head-poses.
+  /// --stereo, --ipd, --fov-left, --fov-right, --head-poses.
   void RegisterView(CLI::App& app);
   /// After Resolve: the view group's flags that were given, but for --width and
   /// --height, as render_node's arguments: each as given (a list joined with
@@ -50,6 +50,10 @@ struct RenderFlags {
   double orbit_radius_ = 0, orbit_height_ = 0;
   WorldFlags world_;
   CLI::Option *up_opt_ = nullptr, *radius_opt_ = nullptr, *height_opt_ = nullptr;
+  bool stereo_ = false;
+  double ipd_ = 0.064;
+  std::vector<double> fov_left_, fov_right_;
+  CLI::Option *ipd_opt_ = nullptr, *fov_left_opt_ = nullptr, *fov_right_opt_ = nullptr;
   std::vector<CLI::Option*> view_options_;  ///< RegisterView's, in order (they live in the app)
   std::vector<std::pair<std::string, std::string>> given_view_;  ///< Resolve: those given, name and value
 };

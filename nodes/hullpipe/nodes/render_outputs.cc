@@ -16,8 +16,24 @@ RenderOutputs::RenderOutputs(RenderOutputOptions options) : o_(std::move(options
 
 std::string RenderOutputs::video_path() const { return (fs::path(o_.out_dir) / "hullpipe.mp4").string(); }
 
+void RenderOutputs::WriteView(std::ofstream& out, const std::string& name, uint64_t frame_seq, double path_time_s,
+                              const NovelView& view) {
+  if (!out.is_open()) {
+    out.open((fs::path(o_.out_dir) / name).string());
+    out << "frame_seq,path_time_s,width,height,fx,fy,cx,cy,"
+           "r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz\n";
+  }
+  const Eigen::Matrix3d& R = view.world_from_eye.rotation;
+  const Eigen::Vector3d& t = view.world_from_eye.translation;
+  out << frame_seq << ',' << cv::format("%.9f", path_time_s) << ',' << view.width << ',' << view.height;
+  for (double x : {view.fx, view.fy, view.cx, view.cy, R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0),
+                   R(2, 1), R(2, 2), t.x(), t.y(), t.z()})
+    out << ',' << cv::format("%.17g", x);
+  out << '\n' << std::flush;
+}
+
 void RenderOutputs::WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
-                               const cv::Mat& hull_depth, double path_time_s) {
+                               const cv::Mat& hull_depth, double path_time_s, const RenderSink::RightEye* right) {
   if (!video_.isOpened() && !video_failed_) {
     video_.open(video_path(), cv::VideoWriter::fourcc('m', 'p', '4', 'v'), o_.video_fps, frame.size());
     if (!video_.isOpened()) {
@@ -37,18 +53,11 @@ void RenderOutputs::WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_
       // The hull's eye-z depth (float TIFF, metres, +inf: no hull) and the view
       // it was seen from, so the frame can be checked against a reference.
       Write(stem + "_depth.tiff", hull_depth);
-      if (!views_.is_open()) {
-        views_.open((fs::path(o_.out_dir) / "views.csv").string());
-        views_ << "frame_seq,path_time_s,width,height,fx,fy,cx,cy,"
-                  "r00,r01,r02,r10,r11,r12,r20,r21,r22,tx,ty,tz\n";
+      WriteView(views_, "views.csv", frame_seq, path_time_s, view);
+      if (right) {
+        Write(stem + "_right_depth.tiff", right->hull_depth);
+        WriteView(views_right_, "views_right.csv", frame_seq, path_time_s, right->view);
       }
-      const Eigen::Matrix3d& R = view.world_from_eye.rotation;
-      const Eigen::Vector3d& t = view.world_from_eye.translation;
-      views_ << frame_seq << ',' << cv::format("%.9f", path_time_s) << ',' << view.width << ',' << view.height;
-      for (double x : {view.fx, view.fy, view.cx, view.cy, R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2),
-                       R(2, 0), R(2, 1), R(2, 2), t.x(), t.y(), t.z()})
-        views_ << ',' << cv::format("%.17g", x);
-      views_ << '\n' << std::flush;
     }
   }
   if (o_.show) {

@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "hullpipe/nodes/render_controller.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 
 namespace hullpipe::nodes {
@@ -33,9 +34,12 @@ class RenderOutputs {
   /// The `count`-th composited frame (CV_8UC3) of frameset frame_seq, as
   /// RenderSink::WriteFrame: appended to the video, written as PNG when due
   /// (with hull_depth, CV_32FC1 metres, and the view's K and world_from_eye in
-  /// views.csv under save_depth), shown.
+  /// views.csv under save_depth), shown. With `right` (render --stereo: the
+  /// frame holds both eyes side by side), view and hull_depth are the left
+  /// eye's, and the right eye's go to frame_N_right_depth.tiff and
+  /// views_right.csv (the same columns).
   void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
-                  const cv::Mat& hull_depth, double path_time_s);
+                  const cv::Mat& hull_depth, double path_time_s, const RenderSink::RightEye* right = nullptr);
   /// Finishes the video.
   void Close() { video_.release(); }
   /// out_dir/hullpipe.mp4.
@@ -54,7 +58,10 @@ class RenderOutputs {
   cv::VideoWriter video_;
   bool video_failed_ = false;
   int64_t video_frames_ = 0;
-  std::ofstream views_;
+  std::ofstream views_, views_right_;
+  // One row of views.csv (opened with its header on the first).
+  void WriteView(std::ofstream& out, const std::string& name, uint64_t frame_seq, double path_time_s,
+                 const NovelView& view);
   int64_t failures_ = 0;
   std::string first_failure_;
 };
