@@ -31,6 +31,7 @@
 #include "hullpipe/gl/gl_triangle_query.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/stereo_views.h"
 #include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/segmentation/segmentation.h"
@@ -245,6 +246,54 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
                     cell(cs).c_str(), cell(cf).c_str(), cell(gs).c_str(), cell(gf).c_str(), cell(g2).c_str(),
                     cpu && gpu ? cell(cf / gf).c_str() : "-");
         std::fflush(stdout);
+      }
+    }
+  }
+  // A head-mounted display's frame (render_node --stereo): both eyes of one
+  // frameset against one eye, the same eye's view in both (the default ipd and
+  // fields of view, each eye the table's size): the maps, hull box, upload and
+  // visibility are the frameset's, made once; each eye adds its plane depths,
+  // sweep and texture. Same input, same planes, measured in one run.
+  {
+    std::printf("\nStereo frame (two eyes of one frameset, render_node --stereo) against one eye, median of %d:\n\n"
+                "| backend | cams | eye view | planes | one eye ms | two eyes ms | two / one |\n|---|---|---|---|---|---|---|\n",
+                repeats);
+    for (const int ncam : rows.cameras) {
+      const BackendInput in = MakeBackendInput(ncam);
+      std::vector<Camera> cams;
+      for (const auto& v : in.views) cams.push_back(v.camera);
+      OrbitPath orbit;
+      orbit.centre = in.centre;
+      for (const std::string& size : rows.sizes) {
+        int w = 0, h = 0;
+        if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2) continue;  // checked above
+        StereoOptions so;
+        so.width = w, so.height = h;
+        const StereoViews eyes = MakeStereoViews(orbit.WorldFromEye(1.0), so);
+        const int planes = rows.planes.front();
+        PlaneSweepOptions vo;
+        vo.num_planes = 48;
+        for (SweepBackend* b : {cpu.get(), gpu.get()}) {
+          if (!b) continue;
+          auto eyes_frame = [&](int n_eyes) {
+            return MedianMs(repeats, [&] {
+              // The query is the frameset's (recon makes it once, hull box included).
+              const VolumeQuery q(in.views, DefaultWorkspace(cams));
+              b->BeginFrameset(q, in.images);
+              b->ComputeVisibility(q, cams, 80, vo);
+              for (int e = 0; e < n_eyes; ++e) {
+                PlaneSweepOptions o;
+                o.num_planes = planes;
+                const NovelView& v = eyes.eye[size_t(e)];
+                (void)b->SweepTextured(q, v, SweepPlaneDepths(q, v, o), cv::Rect(0, 0, w, h), in.images, true);
+              }
+            });
+          };
+          const double one = eyes_frame(1), two = eyes_frame(2);
+          std::printf("| %s | %d | %dx%d | %d | %.2f | %.2f | %.2f |\n", b == cpu.get() ? "cpu" : "gl", ncam, w, h,
+                      planes, one, two, two / one);
+          std::fflush(stdout);
+        }
       }
     }
   }

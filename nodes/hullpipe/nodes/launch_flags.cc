@@ -58,7 +58,7 @@ void LaunchFlags::Resolve(const std::string& source_dir) {
   // --rig; ${world}), the scene's light, the head-pose log.
   render.rig = rig;
   render.scene = scene;
-  render.view = render.head_poses.empty() ? "orbit" : "file";
+  render.view = !render.eye_views.empty() ? "eyes" : render.head_poses.empty() ? "orbit" : "file";
   render.Resolve(/*have_display=*/false);
   recon.Resolve();
 }

@@ -77,6 +77,28 @@ TEST(LaunchFlags, TheViewAndSweepFlagsReachTheNodesAsTheyParseThem) {
             (std::vector<std::string>{"--up", "0,0,1", "--floor", "0.25", "--orbit-radius", "2.5", "--orbit-height",
                                       "0.4", "--view", "file", "--head-poses", std::filesystem::absolute(poses)}));
 
+  // The head-mounted display's flags reach render_node as given; a runtime's
+  // per-eye log as "--view eyes" with its absolute path.
+  {
+    const std::string eyes = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/eye_views_example.csv";
+    const LaunchFlags st = ParseLaunch({"--synthetic", "--stereo", "--ipd", "0.07", "--fov-left",
+                                        "-0.8,0.7,0.8,-0.8"});
+    const launch::LaunchContext sc = st.Context("/o", 1'000'000'000);
+    EXPECT_EQ(sc.parent_args, (std::vector<std::string>{"--stereo", "--ipd", "0.07", "--fov-left",
+                                                        "-0.8,0.7,0.8,-0.8"}));
+    const RenderFlags node = ParseRender(sc.parent_args);
+    ASSERT_TRUE(node.options.stereo.has_value());
+    EXPECT_EQ(node.options.stereo->ipd_m, 0.07);
+    EXPECT_EQ(node.options.stereo->left.left, -0.8);
+    EXPECT_EQ(node.options.stereo->right.right, 0.8) << "the left eye's, mirrored";
+    const LaunchFlags ev = ParseLaunch({"--synthetic", "--eye-views", eyes});
+    EXPECT_EQ(ev.Context("/o", 1).parent_args,
+              (std::vector<std::string>{"--view", "eyes", "--eye-views", std::filesystem::absolute(eyes)}));
+    const RenderFlags en = ParseRender(ev.Context("/o", 1).parent_args);
+    EXPECT_EQ(en.options.view, RenderOptions::View::kEyes);
+    EXPECT_TRUE(en.options.stereo.has_value());
+  }
+
   std::vector<std::string> render_args = {"--width", ctx.vars.at("width"), "--height", ctx.vars.at("height")};
   render_args.insert(render_args.end(), ctx.parent_args.begin(), ctx.parent_args.end());
   const RenderFlags node = ParseRender(render_args);

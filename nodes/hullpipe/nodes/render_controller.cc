@@ -63,6 +63,7 @@ void RenderOptions::Check() const {
   if (orbit_centre && !orbit_centre->allFinite()) bad("--orbit-centre must be finite");
   if (!up.allFinite() || up.norm() < 1e-9) bad("--up must be a finite non-zero vector");
   if (view == View::kFile && track.empty()) bad("--view file goes with --head-poses FILE");
+  if (view == View::kEyes && (!eye_track || !stereo)) bad("--view eyes goes with --eye-views FILE (and is stereo)");
   if (publish_max_side < 16 || publish_max_side > 16384) bad("--publish-max-side must be 16..16384 pixels");
   if (publish_jpeg_quality < 1 || publish_jpeg_quality > 100) bad("--publish-jpeg-quality must be 1..100");
   if (stereo) {
@@ -316,7 +317,10 @@ void RenderController::IssuePoses() {
     Rigid3d world_from_eye = orbit_.WorldFromEye(t);
     if (o_.view == RenderOptions::View::kFile) world_from_eye = o_.track.At(t);
     if (o_.view == RenderOptions::View::kTopic && tracked_) world_from_eye = *tracked_;
-    if (o_.stereo) {
+    if (o_.view == RenderOptions::View::kEyes) {
+      // Each eye as the HMD runtime reported it (its log), poses key and key + 1.
+      for (const Eye e : {Eye::kLeft, Eye::kRight}) f.eyes.push_back({o_.eye_track->At(t, e, o_.width, o_.height), {}});
+    } else if (o_.stereo) {
       // The head pose's two eyes (stereo_views.h), poses key and key + 1.
       StereoOptions so = *o_.stereo;
       so.width = o_.width, so.height = o_.height;

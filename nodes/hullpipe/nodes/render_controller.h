@@ -75,8 +75,11 @@ struct RenderOptions {
   /// rig's, z = 0.
   RigWorld::Floor floor = RigWorld::Floor::kPlane;
   double floor_height = 0;
-  enum class View { kOrbit, kFile, kTopic } view = View::kOrbit;
+  /// kEyes: each eye's pose and field of view from eye_track (an HMD runtime's
+  /// xrLocateViews log, stereo_views.h), in stereo.
+  enum class View { kOrbit, kFile, kTopic, kEyes } view = View::kOrbit;
   PoseTrack track;                   ///< For View::kFile.
+  std::optional<StereoViewTrack> eye_track;  ///< For View::kEyes.
   std::optional<LightConfig> light;  ///< The scene's light (shadows), if any.
   /// A head-mounted display's two eyes (--stereo, --ipd, --fov-left,
   /// --fov-right; reconstruction/stereo_views.h): each frame's head pose (the

@@ -496,6 +496,9 @@ TEST_F(Render, StereoAsksForBothEyesAndCompositesThemSideBySide) {
   EXPECT_EQ(r.tiles_late(), 1u);
   // Bad settings name their flag.
   RenderOptions bad = Options();
+  bad.view = RenderOptions::View::kEyes;  // without a log
+  EXPECT_THROW(bad.Check(), std::invalid_argument);
+  bad = Options();
   bad.stereo = StereoOptions{};
   bad.stereo->ipd_m = 0.2;
   try {
@@ -504,6 +507,29 @@ TEST_F(Render, StereoAsksForBothEyesAndCompositesThemSideBySide) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("--ipd"), std::string::npos) << e.what();
   }
+}
+
+// --view eyes: each eye's pose and field of view as an HMD runtime reported them
+// (an xrLocateViews log, scenes/eye_views_example.csv), at the frameset's time.
+TEST_F(Render, TheEyesComeFromAnHmdRuntimesLog) {
+  RenderOptions o = Options();
+  o.view = RenderOptions::View::kEyes;
+  o.eye_track = LoadStereoViewTrack(std::string(HULLPIPE_SOURCE_DIR) + "/scenes/eye_views_example.csv");
+  o.stereo = StereoOptions{};
+  RenderController r(o, clock_, assembler_, sink_);
+  rig_.AddFrame(assembler_, 1, clock_.WallNs());
+  r.Step();
+  ASSERT_EQ(sink_.poses.size(), 2u);
+  for (const Eye e : {Eye::kLeft, Eye::kRight}) {
+    const NovelView want = o.eye_track->At(0.0, e, o.width, o.height);
+    const NovelView& got = sink_.poses[size_t(e)].view;
+    EXPECT_LT((got.world_from_eye.translation - want.world_from_eye.translation).norm(), 1e-12);
+    EXPECT_LT((got.world_from_eye.rotation - want.world_from_eye.rotation).norm(), 1e-12);
+    EXPECT_EQ(got.cx, want.cx);
+  }
+  EXPECT_NEAR((sink_.poses[1].view.world_from_eye.translation - sink_.poses[0].view.world_from_eye.translation).norm(),
+              0.064, 1e-5)
+      << "the log's eyes, 64 mm apart";
 }
 
 // Replaying a whole recording into a live run mixed the recorded tiles and
@@ -1021,6 +1047,10 @@ TEST(RenderFlags, ParsedAndResolvedOnce) {
   EXPECT_THROW(Parse({"--view", "sky"}), CLI::ValidationError);
   for (const auto& [args, flag] : std::vector<std::pair<std::vector<std::string>, std::string>>{
            {{"--view", "file"}, "--head-poses"},
+           {{"--view", "eyes"}, "--eye-views"},
+           {{"--ipd", "0.07"}, "--stereo"},
+           {{"--stereo", "--ipd", "0.2"}, "--ipd"},
+           {{"--stereo", "--fov-left", "0.5,0.2,0.8,-0.8"}, "--fov-left"},
            {{"--floor", "low"}, "--floor"},
            {{"--width", "0"}, "--width"}}) {
     try {

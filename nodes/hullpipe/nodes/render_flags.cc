@@ -43,6 +43,9 @@ void RenderFlags::RegisterView(CLI::App& app) {
                                        "With --stereo: the right eye's (default: the left's mirrored)")
                             ->delimiter(',')
                             ->expected(4));
+  keep(app.add_option("--eye-views", eye_views,
+                      "Per-eye poses and fields of view as an HMD runtime reports them (xrLocateViews), CSV "
+                      "t,eye,px,py,pz,qx,qy,qz,qw,left,right,up,down (docs/hmd.md); stereo, --width x --height each"));
   keep(app.add_option("--head-poses", head_poses,
                       "Tracked head poses, CSV t,x,y,z,qw,qx,qy,qz (world_from_eye, OpenCV eye frame; t in seconds "
                       "from the first frame)"));
@@ -54,6 +57,10 @@ std::vector<std::string> RenderFlags::GivenViewArguments() const {
     if (name == "--width" || name == "--height") continue;  // the description's ${width}, ${height}
     if (name == "--stereo") {  // a flag: no value
       args.push_back(name);
+      continue;
+    }
+    if (name == "--eye-views") {
+      args.insert(args.end(), {"--view", "eyes", "--eye-views", std::filesystem::absolute(value).string()});
       continue;
     }
     if (name == "--head-poses") {
@@ -93,8 +100,8 @@ void RenderFlags::Register(CLI::App& app) {
   app.add_option("--orbit-period", o.orbit_period, "Seconds per turn (frame time)")->capture_default_str();
   app.add_option("--view", view,
                  "Viewpoint: orbit (scripted), file (--head-poses CSV), topic (HeadPose from a tracker; "
-                 "the orbit until the first arrives)")
-      ->check(CLI::IsMember({"orbit", "file", "topic"}))
+                 "the orbit until the first arrives), eyes (--eye-views CSV: each eye as an HMD runtime reports it)")
+      ->check(CLI::IsMember({"orbit", "file", "topic", "eyes"}))
       ->capture_default_str();
   app.add_option("--scene", scene, "Scene file: render_node uses its `light` (shadows); sim_node the rest");
   app.add_option("--rig", rig,
@@ -127,10 +134,17 @@ void RenderFlags::Resolve(bool have_display) {
   }
   if ((view == "file") != !head_poses.empty())
     throw std::invalid_argument("--view file goes with --head-poses FILE");
-  o.view = view == "file" ? RenderOptions::View::kFile
+  if ((view == "eyes") != !eye_views.empty())
+    throw std::invalid_argument("--view eyes goes with --eye-views FILE");
+  o.view = view == "file"    ? RenderOptions::View::kFile
            : view == "topic" ? RenderOptions::View::kTopic
+           : view == "eyes"  ? RenderOptions::View::kEyes
                              : RenderOptions::View::kOrbit;
   if (!head_poses.empty()) o.track = LoadPoseTrack(head_poses);
+  if (!eye_views.empty()) {
+    o.eye_track = LoadStereoViewTrack(eye_views);
+    stereo_ = true;  // the runtime's two views
+  }
   if (!scene.empty()) o.light = LoadSceneConfig(scene, SceneLoadOptions{false}).light;
   if (up_opt_ && up_opt_->count()) world_.up = Eigen::Vector3d(up_[0], up_[1], up_[2]);
   if (radius_opt_ && radius_opt_->count()) world_.orbit_radius = orbit_radius_;

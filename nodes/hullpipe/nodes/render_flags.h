@@ -22,19 +22,20 @@ struct RenderFlags {
   RenderOutputOptions outputs;
   std::string window = "auto";  ///< --window auto|on|off
   std::string view = "orbit";   ///< --view orbit|file|topic
-  std::string head_poses, scene, rig;
+  std::string head_poses, eye_views, scene, rig;
 
   /// Registers render_node's own flags on `app`: RegisterView and the rest.
   /// They write into this struct, which must outlive the parse.
   void Register(CLI::App& app);
   /// The view group alone, the flags hullpipe_launch takes for render_node:
   /// --width, --height, --up, --floor, --orbit-radius, --orbit-height,
-  /// --stereo, --ipd, --fov-left, --fov-right, --head-poses.
+  /// --stereo, --ipd, --fov-left, --fov-right, --eye-views, --head-poses.
   void RegisterView(CLI::App& app);
   /// After Resolve: the view group's flags that were given, but for --width and
   /// --height, as render_node's arguments: each as given (a list joined with
-  /// ','), --head-poses as "--view file --head-poses <its absolute path>" (the
-  /// node may start in another directory).
+  /// ','), --head-poses as "--view file --head-poses <its absolute path>" and
+  /// --eye-views as "--view eyes --eye-views <its absolute path>" (the node may
+  /// start in another directory).
   std::vector<std::string> GivenViewArguments() const;
   /// After the parse: --view file with --head-poses (loaded), the scene's
   /// light, the rig's world with --up, --floor and --orbit-* over it
