@@ -122,7 +122,7 @@ int main(int argc, char** argv) {
         render.OnTile(TileFromMsg(m), info.source_timestamp);
       });
       take(state_reader, [&](const hullpipe_msg_VirtualObjectState& m) { render.OnObjectState(VirtualObjectFromMsg(m)); });
-      take(head_reader, [&](const hullpipe_msg_HeadPose& m) { render.OnHeadPose(HeadPoseFromMsg(m)); });
+      take(head_reader, [&](const hullpipe_msg_HeadPose& m) { render.OnHeadPose(HeadPoseFromMsg(m), m.stamp_ns); });
       take(mesh_reader, [&](const hullpipe_msg_VirtualMesh& m) { render.OnMesh(VirtualMeshFromMsg(m)); });
       take(part_reader, [&](const hullpipe_msg_ModelPart& m) { render.OnModelPart(ModelPartFromMsg(m)); });
       take(model_reader, [&](const hullpipe_msg_ModelState& m) { render.OnModelState(ModelStateFromMsg(m)); });

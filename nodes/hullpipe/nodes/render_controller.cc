@@ -216,7 +216,10 @@ void RenderController::DrawModels(uint64_t frame_seq, MeshDraws* draws, bool cou
   }
 }
 
-void RenderController::OnHeadPose(const Rigid3d& world_from_eye) { tracked_ = world_from_eye; }
+void RenderController::OnHeadPose(const Rigid3d& world_from_eye, int64_t stamp_ns) {
+  tracked_ = world_from_eye;
+  tracked_stamp_ns_ = stamp_ns;
+}
 
 void RenderController::OnCollisionReport(bool has_points, uint8_t hull_velocity_status, double hull_normal_speed) {
   report_.OnCollisionReport(has_points, hull_velocity_status, hull_normal_speed);
@@ -316,7 +319,10 @@ void RenderController::IssuePoses() {
     if (o_.light) f.hull = hull;
     Rigid3d world_from_eye = orbit_.WorldFromEye(t);
     if (o_.view == RenderOptions::View::kFile) world_from_eye = o_.track.At(t);
-    if (o_.view == RenderOptions::View::kTopic && tracked_) world_from_eye = *tracked_;
+    if (o_.view == RenderOptions::View::kTopic && tracked_) {
+      world_from_eye = *tracked_;
+      f.head_stamp_ns = tracked_stamp_ns_;
+    }
     if (o_.view == RenderOptions::View::kEyes) {
       // Each eye as the HMD runtime reported it (its log), poses key and key + 1.
       for (const Eye e : {Eye::kLeft, Eye::kRight}) f.eyes.push_back({o_.eye_track->At(t, e, o_.width, o_.height), {}});
@@ -419,6 +425,9 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     sink_.WriteFrame(frame, f.frame_seq, counters_.frames_out() + 1, f.eyes[0].view, depths[0], f.path_time_s,
                      frames.size() > 1 ? &right : nullptr);
   }
+  // Motion to eye image: the tracker's sample this frame was seen from, to its
+  // eye images written (what a headset would show next; docs/hmd.md).
+  counters_.StageSince("tracker_to_eye", f.head_stamp_ns);
   if (o_.publish_composite) {
     StageTimer pt(counters_, "publish");
     // Each eye's composite with its own pose (a headset shows each to its eye).

@@ -159,7 +159,10 @@ class RenderController {
   void OnModelPart(ModelPartSample part);
   /// A model's part poses and contact states for one frameset.
   void OnModelState(ModelStateSample state);
-  void OnHeadPose(const Rigid3d& world_from_eye);
+  /// A tracker's head pose (View::kTopic), measured at stamp_ns (CLOCK_REALTIME
+  /// ns; 0: unknown). The frame composited from it times the stage
+  /// "tracker_to_eye": that stamp to its eye images written (docs/hmd.md).
+  void OnHeadPose(const Rigid3d& world_from_eye, int64_t stamp_ns = 0);
   /// A CollisionReport: whether it has collision points, and its response's
   /// hull velocity (HullVelocityStatus value, 0: none; the normal speed, m/s),
   /// counted into stats.json's "hull_velocity".
@@ -239,6 +242,7 @@ class RenderController {
     };
     std::vector<Eye> eyes;                     // one, or left and right: eye k's pose_seq is the key + k
     std::shared_ptr<const VolumeQuery> hull;   // for the light's shadow map
+    int64_t head_stamp_ns = 0;                 // the tracker's sample it was seen from (0: none)
     bool Complete(int tiles_per_eye) const {
       for (const Eye& e : eyes)
         if (int(e.tiles.size()) < tiles_per_eye) return false;
@@ -286,6 +290,7 @@ class RenderController {
   bool centre_known_ = false;
   CompositeOptions comp_;
   std::optional<Rigid3d> tracked_;
+  int64_t tracked_stamp_ns_ = 0;
   std::map<uint64_t, InFlight> in_flight_;  // by pose_seq
   std::map<uint32_t, std::map<uint64_t, VirtualObjectSample>> states_;  // object -> frame -> state
   // The simulation's newest frameset (any state, mesh or model state), and

@@ -771,10 +771,20 @@ TEST_F(Render, TheViewFollowsTheOrbitThenTheTrackersNewestPose) {
   // Then the tracker's newest pose, whatever the path time.
   Rigid3d tracked = LookAt(Eigen::Vector3d(1, 2, -3), hullpipe::test::kSphereCentre, Eigen::Vector3d(0, 0, -1));
   r.OnHeadPose(LookAt(Eigen::Vector3d(5, 5, -5), hullpipe::test::kSphereCentre, Eigen::Vector3d(0, 0, -1)));
-  r.OnHeadPose(tracked);
-  const Rigid3d second = next_pose(2);
+  r.OnHeadPose(tracked, /*stamp_ns=*/clock_.WallNs() - 15'000'000);  // measured 15 ms ago
+  EXPECT_FALSE(r.counters().stages().count("tracker_to_eye")) << "no frame from a tracker's pose yet (the control)";
+  rig_.AddFrame(assembler_, 2, clock_.WallNs());
+  r.Step();
+  clock_.Advance(0.010);  // its tile comes 10 ms later
+  const Recorder::Pose p = sink_.poses.back();
+  r.OnTile(WholeTile(p, kNoDepth, {0, 0, 0}));
+  r.Step();
+  const Rigid3d second = p.view.world_from_eye;
   EXPECT_LT((second.translation - tracked.translation).norm(), 1e-12);
   EXPECT_LT((second.rotation - tracked.rotation).norm(), 1e-12);
+  // Motion to eye image: the tracker's stamp to the frame written.
+  ASSERT_TRUE(r.counters().stages().count("tracker_to_eye"));
+  EXPECT_NEAR(r.counters().stages().at("tracker_to_eye").Percentile(50), 25.0, 1e-3);
 }
 
 // The latency budget's render stages (docs/latency.md): issue (its frameset's
