@@ -88,6 +88,8 @@ void Convert(const std::string& type, const void* sample) {
     CompositedViewFromMsg(*static_cast<const hullpipe_msg_CompositedView*>(sample));
   } else if (type == "hullpipe::msg::CameraPose") {
     CameraPoseFromMsg(*static_cast<const hullpipe_msg_CameraPose*>(sample));
+  } else if (type == "hullpipe::msg::EyeViews") {
+    EyeViewsFromMsg(*static_cast<const hullpipe_msg_EyeViews*>(sample));
   } else if (type == "hullpipe::msg::CollisionReport") {
     // hullpipe_ros2 and the bag export read it whole, then make ROS 2's.
     const CollisionReportSample r = CollisionReportFromMsg(*static_cast<const hullpipe_msg_CollisionReport*>(sample));

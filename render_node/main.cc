@@ -72,6 +72,7 @@ int main(int argc, char** argv) {
     Reader<hullpipe_msg_NodeStats> stats_reader(*participant);
     Reader<hullpipe_msg_VirtualMesh> mesh_reader(*participant);
     Reader<hullpipe_msg_HeadPose> head_reader(*participant);
+    Reader<hullpipe_msg_EyeViews> eyes_reader(*participant);
     Reader<hullpipe_msg_ModelPart> part_reader(*participant);
     Reader<hullpipe_msg_ModelState> model_reader(*participant);
     Writer<hullpipe_msg_ViewPose> pose_writer(*participant);
@@ -123,6 +124,7 @@ int main(int argc, char** argv) {
       });
       take(state_reader, [&](const hullpipe_msg_VirtualObjectState& m) { render.OnObjectState(VirtualObjectFromMsg(m)); });
       take(head_reader, [&](const hullpipe_msg_HeadPose& m) { render.OnHeadPose(HeadPoseFromMsg(m), m.stamp_ns); });
+      take(eyes_reader, [&](const hullpipe_msg_EyeViews& m) { render.OnEyeViews(EyeViewsFromMsg(m)); });
       take(mesh_reader, [&](const hullpipe_msg_VirtualMesh& m) { render.OnMesh(VirtualMeshFromMsg(m)); });
       take(part_reader, [&](const hullpipe_msg_ModelPart& m) { render.OnModelPart(ModelPartFromMsg(m)); });
       take(model_reader, [&](const hullpipe_msg_ModelState& m) { render.OnModelState(ModelStateFromMsg(m)); });

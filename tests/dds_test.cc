@@ -363,6 +363,57 @@ TEST(Convert, HeadPoseRoundTripAndBadRotation) {
   EXPECT_THROW(HeadPoseFromMsg(m), MessageError);
 }
 
+// An HMD runtime's two views travel as XrPosefs (OpenXR's view axes) and come
+// back in OpenCV's eye axes, each eye's pose and fov as sent; a runtime's
+// unnormalised quaternion is normalised; a zero quaternion, a value not finite
+// or a bad fov is refused naming the eye.
+TEST(Convert, EyeViewsRoundTripInOpenXrsAxesAndBadViews) {
+  EyeViewsSample v;
+  v.tracker_id = 7, v.stamp_ns = 123;
+  Rigid3d head;
+  head.rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
+  head.translation = Eigen::Vector3d(1, 2, -1.6);
+  const StereoViews s = MakeStereoViews(head, StereoOptions{});
+  v.world_from_eye = {s.eye[0].world_from_eye, s.eye[1].world_from_eye};
+  v.fov = {EyeFov{-0.8, 0.6, 0.7, -0.9}, EyeFov{-0.6, 0.8, 0.7, -0.9}};
+  hullpipe_msg_EyeViews m = EyeViewsToMsg(v);
+  // The left eye's orientation as OpenXR has it: its view axis (-z) is the
+  // OpenCV eye's +z.
+  const Eigen::Quaterniond q_xr(m.eyes[0].orientation[3], m.eyes[0].orientation[0], m.eyes[0].orientation[1],
+                                m.eyes[0].orientation[2]);
+  EXPECT_LT((q_xr.toRotationMatrix() * Eigen::Vector3d(0, 0, -1) - v.world_from_eye[0].rotation.col(2)).norm(), 1e-12);
+  EXPECT_LT((q_xr.toRotationMatrix() * Eigen::Vector3d(0, 1, 0) + v.world_from_eye[0].rotation.col(1)).norm(), 1e-12)
+      << "OpenXR's up is OpenCV's -y";
+  const EyeViewsSample back = EyeViewsFromMsg(m);
+  EXPECT_EQ(back.tracker_id, 7u);
+  EXPECT_EQ(back.stamp_ns, 123);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_LT((back.world_from_eye[k].rotation - v.world_from_eye[k].rotation).norm(), 1e-12);
+    EXPECT_LT((back.world_from_eye[k].translation - v.world_from_eye[k].translation).norm(), 1e-12);
+    EXPECT_EQ(back.fov[k].left, v.fov[k].left);
+    EXPECT_EQ(back.fov[k].down, v.fov[k].down);
+  }
+  for (double& c : m.eyes[1].orientation) c *= 3;  // not unit
+  EXPECT_LT((EyeViewsFromMsg(m).world_from_eye[1].rotation - v.world_from_eye[1].rotation).norm(), 1e-12);
+  auto refused = [](const hullpipe_msg_EyeViews& bad, const std::string& eye) {
+    try {
+      (void)EyeViewsFromMsg(bad);
+      return false;
+    } catch (const MessageError& e) {
+      return std::string(e.what()).find(eye) != std::string::npos;
+    }
+  };
+  hullpipe_msg_EyeViews bad = EyeViewsToMsg(v);
+  for (double& c : bad.eyes[1].orientation) c = 0;
+  EXPECT_TRUE(refused(bad, "right eye"));
+  bad = EyeViewsToMsg(v);
+  bad.eyes[0].position[2] = std::nan("");
+  EXPECT_TRUE(refused(bad, "left eye"));
+  bad = EyeViewsToMsg(v);
+  bad.eyes[0].fov[0] = 0.9;  // left of right
+  EXPECT_TRUE(refused(bad, "left eye"));
+}
+
 // One NodeStats sample with an invalid UTF-8 byte in its name once made render's
 // stats.json empty (nlohmann-json threw at the end of the run): rejected at the
 // wire now, one line, counted.

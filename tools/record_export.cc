@@ -264,6 +264,17 @@ class Exporter {
         (*j)["colliding_triangles"] = colliding, (*j)["clearance"] = mesh.clearance;
         (*j)["element"] = mesh.element;
       });
+    if (type == "hullpipe::msg::EyeViews")
+      return With<hullpipe_msg_EyeViews>(w, s, [&](const auto& m) {
+        const EyeViewsSample v = EyeViewsFromMsg(m);
+        (*j)["tracker_id"] = v.tracker_id, (*j)["stamp_ns"] = v.stamp_ns;
+        for (int k = 0; k < 2; ++k) {
+          const hullpipe_msg_EyeView& e = m.eyes[k];
+          (*j)[k == 0 ? "left" : "right"] = {{"position", Arr(e.position)},
+                                             {"orientation_xyzw", Arr(e.orientation)},
+                                             {"fov_left_right_up_down", Arr(e.fov)}};
+        }
+      });
     if (type == "hullpipe::msg::CameraPose")
       return With<hullpipe_msg_CameraPose>(w, s, [&](const auto& m) {
         (void)CameraPoseFromMsg(m);

@@ -40,7 +40,8 @@ std::vector<KnownType> MakeKnownTypes() {
       Make<hullpipe_msg_ViewPose>(),     Make<hullpipe_msg_HullView>(),           Make<hullpipe_msg_VirtualObjectState>(),
       Make<hullpipe_msg_CollisionReport>(), Make<hullpipe_msg_NodeStats>(),       Make<hullpipe_msg_VirtualMesh>(),
       Make<hullpipe_msg_SceneCommand>(), Make<hullpipe_msg_HeadPose>(),          Make<hullpipe_msg_ModelPart>(),
-      Make<hullpipe_msg_ModelState>(),   Make<hullpipe_msg_CompositedView>(),   Make<hullpipe_msg_CameraPose>()};
+      Make<hullpipe_msg_ModelState>(),   Make<hullpipe_msg_CompositedView>(),   Make<hullpipe_msg_CameraPose>(),
+      Make<hullpipe_msg_EyeViews>()};
   // Fields appended since the first recordings (idl/hullpipe.idl): the hull
   // velocity of CollisionReport, uint8 + 7 bytes of alignment + 2 doubles.
   // VirtualObjectState's box (7 bytes of alignment after its boolean, a Vec3)

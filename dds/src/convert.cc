@@ -452,6 +452,42 @@ Rigid3d HeadPoseFromMsg(const hullpipe_msg_HeadPose& m) {
                         "HeadPose from tracker " + std::to_string(m.tracker_id) + ": ");
 }
 
+hullpipe_msg_EyeViews EyeViewsToMsg(const EyeViewsSample& v) {
+  hullpipe_msg_EyeViews m{};
+  m.tracker_id = v.tracker_id;
+  m.stamp_ns = v.stamp_ns;
+  for (int k = 0; k < 2; ++k) {
+    hullpipe_msg_EyeView& e = m.eyes[k];
+    const Eigen::Vector4d q = XrOrientationOf(v.world_from_eye[size_t(k)]);
+    for (int i = 0; i < 3; ++i) e.position[i] = v.world_from_eye[size_t(k)].translation[i];
+    for (int i = 0; i < 4; ++i) e.orientation[i] = q[i];
+    const EyeFov& f = v.fov[size_t(k)];
+    e.fov[0] = f.left, e.fov[1] = f.right, e.fov[2] = f.up, e.fov[3] = f.down;
+  }
+  return m;
+}
+
+EyeViewsSample EyeViewsFromMsg(const hullpipe_msg_EyeViews& m) {
+  EyeViewsSample v;
+  v.tracker_id = m.tracker_id;
+  v.stamp_ns = m.stamp_ns;
+  for (int k = 0; k < 2; ++k) {
+    const hullpipe_msg_EyeView& e = m.eyes[k];
+    const std::string who =
+        "EyeViews from tracker " + std::to_string(m.tracker_id) + ", " + (k == 0 ? "left" : "right") + " eye: ";
+    try {
+      v.world_from_eye[size_t(k)] =
+          EyePoseFromXr(Eigen::Vector3d(e.position[0], e.position[1], e.position[2]),
+                        Eigen::Vector4d(e.orientation[0], e.orientation[1], e.orientation[2], e.orientation[3]));
+      v.fov[size_t(k)] = EyeFov{e.fov[0], e.fov[1], e.fov[2], e.fov[3]};
+      v.fov[size_t(k)].Check();
+    } catch (const std::invalid_argument& err) {
+      throw MessageError(who + err.what());
+    }
+  }
+  return v;
+}
+
 hullpipe_msg_CameraPose CameraPoseToMsg(const Rigid3d& X, uint32_t camera_id, int64_t stamp_ns) {
   hullpipe_msg_CameraPose m{};
   m.camera_id = camera_id;

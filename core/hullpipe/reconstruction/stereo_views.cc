@@ -101,19 +101,35 @@ NovelView StereoViewTrack::At(double t, Eye eye, int width, int height) const {
   return EyeView(fov, width, height, poses_[k].At(t));
 }
 
+Rigid3d EyePoseFromXr(const Eigen::Vector3d& position, const Eigen::Vector4d& xyzw) {
+  if (!position.allFinite() || !xyzw.allFinite()) throw std::invalid_argument("eye pose not finite");
+  const Eigen::Quaterniond q(xyzw[3], xyzw[0], xyzw[1], xyzw[2]);
+  if (!(q.norm() > 1e-9)) throw std::invalid_argument("zero quaternion");
+  Rigid3d X;
+  X.rotation = q.normalized().toRotationMatrix() * OpenXrAxesInOpenCv();
+  X.translation = position;
+  return X;
+}
+
+Eigen::Vector4d XrOrientationOf(const Rigid3d& world_from_eye) {
+  // diag(1, -1, -1) is its own inverse.
+  const Eigen::Quaterniond q(Eigen::Matrix3d(world_from_eye.rotation * OpenXrAxesInOpenCv()));
+  return {q.x(), q.y(), q.z(), q.w()};
+}
+
 StereoViewTrack LoadStereoViewTrack(const std::string& path) {
   std::vector<StereoViewTrack::Row> rows;
-  const Eigen::Matrix3d xr_in_cv = OpenXrAxesInOpenCv();
   for (const CsvRow& row : ReadNumericCsv(path, 13, "t,eye,px,py,pz,qx,qy,qz,qw,left,right,up,down")) {
     const auto& v = row.values;
     StereoViewTrack::Row r;
     r.t = v[0];
     if (v[1] != 0 && v[1] != 1) throw std::runtime_error(CsvWhere(path, row.line) + "eye must be 0 (left) or 1 (right)");
     r.eye = v[1] == 0 ? Eye::kLeft : Eye::kRight;
-    Eigen::Quaterniond q(v[8], v[5], v[6], v[7]);  // w x y z from the row's x y z w
-    if (!(q.norm() > 1e-9)) throw std::runtime_error(CsvWhere(path, row.line) + "zero quaternion");
-    r.world_from_eye.rotation = q.normalized().toRotationMatrix() * xr_in_cv;
-    r.world_from_eye.translation = Eigen::Vector3d(v[2], v[3], v[4]);
+    try {
+      r.world_from_eye = EyePoseFromXr(Eigen::Vector3d(v[2], v[3], v[4]), Eigen::Vector4d(v[5], v[6], v[7], v[8]));
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(CsvWhere(path, row.line) + e.what());
+    }
     r.fov = {v[9], v[10], v[11], v[12]};
     try {
       r.fov.Check();

@@ -73,6 +73,24 @@ StereoViews MakeStereoViews(const Rigid3d& world_from_head, const StereoOptions&
 /// XrPosef's world_from_view rotation R_xr is world_from_eye R_xr diag(1,-1,-1).
 Eigen::Matrix3d OpenXrAxesInOpenCv();
 
+/// An eye's pose from an OpenXR XrPosef: position (metres, in the rig's world)
+/// and orientation (x, y, z, w; OpenXR's view axes, any non-zero length), as
+/// world_from_eye in OpenCV's eye axes: R = R_xr diag(1, -1, -1). Throws
+/// std::invalid_argument for a value not finite or a zero quaternion.
+Rigid3d EyePoseFromXr(const Eigen::Vector3d& position, const Eigen::Vector4d& orientation_xyzw);
+/// The XrPosef orientation (x, y, z, w; unit) of world_from_eye's rotation
+/// (OpenCV eye axes): EyePoseFromXr's inverse.
+Eigen::Vector4d XrOrientationOf(const Rigid3d& world_from_eye);
+
+/// Both eyes at one time as an HMD runtime reports them (one xrLocateViews):
+/// the EyeViews topic's sample (render_node --view eyes-topic, docs/hmd.md).
+struct EyeViewsSample {
+  uint32_t tracker_id = 0;
+  int64_t stamp_ns = 0;                   ///< When the views hold (CLOCK_REALTIME ns).
+  std::array<Rigid3d, 2> world_from_eye;  ///< [Eye::kLeft], [Eye::kRight]; OpenCV eye axes, metres.
+  std::array<EyeFov, 2> fov;              ///< Each eye's XrFovf.
+};
+
 /// Per-eye poses and fields of view over time, as an HMD runtime reports them
 /// (a log of xrLocateViews), read from CSV rows
 ///   t, eye, px,py,pz, qx,qy,qz,qw, left,right,up,down

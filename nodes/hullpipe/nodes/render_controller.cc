@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <thread>
 #include <iterator>
 #include <limits>
 #include <stdexcept>
@@ -64,6 +66,7 @@ void RenderOptions::Check() const {
   if (!up.allFinite() || up.norm() < 1e-9) bad("--up must be a finite non-zero vector");
   if (view == View::kFile && track.empty()) bad("--view file goes with --head-poses FILE");
   if (view == View::kEyes && (!eye_track || !stereo)) bad("--view eyes goes with --eye-views FILE (and is stereo)");
+  if (view == View::kEyesTopic && !stereo) bad("--view eyes-topic is stereo");
   if (publish_max_side < 16 || publish_max_side > 16384) bad("--publish-max-side must be 16..16384 pixels");
   if (publish_jpeg_quality < 1 || publish_jpeg_quality > 100) bad("--publish-jpeg-quality must be 1..100");
   if (stereo) {
@@ -184,7 +187,7 @@ void RenderController::OnModelState(ModelStateSample state) {
   while (per.size() > 8) per.erase(per.begin());
 }
 
-void RenderController::DrawModels(uint64_t frame_seq, MeshDraws* draws, bool count) {
+void RenderController::DrawModels(uint64_t frame_seq, MeshDraws* draws) {
   static const cv::Vec3b kAmber(0, 170, 255);
   for (const auto& [model_id, per] : model_states_) {
     auto s = per.upper_bound(frame_seq);
@@ -211,10 +214,12 @@ void RenderController::DrawModels(uint64_t frame_seq, MeshDraws* draws, bool cou
                        : ps.contact == kPartNear   ? kAmber
                                                    : d.part.colour;
       draws->push_back(&d.world);
-      if (count) report_.OnModelPartDrawn(it->first, ps.contact, ps.clearance);
+      report_.OnModelPartDrawn(it->first, ps.contact, ps.clearance);
     }
   }
 }
+
+void RenderController::OnEyeViews(const EyeViewsSample& views) { eye_views_ = views; }
 
 void RenderController::OnHeadPose(const Rigid3d& world_from_eye, int64_t stamp_ns) {
   tracked_ = world_from_eye;
@@ -326,6 +331,11 @@ void RenderController::IssuePoses() {
     if (o_.view == RenderOptions::View::kEyes) {
       // Each eye as the HMD runtime reported it (its log), poses key and key + 1.
       for (const Eye e : {Eye::kLeft, Eye::kRight}) f.eyes.push_back({o_.eye_track->At(t, e, o_.width, o_.height), {}});
+    } else if (o_.view == RenderOptions::View::kEyesTopic && eye_views_) {
+      // The runtime's newest views, live.
+      for (size_t k = 0; k < 2; ++k)
+        f.eyes.push_back({EyeView(eye_views_->fov[k], o_.width, o_.height, eye_views_->world_from_eye[k]), {}});
+      f.head_stamp_ns = eye_views_->stamp_ns;
     } else if (o_.stereo) {
       // The head pose's two eyes (stereo_views.h), poses key and key + 1.
       StereoOptions so = *o_.stereo;
@@ -344,75 +354,106 @@ void RenderController::IssuePoses() {
   }
 }
 
-cv::Mat RenderController::CompositeEye(const InFlight& f, const InFlight::Eye& eye, cv::Mat* hull_depth,
-                                       double* hull_fraction, uint64_t* spheres_colliding, size_t* meshes_drawn) {
-  std::optional<StageTimer> st(std::in_place, counters_, "composite");
+RenderController::FrameObjects RenderController::GatherObjects(uint64_t frame_seq) {
+  FrameObjects o;
+  for (const auto& [id, per] : states_) {
+    // The state stepped against this frameset, else the newest before it.
+    auto s = per.upper_bound(frame_seq);
+    if (s == per.begin()) continue;
+    --s;
+    if (s->second.shape == VirtualObjectSample::Shape::kBox) {
+      o.boxes.push_back(BoxDraw(s->second, comp_.ball_colour));
+    } else {
+      o.spheres.push_back({s->second.position, s->second.radius, s->second.colliding});
+    }
+    o.spheres_colliding += s->second.colliding != 0;
+  }
+  for (const VirtualMeshDraw& b : o.boxes) o.draws.push_back(&b);
+  for (const auto& [id, per] : meshes_) {
+    auto s = per.upper_bound(frame_seq);
+    if (s == per.begin()) continue;
+    --s;
+    o.draws.push_back(&s->second.draw);
+    const auto& c = s->second.draw.colliding;
+    report_.OnMeshDrawn(s->second.element, id, s->second.clearance, std::find(c.begin(), c.end(), 1) != c.end());
+  }
+  DrawModels(frame_seq, &o.draws);
+  o.meshes_drawn = o.draws.size() - o.boxes.size();
+  return o;
+}
+
+RenderController::EyeImage RenderController::CompositeEye(const InFlight::Eye& eye, const FrameObjects& objects,
+                                                          const ShadowMap* shadow) const {
+  EyeImage out;
+  const double t0 = MonotonicSeconds();
   std::vector<const HullTile*> tiles;
   for (const auto& [idx, t] : eye.tiles) tiles.push_back(&t);
   const HullViewImage hull = PasteTiles(tiles, {eye.view.width, eye.view.height}, stop_);
   const cv::Mat& depth = hull.depth;
-  const cv::Mat& colour = hull.colour;
   int64_t hull_pixels = 0;
   for (int r = 0; r < depth.rows; ++r) {
     const float* row = depth.ptr<float>(r);
     for (int c = 0; c < depth.cols; ++c) hull_pixels += row[c] < kNoDepth;
   }
-  std::vector<VirtualSphere> spheres;
-  std::vector<VirtualMeshDraw> boxes;  // box states' triangles, drawn with the meshes
-  *spheres_colliding = 0;
-  for (const auto& [id, per] : states_) {
-    // The state stepped against this frameset, else the newest before it.
-    auto s = per.upper_bound(f.frame_seq);
-    if (s == per.begin()) continue;
-    --s;
-    if (s->second.shape == VirtualObjectSample::Shape::kBox) {
-      boxes.push_back(BoxDraw(s->second, comp_.ball_colour));
-    } else {
-      spheres.push_back({s->second.position, s->second.radius, s->second.colliding});
-    }
-    *spheres_colliding += s->second.colliding != 0;
-  }
-  // The statistics count a frame's objects once, from its first eye.
-  const bool count = &eye == &f.eyes.front();
-  MeshDraws draws;  // pointers into meshes_, model_parts_ and boxes, unchanged until drawn
-  for (const VirtualMeshDraw& b : boxes) draws.push_back(&b);
-  for (const auto& [id, per] : meshes_) {
-    auto s = per.upper_bound(f.frame_seq);
-    if (s == per.begin()) continue;
-    --s;
-    draws.push_back(&s->second.draw);
-    const auto& c = s->second.draw.colliding;
-    if (count)
-      report_.OnMeshDrawn(s->second.element, id, s->second.clearance, std::find(c.begin(), c.end(), 1) != c.end());
-  }
-  DrawModels(f.frame_seq, &draws, count);
   cv::Mat composited_depth;
-  cv::Mat frame = hullpipe::Composite(eye.view, depth, colour, spheres, comp_, &composited_depth, draws, stop_);
-  st.reset();
-  if (o_.light) {
-    StageTimer lt(counters_, "light");
-    const ShadowMap shadow = RenderShadowMap(*o_.light, orbit_.up, f.hull.get(), spheres, draws);
-    ApplyLighting(eye.view, composited_depth, depth, *o_.light, shadow, &frame, stop_);
-  }
-  *meshes_drawn = draws.size() - boxes.size();
-  *hull_fraction = double(hull_pixels) / double(depth.total());
-  *hull_depth = depth;
-  return frame;
+  out.frame = hullpipe::Composite(eye.view, depth, hull.colour, objects.spheres, comp_, &composited_depth,
+                                  objects.draws, stop_);
+  const double t1 = MonotonicSeconds();
+  if (shadow) ApplyLighting(eye.view, composited_depth, depth, *o_.light, *shadow, &out.frame, stop_);
+  out.composite_ms = (t1 - t0) * 1e3;
+  out.light_ms = (MonotonicSeconds() - t1) * 1e3;
+  out.hull_fraction = double(hull_pixels) / double(depth.total());
+  out.hull_depth = depth;
+  return out;
 }
 
 void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
-  spdlog::debug("compositing {} {}x{} view(s) (frame {})", f.eyes.size(), o_.width, o_.height, f.frame_seq);
-  std::vector<cv::Mat> frames, depths;
-  uint64_t spheres_colliding = 0;
-  size_t meshes_drawn = 0;
-  double hull_fraction = 0;
-  for (const InFlight::Eye& eye : f.eyes) {
-    cv::Mat depth;
-    frames.push_back(CompositeEye(f, eye, &depth, &hull_fraction, &spheres_colliding, &meshes_drawn));
-    depths.push_back(depth);
-    if (&eye == &f.eyes.front())
-      report_.OnFrameDrawn(spheres_colliding, meshes_drawn, o_.light.has_value(), hull_fraction);
+  spdlog::debug("compositing {} {}x{} view{} (frame {})", f.eyes.size() == 1 ? "a" : "two", o_.width, o_.height,
+                f.eyes.size() == 1 ? "" : "s", f.frame_seq);
+  // The frameset's virtual objects and the light's shadow map are the eyes'
+  // alike: made once (and counted once), then each eye composited and lit on
+  // its own, the two eyes of a stereo frame at once.
+  const double t0 = MonotonicSeconds();
+  const FrameObjects objects = GatherObjects(f.frame_seq);
+  const double gather_ms = (MonotonicSeconds() - t0) * 1e3;
+  std::optional<ShadowMap> shadow;
+  double shadow_ms = 0;
+  if (o_.light) {
+    const double ts = MonotonicSeconds();
+    shadow = RenderShadowMap(*o_.light, orbit_.up, f.hull.get(), objects.spheres, objects.draws);
+    shadow_ms = (MonotonicSeconds() - ts) * 1e3;
   }
+  std::vector<EyeImage> eyes(f.eyes.size());
+  {
+    std::exception_ptr failed;  // an eye's Interrupted, rethrown here
+    std::vector<std::thread> others;
+    for (size_t k = 1; k < f.eyes.size(); ++k)
+      others.emplace_back([&, k] {
+        try {
+          eyes[k] = CompositeEye(f.eyes[k], objects, shadow ? &*shadow : nullptr);
+        } catch (...) {
+          failed = std::current_exception();
+        }
+      });
+    try {
+      eyes[0] = CompositeEye(f.eyes[0], objects, shadow ? &*shadow : nullptr);
+    } catch (...) {
+      for (auto& t : others) t.join();
+      throw;
+    }
+    for (auto& t : others) t.join();
+    if (failed) std::rethrow_exception(failed);
+  }
+  double composite_ms = 0, light_ms = 0;
+  for (const EyeImage& e : eyes) {
+    composite_ms = std::max(composite_ms, e.composite_ms);
+    light_ms = std::max(light_ms, e.light_ms);
+  }
+  counters_.Stage("composite", gather_ms + composite_ms);
+  if (o_.light) counters_.Stage("light", shadow_ms + light_ms);
+  report_.OnFrameDrawn(objects.spheres_colliding, objects.meshes_drawn, o_.light.has_value(), eyes[0].hull_fraction);
+  std::vector<cv::Mat> frames, depths;
+  for (const EyeImage& e : eyes) frames.push_back(e.frame), depths.push_back(e.hull_depth);
   cv::Mat frame;
   if (frames.size() == 1) {
     frame = frames[0];

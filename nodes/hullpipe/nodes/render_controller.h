@@ -76,8 +76,9 @@ struct RenderOptions {
   RigWorld::Floor floor = RigWorld::Floor::kPlane;
   double floor_height = 0;
   /// kEyes: each eye's pose and field of view from eye_track (an HMD runtime's
-  /// xrLocateViews log, stereo_views.h), in stereo.
-  enum class View { kOrbit, kFile, kTopic, kEyes } view = View::kOrbit;
+  /// xrLocateViews log, stereo_views.h), in stereo; kEyesTopic: from the newest
+  /// EyeViews sample (OnEyeViews; the orbit's eyes until the first arrives).
+  enum class View { kOrbit, kFile, kTopic, kEyes, kEyesTopic } view = View::kOrbit;
   PoseTrack track;                   ///< For View::kFile.
   std::optional<StereoViewTrack> eye_track;  ///< For View::kEyes.
   std::optional<LightConfig> light;  ///< The scene's light (shadows), if any.
@@ -163,6 +164,9 @@ class RenderController {
   /// ns; 0: unknown). The frame composited from it times the stage
   /// "tracker_to_eye": that stamp to its eye images written (docs/hmd.md).
   void OnHeadPose(const Rigid3d& world_from_eye, int64_t stamp_ns = 0);
+  /// An HMD runtime's two views (View::kEyesTopic); the frame composited from
+  /// them times "tracker_to_eye" from their stamp_ns.
+  void OnEyeViews(const EyeViewsSample& views);
   /// A CollisionReport: whether it has collision points, and its response's
   /// hull velocity (HullVelocityStatus value, 0: none; the normal speed, m/s),
   /// counted into stats.json's "hull_velocity".
@@ -258,16 +262,33 @@ class RenderController {
   // names, and which of its eyes; poses.end() if none.
   static std::map<uint64_t, InFlight>::iterator FindPose(std::map<uint64_t, InFlight>& poses, uint64_t pose_seq,
                                                          size_t* eye);
-  // Composites one eye of f: its tiles pasted, the virtual objects drawn,
-  // lit; *hull_depth the pasted tiles' depth, *hull_fraction their share.
-  cv::Mat CompositeEye(const InFlight& f, const InFlight::Eye& eye, cv::Mat* hull_depth, double* hull_fraction,
-                       uint64_t* spheres_colliding, size_t* meshes_drawn);
+  // A frameset's virtual objects as drawn (the boxes' triangles, the meshes'
+  // and models' parts: draws points into boxes, meshes_ and model_parts_,
+  // unchanged until drawn), counted into the statistics once.
+  struct FrameObjects {
+    FrameObjects() = default;
+    FrameObjects(const FrameObjects&) = delete;  // draws points into boxes: moved, never copied
+    FrameObjects(FrameObjects&&) = default;
+    std::vector<VirtualSphere> spheres;
+    std::vector<VirtualMeshDraw> boxes;
+    MeshDraws draws;
+    uint64_t spheres_colliding = 0;
+    size_t meshes_drawn = 0;
+  };
+  FrameObjects GatherObjects(uint64_t frame_seq);
+  // One eye composited and lit (shadow: the light's map, or null): its tiles
+  // pasted, the objects drawn. Reads the controller and changes nothing, so
+  // the eyes of a stereo frame run at once.
+  struct EyeImage {
+    cv::Mat frame, hull_depth;
+    double hull_fraction = 0, composite_ms = 0, light_ms = 0;
+  };
+  EyeImage CompositeEye(const InFlight::Eye& eye, const FrameObjects& objects, const ShadowMap* shadow) const;
   void IssuePoses();
   void Composite(uint64_t pose_seq, InFlight& f);
   // Appends the models' parts as of frame_seq to *draws (amber when near, red
-  // when colliding), and with `count` counts them into the models' statistics
-  // (a stereo frame's second eye draws them without counting them again).
-  void DrawModels(uint64_t frame_seq, MeshDraws* draws, bool count = true);
+  // when colliding), and counts them into the models' statistics.
+  void DrawModels(uint64_t frame_seq, MeshDraws* draws);
 
   struct ModelPartDraw {
     ModelPartSample part;
@@ -290,6 +311,7 @@ class RenderController {
   bool centre_known_ = false;
   CompositeOptions comp_;
   std::optional<Rigid3d> tracked_;
+  std::optional<EyeViewsSample> eye_views_;
   int64_t tracked_stamp_ns_ = 0;
   std::map<uint64_t, InFlight> in_flight_;  // by pose_seq
   std::map<uint32_t, std::map<uint64_t, VirtualObjectSample>> states_;  // object -> frame -> state

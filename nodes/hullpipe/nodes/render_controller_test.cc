@@ -532,6 +532,54 @@ TEST_F(Render, TheEyesComeFromAnHmdRuntimesLog) {
       << "the log's eyes, 64 mm apart";
 }
 
+// --view eyes-topic: an HMD runtime's client publishes both views live
+// (EyeViews); until the first comes the orbit's eyes are drawn, then each eye
+// is the newest sample's pose and off-axis projection, and the frame's
+// tracker_to_eye runs from the sample's stamp.
+TEST_F(Render, TheEyesFollowAnHmdRuntimesLiveViews) {
+  RenderOptions o = Options();
+  o.view = RenderOptions::View::kEyesTopic;
+  o.stereo = StereoOptions{};
+  o.max_in_flight = 1;
+  RenderController r(o, clock_, assembler_, sink_);
+  auto frame = [&](uint64_t seq) {
+    rig_.AddFrame(assembler_, seq, clock_.WallNs());
+    r.Step();
+    EXPECT_EQ(sink_.poses.size() % 2, 0u);
+    const auto left = sink_.poses[sink_.poses.size() - 2], right = sink_.poses.back();
+    clock_.Advance(0.005);
+    r.OnTile(WholeTile(left, kNoDepth, {0, 0, 0}));
+    r.OnTile(WholeTile(right, kNoDepth, {0, 0, 0}));
+    EXPECT_EQ(r.Step(), 1);
+    return std::make_pair(left.view, right.view);
+  };
+  StereoOptions so;
+  so.width = o.width, so.height = o.height;
+  const auto [l0, r0] = frame(1);
+  EXPECT_LT((l0.world_from_eye.translation - MakeStereoViews(r.orbit().WorldFromEye(0), so).eye[0].world_from_eye.translation)
+                .norm(),
+            1e-12)
+      << "the orbit's eyes before any sample";
+  EXPECT_FALSE(r.counters().stages().count("tracker_to_eye"));
+  EyeViewsSample v;
+  v.stamp_ns = clock_.WallNs() - 20'000'000;  // the runtime's views, 20 ms old
+  v.world_from_eye[0] = LookAt(Eigen::Vector3d(1.0, 2, -1.5), hullpipe::test::kSphereCentre, Eigen::Vector3d(0, 0, -1));
+  v.world_from_eye[1] = LookAt(Eigen::Vector3d(1.07, 2, -1.5), hullpipe::test::kSphereCentre, Eigen::Vector3d(0, 0, -1));
+  v.fov = {EyeFov{-0.7, 0.5, 0.6, -0.6}, EyeFov{-0.5, 0.7, 0.6, -0.6}};
+  r.OnEyeViews(v);
+  const auto [l1, r1] = frame(2);
+  for (size_t k = 0; k < 2; ++k) {
+    const NovelView want = EyeView(v.fov[k], o.width, o.height, v.world_from_eye[k]);
+    const NovelView& got = k == 0 ? l1 : r1;
+    EXPECT_LT((got.world_from_eye.translation - want.world_from_eye.translation).norm(), 1e-12) << k;
+    EXPECT_LT((got.world_from_eye.rotation - want.world_from_eye.rotation).norm(), 1e-12) << k;
+    EXPECT_EQ(got.cx, want.cx) << k;
+    EXPECT_EQ(got.fy, want.fy) << k;
+  }
+  ASSERT_TRUE(r.counters().stages().count("tracker_to_eye"));
+  EXPECT_NEAR(r.counters().stages().at("tracker_to_eye").Percentile(50), 25.0, 1e-3);
+}
+
 // Replaying a whole recording into a live run mixed the recorded tiles and
 // NodeStats with the live ones (63 of 426 frames composited, the recorded rows
 // shown as live). Now tiles and reports of another run are ignored, counted in
@@ -1058,6 +1106,7 @@ TEST(RenderFlags, ParsedAndResolvedOnce) {
   for (const auto& [args, flag] : std::vector<std::pair<std::vector<std::string>, std::string>>{
            {{"--view", "file"}, "--head-poses"},
            {{"--view", "eyes"}, "--eye-views"},
+           {{"--view", "eyes-topic", "--eye-views", HULLPIPE_SOURCE_DIR "/scenes/eye_views_example.csv"}, "--eye-views"},
            {{"--ipd", "0.07"}, "--stereo"},
            {{"--stereo", "--ipd", "0.2"}, "--ipd"},
            {{"--stereo", "--fov-left", "0.5,0.2,0.8,-0.8"}, "--fov-left"},

@@ -100,8 +100,9 @@ void RenderFlags::Register(CLI::App& app) {
   app.add_option("--orbit-period", o.orbit_period, "Seconds per turn (frame time)")->capture_default_str();
   app.add_option("--view", view,
                  "Viewpoint: orbit (scripted), file (--head-poses CSV), topic (HeadPose from a tracker; "
-                 "the orbit until the first arrives), eyes (--eye-views CSV: each eye as an HMD runtime reports it)")
-      ->check(CLI::IsMember({"orbit", "file", "topic", "eyes"}))
+                 "the orbit until the first arrives), eyes (--eye-views CSV: each eye as an HMD runtime reports it), "
+                 "eyes-topic (EyeViews from an HMD runtime's client, live; the orbit's eyes until the first)")
+      ->check(CLI::IsMember({"orbit", "file", "topic", "eyes", "eyes-topic"}))
       ->capture_default_str();
   app.add_option("--scene", scene, "Scene file: render_node uses its `light` (shadows); sim_node the rest");
   app.add_option("--rig", rig,
@@ -136,10 +137,12 @@ void RenderFlags::Resolve(bool have_display) {
     throw std::invalid_argument("--view file goes with --head-poses FILE");
   if ((view == "eyes") != !eye_views.empty())
     throw std::invalid_argument("--view eyes goes with --eye-views FILE");
-  o.view = view == "file"    ? RenderOptions::View::kFile
-           : view == "topic" ? RenderOptions::View::kTopic
-           : view == "eyes"  ? RenderOptions::View::kEyes
-                             : RenderOptions::View::kOrbit;
+  o.view = view == "file"         ? RenderOptions::View::kFile
+           : view == "topic"      ? RenderOptions::View::kTopic
+           : view == "eyes"       ? RenderOptions::View::kEyes
+           : view == "eyes-topic" ? RenderOptions::View::kEyesTopic
+                                  : RenderOptions::View::kOrbit;
+  if (view == "eyes-topic") stereo_ = true;  // the runtime's two views
   if (!head_poses.empty()) o.track = LoadPoseTrack(head_poses);
   if (!eye_views.empty()) {
     o.eye_track = LoadStereoViewTrack(eye_views);

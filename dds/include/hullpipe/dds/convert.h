@@ -17,6 +17,7 @@
 #include "hullpipe/geometry/aabb.h"
 #include "hullpipe/geometry/camera.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/stereo_views.h"
 #include "hullpipe/dds/node_stats_convert.h"
 #include "hullpipe/dds/owned_sample.h"
 #include "hullpipe/pipeline/messages.h"
@@ -114,6 +115,13 @@ hullpipe_msg_HeadPose HeadPoseToMsg(const Rigid3d& world_from_eye, uint32_t trac
 /// Validated world_from_eye (finite, rotation orthonormal with det +1 to 1e-6).
 /// Throws MessageError.
 Rigid3d HeadPoseFromMsg(const hullpipe_msg_HeadPose& msg);
+
+/// An HMD runtime's two views (EyeViews; world_from_eye in OpenCV's eye axes,
+/// sent as XrPosefs).
+hullpipe_msg_EyeViews EyeViewsToMsg(const EyeViewsSample& views);
+/// Validated views: finite, non-zero quaternions, each fov as EyeFov::Check.
+/// Throws MessageError naming the tracker and the eye.
+EyeViewsSample EyeViewsFromMsg(const hullpipe_msg_EyeViews& msg);
 
 /// A tracked camera's pose message of world_from_camera (metres, OpenCV
 /// camera frame), measured at `stamp_ns`.

@@ -33,6 +33,7 @@ HULLPIPE_TOPIC(ModelState, "hullpipe/model_state", true, false, 2)
 // waits for its acknowledgement before it leaves).
 HULLPIPE_TOPIC(SceneCommand, "hullpipe/scene_command", true, true, 8)
 HULLPIPE_TOPIC(HeadPose, "hullpipe/head_pose", false, false, 1)
+HULLPIPE_TOPIC(EyeViews, "hullpipe/eye_views", false, false, 1)
 // A tracker's camera poses: best-effort, and deep enough that capture_node,
 // which takes them once a frame, keeps the samples around each frame's time.
 HULLPIPE_TOPIC(CameraPose, "hullpipe/camera_pose", false, false, 64)

@@ -74,6 +74,13 @@ inline std::map<std::string, std::vector<uint8_t>> ValidSampleOfEachTopic(const 
   encode("hullpipe::msg::HeadPose", &head);
   const auto camera_pose = CameraPoseToMsg(camera.cam_from_world.Inverse(), uint32_t(camera.id), kStampNs);
   encode("hullpipe::msg::CameraPose", &camera_pose);
+  const StereoViews stereo = MakeStereoViews(Rigid3d{}, StereoOptions{});
+  EyeViewsSample eyes;
+  eyes.tracker_id = 1, eyes.stamp_ns = kStampNs;
+  eyes.world_from_eye = {stereo.eye[0].world_from_eye, stereo.eye[1].world_from_eye};
+  eyes.fov = {StereoOptions{}.left, StereoOptions{}.right};
+  const auto eye_views = EyeViewsToMsg(eyes);
+  encode("hullpipe::msg::EyeViews", &eye_views);
   ModelPartSample part;
   part.object_id = 1000, part.model_id = 1000, part.name = "part", part.file = "model.glb";
   part.vertices = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}};
