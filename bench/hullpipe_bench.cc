@@ -70,6 +70,7 @@ void Row(const std::string& what, const std::string& config, double ms, const st
 // pattern per camera.
 struct BackendInput {
   std::vector<CameraMap> views;
+  std::vector<Camera> cameras;  // the views' cameras (also the images')
   std::vector<CameraImage> images;
   Eigen::Vector3d centre{0, 0, -0.8};
 };
@@ -86,6 +87,7 @@ BackendInput MakeBackendInput(int cameras) {
   scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(-0.1, 0, 0.15), c + Eigen::Vector3d(-0.12, 0.45, 0.6), 0.07));
   for (const Camera& cam : RingCameras(cameras, 3.0, 1.8, c, 644, 486, 1.0)) {
     in.views.push_back({cam, RenderExactMap(cam, scene)});
+    in.cameras.push_back(cam);
     cv::Mat img(243, 322, CV_8UC3);
     for (int r = 0; r < img.rows; ++r)
       for (int k = 0; k < img.cols; ++k)
@@ -132,8 +134,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   // (a read-back each), as recon did before.
   auto frame = [&](SweepBackend& b, const BackendInput& in, const VolumeQuery& q, const NovelView& view,
                    const std::vector<double>& depths, double* sweep_ms, double* two_waits_ms) {
-    std::vector<Camera> cams;
-    for (const auto& im : in.images) cams.push_back(im.camera);
+    const std::vector<Camera>& cams = in.cameras;
     PlaneSweepOptions vo;
     vo.num_planes = 48;
     const cv::Rect all(0, 0, view.width, view.height);
@@ -155,8 +156,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   std::vector<std::string> stage_rows;
   auto stages = [&](SweepBackend& b, const BackendInput& in, const VolumeQuery& q, const NovelView& view,
                     const std::vector<double>& depths) {
-    std::vector<Camera> cams;
-    for (const auto& im : in.images) cams.push_back(im.camera);
+    const std::vector<Camera>& cams = in.cameras;
     PlaneSweepOptions vo;
     vo.num_planes = 48;
     const cv::Rect all(0, 0, view.width, view.height);
@@ -183,7 +183,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
     // read-back waits): what each stage adds to the GPU's span, and the span
     // itself against the frame's wall time (the rest is the CPU's and the
     // driver's: waits, set-up, copies).
-    std::vector<double> g[4], span, wall;
+    std::vector<double> g[3], span, wall;
     b.Finish();  // makes the backend's context current here
     gl::Query stamp[4] = {gl::MakeQuery(GL_TIMESTAMP), gl::MakeQuery(GL_TIMESTAMP), gl::MakeQuery(GL_TIMESTAMP),
                           gl::MakeQuery(GL_TIMESTAMP)};
@@ -213,11 +213,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   };
   for (const int ncam : rows.cameras) {
     const BackendInput in = MakeBackendInput(ncam);
-    const VolumeQuery q(in.views, DefaultWorkspace([&] {
-                          std::vector<Camera> c;
-                          for (const auto& v : in.views) c.push_back(v.camera);
-                          return c;
-                        }()));
+    const VolumeQuery q(in.views, DefaultWorkspace(in.cameras));
     OrbitPath orbit;
     orbit.centre = in.centre;
     for (const std::string& size : rows.sizes) {
@@ -260,8 +256,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
                 repeats);
     for (const int ncam : rows.cameras) {
       const BackendInput in = MakeBackendInput(ncam);
-      std::vector<Camera> cams;
-      for (const auto& v : in.views) cams.push_back(v.camera);
+      const std::vector<Camera>& cams = in.cameras;
       OrbitPath orbit;
       orbit.centre = in.centre;
       for (const std::string& size : rows.sizes) {
@@ -304,8 +299,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
     std::printf("\nGL backend's first framesets (16 cameras 640x480 in the view, 100 planes; one fresh backend each):\n\n"
                 "| warm-up at creation | creation ms | first frame ms | second frame ms |\n|---|---|---|---|\n");
     const BackendInput in = MakeBackendInput(16);
-    std::vector<Camera> cams;
-    for (const auto& v : in.views) cams.push_back(v.camera);
+    const std::vector<Camera>& cams = in.cameras;
     const VolumeQuery q(in.views, DefaultWorkspace(cams));
     OrbitPath orbit;
     orbit.centre = in.centre;
@@ -347,8 +341,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   // inside the hull and some out, each in a 10x10 viewport (the paper's setting).
   {
     const BackendInput in = MakeBackendInput(4);
-    std::vector<Camera> cams;
-    for (const auto& v : in.views) cams.push_back(v.camera);
+    const std::vector<Camera>& cams = in.cameras;
     const VolumeQuery q(in.views, DefaultWorkspace(cams));
     const TriangleQueryOptions o{0.002, 10, 64};
     std::unique_ptr<gl::GlTriangleQuery> gl_tri;

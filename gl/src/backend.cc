@@ -88,12 +88,16 @@ class GlBackend final : public SweepBackend {
     ComputeVisibility(q, cams, 16, o);
     (void)SweepTextured(q, view, SweepPlaneDepths(q, view, o), cv::Rect(0, 0, view.width, view.height), images, true,
                         nullptr);
-    BeginFrameset(q, images);  // nothing of the probe is kept for a real frameset
+    ForgetFrameset();  // nothing of the probe is kept for a real frameset
   }
   void BeginFrameset(const VolumeQuery& q, const std::vector<CameraImage>& images) override {
     ctx_.MakeCurrent();
     march_->Upload(q);
     texture_->UploadImages(images);
+    ForgetFrameset();
+  }
+  // The last frameset's visibility maps and tile are no longer this one's.
+  void ForgetFrameset() {
     vis_views_.clear();
     has_vis_ = false;
     last_tile_ = cv::Mat();
@@ -152,23 +156,19 @@ class GlBackend final : public SweepBackend {
     if (with_visibility && !has_vis_) throw std::logic_error("Texture with visibility before ComputeVisibility");
     const double t0 = MonotonicSeconds();
     TexturedTile out;
-    if (march_->SweepOnGpu(q, v, d, tile, refine_)) {
-      // Both passes queued, then one wait: the texture reads the tile's depth
-      // where the march left it.
-      texture_->Dispatch(tile, v, images, {}, with_visibility ? &vis_views_ : nullptr,
-                         with_visibility ? march_->views_texture() : 0, march_->tile_texture());
-      out.depth = march_->ReadTile();
-      const double t1 = MonotonicSeconds();
-      out.colour = texture_->ReadBack();
-      out.texture_ms = (MonotonicSeconds() - t1) * 1e3;
-      if (stats) stats->sweep_ms += (t1 - t0) * 1e3;
-    } else {
-      out.depth = march_->ReadTile();  // all kNoDepth: nothing was swept
-      const double t1 = MonotonicSeconds();
-      out.colour = Texture(out.depth, tile, v, images, with_visibility);
-      out.texture_ms = (MonotonicSeconds() - t1) * 1e3;
-      if (stats) stats->sweep_ms += (t1 - t0) * 1e3;
-    }
+    const std::vector<NovelView>* vis_views = with_visibility ? &vis_views_ : nullptr;
+    const GLuint vis_texture = with_visibility ? march_->views_texture() : 0;
+    // Both passes queued, then one wait: the texture reads the tile's depth
+    // where the march left it. A tile the march dispatched nothing for (all
+    // kNoDepth) is read first and uploaded to the texture pass instead.
+    const bool swept = march_->SweepOnGpu(q, v, d, tile, refine_);
+    if (swept) texture_->Dispatch(tile, v, images, {}, vis_views, vis_texture, march_->tile_texture());
+    out.depth = march_->ReadTile();
+    if (!swept) texture_->Dispatch(tile, v, images, {}, vis_views, vis_texture, 0, &out.depth);
+    const double t1 = MonotonicSeconds();
+    out.colour = texture_->ReadBack();
+    out.texture_ms = (MonotonicSeconds() - t1) * 1e3;
+    if (stats) stats->sweep_ms += (t1 - t0) * 1e3;
     last_tile_ = out.depth;
     return out;
   }

@@ -160,7 +160,7 @@ void RenderFlags::Resolve(bool have_display) {
     StereoOptions so;
     if (ipd_opt_->count()) so.ipd_m = ipd_;
     auto fov = [](const std::vector<double>& v) { return EyeFov{v[0], v[1], v[2], v[3]}; };
-    if (fov_left_opt_->count()) so.left = so.right = fov(fov_left_);
+    if (fov_left_opt_->count()) so.left = fov(fov_left_);
     so.right = so.left.Mirrored();
     if (fov_right_opt_->count()) so.right = fov(fov_right_);
     o.stereo = so;
