@@ -1108,6 +1108,7 @@ TEST(RenderFlags, ParsedAndResolvedOnce) {
            {{"--view", "eyes"}, "--eye-views"},
            {{"--view", "eyes-topic", "--eye-views", HULLPIPE_SOURCE_DIR "/scenes/eye_views_example.csv"}, "--eye-views"},
            {{"--ipd", "0.07"}, "--stereo"},
+           {{"--view", "eyes-topic", "--fov-left", "-0.8,0.7,0.8,-0.8"}, "--fov-left"},
            {{"--stereo", "--ipd", "0.2"}, "--ipd"},
            {{"--stereo", "--fov-left", "0.5,0.2,0.8,-0.8"}, "--fov-left"},
            {{"--floor", "low"}, "--floor"},

@@ -156,6 +156,9 @@ void RenderFlags::Resolve(bool have_display) {
   o.ApplyWorld(rig_world ? &*rig_world : nullptr, world_);
   const bool stereo_settings = ipd_opt_->count() || fov_left_opt_->count() || fov_right_opt_->count();
   if (stereo_settings && !stereo_) throw std::invalid_argument("--ipd, --fov-left and --fov-right go with --stereo");
+  if (stereo_settings && (view == "eyes" || view == "eyes-topic"))
+    throw std::invalid_argument("--ipd, --fov-left and --fov-right do not go with --view " + view +
+                                ": the HMD runtime gives each eye's pose and field of view");
   if (stereo_) {
     StereoOptions so;
     if (ipd_opt_->count()) so.ipd_m = ipd_;
