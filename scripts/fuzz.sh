@@ -37,6 +37,7 @@ cp scenes/*.yaml "$SEEDS/fuzz_scene_files/"
 for csv in scenes/*.csv; do
   { printf '\x00'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/pose_$(basename "$csv")"
   { printf '\x01'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/motion_$(basename "$csv")"
+  { printf '\x02'; cat "$csv"; } > "$SEEDS/fuzz_csv_files/eyes_$(basename "$csv")"
 done
 
 # Model files: the first byte picks the format (fuzz_model_files.cc); small
