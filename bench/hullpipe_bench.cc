@@ -30,6 +30,7 @@
 #include "hullpipe/gl/gl_plane_sweep.h"
 #include "hullpipe/gl/gl_triangle_query.h"
 #include "hullpipe/geometry/mesh.h"
+#include "hullpipe/reconstruction/empty_space.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/reconstruction/stereo_views.h"
 #include "hullpipe/evaluation/synthetic_source.h"
@@ -252,7 +253,8 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   // sweep and texture. Same input, same planes, measured in one run.
   {
     std::printf("\nStereo frame (two eyes of one frameset, render_node --stereo) against one eye, median of %d:\n\n"
-                "| backend | cams | eye view | planes | one eye ms | two eyes ms | two / one |\n|---|---|---|---|---|---|---|\n",
+                "| backend | cams | eye view | planes | one eye ms | two eyes ms | two / one | shared ms: query + maps + visibility | each eye ms: sweep / refine / texture |\n"
+                "|---|---|---|---|---|---|---|---|---|\n",
                 repeats);
     for (const int ncam : rows.cameras) {
       const BackendInput in = MakeBackendInput(ncam);
@@ -270,25 +272,94 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
         vo.num_planes = 48;
         for (SweepBackend* b : {cpu.get(), gpu.get()}) {
           if (!b) continue;
+          // Where the two-eye frame's time goes (CPU: the sweep's own clocks;
+          // GL: queued work, so the shared part holds what the GPU has not done).
+          std::vector<double> shared, sweep, refine, texture;
           auto eyes_frame = [&](int n_eyes) {
             return MedianMs(repeats, [&] {
+              const double t0 = MonotonicSeconds();
               // The query is the frameset's (recon makes it once, hull box included).
               const VolumeQuery q(in.views, DefaultWorkspace(cams));
               b->BeginFrameset(q, in.images);
               b->ComputeVisibility(q, cams, 80, vo);
+              if (n_eyes == 2) shared.push_back((MonotonicSeconds() - t0) * 1e3);
               for (int e = 0; e < n_eyes; ++e) {
                 PlaneSweepOptions o;
                 o.num_planes = planes;
                 const NovelView& v = eyes.eye[size_t(e)];
-                (void)b->SweepTextured(q, v, SweepPlaneDepths(q, v, o), cv::Rect(0, 0, w, h), in.images, true);
+                SweepStats st;
+                const TexturedTile t =
+                    b->SweepTextured(q, v, SweepPlaneDepths(q, v, o), cv::Rect(0, 0, w, h), in.images, true, &st);
+                if (n_eyes == 2) {
+                  sweep.push_back(st.sweep_ms);
+                  refine.push_back(st.refine_ms);
+                  texture.push_back(t.texture_ms);
+                }
               }
             });
           };
           const double one = eyes_frame(1), two = eyes_frame(2);
-          std::printf("| %s | %d | %dx%d | %d | %.2f | %.2f | %.2f |\n", b == cpu.get() ? "cpu" : "gl", ncam, w, h,
-                      planes, one, two, two / one);
+          std::printf("| %s | %d | %dx%d | %d | %.2f | %.2f | %.2f | %.2f | %.2f / %.2f / %.2f |\n",
+                      b == cpu.get() ? "cpu" : "gl", ncam, w, h, planes, one, two, two / one, Median(shared),
+                      Median(sweep), Median(refine), Median(texture));
           std::fflush(stdout);
         }
+      }
+    }
+  }
+  // Empty-space skipping (EmptySpace) in the CPU sweep: one eye's sweep (refine
+  // 6, one thread) with the frameset's grid and without it, same input, runs
+  // interleaved, and the grid's own cost (made once per frameset). The depth
+  // images are compared: skipping must not change one pixel.
+  if (cpu) {
+    std::printf("\nCPU sweep with and without empty-space skipping (one eye, the stereo table's view, refine 6, 1 thread; "
+                "interleaved, median of %d):\n\n"
+                "| cams | eye view | planes | grid cubes | grid ms | cubes vetoed once / twice | points skipped | sweep ms without | "
+                "sweep ms with | without / with | same depth |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+                repeats);
+    for (const int ncam : rows.cameras) {
+      const BackendInput in = MakeBackendInput(ncam);
+      OrbitPath orbit;
+      orbit.centre = in.centre;
+      for (const std::string& size : rows.sizes) {
+        int w = 0, h = 0;
+        if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2) continue;  // checked above
+        StereoOptions so;
+        so.width = w, so.height = h;
+        const NovelView v = MakeStereoViews(orbit.WorldFromEye(1.0), so).eye[0];
+        VolumeQueryOptions with_grid, without_grid;
+        without_grid.empty_space_cells = 0;
+        const VolumeQuery qw(in.views, DefaultWorkspace(in.cameras), with_grid);
+        const VolumeQuery qn(in.views, DefaultWorkspace(in.cameras), without_grid);
+        PlaneSweepOptions o;
+        o.num_planes = rows.planes.front();
+        const auto depths = SweepPlaneDepths(qw, v, o);
+        const cv::Rect all(0, 0, w, h);
+        std::vector<double> grid_ms;
+        for (int r = 0; r < repeats; ++r) {
+          const VolumeQuery q(in.views, DefaultWorkspace(in.cameras), with_grid);
+          grid_ms.push_back(q.empty_space(1).build_ms());
+        }
+        const EmptySpace& grid = qw.empty_space(1);
+        std::vector<double> tn, tw;
+        SweepStats sw;
+        cv::Mat dn, dw;
+        for (int r = 0; r <= repeats; ++r) {
+          SweepStats a, b;
+          dn = PlaneSweepCpu(qn, v, depths, all, &a, 1, 6);
+          dw = PlaneSweepCpu(qw, v, depths, all, &b, 1, 6);
+          if (r == 0) continue;  // warm-up
+          tn.push_back(a.sweep_ms + a.refine_ms);
+          tw.push_back(b.sweep_ms + b.refine_ms);
+          sw = b;
+        }
+        const bool same = cv::norm(dn, dw, cv::NORM_INF) == 0 ||
+                          (cv::countNonZero(dn != dw) == 0);  // +inf where no hull: compare bitwise
+        std::printf("| %d | %dx%d | %d | %dx%dx%d | %.2f | %lld / %lld | %.0f%% | %.2f | %.2f | %.2f | %s |\n", ncam,
+                    w, h, o.num_planes, grid.dims().x(), grid.dims().y(), grid.dims().z(), Median(grid_ms),
+                    (long long)grid.vetoed_once(), (long long)grid.vetoed_twice(), sw.plane_points ? 100.0 * double(sw.skipped) / double(sw.plane_points) : 0.0,
+                    Median(tn), Median(tw), Median(tn) / Median(tw), same ? "yes" : "NO");
+        std::fflush(stdout);
       }
     }
   }

@@ -61,9 +61,10 @@ std::vector<double> SweepPlaneDepths(const VolumeQuery& query, const NovelView& 
 
 /// Counters of a sweep (for benchmarks).
 struct SweepStats {
-  int64_t rays = 0;          ///< Pixels whose ray met the hull box.
+  int64_t rays = 0;          ///< Pixels whose ray met the hull box outside the empty space (EmptySpace).
   int64_t plane_points = 0;  ///< Plane points visited.
   int64_t projections = 0;   ///< Point-in-camera tests made.
+  int64_t skipped = 0;       ///< Point queries answered by the empty-space grid (EmptySpace), no camera asked.
   /// Wall milliseconds (added to, not reset): the sweep with its per-ray
   /// bisection, and the silhouette/rim refinement pass (the latency budget's
   /// recon "sweep" and "refine", docs/latency.md).

@@ -1,4 +1,5 @@
 #include "hullpipe/reconstruction/volume_query.h"
+#include "hullpipe/reconstruction/empty_space.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/util/parallel.h"
 
@@ -24,6 +25,9 @@ namespace hullpipe {
 void VolumeQueryOptions::Check() const {
   if (min_seen < 1) throw std::invalid_argument("VolumeQueryOptions.min_seen must be >= 1");
   if (threads < 1 || threads > 256) throw std::invalid_argument("VolumeQueryOptions.threads must be in [1, 256]");
+  if (empty_space_cells < 0 || empty_space_cells > EmptySpace::kMaxCellsPerAxis)
+    throw std::invalid_argument("VolumeQueryOptions.empty_space_cells must be in [0, " +
+                                std::to_string(EmptySpace::kMaxCellsPerAxis) + "]");
 }
 
 namespace {
@@ -239,8 +243,22 @@ class CellProver {
   // True if no hull point lies in `cell`. *hint: the camera tried first, set to
   // the one that proved it (neighbouring cells share it).
   bool Empty(const Aabb& cell, size_t* hint) const;
+  // How many cameras, up to `need`, see all of `cell` (grown by a pixel) and
+  // put it on background (VolumeQuery::CountWholeBackground).
+  int WholeBackground(const Aabb& cell, int need, size_t* hint) const;
 
  private:
+  // What camera i says of every point of `cell`, its projection's rectangle
+  // grown by margin_px (> 0 also keeps the corners a millimetre in front and
+  // within the lens's radius by a relative 1e-4).
+  enum class Verdict {
+    kBackground,      // sees all of it and has no object pixel under it
+    kPartBackground,  // sees part of it, on background wherever it does
+    kMisses,          // sees none of it
+    kMaySee,          // may put a point of it on an object pixel
+  };
+  Verdict Classify(const Aabb& cell, size_t i, double margin_px) const;
+
   std::vector<CameraMap> views_;  // shares the maps
   std::vector<cv::Rect> rects_;
   bool outside_vetoes_;
@@ -249,15 +267,7 @@ class CellProver {
   std::vector<std::shared_ptr<const CameraBounds>> bounds_;  // per camera, shared across framesets
 };
 
-bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
-  const auto& views = views_;
-  const auto& rects = rects_;
-  const auto& sums = sums_;
-  const bool outside_vetoes = outside_vetoes_;
-  const int required_seen = required_seen_;
-  const size_t n = views.size();
-  size_t& hint = *hint_io;
-  if (hint >= n) hint = 0;
+CellProver::Verdict CellProver::Classify(const Aabb& cell, size_t i, double margin_px) const {
   // A pixel rectangle [u0, u1] x [v0, v1].
   struct Rect {
     double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
@@ -267,96 +277,123 @@ bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
       u1 = std::max(u1, uv.x()), v1 = std::max(v1, uv.y());
     }
   };
+  const bool strict = margin_px > 0;
   const Eigen::Vector3d size = cell.max - cell.min;
+  const Camera& cam = views_[i].camera;
+  // The corners in the camera's frame (its rotation applied to the cell's
+  // edges once, not to each corner), and their normalised image points as
+  // Camera::Project finds them: none where a corner is not in front or lies
+  // beyond the lens model's valid radius. In front, the cell's image in the
+  // normalised plane is the convex hull of its corners' (perspective keeps
+  // convexity), so corners within the valid disk (convex) put all of it there.
+  // Strict (a margin): in front by a millimetre and within the radius by a
+  // relative 1e-4, so that float arithmetic (VoteFast) agrees for every point.
+  const Eigen::Matrix3d& R = cam.cam_from_world.rotation;
+  const Eigen::Vector3d base = R * cell.min + cam.cam_from_world.translation;
+  const Eigen::Vector3d ex = R.col(0) * size.x(), ey = R.col(1) * size.y(), ez = R.col(2) * size.z();
+  std::array<Eigen::Vector3d, 8> pc;
+  for (int k = 0; k < 8; ++k)
+    pc[size_t(k)] = base + (k & 1 ? ex : Eigen::Vector3d::Zero()) + (k & 2 ? ey : Eigen::Vector3d::Zero()) +
+                    (k & 4 ? ez : Eigen::Vector3d::Zero());
+  const double r2max = cam.MaxValidRadius2() * (strict ? 1 - 1e-4 : 1.0);
+  const double zmin = strict ? 1e-3 : 1e-9;
+  std::array<Eigen::Vector2d, 8> xn;
+  bool projects = true;
+  for (size_t k = 0; k < 8 && projects; ++k) {
+    projects = pc[k].z() > zmin;
+    if (projects) xn[k] = pc[k].head<2>() / pc[k].z();
+    projects = projects && !(xn[k].squaredNorm() > r2max);
+  }
+  // A conservative rectangle of the cell's projection, or none: the camera
+  // may see some of the cell and vetoes none of it.
+  Rect r;
+  bool bounded = false;
+  if (projects && !bounds_[i]->lens) {
+    for (const auto& x : xn) r.Extend(cam.PixelFromImagePlane(x));
+    bounded = true;
+  } else if (projects) {
+    const LensBound& lens = *bounds_[i]->lens;
+    Rect p;
+    for (const auto& x : xn) p.Extend(cam.PixelFromImagePlane(x));
+    if (p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 && p.v1 <= lens.y1) {
+      r = {p.u0 - lens.shift, p.v0 - lens.shift, p.u1 + lens.shift, p.v1 + lens.shift};
+      bounded = true;
+    }
+    if (!bounded || p.span() <= 32) {
+      Rect d;
+      for (const auto& x : xn) d.Extend(cam.PixelFromImagePlane(cam.Distort(x)));
+      if (d.span() <= 32) {
+        const double m = 0.5 + d.span() * d.span() / 400;
+        const Rect g{d.u0 - m, d.v0 - m, d.u1 + m, d.v1 + m};
+        r = bounded ? Rect{std::max(r.u0, g.u0), std::max(r.v0, g.v0), std::min(r.u1, g.u1), std::min(r.v1, g.v1)}
+                    : g;
+        bounded = true;
+      }
+    }
+  }
+  if (!bounded) {
+    // Corners behind the camera or beyond its lens model: the cell may still
+    // lie wholly outside its view (a corner of the workspace below a dome).
+    return !strict && bounds_[i]->pyramid->Misses(pc) ? Verdict::kMisses : Verdict::kMaySee;
+  }
+  r = {r.u0 - margin_px, r.v0 - margin_px, r.u1 + margin_px, r.v1 + margin_px};
+  // Clamped in floating point first (FloorPixel): a corner far outside a
+  // distorted view can project to ~1e11 px, past int.
+  const int x0 = FloorPixel(r.u0), y0 = FloorPixel(r.v0);
+  const int x1 = FloorPixel(r.u1) + 1, y1 = FloorPixel(r.v1) + 1;
+  if (x1 <= 0 || y1 <= 0 || x0 >= cam.width || y0 >= cam.height) return Verdict::kMisses;
+  // Object pixels under [x0, x1) x [y0, y1) within the image, counted within
+  // the object rectangle.
+  const cv::Rect& o = rects_[i];
+  const int a0 = std::clamp(x0 - o.x, 0, o.width), a1 = std::clamp(x1 - o.x, 0, o.width);
+  const int b0 = std::clamp(y0 - o.y, 0, o.height), b1 = std::clamp(y1 - o.y, 0, o.height);
+  const cv::Mat& s = sums_[i];
+  if (a0 == a1 || b0 == b1 || s.at<int>(b1, a1) - s.at<int>(b0, a1) - s.at<int>(b1, a0) + s.at<int>(b0, a0) == 0) {
+    const bool whole = x0 >= 0 && y0 >= 0 && x1 <= cam.width && y1 <= cam.height;
+    return whole ? Verdict::kBackground : Verdict::kPartBackground;
+  }
+  return Verdict::kMaySee;
+}
+
+bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
+  const size_t n = views_.size();
+  size_t& hint = *hint_io;
+  if (hint >= n) hint = 0;
   int seeing = 0;
   for (size_t j = 0; j < n; ++j) {
     const size_t i = j == 0 ? hint : (j <= hint ? j - 1 : j);
-    const Camera& cam = views[i].camera;
-    // The corners in the camera's frame (its rotation applied to the cell's
-    // edges once, not to each corner), and their normalised image points as
-    // Camera::Project finds them: none where a corner is not in front or lies
-    // beyond the lens model's valid radius. In front, the cell's image in the
-    // normalised plane is the convex hull of its corners' (perspective keeps
-    // convexity), so corners within the valid disk (convex) put all of it there.
-    const Eigen::Matrix3d& R = cam.cam_from_world.rotation;
-    const Eigen::Vector3d base = R * cell.min + cam.cam_from_world.translation;
-    const Eigen::Vector3d ex = R.col(0) * size.x(), ey = R.col(1) * size.y(), ez = R.col(2) * size.z();
-    std::array<Eigen::Vector3d, 8> pc;
-    for (int k = 0; k < 8; ++k)
-      pc[size_t(k)] = base + (k & 1 ? ex : Eigen::Vector3d::Zero()) + (k & 2 ? ey : Eigen::Vector3d::Zero()) +
-                      (k & 4 ? ez : Eigen::Vector3d::Zero());
-    const double r2max = cam.MaxValidRadius2();
-    std::array<Eigen::Vector2d, 8> xn;
-    bool projects = true;
-    for (size_t k = 0; k < 8 && projects; ++k) {
-      projects = pc[k].z() > 1e-9;
-      if (projects) xn[k] = pc[k].head<2>() / pc[k].z();
-      projects = projects && !(xn[k].squaredNorm() > r2max);
-    }
-    // A conservative rectangle of the cell's projection, or none: the camera
-    // may see some of the cell and vetoes none of it.
-    Rect r;
-    bool bounded = false;
-    if (projects && !bounds_[i]->lens) {
-      for (const auto& x : xn) r.Extend(cam.PixelFromImagePlane(x));
-      bounded = true;
-    } else if (projects) {
-      const LensBound& lens = *bounds_[i]->lens;
-      Rect p;
-      for (const auto& x : xn) p.Extend(cam.PixelFromImagePlane(x));
-      if (p.u0 >= lens.x0 && p.v0 >= lens.y0 && p.u1 <= lens.x1 && p.v1 <= lens.y1) {
-        r = {p.u0 - lens.shift, p.v0 - lens.shift, p.u1 + lens.shift, p.v1 + lens.shift};
-        bounded = true;
-      }
-      if (!bounded || p.span() <= 32) {
-        Rect d;
-        for (const auto& x : xn) d.Extend(cam.PixelFromImagePlane(cam.Distort(x)));
-        if (d.span() <= 32) {
-          const double m = 0.5 + d.span() * d.span() / 400;
-          const Rect g{d.u0 - m, d.v0 - m, d.u1 + m, d.v1 + m};
-          r = bounded ? Rect{std::max(r.u0, g.u0), std::max(r.v0, g.v0), std::min(r.u1, g.u1), std::min(r.v1, g.v1)}
-                      : g;
-          bounded = true;
-        }
-      }
-    }
-    if (!bounded) {
-      // Corners behind the camera or beyond its lens model: the cell may still
-      // lie wholly outside its view (a corner of the workspace below a dome).
-      if (bounds_[i]->pyramid->Misses(pc)) {
-        if (outside_vetoes) return hint = i, true;
-        continue;
-      }
-      ++seeing;
-      continue;
-    }
-    // Clamped in floating point first (FloorPixel): a corner far outside a
-    // distorted view can project to ~1e11 px, past int.
-    const int x0 = FloorPixel(r.u0), y0 = FloorPixel(r.v0);
-    const int x1 = FloorPixel(r.u1) + 1, y1 = FloorPixel(r.v1) + 1;
-    if (x1 <= 0 || y1 <= 0 || x0 >= cam.width || y0 >= cam.height) {  // sees none of it
-      if (outside_vetoes) return hint = i, true;
-      continue;
-    }
-    // Object pixels under [x0, x1) x [y0, y1) within the image, counted within
-    // the object rectangle.
-    const cv::Rect& o = rects[i];
-    const int a0 = std::clamp(x0 - o.x, 0, o.width), a1 = std::clamp(x1 - o.x, 0, o.width);
-    const int b0 = std::clamp(y0 - o.y, 0, o.height), b1 = std::clamp(y1 - o.y, 0, o.height);
-    const cv::Mat& s = sums[i];
-    if (a0 == a1 || b0 == b1 || s.at<int>(b1, a1) - s.at<int>(b0, a1) - s.at<int>(b1, a0) + s.at<int>(b0, a0) == 0) {
-      // It votes background wherever it sees the cell. Seeing all of it, or
-      // vetoing what it cannot see (kOutside): no point is inside. Seeing part
-      // of it (kUnknown): no inside point is one it sees, so it does not count
+    switch (Classify(cell, i, 0)) {
+      // Background wherever it sees the cell. Seeing all of it, or vetoing
+      // what it cannot see (kOutside): no point is inside. Seeing part of it
+      // (kUnknown): no inside point is one it sees, so it does not count
       // towards the cameras that may see one.
-      const bool whole = x0 >= 0 && y0 >= 0 && x1 <= cam.width && y1 <= cam.height;
-      if (whole || outside_vetoes) return hint = i, true;
-      continue;
+      case Verdict::kBackground: return hint = i, true;
+      case Verdict::kMisses:
+      case Verdict::kPartBackground:
+        if (outside_vetoes_) return hint = i, true;
+        break;
+      case Verdict::kMaySee: ++seeing; break;
     }
-    ++seeing;
   }
-  return seeing < required_seen;
+  return seeing < required_seen_;
 }
+
+int CellProver::WholeBackground(const Aabb& cell, int need, size_t* hint_io) const {
+  const size_t n = views_.size();
+  size_t& hint = *hint_io;
+  if (hint >= n) hint = 0;
+  int found = 0;
+  for (size_t j = 0; j < n && found < need; ++j) {
+    const size_t i = j == 0 ? hint : (j <= hint ? j - 1 : j);
+    if (Classify(cell, i, 1.0) == Verdict::kBackground && found++ == 0) hint = i;
+  }
+  return found;
+}
+
+struct LazyEmptySpace {
+  std::once_flag once;
+  EmptySpace grid;
+};
 
 }  // namespace detail
 
@@ -547,6 +584,14 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
                       : UnknownPolicyHullBox(cams, rects, workspace_, required_seen_);
   prover_ = std::make_shared<const detail::CellProver>(views_, rects, outside, required_seen_);
   hull_box_ = TightenHullBox(*prover_, hull_box_, options_.threads);
+  empty_space_ = std::make_shared<detail::LazyEmptySpace>();
+}
+
+const EmptySpace& VolumeQuery::empty_space(int threads) const {
+  std::call_once(empty_space_->once, [&] {
+    empty_space_->grid = EmptySpace(*this, options_.empty_space_cells, std::max(1, threads));
+  });
+  return empty_space_->grid;
 }
 
 Vote VolumeQuery::VoteOf(size_t i, const Eigen::Vector3d& X) const {
@@ -584,6 +629,12 @@ bool VolumeQuery::ProvesEmpty(const Aabb& box, size_t* hint) const {
   if (box.empty() || !box.Intersects(hull_box_) || !box.Intersects(workspace_)) return true;
   size_t local = 0;
   return prover_->Empty(box, hint ? hint : &local);
+}
+
+int VolumeQuery::CountWholeBackground(const Aabb& box, int need, size_t* hint) const {
+  if (box.empty() || need <= 0) return 0;
+  size_t local = 0;
+  return prover_->WholeBackground(box, need, hint ? hint : &local);
 }
 
 VolumeQuery VolumeQuery::Subset(const std::vector<int>& indices) const {

@@ -41,6 +41,7 @@ struct FastCamera {
   size_t step;
 };
 class CellProver;  // volume_query.cc: the hull box search's rule for empty cells
+struct LazyEmptySpace;  // volume_query.cc: the grid, made on first use
 }  // namespace detail
 
 /// What a camera says of a point it cannot see: behind it (z <= 0), outside its
@@ -68,6 +69,10 @@ struct VolumeQueryOptions {
   /// Threads for the hull box search (its six faces at once; 1..256). The box
   /// is the same with any number.
   int threads = 1;
+  /// Cubes along the hull box's longest side of the grid the CPU sweep uses to
+  /// skip empty space (EmptySpace; [0, EmptySpace::kMaxCellsPerAxis], 0: no
+  /// skipping). The sweep's result is the same with any value.
+  int empty_space_cells = 32;
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
 };
@@ -75,6 +80,8 @@ struct VolumeQueryOptions {
 /// The visual hull of one frameset, queryable point by point.
 /// A point outside the workspace box is outside. A camera that cannot see a point
 /// votes as VolumeQueryOptions::out_of_view says (default: it does not vote).
+class EmptySpace;
+
 class VolumeQuery {
  public:
   /// views: the n cameras and their maps (n >= 1). workspace: world box (metres)
@@ -118,6 +125,24 @@ class VolumeQuery {
   /// (neighbouring boxes tend to share it). Thread-safe. Paper §4.1 (the
   /// bounding-box test), applied to a hierarchy's boxes.
   bool ProvesEmpty(const Aabb& box, size_t* hint = nullptr) const;
+
+  /// How many cameras, counting up to `need`, put every point of `box` (world
+  /// metres) on background in the sweep's float arithmetic (VoteFast) as well
+  /// as in doubles: each sees all of the box, its projection's bounding
+  /// rectangle grown by a pixel within the image, every corner at least a
+  /// millimetre in front and within the lens model's valid radius, and no
+  /// object pixel under that rectangle. Each such camera vetoes every point of
+  /// the box under either OutOfView policy. Conservative: a camera may veto the
+  /// whole box and not be counted. 0 for an empty box or need <= 0. `hint`
+  /// (optional, in/out): the camera tried first, set to the first one counted.
+  /// Thread-safe. Used to skip empty space in the sweep (EmptySpace).
+  int CountWholeBackground(const Aabb& box, int need, size_t* hint = nullptr) const;
+
+  /// This frameset's grid of cubes where the CPU sweep may skip every point
+  /// (EmptySpace, options().empty_space_cells along the longest side), made on
+  /// the first call with `threads` threads (>= 1) and shared by later calls and
+  /// by copies of this query. Thread-safe.
+  const EmptySpace& empty_space(int threads = 1) const;
 
   /// Camera i's verdict on X (world metres), in double precision.
   Vote VoteOf(size_t i, const Eigen::Vector3d& X_world) const;
@@ -180,6 +205,7 @@ class VolumeQuery {
   std::vector<detail::FastCamera> fast_;
   std::vector<cv::Rect> rects_;
   std::shared_ptr<const detail::CellProver> prover_;
+  std::shared_ptr<detail::LazyEmptySpace> empty_space_;
 };
 
 }  // namespace hullpipe
