@@ -83,6 +83,7 @@ GpuCamera PackCamera(const Camera& c) {
   const double r2 = c.MaxValidRadius2();
   f.r2max = r2 > 1e30 ? std::numeric_limits<float>::max() : float(r2);
   f.width = c.width, f.height = c.height;
+  f.width_f = float(c.width), f.height_f = float(c.height);
   return PackCamera(f, c.cam_from_world.rotation, c.cam_from_world.translation, cv::Rect(0, 0, c.width, c.height));
 }
 

@@ -4,7 +4,6 @@
 #include <array>
 #include <atomic>
 #include <cmath>
-#include <deque>
 #include <limits>
 
 #include <opencv2/core.hpp>
@@ -80,33 +79,35 @@ EmptySpace::EmptySpace(const VolumeQuery& query, int cells_per_axis, int threads
     if (count > 0) mark(b, uint8_t(count));
     return count >= 2 || b.single();
   };
-  auto visit = [&](auto&& self, const Block& b, size_t* hint) -> void {
-    if (test(b, hint)) return;
-    Block lo, hi;
-    split(b, &lo, &hi);
-    self(self, lo, hint);
-    self(self, hi, hint);
-  };
-  // The first levels on this thread until there are blocks for every thread,
-  // then the rest of each block's halving on the threads.
-  const Block whole{Eigen::Vector3i::Zero(), dims_};
-  std::deque<Block> frontier{whole};
-  size_t hint = 0;
-  const size_t wanted = threads > 1 ? size_t(threads) * 8 : 1;
-  while (!frontier.empty() && frontier.size() < wanted) {
-    const Block b = frontier.front();
-    frontier.pop_front();
-    if (test(b, &hint)) continue;
-    Block lo, hi;
-    split(b, &lo, &hi);
-    frontier.push_back(lo);
-    frontier.push_back(hi);
+  // Level by level, coarse first: a level's blocks are tested on the threads,
+  // and the blocks not settled are halved into the next level, while the
+  // camera tests a level may take (blocks x cameras) fit in the budget. A
+  // block of a level not reached keeps its parent's count, a lower bound, so
+  // the grid stays sound; the budget keeps a many-camera rig, whose tight hull
+  // box gains little from fine cubes, from paying for them. Which levels run
+  // depends on counts only, not on the threads: the grid is the same on any.
+  std::vector<Block> level{Block{Eigen::Vector3i::Zero(), dims_}};
+  int64_t budget = kMaxCameraTests;
+  const int64_t cameras = int64_t(query.size());
+  for (bool first = true; !level.empty(); first = false) {
+    const int64_t cost = int64_t(level.size()) * cameras;
+    if (!first && cost > budget) break;
+    budget -= cost;
+    std::vector<uint8_t> settled(level.size(), 0);
+    ForEachRowDynamic(int(level.size()), std::max(1, threads), [&](int i, int) {
+      size_t hint = 0;
+      settled[size_t(i)] = test(level[size_t(i)], &hint) ? 1 : 0;
+    });
+    std::vector<Block> next;
+    for (size_t i = 0; i < level.size(); ++i) {
+      if (settled[i]) continue;
+      Block lo, hi;
+      split(level[i], &lo, &hi);
+      next.push_back(lo);
+      next.push_back(hi);
+    }
+    level.swap(next);
   }
-  const std::vector<Block> blocks(frontier.begin(), frontier.end());
-  ForEachRowDynamic(int(blocks.size()), std::max(1, threads), [&](int i, int) {
-    size_t h = hint;
-    visit(visit, blocks[size_t(i)], &h);
-  });
   const int64_t tested = tests.load();
   vetoed_twice_ = int64_t(std::count(vetoes_.begin(), vetoes_.end(), uint8_t(2)));
   vetoed_ = vetoed_twice_ + int64_t(std::count(vetoes_.begin(), vetoes_.end(), uint8_t(1)));
@@ -120,6 +121,10 @@ bool EmptySpace::DepthBounds(const NovelView& view, const cv::Rect& region, cv::
   *near = cv::Mat();
   *far = cv::Mat();
   if (knows_nothing() || region.area() <= 0) return false;
+  // Each cube two cameras do not veto is projected: for a view of few pixels
+  // (the visibility maps' 80x60) that costs more than its bounds save.
+  const int64_t open = int64_t(dims_.prod()) - vetoed_twice_;
+  if (int64_t(region.area()) < kPixelsPerOpenCube * open) return false;
   constexpr int B = kBoundsBlock;
   const int block_cols = (region.width + B - 1) / B, block_rows = (region.height + B - 1) / B;
   const Rigid3d eye_from_world = view.world_from_eye.Inverse();

@@ -30,16 +30,22 @@ class EmptySpace {
  public:
   /// The most cubes along the hull box's longest side.
   static constexpr int kMaxCellsPerAxis = 128;
+  /// The camera tests (blocks x cameras, level by level) the grid may take:
+  /// at about 60 ns a test, a millisecond or two on one core.
+  static constexpr int64_t kMaxCameraTests = 32768;
 
   /// A grid that knows nothing (every cube 0).
   EmptySpace() = default;
   /// The grid of `query` (its hull box, maps and cameras): `cells_per_axis`
   /// cubes along the box's longest side (clamped to [1, kMaxCellsPerAxis]; 0
   /// makes a grid that knows nothing), cubes of one side. Found by halving
-  /// blocks of cubes from the whole grid down: a block two cameras veto is
-  /// marked whole; one that one camera vetoes is marked 1 and halved on to find
-  /// parts a second camera vetoes; the blocks are handed to `threads` threads
-  /// (>= 1). The query must outlive only this call.
+  /// blocks of cubes from the whole grid down, level by level: a block two
+  /// cameras veto is marked whole; one that one camera vetoes is marked 1 and
+  /// halved on to find parts a second camera vetoes; a level runs only while
+  /// its blocks x cameras fit in kMaxCameraTests (the blocks of a level not run
+  /// keep their parent's count); each level's blocks are handed to `threads`
+  /// threads (>= 1), the grid the same on any number. The query must outlive
+  /// only this call.
   EmptySpace(const VolumeQuery& query, int cells_per_axis, int threads);
 
   /// True when every cube is 0 (the sweep then skips the lookups).
@@ -62,6 +68,9 @@ class EmptySpace {
 
   /// Pixels per side of DepthBounds' blocks.
   static constexpr int kBoundsBlock = 8;
+  /// DepthBounds bounds a region only of at least this many pixels per cube
+  /// two cameras do not veto (each such cube is projected).
+  static constexpr int64_t kPixelsPerOpenCube = 4;
   /// For each block of kBoundsBlock x kBoundsBlock pixels of `region` (a
   /// rectangle of `view`'s pixels; block (i, j) holds the region's pixels
   /// from (kBoundsBlock * j, kBoundsBlock * i), the last ones cut by its edge):
@@ -72,9 +81,10 @@ class EmptySpace {
   /// into the view (a block's bounds are the extremes of the cubes whose image,
   /// grown by a pixel, holds one of its pixels' centres, widened by 0.1 mm;
   /// cubes wholly behind the eye hold no sample and are left out). False,
-  /// leaving both empty, when the grid knows nothing or such a cube reaches
-  /// from behind the eye to within a millimetre in front of it (then no pixel
-  /// is bounded). A ray's samples outside its bounds are neither inside nor
+  /// leaving both empty, when the grid knows nothing, the region has fewer
+  /// than kPixelsPerOpenCube pixels per cube two cameras do not veto, or such
+  /// a cube reaches from behind the eye to within a millimetre in front of it
+  /// (then no pixel is bounded). A ray's samples outside its bounds are neither inside nor
   /// near misses, so the sweep need not visit them. `stop` is polled per cube:
   /// once set, throws Interrupted.
   bool DepthBounds(const NovelView& view, const cv::Rect& region, cv::Mat* near, cv::Mat* far,

@@ -139,16 +139,16 @@ TEST(EmptySpace, OutsideTheGridAndNonFiniteCountNothing) {
 TEST(EmptySpace, ARaysSamplesOutsideItsDepthBoundsAreVetoedTwice) {
   const VolumeQuery q = Query(FigureViews(4), 32);
   const EmptySpace& grid = q.empty_space(1);
-  const NovelView view = FarView(80, 60);
+  const NovelView view = FarView(240, 180);
   ASSERT_FALSE(q.hull_box().Contains(view.world_from_eye.translation));
-  const cv::Rect region(3, 2, 70, 50);
+  const cv::Rect region(9, 6, 210, 150);
   cv::Mat near, far;
   ASSERT_TRUE(grid.DepthBounds(view, region, &near, &far));
   constexpr int B = EmptySpace::kBoundsBlock;
   ASSERT_EQ(near.size(), cv::Size((region.width + B - 1) / B, (region.height + B - 1) / B));
   int64_t outside = 0, all = 0;
-  for (int r = 0; r < region.height; r += 3)
-    for (int c = 0; c < region.width; c += 3) {
+  for (int r = 0; r < region.height; r += 7)
+    for (int c = 0; c < region.width; c += 7) {
       const float lo = near.at<float>(r / B, c / B), hi = far.at<float>(r / B, c / B);
       const Eigen::Vector3d O = view.world_from_eye.translation;
       const Eigen::Vector3d D =
@@ -174,6 +174,8 @@ TEST(EmptySpace, ARaysSamplesOutsideItsDepthBoundsAreVetoedTwice) {
                                  Eigen::Vector3d(0, 0, -1));
   EXPECT_FALSE(grid.DepthBounds(inside, region, &near, &far));
   EXPECT_TRUE(near.empty() && far.empty());
+  // A region of fewer pixels than the projections would cost: no bounds.
+  EXPECT_FALSE(grid.DepthBounds(view, cv::Rect(0, 0, 40, 30), &near, &far));
 }
 
 // The sweep with the grid against the sweep without, bit for bit.
@@ -217,7 +219,7 @@ TEST(EmptySpace, SkippingLeavesTheSweepUnchangedBitForBit) {
     for (const int refine : {0, 6})
       for (const int planes : {50, 200}) {
         ExpectSameSweep(views, side, planes, refine, {0, 0, 120, 90}, &skipped);
-        ExpectSameSweep(views, FarView(120, 90), planes, refine, {0, 0, 120, 90}, &skipped);
+        ExpectSameSweep(views, FarView(160, 120), planes, refine, {0, 0, 160, 120}, &skipped);
       }
     // A tile (the refinement's one-pixel margin) and an eye of a head-mounted
     // display: an asymmetric frustum.

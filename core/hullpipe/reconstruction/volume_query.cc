@@ -573,6 +573,7 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
     const double r2 = c.MaxValidRadius2();
     f.r2max = r2 > 1e30 ? std::numeric_limits<float>::max() : float(r2);
     f.width = c.width, f.height = c.height;
+    f.width_f = float(c.width), f.height_f = float(c.height);
     f.data = v.map.ptr<uint8_t>(0);
     f.step = v.map.step[0];
     fast_.push_back(f);

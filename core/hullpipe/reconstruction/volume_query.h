@@ -37,6 +37,7 @@ struct FastCamera {
   float r2max;
   bool distorted;
   int width, height;
+  float width_f, height_f;  // width, height as floats (VoteFast's bounds)
   const uint8_t* data;
   size_t step;
 };
@@ -179,8 +180,9 @@ class VolumeQuery {
       yn = yd;
     }
     const float u = c.fx * xn + c.skew * yn + c.cx, v = c.fy * yn + c.cy;
-    if (!(u >= 0.0f && v >= 0.0f && u < float(c.width) && v < float(c.height))) return Vote::kUnseen;
-    return c.data[size_t(v) * c.step + size_t(u)] != 0 ? Vote::kObject : Vote::kBackground;
+    if (!(u >= 0.0f && v >= 0.0f && u < c.width_f && v < c.height_f)) return Vote::kUnseen;
+    // In [0, width) x [0, height): int truncation is the pixel.
+    return c.data[size_t(int(v)) * c.step + size_t(int(u))] != 0 ? Vote::kObject : Vote::kBackground;
   }
 
   /// True if this one vote already puts the point outside: background, or unseen
