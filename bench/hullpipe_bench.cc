@@ -578,6 +578,22 @@ int main(int argc, char** argv) {
       Row("volume query set-up + box", cfg + ", " + std::to_string(threads) + " threads",
           MedianMs(repeats * 3, [&] { (void)VolumeQuery(views, src->workspace(), qo); }), size_note(q.hull_box()));
     }
+    // The frameset's empty-space grid (EmptySpace), made by the first CPU
+    // sweep of a frameset (recon: the visibility maps), one thread.
+    {
+      std::vector<double> ms;
+      int64_t twice = 0, cubes = 0, tests = 0;
+      for (int r = 0; r < repeats * 3; ++r) {
+        const VolumeQuery fresh(views, src->workspace());
+        const EmptySpace& g = fresh.empty_space(1);
+        ms.push_back(g.build_ms());
+        twice = g.vetoed_twice(), cubes = g.dims().prod(), tests = g.tests();
+      }
+      char note[96];
+      std::snprintf(note, sizeof note, "%lld of %lld cubes vetoed twice, %lld blocks tested", (long long)twice,
+                    (long long)cubes, (long long)tests);
+      Row("empty-space grid", cfg, Median(ms), note);
+    }
   }
 
   if (!synthetic) {
@@ -641,6 +657,16 @@ int main(int argc, char** argv) {
           MedianMs(repeats, [&] { (void)ComputeHullVisibility(q, cams, 80, vo, 6); }));
       Row("visibility maps (4 cameras)", "80 px across, 48 planes, refine 0",
           MedianMs(repeats, [&] { (void)ComputeHullVisibility(q, cams, 80, vo, 0); }));
+      // A frameset's first sweep, as recon's: the query made, then the maps
+      // (which make the empty-space grid), without the grid and with it.
+      VolumeQueryOptions no_grid;
+      no_grid.empty_space_cells = 0;
+      for (const VolumeQueryOptions& qo : {no_grid, VolumeQueryOptions{}})
+        Row("query + visibility maps", std::string("refine 6, ") + (qo.empty_space_cells ? "with" : "without") + " the grid",
+            MedianMs(repeats, [&] {
+              const VolumeQuery fresh(views, src->workspace(), qo);
+              (void)ComputeHullVisibility(fresh, cams, 80, vo, 6);
+            }));
       const HullVisibility vis = ComputeHullVisibility(q, cams, 80, vo, 0);
       Row("texture with visibility", std::to_string(w) + "x" + std::to_string(h),
           MedianMs(repeats, [&] { (void)TextureHull(d, full, view, images, {}, &vis); }));
