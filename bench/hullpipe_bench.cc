@@ -246,6 +246,23 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       }
     }
   }
+  // Calls row(ncam, input, w, h, eyes) for every camera count and view size of
+  // the table: the input's figure seen by ncam cameras, and the two eyes of a
+  // head pose on its orbit (the default ipd and fields of view, w x h each).
+  auto for_each_eye_row = [&](const std::function<void(int, const BackendInput&, int, int, const StereoViews&)>& row) {
+    for (const int ncam : rows.cameras) {
+      const BackendInput in = MakeBackendInput(ncam);
+      OrbitPath orbit;
+      orbit.centre = in.centre;
+      for (const std::string& size : rows.sizes) {
+        int w = 0, h = 0;
+        if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2) continue;  // checked above
+        StereoOptions so;
+        so.width = w, so.height = h;
+        row(ncam, in, w, h, MakeStereoViews(orbit.WorldFromEye(1.0), so));
+      }
+    }
+  };
   // A head-mounted display's frame (render_node --stereo): both eyes of one
   // frameset against one eye, the same eye's view in both (the default ipd and
   // fields of view, each eye the table's size): the maps, hull box, upload and
@@ -256,17 +273,8 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
                 "| backend | cams | eye view | planes | one eye ms | two eyes ms | two / one | shared ms: query + maps + visibility | each eye ms: sweep / refine / texture |\n"
                 "|---|---|---|---|---|---|---|---|---|\n",
                 repeats);
-    for (const int ncam : rows.cameras) {
-      const BackendInput in = MakeBackendInput(ncam);
-      const std::vector<Camera>& cams = in.cameras;
-      OrbitPath orbit;
-      orbit.centre = in.centre;
-      for (const std::string& size : rows.sizes) {
-        int w = 0, h = 0;
-        if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2) continue;  // checked above
-        StereoOptions so;
-        so.width = w, so.height = h;
-        const StereoViews eyes = MakeStereoViews(orbit.WorldFromEye(1.0), so);
+    for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
+        const std::vector<Camera>& cams = in.cameras;
         const int planes = rows.planes.front();
         PlaneSweepOptions vo;
         vo.num_planes = 48;
@@ -304,8 +312,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
                       Median(sweep), Median(refine), Median(texture));
           std::fflush(stdout);
         }
-      }
-    }
+    });
   }
   // Empty-space skipping (EmptySpace) in the CPU sweep: one eye's sweep (refine
   // 6, one thread) with the frameset's grid and without it, same input, runs
@@ -318,16 +325,8 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
                 "sweep ms with | without / with | same depth | one-eye frame ms without / with |\n"
                 "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                 repeats);
-    for (const int ncam : rows.cameras) {
-      const BackendInput in = MakeBackendInput(ncam);
-      OrbitPath orbit;
-      orbit.centre = in.centre;
-      for (const std::string& size : rows.sizes) {
-        int w = 0, h = 0;
-        if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2) continue;  // checked above
-        StereoOptions so;
-        so.width = w, so.height = h;
-        const NovelView v = MakeStereoViews(orbit.WorldFromEye(1.0), so).eye[0];
+    for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
+        const NovelView& v = eyes.eye[0];
         VolumeQueryOptions with_grid, without_grid;
         without_grid.empty_space_cells = 0;
         const VolumeQuery qw(in.views, DefaultWorkspace(in.cameras), with_grid);
@@ -376,8 +375,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
                     sw.plane_points ? 100.0 * double(sw.skipped) / double(sw.plane_points) : 0.0, Median(tn),
                     Median(tw), Median(tn) / Median(tw), same ? "yes" : "NO", Median(fn), Median(fw));
         std::fflush(stdout);
-      }
-    }
+    });
   }
   // A node's first frameset on a fresh backend (a new context: programs built,
   // nothing allocated at the frameset's sizes), with and without the backend's

@@ -140,7 +140,7 @@ bool EmptySpace::DepthBounds(const NovelView& view, const cv::Rect& region, cv::
     for (int j = 0; j < dims_.y(); ++j)
       for (int i = 0; i < dims_.x(); ++i) {
         if (vetoes_[(size_t(k + 1) * padded_[1] + size_t(j + 1)) * padded_[0] + size_t(i + 1)] >= 2) continue;
-        ThrowIfStopped(stop, "the sweep's depth bounds");
+        ThrowIfStopped(stop, "the plane sweep's depth bounds");
         const Eigen::Vector3d c = p0 + double(i) * ex + double(j) * ey + double(k) * ez;
         std::array<Eigen::Vector3d, 8> p;
         double z0 = 1e300, z1 = -1e300, u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;

@@ -192,15 +192,9 @@ void ExpectSameSweep(const std::vector<CameraMap>& views, const NovelView& view,
   EXPECT_EQ(sn.skipped, 0);
   *skipped += sw.skipped;
   ASSERT_EQ(a.size(), b.size());
-  int differ = 0, hull = 0;
-  for (int r = 0; r < a.rows; ++r)
-    for (int c = 0; c < a.cols; ++c) {
-      const float x = a.at<float>(r, c), y = b.at<float>(r, c);
-      hull += std::isfinite(y);
-      differ += !(x == y || (std::isinf(x) && std::isinf(y)));
-    }
-  EXPECT_EQ(differ, 0) << "refine " << refine << ", " << planes << " planes";
-  EXPECT_GT(hull, 20);  // control: the view sees the hull
+  const test::DepthDifference diff = test::CompareDepths(a, b);
+  EXPECT_EQ(diff.differ, 0) << "refine " << refine << ", " << planes << " planes";
+  EXPECT_GT(diff.hull, 20);  // control: the view sees the hull
   // The refined sweep's depths, refined afterwards (the GL backend's path).
   if (refine > 0) {
     cv::Mat ra = PlaneSweepCpu(with, view, depths, tile, nullptr, 1, 0);

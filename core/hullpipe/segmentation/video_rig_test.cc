@@ -243,15 +243,9 @@ TEST(RigSource, RealRigsSweepTheSameSkippingEmptySpace) {
       const cv::Mat a = PlaneSweepCpu(with, view, depths, {0, 0, 96, 72}, &st, 2, 6);
       const cv::Mat b = PlaneSweepCpu(without, view, depths, {0, 0, 96, 72}, nullptr, 2, 6);
       skipped += st.skipped;
-      int differ = 0, hull = 0;
-      for (int r = 0; r < a.rows; ++r)
-        for (int c = 0; c < a.cols; ++c) {
-          const float x = a.at<float>(r, c), y = b.at<float>(r, c);
-          hull += std::isfinite(y);
-          differ += !(x == y || (std::isinf(x) && std::isinf(y)));
-        }
-      EXPECT_EQ(differ, 0) << rig << (eye == outside ? ", from outside" : ", from inside");
-      EXPECT_GT(hull, 0) << rig;  // control: the view sees the hull
+      const test::DepthDifference diff = test::CompareDepths(a, b);
+      EXPECT_EQ(diff.differ, 0) << rig << (eye == outside ? ", from outside" : ", from inside");
+      EXPECT_GT(diff.hull, 0) << rig;  // control: the view sees the hull
     }
     EXPECT_GT(skipped, 1000) << rig;  // control: the grid answered many queries
   }

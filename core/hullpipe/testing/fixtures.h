@@ -128,4 +128,21 @@ inline void WriteObjCube(std::ostream& o, const std::string& name, const Eigen::
   for (const auto& t : f) o << "f " << base + t[0] + 1 << ' ' << base + t[1] + 1 << ' ' << base + t[2] + 1 << '\n';
 }
 
+/// Pixels of two CV_32FC1 depth images that differ (bit for bit, +inf equal
+/// to +inf), and pixels of `reference` with a finite depth (a test's control
+/// that the view sees the hull). Sizes must match.
+struct DepthDifference {
+  int differ = 0, hull = 0;
+};
+inline DepthDifference CompareDepths(const cv::Mat& a, const cv::Mat& reference) {
+  DepthDifference d;
+  for (int r = 0; r < a.rows; ++r)
+    for (int c = 0; c < a.cols; ++c) {
+      const float x = a.at<float>(r, c), y = reference.at<float>(r, c);
+      d.hull += std::isfinite(y);
+      d.differ += !(x == y || (std::isinf(x) && std::isinf(y)));
+    }
+  return d;
+}
+
 }  // namespace hullpipe::test
