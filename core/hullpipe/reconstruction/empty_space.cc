@@ -55,8 +55,7 @@ EmptySpace::EmptySpace(const VolumeQuery& query, int cells_per_axis, int threads
   auto mark = [&](const Block& b, uint8_t count) {
     for (int z = b.lo.z(); z < b.hi.z(); ++z)
       for (int y = b.lo.y(); y < b.hi.y(); ++y)
-        std::fill_n(vetoes_.begin() + long((size_t(z + 1) * padded_[1] + size_t(y + 1)) * padded_[0] +
-                                           size_t(b.lo.x() + 1)),
+        std::fill_n(vetoes_.begin() + long(Stored(size_t(b.lo.x() + 1), size_t(y + 1), size_t(z + 1))),
                     b.hi.x() - b.lo.x(), count);
   };
   // Halves a block along its longest index extent.
@@ -139,7 +138,7 @@ bool EmptySpace::DepthBounds(const NovelView& view, const cv::Rect& region, cv::
   for (int k = 0; k < dims_.z(); ++k)
     for (int j = 0; j < dims_.y(); ++j)
       for (int i = 0; i < dims_.x(); ++i) {
-        if (vetoes_[(size_t(k + 1) * padded_[1] + size_t(j + 1)) * padded_[0] + size_t(i + 1)] >= 2) continue;
+        if (vetoes_[Stored(size_t(i + 1), size_t(j + 1), size_t(k + 1))] >= 2) continue;
         ThrowIfStopped(stop, "the plane sweep's depth bounds");
         const Eigen::Vector3d c = p0 + double(i) * ex + double(j) * ey + double(k) * ez;
         std::array<Eigen::Vector3d, 8> p;

@@ -55,6 +55,8 @@ class EmptySpace {
   /// Grid coordinates (cube units, origin at the grid's min corner) of world
   /// point X (metres): cube (floor(g.x), floor(g.y), floor(g.z)).
   Eigen::Vector3d GridFromWorld(const Eigen::Vector3d& X_world) const { return (X_world - origin_) * inv_cell_; }
+  /// A world direction or displacement (metres) in grid units (cubes).
+  Eigen::Vector3d GridFromWorldDirection(const Eigen::Vector3d& d_world) const { return d_world * inv_cell_; }
   /// The cameras (0, 1, or 2 for two or more) that veto every point of the
   /// cube holding grid point g; 0 outside the grid and for non-finite g.
   /// Inline for the sweep's inner loop.
@@ -65,7 +67,7 @@ class EmptySpace {
     const unsigned x = unsigned(std::min(top_[0], std::max(0.0f, gx + 1.0f)));
     const unsigned y = unsigned(std::min(top_[1], std::max(0.0f, gy + 1.0f)));
     const unsigned z = unsigned(std::min(top_[2], std::max(0.0f, gz + 1.0f)));
-    return vetoes_[(size_t(z) * padded_[1] + y) * padded_[0] + x];
+    return vetoes_[Stored(x, y, z)];
   }
 
   /// Pixels per side of DepthBounds' blocks.
@@ -111,6 +113,9 @@ class EmptySpace {
   // The stored grid: dims_ + 2 cubes along each axis (a ring of 0 cubes
   // around the grid), and the largest padded coordinate that truncates into it.
   unsigned padded_[3] = {1, 1, 1};
+  // Index into vetoes_ of stored cube (x, y, z): the grid's cube (i, j, k) is
+  // stored at (i + 1, j + 1, k + 1).
+  size_t Stored(size_t x, size_t y, size_t z) const { return (z * padded_[1] + y) * padded_[0] + x; }
   float top_[3] = {0.5f, 0.5f, 0.5f};
   std::vector<uint8_t> vetoes_ = {0};
   int64_t vetoed_ = 0, vetoed_twice_ = 0, tests_ = 0;

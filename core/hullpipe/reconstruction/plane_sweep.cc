@@ -90,7 +90,7 @@ class RayQuery {
     const Eigen::Vector3d D = view_.world_from_eye.rotation * view_.EyeRay(u, v);
     if (!q_.hull_box().ClipRay(view_.world_from_eye.translation, D, s0, s1)) return false;
     for (size_t c = 0; c < n_; ++c) B_[c] = (q_.views()[c].camera.cam_from_world.rotation * D).cast<float>();
-    if (empty_) gD_ = (D * (1.0 / empty_->cell())).cast<float>();
+    if (empty_) gD_ = empty_->GridFromWorldDirection(D).cast<float>();
     return true;
   }
   // Is the point at eye depth d on the aimed ray inside the hull?

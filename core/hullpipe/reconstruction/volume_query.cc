@@ -267,6 +267,9 @@ class CellProver {
   std::vector<std::shared_ptr<const CameraBounds>> bounds_;  // per camera, shared across framesets
 };
 
+// The j-th camera to ask when `hint` goes first, then the others in order.
+static size_t HintFirst(size_t j, size_t hint) { return j == 0 ? hint : (j <= hint ? j - 1 : j); }
+
 CellProver::Verdict CellProver::Classify(const Aabb& cell, size_t i, double margin_px) const {
   // A pixel rectangle [u0, u1] x [v0, v1].
   struct Rect {
@@ -361,7 +364,7 @@ bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
   if (hint >= n) hint = 0;
   int seeing = 0;
   for (size_t j = 0; j < n; ++j) {
-    const size_t i = j == 0 ? hint : (j <= hint ? j - 1 : j);
+    const size_t i = HintFirst(j, hint);
     switch (Classify(cell, i, 0)) {
       // Background wherever it sees the cell. Seeing all of it, or vetoing
       // what it cannot see (kOutside): no point is inside. Seeing part of it
@@ -384,7 +387,7 @@ int CellProver::WholeBackground(const Aabb& cell, int need, size_t* hint_io) con
   if (hint >= n) hint = 0;
   int found = 0;
   for (size_t j = 0; j < n && found < need; ++j) {
-    const size_t i = j == 0 ? hint : (j <= hint ? j - 1 : j);
+    const size_t i = HintFirst(j, hint);
     if (Classify(cell, i, 1.0) == Verdict::kBackground && found++ == 0) hint = i;
   }
   return found;
