@@ -1,6 +1,7 @@
 #include "hullpipe/reconstruction/plane_sweep.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -120,6 +121,7 @@ class RayQuery {
         // The camera that rejected goes first next time: neighbouring points are
         // usually rejected by the same camera.
         if (j > 0) std::rotate(order_.begin(), order_.begin() + long(j), order_.begin() + long(j) + 1);
+        vetoer = c;
         if (near_miss) {
           // A near miss needs every other camera's vote: the search for a second
           // veto ends at the first. The camera that gave it goes second next time
@@ -142,6 +144,21 @@ class RayQuery {
     }
     return q_.Accepts(object, unseen);
   }
+  // Which of the points at eye depths t[0], ..., t[n - 1] (n <= 32) camera c
+  // does not veto: bit i set where it does not (where InsideAt may be true).
+  // One tight loop over the camera's projections, for the refinement's scans,
+  // whose points are mostly vetoed by the camera that vetoed their near miss.
+  uint32_t NotVetoedBy(size_t c, const float* t, int n) {
+    uint32_t open = 0;
+    const detail::FastCamera& cam = cams_[c];
+    const Eigen::Vector3f A = A_[c], B = B_[c];
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3f X = A + t[i] * B;
+      if (!q_.Vetoes(VolumeQuery::VoteFast(cam, X.x(), X.y(), X.z()))) open |= 1u << i;
+    }
+    projections += n;
+    return open;
+  }
   Vote VoteAt(size_t c, float d) const {
     const Eigen::Vector3f X = A_[c] + d * B_[c];
     return VolumeQuery::VoteFast(cams_[c], X.x(), X.y(), X.z());
@@ -156,6 +173,8 @@ class RayQuery {
     return hi;
   }
   int64_t projections = 0, skipped = 0;
+  // The camera whose veto answered the last AskCameras that returned outside.
+  size_t vetoer = 0;
 
  private:
   const VolumeQuery& q_;
@@ -218,39 +237,48 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       // Refinement remembers the planes where the stencil count was n - 1 before the
       // first inside plane: a piece of hull thinner than the spacing may lie
       // between them and their neighbours.
-      size_t near_misses[kMaxNearMisses];
+      size_t near_misses[kMaxNearMisses], near_vetoer[kMaxNearMisses];
       size_t n_near = 0;
       size_t hit = d.size();
       for (size_t k = first; k < d.size() && depths[k] <= to; ++k) {
         ++local.plane_points;
         bool near = false;
-        if (ray.InsideAt(d[k], refine_iterations > 0 ? &near : nullptr)) {
+        // Past kMaxNearMisses no more are kept: nor looked for.
+        if (ray.InsideAt(d[k], refine_iterations > 0 && n_near < kMaxNearMisses ? &near : nullptr)) {
           hit = k;
           break;
         }
-        if (near && n_near < kMaxNearMisses) near_misses[n_near++] = k;
+        if (near && n_near < kMaxNearMisses) {
+          near_vetoer[n_near] = ray.vetoer;
+          near_misses[n_near++] = k;
+        }
       }
       if (refine_iterations > 0) {
-        // Scan around each near miss, front to back, at 1/8 of the spacing.
+        // Scan around each near miss, front to back, at 1/8 of the spacing: the
+        // points the near miss's one vetoing camera vetoes are outside, so only
+        // the others are asked (the first inside one is the same).
         for (size_t m = 0; m < n_near; ++m) {
           const size_t k = near_misses[m];
           const double a = std::max(s0, k > 0 ? depths[k - 1] : depths[k]);
           const double b = std::min({s1, k + 1 < depths.size() ? depths[k + 1] : depths[k]});
           const double step = (b - a) / 16;
           if (!(step > 0)) continue;
-          double prev = a;
-          bool found = false;
+          float t[16];
+          int n = 0;
+          t[n++] = float(a);  // the bracket's start, before the first point
           for (int i = 1; i < 16; ++i) {
-            const double t = a + i * step;
-            if (!(t < b)) break;
-            if (ray.InsideAt(float(t))) {
-              out_row[col] = ray.Bisect(float(prev), float(t), refine_iterations);
-              found = true;
+            const double ti = a + i * step;
+            if (!(ti < b)) break;
+            t[n++] = float(ti);
+          }
+          for (uint32_t open = ray.NotVetoedBy(near_vetoer[m], t + 1, n - 1); open != 0; open &= open - 1) {
+            const int i = 1 + std::countr_zero(open);
+            if (ray.InsideAt(t[i])) {
+              out_row[col] = ray.Bisect(t[i - 1], t[i], refine_iterations);
               break;
             }
-            prev = t;
           }
-          if (found) break;
+          if (std::isfinite(out_row[col])) break;
         }
         if (std::isfinite(out_row[col])) continue;
       }
