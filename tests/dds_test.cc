@@ -737,6 +737,48 @@ TEST(Dds, LateJoinerGetsCameraInfo) {
   EXPECT_EQ(got, 1);
 }
 
+// A peer publishing under ever new keys (here EyeViews from 4000 tracker ids)
+// fills a node's reader only to its topic's instance bound (QosSpec::
+// max_instances, topics.h): the reader's cache cannot grow without end. The
+// positive control, a reader of the same topic with no bound, sees hundreds
+// of the keys.
+TEST(Dds, ANewKeyFloodFillsAReaderOnlyToItsTopicsInstanceBound) {
+  const auto dir = test::TempDir("dds_key_flood");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  Participant pub(domain), sub(domain);
+  Reader<hullpipe_msg_EyeViews> bounded(sub);
+  QosSpec unbounded_qos = TopicTraits<hullpipe_msg_EyeViews>::kQos;
+  unbounded_qos.max_instances = 0;
+  Reader<hullpipe_msg_EyeViews> unbounded(sub, TopicTraits<hullpipe_msg_EyeViews>::kName, unbounded_qos);
+  Writer<hullpipe_msg_EyeViews> writer(pub);
+  const double matched_by = MonotonicSeconds() + 10;
+  while (writer.MatchedReaders() < 2 && MonotonicSeconds() < matched_by)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_EQ(writer.MatchedReaders(), 2u);
+  constexpr int32_t kBound = kTrackerInstances;
+  std::set<uint32_t> seen_bounded, seen_unbounded;
+  hullpipe_msg_EyeViews m{};
+  for (auto& e : m.eyes) e.orientation[3] = 1, e.fov[0] = -0.8, e.fov[1] = 0.8, e.fov[2] = 0.8, e.fov[3] = -0.8;
+  const double end = MonotonicSeconds() + 30;
+  // Rounds over the keys (best-effort: a sample may be lost), until the
+  // control has seen ten times the bound.
+  while (seen_unbounded.size() < size_t(10 * kBound) && MonotonicSeconds() < end) {
+    for (uint32_t id = 0; id < 4000; ++id) {
+      m.tracker_id = id;
+      writer.Write(m);
+      if (id % 100 == 99) {
+        bounded.TakeEach([&](const hullpipe_msg_EyeViews& s, const dds_sample_info_t&) { seen_bounded.insert(s.tracker_id); });
+        unbounded.TakeEach(
+            [&](const hullpipe_msg_EyeViews& s, const dds_sample_info_t&) { seen_unbounded.insert(s.tracker_id); });
+      }
+    }
+  }
+  EXPECT_GE(seen_unbounded.size(), size_t(10 * kBound)) << "the control: the flood reached the reader";
+  EXPECT_GT(seen_bounded.size(), 0u) << "the bounded reader still takes samples";
+  EXPECT_LE(seen_bounded.size(), size_t(kBound)) << "more keys than the bound kept";
+}
+
 // The input of recon, sim and render: JPEG images are decoded together after
 // the take (several threads), raw ones as they come; a bad JPEG is rejected,
 // counted and costs its frameset nothing else. The same on the caller's thread

@@ -755,6 +755,120 @@ TEST(Faults, AHostilePeerNeitherStallsNorCorruptsTheRun) {
   EXPECT_EQ(launch_log.find("recon_1 silent"), std::string::npos) << "a flood name taken for a recon node";
 }
 
+// A headset's client live (`hullpipe_launch --view eyes-topic`): it publishes
+// both eyes' views (EyeViews, the two XrViews of an xrLocateViews) at 100 Hz,
+// and every frame render composites after the first views came is seen from
+// them, each eye with its pose and off-axis projection (views.csv,
+// views_right.csv). A hostile peer beside it floods EyeViews that are no
+// views (a position not finite, a zero quaternion, a field of view with left
+// >= right), under 30 tracker ids and under ever new ones: none of them is
+// drawn, each one render takes is refused and counted, its line names the
+// eye, and the lines stay few (RejectLog: a burst of 20, then one a second),
+// while the run composites.
+TEST(Hmd, LiveEyeViewsDriveBothEyesAndAFloodOfBadOnesIsRefused) {
+  const auto out = test::TempDir("live_eyes");
+  const std::string config = test::WriteLoopbackConfig(out);
+  setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  std::ofstream(out / "save_depth.yaml")
+      << test::LocalDescriptionWith("--png-every, \"50\"", "--png-every, \"1\", --save-depth");
+  // The client's views: the first two rows of scenes/eye_views_example.csv.
+  hullpipe_msg_EyeViews good{};
+  good.tracker_id = 7;
+  const double rows[2][10] = {
+      {3.087281, -1.572287, -1.6, -0.389501935, 0.674637887, -0.543013909, 0.313508947, -0.9425, 0.6981, 0.8378},
+      {3.055281, -1.627713, -1.6, -0.389501935, 0.674637887, -0.543013909, 0.313508947, -0.6981, 0.9425, 0.8378}};
+  for (int k = 0; k < 2; ++k) {
+    for (int i = 0; i < 3; ++i) good.eyes[k].position[i] = rows[k][i];
+    for (int i = 0; i < 4; ++i) good.eyes[k].orientation[i] = rows[k][3 + i];
+    for (int i = 0; i < 3; ++i) good.eyes[k].fov[i] = rows[k][7 + i];
+    good.eyes[k].fov[3] = -0.8378;
+  }
+  const EyeViewsSample want = dds::EyeViewsFromMsg(good);
+  dds::Participant client(domain), hostile(domain);
+  dds::Writer<hullpipe_msg_EyeViews> client_writer(client), hostile_writer(hostile);
+  constexpr int kWidth = 160, kHeight = 120;
+  const double t0 = MonotonicSeconds();
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "36", "--fps", "12",
+                        "--view", "eyes-topic", "--width", std::to_string(kWidth), "--height",
+                        std::to_string(kHeight), "--description", (out / "save_depth.yaml").string(), "--out",
+                        (out / "run").string(), "--domain", std::to_string(domain), "--dds-config", config},
+                       (out / "launch.log").string());
+  // The client's views alone until render's reader has them (best-effort:
+  // the first may be lost), then the flood beside them, until the run ends.
+  const double matched_by = MonotonicSeconds() + 60;
+  while (client_writer.MatchedReaders() == 0 && MonotonicSeconds() < matched_by && launch.Running())
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GE(client_writer.MatchedReaders(), 1u) << test::ReadFile((out / "launch.log").string());
+  int64_t bad_sent = 0;
+  for (int i = 0; launch.Running(); ++i) {
+    good.stamp_ns = int64_t(MonotonicSeconds() * 1e9);
+    client_writer.Write(good);
+    if (i >= 20) {
+      // Each round: one under a tracker id of 30 it keeps using, one under an
+      // id never used before (render's reader keeps 64 trackers, the client's
+      // among them: past that, new ids are dropped unread, dds_test.cc).
+      for (const uint32_t id : {uint32_t(2000 + i % 30), uint32_t(100 + i)}) {
+        hullpipe_msg_EyeViews bad = good;
+        bad.tracker_id = id;
+        const int eye = i % 2;
+        switch (i % 3) {
+          case 0: bad.eyes[eye].position[1] = std::numeric_limits<double>::quiet_NaN(); break;
+          case 1: for (double& q : bad.eyes[eye].orientation) q = 0; break;
+          default: bad.eyes[eye].fov[0] = 0.9, bad.eyes[eye].fov[1] = -0.9; break;
+        }
+        hostile_writer.Write(bad);
+        ++bad_sent;
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));  // the client's rate, 100 Hz
+  }
+  ASSERT_EQ(launch.Wait(30), 0) << test::ReadFile((out / "launch.log").string());
+  const double run_s = MonotonicSeconds() - t0;
+  EXPECT_GT(bad_sent, 200);
+  const auto stats = nlohmann::json::parse(test::ReadFile((out / "run" / "stats.json").string()));
+  const int composited = stats["frames_composited"].get<int>();
+  EXPECT_GE(composited, 6) << stats.dump(1);
+  // Each eye of each composited frame: the client's views (but for frames
+  // composited before its first views came, from the orbit's eyes).
+  for (const int eye : {0, 1}) {
+    SCOPED_TRACE(eye ? "right eye" : "left eye");
+    const NovelView expect = EyeView(want.fov[size_t(eye)], kWidth, kHeight, want.world_from_eye[size_t(eye)]);
+    const std::vector<RunView> views =
+        ReadRunViews((out / "run" / (eye ? "views_right.csv" : "views.csv")).string());
+    int from_client = 0;
+    bool seen = false;
+    for (const RunView& rv : views) {
+      const NovelView& v = rv.view;
+      const bool is_client = (v.world_from_eye.translation - expect.world_from_eye.translation).norm() < 1e-6 &&
+                             (v.world_from_eye.rotation - expect.world_from_eye.rotation).norm() < 1e-6 &&
+                             std::abs(v.fx - expect.fx) < 1e-6 && std::abs(v.cx - expect.cx) < 1e-6 &&
+                             std::abs(v.fy - expect.fy) < 1e-6 && std::abs(v.cy - expect.cy) < 1e-6;
+      EXPECT_TRUE(is_client || !seen) << "frame " << rv.frame_seq << ": not the client's views after them";
+      seen = seen || is_client;
+      from_client += is_client;
+    }
+    EXPECT_GE(from_client, std::max(3, int(views.size()) - 3)) << views.size() << " frames written";
+  }
+  // The refused: counted (more than the lines written), named by eye, their
+  // lines bounded.
+  const int rejected = stats["nodes"]["render"]["rejected"].get<int>();
+  EXPECT_GE(rejected, 100) << stats.dump(1);
+  const std::string log = test::ReadFile((out / "launch.log").string());
+  size_t lines = 0;
+  bool named[2] = {false, false};
+  for (size_t at = log.find("rejected: EyeViews from tracker "); at != std::string::npos;
+       at = log.find("rejected: EyeViews from tracker ", at + 1)) {
+    ++lines;
+    const std::string line = log.substr(at, log.find('\n', at) - at);
+    named[0] = named[0] || line.find(", left eye: ") != std::string::npos;
+    named[1] = named[1] || line.find(", right eye: ") != std::string::npos;
+  }
+  EXPECT_TRUE(named[0] && named[1]) << "each refusal names its eye";
+  EXPECT_GE(lines, 3u) << "the refusals are written";
+  EXPECT_LE(double(lines), 20 + run_s + 2) << "a burst, then a line a second; " << rejected << " refused";
+}
+
 // A link that drops 5% of the packets (Cyclone's transmit-loss test setting;
 // these kernels have no netem): maps, images and tiles are reliable, lost
 // fragments are resent, and the pipeline still composites nearly every frame.

@@ -36,11 +36,16 @@ Entity& Entity::operator=(Entity&& o) noexcept {
   return *this;
 }
 
-Qos::Qos(const QosSpec& s) : qos_(dds_create_qos()) {
+Qos::Qos(const QosSpec& s, bool reader) : qos_(dds_create_qos()) {
   dds_qset_reliability(qos_, s.reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT,
                        DDS_MSECS(100));
   dds_qset_durability(qos_, s.transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
   dds_qset_history(qos_, DDS_HISTORY_KEEP_LAST, s.depth);
+  if (reader && !s.reliable && s.max_instances > 0 && s.depth > 0) {
+    const int64_t samples = int64_t(s.max_instances) * s.depth;
+    dds_qset_resource_limits(qos_, samples > INT32_MAX ? DDS_LENGTH_UNLIMITED : int32_t(samples), s.max_instances,
+                             s.depth);
+  }
 }
 
 Qos::~Qos() { dds_delete_qos(qos_); }

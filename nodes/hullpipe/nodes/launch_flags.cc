@@ -58,7 +58,10 @@ void LaunchFlags::Resolve(const std::string& source_dir) {
   // --rig; ${world}), the scene's light, the head-pose log.
   render.rig = rig;
   render.scene = scene;
-  render.view = !render.eye_views.empty() ? "eyes" : render.head_poses.empty() ? "orbit" : "file";
+  // --view as given (a tracker's or a headset client's topic), else as the
+  // files imply.
+  if (!render.view_given())
+    render.view = !render.eye_views.empty() ? "eyes" : render.head_poses.empty() ? "orbit" : "file";
   render.Resolve(/*have_display=*/false);
   recon.Resolve();
 }

@@ -97,6 +97,17 @@ TEST(LaunchFlags, TheViewAndSweepFlagsReachTheNodesAsTheyParseThem) {
     const RenderFlags en = ParseRender(ev.Context("/o", 1).parent_args);
     EXPECT_EQ(en.options.view, RenderOptions::View::kEyes);
     EXPECT_TRUE(en.options.stereo.has_value());
+    // Live views: a headset client's EyeViews, a tracker's HeadPose; --view
+    // eyes with its file once (not twice).
+    for (const std::string live : {"eyes-topic", "topic"}) {
+      const LaunchFlags lf = ParseLaunch({"--synthetic", "--view", live});
+      EXPECT_EQ(lf.Context("/o", 1).parent_args, (std::vector<std::string>{"--view", live}));
+      const RenderFlags ln = ParseRender(lf.Context("/o", 1).parent_args);
+      EXPECT_EQ(ln.options.view, live == "topic" ? RenderOptions::View::kTopic : RenderOptions::View::kEyesTopic);
+      EXPECT_EQ(ln.options.stereo.has_value(), live == "eyes-topic");
+    }
+    EXPECT_EQ(ParseLaunch({"--synthetic", "--view", "eyes", "--eye-views", eyes}).Context("/o", 1).parent_args,
+              (std::vector<std::string>{"--view", "eyes", "--eye-views", std::filesystem::absolute(eyes)}));
   }
 
   std::vector<std::string> render_args = {"--width", ctx.vars.at("width"), "--height", ctx.vars.at("height")};

@@ -87,7 +87,7 @@ int ReconController::ThreadsNow() {
 
 void ReconController::Reject(const std::string& why) {
   ++rejected_;
-  spdlog::warn("rejected: {}", why);
+  reject_log_.Log(why, clock_.Now());
 }
 
 std::vector<int> ReconController::MyTiles() {

@@ -20,6 +20,7 @@
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/nodes/peer_liveness.h"
+#include "hullpipe/nodes/reject_log.h"
 #include "hullpipe/nodes/run_filter.h"
 #include "hullpipe/reconstruction/frameset.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
@@ -74,6 +75,8 @@ class ReconController {
   void OnNodeStats(const std::string& name, bool final_report, uint64_t run_id = 0, const std::string& host = "");
   /// The CPU threads the next frameset gets (ReconOptions::threads).
   int ThreadsNow();
+  /// A malformed sample the caller could not convert: counted, its line
+  /// written as RejectLog bounds it.
   void Reject(const std::string& why);
   /// Input samples the caller could not decode before they reached the
   /// assembler (counted into this node's rejected, with the assembler's own).
@@ -117,6 +120,7 @@ class ReconController {
 
   ReconOptions o_;
   const Clock& clock_;
+  RejectLog reject_log_;  // the rejected samples' warning lines, bounded
   FramesetAssembler& assembler_;
   SweepBackend& backend_;
   ReconSink& sink_;

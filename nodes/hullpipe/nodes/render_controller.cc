@@ -114,7 +114,7 @@ RenderController::RenderController(RenderOptions options, const Clock& clock, Fr
 
 void RenderController::Reject(const std::string& why) {
   ++rejected_;
-  spdlog::warn("rejected: {}", why);
+  reject_log_.Log(why, clock_.Now());
 }
 
 void RenderController::OnTile(HullTile t, int64_t sent_ns) {

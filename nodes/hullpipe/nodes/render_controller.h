@@ -27,6 +27,7 @@
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/nodes/peer_liveness.h"
+#include "hullpipe/nodes/reject_log.h"
 #include "hullpipe/nodes/run_filter.h"
 #include "hullpipe/nodes/run_report.h"
 #include "hullpipe/reconstruction/frameset.h"
@@ -180,7 +181,8 @@ class RenderController {
   /// sent its final report: render, stopping, waits for those (bounded by its
   /// caller) so stats.json holds every node's last figures.
   bool AwaitingFinalReports() const;
-  /// A malformed sample the caller could not convert.
+  /// A malformed sample the caller could not convert: counted, its line
+  /// written as RejectLog bounds it.
   void Reject(const std::string& why);
   /// Input samples the caller could not decode before they reached the
   /// assembler (counted into this node's rejected, with the assembler's own).
@@ -299,6 +301,7 @@ class RenderController {
 
   RenderOptions o_;
   const Clock& clock_;
+  RejectLog reject_log_;  // the rejected samples' warning lines, bounded
   FramesetAssembler& assembler_;
   RenderSink& sink_;
   NodeCounters counters_;

@@ -46,6 +46,13 @@ void RenderFlags::RegisterView(CLI::App& app) {
   keep(app.add_option("--eye-views", eye_views,
                       "Per-eye poses and fields of view as an HMD runtime reports them (xrLocateViews), CSV "
                       "t,eye,px,py,pz,qx,qy,qz,qw,left,right,up,down (docs/hmd.md); stereo, --width x --height each"));
+  view_opt_ = keep(
+      app.add_option("--view", view,
+                     "Viewpoint: orbit (scripted), file (--head-poses CSV), topic (HeadPose from a tracker; "
+                     "the orbit until the first arrives), eyes (--eye-views CSV: each eye as an HMD runtime reports "
+                     "it), eyes-topic (EyeViews from an HMD runtime's client, live; the orbit's eyes until the first)")
+          ->check(CLI::IsMember({"orbit", "file", "topic", "eyes", "eyes-topic"}))
+          ->capture_default_str());
   keep(app.add_option("--head-poses", head_poses,
                       "Tracked head poses, CSV t,x,y,z,qw,qx,qy,qz (world_from_eye, OpenCV eye frame; t in seconds "
                       "from the first frame)"));
@@ -59,6 +66,8 @@ std::vector<std::string> RenderFlags::GivenViewArguments() const {
       args.push_back(name);
       continue;
     }
+    // --view file and --view eyes come with their files' flags (below).
+    if (name == "--view" && (value == "file" || value == "eyes")) continue;
     if (name == "--eye-views") {
       args.insert(args.end(), {"--view", "eyes", "--eye-views", std::filesystem::absolute(value).string()});
       continue;
@@ -98,12 +107,6 @@ void RenderFlags::Register(CLI::App& app) {
       ->delimiter(',')
       ->expected(3);
   app.add_option("--orbit-period", o.orbit_period, "Seconds per turn (frame time)")->capture_default_str();
-  app.add_option("--view", view,
-                 "Viewpoint: orbit (scripted), file (--head-poses CSV), topic (HeadPose from a tracker; "
-                 "the orbit until the first arrives), eyes (--eye-views CSV: each eye as an HMD runtime reports it), "
-                 "eyes-topic (EyeViews from an HMD runtime's client, live; the orbit's eyes until the first)")
-      ->check(CLI::IsMember({"orbit", "file", "topic", "eyes", "eyes-topic"}))
-      ->capture_default_str();
   app.add_option("--scene", scene, "Scene file: render_node uses its `light` (shadows); sim_node the rest");
   app.add_option("--rig", rig,
                  "Rig directory or YAML rig file: its world (up, floor, orbit) unless the flags say otherwise "

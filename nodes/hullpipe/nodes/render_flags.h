@@ -21,7 +21,7 @@ struct RenderFlags {
   RenderOptions options;
   RenderOutputOptions outputs;
   std::string window = "auto";  ///< --window auto|on|off
-  std::string view = "orbit";   ///< --view orbit|file|topic
+  std::string view = "orbit";   ///< --view orbit|file|topic|eyes|eyes-topic
   std::string head_poses, eye_views, scene, rig;
 
   /// Registers render_node's own flags on `app`: RegisterView and the rest.
@@ -29,13 +29,16 @@ struct RenderFlags {
   void Register(CLI::App& app);
   /// The view group alone, the flags hullpipe_launch takes for render_node:
   /// --width, --height, --up, --floor, --orbit-radius, --orbit-height,
-  /// --stereo, --ipd, --fov-left, --fov-right, --eye-views, --head-poses.
+  /// --stereo, --ipd, --fov-left, --fov-right, --eye-views, --view,
+  /// --head-poses.
   void RegisterView(CLI::App& app);
+  /// Whether --view was given (after the parse).
+  bool view_given() const { return view_opt_ && view_opt_->count() > 0; }
   /// After Resolve: the view group's flags that were given, but for --width and
   /// --height, as render_node's arguments: each as given (a list joined with
   /// ','), --head-poses as "--view file --head-poses <its absolute path>" and
   /// --eye-views as "--view eyes --eye-views <its absolute path>" (the node may
-  /// start in another directory).
+  /// start in another directory), --view file and --view eyes left to them.
   std::vector<std::string> GivenViewArguments() const;
   /// After the parse: --view file with --head-poses (loaded), the scene's
   /// light, the rig's world with --up, --floor and --orbit-* over it
@@ -50,7 +53,7 @@ struct RenderFlags {
   std::vector<double> orbit_centre_, up_;
   double orbit_radius_ = 0, orbit_height_ = 0;
   WorldFlags world_;
-  CLI::Option *up_opt_ = nullptr, *radius_opt_ = nullptr, *height_opt_ = nullptr;
+  CLI::Option *up_opt_ = nullptr, *radius_opt_ = nullptr, *height_opt_ = nullptr, *view_opt_ = nullptr;
   bool stereo_ = false;
   double ipd_ = 0.064;
   std::vector<double> fov_left_, fov_right_;

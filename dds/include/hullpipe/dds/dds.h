@@ -50,12 +50,21 @@ struct QosSpec {
   bool reliable = true;
   bool transient_local = false;
   int32_t depth = 1;  ///< keep-last depth
+  /// A best-effort reader's bound on the instances (keys) it keeps, each of
+  /// `depth` samples: a peer publishing under ever new keys (tracker ids)
+  /// can then not grow the reader's cache without end; a sample of a new key
+  /// past the bound is dropped. 0: no bound. Writers and reliable readers
+  /// ignore it: past its bound a Cyclone reader of a reliable topic holds up
+  /// the participant's whole receive path (docs/reliability.md).
+  int32_t max_instances = 0;
 };
 
 /// Owns a dds_qos_t built from a QosSpec.
 class Qos {
  public:
-  explicit Qos(const QosSpec& spec);
+  /// For a best-effort reader (`reader` true) max_instances sets its resource
+  /// limits: max_instances, depth samples per instance, their product in all.
+  explicit Qos(const QosSpec& spec, bool reader = false);
   ~Qos();
   Qos(const Qos&) = delete;
   Qos& operator=(const Qos&) = delete;
@@ -160,7 +169,8 @@ class Reader : public Entity {
 
  private:
   Reader(const Participant& p, Entity topic, const QosSpec& qos, std::string name)
-      : Entity(Check(dds_create_reader(p.handle(), topic.handle(), Qos(qos).get(), nullptr), "dds_create_reader")),
+      : Entity(Check(dds_create_reader(p.handle(), topic.handle(), Qos(qos, /*reader=*/true).get(), nullptr),
+                     "dds_create_reader")),
         topic_(std::move(topic)),
         condition_(Check(dds_create_readcondition(handle(), DDS_ANY_STATE), "dds_create_readcondition")),
         name_(std::move(name)) {}
