@@ -167,7 +167,7 @@ void FramesetInput::Take(Received* r) {
       r->cameras.emplace_back(camera, box);
     } catch (const MessageError& e) {
       ++r->malformed;
-      spdlog::warn("rejected: {}", e.what());
+      reject_log_.Log(e.what(), MonotonicSeconds());
     }
   });
   maps_.TakeEach([&](const hullpipe_msg_ObjectPixelMap& m, const dds_sample_info_t& info) {
@@ -177,7 +177,7 @@ void FramesetInput::Take(Received* r) {
       if (!sizes_.CheckMapSize(int(m.camera_id), int(std::min(m.width, 1u << 30)),
                                int(std::min(m.height, 1u << 30)), &why)) {
         ++r->malformed;
-        spdlog::warn("rejected: {}", why);
+        reject_log_.Log(why, MonotonicSeconds());
         return;
       }
       // The writer's handle tells a restarted capture node from a live one; the
@@ -198,7 +198,7 @@ void FramesetInput::Take(Received* r) {
       r->maps.emplace_back(std::move(sample), info.source_timestamp);
     } catch (const MessageError& e) {
       ++r->malformed;
-      spdlog::warn("rejected: {}", e.what());
+      reject_log_.Log(e.what(), MonotonicSeconds());
     }
   });
   if (!images_) return;
@@ -236,7 +236,7 @@ void FramesetInput::Take(Received* r) {
       r->images.emplace_back(std::move(image), info.source_timestamp);
     } catch (const MessageError& e) {
       ++r->malformed;
-      spdlog::warn("rejected: {}", e.what());
+      reject_log_.Log(e.what(), MonotonicSeconds());
     }
   });
   if (jpegs.empty()) return;
@@ -254,7 +254,7 @@ void FramesetInput::Take(Received* r) {
   for (Deferred& d : jpegs) {
     if (!d.error.empty()) {
       ++r->malformed;
-      spdlog::warn("rejected: {}", d.error);
+      reject_log_.Log(d.error, MonotonicSeconds());
       continue;
     }
     r->images.emplace_back(std::move(d.sample), d.source_timestamp);
@@ -280,7 +280,7 @@ void FramesetInput::Apply(Received&& r) {
     std::string why;
     const uint64_t rejected_before = assembler_.rejected();
     if (!assembler_.AddMap(std::move(sample), &why) && assembler_.rejected() > rejected_before)
-      spdlog::warn("rejected: {}", why);
+      reject_log_.Log(why, MonotonicSeconds());
   }
   for (double ms : r.decode_ms)
     if (counters_) counters_->Stage("image_decode", ms);

@@ -21,6 +21,7 @@
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/reconstruction/frameset.h"
+#include "hullpipe/util/reject_log.h"
 
 namespace CLI {
 class App;  // CLI11: only the files that register flags compile it (docs/benchmarks.md, "Build")
@@ -144,6 +145,7 @@ class FramesetInput {
   FramesetAssembler sizes_;
   size_t max_pending_;
   uint64_t malformed_ = 0;
+  RejectLog reject_log_;  // the rejected samples' lines, bounded (on either thread)
   uint64_t refused_ = 0;  ///< The readers' refused samples as of the last take (Poll's copy).
   int decode_threads_ = 0;
   NodeCounters* counters_ = nullptr;

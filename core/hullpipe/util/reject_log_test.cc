@@ -1,6 +1,6 @@
 // The rejection log's bound, on a fake clock: a burst in full, then one line a
 // second carrying the count of the lines not written.
-#include "hullpipe/nodes/reject_log.h"
+#include "hullpipe/util/reject_log.h"
 
 #include <sstream>
 
@@ -8,7 +8,7 @@
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 
-namespace hullpipe::nodes {
+namespace hullpipe {
 namespace {
 
 TEST(RejectLog, AFloodIsWrittenAsABurstThenALineASecondWithTheCount) {
@@ -36,4 +36,4 @@ TEST(RejectLog, AFloodIsWrittenAsABurstThenALineASecondWithTheCount) {
 }
 
 }  // namespace
-}  // namespace hullpipe::nodes
+}  // namespace hullpipe

@@ -1,10 +1,11 @@
-#include "hullpipe/nodes/reject_log.h"
+#include "hullpipe/util/reject_log.h"
 
 #include <spdlog/spdlog.h>
 
-namespace hullpipe::nodes {
+namespace hullpipe {
 
 bool RejectLog::Log(const std::string& why, double now_s) {
+  std::lock_guard lock(mutex_);
   if (lines_ >= kBurst && now_s - last_line_s_ < 1.0) {
     ++unlogged_;
     return false;
@@ -20,4 +21,4 @@ bool RejectLog::Log(const std::string& why, double now_s) {
   return true;
 }
 
-}  // namespace hullpipe::nodes
+}  // namespace hullpipe
