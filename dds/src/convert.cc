@@ -7,10 +7,17 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "hullpipe/dds/topics.h"
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/segmentation/object_pixel_map.h"
 #include "hullpipe/util/image_file.h"
 
 namespace hullpipe::dds {
+
+// A reader of camera-keyed best-effort topics keeps every camera a rig may
+// have, four times over (topics.h).
+static_assert(kCameraInstances == 4 * Rig::kMaxCameras);
+
 namespace {
 bool AllFinite(const double* v, int n) {
   for (int i = 0; i < n; ++i)

@@ -11,7 +11,7 @@ namespace hullpipe::dds {
 // under ever new ids cannot grow a node's reader without end
 // (docs/reliability.md). Reliable topics are not bounded: past its bound a
 // Cyclone reader of a reliable topic stalls the receive path.
-constexpr int32_t kCameraInstances = 4 * 64;  // camera_id: Rig::kMaxCameras
+constexpr int32_t kCameraInstances = 4 * 64;  // camera_id: 4 x Rig::kMaxCameras (checked in convert.cc)
 constexpr int32_t kTrackerInstances = 64;     // tracker_id: a lab's trackers
 constexpr int32_t kUnbounded = 0;
 
