@@ -1,7 +1,8 @@
 // libFuzzer: samples on the wire. The first byte picks one of the topics of
 // idl/hullpipe.idl (dds/cdr.h KnownTypes; bytes below kRos2First), or from
 // kRos2First on one of the ROS 2 types hullpipe_ros2 reads from a ROS 2
-// network (a tracker's PoseStamped, /tf's TFMessage: docs/ros2.md); the rest is
+// network (a tracker's PoseStamped, /tf's TFMessage, a headset's EyeViews:
+// docs/ros2.md); the rest is
 // that sample's CDR with its 4-byte header, as a writer on the domain (or a
 // recording) could send it.
 // Cyclone deserializes it (its own checks); what it accepts goes through the
@@ -44,6 +45,11 @@ void ConvertRos2(const std::string& type, const void* sample) {
     const auto& m = *static_cast<const geometry_msgs_msg_dds__PoseStamped_*>(sample);
     check.now_ns = m.header.stamp.nanosec < 1000000000u ? ros2::NanosecondsOf(m.header.stamp) : 0;
     ros2::HeadFromPoseStamped(m, check);
+  } else if (type == "hullpipe_msgs/msg/EyeViews") {
+    const auto& m = *static_cast<const hullpipe_msgs_msg_dds__EyeViews_*>(sample);
+    check.now_ns = m.header.stamp.nanosec < 1000000000u ? ros2::NanosecondsOf(m.header.stamp) : 0;
+    const EyeViewsSample views = ros2::EyeViewsFromRos2(m, check, 20);
+    dds::EyeViewsFromMsg(dds::EyeViewsToMsg(views));  // what the bridge passes on is valid
   } else if (type == "tf2_msgs/msg/TFMessage") {
     const auto& m = *static_cast<const tf2_msgs_msg_dds__TFMessage_*>(sample);
     const uint32_t n = std::min(m.transforms._length, ros2::kMaxTransformsPerMessage);
@@ -112,7 +118,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   g = new Decoders;
   g->participant = std::make_unique<Participant>(g->domain.id());
   for (const KnownType& t : KnownTypes()) g->writers.push_back(std::make_unique<CdrWriter>(*g->participant, t, t.qos));
-  for (const char* name : {"geometry_msgs/msg/PoseStamped", "tf2_msgs/msg/TFMessage"}) {
+  for (const char* name : {"geometry_msgs/msg/PoseStamped", "tf2_msgs/msg/TFMessage", "hullpipe_msgs/msg/EyeViews"}) {
     g->ros2_types.push_back(ros2::Ros2KnownType(name));
     g->ros2_types.back().type_name = name;
     g->ros2_writers.push_back(std::make_unique<CdrWriter>(*g->participant, g->ros2_types.back(), g->ros2_types.back().qos,

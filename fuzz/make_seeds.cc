@@ -100,9 +100,16 @@ int main(int argc, char** argv) {
       head.translation = Eigen::Vector3d(0.3, 0.2, -1.6);
       const auto pose = ros2::MakePoseStamped(head, 1'000'000'000, ros2::kWorldFrame);
       const auto tf = ros2::MakeCameraTransforms({sphere.camera}, 1'000'000'000);
+      EyeViewsSample views;
+      views.stamp_ns = 1'000'000'000;
+      views.world_from_eye[1].translation = Eigen::Vector3d(0.064, 0, 0);
+      views.fov[1] = views.fov[0].Mirrored();
+      const auto eyes = ros2::MakeEyeViews(views, ros2::kWorldFrame);
       int k = 0;
       for (const auto& [name, msg] : std::vector<std::pair<std::string, const void*>>{
-               {"geometry_msgs/msg/PoseStamped", &pose.msg}, {"tf2_msgs/msg/TFMessage", &tf.msg}}) {
+               {"geometry_msgs/msg/PoseStamped", &pose.msg},
+               {"tf2_msgs/msg/TFMessage", &tf.msg},
+               {"hullpipe_msgs/msg/EyeViews", &eyes.msg}}) {
         const KnownType kt = ros2::Ros2KnownType(name);
         std::vector<uint8_t> seed{uint8_t(200 + k)};
         const auto cdr = CdrWriter(p, kt, kt.qos, CdrWriter::Scope::kDecodeOnly).Encode(msg);

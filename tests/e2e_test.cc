@@ -3,6 +3,8 @@
 // must show a hull, a collision and every node's stats. Then the hull's accuracy
 // at frame 200 against the rig's own maps (vh_eval reprojection).
 #include <algorithm>
+#include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -28,6 +30,8 @@
 #include "hullpipe/evaluation/run_check.h"
 #include "hullpipe/reconstruction/stereo_views.h"
 #include "hullpipe/evaluation/synthetic_source.h"
+#include "hullpipe/ros2/ros2_messages.h"
+#include "hullpipe/ros2/ros2_topics.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "test_util.h"
 
@@ -868,6 +872,109 @@ TEST(Hmd, LiveEyeViewsDriveBothEyesAndAFloodOfBadOnesIsRefused) {
   EXPECT_TRUE(named[0] && named[1]) << "each refusal names its eye";
   EXPECT_GE(lines, 3u) << "the refusals are written";
   EXPECT_LE(double(lines), 20 + run_s + 2) << "a burst, then a line a second; " << rejected << " refused";
+}
+
+// A headset client on the lab's ROS 2 network (docs/hmd.md, docs/ros2.md): it
+// publishes hullpipe_msgs/EyeViews on /hullpipe/eye_views (DDS topic
+// rt/hullpipe/eye_views, rmw_cyclonedds' form) at 100 Hz, and hullpipe_ros2,
+// launched beside the pipeline, passes them on to render_node --view
+// eyes-topic: every eye of every frame after the first views came is the
+// client's pose and asymmetric field of view. Every fifth message carries a
+// NaN in the right eye's position: the bridge refuses each one it takes,
+// names the field once and counts it, and none reaches render (render refuses
+// nothing) while the good ones keep driving the eyes (the positive control).
+TEST(Hmd, AHeadsetClientOnRos2DrivesBothEyesThroughHullpipeRos2) {
+  const auto out = test::TempDir("ros2_eyes");
+  const std::string config = test::WriteLoopbackConfig(out);
+  setenv("CYCLONEDDS_URI", ("file://" + config).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  // launch/local.yaml with the eyes' depths written, and hullpipe_ros2 on the
+  // same domain (its ROS 2 side: --ros-domain not given).
+  std::ofstream(out / "ros2.yaml") << test::LocalDescriptionWith("--png-every, \"50\"",
+                                                                 "--png-every, \"1\", --save-depth")
+                                   << "  - name: ros2\n    exec: hullpipe_ros2\n    host: localhost\n    args: []\n";
+  // The client's views: the first two rows of scenes/eye_views_example.csv,
+  // with fields of view float32 holds exactly (EyeView.msg's angles).
+  EyeViewsSample want;
+  const double rows[2][7] = {
+      {3.087281, -1.572287, -1.6, -0.389501935, 0.674637887, -0.543013909, 0.313508947},
+      {3.055281, -1.627713, -1.6, -0.389501935, 0.674637887, -0.543013909, 0.313508947}};
+  for (size_t k = 0; k < 2; ++k)
+    want.world_from_eye[k] = EyePoseFromXr(Eigen::Vector3d(rows[k][0], rows[k][1], rows[k][2]),
+                                           Eigen::Vector4d(rows[k][3], rows[k][4], rows[k][5], rows[k][6]));
+  want.fov[0] = EyeFov{-0.9375, 0.6875, 0.8125, -0.8125};
+  want.fov[1] = want.fov[0].Mirrored();
+  dds::Participant client(domain);
+  dds::Writer<hullpipe_msgs_msg_dds__EyeViews_> writer(client, "rt/hullpipe/eye_views", ros2::kDefaultQos);
+  constexpr int kWidth = 160, kHeight = 120;
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "36", "--fps", "12",
+                        "--view", "eyes-topic", "--width", std::to_string(kWidth), "--height",
+                        std::to_string(kHeight), "--description", (out / "ros2.yaml").string(), "--out",
+                        (out / "run").string(), "--domain", std::to_string(domain), "--dds-config", config},
+                       (out / "launch.log").string());
+  const double matched_by = MonotonicSeconds() + 60;
+  while (writer.MatchedReaders() == 0 && MonotonicSeconds() < matched_by && launch.Running())
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GE(writer.MatchedReaders(), 1u) << test::ReadFile((out / "launch.log").string());
+  int bad_sent = 0, good_sent = 0;
+  const double publish_until = MonotonicSeconds() + 120;  // the run's own end, or this deadline
+  for (int i = 0; launch.Running() && MonotonicSeconds() < publish_until; ++i) {
+    // Stamped now on the ROS clock (the bridge refuses stamps far from its own).
+    want.stamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                        std::chrono::system_clock::now().time_since_epoch())
+                        .count();
+    auto m = ros2::MakeEyeViews(want, ros2::kWorldFrame);
+    if (i % 5 == 4) {
+      m.msg.views[1].pose.position.y = std::numeric_limits<double>::quiet_NaN();
+      ++bad_sent;
+    } else {
+      ++good_sent;
+    }
+    writer.Write(m.msg);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(launch.Wait(30), 0) << test::ReadFile((out / "launch.log").string());
+  EXPECT_GT(bad_sent, 10);
+  const auto stats = nlohmann::json::parse(test::ReadFile((out / "run" / "stats.json").string()));
+  EXPECT_GE(stats["frames_composited"].get<int>(), 6) << stats.dump(1);
+  EXPECT_EQ(stats["nodes"]["render"]["rejected"].get<int>(), 0) << "a bad view reached render";
+  for (const int eye : {0, 1}) {
+    SCOPED_TRACE(eye ? "right eye" : "left eye");
+    const NovelView expect = EyeView(want.fov[size_t(eye)], kWidth, kHeight, want.world_from_eye[size_t(eye)]);
+    const std::vector<RunView> views =
+        ReadRunViews((out / "run" / (eye ? "views_right.csv" : "views.csv")).string());
+    int from_client = 0;
+    bool seen = false;
+    for (const RunView& rv : views) {
+      const NovelView& v = rv.view;
+      const bool is_client = (v.world_from_eye.translation - expect.world_from_eye.translation).norm() < 1e-6 &&
+                             (v.world_from_eye.rotation - expect.world_from_eye.rotation).norm() < 1e-6 &&
+                             std::abs(v.fx - expect.fx) < 1e-6 && std::abs(v.cx - expect.cx) < 1e-6 &&
+                             std::abs(v.fy - expect.fy) < 1e-6 && std::abs(v.cy - expect.cy) < 1e-6;
+      EXPECT_TRUE(is_client || !seen) << "frame " << rv.frame_seq << ": not the client's views after them";
+      seen = seen || is_client;
+      from_client += is_client;
+    }
+    EXPECT_GE(from_client, std::max(3, int(views.size()) - 3)) << views.size() << " frames written";
+  }
+  // The bridge's end line: the views it passed on and those it refused.
+  const std::string log = test::ReadFile((out / "run" / "logs" / "ros2.log").string());
+  const size_t at = log.find(" eye views and ");
+  ASSERT_NE(at, std::string::npos) << log;
+  const size_t from = log.rfind(", ", at) + 2;
+  const int passed = std::atoi(log.c_str() + from);
+  EXPECT_GE(passed, 10) << good_sent << " sent";
+  EXPECT_LE(passed, good_sent);
+  const size_t refused_at = log.find(" camera poses passed on, ", at);
+  ASSERT_NE(refused_at, std::string::npos) << log;
+  const int refused = std::atoi(log.c_str() + refused_at + std::strlen(" camera poses passed on, "));
+  EXPECT_GE(refused, 1) << bad_sent << " bad sent";
+  EXPECT_LE(refused, bad_sent);
+  size_t said = 0;
+  const std::string named = "refused: EyeViews: views[1].pose.position";
+  for (size_t k = log.find(named); k != std::string::npos; k = log.find(named, k + 1))
+    ++said;
+  EXPECT_EQ(said, 1u) << "named once";
 }
 
 // A link that drops 5% of the packets (Cyclone's transmit-loss test setting;

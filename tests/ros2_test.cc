@@ -4,6 +4,7 @@
 // (tests/js/decode_ros2.mjs), field by field; and a tracker's pose is refused
 // when it is not one.
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -29,6 +30,7 @@
 #include "hullpipe/ros2/ros2_topics.h"
 #include "hullpipe/record/recording.h"
 #include "hullpipe/evaluation/synthetic.h"
+#include "hullpipe/reconstruction/stereo_views.h"
 #include "hullpipe/testing/stop_timing.h"
 #include "test_util.h"
 
@@ -246,6 +248,129 @@ TEST(Ros2Pose, BadTrackerPosesAreRefusedNamingTheField) {
   EXPECT_EQ(ros2::NanosecondsOf(t), -1);
 }
 
+// A headset client's views on ROS 2 (ros2/hullpipe_msgs/msg/EyeViews.msg):
+// two eyes 64 mm apart, turned and tilted, each with its own asymmetric
+// XrFovf, as a ROS 2 peer nobody here wrote puts them on the wire (Foxglove's
+// ROS 2 serializer from the .msg files, tests/js/encode_ros2.mjs). Cyclone
+// reads those bytes as idl/ros2.idl's EyeViews_, and EyeViewsFromRos2 gives
+// back each eye's pose in OpenCV's axes and its field of view exactly (the
+// angles are dyadic, so float32 holds them). The bytes hullpipe's own
+// MakeEyeViews makes of the same views are the same bytes: one wire form.
+TEST_F(Ros2Messages, AHeadsetClientsEyeViewsFromFoxglovesWriterAreTheViewsRenderDraws) {
+  EyeViewsSample want;
+  want.tracker_id = 20;
+  want.stamp_ns = 1'700'000'000'125'000'000;
+  Rigid3d head;
+  head.rotation = (Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(-0.3, Eigen::Vector3d::UnitX()))
+                      .toRotationMatrix();
+  head.translation = Eigen::Vector3d(0.25, -1.5, -1.75);
+  for (size_t k = 0; k < 2; ++k) {
+    want.world_from_eye[k].rotation = head.rotation;
+    want.world_from_eye[k].translation = head.translation + head.rotation * Eigen::Vector3d(k ? 0.032 : -0.032, 0, 0);
+  }
+  want.fov[0] = EyeFov{-0.9375, 0.6875, 0.8125, -0.875};
+  want.fov[1] = want.fov[0].Mirrored();
+  // The client's message, field by field, as JSON for Foxglove's writer.
+  json views = json::array();
+  for (size_t k = 0; k < 2; ++k) {
+    const Eigen::Vector3d& p = want.world_from_eye[k].translation;
+    const Eigen::Vector4d q = XrOrientationOf(want.world_from_eye[k]);
+    views.push_back({{"pose",
+                      {{"position", {{"x", p.x()}, {"y", p.y()}, {"z", p.z()}}},
+                       {"orientation", {{"x", q[0]}, {"y", q[1]}, {"z", q[2]}, {"w", q[3]}}}}},
+                     {"angle_left", want.fov[k].left},
+                     {"angle_right", want.fov[k].right},
+                     {"angle_up", want.fov[k].up},
+                     {"angle_down", want.fov[k].down}});
+  }
+  const json message = {
+      {"header", {{"stamp", {{"sec", 1'700'000'000}, {"nanosec", 125'000'000}}}, {"frame_id", "hullpipe_world"}}},
+      {"views", views}};
+  const std::string in = (dir_ / "eye_views.txt").string(), out = (dir_ / "eye_views.hex").string();
+  std::ofstream(in) << "hullpipe_msgs/msg/EyeViews " << message.dump() << "\n";
+  test::Process node({"/usr/bin/env", "node", std::string(HULLPIPE_SOURCE_DIR) + "/tests/js/encode_ros2.mjs", in},
+                     out, {}, out + ".err");
+  ASSERT_EQ(node.Wait(60), 0) << test::ReadFile(out + ".err");
+  std::string hex = test::ReadFile(out);
+  while (!hex.empty() && std::isspace(static_cast<unsigned char>(hex.back()))) hex.pop_back();
+  ASSERT_EQ(hex.rfind("error", 0), std::string::npos) << hex;
+  std::vector<uint8_t> bytes;
+  for (size_t i = 0; i + 1 < hex.size(); i += 2) bytes.push_back(uint8_t(std::stoi(hex.substr(i, 2), nullptr, 16)));
+
+  const dds::KnownType kt = ros2::Ros2KnownType("hullpipe_msgs/msg/EyeViews");
+  const dds::CdrWriter cdr(*participant_, kt, kt.qos, dds::CdrWriter::Scope::kDecodeOnly);
+  bool decoded = false;
+  ASSERT_TRUE(cdr.DecodeWith<hullpipe_msgs_msg_dds__EyeViews_>(bytes, [&](const hullpipe_msgs_msg_dds__EyeViews_& m) {
+    decoded = true;
+    ros2::PoseCheck check;
+    check.now_ns = want.stamp_ns + 5'000'000;
+    const EyeViewsSample got = ros2::EyeViewsFromRos2(m, check, 20);
+    EXPECT_EQ(got.tracker_id, 20u);
+    EXPECT_EQ(got.stamp_ns, want.stamp_ns);
+    for (size_t k = 0; k < 2; ++k) {
+      SCOPED_TRACE(k ? "right eye" : "left eye");
+      EXPECT_EQ(got.world_from_eye[k].translation, want.world_from_eye[k].translation);
+      EXPECT_TRUE(got.world_from_eye[k].rotation.isApprox(want.world_from_eye[k].rotation, 1e-12));
+      EXPECT_EQ(got.fov[k].left, want.fov[k].left);
+      EXPECT_EQ(got.fov[k].right, want.fov[k].right);
+      EXPECT_EQ(got.fov[k].up, want.fov[k].up);
+      EXPECT_EQ(got.fov[k].down, want.fov[k].down);
+    }
+    // OpenXR's view axes became OpenCV's: the eye looks along the head's +z.
+    EXPECT_TRUE((got.world_from_eye[0].rotation.col(2)).isApprox(head.rotation.col(2), 1e-12));
+  }));
+  EXPECT_TRUE(decoded);
+  const auto ours = ros2::MakeEyeViews(want, ros2::kWorldFrame);
+  EXPECT_EQ(Encode(kt, &ours.msg), bytes) << "hullpipe's bytes and Foxglove's differ";
+}
+
+// A headset client's views that are not views are refused naming the field
+// and the eye: as a tracker's pose (frame, stamp, position, a quaternion far
+// from unit), and a field of view that is not a frustum or not finite.
+// Control: the same views otherwise pass.
+TEST(Ros2Pose, BadEyeViewsAreRefusedNamingTheFieldAndTheEye) {
+  const int64_t now = 5'000'000'000'000;
+  ros2::PoseCheck check;
+  check.now_ns = now;
+  EyeViewsSample v;
+  v.stamp_ns = now - 10'000'000;
+  v.world_from_eye[1].translation = Eigen::Vector3d(0.064, 0, 0);
+  v.fov[1] = v.fov[0].Mirrored();
+  const auto good = ros2::MakeEyeViews(v, ros2::kWorldFrame);
+  EXPECT_NO_THROW(ros2::EyeViewsFromRos2(good.msg, check, 3));
+  auto refused = [&](const hullpipe_msgs_msg_dds__EyeViews_& m, const std::string& words) {
+    try {
+      ros2::EyeViewsFromRos2(m, check, 3);
+      ADD_FAILURE() << words << ": accepted";
+    } catch (const dds::MessageError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  auto m = good.msg;
+  m.views[1].pose.position.y = std::nan("");
+  refused(m, "EyeViews: views[1].pose.position");
+  m = good.msg;
+  m.views[0].pose.orientation = {0, 0, 0, 0};
+  refused(m, "EyeViews: views[0].pose.orientation");
+  m = good.msg;
+  m.views[1].pose.orientation.w += 0.5;
+  refused(m, "views[1].pose.orientation");
+  m = good.msg;
+  m.views[1].angle_left = 0.5f, m.views[1].angle_right = -0.5f;
+  refused(m, "views[1] field of view");
+  m = good.msg;
+  m.views[0].angle_up = std::nanf("");
+  refused(m, "views[0] field of view");
+  m = good.msg;
+  m.views[0].angle_down = -1.6f;  // past 89 degrees
+  refused(m, "views[0] field of view");
+  const auto elsewhere = ros2::MakeEyeViews(v, "map");
+  refused(elsewhere.msg, "EyeViews: header.frame_id 'map'");
+  v.stamp_ns = now - 3600'000'000'000;
+  const auto late = ros2::MakeEyeViews(v, ros2::kWorldFrame);
+  refused(late.msg, "EyeViews: header.stamp is -3600");
+}
+
 // hullpipe_ros2 beside a pipeline: a camera's calibration, map and JPEG frame
 // come out as ROS 2 topics a plain ROS 2 peer reads (rmw_cyclonedds' names and
 // types), /tf_static reaches a reader that joins late, and a tracker's
@@ -353,7 +478,7 @@ TEST(Ros2Process, PublishesTheRigAsRos2TopicsAndFollowsATracker) {
         info_writers.clear();
         for (uint32_t k = 0; k < node.writer_gid_seq._length; ++k)
           info_writers.insert(guid(node.writer_gid_seq._buffer[k].data));
-        EXPECT_EQ(node.reader_gid_seq._length, 1u);  // the tracker's PoseStamped
+        EXPECT_EQ(node.reader_gid_seq._length, 2u);  // the tracker's PoseStamped, the headset's EyeViews
       });
       if (rt_writers.size() >= 3 && !info_gid.empty() &&
           std::includes(info_writers.begin(), info_writers.end(), rt_writers.begin(), rt_writers.end()))

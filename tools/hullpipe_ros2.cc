@@ -1,11 +1,13 @@
 // hullpipe_ros2: hullpipe on a lab's ROS 2 network (docs/ros2.md), beside the
 // pipeline as hullpipe_bridge is: its cameras, object-pixel maps and frames as
 // ROS 2 topics (sensor_msgs, tf2_msgs), the view, the hull's points, the
-// virtual objects and model parts as markers, the collision reports, and a ROS 2 tracker's PoseStamped as
-// render_node's head pose, over plain Cyclone DDS (rmw_cyclonedds' wire form:
-// nothing from ROS installed).
+// virtual objects and model parts as markers, the collision reports; and a ROS 2
+// tracker's PoseStamped as render_node's head pose, a headset client's
+// hullpipe_msgs/EyeViews as its eye views, over plain Cyclone DDS
+// (rmw_cyclonedds' wire form: nothing from ROS installed).
 //   hullpipe_ros2 --domain 7 [--ros-domain 0] [--no-maps] [--no-images]
 //                 [--head-pose-topic /hullpipe/head_pose] [--head-frame FRAME]
+//                 [--eye-views-topic /hullpipe/eye_views]
 //                 [--pose-frame hullpipe_world]
 // Then on a ROS 2 machine (ROS_DOMAIN_ID = --ros-domain, rmw_cyclonedds or any
 // DDS rmw): ros2 topic list; rviz2 with the fixed frame hullpipe_world.
@@ -55,6 +57,10 @@ int main(int argc, char** argv) {
   app.add_option("--head-pose-topic", o.head_pose_topic,
                  "ROS 2 topic of the tracker's geometry_msgs/PoseStamped (\"\": none)")
       ->capture_default_str();
+  app.add_option("--eye-views-topic", o.eye_views_topic,
+                 "ROS 2 topic of a headset client's hullpipe_msgs/EyeViews (each eye's XrPosef and XrFovf), passed "
+                 "on for render_node --view eyes-topic (\"\": none)")
+      ->capture_default_str();
   app.add_option("--head-frame", o.head_frame,
                  "A tf frame as the head pose: /tf's transforms from --pose-frame to this frame (\"\": none)");
   app.add_option("--pose-frame", o.pose.frame_id, "The frame a tracker's pose must be in")->capture_default_str();
@@ -64,7 +70,7 @@ int main(int argc, char** argv) {
   app.add_option("--ros-node-name", o.node_name,
                  "The ROS node named on ros_discovery_info for ros2 node list (\"\": none)")
       ->capture_default_str();
-  app.add_option("--tracker-id", o.tracker_id, "HeadPose.tracker_id of the poses passed on")->capture_default_str();
+  app.add_option("--tracker-id", o.tracker_id, "HeadPose.tracker_id (and EyeViews') of the poses passed on")->capture_default_str();
   std::vector<std::string> camera_pose_specs, camera_frame_specs;
   app.add_option("--camera-pose", camera_pose_specs,
                  "ID=TOPIC: a ROS 2 PoseStamped topic as tracked camera ID's pose (its optical frame in "
@@ -114,9 +120,10 @@ int main(int argc, char** argv) {
     if (!ros_participant)
       for (dds_entity_t c : tracker) ws.AttachCondition(c);
     const double wait_s = ros_participant && !tracker.empty() ? 0.02 : 0.2;
-    spdlog::info("publishing hullpipe's topics on ROS 2 domain {}{}",
+    spdlog::info("publishing hullpipe's topics on ROS 2 domain {}{}{}",
                  ros_participant ? ros_domain : int(common.domain),
-                 o.head_pose_topic.empty() ? "" : "; following " + o.head_pose_topic);
+                 o.head_pose_topic.empty() ? "" : "; following " + o.head_pose_topic,
+                 o.eye_views_topic.empty() ? "" : " and " + o.eye_views_topic);
     while (!StopRequested()) {
       ws.Wait(wait_s);
       counters.FrameIn(bridge.Step());
@@ -126,10 +133,10 @@ int main(int argc, char** argv) {
     const auto& c = bridge.counts();
     std::string topics;
     for (const auto& [topic, n] : c.published) topics += fmt::format("{}{} {}", topics.empty() ? "" : ", ", topic, n);
-    spdlog::info("published {}; {} head poses and {} camera poses passed on, {} refused; {} samples refused; {} tf "
-                 "transforms past the bound",
-                 topics.empty() ? "nothing" : topics, c.poses, c.camera_poses, c.poses_refused, c.samples_refused,
-                 c.transforms_skipped);
+    spdlog::info("published {}; {} head poses, {} eye views and {} camera poses passed on, {} refused; {} samples "
+                 "refused; {} tf transforms past the bound",
+                 topics.empty() ? "nothing" : topics, c.poses, c.eye_views, c.camera_poses, c.poses_refused,
+                 c.samples_refused, c.transforms_skipped);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -9,32 +9,8 @@
 // by Foxglove's .msg parser (@foxglove/rosmsg), not from hullpipe's IDL.
 // Usage: node decode_ros2.mjs FILE
 import { readFileSync } from "node:fs";
-import { dirname, join } from "node:path";
-import { fileURLToPath } from "node:url";
-import { parse } from "@foxglove/rosmsg";
 import { MessageReader } from "@foxglove/rosmsg2-serialization";
-import { ros2humble } from "@foxglove/rosmsg-msgs-common";
-
-const hullpipeMsgs = join(dirname(fileURLToPath(import.meta.url)), "../../ros2/hullpipe_msgs/msg");
-
-// hullpipe_msgs/Type's root definition from its .msg file (complex fields left
-// named, resolved against the Humble definitions).
-function hullpipeDefinition(name) {
-  const text = readFileSync(join(hullpipeMsgs, name.split("/")[1] + ".msg"), "utf8");
-  const [root] = parse(text, { ros2: true, skipTypeFixup: true });
-  return root;
-}
-
-// The definition of `name` ("sensor_msgs/CameraInfo") first, then every
-// definition it may reference (the reader resolves complex fields by name).
-function definitionsOf(name) {
-  const root = name.startsWith("hullpipe_msgs/") ? hullpipeDefinition(name) : ros2humble[name];
-  if (!root) throw new Error(`no ROS 2 Humble definition of ${name}`);
-  const rest = Object.entries(ros2humble)
-    .filter(([key]) => key !== name)
-    .map(([key, def]) => ({ ...def, name: key }));
-  return [{ ...root, name: undefined }, ...rest];
-}
+import { definitionsOf } from "./ros2_definitions.mjs";
 
 function plain(value) {
   if (typeof value === "bigint") return Number(value);

@@ -32,6 +32,15 @@ void Ros2BridgeOptions::Check() const {
       throw std::invalid_argument(std::string("--head-pose-topic: ") + e.what());
     }
   }
+  if (!eye_views_topic.empty()) {
+    try {
+      DdsTopicOf(eye_views_topic);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("--eye-views-topic: ") + e.what());
+    }
+    if (eye_views_topic == head_pose_topic)
+      throw std::invalid_argument("--eye-views-topic: the same topic as --head-pose-topic");
+  }
   if (!(pose.max_skew_s > 0)) throw std::invalid_argument("--max-pose-skew must be > 0 s");
   if (head_frame.size() > 256) throw std::invalid_argument("--head-frame: longer than 256 characters");
   if (camera_pose_topics.size() + camera_frames.size() > kMaxTrackedCameras)
@@ -82,6 +91,11 @@ Ros2Bridge::Ros2Bridge(const dds::Participant& hullpipe, const dds::Participant&
   if (!o_.head_frame.empty() || !o_.camera_frames.empty())
     tf_ = std::make_unique<dds::Reader<tf2_msgs_msg_dds__TFMessage_>>(ros, DdsTopicOf("/tf"), kTfReaderQos);
   if (poses_ || !o_.head_frame.empty()) head_ = std::make_unique<dds::Writer<hullpipe_msg_HeadPose>>(hullpipe);
+  if (!o_.eye_views_topic.empty()) {
+    eye_views_in_ = std::make_unique<dds::Reader<hullpipe_msgs_msg_dds__EyeViews_>>(
+        ros, DdsTopicOf(o_.eye_views_topic), kPoseReaderQos);
+    eye_views_ = std::make_unique<dds::Writer<hullpipe_msg_EyeViews>>(hullpipe);
+  }
   for (const auto& [id, topic] : o_.camera_pose_topics)
     camera_topics_.push_back(
         {id, std::make_unique<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>>(ros, DdsTopicOf(topic),
@@ -98,6 +112,7 @@ Ros2Bridge::Ros2Bridge(const dds::Participant& hullpipe, const dds::Participant&
 std::vector<dds_entity_t> Ros2Bridge::TrackerConditions() const {
   std::vector<dds_entity_t> c;
   if (poses_) c.push_back(poses_->condition());
+  if (eye_views_in_) c.push_back(eye_views_in_->condition());
   if (tf_) c.push_back(tf_->condition());
   for (const auto& t : camera_topics_) c.push_back(t.reader->condition());
   return c;
@@ -156,11 +171,15 @@ size_t Ros2Bridge::Step() {
   take(model_states_, "ModelState", [&](const auto& m) { return deriver_.OnModelState(m); });
   if (poses_)
     n += poses_->TakeEach([&](const geometry_msgs_msg_dds__PoseStamped_& m, const dds_sample_info_t&) { OnPose(m); });
+  if (eye_views_in_)
+    n += eye_views_in_->TakeEach(
+        [&](const hullpipe_msgs_msg_dds__EyeViews_& m, const dds_sample_info_t&) { OnEyeViews(m); });
   if (tf_) n += tf_->TakeEach([&](const tf2_msgs_msg_dds__TFMessage_& m, const dds_sample_info_t&) { OnTf(m); });
   for (const auto& t : camera_topics_)
     n += t.reader->TakeEach([&](const geometry_msgs_msg_dds__PoseStamped_& m, const dds_sample_info_t&) {
       const std::string what = "camera " + std::to_string(t.camera_id) + "'s pose";
-      if (const auto pose = Checked([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, what))
+      if (const auto pose = Checked<Rigid3d>(
+              [&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, what))
         PassOnCamera(t.camera_id, *pose, m.header.stamp);
     });
   if (discovery_stale_) PublishDiscovery();
@@ -168,8 +187,17 @@ size_t Ros2Bridge::Step() {
 }
 
 void Ros2Bridge::OnPose(const geometry_msgs_msg_dds__PoseStamped_& m) {
-  if (const auto pose = Checked([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, "a tracker pose"))
+  if (const auto pose =
+          Checked<Rigid3d>([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, "a tracker pose"))
     PassOnHead(*pose, m.header.stamp);
+}
+
+void Ros2Bridge::OnEyeViews(const hullpipe_msgs_msg_dds__EyeViews_& m) {
+  const auto views = Checked<EyeViewsSample>(
+      [&](const PoseCheck& check) { return EyeViewsFromRos2(m, check, o_.tracker_id); }, "a headset's eye views");
+  if (!views) return;
+  eye_views_->Write(dds::EyeViewsToMsg(*views));  // checked: valid
+  ++counts_.eye_views;
 }
 
 void Ros2Bridge::OnTf(const tf2_msgs_msg_dds__TFMessage_& m) {
@@ -184,13 +212,15 @@ void Ros2Bridge::OnTf(const tf2_msgs_msg_dds__TFMessage_& m) {
     const auto& t = m.transforms._buffer[i];
     if (!t.child_frame_id) continue;
     const std::string child(t.child_frame_id, strnlen(t.child_frame_id, 257));
-    auto check = [&](const PoseCheck& c) { return HeadFromTransform(t, c); };
+    const std::function<Rigid3d(const PoseCheck&)> check = [&](const PoseCheck& c) {
+      return HeadFromTransform(t, c);
+    };
     if (!o_.head_frame.empty() && child == o_.head_frame) {
-      if (const auto pose = Checked(check, "a tracker pose")) PassOnHead(*pose, t.header.stamp);
+      if (const auto pose = Checked<Rigid3d>(check, "a tracker pose")) PassOnHead(*pose, t.header.stamp);
     }
     for (const auto& [id, frame] : o_.camera_frames)  // at most kMaxTrackedCameras
       if (child == frame)
-        if (const auto pose = Checked(check, "camera " + std::to_string(id) + "'s pose"))
+        if (const auto pose = Checked<Rigid3d>(check, "camera " + std::to_string(id) + "'s pose"))
           PassOnCamera(id, *pose, t.header.stamp);
   }
 }
@@ -209,6 +239,7 @@ void Ros2Bridge::PublishDiscovery() {
   };
   std::vector<rmw_dds_common_msg_dds__Gid_> readers, writers;
   if (poses_) readers.push_back(gid(poses_->handle()));
+  if (eye_views_in_) readers.push_back(gid(eye_views_in_->handle()));
   if (tf_) readers.push_back(gid(tf_->handle()));
   for (const auto& t : camera_topics_) readers.push_back(gid(t.reader->handle()));
   for (const auto& [topic, p] : publications_) writers.push_back(gid(p.writer.handle()));
@@ -225,12 +256,12 @@ void Ros2Bridge::PublishDiscovery() {
   discovery_->Write(info);
 }
 
-std::optional<Rigid3d> Ros2Bridge::Checked(const std::function<Rigid3d(const PoseCheck&)>& pose,
-                                           const std::string& what) {
+template <typename T>
+std::optional<T> Ros2Bridge::Checked(const std::function<T(const PoseCheck&)>& convert, const std::string& what) {
   PoseCheck check = o_.pose;
   check.now_ns = clock_.WallNs();
   try {
-    return pose(check);
+    return convert(check);
   } catch (const dds::MessageError& e) {
     // Named once per kind of fault (the field the message names), per whose pose.
     const std::string text = e.what();

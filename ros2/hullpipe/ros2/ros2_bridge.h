@@ -2,12 +2,13 @@
 // topics (what Ros2Deriver gives: cameras, maps, frames, /tf_static, the view
 // and its pose on /tf, the hull's points, the virtual objects and CAD model
 // parts as markers, the collision reports), and
-// a ROS 2 tracker's PoseStamped turned into hullpipe's HeadPose, between two
+// a ROS 2 tracker's PoseStamped turned into hullpipe's HeadPose (and a
+// headset client's hullpipe_msgs/EyeViews into hullpipe's EyeViews), between two
 // DDS participants (hullpipe's domain and the ROS 2 network's, which may be
 // the same). The pipeline's nodes and topics are unchanged: it only reads
 // them (best-effort, newest first, so no writer of the pipeline ever waits for
-// it) and writes the head pose render_node already follows. A pose that fails
-// HeadFromPoseStamped, a sample that does not convert and a camera past
+// it) and writes the head pose or eye views render_node follows. A pose that
+// fails HeadFromPoseStamped, eye views that fail EyeViewsFromRos2, a sample that does not convert and a camera past
 // Ros2Deriver::kMaxCameras are refused, named once per kind, counted.
 #pragma once
 
@@ -36,7 +37,11 @@ struct Ros2BridgeOptions {
   /// pose.frame_id to this frame (a tracker's broadcaster), at most
   /// kMaxTransformsPerMessage looked at per message.
   std::string head_frame;
-  /// HeadPose.tracker_id of the poses it passes on.
+  /// The ROS 2 topic of a headset client's hullpipe_msgs/EyeViews (both eyes'
+  /// XrPosef and XrFovf from one xrLocateViews), passed on as hullpipe's
+  /// EyeViews for render_node --view eyes-topic ("" : none).
+  std::string eye_views_topic = "/hullpipe/eye_views";
+  /// HeadPose.tracker_id (and EyeViews.tracker_id) of what it passes on.
   uint32_t tracker_id = 20;
   /// Tracked cameras (paper §5: the camera on the head-mounted display), by
   /// hullpipe camera id: a ROS 2 PoseStamped topic, or a tf frame (a child of
@@ -64,6 +69,7 @@ struct Ros2BridgeCounts {
   std::map<std::string, uint64_t> published;  ///< Per ROS 2 topic.
   uint64_t poses = 0, poses_refused = 0, samples_refused = 0;
   uint64_t camera_poses = 0;  ///< Tracked cameras' poses passed on (refused ones are in poses_refused).
+  uint64_t eye_views = 0;     ///< Headset eye views passed on (refused ones are in poses_refused).
   uint64_t transforms_skipped = 0;  ///< /tf transforms past kMaxTransformsPerMessage in a message.
 };
 
@@ -78,7 +84,8 @@ class Ros2Bridge {
   size_t Step();
   /// The conditions of the readers on `hullpipe`, for a waitset there.
   std::vector<dds_entity_t> HullpipeConditions() const;
-  /// The tracker's readers' conditions (on `ros`): its pose topic, /tf.
+  /// The trackers' readers' conditions (on `ros`): the head pose and eye views
+  /// topics, /tf, the tracked cameras' topics.
   std::vector<dds_entity_t> TrackerConditions() const;
   const Ros2BridgeCounts& counts() const { return counts_; }
 
@@ -92,9 +99,11 @@ class Ros2Bridge {
   void PublishDiscovery();
   void OnPose(const geometry_msgs_msg_dds__PoseStamped_& m);
   void OnTf(const tf2_msgs_msg_dds__TFMessage_& m);
-  // Checks a tracker's pose (`pose` throws MessageError) and returns it, or
-  // refuses it once per kind (`what` names whose pose), counted.
-  std::optional<Rigid3d> Checked(const std::function<Rigid3d(const PoseCheck&)>& pose, const std::string& what);
+  void OnEyeViews(const hullpipe_msgs_msg_dds__EyeViews_& m);
+  // Checks a tracker's pose or views (`convert` throws MessageError) and
+  // returns them, or refuses them once per kind (`what` names whose), counted.
+  template <typename T>
+  std::optional<T> Checked(const std::function<T(const PoseCheck&)>& convert, const std::string& what);
   void PassOnHead(const Rigid3d& world_from_eye, const builtin_interfaces_msg_dds__Time_& stamp);
   void PassOnCamera(uint32_t camera_id, const Rigid3d& world_from_camera, const builtin_interfaces_msg_dds__Time_& stamp);
   void Refused(uint64_t* counter, const std::string& kind, const std::string& why);
@@ -117,6 +126,8 @@ class Ros2Bridge {
   std::unique_ptr<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>> poses_;
   std::unique_ptr<dds::Reader<tf2_msgs_msg_dds__TFMessage_>> tf_;
   std::unique_ptr<dds::Writer<hullpipe_msg_HeadPose>> head_;
+  std::unique_ptr<dds::Reader<hullpipe_msgs_msg_dds__EyeViews_>> eye_views_in_;
+  std::unique_ptr<dds::Writer<hullpipe_msg_EyeViews>> eye_views_;
   struct CameraTopic {
     uint32_t camera_id;
     std::unique_ptr<dds::Reader<geometry_msgs_msg_dds__PoseStamped_>> reader;

@@ -382,6 +382,57 @@ Rigid3d HeadFromPoseStamped(const geometry_msgs_msg_dds__PoseStamped_& m, const 
   return world_from_eye;
 }
 
+RosSample<hullpipe_msgs_msg_dds__EyeViews_> MakeEyeViews(const EyeViewsSample& v, const std::string& frame_id) {
+  RosSample<hullpipe_msgs_msg_dds__EyeViews_> s;
+  s.strings.reserve(1);
+  s.msg.header = Header(&s.strings, v.stamp_ns, frame_id);
+  for (size_t k = 0; k < 2; ++k) {
+    auto& e = s.msg.views[k];
+    const Eigen::Vector3d& p = v.world_from_eye[k].translation;
+    const Eigen::Vector4d q = XrOrientationOf(v.world_from_eye[k]);
+    e.pose.position = {p.x(), p.y(), p.z()};
+    e.pose.orientation = {q[0], q[1], q[2], q[3]};
+    e.angle_left = float(v.fov[k].left), e.angle_right = float(v.fov[k].right);
+    e.angle_up = float(v.fov[k].up), e.angle_down = float(v.fov[k].down);
+  }
+  return s;
+}
+
+EyeViewsSample EyeViewsFromRos2(const hullpipe_msgs_msg_dds__EyeViews_& m, const PoseCheck& check,
+                                uint32_t tracker_id) {
+  EyeViewsSample v;
+  v.tracker_id = tracker_id;
+  for (size_t k = 0; k < 2; ++k) {
+    const auto& e = m.views[k];
+    const std::string field = "views[" + std::to_string(k) + "]";
+    // The header, position and orientation are checked as a tracker's pose.
+    geometry_msgs_msg_dds__PoseStamped_ pose{};
+    pose.header = m.header;
+    pose.pose = e.pose;
+    Rigid3d world_from_view;
+    try {
+      world_from_view = HeadFromPoseStamped(pose, check);
+    } catch (const dds::MessageError& err) {
+      std::string what = err.what();
+      what.replace(0, std::string("PoseStamped: ").size(), "");
+      if (what.rfind("pose.", 0) == 0) what = field + "." + what;
+      throw dds::MessageError("EyeViews: " + what);
+    }
+    try {
+      v.world_from_eye[k] =
+          EyePoseFromXr(world_from_view.translation,
+                        Eigen::Vector4d(e.pose.orientation.x, e.pose.orientation.y, e.pose.orientation.z,
+                                        e.pose.orientation.w));
+      v.fov[k] = EyeFov{e.angle_left, e.angle_right, e.angle_up, e.angle_down};
+      v.fov[k].Check();
+    } catch (const std::invalid_argument& err) {
+      throw dds::MessageError("EyeViews: " + field + " field of view (angle_left/right/up/down): " + err.what());
+    }
+  }
+  v.stamp_ns = NanosecondsOf(m.header.stamp);
+  return v;
+}
+
 Rigid3d HeadFromTransform(const geometry_msgs_msg_dds__TransformStamped_& t, const PoseCheck& check) {
   geometry_msgs_msg_dds__PoseStamped_ pose{};
   pose.header = t.header;

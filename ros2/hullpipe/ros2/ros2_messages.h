@@ -1,7 +1,7 @@
 // hullpipe's samples as ROS 2 messages (docs/ros2.md): the ROS 2 Humble types of
 // idl/ros2.idl (sensor_msgs, geometry_msgs, tf2_msgs, std_msgs), made from
-// hullpipe's cameras, maps and images, and a ROS 2 tracker's pose read back as
-// hullpipe's head pose. ROS 2's conventions, stated once here:
+// hullpipe's cameras, maps and images, and a ROS 2 tracker's pose (or a
+// headset client's eye views) read back as hullpipe's head pose (eye views). ROS 2's conventions, stated once here:
 //   - time: builtin_interfaces/Time of hullpipe's capture time, nanoseconds
 //     split into sec and nanosec (sec may be negative; nanosec in [0, 1e9));
 //   - frames: a camera's optical frame is "hullpipe_cam<id>" (REP 103's
@@ -30,6 +30,7 @@
 #include "hullpipe/geometry/rigid3.h"
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/stereo_views.h"
 #include "ros2.h"  // idlc-generated from idl/ros2.idl
 
 namespace hullpipe::ros2 {
@@ -170,6 +171,25 @@ Rigid3d HeadFromPoseStamped(const geometry_msgs_msg_dds__PoseStamped_& pose, con
 /// The same of a tf transform parent -> child (the child frame a tracker
 /// publishes on /tf: parent_from_child is the pose), checked as a pose.
 Rigid3d HeadFromTransform(const geometry_msgs_msg_dds__TransformStamped_& transform, const PoseCheck& check);
+
+/// hullpipe_msgs/EyeViews (ros2/hullpipe_msgs/msg/EyeViews.msg) of both eyes'
+/// views as a headset client publishes them: header stamped views.stamp_ns in
+/// `frame_id`, each eye's XrPosef (position in metres; orientation in OpenXR's
+/// view axes, XrOrientationOf the OpenCV world_from_eye) and XrFovf (radians,
+/// as float32). views.tracker_id is not on the wire (the bridge's --tracker-id).
+RosSample<hullpipe_msgs_msg_dds__EyeViews_> MakeEyeViews(const EyeViewsSample& views, const std::string& frame_id);
+
+/// The views a headset client's hullpipe_msgs/EyeViews gives render_node
+/// (docs/hmd.md), as tracker `tracker_id`: each eye's world_from_eye in
+/// OpenCV's eye axes (EyePoseFromXr) and its XrFovf. Throws MessageError
+/// naming the field, as HeadFromPoseStamped: header.frame_id other than
+/// check.frame_id, header.stamp more than check.max_skew_s from now (or
+/// nanosec >= 1e9), views[k].pose.position not finite or past
+/// check.max_position_m, views[k].pose.orientation not finite or whose norm is
+/// not 1 within 1e-3, views[k]'s field of view not finite or not a frustum
+/// (EyeFov::Check).
+EyeViewsSample EyeViewsFromRos2(const hullpipe_msgs_msg_dds__EyeViews_& views, const PoseCheck& check,
+                                uint32_t tracker_id);
 
 /// Most transforms of one /tf message looked at (the rest counted, not read):
 /// a flood of frames costs a bounded time per message.

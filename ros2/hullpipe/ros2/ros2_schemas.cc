@@ -162,6 +162,9 @@ dds::KnownType Ros2KnownType(const std::string& type) {
   if (type == "hullpipe_msgs/msg/CollisionReport")
     return Known<hullpipe_msgs_msg_dds__CollisionReport_>(&hullpipe_msgs_msg_dds__CollisionReport__desc,
                                                           [] { return MakeCollisionReport(CollisionReportSample{}); });
+  if (type == "hullpipe_msgs/msg/EyeViews")  // read by hullpipe_ros2, not written
+    return Known<hullpipe_msgs_msg_dds__EyeViews_>(&hullpipe_msgs_msg_dds__EyeViews__desc,
+                                                   [] { return MakeEyeViews(EyeViewsSample{}, ""); });
   throw std::invalid_argument("no ROS 2 type " + type);
 }
 

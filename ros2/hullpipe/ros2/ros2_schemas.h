@@ -30,7 +30,8 @@ std::string OfferedQosProfiles(const dds::QosSpec& qos);
 /// The type as hullpipe's serializer (dds::CdrWriter) knows a type: its
 /// descriptor ("sensor_msgs::msg::dds_::CameraInfo_"), a topic of its own for
 /// the sertype probe, rclcpp's default QoS. Throws std::invalid_argument for a
-/// type not in Ros2TypeNames().
+/// type neither in Ros2TypeNames() nor "hullpipe_msgs/msg/EyeViews" (which
+/// hullpipe_ros2 reads and never writes).
 dds::KnownType Ros2KnownType(const std::string& type);
 
 }  // namespace hullpipe::ros2

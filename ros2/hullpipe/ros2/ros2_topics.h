@@ -29,6 +29,7 @@ HULLPIPE_ROS2_TYPE(geometry_msgs_msg_dds__PoseStamped_)
 HULLPIPE_ROS2_TYPE(sensor_msgs_msg_dds__PointCloud2_)
 HULLPIPE_ROS2_TYPE(visualization_msgs_msg_dds__MarkerArray_)
 HULLPIPE_ROS2_TYPE(hullpipe_msgs_msg_dds__CollisionReport_)
+HULLPIPE_ROS2_TYPE(hullpipe_msgs_msg_dds__EyeViews_)
 HULLPIPE_ROS2_TYPE(rmw_dds_common_msg_dds__ParticipantEntitiesInfo_)
 #undef HULLPIPE_ROS2_TYPE
 
