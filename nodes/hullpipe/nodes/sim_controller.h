@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "hullpipe/pipeline/clock.h"
+#include "hullpipe/util/reject_log.h"
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/pipeline/node_counters.h"
 #include "hullpipe/reconstruction/frameset.h"
@@ -46,8 +47,12 @@ class SimController {
   /// refuses (non-finite, out of range, no payload) is counted as rejected and
   /// logged; returns whether it was taken.
   bool SetSpacing(double spacing_m, uint64_t command_seq);
-  /// A command the node does not know, or a malformed one.
+  /// A command the node does not know, or a malformed one: counted, its
+  /// warning line written as RejectLog bounds it (a peer flooding bad commands
+  /// does not flood the log).
   void RejectCommand(uint64_t command_seq, const std::string& why);
+  /// The refused commands' warning lines.
+  const RejectLog& reject_log() const { return reject_log_; }
   /// Input samples the caller could not decode before they reached the
   /// assembler (counted into this node's rejected, with the assembler's own).
   void SetMalformedInput(uint64_t n) { malformed_input_ = n; }
@@ -89,6 +94,8 @@ class SimController {
   void StepOne(const Frameset& fs);
   FramesetAssembler& assembler_;
   SimSink& sink_;
+  const Clock& clock_;
+  RejectLog reject_log_;  // the refused commands' warning lines, bounded
   bool every_frameset_ = false;
   VirtualScene scene_;
   NodeCounters counters_;

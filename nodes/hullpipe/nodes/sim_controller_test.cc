@@ -141,6 +141,15 @@ TEST(Sim, SpacingCommandsAreValidatedAndCounted) {
   EXPECT_EQ(sim.commands_rejected(), 3u);
   sim.Step();
   EXPECT_EQ(sim.counters().rejected(), 3u);
+  // A peer flooding bad commands: every one counted, their lines a burst and
+  // then one a second (RejectLog), on the node's clock.
+  for (int i = 0; i < 5000; ++i) {
+    sim.RejectCommand(uint64_t(100 + i), "unknown command 9");
+    clock.Advance(1e-3);
+  }
+  EXPECT_EQ(sim.commands_rejected(), 5003u);
+  EXPECT_LE(sim.reject_log().lines(), RejectLog::kBurst + 2 + 5 + 1);  // the first 3, then ~5 s
+  EXPECT_GE(sim.reject_log().lines(), RejectLog::kBurst + 4);
 }
 
 // The previous frameset's hull is kept and timed by the frames' capture times:
