@@ -38,6 +38,7 @@
 #include "hullpipe/segmentation/segmentation.h"
 #include "hullpipe/reconstruction/texture.h"
 #include "hullpipe/util/logging.h"
+#include "hullpipe/util/memory.h"
 
 using namespace hullpipe;
 
@@ -486,6 +487,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
 
 int main(int argc, char** argv) {
   hullpipe::LogToStderr("hullpipe_bench");  // stdout carries only what a user asked for
+  hullpipe::KeepFreedMemory();  // as the nodes do (util/memory.h): no page faults per frameset
   hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_bench: per-frame algorithm timings"};
   std::string rig = HULLPIPE_RIG_DIR;

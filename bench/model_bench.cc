@@ -27,6 +27,7 @@
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/percentile.h"
 #include "hullpipe/util/logging.h"
+#include "hullpipe/util/memory.h"
 
 using namespace hullpipe;
 
@@ -61,6 +62,7 @@ TriangleMesh Subdivide(const TriangleMesh& m) {
 
 int main(int argc, char** argv) {
   hullpipe::LogToStderr("model_bench");  // stdout carries only what a user asked for
+  hullpipe::KeepFreedMemory();  // as the nodes do (util/memory.h): no page faults per frameset
   hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"model_bench: CAD model collision and clearance against the rig's hulls"};
   std::string rig = HULLPIPE_RIG_DIR, scene = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/engine.yaml";

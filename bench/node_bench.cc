@@ -39,6 +39,7 @@
 #include "hullpipe/dds/topics.h"
 #include "hullpipe/record/recording.h"
 #include "hullpipe/util/logging.h"
+#include "hullpipe/util/memory.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -311,6 +312,7 @@ Result BenchCapture(const Participant& p, launch::Process& proc, int max_frames)
 
 int main(int argc, char** argv) {
   hullpipe::LogToStderr("node_bench");  // stdout carries only what a user asked for
+  hullpipe::KeepFreedMemory();  // as the nodes do (util/memory.h): no page faults per frameset
   hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"node_bench: one hullpipe node alone, fed as fast as it takes input"};
   std::string node, recording, rig, bin_dir = fs::path(argv[0]).parent_path().string(), scene;

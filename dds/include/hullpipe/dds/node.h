@@ -38,9 +38,10 @@ void AddRunIdOption(CLI::App& app, CommonOptions& options);
 void OpenCommandLine(int argc, char** argv, const std::string& log_name, CLI::App& app, CommonOptions& options,
                      bool with_run_id = false);
 
-/// Sets up logging (one line per message, "[node] ..."), exports CYCLONEDDS_URI
-/// if --dds-config was given, installs the SIGINT/SIGTERM stop handler and
-/// creates the participant.
+/// Sets up logging (one line per message, "[node] ..."), keeps freed memory
+/// for the next frameset (util/memory.h KeepFreedMemory), exports
+/// CYCLONEDDS_URI if --dds-config was given, installs the SIGINT/SIGTERM stop
+/// handler and creates the participant.
 std::unique_ptr<Participant> StartNode(const std::string& node_name, const CommonOptions& options);
 
 /// Publishes a node's counters (nodes/node_counters.h) as NodeStats about twice
