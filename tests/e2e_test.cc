@@ -759,6 +759,33 @@ TEST(Faults, AHostilePeerNeitherStallsNorCorruptsTheRun) {
   EXPECT_EQ(launch_log.find("recon_1 silent"), std::string::npos) << "a flood name taken for a recon node";
 }
 
+// Each eye of each frame a run composited (its views.csv and views_right.csv)
+// is the client's `want` (pose and off-axis projection, `width` x `height`),
+// but for frames composited before the client's first views came (the orbit's
+// eyes): never another eye after the first of the client's, and at most 3
+// frames from elsewhere.
+void ExpectEveryEyeAfterTheFirstIsTheClients(const std::filesystem::path& run, const EyeViewsSample& want, int width,
+                                             int height) {
+  for (const int eye : {0, 1}) {
+    SCOPED_TRACE(eye ? "right eye" : "left eye");
+    const NovelView expect = EyeView(want.fov[size_t(eye)], width, height, want.world_from_eye[size_t(eye)]);
+    const std::vector<RunView> views = ReadRunViews((run / (eye ? "views_right.csv" : "views.csv")).string());
+    int from_client = 0;
+    bool seen = false;
+    for (const RunView& rv : views) {
+      const NovelView& v = rv.view;
+      const bool is_client = (v.world_from_eye.translation - expect.world_from_eye.translation).norm() < 1e-6 &&
+                             (v.world_from_eye.rotation - expect.world_from_eye.rotation).norm() < 1e-6 &&
+                             std::abs(v.fx - expect.fx) < 1e-6 && std::abs(v.cx - expect.cx) < 1e-6 &&
+                             std::abs(v.fy - expect.fy) < 1e-6 && std::abs(v.cy - expect.cy) < 1e-6;
+      EXPECT_TRUE(is_client || !seen) << "frame " << rv.frame_seq << ": not the client's views after them";
+      seen = seen || is_client;
+      from_client += is_client;
+    }
+    EXPECT_GE(from_client, std::max(3, int(views.size()) - 3)) << views.size() << " frames written";
+  }
+}
+
 // A headset's client live (`hullpipe_launch --view eyes-topic`): it publishes
 // both eyes' views (EyeViews, the two XrViews of an xrLocateViews) at 100 Hz,
 // and every frame render composites after the first views came is seen from
@@ -834,27 +861,7 @@ TEST(Hmd, LiveEyeViewsDriveBothEyesAndAFloodOfBadOnesIsRefused) {
   const auto stats = nlohmann::json::parse(test::ReadFile((out / "run" / "stats.json").string()));
   const int composited = stats["frames_composited"].get<int>();
   EXPECT_GE(composited, 6) << stats.dump(1);
-  // Each eye of each composited frame: the client's views (but for frames
-  // composited before its first views came, from the orbit's eyes).
-  for (const int eye : {0, 1}) {
-    SCOPED_TRACE(eye ? "right eye" : "left eye");
-    const NovelView expect = EyeView(want.fov[size_t(eye)], kWidth, kHeight, want.world_from_eye[size_t(eye)]);
-    const std::vector<RunView> views =
-        ReadRunViews((out / "run" / (eye ? "views_right.csv" : "views.csv")).string());
-    int from_client = 0;
-    bool seen = false;
-    for (const RunView& rv : views) {
-      const NovelView& v = rv.view;
-      const bool is_client = (v.world_from_eye.translation - expect.world_from_eye.translation).norm() < 1e-6 &&
-                             (v.world_from_eye.rotation - expect.world_from_eye.rotation).norm() < 1e-6 &&
-                             std::abs(v.fx - expect.fx) < 1e-6 && std::abs(v.cx - expect.cx) < 1e-6 &&
-                             std::abs(v.fy - expect.fy) < 1e-6 && std::abs(v.cy - expect.cy) < 1e-6;
-      EXPECT_TRUE(is_client || !seen) << "frame " << rv.frame_seq << ": not the client's views after them";
-      seen = seen || is_client;
-      from_client += is_client;
-    }
-    EXPECT_GE(from_client, std::max(3, int(views.size()) - 3)) << views.size() << " frames written";
-  }
+  ExpectEveryEyeAfterTheFirstIsTheClients(out / "run", want, kWidth, kHeight);
   // The refused: counted (more than the lines written), named by eye, their
   // lines bounded.
   const int rejected = stats["nodes"]["render"]["rejected"].get<int>();
@@ -938,25 +945,7 @@ TEST(Hmd, AHeadsetClientOnRos2DrivesBothEyesThroughHullpipeRos2) {
   const auto stats = nlohmann::json::parse(test::ReadFile((out / "run" / "stats.json").string()));
   EXPECT_GE(stats["frames_composited"].get<int>(), 6) << stats.dump(1);
   EXPECT_EQ(stats["nodes"]["render"]["rejected"].get<int>(), 0) << "a bad view reached render";
-  for (const int eye : {0, 1}) {
-    SCOPED_TRACE(eye ? "right eye" : "left eye");
-    const NovelView expect = EyeView(want.fov[size_t(eye)], kWidth, kHeight, want.world_from_eye[size_t(eye)]);
-    const std::vector<RunView> views =
-        ReadRunViews((out / "run" / (eye ? "views_right.csv" : "views.csv")).string());
-    int from_client = 0;
-    bool seen = false;
-    for (const RunView& rv : views) {
-      const NovelView& v = rv.view;
-      const bool is_client = (v.world_from_eye.translation - expect.world_from_eye.translation).norm() < 1e-6 &&
-                             (v.world_from_eye.rotation - expect.world_from_eye.rotation).norm() < 1e-6 &&
-                             std::abs(v.fx - expect.fx) < 1e-6 && std::abs(v.cx - expect.cx) < 1e-6 &&
-                             std::abs(v.fy - expect.fy) < 1e-6 && std::abs(v.cy - expect.cy) < 1e-6;
-      EXPECT_TRUE(is_client || !seen) << "frame " << rv.frame_seq << ": not the client's views after them";
-      seen = seen || is_client;
-      from_client += is_client;
-    }
-    EXPECT_GE(from_client, std::max(3, int(views.size()) - 3)) << views.size() << " frames written";
-  }
+  ExpectEveryEyeAfterTheFirstIsTheClients(out / "run", want, kWidth, kHeight);
   // The bridge's end line: the views it passed on and those it refused.
   const std::string log = test::ReadFile((out / "run" / "logs" / "ros2.log").string());
   const size_t at = log.find(" eye views and ");
