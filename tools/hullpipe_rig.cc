@@ -29,6 +29,7 @@
 #include "hullpipe/geometry/rig_import.h"
 #include "hullpipe/geometry/rig_world.h"
 #include "hullpipe/util/logging.h"
+#include "hullpipe/util/memory.h"
 
 namespace {
 
@@ -86,6 +87,7 @@ void PrintCheck(const hullpipe::Rig& rig) {
 
 int main(int argc, char** argv) {
   hullpipe::LogToStderr("hullpipe_rig");  // stdout carries only what a user asked for
+  hullpipe::KeepFreedMemory();  // a loop over frames: no page faults per frame (util/memory.h)
   hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"hullpipe_rig: rig files"};
   app.require_subcommand(1);

@@ -43,6 +43,7 @@
 #include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/logging.h"
+#include "hullpipe/util/memory.h"
 #include "vh_eval_collision.h"
 #include "vh_eval_held_out.h"
 #include "vh_eval_reprojection.h"
@@ -53,6 +54,7 @@ using namespace hullpipe;
 
 int main(int argc, char** argv) {
   hullpipe::LogToStderr("vh_eval");  // stdout carries only what a user asked for
+  hullpipe::KeepFreedMemory();  // a loop over frames: no page faults per frame (util/memory.h)
   hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"vh_eval: accuracy of hullpipe's visual hulls"};
   app.require_subcommand(1);
