@@ -17,8 +17,9 @@ namespace hullpipe {
 /// heap, and it no longer adapts) and M_TRIM_THRESHOLD to 1 GiB (a heap keeps
 /// up to that much free memory). A process's resident memory then stays near
 /// its peak use, which its bounds on input already bound; its peak does not
-/// grow. StartNode (dds/node.h) calls it for every process on the domain, and
-/// the benchmarks call it so that they measure what the nodes pay. Idempotent;
+/// grow. StartNode (dds/node.h) calls it for every process on the domain, the
+/// tools that loop over frames (vh_eval, hullpipe_rig) call it, and the
+/// benchmarks call it so that they measure what the nodes pay. Idempotent;
 /// does nothing where the C library is not glibc or where a sanitizer's
 /// allocator replaces malloc.
 void KeepFreedMemory();
