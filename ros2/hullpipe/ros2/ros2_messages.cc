@@ -359,27 +359,44 @@ RosSample<hullpipe_msgs_msg_dds__CollisionReport_> MakeCollisionReport(const Col
   return s;
 }
 
-Rigid3d HeadFromPoseStamped(const geometry_msgs_msg_dds__PoseStamped_& m, const PoseCheck& check) {
-  const std::string frame = m.header.frame_id ? std::string(m.header.frame_id, strnlen(m.header.frame_id, 256)) : "";
+namespace {
+
+// A tracker's header as PoseCheck says: its frame, and its stamp near now.
+// `what` leads the message ("PoseStamped").
+void CheckHeader(const std_msgs_msg_dds__Header_& h, const PoseCheck& check, const std::string& what) {
+  const std::string frame = h.frame_id ? std::string(h.frame_id, strnlen(h.frame_id, 256)) : "";
   if (frame != check.frame_id)
-    throw dds::MessageError("PoseStamped: header.frame_id '" + frame.substr(0, 64) + "' is not '" + check.frame_id +
+    throw dds::MessageError(what + ": header.frame_id '" + frame.substr(0, 64) + "' is not '" + check.frame_id +
                             "' (poses in other frames are not looked up)");
-  const int64_t stamp = NanosecondsOf(m.header.stamp);
+  const int64_t stamp = NanosecondsOf(h.stamp);
   const double skew_s = double(stamp - check.now_ns) * 1e-9;
   if (!(std::abs(skew_s) <= check.max_skew_s))
-    throw dds::MessageError("PoseStamped: header.stamp is " + std::to_string(skew_s) + " s from now (at most " +
+    throw dds::MessageError(what + ": header.stamp is " + std::to_string(skew_s) + " s from now (at most " +
                             std::to_string(check.max_skew_s) + ")");
-  const Eigen::Vector3d p(m.pose.position.x, m.pose.position.y, m.pose.position.z);
+}
+
+// A tracker's pose as PoseCheck says: a finite position within the bound, a
+// unit orientation (1e-3), then normalized. `field` names it ("pose").
+Rigid3d CheckedPose(const geometry_msgs_msg_dds__Pose_& pose, const PoseCheck& check, const std::string& what,
+                    const std::string& field) {
+  const Eigen::Vector3d p(pose.position.x, pose.position.y, pose.position.z);
   if (!p.allFinite() || !(p.norm() <= check.max_position_m))
-    throw dds::MessageError("PoseStamped: pose.position not finite or past " + std::to_string(check.max_position_m) +
-                            " m");
-  const Eigen::Quaterniond q(m.pose.orientation.w, m.pose.orientation.x, m.pose.orientation.y, m.pose.orientation.z);
+    throw dds::MessageError(what + ": " + field + ".position not finite or past " +
+                            std::to_string(check.max_position_m) + " m");
+  const Eigen::Quaterniond q(pose.orientation.w, pose.orientation.x, pose.orientation.y, pose.orientation.z);
   if (!q.coeffs().allFinite() || !(std::abs(q.norm() - 1) <= 1e-3))
-    throw dds::MessageError("PoseStamped: pose.orientation is not a unit quaternion");
-  Rigid3d world_from_eye;
-  world_from_eye.rotation = q.normalized().toRotationMatrix();
-  world_from_eye.translation = p;
-  return world_from_eye;
+    throw dds::MessageError(what + ": " + field + ".orientation is not a unit quaternion");
+  Rigid3d world_from_pose;
+  world_from_pose.rotation = q.normalized().toRotationMatrix();
+  world_from_pose.translation = p;
+  return world_from_pose;
+}
+
+}  // namespace
+
+Rigid3d HeadFromPoseStamped(const geometry_msgs_msg_dds__PoseStamped_& m, const PoseCheck& check) {
+  CheckHeader(m.header, check, "PoseStamped");
+  return CheckedPose(m.pose, check, "PoseStamped", "pose");
 }
 
 RosSample<hullpipe_msgs_msg_dds__EyeViews_> MakeEyeViews(const EyeViewsSample& v, const std::string& frame_id) {
@@ -400,36 +417,25 @@ RosSample<hullpipe_msgs_msg_dds__EyeViews_> MakeEyeViews(const EyeViewsSample& v
 
 EyeViewsSample EyeViewsFromRos2(const hullpipe_msgs_msg_dds__EyeViews_& m, const PoseCheck& check,
                                 uint32_t tracker_id) {
+  CheckHeader(m.header, check, "EyeViews");
   EyeViewsSample v;
   v.tracker_id = tracker_id;
+  v.stamp_ns = NanosecondsOf(m.header.stamp);
   for (size_t k = 0; k < 2; ++k) {
     const auto& e = m.views[k];
     const std::string field = "views[" + std::to_string(k) + "]";
-    // The header, position and orientation are checked as a tracker's pose.
-    geometry_msgs_msg_dds__PoseStamped_ pose{};
-    pose.header = m.header;
-    pose.pose = e.pose;
-    Rigid3d world_from_view;
+    // Checked as a tracker's pose; its axes are OpenXR's, turned to OpenCV's.
+    const Rigid3d world_from_view = CheckedPose(e.pose, check, "EyeViews", field + ".pose");
+    v.world_from_eye[k] = EyePoseFromXr(world_from_view.translation,
+                                        Eigen::Vector4d(e.pose.orientation.x, e.pose.orientation.y,
+                                                        e.pose.orientation.z, e.pose.orientation.w));
     try {
-      world_from_view = HeadFromPoseStamped(pose, check);
-    } catch (const dds::MessageError& err) {
-      std::string what = err.what();
-      what.replace(0, std::string("PoseStamped: ").size(), "");
-      if (what.rfind("pose.", 0) == 0) what = field + "." + what;
-      throw dds::MessageError("EyeViews: " + what);
-    }
-    try {
-      v.world_from_eye[k] =
-          EyePoseFromXr(world_from_view.translation,
-                        Eigen::Vector4d(e.pose.orientation.x, e.pose.orientation.y, e.pose.orientation.z,
-                                        e.pose.orientation.w));
       v.fov[k] = EyeFov{e.angle_left, e.angle_right, e.angle_up, e.angle_down};
       v.fov[k].Check();
     } catch (const std::invalid_argument& err) {
       throw dds::MessageError("EyeViews: " + field + " field of view (angle_left/right/up/down): " + err.what());
     }
   }
-  v.stamp_ns = NanosecondsOf(m.header.stamp);
   return v;
 }
 
