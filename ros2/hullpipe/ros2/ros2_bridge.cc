@@ -25,19 +25,17 @@ dds::Reader<T> Tap(const dds::Participant& p, const dds::QosSpec& qos = kTapQos)
 }  // namespace
 
 void Ros2BridgeOptions::Check() const {
-  if (!head_pose_topic.empty()) {
+  // A ROS 2 topic name (DdsTopicOf's rules), refused naming the flag as given.
+  auto check_topic = [](const std::string& topic, const std::string& flag) {
     try {
-      DdsTopicOf(head_pose_topic);
+      DdsTopicOf(topic);
     } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(std::string("--head-pose-topic: ") + e.what());
+      throw std::invalid_argument(flag + ": " + e.what());
     }
-  }
+  };
+  if (!head_pose_topic.empty()) check_topic(head_pose_topic, "--head-pose-topic");
   if (!eye_views_topic.empty()) {
-    try {
-      DdsTopicOf(eye_views_topic);
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(std::string("--eye-views-topic: ") + e.what());
-    }
+    check_topic(eye_views_topic, "--eye-views-topic");
     if (eye_views_topic == head_pose_topic)
       throw std::invalid_argument("--eye-views-topic: the same topic as --head-pose-topic");
   }
@@ -47,11 +45,7 @@ void Ros2BridgeOptions::Check() const {
     throw std::invalid_argument("--camera-pose and --camera-frame: more than " + std::to_string(kMaxTrackedCameras) +
                                 " tracked cameras");
   for (const auto& [id, topic] : camera_pose_topics) {
-    try {
-      DdsTopicOf(topic);
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument("--camera-pose " + std::to_string(id) + "=" + topic + ": " + e.what());
-    }
+    check_topic(topic, "--camera-pose " + std::to_string(id) + "=" + topic);
     if (camera_frames.count(id))
       throw std::invalid_argument("camera " + std::to_string(id) + ": both --camera-pose and --camera-frame");
   }
@@ -178,8 +172,7 @@ size_t Ros2Bridge::Step() {
   for (const auto& t : camera_topics_)
     n += t.reader->TakeEach([&](const geometry_msgs_msg_dds__PoseStamped_& m, const dds_sample_info_t&) {
       const std::string what = "camera " + std::to_string(t.camera_id) + "'s pose";
-      if (const auto pose = Checked<Rigid3d>(
-              [&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, what))
+      if (const auto pose = Checked([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, what))
         PassOnCamera(t.camera_id, *pose, m.header.stamp);
     });
   if (discovery_stale_) PublishDiscovery();
@@ -187,13 +180,12 @@ size_t Ros2Bridge::Step() {
 }
 
 void Ros2Bridge::OnPose(const geometry_msgs_msg_dds__PoseStamped_& m) {
-  if (const auto pose =
-          Checked<Rigid3d>([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, "a tracker pose"))
+  if (const auto pose = Checked([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, "a tracker pose"))
     PassOnHead(*pose, m.header.stamp);
 }
 
 void Ros2Bridge::OnEyeViews(const hullpipe_msgs_msg_dds__EyeViews_& m) {
-  const auto views = Checked<EyeViewsSample>(
+  const auto views = Checked(
       [&](const PoseCheck& check) { return EyeViewsFromRos2(m, check, o_.tracker_id); }, "a headset's eye views");
   if (!views) return;
   eye_views_->Write(dds::EyeViewsToMsg(*views));  // checked: valid
@@ -212,15 +204,13 @@ void Ros2Bridge::OnTf(const tf2_msgs_msg_dds__TFMessage_& m) {
     const auto& t = m.transforms._buffer[i];
     if (!t.child_frame_id) continue;
     const std::string child(t.child_frame_id, strnlen(t.child_frame_id, 257));
-    const std::function<Rigid3d(const PoseCheck&)> check = [&](const PoseCheck& c) {
-      return HeadFromTransform(t, c);
-    };
+    auto check = [&](const PoseCheck& c) { return HeadFromTransform(t, c); };
     if (!o_.head_frame.empty() && child == o_.head_frame) {
-      if (const auto pose = Checked<Rigid3d>(check, "a tracker pose")) PassOnHead(*pose, t.header.stamp);
+      if (const auto pose = Checked(check, "a tracker pose")) PassOnHead(*pose, t.header.stamp);
     }
     for (const auto& [id, frame] : o_.camera_frames)  // at most kMaxTrackedCameras
       if (child == frame)
-        if (const auto pose = Checked<Rigid3d>(check, "camera " + std::to_string(id) + "'s pose"))
+        if (const auto pose = Checked(check, "camera " + std::to_string(id) + "'s pose"))
           PassOnCamera(id, *pose, t.header.stamp);
   }
 }
@@ -256,8 +246,9 @@ void Ros2Bridge::PublishDiscovery() {
   discovery_->Write(info);
 }
 
-template <typename T>
-std::optional<T> Ros2Bridge::Checked(const std::function<T(const PoseCheck&)>& convert, const std::string& what) {
+template <typename Convert>
+auto Ros2Bridge::Checked(const Convert& convert, const std::string& what)
+    -> std::optional<std::invoke_result_t<const Convert&, const PoseCheck&>> {
   PoseCheck check = o_.pose;
   check.now_ns = clock_.WallNs();
   try {

@@ -18,6 +18,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "hullpipe/dds/dds.h"
@@ -102,8 +103,9 @@ class Ros2Bridge {
   void OnEyeViews(const hullpipe_msgs_msg_dds__EyeViews_& m);
   // Checks a tracker's pose or views (`convert` throws MessageError) and
   // returns them, or refuses them once per kind (`what` names whose), counted.
-  template <typename T>
-  std::optional<T> Checked(const std::function<T(const PoseCheck&)>& convert, const std::string& what);
+  template <typename Convert>
+  auto Checked(const Convert& convert, const std::string& what)
+      -> std::optional<std::invoke_result_t<const Convert&, const PoseCheck&>>;
   void PassOnHead(const Rigid3d& world_from_eye, const builtin_interfaces_msg_dds__Time_& stamp);
   void PassOnCamera(uint32_t camera_id, const Rigid3d& world_from_camera, const builtin_interfaces_msg_dds__Time_& stamp);
   void Refused(uint64_t* counter, const std::string& kind, const std::string& why);
