@@ -9,7 +9,7 @@
 namespace hullpipe::nodes {
 
 SimController::SimController(SceneConfig scene, const Clock& clock, FramesetAssembler& assembler, SimSink& sink)
-    : assembler_(assembler), sink_(sink), clock_(clock), scene_((scene.Check(), scene)), counters_(clock) {
+    : assembler_(assembler), sink_(sink), scene_((scene.Check(), scene)), counters_(clock) {
   spdlog::info("{}", scene_.Describe());
 }
 
@@ -27,7 +27,7 @@ bool SimController::SetSpacing(double spacing_m, uint64_t command_seq) {
 
 void SimController::RejectCommand(uint64_t command_seq, const std::string& why) {
   ++commands_rejected_;
-  reject_log_.Log("SceneCommand " + std::to_string(command_seq) + ": " + why, clock_.Now());
+  reject_log_.Log("SceneCommand " + std::to_string(command_seq) + ": " + why, counters_.clock().Now());
 }
 
 int SimController::Step() {

@@ -94,7 +94,6 @@ class SimController {
   void StepOne(const Frameset& fs);
   FramesetAssembler& assembler_;
   SimSink& sink_;
-  const Clock& clock_;
   RejectLog reject_log_;  // the refused commands' warning lines, bounded
   bool every_frameset_ = false;
   VirtualScene scene_;
