@@ -19,6 +19,7 @@
 #include <zlib.h>
 #include <zstd.h>
 
+#include "hullpipe/util/sanitized.h"
 #include "hullpipe/record/convert.h"
 #include "hullpipe/record/player.h"
 #include "hullpipe/record/recording.h"
@@ -375,11 +376,6 @@ TEST(McapStorage, AKilledWritersFileKeepsEveryCommittedSample) {
 
 // Files that lie: each named in one line with what is wrong; what still checks
 // reads, what does not is counted, never handed out.
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-#define HULLPIPE_TEST_SANITIZED 1
-#endif
-#endif
 
 // This process's peak resident memory so far (VmHWM), in bytes.
 int64_t PeakRss() {
@@ -466,7 +462,7 @@ TEST(McapStorage, FilesMadeToExpandAreReadInBoundedMemory) {
   });
   EXPECT_EQ(n, readable);  // the chunks within the bound: their message each
   // (Under a sanitizer freed memory stays quarantined: the peak says nothing.)
-#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__) && !defined(HULLPIPE_TEST_SANITIZED)
+#if !defined(HULLPIPE_SANITIZED)
   EXPECT_LT(PeakRss(), int64_t(600) << 20) << "the reader held more than a few chunks at once";
 #endif
 }

@@ -24,13 +24,7 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define HULLPIPE_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
-#define HULLPIPE_SANITIZED 1
-#endif
-#endif
+#include "hullpipe/util/sanitized.h"
 
 namespace hullpipe {
 

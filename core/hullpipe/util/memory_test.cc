@@ -1,4 +1,5 @@
 #include "hullpipe/util/memory.h"
+#include "hullpipe/util/sanitized.h"
 
 #include <sys/resource.h>
 
@@ -16,18 +17,6 @@
 
 namespace hullpipe {
 namespace {
-
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
 
 long MinorFaults() {
   rusage r{};
@@ -59,7 +48,9 @@ TEST(Memory, AFramesetsFreedBlockIsKeptForTheNext) {
 #if !defined(__GLIBC__)
   GTEST_SKIP() << "not glibc";
 #else
-  if (kSanitized) GTEST_SKIP() << "a sanitizer's allocator replaces malloc";
+#ifdef HULLPIPE_SANITIZED
+  GTEST_SKIP() << "a sanitizer's allocator replaces malloc";
+#endif
   // With transparent huge pages always on, a fresh 4 MiB mapping faults in a
   // few 2 MiB pages, not 1,024: the control would not tell.
   {
