@@ -25,18 +25,18 @@ class Outputs final : public nodes::RenderSink {
   Outputs(const Writer<hullpipe_msg_ViewPose>& poses, const Writer<hullpipe_msg_CompositedView>& views,
           const nodes::RenderOptions& o, nodes::RenderOutputs& files)
       : poses_(poses), views_(views), o_(o), files_(files) {}
-  void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq) override {
-    poses_.Write(ViewToMsg(view, pose_seq, frame_seq, NowNs(), o_.run_id));
+  void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq, ViewEye eye) override {
+    poses_.Write(ViewToMsg(view, pose_seq, frame_seq, NowNs(), o_.run_id, eye));
   }
   void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
                   const cv::Mat& hull_depth, double path_time_s, const RightEye* right) override {
     files_.WriteFrame(frame, frame_seq, count, view, hull_depth, path_time_s, right);
   }
-  void PublishComposite(const cv::Mat& frame, uint64_t pose_seq, uint64_t frame_seq,
-                        int64_t capture_time_ns) override {
+  void PublishComposite(const cv::Mat& frame, uint64_t pose_seq, uint64_t frame_seq, int64_t capture_time_ns,
+                        ViewEye eye) override {
     if (views_.MatchedReaders() == 0) return;  // no viewer or recorder: no JPEG to encode
     views_.Write(MakeCompositedViewMessage(frame, pose_seq, frame_seq, capture_time_ns, o_.run_id,
-                                           {o_.publish_max_side, o_.publish_jpeg_quality})
+                                           {o_.publish_max_side, o_.publish_jpeg_quality}, eye)
                      .msg);
   }
 

@@ -456,6 +456,7 @@ TEST_F(BridgeProcess, FoxglovesClientSeesTheViewableChannelsOfALivePipeline) {
   EXPECT_EQ(composited["data"]["height"], 240);
   const auto& raw = first["hullpipe/composited_view"];
   EXPECT_EQ(raw["view_width"], 320);
+  EXPECT_EQ(raw["eye"], 0) << "the one view (VIEW_EYE_MONO), the field appended last read by Foxglove's decoder";
   EXPECT_EQ(raw["width"], 320);
   EXPECT_GT(raw["frame_seq"].get<int64_t>(), 0);
   EXPECT_GT(first["/foxglove/hull_points"]["data"].get<int>(), 0) << "the hull is in view";

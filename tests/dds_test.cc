@@ -164,6 +164,19 @@ TEST(Convert, CompositedViewIsAJpegScaledToTheBound) {
   }
   lie.msg.data._length = 0;
   EXPECT_THROW(CompositedViewFromMsg(lie.msg), MessageError);
+
+  // Each eye of a headset's pair says which it is; an eye that is none is refused.
+  EXPECT_EQ(same.msg.eye, hullpipe_msg_VIEW_EYE_MONO);
+  auto right = MakeCompositedViewMessage(frame, 8, 42, 1, 99, {1280, 90}, ViewEye::kRight);
+  EXPECT_EQ(right.msg.eye, hullpipe_msg_VIEW_EYE_RIGHT);
+  EXPECT_NO_THROW(CheckCompositedViewMsg(right.msg));
+  right.msg.eye = 255;
+  try {
+    CheckCompositedViewMsg(right.msg);
+    ADD_FAILURE() << "eye 255 accepted";
+  } catch (const MessageError& e) {
+    EXPECT_NE(std::string(e.what()).find("eye 255 is none of"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Convert, ViewAndTile) {
@@ -174,6 +187,18 @@ TEST(Convert, ViewAndTile) {
   auto bad = ViewToMsg(v, 5, 6, 7);
   bad.world_from_eye_rotation[4] = 5;
   EXPECT_THROW(ViewFromMsg(bad), MessageError);
+  // The eye: the one view unless given, and only VIEW_EYE_*.
+  EXPECT_EQ(ViewToMsg(v, 5, 6, 7).eye, hullpipe_msg_VIEW_EYE_MONO);
+  EXPECT_EQ(ViewToMsg(v, 5, 6, 7, 0, ViewEye::kRight).eye, hullpipe_msg_VIEW_EYE_RIGHT);
+  auto bad_eye = ViewToMsg(v, 5, 6, 7, 0, ViewEye::kLeft);
+  EXPECT_NO_THROW(ViewFromMsg(bad_eye));
+  bad_eye.eye = 3;
+  try {
+    ViewFromMsg(bad_eye);
+    ADD_FAILURE() << "eye 3 accepted";
+  } catch (const MessageError& e) {
+    EXPECT_NE(std::string(e.what()).find("ViewPose 5: eye 3 is none of"), std::string::npos) << e.what();
+  }
 
   HullTile t;
   t.rect = {0, 12, 32, 12};
@@ -593,10 +618,82 @@ TEST(Dds, ASampleOfTheOlderShorterLayoutIsRefused) {
   hullpipe_msg_ViewPose back{};
   ASSERT_TRUE(w.Decode(cdr, &back));  // control: the whole sample
   EXPECT_EQ(back.run_id, 0xabcu);
-  cdr.resize(cdr.size() - 8);
+  // The layout before the eye (Dds.AViewOfTheEarlierLayoutReadsAsTheOneView),
+  // then without its run id.
+  cdr.resize(cdr.size() - 4 - 8);
+  cdr[3] = 0;
   hullpipe_msg_ViewPose old{};
   EXPECT_FALSE(w.Decode(cdr, &old));
   EXPECT_THROW(w.Write(cdr), std::invalid_argument);
+}
+
+// A recording made before ViewPose and CompositedView said which eye they are
+// for holds samples 4 bytes shorter (the eye, a uint8, and the padding to a
+// multiple of 4 after it). They read as what they are: every other field
+// exactly, and the one view (VIEW_EYE_MONO) for the eye; replayed, they are
+// published completed. A sample cut anywhere else is still refused.
+TEST(Dds, AViewOfTheEarlierLayoutReadsAsTheOneView) {
+  const auto dir = test::TempDir("dds_old_eye");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  Participant p(test::UniqueDomain());
+  // The earlier layout of a current sample: its body less the eye and padding,
+  // with a header that declares no padding (as the earlier build wrote it).
+  const auto earlier = [](const std::vector<uint8_t>& cdr) {
+    EXPECT_EQ(cdr[3] & 3u, 3u) << "the current layout ends in the eye and 3 bytes of padding";
+    std::vector<uint8_t> old(cdr.begin(), cdr.end() - 4);
+    old[3] = 0;
+    return old;
+  };
+  {
+    const KnownType& kt = *FindKnownType("hullpipe::msg::ViewPose");
+    EXPECT_EQ(kt.appended_bytes, 1u);
+    CdrWriter w(p, kt, kt.qos);
+    const hullpipe_msg_ViewPose pose = ViewToMsg(NovelView::FromFov(64, 48, 1.0, LookAt({1, 2, 3}, {0, 0, 0}, {0, 0, -1})),
+                                                 7, 3, 1000, 0xabc, ViewEye::kLeft);
+    const std::vector<uint8_t> cdr = w.Encode(&pose);
+    hullpipe_msg_ViewPose whole{};
+    ASSERT_TRUE(w.Decode(cdr, &whole));  // control: the current layout keeps its eye
+    EXPECT_EQ(whole.eye, hullpipe_msg_VIEW_EYE_LEFT);
+    const std::vector<uint8_t> old = earlier(cdr);
+    hullpipe_msg_ViewPose back{};
+    ASSERT_TRUE(w.Decode(old, &back));
+    EXPECT_EQ(back.eye, hullpipe_msg_VIEW_EYE_MONO);
+    EXPECT_EQ(back.run_id, 0xabcu);
+    EXPECT_EQ(back.pose_seq, 7u);
+    for (int i = 0; i < 9; ++i) EXPECT_EQ(back.world_from_eye_rotation[i], pose.world_from_eye_rotation[i]);
+    EXPECT_EQ(back.world_from_eye_translation[2], pose.world_from_eye_translation[2]);
+    EXPECT_NO_THROW(ViewFromMsg(back));
+    EXPECT_NO_THROW(w.Write(old));
+    for (const size_t cut : {size_t(1), size_t(2), size_t(8)}) {
+      std::vector<uint8_t> bad(old.begin(), old.end() - std::ptrdiff_t(cut));
+      hullpipe_msg_ViewPose none{};
+      EXPECT_FALSE(w.Decode(bad, &none)) << cut;
+    }
+  }
+  {
+    const KnownType& kt = *FindKnownType("hullpipe::msg::CompositedView");
+    EXPECT_EQ(kt.appended_bytes, 1u);
+    CdrWriter w(p, kt, kt.qos);
+    const auto view = MakeCompositedViewMessage(cv::Mat(24, 32, CV_8UC3, cv::Scalar(1, 2, 3)), 8, 3, 1000, 0xabc,
+                                                {1280, 90}, ViewEye::kRight);
+    const std::vector<uint8_t> cdr = w.Encode(&view.msg);
+    const std::vector<uint8_t> old = earlier(cdr);
+    EXPECT_TRUE(w.DecodeWith<hullpipe_msg_CompositedView>(cdr, [&](const hullpipe_msg_CompositedView& m) {
+      EXPECT_EQ(m.eye, hullpipe_msg_VIEW_EYE_RIGHT);
+    }));
+    EXPECT_TRUE(w.DecodeWith<hullpipe_msg_CompositedView>(old, [&](const hullpipe_msg_CompositedView& m) {
+      EXPECT_EQ(m.eye, hullpipe_msg_VIEW_EYE_MONO);
+      EXPECT_EQ(m.run_id, 0xabcu);
+      EXPECT_EQ(m.data._length, view.bytes.size());
+      EXPECT_EQ(CompositedViewFromMsg(m).size(), cv::Size(32, 24));
+    }));
+    EXPECT_NO_THROW(w.Write(old));
+    for (const size_t cut : {size_t(1), size_t(8)}) {
+      std::vector<uint8_t> bad(old.begin(), old.end() - std::ptrdiff_t(cut));
+      hullpipe_msg_CompositedView none{};
+      EXPECT_FALSE(w.Decode(bad, &none)) << cut;
+    }
+  }
 }
 
 // A recording made before CollisionReport had its hull velocity holds samples

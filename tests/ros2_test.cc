@@ -868,6 +868,125 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
   EXPECT_DOUBLE_EQ(ball_marker["pose"]["position"]["z"].get<double>(), -1.0);
 }
 
+// A headset's two eyes downstream (render_node --stereo; docs/hmd.md, "Both eyes
+// downstream"): a stereo run's recording exported as a ROS 2 bag and for
+// Foxglove gives each eye its own frame and topic, read by Foxglove's readers:
+// /tf's hullpipe_view_left and hullpipe_view_right, each eye's composite on its
+// own image topic in its eye's frame, one hull cloud per frameset (the left
+// eye's). The views of a recording made before the eye field (4 bytes shorter)
+// are the one view, on the topics they always had.
+TEST(Ros2Export, AHeadsetsEyesEachGetTheirOwnFrameAndTopic) {
+  const auto dir = test::TempDir("ros2_export_eyes");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  const uint32_t domain = test::UniqueDomain();
+  const std::string rec = (dir / "run.hprec").string();
+  StereoOptions so;
+  so.width = 32, so.height = 24;
+  const Rigid3d head = LookAt({0, -2, -1}, {0, 0, -1}, {0, 0, -1});
+  const StereoViews eyes = MakeStereoViews(head, so);
+  const int64_t t0 = 1'700'000'000'000'000'000;
+  {
+    dds::Participant p(domain);
+    auto codec = [&](const char* type) {
+      const dds::KnownType& kt = *dds::FindKnownType(type);
+      return std::make_unique<dds::CdrWriter>(p, kt, kt.qos, dds::CdrWriter::Scope::kDecodeOnly);
+    };
+    auto pose_codec = codec("hullpipe::msg::ViewPose"), tile_codec = codec("hullpipe::msg::HullView"),
+         view_codec = codec("hullpipe::msg::CompositedView");
+    record::RecordingWriter w(rec);
+    const int64_t tp = w.AddTopic({0, "hullpipe/view_pose", "hullpipe::msg::ViewPose", true, false, false, 4, ""});
+    const int64_t th = w.AddTopic({0, "hullpipe/hull_view", "hullpipe::msg::HullView", true, false, false, 4, ""});
+    const int64_t tc =
+        w.AddTopic({0, "hullpipe/composited_view", "hullpipe::msg::CompositedView", false, false, false, 1, ""});
+    // The earlier layout: the body less the eye and its padding, no padding declared.
+    const auto earlier = [](std::vector<uint8_t> cdr) {
+      cdr.resize(cdr.size() - 4);
+      cdr[3] = 0;
+      return cdr;
+    };
+    const auto add = [&](uint64_t pose_seq, const NovelView& v, ViewEye eye, bool earlier_layout) {
+      const int64_t t = t0 + int64_t(pose_seq) * 1'000'000;
+      const hullpipe_msg_ViewPose pose = dds::ViewToMsg(v, pose_seq, 1, t, 0, eye);
+      std::vector<uint8_t> bytes = pose_codec->Encode(&pose);
+      w.Append({tp, t, t, earlier_layout ? earlier(bytes) : bytes});
+      HullTile tile;
+      tile.rect = cv::Rect(0, 0, v.width, v.height);
+      tile.depth = cv::Mat(tile.rect.size(), CV_32FC1, cv::Scalar(2.0f));
+      tile.colour = cv::Mat(tile.rect.size(), CV_8UC3, cv::Scalar(10, 20, 30));
+      tile.pose_seq = pose_seq, tile.frame_seq = 1, tile.capture_time_ns = t0;
+      const auto hull = dds::MakeHullViewMessage(tile, 10);
+      w.Append({th, t + 1000, t + 1000, tile_codec->Encode(&hull.msg)});
+      const auto composite =
+          dds::MakeCompositedViewMessage(tile.colour, pose_seq, 1, t0, 0, {1280, 90}, eye);
+      bytes = view_codec->Encode(&composite.msg);
+      w.Append({tc, t + 2000, t + 2000, earlier_layout ? earlier(bytes) : bytes});
+    };
+    add(1, eyes.eye[0], ViewEye::kLeft, false);
+    add(2, eyes.eye[1], ViewEye::kRight, false);
+    add(3, NovelView::FromFov(32, 24, 1.0, head), ViewEye::kMono, true);
+  }
+  const std::string out = (dir / "export").string(), log = (dir / "export.log").string();
+  test::Process exp({test::BinDir() + "/hullpipe_record", "export", rec, "-o", out, "--ros2", "--foxglove",
+                     "--domain", std::to_string(domain)},
+                    log);
+  ASSERT_EQ(exp.Wait(120), 0) << test::ReadFile(log);
+  // JSON lines name each view's eye (VIEW_EYE_*: left 1, right 2, the one view 0).
+  for (const char* topic : {"hullpipe_view_pose", "hullpipe_composited_view"}) {
+    std::ifstream lines(out + "/" + topic + ".jsonl");
+    std::vector<int> got;
+    for (std::string line; std::getline(lines, line);) got.push_back(json::parse(line)["eye"].get<int>());
+    EXPECT_EQ(got, (std::vector<int>{1, 2, 0})) << topic;
+  }
+  // A video per eye beside the one view's.
+  for (const char* video : {"composited", "composited_left", "composited_right", "hull_view", "hull_view_left",
+                            "hull_view_right"})
+    EXPECT_TRUE(std::filesystem::exists(out + "/" + video + ".mp4")) << video;
+
+  const std::string js = std::string(HULLPIPE_SOURCE_DIR) + "/tests/js";
+  const auto read = [&](const char* script, const std::string& file) {
+    const std::string node_out = (dir / (std::string(script) + ".json")).string();
+    test::Process node({"/usr/bin/env", "node", js + "/" + script, file}, node_out, {}, node_out + ".err");
+    EXPECT_EQ(node.Wait(120), 0) << test::ReadFile(node_out + ".err");
+    return json::parse(test::ReadFile(node_out));
+  };
+  const json r = read("read_ros2_mcap.mjs", out + "/ros2.mcap");
+  EXPECT_TRUE(r["invalid"].empty()) << r["invalid"].dump();
+  const json& ch = r["channels"];
+  const std::map<std::string, std::pair<int, json>> want = {
+      {"/tf", {3, json::array({"hullpipe_view_left", "hullpipe_view_right", "hullpipe_view"})}},
+      {"/hullpipe/view/left/compressed", {1, json::array({"hullpipe_view_left"})}},
+      {"/hullpipe/view/right/compressed", {1, json::array({"hullpipe_view_right"})}},
+      {"/hullpipe/view/compressed", {1, json::array({"hullpipe_view"})}},
+      {"/hullpipe/hull_points", {2, json::array({"hullpipe_world"})}}};  // the left eye's and the one view's
+  EXPECT_EQ(ch.size(), want.size()) << ch.dump(1);
+  for (const auto& [topic, w] : want) {
+    ASSERT_TRUE(ch.contains(topic)) << topic << " " << ch.dump(1);
+    EXPECT_EQ(ch[topic]["decoded"], w.first) << topic;
+    EXPECT_EQ(r["frames"][topic], w.second) << topic;
+  }
+  // The left eye's frame where the head's pose puts it: half the IPD along the head's -x.
+  const json& left_tf = r["first"]["/tf"]["transforms"][0]["transform"]["translation"];
+  const Eigen::Vector3d left_at = eyes.eye[0].world_from_eye.translation;
+  EXPECT_NEAR(left_tf["x"].get<double>(), left_at.x(), 1e-12);
+  EXPECT_NEAR(left_tf["y"].get<double>(), left_at.y(), 1e-12);
+  EXPECT_NEAR((left_at - head.translation).norm(), so.ipd_m / 2, 1e-12);
+
+  const json f = read("read_mcap.mjs", out + "/foxglove.mcap");
+  EXPECT_TRUE(f["invalid"].empty()) << f["invalid"].dump();
+  const json& fc = f["channels"];
+  for (const auto& [topic, frame] : std::map<std::string, std::string>{{"/foxglove/composited/left", "view_left"},
+                                                                       {"/foxglove/composited/right", "view_right"},
+                                                                       {"/foxglove/composited", "view"},
+                                                                       {"/foxglove/hull_view/left", "view_left"},
+                                                                       {"/foxglove/hull_view/right", "view_right"},
+                                                                       {"/foxglove/hull_view", "view"}}) {
+    ASSERT_TRUE(fc.contains(topic)) << topic << " " << fc.dump(1);
+    EXPECT_EQ(fc[topic]["decoded"], 1) << topic;
+    EXPECT_EQ(fc[topic]["first"]["frame_id"], frame) << topic;
+  }
+  EXPECT_EQ(fc["/foxglove/hull_points"]["decoded"], 2) << "one cloud per frameset, and the one view's";
+}
+
 // The markers of a box, a contact and a mesh, field by field as Foxglove's ROS 2
 // Humble reader decodes them (the ball's is above).
 TEST_F(Ros2Messages, BoxesContactsAndMeshesAreMarkersFoxglovesDecoderReads) {

@@ -191,6 +191,9 @@ class Exporter {
         (*j)["cx"] = v.cx, (*j)["cy"] = v.cy, (*j)["run_id"] = m.run_id;
         (*j)["world_from_eye_rotation"] = Arr(m.world_from_eye_rotation);
         (*j)["world_from_eye_translation"] = Arr(m.world_from_eye_translation);
+        (*j)["eye"] = m.eye;
+        eyes_[m.pose_seq] = ViewEye(m.eye);  // checked by ViewFromMsg
+        while (eyes_.size() > 256) eyes_.erase(eyes_.begin());
       });
     if (type == "hullpipe::msg::CompositedView")
       return With<hullpipe_msg_CompositedView>(w, s, [&](const auto& m) {
@@ -198,7 +201,8 @@ class Exporter {
         (*j)["pose_seq"] = m.pose_seq, (*j)["frame_seq"] = m.frame_seq, (*j)["capture_time_ns"] = m.capture_time_ns;
         (*j)["width"] = m.width, (*j)["height"] = m.height, (*j)["view_width"] = m.view_width;
         (*j)["view_height"] = m.view_height, (*j)["bytes"] = m.data._length, (*j)["run_id"] = m.run_id;
-        if (o_.media) Frame("composited", bgr, c);
+        (*j)["eye"] = m.eye;
+        if (o_.media) Frame(EyeVideo("composited", ViewEye(m.eye)), bgr, c);
       });
     if (type == "hullpipe::msg::HullView")
       return With<hullpipe_msg_HullView>(w, s, [&](const auto& m) {
@@ -323,8 +327,16 @@ class Exporter {
   }
 
   // Hull views: the tiles of one pose, pasted into one frame once all arrived.
+  // A video of each eye's frames: "composited" for the one view, beside it
+  // "composited_left" and "composited_right" for a headset's eyes.
+  static std::string EyeVideo(const std::string& name, ViewEye eye) {
+    return eye == ViewEye::kMono ? name : name + "_" + ViewEyeName(eye);
+  }
+
   void AddTile(HullTile t, Counts* c) {
-    if (const auto view = tiles_.Add(std::move(t))) Frame("hull_view", view->colour, c);
+    const auto eye = eyes_.find(t.pose_seq);  // its ViewPose's eye; unseen: the one view
+    const std::string name = EyeVideo("hull_view", eye == eyes_.end() ? ViewEye::kMono : eye->second);
+    if (const auto view = tiles_.Add(std::move(t))) Frame(name, view->colour, c);
   }
 
   const ExportOptions& o_;
@@ -334,6 +346,7 @@ class Exporter {
   std::map<std::string, cv::VideoWriter> videos_;
   std::map<std::string, cv::Size> video_size_;
   TileSet tiles_;  // HullView tiles by pose, until a view is whole
+  std::map<uint64_t, ViewEye> eyes_;  // the newest 256 ViewPoses' eyes by pose_seq
   std::unique_ptr<FoxgloveExport> fox_;
   std::unique_ptr<Ros2Export> ros2_;
   int64_t write_failures_ = 0;

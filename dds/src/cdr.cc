@@ -45,10 +45,13 @@ std::vector<KnownType> MakeKnownTypes() {
   // Fields appended since the first recordings (idl/hullpipe.idl): the hull
   // velocity of CollisionReport, uint8 + 7 bytes of alignment + 2 doubles.
   // VirtualObjectState's box (7 bytes of alignment after its boolean, a Vec3)
-  // and VirtualMesh's element key (a string).
+  // and VirtualMesh's element key (a string). ViewPose's and CompositedView's
+  // eye (a uint8 after a uint64: the serialized length then padded to 4).
   for (KnownType& t : types) {
     if (t.type_name == "hullpipe::msg::CollisionReport") t.appended_bytes = 24;
     if (t.type_name == "hullpipe::msg::VirtualObjectState") t.appended_bytes = 31;
+    if (t.type_name == "hullpipe::msg::ViewPose" || t.type_name == "hullpipe::msg::CompositedView")
+      t.appended_bytes = 1;
     if (t.type_name == "hullpipe::msg::VirtualMesh") t.appended_empty_string = true;
   }
   return types;
@@ -178,11 +181,11 @@ struct ddsi_serdata* CdrWriter::FromSer(const std::vector<uint8_t>& cdr) const {
     const uint8_t one_le[4] = {1, 0, 0, 0}, one_be[4] = {0, 0, 0, 1};
     completed.insert(completed.end(), little ? one_le : one_be, (little ? one_le : one_be) + 4);
     completed.push_back(0);  // the NUL
-    // The serialized length is a multiple of 4; the header says how much is padding.
-    const size_t pad = (4 - (completed.size() - 4) % 4) % 4;
-    completed.resize(completed.size() + pad, 0);
-    completed[3] = uint8_t(pad);
   }
+  // The serialized length is a multiple of 4; the header says how much is padding.
+  const size_t pad = (4 - (completed.size() - 4) % 4) % 4;
+  completed.resize(completed.size() + pad, 0);
+  completed[3] = uint8_t(pad);
   d = from(completed);
   if (!d) return nullptr;
   // Cyclone reads a sample with bytes left over: a current sample cut short

@@ -183,7 +183,7 @@ void CheckJpegOfSize(const std::string& who, const uint8_t* data, size_t n, uint
 
 OwnedSample<hullpipe_msg_CompositedView> MakeCompositedViewMessage(const cv::Mat& bgr, uint64_t pose_seq,
                                                                    uint64_t frame_seq, int64_t t, uint64_t run_id,
-                                                                   const ViewEncoding& encoding) {
+                                                                   const ViewEncoding& encoding, ViewEye eye) {
   const int max_side = encoding.max_side, jpeg_quality = encoding.jpeg_quality;
   if (bgr.empty() || bgr.type() != CV_8UC3) throw MessageError("CompositedView: the frame must be non-empty BGR");
   if (max_side < 16 || max_side > int(kMaxSide))
@@ -207,14 +207,23 @@ OwnedSample<hullpipe_msg_CompositedView> MakeCompositedViewMessage(const cv::Mat
   m.view_width = uint32_t(bgr.cols);
   m.view_height = uint32_t(bgr.rows);
   m.run_id = run_id;
+  m.eye = uint8_t(eye);
   if (!cv::imencode(".jpg", image, s.bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality}))
     throw MessageError("CompositedView: the JPEG encoder failed");
   Borrow(&m.data, s.bytes);
   return s;
 }
 
+ViewEye ViewEyeFromMsg(const std::string& who, uint8_t eye) {
+  if (eye > hullpipe_msg_VIEW_EYE_RIGHT)
+    throw MessageError(who + "eye " + std::to_string(eye) + " is none of VIEW_EYE_MONO (0), VIEW_EYE_LEFT (1), "
+                       "VIEW_EYE_RIGHT (2)");
+  return ViewEye(eye);
+}
+
 void CheckCompositedViewMsg(const hullpipe_msg_CompositedView& m) {
   const std::string who = "CompositedView of frame " + std::to_string(m.frame_seq) + ": ";
+  (void)ViewEyeFromMsg(who, m.eye);
   for (const uint32_t side : {m.width, m.height, m.view_width, m.view_height})
     if (side == 0 || side > kMaxSide) throw MessageError(who + "a size out of [1, 16384]");
   if (m.width > m.view_width || m.height > m.view_height)
@@ -233,9 +242,10 @@ cv::Mat CompositedViewFromMsg(const hullpipe_msg_CompositedView& m) {
 }
 
 hullpipe_msg_ViewPose ViewToMsg(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq, int64_t stamp,
-                                uint64_t run_id) {
+                                uint64_t run_id, ViewEye eye) {
   hullpipe_msg_ViewPose m{};
   m.run_id = run_id;
+  m.eye = uint8_t(eye);
   m.pose_seq = pose_seq;
   m.stamp_ns = stamp;
   m.frame_seq = frame_seq;
@@ -250,6 +260,7 @@ hullpipe_msg_ViewPose ViewToMsg(const NovelView& v, uint64_t pose_seq, uint64_t 
 NovelView ViewFromMsg(const hullpipe_msg_ViewPose& m) {
   if (m.width == 0 || m.height == 0 || m.width > 8192 || m.height > 8192)
     throw MessageError("ViewPose " + std::to_string(m.pose_seq) + ": view size out of range");
+  (void)ViewEyeFromMsg("ViewPose " + std::to_string(m.pose_seq) + ": ", m.eye);
   const double k[4] = {m.fx, m.fy, m.cx, m.cy};
   if (!AllFinite(k, 4) || !AllFinite(m.world_from_eye_rotation, 9) ||
       !AllFinite(m.world_from_eye_translation, 3))

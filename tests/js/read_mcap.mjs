@@ -6,7 +6,8 @@
 // (@foxglove/schemas, by ajv), their images' bytes checked for JPEG or PNG — and
 // prints one JSON object on stdout:
 //   { records: {opcode name: count}, statistics: {...}, channels: {topic: {count,
-//     decoded, schema, schemaEncoding, messageEncoding, qos}}, metadata: {name: {...}},
+//     decoded, schema, schemaEncoding, messageEncoding, qos, first: the first
+//     message decoded}}, metadata: {name: {...}},
 //     cameraInfo: [first decoded CameraInfo per camera_id], invalid: [first errors] }
 // Exit 1 with the error on stderr where any reader refuses the file.
 // Usage: node read_mcap.mjs FILE.mcap
@@ -95,6 +96,7 @@ async function main() {
     if (!dec) continue;
     const msg = dec.readMessage(m.data);
     c.decoded += 1;
+    if (!c.first) c.first = plain(msg);
     if (c.schema === "hullpipe::msg::CameraInfo" && !cameraInfo.has(msg.camera_id)) cameraInfo.set(msg.camera_id, plain(msg));
   }
   const metadata = {};

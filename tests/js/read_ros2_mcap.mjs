@@ -5,6 +5,8 @@
 // (@foxglove/rosmsg2-serialization). Prints one JSON object on stdout:
 //   { profile, channels: {topic: {count, decoded, schema, schemaEncoding,
 //     messageEncoding, metadata: {key: value}}}, first: {topic: first message},
+//     frames: {topic: [every frame id its messages name, in order of first
+//     appearance: header.frame_id, or /tf's child_frame_ids]},
 //     invalid: [first errors] }
 // (typed arrays of more than 64 elements as their length). Exit 1 with the
 // error on stderr where the file cannot be read.
@@ -20,6 +22,7 @@ async function main(path) {
   const channels = {};
   const readers = new Map();
   const first = {};
+  const frames = {};
   const invalid = [];
   for (const [id, ch] of reader.channelsById) {
     const schema = reader.schemasById.get(ch.schemaId);
@@ -49,12 +52,15 @@ async function main(path) {
       const decoded = r.readMessage(m.data);
       c.decoded += 1;
       if (!(ch.topic in first)) first[ch.topic] = plain(decoded);
+      const ids = (frames[ch.topic] ??= []);
+      for (const id of [decoded.header?.frame_id, ...(decoded.transforms ?? []).map((t) => t.child_frame_id)])
+        if (typeof id === "string" && !ids.includes(id)) ids.push(id);
     } catch (e) {
       if (invalid.length < 20) invalid.push(`${ch.topic}: ${e.message}`);
     }
   }
   await close();
-  process.stdout.write(JSON.stringify({ profile: reader.header.profile, channels, first, invalid }) + "\n");
+  process.stdout.write(JSON.stringify({ profile: reader.header.profile, channels, first, frames, invalid }) + "\n");
 }
 
 main(process.argv[2]).catch((e) => {

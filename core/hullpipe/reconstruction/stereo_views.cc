@@ -40,6 +40,18 @@ NovelView EyeView(const EyeFov& fov, int width, int height, const Rigid3d& world
   return v;
 }
 
+const char* ViewEyeName(ViewEye eye) {
+  switch (eye) {
+    case ViewEye::kLeft:
+      return "left";
+    case ViewEye::kRight:
+      return "right";
+    case ViewEye::kMono:
+      break;
+  }
+  return "";
+}
+
 Rigid3d WorldFromEye(const Rigid3d& world_from_head, Eye eye, double ipd_m) {
   const double side = eye == Eye::kLeft ? -0.5 : 0.5;
   Rigid3d e = world_from_head;

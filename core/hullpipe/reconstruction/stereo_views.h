@@ -11,6 +11,8 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -45,6 +47,19 @@ struct EyeFov {
 NovelView EyeView(const EyeFov& fov, int width, int height, const Rigid3d& world_from_eye);
 
 enum class Eye { kLeft = 0, kRight = 1 };
+
+/// Which eye a published view is for, as the wire carries it (ViewPose.eye and
+/// CompositedView.eye, idl/hullpipe.idl's VIEW_EYE_*): the one view of a
+/// monitor, or a headset's left or right eye. Viewers give each eye its own
+/// frame and topic (docs/hmd.md, "Both eyes downstream").
+enum class ViewEye : uint8_t { kMono = 0, kLeft = 1, kRight = 2 };
+/// The view eye of eye `k` of a frame's `n` views (n 1: kMono; n 2: k 0 left,
+/// k 1 right).
+inline ViewEye ViewEyeOf(size_t k, size_t n) {
+  return n < 2 ? ViewEye::kMono : (k == 0 ? ViewEye::kLeft : ViewEye::kRight);
+}
+/// The suffix of an eye's frame or topic: "" (kMono), "left", "right".
+const char* ViewEyeName(ViewEye eye);
 
 /// An eye's pose from the head's: the head's orientation, the eye ipd_m / 2
 /// along the head's -x (left) or +x (right) axis (the eyes' views parallel, as

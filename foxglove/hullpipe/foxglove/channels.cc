@@ -166,11 +166,30 @@ struct PartGeometry {
 
 }  // namespace
 
+namespace {
+
+// A view's topic and frame for `eye`: the one view's, or its eye's beside it.
+std::string EyeTopic(const std::string& base, ViewEye eye) {
+  return eye == ViewEye::kMono ? base : base + "/" + ViewEyeName(eye);
+}
+
+std::string EyeFrame(ViewEye eye) {
+  return eye == ViewEye::kMono ? "view" : std::string("view_") + ViewEyeName(eye);
+}
+
+}  // namespace
+
 std::vector<ChannelSpec> FixedChannels() {
-  return {Spec("/foxglove/tf", "foxglove.FrameTransforms"), Spec("/foxglove/hull_view", "foxglove.CompressedImage"),
-          Spec("/foxglove/composited", "foxglove.CompressedImage"),
-          Spec("/foxglove/hull_points", "foxglove.PointCloud"), Spec("/foxglove/scene", "foxglove.SceneUpdate"),
-          Spec("/foxglove/node_stats", "hullpipe.NodeStatsPlot")};
+  std::vector<ChannelSpec> c = {Spec("/foxglove/tf", "foxglove.FrameTransforms")};
+  for (const ViewEye eye : {ViewEye::kMono, ViewEye::kLeft, ViewEye::kRight}) {
+    c.push_back(Spec(EyeTopic("/foxglove/hull_view", eye), "foxglove.CompressedImage"));
+    c.push_back(Spec(EyeTopic("/foxglove/composited", eye), "foxglove.CompressedImage"));
+  }
+  for (const auto& spec : {Spec("/foxglove/hull_points", "foxglove.PointCloud"),
+                           Spec("/foxglove/scene", "foxglove.SceneUpdate"),
+                           Spec("/foxglove/node_stats", "hullpipe.NodeStatsPlot")})
+    c.push_back(spec);
+  return c;
 }
 
 std::vector<ChannelSpec> CameraChannels(uint32_t camera_id) {
@@ -204,9 +223,11 @@ std::vector<std::string> SourceTypes(const std::string& topic) {
     return {"hullpipe::msg::CameraInfo"};
   }
   if (topic == "/foxglove/tf") return {"hullpipe::msg::CameraInfo"};
-  if (topic == "/foxglove/composited") return {"hullpipe::msg::CompositedView"};
-  if (topic == "/foxglove/hull_view" || topic == "/foxglove/hull_points")
-    return {"hullpipe::msg::HullView", "hullpipe::msg::ViewPose"};
+  for (const ViewEye eye : {ViewEye::kMono, ViewEye::kLeft, ViewEye::kRight}) {
+    if (topic == EyeTopic("/foxglove/composited", eye)) return {"hullpipe::msg::CompositedView"};
+    if (topic == EyeTopic("/foxglove/hull_view", eye)) return {"hullpipe::msg::HullView", "hullpipe::msg::ViewPose"};
+  }
+  if (topic == "/foxglove/hull_points") return {"hullpipe::msg::HullView", "hullpipe::msg::ViewPose"};
   if (topic == "/foxglove/scene")
     return {"hullpipe::msg::VirtualObjectState", "hullpipe::msg::CollisionReport", "hullpipe::msg::VirtualMesh",
             "hullpipe::msg::ModelPart", "hullpipe::msg::ModelState"};
@@ -219,7 +240,7 @@ struct Deriver::Impl {
   Sink sink;
   Wanted wanted;
   std::map<std::string, std::unique_ptr<dds::CdrWriter>> decoders;  // by type name
-  std::map<uint64_t, NovelView> views;                               // recent ViewPoses by pose_seq
+  std::map<uint64_t, std::pair<NovelView, ViewEye>> views;          // recent ViewPoses by pose_seq
   TileSet tiles;                                                     // HullView tiles by pose
   std::map<uint32_t, PartGeometry> parts;                            // by object id
 
@@ -292,25 +313,32 @@ bool Deriver::Add(const std::string& type, const std::vector<uint8_t>& cdr, int6
       });
     if (type == "hullpipe::msg::ViewPose")
       return d.With<hullpipe_msg_ViewPose>(type, cdr, [&](const auto& m) {
-        d.views[m.pose_seq] = dds::ViewFromMsg(m);
+        d.views[m.pose_seq] = {dds::ViewFromMsg(m), ViewEye(m.eye)};  // the eye checked by ViewFromMsg
         while (d.views.size() > kMaxViews) d.views.erase(d.views.begin());
       });
     if (type == "hullpipe::msg::HullView")
       return d.With<hullpipe_msg_HullView>(type, cdr, [&](const auto& m) {
-        if (!d.Want("/foxglove/hull_view") && !d.Want("/foxglove/hull_points")) return;
         const uint64_t pose = m.pose_seq;
+        const auto pose_view = d.views.find(pose);
+        // The eye of its ViewPose; a tile whose pose was not seen is shown as the one view.
+        const ViewEye eye = pose_view == d.views.end() ? ViewEye::kMono : pose_view->second.second;
+        if (!d.Want(EyeTopic("/foxglove/hull_view", eye)) && !d.Want("/foxglove/hull_points")) return;
         const auto view = d.tiles.Add(dds::TileFromMsg(m));
         if (!view) return;
-        const auto pose_view = d.views.find(pose);
-        if (pose_view != d.views.end()) HullPoints(m.capture_time_ns, pose_view->second, view->depth);
-        HullView(m.capture_time_ns, view->colour);
+        // One cloud per frameset: a stereo pair's right eye sees the same hull
+        // from an IPD aside.
+        if (pose_view != d.views.end() && eye != ViewEye::kRight)
+          HullPoints(m.capture_time_ns, pose_view->second.first, view->depth);
+        HullView(m.capture_time_ns, view->colour, eye);
       });
     if (type == "hullpipe::msg::CompositedView")
       return d.With<hullpipe_msg_CompositedView>(type, cdr, [&](const auto& m) {
         // render_node's JPEG, passed through once its header is checked.
         dds::CheckCompositedViewMsg(m);
-        if (d.Want("/foxglove/composited"))
-          d.Compressed("/foxglove/composited", m.capture_time_ns, "view", m.data._buffer, m.data._length, "jpeg");
+        const ViewEye eye = ViewEye(m.eye);  // checked just now
+        const std::string topic = EyeTopic("/foxglove/composited", eye);
+        if (d.Want(topic))
+          d.Compressed(topic, m.capture_time_ns, EyeFrame(eye), m.data._buffer, m.data._length, "jpeg");
       });
     if (type == "hullpipe::msg::VirtualObjectState")
       return d.With<hullpipe_msg_VirtualObjectState>(type, cdr, [&](const auto& m) {
@@ -393,8 +421,8 @@ void Deriver::Map(int64_t stamp_ns, uint32_t camera_id, const cv::Mat& map) {
   impl_->Encode("/foxglove/" + Cam(camera_id) + "/object_pixel_map", stamp_ns, Cam(camera_id), map, "png");
 }
 
-void Deriver::HullView(int64_t stamp_ns, const cv::Mat& bgr) {
-  impl_->Encode("/foxglove/hull_view", stamp_ns, "view", bgr, "jpeg");
+void Deriver::HullView(int64_t stamp_ns, const cv::Mat& bgr, ViewEye eye) {
+  impl_->Encode(EyeTopic("/foxglove/hull_view", eye), stamp_ns, EyeFrame(eye), bgr, "jpeg");
 }
 
 void Deriver::HullPoints(int64_t stamp_ns, const NovelView& view, const cv::Mat& depth) {

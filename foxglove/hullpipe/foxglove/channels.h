@@ -12,9 +12,12 @@
 //   /foxglove/hull_view               foxglove.CompressedImage (the composited tiles)
 //   /foxglove/composited              foxglove.CompressedImage (render_node's composited
 //                                     frame: hull and virtual objects; its JPEG passed through)
+//   /foxglove/hull_view/left, /right  the same for a headset's eyes (render_node --stereo:
+//   /foxglove/composited/left, /right ViewPose.eye, CompositedView.eye; docs/hmd.md)
 //   /foxglove/hull_points             foxglove.PointCloud (the hull seen from the view:
 //                                     the tiles' depth, every 4th pixel, in the eye
-//                                     frame placed at the view's pose)
+//                                     frame placed at the view's pose; in stereo the
+//                                     left eye's: one cloud per frameset)
 //   /foxglove/scene                   foxglove.SceneUpdate (balls, red while colliding;
 //                                     collision points as small red spheres; cloth and
 //                                     payload meshes with their colliding triangles red;
@@ -22,7 +25,8 @@
 //                                     the hull touches them, amber near it)
 //   /foxglove/node_stats              hullpipe.NodeStatsPlot (fps, latencies: plottable)
 // Frames: "world" is the rig's world (metres), "camN" the OpenCV camera frame of
-// camera N, "view" the composited view's eye frame.
+// camera N, "view" the composited view's eye frame ("view_left", "view_right":
+// a headset's eyes).
 #pragma once
 
 #include <cstdint>
@@ -39,6 +43,7 @@
 #include "hullpipe/pipeline/messages.h"
 #include "hullpipe/pipeline/node_stats.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/stereo_views.h"
 
 namespace hullpipe::foxglove {
 
@@ -58,8 +63,8 @@ struct ChannelSpec {
   std::string topic, schema_name, schema;
 };
 
-/// The channels that do not depend on the rig (tf, hull_view, composited,
-/// hull_points, scene, node_stats).
+/// The channels that do not depend on the rig (tf, hull_view and composited
+/// with their left and right eyes', hull_points, scene, node_stats).
 std::vector<ChannelSpec> FixedChannels();
 /// The three channels of camera `camera_id` (image, object_pixel_map,
 /// calibration).
@@ -101,7 +106,9 @@ class Deriver {
   void Calibration(int64_t stamp_ns, const hullpipe_msg_CameraInfo& m);
   void Image(int64_t stamp_ns, uint32_t camera_id, const cv::Mat& bgr);
   void Map(int64_t stamp_ns, uint32_t camera_id, const cv::Mat& map);
-  void HullView(int64_t stamp_ns, const cv::Mat& bgr);
+  /// The composited tiles of a view of `eye` (its ViewPose's; kMono: the one
+  /// view): /foxglove/hull_view, or its /left or /right.
+  void HullView(int64_t stamp_ns, const cv::Mat& bgr, ViewEye eye = ViewEye::kMono);
   /// The hull points of a composited view: `depth` (CV_32FC1 eye z metres, <= 0
   /// or not finite: no hull) of the view `view` (its intrinsics and pose).
   void HullPoints(int64_t stamp_ns, const NovelView& view, const cv::Mat& depth);

@@ -346,7 +346,8 @@ void RenderController::IssuePoses() {
       f.eyes.push_back({NovelView::FromFov(o_.width, o_.height, o_.hfov_deg * M_PI / 180.0, world_from_eye), {}});
     }
     const uint64_t key = pose_seq_ + 1;
-    for (const auto& e : f.eyes) sink_.PublishPose(e.view, ++pose_seq_, fset->seq);
+    for (size_t k = 0; k < f.eyes.size(); ++k)
+      sink_.PublishPose(f.eyes[k].view, ++pose_seq_, fset->seq, ViewEyeOf(k, f.eyes.size()));
     // Render's own frameset in (its last sample taken) to its pose out.
     counters_.StageSince("issue", fset->last_arrival_ns);
     in_flight_[key] = std::move(f);
@@ -473,7 +474,8 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
     StageTimer pt(counters_, "publish");
     // Each eye's composite with its own pose (a headset shows each to its eye).
     for (size_t k = 0; k < frames.size(); ++k)
-      sink_.PublishComposite(frames[k], pose_seq + k, f.frame_seq, f.capture_time_ns);
+      sink_.PublishComposite(frames[k], pose_seq + k, f.frame_seq, f.capture_time_ns,
+                             ViewEyeOf(k, frames.size()));
   }
   counters_.FrameOut(f.capture_time_ns);
   last_composited_ = std::max(last_composited_, f.frame_seq);

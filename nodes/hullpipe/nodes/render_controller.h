@@ -117,8 +117,10 @@ struct RenderOptions {
 class RenderSink {
  public:
   virtual ~RenderSink() = default;
-  /// Ask the recon nodes for frameset frame_seq seen from `view`.
-  virtual void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq) = 0;
+  /// Ask the recon nodes for frameset frame_seq seen from `view`, the view of
+  /// `eye` (kMono: the one view; in stereo the left eye's pose, then the
+  /// right's, pose_seq one apart).
+  virtual void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq, ViewEye eye) = 0;
   /// One composited frame (CV_8UC3), the `count`-th, of frameset frame_seq, seen
   /// from `view`; hull_depth: the assembled tiles' eye-z depth (CV_32FC1 metres,
   /// kNoDepth where no hull), path_time_s: the time along the viewpoint's path
@@ -133,11 +135,12 @@ class RenderSink {
   virtual void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
                           const cv::Mat& hull_depth, double path_time_s, const RightEye* right = nullptr) = 0;
   /// The same frame for viewers (RenderOptions::publish_composite): composited
-  /// for pose pose_seq from frameset frame_seq, captured at capture_time_ns.
-  /// A sink that publishes nothing may ignore it.
+  /// for pose pose_seq (of `eye`) from frameset frame_seq, captured at
+  /// capture_time_ns. In stereo, once per eye with that eye's image alone. A
+  /// sink that publishes nothing may ignore it.
   virtual void PublishComposite(const cv::Mat& frame, uint64_t pose_seq, uint64_t frame_seq,
-                                int64_t capture_time_ns) {
-    (void)frame, (void)pose_seq, (void)frame_seq, (void)capture_time_ns;
+                                int64_t capture_time_ns, ViewEye eye) {
+    (void)frame, (void)pose_seq, (void)frame_seq, (void)capture_time_ns, (void)eye;
   }
 };
 

@@ -18,11 +18,12 @@ struct Recorder final : RenderSink {
   struct Pose {
     NovelView view;
     uint64_t pose_seq, frame_seq;
+    ViewEye eye;
   };
   std::vector<Pose> poses;
   std::vector<std::pair<uint64_t, cv::Mat>> frames;  // frame_seq, image
-  void PublishPose(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq) override {
-    poses.push_back({v, pose_seq, frame_seq});
+  void PublishPose(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq, ViewEye eye) override {
+    poses.push_back({v, pose_seq, frame_seq, eye});
   }
   std::vector<NovelView> right_views;  // the right eye's, for each stereo frame
   void WriteFrame(const cv::Mat& f, uint64_t frame_seq, uint64_t, const NovelView&, const cv::Mat&, double,
@@ -34,10 +35,12 @@ struct Recorder final : RenderSink {
     cv::Mat frame;
     uint64_t pose_seq, frame_seq;
     int64_t capture_time_ns;
+    ViewEye eye;
   };
   std::vector<Published> published;
-  void PublishComposite(const cv::Mat& f, uint64_t pose_seq, uint64_t frame_seq, int64_t capture_time_ns) override {
-    published.push_back({f.clone(), pose_seq, frame_seq, capture_time_ns});
+  void PublishComposite(const cv::Mat& f, uint64_t pose_seq, uint64_t frame_seq, int64_t capture_time_ns,
+                        ViewEye eye) override {
+    published.push_back({f.clone(), pose_seq, frame_seq, capture_time_ns, eye});
   }
 };
 
@@ -151,6 +154,8 @@ TEST_F(Render, EachCompositedFrameIsPublishedForViewersUnlessTurnedOff) {
     ASSERT_EQ(sink.published.size(), 3u);
     for (size_t i = 0; i < 3; ++i) {
       EXPECT_EQ(sink.published[i].pose_seq, sink.poses[i].pose_seq);
+      EXPECT_EQ(sink.published[i].eye, ViewEye::kMono);
+      EXPECT_EQ(sink.poses[i].eye, ViewEye::kMono);
       EXPECT_EQ(sink.published[i].frame_seq, sink.frames[i].first);
       EXPECT_GT(sink.published[i].capture_time_ns, 0);
       EXPECT_EQ(cv::norm(sink.published[i].frame, sink.frames[i].second, cv::NORM_INF), 0);
@@ -455,6 +460,8 @@ TEST_F(Render, StereoAsksForBothEyesAndCompositesThemSideBySide) {
   EXPECT_EQ(left.frame_seq, 1u);
   EXPECT_EQ(right.frame_seq, 1u);
   EXPECT_EQ(right.pose_seq, left.pose_seq + 1);
+  EXPECT_EQ(left.eye, ViewEye::kLeft) << "each pose names its eye, for viewers downstream";
+  EXPECT_EQ(right.eye, ViewEye::kRight);
   // The eyes: the head's orbit pose, ipd apart along its x axis, parallel.
   const Rigid3d head = r.orbit().WorldFromEye(0.0);
   StereoOptions so = *o.stereo;
@@ -488,6 +495,8 @@ TEST_F(Render, StereoAsksForBothEyesAndCompositesThemSideBySide) {
   ASSERT_EQ(sink_.published.size(), 2u) << "each eye's composite on its own";
   EXPECT_EQ(sink_.published[0].pose_seq, left.pose_seq);
   EXPECT_EQ(sink_.published[1].pose_seq, right.pose_seq);
+  EXPECT_EQ(sink_.published[0].eye, ViewEye::kLeft);
+  EXPECT_EQ(sink_.published[1].eye, ViewEye::kRight);
   EXPECT_EQ(sink_.published[0].frame.size(), cv::Size(64, 48));
   EXPECT_EQ(sink_.published[1].frame.at<cv::Vec3b>(24, 32), cv::Vec3b(200, 0, 0));
   EXPECT_EQ(r.counters().frames_out(), 1u) << "one frame, two eyes";
@@ -547,6 +556,8 @@ TEST_F(Render, TheEyesFollowAnHmdRuntimesLiveViews) {
     r.Step();
     EXPECT_EQ(sink_.poses.size() % 2, 0u);
     const auto left = sink_.poses[sink_.poses.size() - 2], right = sink_.poses.back();
+    EXPECT_EQ(left.eye, ViewEye::kLeft);
+    EXPECT_EQ(right.eye, ViewEye::kRight);
     clock_.Advance(0.005);
     r.OnTile(WholeTile(left, kNoDepth, {0, 0, 0}));
     r.OnTile(WholeTile(right, kNoDepth, {0, 0, 0}));

@@ -76,10 +76,11 @@ std::string Ros2Deriver::OnImage(const hullpipe_msg_CameraImage& m) {
 std::string Ros2Deriver::OnViewPose(const hullpipe_msg_ViewPose& m) {
   return Guard([&] {
     const NovelView view = dds::ViewFromMsg(m);
-    views_[m.pose_seq] = view;
+    const ViewEye eye = ViewEye(m.eye);  // checked by ViewFromMsg
+    views_[m.pose_seq] = {view, eye};
     while (views_.size() > 256) views_.erase(views_.begin());
     if (!o_.view) return;
-    const auto tf = MakeViewTransform(view.world_from_eye, m.stamp_ns);
+    const auto tf = MakeViewTransform(view.world_from_eye, m.stamp_ns, eye);
     emit_({"/tf", "tf2_msgs/msg/TFMessage", kDefaultQos, &tf.msg, m.stamp_ns});
   });
 }
@@ -92,8 +93,11 @@ std::string Ros2Deriver::OnHullView(const hullpipe_msg_HullView& m) {
     if (!whole) return;
     const auto view = views_.find(pose);
     if (view == views_.end()) return;  // its pose not seen: nowhere to put the points
-    const auto cloud =
-        MakeHullPointCloud(view->second, whole->depth, whole->colour, o_.hull_point_stride, m.capture_time_ns);
+    // One cloud per frameset: a stereo pair's right eye sees the same hull from
+    // an IPD aside, in the same world frame.
+    if (view->second.eye == ViewEye::kRight) return;
+    const auto cloud = MakeHullPointCloud(view->second.view, whole->depth, whole->colour, o_.hull_point_stride,
+                                          m.capture_time_ns);
     emit_({"/hullpipe/hull_points", "sensor_msgs/msg/PointCloud2", kDefaultQos, &cloud.msg, m.capture_time_ns});
   });
 }
@@ -102,10 +106,10 @@ std::string Ros2Deriver::OnCompositedView(const hullpipe_msg_CompositedView& m) 
   return Guard([&] {
     if (!o_.view) return;
     dds::CheckCompositedViewMsg(m);  // render_node's JPEG, passed on once its header is checked
+    const ViewEye eye = ViewEye(m.eye);  // checked just now
     const auto jpeg = MakeCompressedImage(std::vector<uint8_t>(m.data._buffer, m.data._buffer + m.data._length),
-                                          m.capture_time_ns, kViewFrame);
-    emit_({"/hullpipe/view/compressed", "sensor_msgs/msg/CompressedImage", kDefaultQos, &jpeg.msg,
-           m.capture_time_ns});
+                                          m.capture_time_ns, ViewFrameId(eye));
+    emit_({ViewImageTopic(eye), "sensor_msgs/msg/CompressedImage", kDefaultQos, &jpeg.msg, m.capture_time_ns});
   });
 }
 

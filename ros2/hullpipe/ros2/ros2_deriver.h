@@ -21,6 +21,7 @@
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/camera.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/stereo_views.h"
 #include "hullpipe/reconstruction/tile_set.h"
 
 namespace hullpipe::ros2 {
@@ -90,7 +91,11 @@ class Ros2Deriver {
   Ros2DeriverOptions o_;
   Emit emit_;
   std::map<int, Camera> cameras_;
-  std::map<uint64_t, NovelView> views_;  // pose_seq -> view, newest 256
+  struct View {
+    NovelView view;
+    ViewEye eye = ViewEye::kMono;
+  };
+  std::map<uint64_t, View> views_;  // pose_seq -> view, newest 256
   TileSet tiles_;
   struct Part {
     ModelPartSample part;

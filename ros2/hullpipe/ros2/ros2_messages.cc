@@ -146,10 +146,20 @@ RosSample<geometry_msgs_msg_dds__PoseStamped_> MakePoseStamped(const Rigid3d& wo
   return s;
 }
 
-RosSample<tf2_msgs_msg_dds__TFMessage_> MakeViewTransform(const Rigid3d& world_from_eye, int64_t stamp_ns) {
+std::string ViewFrameId(ViewEye eye) {
+  return eye == ViewEye::kMono ? kViewFrame : std::string(kViewFrame) + "_" + ViewEyeName(eye);
+}
+
+std::string ViewImageTopic(ViewEye eye) {
+  return eye == ViewEye::kMono ? "/hullpipe/view/compressed"
+                               : std::string("/hullpipe/view/") + ViewEyeName(eye) + "/compressed";
+}
+
+RosSample<tf2_msgs_msg_dds__TFMessage_> MakeViewTransform(const Rigid3d& world_from_eye, int64_t stamp_ns,
+                                                          ViewEye eye) {
   RosSample<tf2_msgs_msg_dds__TFMessage_> s;
   s.strings.reserve(2);
-  s.transforms.push_back(WorldTransform(&s.strings, stamp_ns, kViewFrame, world_from_eye));
+  s.transforms.push_back(WorldTransform(&s.strings, stamp_ns, ViewFrameId(eye), world_from_eye));
   dds::Borrow(&s.msg.transforms, s.transforms);
   return s;
 }

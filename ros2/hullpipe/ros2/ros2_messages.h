@@ -60,6 +60,15 @@ struct RosSample {
 inline constexpr const char* kWorldFrame = "hullpipe_world";
 /// render_node's view (the head pose it composites for; OpenCV eye frame).
 inline constexpr const char* kViewFrame = "hullpipe_view";
+/// The frame of a view of `eye`: kViewFrame for the one view (kMono),
+/// "hullpipe_view_left" and "hullpipe_view_right" for a headset's eyes
+/// (render_node --stereo; docs/hmd.md).
+std::string ViewFrameId(ViewEye eye);
+/// The ROS 2 topic of render_node's composited view of `eye`:
+/// "/hullpipe/view/compressed" (kMono), "/hullpipe/view/left/compressed",
+/// "/hullpipe/view/right/compressed" (image_transport's compressed topic of a
+/// stereo pair's left and right image).
+std::string ViewImageTopic(ViewEye eye);
 /// Camera `id`'s optical frame id: "hullpipe_cam<id>".
 std::string CameraFrameId(int id);
 
@@ -97,8 +106,10 @@ RosSample<tf2_msgs_msg_dds__TFMessage_> MakeCameraTransforms(const std::vector<C
 RosSample<geometry_msgs_msg_dds__PoseStamped_> MakePoseStamped(const Rigid3d& world_from_eye, int64_t stamp_ns,
                                                                const std::string& frame_id);
 
-/// tf2_msgs/TFMessage with the view's pose: kWorldFrame -> kViewFrame (for /tf).
-RosSample<tf2_msgs_msg_dds__TFMessage_> MakeViewTransform(const Rigid3d& world_from_eye, int64_t stamp_ns);
+/// tf2_msgs/TFMessage with the view's pose: kWorldFrame -> ViewFrameId(eye)
+/// (for /tf).
+RosSample<tf2_msgs_msg_dds__TFMessage_> MakeViewTransform(const Rigid3d& world_from_eye, int64_t stamp_ns,
+                                                          ViewEye eye = ViewEye::kMono);
 
 /// sensor_msgs/PointCloud2 of the visual hull as the view sees it: every
 /// `stride`-th pixel's hull point (depth: CV_32FC1 eye z, colour: CV_8UC3 BGR,

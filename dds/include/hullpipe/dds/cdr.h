@@ -32,9 +32,11 @@ struct KnownType {
   /// XCDR1 bytes of the fields appended to this @final type since recordings
   /// were first made of it (0: none). A recorded sample of the earlier layout
   /// is the new one's prefix: CdrWriter completes it with this many zeros (the
-  /// appended fields' zero values, alignment included) when it does not
-  /// deserialize as it is. CollisionReport: 24 (its hull velocity fields);
-  /// VirtualObjectState: 31 (7 of alignment and its box's half extents).
+  /// appended fields' zero values, alignment included; then padding to a
+  /// multiple of 4, as the header declares) when it does not deserialize as it
+  /// is. CollisionReport: 24 (its hull velocity fields); VirtualObjectState: 31
+  /// (7 of alignment and its box's half extents); ViewPose and CompositedView:
+  /// 1 (the eye: VIEW_EYE_MONO).
   size_t appended_bytes = 0;
   /// After those zeros, an empty string (the appended string field's empty
   /// value: length 1 and its NUL, in the sample's byte order, 4-aligned).

@@ -66,24 +66,31 @@ struct ViewEncoding {
 
 /// The CompositedView of render_node's composited frame `bgr` (CV_8UC3, the
 /// view's size) of frameset `frame_seq` (captured at capture_time_ns, shown for
-/// pose `pose_seq`, run `run_id`): scaled down with area interpolation so that
-/// its longer side is at most encoding.max_side px (aspect kept), then JPEG.
-/// Throws MessageError for an empty frame or an encoding outside its ranges.
+/// pose `pose_seq`, run `run_id`, for `eye`): scaled down with area
+/// interpolation so that its longer side is at most encoding.max_side px
+/// (aspect kept), then JPEG. Throws MessageError for an empty frame or an
+/// encoding outside its ranges.
 OwnedSample<hullpipe_msg_CompositedView> MakeCompositedViewMessage(const cv::Mat& bgr, uint64_t pose_seq,
                                                                    uint64_t frame_seq, int64_t capture_time_ns,
-                                                                   uint64_t run_id, const ViewEncoding& encoding);
+                                                                   uint64_t run_id, const ViewEncoding& encoding,
+                                                                   ViewEye eye = ViewEye::kMono);
+/// The eye of a ViewPose's or CompositedView's `eye` field (VIEW_EYE_*).
+/// Throws MessageError naming `who` for a value that is none of them.
+ViewEye ViewEyeFromMsg(const std::string& who, uint8_t eye);
 /// Checks a CompositedView without decoding it: image and view sizes in
 /// [1, 16384], the image no larger than the view, `data` a JPEG of the stated
-/// size. Throws MessageError naming what is wrong.
+/// size, the eye one of VIEW_EYE_*. Throws MessageError naming what is wrong.
 void CheckCompositedViewMsg(const hullpipe_msg_CompositedView& msg);
 /// The decoded BGR image (CV_8UC3, width x height) after CheckCompositedViewMsg.
 /// Throws MessageError.
 cv::Mat CompositedViewFromMsg(const hullpipe_msg_CompositedView& msg);
 
-/// ViewPose for a novel view, of run `run_id` (docs/reliability.md, "run id").
+/// ViewPose for a novel view, of run `run_id` (docs/reliability.md, "run id"),
+/// for `eye` (a headset's left or right eye; kMono: a monitor's one view).
 hullpipe_msg_ViewPose ViewToMsg(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq,
-                                int64_t stamp_ns, uint64_t run_id = 0);
-/// Validated NovelView (size 1..8192, finite, orthonormal rotation).
+                                int64_t stamp_ns, uint64_t run_id = 0, ViewEye eye = ViewEye::kMono);
+/// Validated NovelView (size 1..8192, finite, orthonormal rotation, the eye one
+/// of VIEW_EYE_*: its value is ViewEyeFromMsg(msg.eye)).
 NovelView ViewFromMsg(const hullpipe_msg_ViewPose& msg);
 
 OwnedSample<hullpipe_msg_HullView> MakeHullViewMessage(const HullTile& tile, uint32_t planes);
