@@ -913,6 +913,28 @@ TEST(Hmd, AHeadsetClientOnRos2DrivesBothEyesThroughHullpipeRos2) {
   want.fov[1] = want.fov[0].Mirrored();
   dds::Participant client(domain);
   dds::Writer<hullpipe_msgs_msg_dds__EyeViews_> writer(client, "rt/hullpipe/eye_views", ros2::kDefaultQos);
+  // What a ROS 2 viewer gets back: each eye's composite on its own topic, in its
+  // own frame, and each eye's frame on /tf (the one view's topic and frame stay
+  // unused: the eyes are the positive control for that absence).
+  using CompressedImage = sensor_msgs_msg_dds__CompressedImage_;
+  std::map<std::string, std::unique_ptr<dds::Reader<CompressedImage>>> images;
+  for (const char* topic : {"/hullpipe/view/left/compressed", "/hullpipe/view/right/compressed",
+                            "/hullpipe/view/compressed"})
+    images[topic] = std::make_unique<dds::Reader<CompressedImage>>(client, ros2::DdsTopicOf(topic), ros2::kDefaultQos);
+  dds::Reader<tf2_msgs_msg_dds__TFMessage_> tf(client, "rt/tf", ros2::kTfReaderQos);
+  std::map<std::string, int> images_got;
+  std::map<std::string, std::set<std::string>> image_frames;
+  std::map<std::string, int> tf_frames;
+  const auto take_views = [&] {
+    for (const auto& [topic, reader] : images)
+      reader->TakeEach([&, t = topic](const CompressedImage& m, const dds_sample_info_t&) {
+        ++images_got[t];
+        image_frames[t].insert(m.header.frame_id);
+      });
+    tf.TakeEach([&](const tf2_msgs_msg_dds__TFMessage_& m, const dds_sample_info_t&) {
+      for (uint32_t i = 0; i < m.transforms._length; ++i) ++tf_frames[m.transforms._buffer[i].child_frame_id];
+    });
+  };
   constexpr int kWidth = 160, kHeight = 120;
   test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "36", "--fps", "12",
                         "--view", "eyes-topic", "--width", std::to_string(kWidth), "--height",
@@ -938,10 +960,20 @@ TEST(Hmd, AHeadsetClientOnRos2DrivesBothEyesThroughHullpipeRos2) {
       ++good_sent;
     }
     writer.Write(m.msg);
+    take_views();
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   ASSERT_EQ(launch.Wait(30), 0) << test::ReadFile((out / "launch.log").string());
+  take_views();
   EXPECT_GT(bad_sent, 10);
+  EXPECT_GE(images_got["/hullpipe/view/left/compressed"], 3);
+  EXPECT_GE(images_got["/hullpipe/view/right/compressed"], 3);
+  EXPECT_EQ(images_got["/hullpipe/view/compressed"], 0) << "an eye sent as the one view";
+  EXPECT_EQ(image_frames["/hullpipe/view/left/compressed"], std::set<std::string>{"hullpipe_view_left"});
+  EXPECT_EQ(image_frames["/hullpipe/view/right/compressed"], std::set<std::string>{"hullpipe_view_right"});
+  EXPECT_GE(tf_frames["hullpipe_view_left"], 3);
+  EXPECT_GE(tf_frames["hullpipe_view_right"], 3);
+  EXPECT_EQ(tf_frames.count("hullpipe_view"), 0u) << "an eye's pose sent as the one view's";
   const auto stats = nlohmann::json::parse(test::ReadFile((out / "run" / "stats.json").string()));
   EXPECT_GE(stats["frames_composited"].get<int>(), 6) << stats.dump(1);
   EXPECT_EQ(stats["nodes"]["render"]["rejected"].get<int>(), 0) << "a bad view reached render";
