@@ -16,7 +16,7 @@ file(READ ${doc} text)
 file(GLOB_RECURSE headers RELATIVE ${SOURCE_DIR}
      ${SOURCE_DIR}/core/*.h ${SOURCE_DIR}/gl/*.h ${SOURCE_DIR}/nodes/*.h ${SOURCE_DIR}/dds/*.h
      ${SOURCE_DIR}/record/*.h ${SOURCE_DIR}/launch/*.h ${SOURCE_DIR}/foxglove/*.h ${SOURCE_DIR}/ros2/*.h
-     ${SOURCE_DIR}/tools/*.h)
+     ${SOURCE_DIR}/openxr/*.h ${SOURCE_DIR}/tools/*.h)
 list(SORT headers)
 set(missing 0)
 foreach(h IN LISTS headers)

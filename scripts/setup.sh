@@ -12,6 +12,7 @@ PACKAGES=(
   libcli11-dev libspdlog-dev nlohmann-json3-dev libyaml-cpp-dev libsqlite3-dev libxml2-dev libzstd-dev liblz4-dev
   libwebsocketpp-dev libasio-dev
   libassimp-dev assimp-testmodels
+  libopenxr-dev
   ffmpeg gnuplot-nox openssl iproute2 iceoryx linux-perf
   clang-14 libclang-rt-14-dev llvm-14
 )
