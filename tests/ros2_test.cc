@@ -715,6 +715,12 @@ TEST(Ros2Process, ATfFrameDrivesTheViewAndAFloodOfFramesIsBounded) {
 // and frames becomes an MCAP file as rosbag2 writes one (profile ros2,
 // schemas ros2msg, messages cdr, offered_qos_profiles), which @mcap/core reads
 // and Foxglove's ROS 2 parser and decoder decode in full, field by field.
+// A codec of hullpipe type `type` that publishes nothing (samples for a recording).
+std::unique_ptr<dds::CdrWriter> DecodeOnlyCodec(const dds::Participant& p, const char* type) {
+  const dds::KnownType& kt = *dds::FindKnownType(type);
+  return std::make_unique<dds::CdrWriter>(p, kt, kt.qos, dds::CdrWriter::Scope::kDecodeOnly);
+}
+
 TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
   const auto dir = test::TempDir("ros2_export");
   setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
@@ -727,10 +733,7 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
   const int64_t t0 = 1'700'000'000'000'000'000;
   {
     dds::Participant p(domain);
-    auto codec = [&](const char* type) {
-      const dds::KnownType& kt = *dds::FindKnownType(type);
-      return std::make_unique<dds::CdrWriter>(p, kt, kt.qos, dds::CdrWriter::Scope::kDecodeOnly);
-    };
+    auto codec = [&](const char* type) { return DecodeOnlyCodec(p, type); };
     auto info_codec = codec("hullpipe::msg::CameraInfo"), map_codec = codec("hullpipe::msg::ObjectPixelMap"),
          image_codec = codec("hullpipe::msg::CameraImage"), state_codec = codec("hullpipe::msg::VirtualObjectState"),
          report_codec = codec("hullpipe::msg::CollisionReport"), mesh_codec = codec("hullpipe::msg::VirtualMesh");
@@ -887,10 +890,7 @@ TEST(Ros2Export, AHeadsetsEyesEachGetTheirOwnFrameAndTopic) {
   const int64_t t0 = 1'700'000'000'000'000'000;
   {
     dds::Participant p(domain);
-    auto codec = [&](const char* type) {
-      const dds::KnownType& kt = *dds::FindKnownType(type);
-      return std::make_unique<dds::CdrWriter>(p, kt, kt.qos, dds::CdrWriter::Scope::kDecodeOnly);
-    };
+    auto codec = [&](const char* type) { return DecodeOnlyCodec(p, type); };
     auto pose_codec = codec("hullpipe::msg::ViewPose"), tile_codec = codec("hullpipe::msg::HullView"),
          view_codec = codec("hullpipe::msg::CompositedView");
     record::RecordingWriter w(rec);
