@@ -202,7 +202,7 @@ class Exporter {
         (*j)["width"] = m.width, (*j)["height"] = m.height, (*j)["view_width"] = m.view_width;
         (*j)["view_height"] = m.view_height, (*j)["bytes"] = m.data._length, (*j)["run_id"] = m.run_id;
         (*j)["eye"] = m.eye;
-        if (o_.media) Frame(EyeVideo("composited", ViewEye(m.eye)), bgr, c);
+        if (o_.media) Frame(ForEye("composited", ViewEye(m.eye), '_'), bgr, c);  // a video per eye
       });
     if (type == "hullpipe::msg::HullView")
       return With<hullpipe_msg_HullView>(w, s, [&](const auto& m) {
@@ -327,15 +327,9 @@ class Exporter {
   }
 
   // Hull views: the tiles of one pose, pasted into one frame once all arrived.
-  // A video of each eye's frames: "composited" for the one view, beside it
-  // "composited_left" and "composited_right" for a headset's eyes.
-  static std::string EyeVideo(const std::string& name, ViewEye eye) {
-    return eye == ViewEye::kMono ? name : name + "_" + ViewEyeName(eye);
-  }
-
   void AddTile(HullTile t, Counts* c) {
     const auto eye = eyes_.find(t.pose_seq);  // its ViewPose's eye; unseen: the one view
-    const std::string name = EyeVideo("hull_view", eye == eyes_.end() ? ViewEye::kMono : eye->second);
+    const std::string name = ForEye("hull_view", eye == eyes_.end() ? ViewEye::kMono : eye->second, '_');
     if (const auto view = tiles_.Add(std::move(t))) Frame(name, view->colour, c);
   }
 

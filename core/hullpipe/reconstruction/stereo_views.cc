@@ -40,16 +40,16 @@ NovelView EyeView(const EyeFov& fov, int width, int height, const Rigid3d& world
   return v;
 }
 
-const char* ViewEyeName(ViewEye eye) {
+std::string ForEye(const std::string& base, ViewEye eye, char separator) {
   switch (eye) {
     case ViewEye::kLeft:
-      return "left";
+      return base + separator + "left";
     case ViewEye::kRight:
-      return "right";
+      return base + separator + "right";
     case ViewEye::kMono:
       break;
   }
-  return "";
+  return base;
 }
 
 Rigid3d WorldFromEye(const Rigid3d& world_from_head, Eye eye, double ipd_m) {

@@ -58,8 +58,10 @@ enum class ViewEye : uint8_t { kMono = 0, kLeft = 1, kRight = 2 };
 inline ViewEye ViewEyeOf(size_t k, size_t n) {
   return n < 2 ? ViewEye::kMono : (k == 0 ? ViewEye::kLeft : ViewEye::kRight);
 }
-/// The suffix of an eye's frame or topic: "" (kMono), "left", "right".
-const char* ViewEyeName(ViewEye eye);
+/// `base` named for `eye`, the one rule for every per-eye frame, topic and
+/// file: `base` itself for the one view (kMono), else base + separator +
+/// "left" or "right" ("hullpipe_view_left", "/foxglove/composited/left").
+std::string ForEye(const std::string& base, ViewEye eye, char separator);
 
 /// An eye's pose from the head's: the head's orientation, the eye ipd_m / 2
 /// along the head's -x (left) or +x (right) axis (the eyes' views parallel, as

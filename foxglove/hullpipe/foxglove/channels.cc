@@ -166,24 +166,11 @@ struct PartGeometry {
 
 }  // namespace
 
-namespace {
-
-// A view's topic and frame for `eye`: the one view's, or its eye's beside it.
-std::string EyeTopic(const std::string& base, ViewEye eye) {
-  return eye == ViewEye::kMono ? base : base + "/" + ViewEyeName(eye);
-}
-
-std::string EyeFrame(ViewEye eye) {
-  return eye == ViewEye::kMono ? "view" : std::string("view_") + ViewEyeName(eye);
-}
-
-}  // namespace
-
 std::vector<ChannelSpec> FixedChannels() {
   std::vector<ChannelSpec> c = {Spec("/foxglove/tf", "foxglove.FrameTransforms")};
   for (const ViewEye eye : {ViewEye::kMono, ViewEye::kLeft, ViewEye::kRight}) {
-    c.push_back(Spec(EyeTopic("/foxglove/hull_view", eye), "foxglove.CompressedImage"));
-    c.push_back(Spec(EyeTopic("/foxglove/composited", eye), "foxglove.CompressedImage"));
+    c.push_back(Spec(ForEye("/foxglove/hull_view", eye, '/'), "foxglove.CompressedImage"));
+    c.push_back(Spec(ForEye("/foxglove/composited", eye, '/'), "foxglove.CompressedImage"));
   }
   for (const auto& spec : {Spec("/foxglove/hull_points", "foxglove.PointCloud"),
                            Spec("/foxglove/scene", "foxglove.SceneUpdate"),
@@ -224,8 +211,8 @@ std::vector<std::string> SourceTypes(const std::string& topic) {
   }
   if (topic == "/foxglove/tf") return {"hullpipe::msg::CameraInfo"};
   for (const ViewEye eye : {ViewEye::kMono, ViewEye::kLeft, ViewEye::kRight}) {
-    if (topic == EyeTopic("/foxglove/composited", eye)) return {"hullpipe::msg::CompositedView"};
-    if (topic == EyeTopic("/foxglove/hull_view", eye)) return {"hullpipe::msg::HullView", "hullpipe::msg::ViewPose"};
+    if (topic == ForEye("/foxglove/composited", eye, '/')) return {"hullpipe::msg::CompositedView"};
+    if (topic == ForEye("/foxglove/hull_view", eye, '/')) return {"hullpipe::msg::HullView", "hullpipe::msg::ViewPose"};
   }
   if (topic == "/foxglove/hull_points") return {"hullpipe::msg::HullView", "hullpipe::msg::ViewPose"};
   if (topic == "/foxglove/scene")
@@ -322,7 +309,7 @@ bool Deriver::Add(const std::string& type, const std::vector<uint8_t>& cdr, int6
         const auto pose_view = d.views.find(pose);
         // The eye of its ViewPose; a tile whose pose was not seen is shown as the one view.
         const ViewEye eye = pose_view == d.views.end() ? ViewEye::kMono : pose_view->second.second;
-        if (!d.Want(EyeTopic("/foxglove/hull_view", eye)) && !d.Want("/foxglove/hull_points")) return;
+        if (!d.Want(ForEye("/foxglove/hull_view", eye, '/')) && !d.Want("/foxglove/hull_points")) return;
         const auto view = d.tiles.Add(dds::TileFromMsg(m));
         if (!view) return;
         // One cloud per frameset: a stereo pair's right eye sees the same hull
@@ -336,9 +323,9 @@ bool Deriver::Add(const std::string& type, const std::vector<uint8_t>& cdr, int6
         // render_node's JPEG, passed through once its header is checked.
         dds::CheckCompositedViewMsg(m);
         const ViewEye eye = ViewEye(m.eye);  // checked just now
-        const std::string topic = EyeTopic("/foxglove/composited", eye);
+        const std::string topic = ForEye("/foxglove/composited", eye, '/');
         if (d.Want(topic))
-          d.Compressed(topic, m.capture_time_ns, EyeFrame(eye), m.data._buffer, m.data._length, "jpeg");
+          d.Compressed(topic, m.capture_time_ns, ForEye("view", eye, '_'), m.data._buffer, m.data._length, "jpeg");
       });
     if (type == "hullpipe::msg::VirtualObjectState")
       return d.With<hullpipe_msg_VirtualObjectState>(type, cdr, [&](const auto& m) {
@@ -422,7 +409,7 @@ void Deriver::Map(int64_t stamp_ns, uint32_t camera_id, const cv::Mat& map) {
 }
 
 void Deriver::HullView(int64_t stamp_ns, const cv::Mat& bgr, ViewEye eye) {
-  impl_->Encode(EyeTopic("/foxglove/hull_view", eye), stamp_ns, EyeFrame(eye), bgr, "jpeg");
+  impl_->Encode(ForEye("/foxglove/hull_view", eye, '/'), stamp_ns, ForEye("view", eye, '_'), bgr, "jpeg");
 }
 
 void Deriver::HullPoints(int64_t stamp_ns, const NovelView& view, const cv::Mat& depth) {

@@ -147,12 +147,11 @@ RosSample<geometry_msgs_msg_dds__PoseStamped_> MakePoseStamped(const Rigid3d& wo
 }
 
 std::string ViewFrameId(ViewEye eye) {
-  return eye == ViewEye::kMono ? kViewFrame : std::string(kViewFrame) + "_" + ViewEyeName(eye);
+  return ForEye(kViewFrame, eye, '_');
 }
 
 std::string ViewImageTopic(ViewEye eye) {
-  return eye == ViewEye::kMono ? "/hullpipe/view/compressed"
-                               : std::string("/hullpipe/view/") + ViewEyeName(eye) + "/compressed";
+  return ForEye("/hullpipe/view", eye, '/') + "/compressed";
 }
 
 RosSample<tf2_msgs_msg_dds__TFMessage_> MakeViewTransform(const Rigid3d& world_from_eye, int64_t stamp_ns,
