@@ -51,8 +51,7 @@ int main(int argc, char** argv) {
     spdlog::info("OpenXR runtime {}; locating both eyes in its {} space", session.runtime(), o.space);
     uint64_t sent = 0;
     std::string last_skip;
-    while (!session.exiting() && (frames == 0 || sent < frames)) {
-      if (StopRequested()) break;
+    while (!StopRequested() && !session.exiting() && (frames == 0 || sent < frames)) {
       if (auto views = session.Step()) {
         writer.Write(EyeViewsToMsg(*views));
         ++sent;

@@ -20,6 +20,10 @@ int64_t ClockNs(clockid_t clock) {
   return int64_t(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
+// A located view's pose is usable only with both bits (otherwise the runtime
+// lost tracking).
+constexpr XrViewStateFlags kPoseValid = XR_VIEW_STATE_POSITION_VALID_BIT | XR_VIEW_STATE_ORIENTATION_VALID_BIT;
+
 // Calls an OpenXR function and throws XrError naming it when it fails.
 void Check(XrResult r, const char* call, const std::string& meaning = "") {
   if (XR_FAILED(r)) throw XrError(call, r, meaning);
@@ -85,8 +89,8 @@ Rigid3d RigidFromPoseText(const std::string& text, const std::string& flag) {
 EyeViewsSample EyeViewsFromXr(const XrView* views, uint32_t count, XrViewStateFlags flags,
                               const Rigid3d& world_from_space, int64_t stamp_ns, uint32_t tracker_id) {
   if (count != 2) throw std::invalid_argument("xrLocateViews gave " + std::to_string(count) + " views, not 2");
-  const XrViewStateFlags both = XR_VIEW_STATE_POSITION_VALID_BIT | XR_VIEW_STATE_ORIENTATION_VALID_BIT;
-  if ((flags & both) != both) throw std::invalid_argument("the runtime marked the views' pose invalid (tracking lost)");
+  if ((flags & kPoseValid) != kPoseValid)
+    throw std::invalid_argument("the runtime marked the views' pose invalid (tracking lost)");
   EyeViewsSample s;
   s.tracker_id = tracker_id;
   s.stamp_ns = stamp_ns;
@@ -239,8 +243,7 @@ std::optional<EyeViewsSample> XrEyeSession::Step() {
   ei.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
   Check(xrEndFrame(session_, &ei), "xrEndFrame");
   Check(located, "xrLocateViews");
-  const XrViewStateFlags both = XR_VIEW_STATE_POSITION_VALID_BIT | XR_VIEW_STATE_ORIENTATION_VALID_BIT;
-  if ((vs.viewStateFlags & both) != both) {
+  if ((vs.viewStateFlags & kPoseValid) != kPoseValid) {
     ++counts_.untracked;
     last_skip_ = "tracking lost";
     return std::nullopt;
