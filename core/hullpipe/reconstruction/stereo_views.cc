@@ -40,6 +40,15 @@ NovelView EyeView(const EyeFov& fov, int width, int height, const Rigid3d& world
   return v;
 }
 
+EyeFov FovOfView(const NovelView& view) {
+  if (!(view.fx > 0) || !(view.fy > 0) || view.width < 1 || view.height < 1)
+    throw std::invalid_argument("a view's fov needs positive fx, fy and size");
+  const EyeFov fov{std::atan(-view.cx / view.fx), std::atan((view.width - view.cx) / view.fx),
+                   std::atan(view.cy / view.fy), std::atan((view.cy - view.height) / view.fy)};
+  fov.Check();
+  return fov;
+}
+
 std::string ForEye(const std::string& base, ViewEye eye, char separator) {
   switch (eye) {
     case ViewEye::kLeft:

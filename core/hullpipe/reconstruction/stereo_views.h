@@ -45,6 +45,13 @@ struct EyeFov {
 /// fy = height / (tan up - tan down), cy = tan(up) fy. Throws
 /// std::invalid_argument for a bad fov or size.
 NovelView EyeView(const EyeFov& fov, int width, int height, const Rigid3d& world_from_eye);
+/// EyeView's inverse: the XrFovf a pinhole view spans, its image's edges at
+/// pixel 0 and width (height) through the intrinsics: left = atan(-cx / fx),
+/// right = atan((width - cx) / fx), up = atan(cy / fy), down = atan((cy -
+/// height) / fy). What an OpenXR projection layer's view says of an image
+/// drawn for that view (docs/hmd.md, "Display"). Throws std::invalid_argument
+/// when fx or fy is not positive or the result fails EyeFov::Check.
+EyeFov FovOfView(const NovelView& view);
 
 enum class Eye { kLeft = 0, kRight = 1 };
 

@@ -59,6 +59,10 @@ class EglContext {
 
   /// Makes this context current on the calling thread.
   void MakeCurrent() const;
+  /// The EGL display and context, for an API that shares the context (an
+  /// OpenXR runtime's graphics binding, openxr/xr_display.h). Owned here.
+  EGLDisplay display() const { return display_; }
+  EGLContext context() const { return context_; }
   /// GL_RENDERER string, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)".
   const std::string& renderer() const { return info_.renderer; }
   const GlInfo& info() const { return info_; }
