@@ -34,8 +34,9 @@ set(rules
   "foxglove|util pipeline geometry reconstruction segmentation dds foxglove"
   # (ROS 2 messages of the pipeline's samples, as dds's conversions)
   "ros2|util pipeline geometry reconstruction dds ros2"
-  # (an OpenXR runtime's views as the pipeline's eye views: no DDS, no GL)
-  "openxr|util pipeline geometry reconstruction openxr")
+  # (an OpenXR runtime's views as the pipeline's eye views, no DDS; gl for
+  # xr_display.cc alone: hullpipe_openxr_client does not link hullpipe_gl)
+  "openxr|util pipeline geometry reconstruction gl openxr")
 # The DDS wrapper (hullpipe_dds_base) sits on the pipeline's types alone; the
 # conversions (hullpipe_dds) on the core types they convert. Neither on nodes or gl.
 set(dds_base_files dds.h dds.cc cdr.h cdr.cc node.h node.cc topics.h owned_sample.h node_stats_convert.h

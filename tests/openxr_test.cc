@@ -2,21 +2,28 @@
 // OpenXR runtime, through the Khronos loader nobody here wrote, into EyeViews.
 // The runtime is tests/fake_openxr_runtime.cc, whose eyes follow a script
 // (tests/fake_openxr_script.h) that the checks below state independently:
-// each eye's centre, optical axis and image up in the rig's world.
+// each eye's centre, optical axis and image up in the rig's world. With
+// --display (docs/hmd.md, "Display") the runtime reads back what each eye
+// would show and the pose and fov each image is said to be drawn from.
 #include <chrono>
 #include <csignal>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "fake_openxr_script.h"
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/dds/dds.h"
 #include "hullpipe/dds/topics.h"
+#include "hullpipe/openxr/eye_images.h"
+#include "hullpipe/openxr/xr_display.h"
 #include "hullpipe/openxr/xr_eyes.h"
 #include "hullpipe/pipeline/clock.h"
 #include "test_util.h"
@@ -108,6 +115,97 @@ TEST(OpenXr, EachViewIsRegisteredIntoTheRigsWorldInOpenCvsAxes) {
   EXPECT_EQ(openxr::XrResultName(XrResult(-987654)), "XrResult(-987654)");
 }
 
+// A layer's pose is EyeViewsFromXr's inverse: the runtime's own view pose
+// comes back from the eye registered into the world (float32 again: 1e-6).
+TEST(OpenXr, ALayersPoseIsTheEyesPoseBackInTheRuntimesSpace) {
+  const XrView views[2] = {ViewOf(fake_xr::EyeAt(17, 0)), ViewOf(fake_xr::EyeAt(17, 1))};
+  const XrViewStateFlags valid = XR_VIEW_STATE_POSITION_VALID_BIT | XR_VIEW_STATE_ORIENTATION_VALID_BIT;
+  const Rigid3d W = WorldFromStage();
+  const EyeViewsSample s = openxr::EyeViewsFromXr(views, 2, valid, W, 0, 1);
+  for (int k = 0; k < 2; ++k) {
+    const XrPosef p = openxr::XrPoseInSpace(W, s.world_from_eye[size_t(k)]);
+    const XrPosef& want = views[k].pose;
+    EXPECT_NEAR(p.position.x, want.position.x, kFloatTolerance);
+    EXPECT_NEAR(p.position.y, want.position.y, kFloatTolerance);
+    EXPECT_NEAR(p.position.z, want.position.z, kFloatTolerance);
+    // q and -q are one rotation: compare |<q, q'>| with 1.
+    const double dot = double(p.orientation.x) * want.orientation.x + double(p.orientation.y) * want.orientation.y +
+                       double(p.orientation.z) * want.orientation.z + double(p.orientation.w) * want.orientation.w;
+    EXPECT_NEAR(std::abs(dot), 1.0, kFloatTolerance);
+  }
+  // The format: sRGB first (the images' bytes are sRGB), else linear 8-bit,
+  // else refused naming what was offered.
+  EXPECT_EQ(openxr::ChooseSwapchainFormat({openxr::kGlRgba8, openxr::kGlSrgb8Alpha8}), openxr::kGlSrgb8Alpha8);
+  EXPECT_EQ(openxr::ChooseSwapchainFormat({0x881A, openxr::kGlRgba8}), openxr::kGlRgba8);
+  try {
+    openxr::ChooseSwapchainFormat({0x881A});
+    ADD_FAILURE() << "GL_RGBA16F accepted";
+  } catch (const openxr::XrError& e) {
+    EXPECT_NE(std::string(e.what()).find("0x881a"), std::string::npos) << e.what();
+  }
+}
+
+// Pairs: each image with the ViewPose it was drawn for, left (pose_seq) with
+// right (pose_seq + 1) of one frameset; the one view's images, images without
+// a pose, and pairs older than one shown are not shown.
+TEST(OpenXr, ComposedEyesPairWithTheirPosesLeftWithRight) {
+  openxr::EyeImagePairs pairs(4);
+  const auto view = [](double x) {
+    Rigid3d X;
+    X.translation = {x, 0, 0};
+    return EyeView(EyeFov{}, 8, 6, X);
+  };
+  const cv::Mat img(6, 8, CV_8UC3, cv::Scalar(1, 2, 3));
+  pairs.AddPose(1, ViewEye::kMono, view(0));
+  EXPECT_NE(pairs.AddImage(1, ViewEye::kMono, 1, img).find("not an eye"), std::string::npos);
+  pairs.AddPose(10, ViewEye::kLeft, view(-0.032));
+  // The right eye's image before its pose: it waits for it.
+  EXPECT_EQ(pairs.AddImage(11, ViewEye::kRight, 5, img), "");
+  EXPECT_FALSE(pairs.TakeNewPair());
+  pairs.AddPose(11, ViewEye::kRight, view(0.032));
+  EXPECT_FALSE(pairs.TakeNewPair());  // the left one missing
+  EXPECT_EQ(pairs.AddImage(10, ViewEye::kLeft, 5, img), "");
+  auto pair = pairs.TakeNewPair();
+  ASSERT_TRUE(pair);
+  EXPECT_EQ((*pair)[0].pose_seq, 10u);
+  EXPECT_EQ((*pair)[1].pose_seq, 11u);
+  EXPECT_EQ((*pair)[0].view.world_from_eye.translation.x(), -0.032);
+  EXPECT_EQ((*pair)[1].view.world_from_eye.translation.x(), 0.032);
+  EXPECT_FALSE(pairs.TakeNewPair());  // handed out once
+  // Two newer poses; the images of different framesets do not pair.
+  pairs.AddPose(12, ViewEye::kLeft, view(-0.1));
+  pairs.AddPose(13, ViewEye::kRight, view(0.1));
+  EXPECT_EQ(pairs.AddImage(12, ViewEye::kLeft, 6, img), "");
+  EXPECT_EQ(pairs.AddImage(13, ViewEye::kRight, 7, img), "");
+  EXPECT_FALSE(pairs.TakeNewPair());
+  // The history holds 4 poses: 10 and 11 have fallen out, and an image of
+  // either waits in vain. Images without a pose wait, 4 at most: the fifth
+  // pushes the first out, named.
+  pairs.AddPose(14, ViewEye::kLeft, view(-0.2));
+  pairs.AddPose(15, ViewEye::kRight, view(0.2));
+  EXPECT_EQ(pairs.AddImage(10, ViewEye::kLeft, 5, img), "");
+  for (uint64_t seq : {30, 31, 32}) EXPECT_EQ(pairs.AddImage(seq, ViewEye::kLeft, 9, img), "");
+  EXPECT_NE(pairs.AddImage(33, ViewEye::kLeft, 9, img).find("no ViewPose 10"), std::string::npos);
+  EXPECT_EQ(pairs.AddImage(14, ViewEye::kLeft, 8, img), "");
+  EXPECT_EQ(pairs.AddImage(15, ViewEye::kRight, 8, img), "");
+  pair = pairs.TakeNewPair();
+  ASSERT_TRUE(pair);
+  EXPECT_EQ((*pair)[0].frame_seq, 8u);
+  EXPECT_EQ((*pair)[1].view.world_from_eye.translation.x(), 0.2);
+  // An older image arriving after a newer one of its eye does not replace it.
+  pairs.AddPose(16, ViewEye::kLeft, view(-0.3));
+  pairs.AddPose(17, ViewEye::kRight, view(0.3));
+  pairs.AddPose(18, ViewEye::kLeft, view(-0.4));
+  EXPECT_EQ(pairs.AddImage(18, ViewEye::kLeft, 10, img), "");
+  EXPECT_EQ(pairs.AddImage(16, ViewEye::kLeft, 9, img), "");
+  EXPECT_EQ(pairs.AddImage(17, ViewEye::kRight, 9, img), "");
+  EXPECT_FALSE(pairs.TakeNewPair());  // 18 stays the left eye's; 17 is not its pair
+  EXPECT_EQ(pairs.counts().paired, 2u);
+  EXPECT_EQ(pairs.counts().not_an_eye, 2u);
+  EXPECT_EQ(pairs.counts().no_pose, 1u);
+  EXPECT_EQ(pairs.counts().superseded, 3u);  // 12 and 13 by 14 and 15; 16 by 18
+}
+
 class OpenXrProcess : public ::testing::Test {
  protected:
   OpenXrProcess() : dir_(test::TempDir("openxr")), config_(test::WriteLoopbackConfig(dir_)), domain_(test::UniqueDomain()) {
@@ -190,6 +288,217 @@ TEST_F(OpenXrProcess, ALoadedRuntimesEyesArriveAsEyeViewsInTheRigsWorld) {
   }
 }
 
+// One layer line of the fake runtime's layers.txt: the frame, and per eye the
+// pose, fov, image size, format and the image file it dumped ("-": none new).
+struct LayerEye {
+  double p[3], q[4], fov[4];
+  int width, height;
+  int64_t format;
+  std::string file;
+};
+struct LayerLine {
+  uint64_t frame = 0;
+  int layers = 0;
+  std::vector<LayerEye> eyes;
+};
+std::vector<LayerLine> ReadLayers(const std::filesystem::path& file) {
+  std::vector<LayerLine> out;
+  std::ifstream f(file);
+  for (std::string line; std::getline(f, line);) {
+    std::istringstream ss(line);
+    LayerLine l;
+    std::string word;
+    ss >> l.frame >> word >> l.layers;
+    for (int k = 0; k < 2 * l.layers; ++k) {
+      LayerEye e;
+      int index = 0;
+      ss >> word >> index >> e.p[0] >> e.p[1] >> e.p[2] >> e.q[0] >> e.q[1] >> e.q[2] >> e.q[3] >> e.fov[0] >>
+          e.fov[1] >> e.fov[2] >> e.fov[3] >> e.width >> e.height >> e.format >> e.file;
+      l.eyes.push_back(e);
+    }
+    out.push_back(l);
+  }
+  return out;
+}
+
+// An eye image of pair i: a flat grey (60 + 50 i) with the top-left quadrant
+// red (left eye) or blue (right eye), so that a swapped eye, an upside-down
+// or mirrored upload and a stale image each show.
+cv::Mat EyePattern(int i, int eye) {
+  cv::Mat img(48, 64, CV_8UC3, cv::Scalar::all(60 + 50 * i));
+  img(cv::Rect(0, 0, 32, 24)).setTo(eye == 0 ? cv::Scalar(0, 0, 255) : cv::Scalar(255, 0, 0));
+  return img;
+}
+
+// The whole display path: render_node's part is played here from the views
+// the client sends. For three head poses the test publishes each eye's
+// ViewPose (EyeView of the eye's pose and fov at 64x48) and its composited
+// image; the runtime reads back each eye's swapchain image and the layer's
+// pose and fov. Each must be exactly what was composited for that eye (JPEG
+// of flat blocks at quality 95: within 8 levels away from the edges), upright,
+// at the pose the runtime reported for the frame it was drawn for, in its
+// space. Before any pair, frames carry no layer (and a monitor's composite,
+// not an eye's, is not shown): the layers come from the composites alone.
+TEST_F(OpenXrProcess, TheCompositedEyesReachTheHeadsetAtThePosesTheyWereDrawnFrom) {
+  const std::filesystem::path layers = dir_ / "layers";
+  std::filesystem::create_directories(layers);
+  dds::Participant p(domain_);
+  dds::Reader<hullpipe_msg_EyeViews> eyes(p, "hullpipe/eye_views", dds::QosSpec{false, false, 128});
+  dds::Writer<hullpipe_msg_ViewPose> poses(p);
+  dds::Writer<hullpipe_msg_CompositedView> images(p);
+  auto client = Start({"--display", "--world-from-space", kWorldFromStage},
+                      {{"HULLPIPE_FAKE_XR_LAYERS_DIR", layers.string()}});
+  const auto dumped = [&] {
+    size_t n = 0;
+    for (const auto& e : std::filesystem::directory_iterator(layers)) n += e.path().extension() == ".ppm";
+    return n;
+  };
+  double until = MonotonicSeconds() + 30;
+  while (images.MatchedReaders() == 0 && client->Running() && MonotonicSeconds() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_GT(images.MatchedReaders(), 0u) << test::ReadFile(Log());
+  // A monitor's composite first: not an eye, not shown.
+  const NovelView mono = EyeView(EyeFov{}, 64, 48, Rigid3d{});
+  poses.Write(dds::ViewToMsg(mono, 1, 1, NowNs(), 0, ViewEye::kMono));
+  images.Write(dds::MakeCompositedViewMessage(EyePattern(0, 0), 1, 1, NowNs(), 0, {1280, 95}).msg);
+  std::vector<std::array<NovelView, 2>> drawn;  // per pair, each eye's view
+  for (int i = 0; i < 3; ++i) {
+    // The newest views the client sent, as render_node --view eyes-topic takes them.
+    std::optional<EyeViewsSample> views;
+    until = MonotonicSeconds() + 30;
+    while (!views && client->Running() && MonotonicSeconds() < until) {
+      eyes.TakeEach([&](const hullpipe_msg_EyeViews& m, const dds_sample_info_t&) { views = dds::EyeViewsFromMsg(m); });
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ASSERT_TRUE(views) << test::ReadFile(Log());
+    std::array<NovelView, 2> v;
+    const size_t before = dumped();
+    for (int k = 0; k < 2; ++k) {
+      v[size_t(k)] = EyeView(views->fov[size_t(k)], 64, 48, views->world_from_eye[size_t(k)]);
+      poses.Write(dds::ViewToMsg(v[size_t(k)], uint64_t(10 + 2 * i + k), uint64_t(100 + i), NowNs(), 0,
+                                 k ? ViewEye::kRight : ViewEye::kLeft));
+    }
+    for (int k = 0; k < 2; ++k)
+      images.Write(dds::MakeCompositedViewMessage(EyePattern(i, k), uint64_t(10 + 2 * i + k), uint64_t(100 + i),
+                                                  NowNs(), 0, {1280, 95}, k ? ViewEye::kRight : ViewEye::kLeft)
+                       .msg);
+    drawn.push_back(v);
+    until = MonotonicSeconds() + 30;
+    while (dumped() < before + 2 && client->Running() && MonotonicSeconds() < until)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ASSERT_EQ(dumped(), before + 2) << "pair " << i << " not shown: " << test::ReadFile(Log());
+  }
+  client->Signal(SIGINT);
+  ASSERT_EQ(client->Wait(10), 0) << test::ReadFile(Log());
+  const std::string log = test::ReadFile(Log());
+  EXPECT_NE(log.find("GL_SRGB8_ALPHA8"), std::string::npos) << log;
+  EXPECT_NE(log.find("showed 3 composited eye pairs"), std::string::npos) << log;
+  EXPECT_NE(log.find("not an eye"), std::string::npos) << log;
+
+  const std::vector<LayerLine> lines = ReadLayers(layers / "layers.txt");
+  ASSERT_FALSE(lines.empty());
+  EXPECT_EQ(lines.front().layers, 0) << "a layer before any composite";
+  int pair = -1;
+  size_t with_layer = 0;
+  const Rigid3d W = WorldFromStage();
+  for (const LayerLine& l : lines) {
+    if (l.layers == 0) {
+      EXPECT_EQ(pair, -1) << "frame " << l.frame << ": no layer after one was shown";
+      continue;
+    }
+    ASSERT_EQ(l.layers, 1);
+    ++with_layer;
+    if (l.eyes[0].file != "-") ++pair;
+    ASSERT_GE(pair, 0) << "a layer before its images";
+    ASSERT_LT(pair, 3);
+    for (int k = 0; k < 2; ++k) {
+      const LayerEye& e = l.eyes[size_t(k)];
+      const std::string what = "frame " + std::to_string(l.frame) + " eye " + std::to_string(k);
+      EXPECT_EQ(e.width, 64) << what;
+      EXPECT_EQ(e.height, 48) << what;
+      EXPECT_EQ(e.format, openxr::kGlSrgb8Alpha8) << what;
+      // The pose the image was drawn from, in the runtime's space: where the
+      // runtime put that eye (the views the test drew from came from it).
+      const XrPosef want = openxr::XrPoseInSpace(W, drawn[size_t(pair)][size_t(k)].world_from_eye);
+      EXPECT_NEAR(e.p[0], want.position.x, 1e-5) << what;
+      EXPECT_NEAR(e.p[1], 1.6, 1e-5) << what;  // the script's head height, independently
+      EXPECT_NEAR(e.p[2], want.position.z, 1e-5) << what;
+      EXPECT_NEAR(std::abs(e.q[0] * want.orientation.x + e.q[1] * want.orientation.y +
+                           e.q[2] * want.orientation.z + e.q[3] * want.orientation.w),
+                  1.0, 1e-5)
+          << what;
+      EXPECT_NEAR(e.q[1], std::sin(fake_xr::kYaw / 2) * (e.q[3] < 0 ? -1 : 1), 1e-5) << what;  // the script's turn
+      // The fov the runtime reported for that eye, back from the 64x48 view.
+      const fake_xr::ScriptedEye scripted = fake_xr::EyeAt(0, k);
+      for (int a = 0; a < 4; ++a) EXPECT_NEAR(e.fov[a], scripted.fov[a], 1e-5) << what << " angle " << a;
+      if (e.file == "-") continue;
+      const cv::Mat shown = cv::imread((layers / e.file).string(), cv::IMREAD_COLOR);
+      ASSERT_EQ(shown.size(), cv::Size(64, 48)) << e.file;
+      const cv::Vec3b colour = k == 0 ? cv::Vec3b(0, 0, 255) : cv::Vec3b(255, 0, 0);
+      const cv::Vec3b grey = cv::Vec3b::all(uchar(60 + 50 * pair));
+      for (const auto& [pt, want_px] : std::vector<std::pair<cv::Point, cv::Vec3b>>{
+               {{8, 6}, colour}, {{24, 18}, colour}, {{56, 6}, grey}, {{8, 42}, grey}, {{56, 42}, grey}}) {
+        const cv::Vec3b got = shown.at<cv::Vec3b>(pt);
+        for (int c = 0; c < 3; ++c)
+          EXPECT_NEAR(int(got[c]), int(want_px[c]), 8) << e.file << " at " << pt << " channel " << c;
+      }
+    }
+  }
+  EXPECT_EQ(pair, 2) << "three pairs shown";
+  EXPECT_GT(with_layer, 3u) << "the last pair stays shown until the next";
+}
+
+// The same through the real pipeline: hullpipe_launch --view eyes-topic draws
+// both eyes from the views the client sends, and the client shows what render
+// composited. Every composited frame's pair reaches the headset (render's
+// numbering of a head pose's two eyes is what the pairing expects), nothing is
+// refused, and every layer's eye sits where the runtime's script put an eye
+// (the head's height, its turn) with the script's fov: the pose each image was
+// drawn from, carried through render and back.
+TEST_F(OpenXrProcess, RendersCompositedEyesReachTheHeadsetThroughTheWholePipeline) {
+  const std::filesystem::path layers = dir_ / "layers";
+  std::filesystem::create_directories(layers);
+  auto client = Start({"--display", "--world-from-space", kWorldFromStage},
+                      {{"HULLPIPE_FAKE_XR_LAYERS_DIR", layers.string()}});
+  test::Process launch({test::BinDir() + "/hullpipe_launch", "--synthetic", "--frames", "24", "--fps", "12", "--view",
+                        "eyes-topic", "--width", "96", "--height", "72", "--out", (dir_ / "run").string(), "--domain",
+                        std::to_string(domain_), "--dds-config", config_},
+                       (dir_ / "launch.log").string());
+  ASSERT_EQ(launch.Wait(120), 0) << test::ReadFile((dir_ / "launch.log").string());
+  client->Signal(SIGINT);
+  ASSERT_EQ(client->Wait(10), 0) << test::ReadFile(Log());
+  const auto stats = test::ReadFile((dir_ / "run" / "stats.json").string());
+  const size_t at = stats.find("\"frames_composited\":");
+  ASSERT_NE(at, std::string::npos) << stats;
+  const int composited = std::stoi(stats.substr(at + 20));
+  ASSERT_GE(composited, 3) << test::ReadFile((dir_ / "launch.log").string());
+  const std::string log = test::ReadFile(Log());
+  const size_t shown_at = log.find("showed ");
+  ASSERT_NE(shown_at, std::string::npos) << log;
+  const int shown = std::stoi(log.substr(shown_at + 7));
+  // Best-effort composites on loopback: all but a stray one arrive.
+  EXPECT_GE(shown, composited - 2) << log;
+  EXPECT_LE(shown, composited) << log;
+  EXPECT_NE(log.find(" 0 composites or poses not shown"), std::string::npos) << log;
+  size_t with_layer = 0, images = 0;
+  for (const LayerLine& l : ReadLayers(layers / "layers.txt")) {
+    if (l.layers == 0) continue;
+    ++with_layer;
+    for (int k = 0; k < 2; ++k) {
+      const LayerEye& e = l.eyes[size_t(k)];
+      EXPECT_EQ(e.width, 96);
+      EXPECT_EQ(e.height, 72);
+      EXPECT_NEAR(e.p[1], 1.6, 1e-5) << "frame " << l.frame;
+      EXPECT_NEAR(std::abs(e.q[1]), std::sin(fake_xr::kYaw / 2), 1e-5) << "frame " << l.frame;
+      const fake_xr::ScriptedEye scripted = fake_xr::EyeAt(0, k);
+      for (int a = 0; a < 4; ++a) EXPECT_NEAR(e.fov[a], scripted.fov[a], 1e-5) << "frame " << l.frame;
+      images += e.file != "-";
+    }
+  }
+  EXPECT_GE(with_layer, size_t(shown));
+  EXPECT_EQ(images, std::min<size_t>(64, 2 * size_t(shown)));
+}
+
 // SIGINT: the client ends its session and exits 0 within a second.
 TEST_F(OpenXrProcess, SigintEndsTheSessionWithinASecond) {
   dds::Participant p(domain_);
@@ -209,8 +518,9 @@ TEST_F(OpenXrProcess, SigintEndsTheSessionWithinASecond) {
   EXPECT_NE(test::ReadFile(Log()).find("sent "), std::string::npos);
 }
 
-// No runtime, a runtime with no headless session, bad flags: exit 1 with one
-// line naming the call or the flag. (The positive control is the test above:
+// No runtime, a runtime with no headless session (or, for --display, no EGL
+// binding or no usable swapchain format), bad flags: exit 1 with one line
+// naming the call or the flag. (The positive control is the test above:
 // the same client and runtime, exit 0.)
 TEST_F(OpenXrProcess, NoRuntimeNoHeadlessSessionOrBadFlagsExitNonZeroNamingWhy) {
   struct Case {
@@ -223,6 +533,9 @@ TEST_F(OpenXrProcess, NoRuntimeNoHeadlessSessionOrBadFlagsExitNonZeroNamingWhy) 
       {{}, {{"HULLPIPE_FAKE_XR_HEADLESS", "0"}}, "", "XR_MND_headless"},
       {{"--space", "moon"}, {}, "", "--space"},
       {{"--world-from-space", "1,2,3"}, {}, "", "--world-from-space"},
+      // --display: a runtime with no EGL binding, or no format hullpipe uploads.
+      {{"--display"}, {{"HULLPIPE_FAKE_XR_EGL", "0"}}, "", "XR_MNDX_egl_enable"},
+      {{"--display"}, {{"HULLPIPE_FAKE_XR_FORMATS", "34842"}}, "", "xrEnumerateSwapchainFormats"},
   };
   for (const Case& c : cases) {
     auto client = Start(c.args, c.env, c.manifest);

@@ -112,19 +112,40 @@ EyeViewsSample EyeViewsFromXr(const XrView* views, uint32_t count, XrViewStateFl
   return s;
 }
 
-XrEyeSession::XrEyeSession(const XrClientOptions& options) : o_(options) {
+XrPosef XrPoseInSpace(const Rigid3d& world_from_space, const Rigid3d& world_from_eye) {
+  const Rigid3d space_from_eye = world_from_space.Inverse() * world_from_eye;
+  const Eigen::Vector4d q = XrOrientationOf(space_from_eye);
+  XrPosef p{};
+  p.orientation = {float(q[0]), float(q[1]), float(q[2]), float(q[3])};
+  p.position = {float(space_from_eye.translation.x()), float(space_from_eye.translation.y()),
+                float(space_from_eye.translation.z())};
+  return p;
+}
+
+XrEyeSession::XrEyeSession(const XrClientOptions& options, const XrGraphicsBinding* graphics) : o_(options) {
   o_.Check();
   const std::vector<std::string> offered = OfferedExtensions();
-  const auto offers = [&](const char* name) {
+  const auto offers = [&](const std::string& name) {
     for (const auto& e : offered)
       if (e == name) return true;
     return false;
   };
-  if (!offers(XR_MND_HEADLESS_EXTENSION_NAME))
-    throw XrError("xrEnumerateInstanceExtensionProperties", XR_ERROR_EXTENSION_NOT_PRESENT,
-                  "the runtime offers no XR_MND_headless: hullpipe_openxr locates views without drawing, and "
-                  "display output is not built yet (docs/hmd.md)");
-  std::vector<const char*> enabled = {XR_MND_HEADLESS_EXTENSION_NAME};
+  std::vector<const char*> enabled;
+  if (graphics) {
+    for (const auto& e : graphics->extensions) {
+      if (!offers(e))
+        throw XrError("xrEnumerateInstanceExtensionProperties", XR_ERROR_EXTENSION_NOT_PRESENT,
+                      "the runtime offers no " + e + ", which showing images needs (docs/hmd.md, \"Display\"); "
+                      "without --display hullpipe_openxr only locates the eyes");
+      enabled.push_back(e.c_str());
+    }
+  } else {
+    if (!offers(XR_MND_HEADLESS_EXTENSION_NAME))
+      throw XrError("xrEnumerateInstanceExtensionProperties", XR_ERROR_EXTENSION_NOT_PRESENT,
+                    "the runtime offers no XR_MND_headless, which locating views without drawing needs: use "
+                    "--display (docs/hmd.md)");
+    enabled.push_back(XR_MND_HEADLESS_EXTENSION_NAME);
+  }
   const bool timespec = offers(XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME);
   if (timespec) enabled.push_back(XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME);
 
@@ -150,7 +171,9 @@ XrEyeSession::XrEyeSession(const XrClientOptions& options) : o_(options) {
     XrSystemGetInfo sg{XR_TYPE_SYSTEM_GET_INFO};
     sg.formFactor = XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY;
     Check(xrGetSystem(instance_, &sg, &system_), "xrGetSystem", "no head-mounted display is connected");
+    if (graphics && graphics->check_requirements) graphics->check_requirements(instance_, system_);
     XrSessionCreateInfo sc{XR_TYPE_SESSION_CREATE_INFO};  // headless: no graphics binding
+    sc.next = graphics ? graphics->session_next : nullptr;
     sc.systemId = system_;
     Check(xrCreateSession(instance_, &sc, &session_), "xrCreateSession");
     XrReferenceSpaceCreateInfo rs{XR_TYPE_REFERENCE_SPACE_CREATE_INFO};
@@ -220,7 +243,7 @@ int64_t XrEyeSession::RealtimeNsOf(XrTime t) const {
   return ClockNs(CLOCK_REALTIME);
 }
 
-std::optional<EyeViewsSample> XrEyeSession::Step() {
+std::optional<XrFrame> XrEyeSession::BeginFrame() {
   PollEvents();
   if (!running_ || exiting_) return std::nullopt;
   XrFrameState fs{XR_TYPE_FRAME_STATE};
@@ -229,6 +252,9 @@ std::optional<EyeViewsSample> XrEyeSession::Step() {
   XrFrameBeginInfo bi{XR_TYPE_FRAME_BEGIN_INFO};
   Check(xrBeginFrame(session_, &bi), "xrBeginFrame");
   ++counts_.frames;
+  XrFrame frame;
+  frame.display_time = fs.predictedDisplayTime;
+  frame.should_render = fs.shouldRender == XR_TRUE;
   XrViewLocateInfo li{XR_TYPE_VIEW_LOCATE_INFO};
   li.viewConfigurationType = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
   li.displayTime = fs.predictedDisplayTime;
@@ -237,28 +263,41 @@ std::optional<EyeViewsSample> XrEyeSession::Step() {
   XrView views[2] = {{XR_TYPE_VIEW}, {XR_TYPE_VIEW}};
   uint32_t n = 0;
   const XrResult located = xrLocateViews(session_, &li, &vs, 2, &n, views);
-  // Every xrBeginFrame is ended, whatever the views (no layers: headless).
-  XrFrameEndInfo ei{XR_TYPE_FRAME_END_INFO};
-  ei.displayTime = fs.predictedDisplayTime;
-  ei.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
-  Check(xrEndFrame(session_, &ei), "xrEndFrame");
-  Check(located, "xrLocateViews");
+  if (XR_FAILED(located)) {
+    EndFrame(frame, {});  // every xrBeginFrame is ended, whatever the views
+    Check(located, "xrLocateViews");
+  }
   if ((vs.viewStateFlags & kPoseValid) != kPoseValid) {
     ++counts_.untracked;
     last_skip_ = "tracking lost";
-    return std::nullopt;
+    return frame;
   }
   try {
-    auto s = EyeViewsFromXr(views, n, vs.viewStateFlags, o_.world_from_space, RealtimeNsOf(fs.predictedDisplayTime),
-                            o_.tracker_id);
+    frame.views = EyeViewsFromXr(views, n, vs.viewStateFlags, o_.world_from_space,
+                                 RealtimeNsOf(fs.predictedDisplayTime), o_.tracker_id);
     ++counts_.located;
     last_skip_.clear();
-    return s;
   } catch (const std::invalid_argument& e) {
     ++counts_.refused;
     last_skip_ = e.what();
-    return std::nullopt;
   }
+  return frame;
+}
+
+void XrEyeSession::EndFrame(const XrFrame& frame, const std::vector<const XrCompositionLayerBaseHeader*>& layers) {
+  XrFrameEndInfo ei{XR_TYPE_FRAME_END_INFO};
+  ei.displayTime = frame.display_time;
+  ei.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
+  ei.layerCount = uint32_t(layers.size());
+  ei.layers = layers.empty() ? nullptr : layers.data();
+  Check(xrEndFrame(session_, &ei), "xrEndFrame");
+}
+
+std::optional<EyeViewsSample> XrEyeSession::Step() {
+  auto frame = BeginFrame();
+  if (!frame) return std::nullopt;
+  EndFrame(*frame, {});  // headless: no layers
+  return frame->views;
 }
 
 void XrEyeSession::RequestExit() {

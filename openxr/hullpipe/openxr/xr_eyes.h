@@ -7,8 +7,10 @@
 //
 // Through the Khronos loader (libopenxr_loader): hullpipe links no runtime; the
 // loader finds the active one (XR_RUNTIME_JSON or the system's
-// active_runtime.json). The session is headless (XR_MND_headless): it locates
-// views and submits no images (display output is not built yet, docs/hmd.md).
+// active_runtime.json). The session is headless (XR_MND_headless: it locates
+// views and submits no images) or, given a graphics binding (xr_display.h's
+// EGL one), shows render_node's composited eyes in the headset as a
+// projection layer (docs/hmd.md, "Display").
 //
 // Frames: an XrView's pose is in the chosen reference space (LOCAL or STAGE),
 // OpenXR's view axes (x right, y up, z backward); hullpipe's eyes are in the
@@ -20,10 +22,12 @@
 #include <openxr/openxr.h>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "hullpipe/geometry/rigid3.h"
 #include "hullpipe/reconstruction/stereo_views.h"
@@ -78,6 +82,33 @@ Rigid3d RigidFromPoseText(const std::string& text, const std::string& flag);
 EyeViewsSample EyeViewsFromXr(const XrView* views, uint32_t count, XrViewStateFlags flags,
                               const Rigid3d& world_from_space, int64_t stamp_ns, uint32_t tracker_id);
 
+/// What a session that shows images needs of its graphics API (xr_display.h
+/// gives EGL's): the instance extensions to enable (the session fails naming
+/// the first the runtime does not offer), the API's requirements check, run
+/// between xrGetSystem and xrCreateSession as OpenXR requires (it throws
+/// XrError when the runtime cannot take the API's version), and the
+/// XrGraphicsBinding* structure chained into XrSessionCreateInfo (it must
+/// outlive the session's constructor).
+struct XrGraphicsBinding {
+  std::vector<std::string> extensions;
+  std::function<void(XrInstance, XrSystemId)> check_requirements;
+  const void* session_next = nullptr;
+};
+
+/// One frame of a running session, between XrEyeSession::BeginFrame and
+/// EndFrame.
+struct XrFrame {
+  XrTime display_time = 0;             ///< The runtime's predicted display time.
+  bool should_render = false;          ///< XrFrameState::shouldRender: layers would be shown.
+  std::optional<EyeViewsSample> views;  ///< Both eyes located and converted, or none (see last_skip()).
+};
+
+/// The XrPosef of an eye in the reference space, from its pose in the rig's
+/// world (OpenCV eye axes): world_from_space^-1 * world_from_eye, turned into
+/// OpenXR's view axes (XrOrientationOf). EyeViewsFromXr's inverse for one
+/// view: what a projection layer says an image was drawn from.
+XrPosef XrPoseInSpace(const Rigid3d& world_from_space, const Rigid3d& world_from_eye);
+
 /// What a session has done, counted.
 struct XrSessionCounts {
   uint64_t frames = 0;       ///< Frames waited for while running.
@@ -86,17 +117,18 @@ struct XrSessionCounts {
   uint64_t refused = 0;      ///< Views that did not convert (EyeViewsFromXr threw).
 };
 
-/// A headless OpenXR session that locates both eyes each frame. Owns the
-/// instance, session and reference space (destroyed in reverse order).
-/// Not thread-safe.
+/// An OpenXR session that locates both eyes each frame: headless, or shown
+/// through a graphics binding. Owns the instance, session and reference space
+/// (destroyed in reverse order). Not thread-safe.
 class XrEyeSession {
  public:
-  /// Creates the instance (XR_MND_headless; XR_KHR_convert_timespec_time when
-  /// offered, to stamp views on hullpipe's clock), the HMD system, the session
-  /// and the reference space. Throws XrError naming the call (no runtime, no
-  /// headless extension, no HMD, no such space) and std::invalid_argument for
-  /// bad options.
-  explicit XrEyeSession(const XrClientOptions& options);
+  /// Creates the instance (XR_MND_headless without `graphics`, else the
+  /// binding's extensions; XR_KHR_convert_timespec_time when offered, to stamp
+  /// views on hullpipe's clock), the HMD system, the session and the reference
+  /// space. Throws XrError naming the call (no runtime, no headless or graphics
+  /// extension, no HMD, no such space) and std::invalid_argument for bad
+  /// options.
+  explicit XrEyeSession(const XrClientOptions& options, const XrGraphicsBinding* graphics = nullptr);
   ~XrEyeSession();
   XrEyeSession(const XrEyeSession&) = delete;
   XrEyeSession& operator=(const XrEyeSession&) = delete;
@@ -110,6 +142,16 @@ class XrEyeSession {
   /// view that did not convert: counted, and the reason in last_skip()).
   /// Throws XrError for a failed call.
   std::optional<EyeViewsSample> Step();
+  /// Step's first half, for a session that shows images: the events, then,
+  /// while running, xrWaitFrame, xrBeginFrame and the views located; nullopt
+  /// when not running. Every frame it returns must be given to EndFrame
+  /// (OpenXR pairs each xrBeginFrame with an xrEndFrame); a failed location is
+  /// ended here, with no layers, and thrown as XrError.
+  std::optional<XrFrame> BeginFrame();
+  /// Ends `frame` showing `layers` (none: the headset shows nothing; pointers
+  /// valid for the call). Throws XrError when xrEndFrame fails (a layer the
+  /// runtime refuses: XR_ERROR_LAYER_INVALID, XR_ERROR_SWAPCHAIN_RECT_INVALID).
+  void EndFrame(const XrFrame& frame, const std::vector<const XrCompositionLayerBaseHeader*>& layers);
   /// Asks the runtime to end the session (xrRequestExitSession); Step() then
   /// runs until exiting().
   void RequestExit();
@@ -123,6 +165,11 @@ class XrEyeSession {
   const XrSessionCounts& counts() const { return counts_; }
   /// Why the last frame's views were not returned ("" if they were).
   const std::string& last_skip() const { return last_skip_; }
+  XrInstance instance() const { return instance_; }
+  XrSession session() const { return session_; }
+  /// The reference space the views are located in and layers are placed in.
+  XrSpace space() const { return space_; }
+  const XrClientOptions& options() const { return o_; }
 
  private:
   void PollEvents();

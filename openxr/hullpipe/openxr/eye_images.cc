@@ -1,0 +1,79 @@
+#include "hullpipe/openxr/eye_images.h"
+
+#include <stdexcept>
+
+namespace hullpipe::openxr {
+
+EyeImagePairs::EyeImagePairs(size_t pose_history) : history_(pose_history) {
+  if (history_ < 2) throw std::invalid_argument("EyeImagePairs keeps at least 2 poses");
+}
+
+void EyeImagePairs::AddPose(uint64_t pose_seq, ViewEye eye, const NovelView& view) {
+  if (eye == ViewEye::kMono) {
+    ++counts_.not_an_eye;
+    return;
+  }
+  const std::pair<uint64_t, int> key{pose_seq, int(eye) - 1};
+  if (poses_.emplace(key, view).second) pose_order_.push_back(key);
+  while (pose_order_.size() > history_) {
+    poses_.erase(pose_order_.front());
+    pose_order_.pop_front();
+  }
+  // An image that came first.
+  for (auto it = pending_.begin(); it != pending_.end();) {
+    if (it->first == key.second && it->second.pose_seq == pose_seq) {
+      EyeImage image = std::move(it->second);
+      image.view = view;
+      it = pending_.erase(it);
+      Keep(std::move(image), key.second);
+    } else {
+      ++it;
+    }
+  }
+}
+
+void EyeImagePairs::Keep(EyeImage image, int k) {
+  if (newest_[size_t(k)] && newest_[size_t(k)]->pose_seq > image.pose_seq) {
+    ++counts_.superseded;  // a newer one is already here
+    return;
+  }
+  if (newest_[size_t(k)]) ++counts_.superseded;
+  newest_[size_t(k)] = std::move(image);
+}
+
+std::string EyeImagePairs::AddImage(uint64_t pose_seq, ViewEye eye, uint64_t frame_seq, const cv::Mat& bgr) {
+  if (eye == ViewEye::kMono) {
+    ++counts_.not_an_eye;
+    return "a composited view of the one view, not an eye (render_node runs without --stereo or "
+           "--view eyes-topic)";
+  }
+  const int k = int(eye) - 1;
+  const auto pose = poses_.find({pose_seq, k});
+  if (pose != poses_.end()) {
+    Keep(EyeImage{bgr, pose->second, pose_seq, frame_seq}, k);
+    return "";
+  }
+  pending_.emplace_back(k, EyeImage{bgr, NovelView{}, pose_seq, frame_seq});
+  if (pending_.size() <= kPendingImages) return "";
+  const uint64_t dropped = pending_.front().second.pose_seq;
+  pending_.pop_front();
+  ++counts_.no_pose;
+  return "no ViewPose " + std::to_string(dropped) + " for its eye";
+}
+
+std::optional<std::array<EyeImage, 2>> EyeImagePairs::TakeNewPair() {
+  if (!newest_[0] || !newest_[1]) return std::nullopt;
+  const EyeImage& l = *newest_[0];
+  const EyeImage& r = *newest_[1];
+  if (r.pose_seq != l.pose_seq + 1 || r.frame_seq != l.frame_seq) return std::nullopt;
+  if (any_pair_ && l.pose_seq <= last_pair_left_seq_) return std::nullopt;
+  std::array<EyeImage, 2> pair{std::move(*newest_[0]), std::move(*newest_[1])};
+  newest_[0].reset();
+  newest_[1].reset();
+  any_pair_ = true;
+  last_pair_left_seq_ = pair[0].pose_seq;
+  ++counts_.paired;
+  return pair;
+}
+
+}  // namespace hullpipe::openxr
