@@ -49,6 +49,25 @@ TEST(EyeView, TheFrustumsSidesAreTheImagesEdges) {
   EXPECT_THROW(EyeView({-0.4, 0.4, std::nan(""), -0.3}, 320, 240, Rigid3d{}), std::invalid_argument);
 }
 
+// FovOfView is EyeView's inverse (the fov a projection layer reports for an
+// image), including a frustum wholly to one side and a pinhole not made by
+// EyeView; round-trip error is atan's rounding (1e-12 rad).
+TEST(EyeView, FovOfViewGivesBackTheFrustum) {
+  for (const EyeFov& fov : {EyeFov{}, EyeFov{}.Mirrored(), EyeFov{0.1, 0.7, 0.5, -0.2}, EyeFov{-0.9, 0.6, -0.1, -0.7}}) {
+    const EyeFov back = FovOfView(EyeView(fov, 333, 217, Rigid3d{}));
+    EXPECT_NEAR(back.left, fov.left, 1e-12);
+    EXPECT_NEAR(back.right, fov.right, 1e-12);
+    EXPECT_NEAR(back.up, fov.up, 1e-12);
+    EXPECT_NEAR(back.down, fov.down, 1e-12);
+  }
+  const EyeFov c = FovOfView(NovelView::FromFov(320, 240, 0.8, Rigid3d{}));  // symmetric, 0.8 rad across
+  EXPECT_NEAR(c.right - c.left, 0.8, 1e-12);
+  EXPECT_NEAR(c.left, -c.right, 1e-12);
+  NovelView bad = NovelView::FromFov(320, 240, 0.8, Rigid3d{});
+  bad.fx = 0;
+  EXPECT_THROW(FovOfView(bad), std::invalid_argument);
+}
+
 // The eyes sit ipd/2 either side of the head along its x axis, parallel: a
 // point z ahead shows in the two images ipd fx / z apart (after each eye's
 // principal point), exactly.
