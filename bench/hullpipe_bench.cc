@@ -378,6 +378,48 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
         std::fflush(stdout);
     });
   }
+  // Near-miss pruning (VolumeQueryOptions::prune_near_misses) in the CPU
+  // sweep: one eye's sweep (refine 6, one thread) with and without, same
+  // input, interleaved (the summed-area tables are the hull box search's); the
+  // depth images compared bit for bit.
+  if (cpu) {
+    std::printf("\nCPU sweep with and without near-miss pruning (one eye, the stereo table's view, refine 6, 1 thread; "
+                "interleaved, median of %d):\n\n"
+                "| cams | eye view | planes | near misses pruned | sweep ms without | sweep ms with | "
+                "without / with | projections without / with | same depth |\n"
+                "|---|---|---|---|---|---|---|---|---|\n",
+                repeats);
+    for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
+        const NovelView& v = eyes.eye[0];
+        VolumeQueryOptions with, without;
+        without.prune_near_misses = false;
+        const VolumeQuery qw(in.views, DefaultWorkspace(in.cameras), with);
+        const VolumeQuery qn(in.views, DefaultWorkspace(in.cameras), without);
+        PlaneSweepOptions o;
+        o.num_planes = rows.planes.front();
+        const auto depths = SweepPlaneDepths(qw, v, o);
+        const cv::Rect all(0, 0, w, h);
+        std::vector<double> tn, tw;
+        SweepStats sn, sw;
+        cv::Mat dn, dw;
+        for (int r = 0; r <= repeats; ++r) {
+          SweepStats a, b;
+          dn = PlaneSweepCpu(qn, v, depths, all, &a, 1, 6);
+          dw = PlaneSweepCpu(qw, v, depths, all, &b, 1, 6);
+          if (r == 0) continue;  // warm-up
+          tn.push_back(a.sweep_ms + a.refine_ms);
+          tw.push_back(b.sweep_ms + b.refine_ms);
+          sn = a;
+          sw = b;
+        }
+        const bool same = cv::countNonZero(dn != dw) == 0;  // bitwise (+inf == +inf where no hull)
+        std::printf("| %d | %dx%d | %d | %lld | %.2f | %.2f | %.2f | %lld / %lld | %s |\n", ncam, w, h,
+                    o.num_planes, (long long)sw.pruned, Median(tn), Median(tw),
+                    Median(tn) / Median(tw), (long long)sn.projections, (long long)sw.projections,
+                    same ? "yes" : "NO");
+        std::fflush(stdout);
+    });
+  }
   // A node's first frameset on a fresh backend (a new context: programs built,
   // nothing allocated at the frameset's sizes), with and without the backend's
   // warm-up frame at creation; then its second. One run each: a first is once.

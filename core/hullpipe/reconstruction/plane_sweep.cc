@@ -75,9 +75,10 @@ class RayQuery {
  public:
   // `empty` (may be null or skip nothing): the frameset's empty space, whose
   // points InsideAt answers without asking the cameras (exactly as they would).
-  RayQuery(const VolumeQuery& q, const NovelView& view, const EmptySpace* empty = nullptr)
+  RayQuery(const VolumeQuery& q, const NovelView& view, const EmptySpace* empty = nullptr,
+           bool prune_near_misses = false)
       : q_(q), cams_(q.fast()), n_(cams_.size()), view_(view), A_(n_), B_(n_), order_(n_),
-        empty_(empty && !empty->knows_nothing() ? empty : nullptr) {
+        empty_(empty && !empty->knows_nothing() ? empty : nullptr), prune_(prune_near_misses) {
     if (empty_) gO_ = empty_->GridFromWorld(view.world_from_eye.translation).cast<float>();
     const Eigen::Vector3d O = view.world_from_eye.translation;
     for (size_t c = 0; c < n_; ++c) {
@@ -108,6 +109,33 @@ class RayQuery {
     }
     return AskCameras(d, near_miss);
   }
+  // The near-miss scan's bracket around the next points asked (eye depths):
+  // a near miss whose vetoing camera provably vetoes all of it is none
+  // (CannotHit).
+  void SetBracket(float a, float b) {
+    bracket_a_ = a;
+    bracket_b_ = b;
+  }
+  // True when camera c, which vetoes the point at depth d on background, vetoes
+  // every point of the bracket too: undistorted, the bracket's projection is
+  // the segment between its ends' pixels, and every pixel of that segment's
+  // bounding rectangle (grown by a pixel for float rounding) is background.
+  bool CannotHit(size_t c) const {
+    const detail::FastCamera& cam = cams_[c];
+    if (!prune_ || cam.distorted) return false;
+    const Eigen::Vector3f Xa = A_[c] + bracket_a_ * B_[c], Xb = A_[c] + bracket_b_ * B_[c];
+    if (!(Xa.z() > 1e-6f && Xb.z() > 1e-6f)) return false;
+    const auto pixel = [&](const Eigen::Vector3f& P) {
+      const float xn = P.x() / P.z(), yn = P.y() / P.z();
+      return Eigen::Vector2f(cam.fx * xn + cam.skew * yn + cam.cx, cam.fy * yn + cam.cy);
+    };
+    const Eigen::Vector2f a = pixel(Xa), b = pixel(Xb);
+    const float u0 = std::min(a.x(), b.x()) - 1.0f, u1 = std::max(a.x(), b.x()) + 1.0f;
+    const float v0 = std::min(a.y(), b.y()) - 1.0f, v1 = std::max(a.y(), b.y()) + 1.0f;
+    // Any part outside the image is no veto's proof.
+    if (!(u0 >= 0.0f && v0 >= 0.0f && u1 < cam.width_f && v1 < cam.height_f)) return false;
+    return q_.NoObjectPixelIn(c, int(u0), int(v0), int(u1) + 1, int(v1) + 1);
+  }
   // InsideAt's questions to the cameras.
   bool AskCameras(float d, bool* near_miss) {
     int object = 0, unseen = 0;
@@ -136,6 +164,10 @@ class RayQuery {
               break;
             }
           }
+          // A near miss whose bracket its camera vetoes whole has nothing to
+          // scan; it stays a near miss (the sweep keeps as many as before).
+          near_miss_pruned = *near_miss && vote == Vote::kBackground && CannotHit(c);
+          pruned += near_miss_pruned;
         }
         return false;
       } else {
@@ -172,7 +204,9 @@ class RayQuery {
     }
     return hi;
   }
-  int64_t projections = 0, skipped = 0;
+  int64_t projections = 0, skipped = 0, pruned = 0;
+  // The last near miss InsideAt reported needs no scan (CannotHit).
+  bool near_miss_pruned = false;
   // The camera whose veto answered the last AskCameras that returned outside.
   size_t vetoer = 0;
 
@@ -184,6 +218,8 @@ class RayQuery {
   std::vector<Eigen::Vector3f> A_, B_;
   std::vector<size_t> order_;
   const EmptySpace* empty_;
+  bool prune_;
+  float bracket_a_ = 0, bracket_b_ = 0;
   // The ray in grid units: the point at eye depth d is gO_ + d * gD_ (float
   // like VoteFast's; the cubes were proven grown by 0.1 mm and a pixel).
   Eigen::Vector3f gO_ = Eigen::Vector3f::Zero(), gD_ = Eigen::Vector3f::Zero();
@@ -209,7 +245,7 @@ struct RayBounds {
 void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBounds& bounds, const NovelView& view,
                const std::vector<double>& depths, const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out,
                SweepStats* stats, int refine_iterations, StopFlag stop) {
-  RayQuery ray(query, view, &empty);
+  RayQuery ray(query, view, &empty, refine_iterations > 0 && query.options().prune_near_misses);
   const std::vector<float> d(depths.begin(), depths.end());
   SweepStats local;
   for (int r = row_begin; r < row_end && !Stopped(stop); ++r) {
@@ -238,11 +274,15 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       // first inside plane: a piece of hull thinner than the spacing may lie
       // between them and their neighbours.
       size_t near_misses[kMaxNearMisses], near_vetoer[kMaxNearMisses];
+      bool near_pruned[kMaxNearMisses];
       size_t n_near = 0;
       size_t hit = d.size();
       for (size_t k = first; k < d.size() && depths[k] <= to; ++k) {
         ++local.plane_points;
         bool near = false;
+        if (refine_iterations > 0 && n_near < kMaxNearMisses)
+          ray.SetBracket(float(std::max(s0, k > 0 ? depths[k - 1] : depths[k])),
+                         float(std::min(s1, k + 1 < depths.size() ? depths[k + 1] : depths[k])));
         // Past kMaxNearMisses no more are kept: nor looked for.
         if (ray.InsideAt(d[k], refine_iterations > 0 && n_near < kMaxNearMisses ? &near : nullptr)) {
           hit = k;
@@ -250,6 +290,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
         }
         if (near && n_near < kMaxNearMisses) {
           near_vetoer[n_near] = ray.vetoer;
+          near_pruned[n_near] = ray.near_miss_pruned;
           near_misses[n_near++] = k;
         }
       }
@@ -258,6 +299,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
         // points the near miss's one vetoing camera vetoes are outside, so only
         // the others are asked (the first inside one is the same).
         for (size_t m = 0; m < n_near; ++m) {
+          if (near_pruned[m]) continue;
           const size_t k = near_misses[m];
           const double a = std::max(s0, k > 0 ? depths[k - 1] : depths[k]);
           const double b = std::min({s1, k + 1 < depths.size() ? depths[k + 1] : depths[k]});
@@ -291,11 +333,13 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
   }
   local.projections = ray.projections;
   local.skipped = ray.skipped;
+  local.pruned = ray.pruned;
   if (stats) {
     stats->rays += local.rays;
     stats->plane_points += local.plane_points;
     stats->projections += local.projections;
     stats->skipped += local.skipped;
+    stats->pruned += local.pruned;
   }
 }
 
@@ -311,6 +355,7 @@ void ForRowBands(int height, int threads, SweepStats* stats, Rows rows) {
       stats->plane_points += st.plane_points;
       stats->projections += st.projections;
       stats->skipped += st.skipped;
+      stats->pruned += st.pruned;
     }
 }
 

@@ -65,6 +65,9 @@ struct SweepStats {
   int64_t plane_points = 0;  ///< Plane points visited.
   int64_t projections = 0;   ///< Point-in-camera tests made.
   int64_t skipped = 0;       ///< Point queries answered by the empty-space grid (EmptySpace), no camera asked.
+  /// Near misses whose scan was skipped: their vetoing camera vetoes the whole
+  /// bracket (VolumeQueryOptions::prune_near_misses).
+  int64_t pruned = 0;
   /// Wall milliseconds (added to, not reset): the sweep with its per-ray
   /// bisection, and the silhouette/rim refinement pass (the latency budget's
   /// recon "sweep" and "refine", docs/latency.md).

@@ -243,6 +243,16 @@ class CellProver {
   // True if no hull point lies in `cell`. *hint: the camera tried first, set to
   // the one that proved it (neighbouring cells share it).
   bool Empty(const Aabb& cell, size_t* hint) const;
+  // True if camera i's map has no object pixel in [x0, x1) x [y0, y1) (within
+  // the image), from the summed-area table of its object rectangle.
+  bool NoObjectPixel(size_t i, int x0, int y0, int x1, int y1) const {
+    const cv::Rect& o = rects_[i];
+    const int a0 = std::clamp(x0 - o.x, 0, o.width), a1 = std::clamp(x1 - o.x, 0, o.width);
+    const int b0 = std::clamp(y0 - o.y, 0, o.height), b1 = std::clamp(y1 - o.y, 0, o.height);
+    if (a0 >= a1 || b0 >= b1) return true;
+    const cv::Mat& s = sums_[i];
+    return s.at<int>(b1, a1) - s.at<int>(b0, a1) - s.at<int>(b1, a0) + s.at<int>(b0, a0) == 0;
+  }
   // How many cameras, up to `need`, see all of `cell` (grown by a pixel) and
   // put it on background (VolumeQuery::CountWholeBackground).
   int WholeBackground(const Aabb& cell, int need, size_t* hint) const;
@@ -347,11 +357,7 @@ CellProver::Verdict CellProver::Classify(const Aabb& cell, size_t i, double marg
   if (x1 <= 0 || y1 <= 0 || x0 >= cam.width || y0 >= cam.height) return Verdict::kMisses;
   // Object pixels under [x0, x1) x [y0, y1) within the image, counted within
   // the object rectangle.
-  const cv::Rect& o = rects_[i];
-  const int a0 = std::clamp(x0 - o.x, 0, o.width), a1 = std::clamp(x1 - o.x, 0, o.width);
-  const int b0 = std::clamp(y0 - o.y, 0, o.height), b1 = std::clamp(y1 - o.y, 0, o.height);
-  const cv::Mat& s = sums_[i];
-  if (a0 == a1 || b0 == b1 || s.at<int>(b1, a1) - s.at<int>(b0, a1) - s.at<int>(b1, a0) + s.at<int>(b0, a0) == 0) {
+  if (NoObjectPixel(i, x0, y0, x1, y1)) {
     const bool whole = x0 >= 0 && y0 >= 0 && x1 <= cam.width && y1 <= cam.height;
     return whole ? Verdict::kBackground : Verdict::kPartBackground;
   }
@@ -589,6 +595,10 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
   prover_ = std::make_shared<const detail::CellProver>(views_, rects, outside, required_seen_);
   hull_box_ = TightenHullBox(*prover_, hull_box_, options_.threads);
   empty_space_ = std::make_shared<detail::LazyEmptySpace>();
+}
+
+bool VolumeQuery::NoObjectPixelIn(size_t i, int x0, int y0, int x1, int y1) const {
+  return prover_->NoObjectPixel(i, x0, y0, x1, y1);
 }
 
 const EmptySpace& VolumeQuery::empty_space(int threads) const {

@@ -74,6 +74,13 @@ struct VolumeQueryOptions {
   /// skip empty space (EmptySpace; [0, EmptySpace::kMaxCellsPerAxis], 0: no
   /// skipping). The sweep's result is the same with any value.
   int empty_space_cells = 32;
+  /// Whether the CPU sweep's refinement skips the scan of a near miss (a point
+  /// exactly one camera vetoes) when that camera's object-pixel map is
+  /// background under the whole bracket's projection (NoObjectPixelIn;
+  /// undistorted cameras only): such a scan finds nothing. The sweep's result
+  /// is the same either way (docs/benchmarks.md, "Near-miss scans a camera
+  /// vetoes whole").
+  bool prune_near_misses = true;
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
 };
@@ -144,6 +151,14 @@ class VolumeQuery {
   /// the first call with `threads` threads (>= 1) and shared by later calls and
   /// by copies of this query. Thread-safe.
   const EmptySpace& empty_space(int threads = 1) const;
+
+  /// True if camera i's object-pixel map has no object pixel in the pixels
+  /// [x0, x1) x [y0, y1) (clipped to the image; an empty rectangle has none),
+  /// in four reads of the summed-area table the hull box search made of the
+  /// map within its object rectangle. The sweep's near-miss scans ask it
+  /// whether the vetoing camera vetoes a whole bracket (plane_sweep.cc).
+  /// Thread-safe.
+  bool NoObjectPixelIn(size_t i, int x0, int y0, int x1, int y1) const;
 
   /// Camera i's verdict on X (world metres), in double precision.
   Vote VoteOf(size_t i, const Eigen::Vector3d& X_world) const;
