@@ -55,6 +55,33 @@ double MedianMs(int repeats, const std::function<void()>& f) {
   return Median(std::move(t));
 }
 
+// One eye's CPU sweep (refine 6, one thread) under two queries of the same
+// input, interleaved after a warm-up: the medians' samples, the last runs'
+// counters, and whether the depth images are the same to the bit (+inf ==
+// +inf where no hull).
+struct SweepPair {
+  std::vector<double> ms_a, ms_b;
+  SweepStats stats_a, stats_b;
+  bool same = false;
+};
+SweepPair CompareSweeps(const VolumeQuery& qa, const VolumeQuery& qb, const NovelView& v,
+                        const std::vector<double>& depths, const cv::Rect& all, int repeats) {
+  SweepPair p;
+  cv::Mat da, db;
+  for (int r = 0; r <= repeats; ++r) {
+    SweepStats a, b;
+    da = PlaneSweepCpu(qa, v, depths, all, &a, 1, 6);
+    db = PlaneSweepCpu(qb, v, depths, all, &b, 1, 6);
+    if (r == 0) continue;  // warm-up
+    p.ms_a.push_back(a.sweep_ms + a.refine_ms);
+    p.ms_b.push_back(b.sweep_ms + b.refine_ms);
+    p.stats_a = a;
+    p.stats_b = b;
+  }
+  p.same = cv::countNonZero(da != db) == 0;
+  return p;
+}
+
 std::string Ms2(double ms) {
   char b[32];
   std::snprintf(b, sizeof b, "%.2f", ms);
@@ -342,19 +369,10 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
           grid_ms.push_back(q.empty_space(1).build_ms());
         }
         const EmptySpace& grid = qw.empty_space(1);
-        std::vector<double> tn, tw;
-        SweepStats sw;
-        cv::Mat dn, dw;
-        for (int r = 0; r <= repeats; ++r) {
-          SweepStats a, b;
-          dn = PlaneSweepCpu(qn, v, depths, all, &a, 1, 6);
-          dw = PlaneSweepCpu(qw, v, depths, all, &b, 1, 6);
-          if (r == 0) continue;  // warm-up
-          tn.push_back(a.sweep_ms + a.refine_ms);
-          tw.push_back(b.sweep_ms + b.refine_ms);
-          sw = b;
-        }
-        const bool same = cv::countNonZero(dn != dw) == 0;  // bitwise (+inf == +inf where no hull)
+        const SweepPair ab = CompareSweeps(qn, qw, v, depths, all, repeats);
+        const std::vector<double>&tn = ab.ms_a, &tw = ab.ms_b;
+        const SweepStats& sw = ab.stats_b;
+        const bool same = ab.same;
         // The whole one-eye frame as recon makes it (the query with its hull
         // box, the grid where made, visibility maps, sweep, texture): whether
         // the grid pays for itself within one frameset.
@@ -399,20 +417,10 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
         o.num_planes = rows.planes.front();
         const auto depths = SweepPlaneDepths(qw, v, o);
         const cv::Rect all(0, 0, w, h);
-        std::vector<double> tn, tw;
-        SweepStats sn, sw;
-        cv::Mat dn, dw;
-        for (int r = 0; r <= repeats; ++r) {
-          SweepStats a, b;
-          dn = PlaneSweepCpu(qn, v, depths, all, &a, 1, 6);
-          dw = PlaneSweepCpu(qw, v, depths, all, &b, 1, 6);
-          if (r == 0) continue;  // warm-up
-          tn.push_back(a.sweep_ms + a.refine_ms);
-          tw.push_back(b.sweep_ms + b.refine_ms);
-          sn = a;
-          sw = b;
-        }
-        const bool same = cv::countNonZero(dn != dw) == 0;  // bitwise (+inf == +inf where no hull)
+        const SweepPair ab = CompareSweeps(qn, qw, v, depths, all, repeats);
+        const std::vector<double>&tn = ab.ms_a, &tw = ab.ms_b;
+        const SweepStats &sn = ab.stats_a, &sw = ab.stats_b;
+        const bool same = ab.same;
         std::printf("| %d | %dx%d | %d | %lld | %.2f | %.2f | %.2f | %lld / %lld | %s |\n", ncam, w, h,
                     o.num_planes, (long long)sw.pruned, Median(tn), Median(tw),
                     Median(tn) / Median(tw), (long long)sn.projections, (long long)sw.projections,
