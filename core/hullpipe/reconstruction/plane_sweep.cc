@@ -75,10 +75,9 @@ class RayQuery {
  public:
   // `empty` (may be null or skip nothing): the frameset's empty space, whose
   // points InsideAt answers without asking the cameras (exactly as they would).
-  RayQuery(const VolumeQuery& q, const NovelView& view, const EmptySpace* empty = nullptr,
-           bool prune_near_misses = false)
+  RayQuery(const VolumeQuery& q, const NovelView& view, const EmptySpace* empty = nullptr)
       : q_(q), cams_(q.fast()), n_(cams_.size()), view_(view), A_(n_), B_(n_), order_(n_),
-        empty_(empty && !empty->knows_nothing() ? empty : nullptr), prune_(prune_near_misses) {
+        empty_(empty && !empty->knows_nothing() ? empty : nullptr) {
     if (empty_) gO_ = empty_->GridFromWorld(view.world_from_eye.translation).cast<float>();
     const Eigen::Vector3d O = view.world_from_eye.translation;
     for (size_t c = 0; c < n_; ++c) {
@@ -109,29 +108,23 @@ class RayQuery {
     }
     return AskCameras(d, near_miss);
   }
-  // The near-miss scan's bracket around the next points asked (eye depths):
-  // a near miss whose vetoing camera provably vetoes all of it is none
-  // (CannotHit).
-  void SetBracket(float a, float b) {
-    bracket_a_ = a;
-    bracket_b_ = b;
-  }
-  // True when camera c, which vetoes the point at depth d on background, vetoes
-  // every point of the bracket too: undistorted, the bracket's projection is
-  // the segment between its ends' pixels, and every pixel of that segment's
-  // bounding rectangle (grown by a pixel for float rounding) is background.
-  bool CannotHit(size_t c) const {
+  // True when camera c vetoes every point of the aimed ray between eye depths
+  // a and b (a near miss's scan bracket): undistorted, the bracket's
+  // projection is the segment between its ends' pixels, and every pixel of
+  // that segment's bounding rectangle (grown by a pixel for float rounding) is
+  // background.
+  bool CannotHit(size_t c, float a, float b) const {
     const detail::FastCamera& cam = cams_[c];
-    if (!prune_ || cam.distorted) return false;
-    const Eigen::Vector3f Xa = A_[c] + bracket_a_ * B_[c], Xb = A_[c] + bracket_b_ * B_[c];
+    if (cam.distorted) return false;
+    const Eigen::Vector3f Xa = A_[c] + a * B_[c], Xb = A_[c] + b * B_[c];
     if (!(Xa.z() > 1e-6f && Xb.z() > 1e-6f)) return false;
     const auto pixel = [&](const Eigen::Vector3f& P) {
       const float xn = P.x() / P.z(), yn = P.y() / P.z();
       return Eigen::Vector2f(cam.fx * xn + cam.skew * yn + cam.cx, cam.fy * yn + cam.cy);
     };
-    const Eigen::Vector2f a = pixel(Xa), b = pixel(Xb);
-    const float u0 = std::min(a.x(), b.x()) - 1.0f, u1 = std::max(a.x(), b.x()) + 1.0f;
-    const float v0 = std::min(a.y(), b.y()) - 1.0f, v1 = std::max(a.y(), b.y()) + 1.0f;
+    const Eigen::Vector2f pa = pixel(Xa), pb = pixel(Xb);
+    const float u0 = std::min(pa.x(), pb.x()) - 1.0f, u1 = std::max(pa.x(), pb.x()) + 1.0f;
+    const float v0 = std::min(pa.y(), pb.y()) - 1.0f, v1 = std::max(pa.y(), pb.y()) + 1.0f;
     // Any part outside the image is no veto's proof.
     if (!(u0 >= 0.0f && v0 >= 0.0f && u1 < cam.width_f && v1 < cam.height_f)) return false;
     return q_.NoObjectPixelIn(c, int(u0), int(v0), int(u1) + 1, int(v1) + 1);
@@ -164,10 +157,7 @@ class RayQuery {
               break;
             }
           }
-          // A near miss whose bracket its camera vetoes whole has nothing to
-          // scan; it stays a near miss (the sweep keeps as many as before).
-          near_miss_pruned = *near_miss && vote == Vote::kBackground && CannotHit(c);
-          pruned += near_miss_pruned;
+          vetoed_on_background = vote == Vote::kBackground;
         }
         return false;
       } else {
@@ -204,9 +194,9 @@ class RayQuery {
     }
     return hi;
   }
-  int64_t projections = 0, skipped = 0, pruned = 0;
-  // The last near miss InsideAt reported needs no scan (CannotHit).
-  bool near_miss_pruned = false;
+  int64_t projections = 0, skipped = 0;
+  // The last near miss's veto was a background pixel (not a point out of view).
+  bool vetoed_on_background = false;
   // The camera whose veto answered the last AskCameras that returned outside.
   size_t vetoer = 0;
 
@@ -218,8 +208,6 @@ class RayQuery {
   std::vector<Eigen::Vector3f> A_, B_;
   std::vector<size_t> order_;
   const EmptySpace* empty_;
-  bool prune_;
-  float bracket_a_ = 0, bracket_b_ = 0;
   // The ray in grid units: the point at eye depth d is gO_ + d * gD_ (float
   // like VoteFast's; the cubes were proven grown by 0.1 mm and a pixel).
   Eigen::Vector3f gO_ = Eigen::Vector3f::Zero(), gD_ = Eigen::Vector3f::Zero();
@@ -245,7 +233,8 @@ struct RayBounds {
 void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBounds& bounds, const NovelView& view,
                const std::vector<double>& depths, const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out,
                SweepStats* stats, int refine_iterations, StopFlag stop) {
-  RayQuery ray(query, view, &empty, refine_iterations > 0 && query.options().prune_near_misses);
+  RayQuery ray(query, view, &empty);
+  const bool prune = refine_iterations > 0 && query.options().prune_near_misses;
   const std::vector<float> d(depths.begin(), depths.end());
   SweepStats local;
   for (int r = row_begin; r < row_end && !Stopped(stop); ++r) {
@@ -280,9 +269,6 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       for (size_t k = first; k < d.size() && depths[k] <= to; ++k) {
         ++local.plane_points;
         bool near = false;
-        if (refine_iterations > 0 && n_near < kMaxNearMisses)
-          ray.SetBracket(float(std::max(s0, k > 0 ? depths[k - 1] : depths[k])),
-                         float(std::min(s1, k + 1 < depths.size() ? depths[k + 1] : depths[k])));
         // Past kMaxNearMisses no more are kept: nor looked for.
         if (ray.InsideAt(d[k], refine_iterations > 0 && n_near < kMaxNearMisses ? &near : nullptr)) {
           hit = k;
@@ -290,7 +276,14 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
         }
         if (near && n_near < kMaxNearMisses) {
           near_vetoer[n_near] = ray.vetoer;
-          near_pruned[n_near] = ray.near_miss_pruned;
+          // A near miss whose bracket (the scan's, below) its camera vetoes
+          // whole has nothing to scan; it stays a near miss (the sweep keeps
+          // as many as before).
+          near_pruned[n_near] =
+              prune && ray.vetoed_on_background &&
+              ray.CannotHit(ray.vetoer, float(std::max(s0, k > 0 ? depths[k - 1] : depths[k])),
+                            float(std::min(s1, k + 1 < depths.size() ? depths[k + 1] : depths[k])));
+          local.pruned += near_pruned[n_near];
           near_misses[n_near++] = k;
         }
       }
@@ -333,7 +326,6 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
   }
   local.projections = ray.projections;
   local.skipped = ray.skipped;
-  local.pruned = ray.pruned;
   if (stats) {
     stats->rays += local.rays;
     stats->plane_points += local.plane_points;
