@@ -15,10 +15,6 @@
 namespace hullpipe::openxr {
 namespace {
 
-void Check(XrResult r, const char* call, const std::string& meaning = "") {
-  if (XR_FAILED(r)) throw XrError(call, r, meaning);
-}
-
 std::string FormatList(const std::vector<int64_t>& formats) {
   std::string out;
   char hex[24];
@@ -33,10 +29,10 @@ std::string FormatList(const std::vector<int64_t>& formats) {
 // before xrCreateSession with an OpenGL binding; the context is GL 4.5 core.
 void CheckGlRequirements(XrInstance instance, XrSystemId system) {
   PFN_xrVoidFunction fn = nullptr;
-  Check(xrGetInstanceProcAddr(instance, "xrGetOpenGLGraphicsRequirementsKHR", &fn),
+  CheckXr(xrGetInstanceProcAddr(instance, "xrGetOpenGLGraphicsRequirementsKHR", &fn),
         "xrGetInstanceProcAddr(xrGetOpenGLGraphicsRequirementsKHR)");
   XrGraphicsRequirementsOpenGLKHR req{XR_TYPE_GRAPHICS_REQUIREMENTS_OPENGL_KHR};
-  Check(reinterpret_cast<PFN_xrGetOpenGLGraphicsRequirementsKHR>(fn)(instance, system, &req),
+  CheckXr(reinterpret_cast<PFN_xrGetOpenGLGraphicsRequirementsKHR>(fn)(instance, system, &req),
         "xrGetOpenGLGraphicsRequirementsKHR");
   const XrVersion ours = XR_MAKE_VERSION(4, 5, 0);
   if (ours < req.minApiVersionSupported)
@@ -60,11 +56,11 @@ class Swapchain {
     ci.faceCount = 1;
     ci.arraySize = 1;
     ci.mipCount = 1;
-    Check(xrCreateSwapchain(session, &ci, &handle_), "xrCreateSwapchain");
+    CheckXr(xrCreateSwapchain(session, &ci, &handle_), "xrCreateSwapchain");
     uint32_t n = 0;
-    Check(xrEnumerateSwapchainImages(handle_, 0, &n, nullptr), "xrEnumerateSwapchainImages");
+    CheckXr(xrEnumerateSwapchainImages(handle_, 0, &n, nullptr), "xrEnumerateSwapchainImages");
     std::vector<XrSwapchainImageOpenGLKHR> images(n, XrSwapchainImageOpenGLKHR{XR_TYPE_SWAPCHAIN_IMAGE_OPENGL_KHR});
-    Check(xrEnumerateSwapchainImages(handle_, n, &n,
+    CheckXr(xrEnumerateSwapchainImages(handle_, n, &n,
                                      reinterpret_cast<XrSwapchainImageBaseHeader*>(images.data())),
           "xrEnumerateSwapchainImages");
     for (uint32_t i = 0; i < n && i < images.size(); ++i) textures_.push_back(images[i].image);
@@ -81,12 +77,12 @@ class Swapchain {
   void Upload(const cv::Mat& rgba_bottom_first) {
     uint32_t index = 0;
     XrSwapchainImageAcquireInfo ai{XR_TYPE_SWAPCHAIN_IMAGE_ACQUIRE_INFO};
-    Check(xrAcquireSwapchainImage(handle_, &ai, &index), "xrAcquireSwapchainImage");
+    CheckXr(xrAcquireSwapchainImage(handle_, &ai, &index), "xrAcquireSwapchainImage");
     XrSwapchainImageWaitInfo wi{XR_TYPE_SWAPCHAIN_IMAGE_WAIT_INFO};
     wi.timeout = 50'000'000;  // 50 ms, twice: the runtime holds an image for at most a frame
     XrResult waited = xrWaitSwapchainImage(handle_, &wi);
     if (waited == XR_TIMEOUT_EXPIRED) waited = xrWaitSwapchainImage(handle_, &wi);
-    Check(waited, "xrWaitSwapchainImage");
+    CheckXr(waited, "xrWaitSwapchainImage");
     if (waited == XR_TIMEOUT_EXPIRED)
       throw XrError("xrWaitSwapchainImage", waited, "the runtime kept the swapchain's image for 100 ms");
     if (index >= textures_.size())
@@ -100,7 +96,7 @@ class Swapchain {
     glBindTexture(GL_TEXTURE_2D, 0);
     glFlush();  // the upload is submitted before the runtime may read the image
     XrSwapchainImageReleaseInfo ri{XR_TYPE_SWAPCHAIN_IMAGE_RELEASE_INFO};
-    Check(xrReleaseSwapchainImage(handle_, &ri), "xrReleaseSwapchainImage");
+    CheckXr(xrReleaseSwapchainImage(handle_, &ri), "xrReleaseSwapchainImage");
   }
   XrSwapchain handle() const { return handle_; }
   int width() const { return width_; }
@@ -159,9 +155,9 @@ struct XrEyeDisplay::Swapchains {
 
 XrEyeDisplay::XrEyeDisplay(const XrEyeSession& session) : session_(session) {
   uint32_t n = 0;
-  Check(xrEnumerateSwapchainFormats(session.session(), 0, &n, nullptr), "xrEnumerateSwapchainFormats");
+  CheckXr(xrEnumerateSwapchainFormats(session.session(), 0, &n, nullptr), "xrEnumerateSwapchainFormats");
   std::vector<int64_t> formats(n);
-  Check(xrEnumerateSwapchainFormats(session.session(), n, &n, formats.data()), "xrEnumerateSwapchainFormats");
+  CheckXr(xrEnumerateSwapchainFormats(session.session(), n, &n, formats.data()), "xrEnumerateSwapchainFormats");
   formats.resize(std::min<size_t>(n, formats.size()));
   format_ = ChooseSwapchainFormat(formats);
 }
@@ -178,7 +174,6 @@ void XrEyeDisplay::Show(const std::array<EyeImage, 2>& pair) {
   if (!swapchains_ || swapchains_->eye[0].width() != w || swapchains_->eye[0].height() != h) {
     swapchains_.reset();  // the old ones first: a runtime may cap how many exist
     swapchains_ = std::make_unique<Swapchains>(session_.session(), w, h, format_);
-    ++counts_.swapchains_created;
   }
   Swapchains& s = *swapchains_;
   cv::Mat rgba;

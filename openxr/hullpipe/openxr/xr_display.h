@@ -57,8 +57,7 @@ class XrEglBinding {
 
 /// What XrEyeDisplay has done, counted.
 struct XrDisplayCounts {
-  uint64_t pairs_shown = 0;         ///< Pairs uploaded.
-  uint64_t swapchains_created = 0;  ///< Swapchain pairs made (once, and again when the images' size changes).
+  uint64_t pairs_shown = 0;  ///< Pairs uploaded.
 };
 
 /// Both eyes' swapchains and the projection layer showing them. The GL context

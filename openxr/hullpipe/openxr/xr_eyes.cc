@@ -24,17 +24,12 @@ int64_t ClockNs(clockid_t clock) {
 // lost tracking).
 constexpr XrViewStateFlags kPoseValid = XR_VIEW_STATE_POSITION_VALID_BIT | XR_VIEW_STATE_ORIENTATION_VALID_BIT;
 
-// Calls an OpenXR function and throws XrError naming it when it fails.
-void Check(XrResult r, const char* call, const std::string& meaning = "") {
-  if (XR_FAILED(r)) throw XrError(call, r, meaning);
-}
-
 std::vector<std::string> OfferedExtensions() {
   uint32_t n = 0;
-  Check(xrEnumerateInstanceExtensionProperties(nullptr, 0, &n, nullptr), "xrEnumerateInstanceExtensionProperties",
+  CheckXr(xrEnumerateInstanceExtensionProperties(nullptr, 0, &n, nullptr), "xrEnumerateInstanceExtensionProperties",
         "no OpenXR runtime is active (XR_RUNTIME_JSON, or the system's active_runtime.json)");
   std::vector<XrExtensionProperties> props(n, XrExtensionProperties{XR_TYPE_EXTENSION_PROPERTIES, nullptr, {}, 0});
-  Check(xrEnumerateInstanceExtensionProperties(nullptr, n, &n, props.data()), "xrEnumerateInstanceExtensionProperties");
+  CheckXr(xrEnumerateInstanceExtensionProperties(nullptr, n, &n, props.data()), "xrEnumerateInstanceExtensionProperties");
   std::vector<std::string> names;
   for (uint32_t i = 0; i < n && i < props.size(); ++i)
     names.emplace_back(props[i].extensionName, strnlen(props[i].extensionName, XR_MAX_EXTENSION_NAME_SIZE));
@@ -46,6 +41,10 @@ std::vector<std::string> OfferedExtensions() {
 XrError::XrError(const std::string& call, XrResult result, const std::string& meaning)
     : std::runtime_error(call + ": " + XrResultName(result) + (meaning.empty() ? "" : " (" + meaning + ")")),
       result_(result) {}
+
+void CheckXr(XrResult result, const char* call, const std::string& meaning) {
+  if (XR_FAILED(result)) throw XrError(call, result, meaning);
+}
 
 std::string XrResultName(XrResult result) {
   switch (result) {
@@ -156,7 +155,7 @@ XrEyeSession::XrEyeSession(const XrClientOptions& options, const XrGraphicsBindi
   ci.applicationInfo.apiVersion = XR_MAKE_VERSION(1, 0, 0);
   ci.enabledExtensionCount = uint32_t(enabled.size());
   ci.enabledExtensionNames = enabled.data();
-  Check(xrCreateInstance(&ci, &instance_), "xrCreateInstance");
+  CheckXr(xrCreateInstance(&ci, &instance_), "xrCreateInstance");
   try {
     XrInstanceProperties ip{XR_TYPE_INSTANCE_PROPERTIES};
     if (XR_SUCCEEDED(xrGetInstanceProperties(instance_, &ip))) {
@@ -166,20 +165,20 @@ XrEyeSession::XrEyeSession(const XrClientOptions& options, const XrGraphicsBindi
                  std::to_string(XR_VERSION_PATCH(ip.runtimeVersion));
     }
     if (timespec)
-      Check(xrGetInstanceProcAddr(instance_, "xrConvertTimeToTimespecTimeKHR", &to_timespec_),
+      CheckXr(xrGetInstanceProcAddr(instance_, "xrConvertTimeToTimespecTimeKHR", &to_timespec_),
             "xrGetInstanceProcAddr(xrConvertTimeToTimespecTimeKHR)");
     XrSystemGetInfo sg{XR_TYPE_SYSTEM_GET_INFO};
     sg.formFactor = XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY;
-    Check(xrGetSystem(instance_, &sg, &system_), "xrGetSystem", "no head-mounted display is connected");
+    CheckXr(xrGetSystem(instance_, &sg, &system_), "xrGetSystem", "no head-mounted display is connected");
     if (graphics && graphics->check_requirements) graphics->check_requirements(instance_, system_);
     XrSessionCreateInfo sc{XR_TYPE_SESSION_CREATE_INFO};  // headless: no graphics binding
     sc.next = graphics ? graphics->session_next : nullptr;
     sc.systemId = system_;
-    Check(xrCreateSession(instance_, &sc, &session_), "xrCreateSession");
+    CheckXr(xrCreateSession(instance_, &sc, &session_), "xrCreateSession");
     XrReferenceSpaceCreateInfo rs{XR_TYPE_REFERENCE_SPACE_CREATE_INFO};
     rs.referenceSpaceType = o_.space == "stage" ? XR_REFERENCE_SPACE_TYPE_STAGE : XR_REFERENCE_SPACE_TYPE_LOCAL;
     rs.poseInReferenceSpace.orientation.w = 1;
-    Check(xrCreateReferenceSpace(session_, &rs, &space_), "xrCreateReferenceSpace",
+    CheckXr(xrCreateReferenceSpace(session_, &rs, &space_), "xrCreateReferenceSpace",
           o_.space == "stage" ? "the runtime has no stage: set the room up, or use --space local" : "");
   } catch (...) {
     if (session_ != XR_NULL_HANDLE) xrDestroySession(session_);
@@ -202,7 +201,7 @@ void XrEyeSession::PollEvents() {
     XrEventDataBuffer ev{XR_TYPE_EVENT_DATA_BUFFER};
     const XrResult r = xrPollEvent(instance_, &ev);
     if (r == XR_EVENT_UNAVAILABLE) return;
-    Check(r, "xrPollEvent");
+    CheckXr(r, "xrPollEvent");
     if (ev.type == XR_TYPE_EVENT_DATA_INSTANCE_LOSS_PENDING) {
       exiting_ = true;
     } else if (ev.type == XR_TYPE_EVENT_DATA_SESSION_STATE_CHANGED) {
@@ -211,12 +210,12 @@ void XrEyeSession::PollEvents() {
         case XR_SESSION_STATE_READY: {
           XrSessionBeginInfo bi{XR_TYPE_SESSION_BEGIN_INFO};
           bi.primaryViewConfigurationType = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
-          Check(xrBeginSession(session_, &bi), "xrBeginSession");
+          CheckXr(xrBeginSession(session_, &bi), "xrBeginSession");
           running_ = true;
           break;
         }
         case XR_SESSION_STATE_STOPPING:
-          Check(xrEndSession(session_), "xrEndSession");
+          CheckXr(xrEndSession(session_), "xrEndSession");
           running_ = false;
           break;
         case XR_SESSION_STATE_EXITING:
@@ -248,9 +247,9 @@ std::optional<XrFrame> XrEyeSession::BeginFrame() {
   if (!running_ || exiting_) return std::nullopt;
   XrFrameState fs{XR_TYPE_FRAME_STATE};
   XrFrameWaitInfo wi{XR_TYPE_FRAME_WAIT_INFO};
-  Check(xrWaitFrame(session_, &wi, &fs), "xrWaitFrame");
+  CheckXr(xrWaitFrame(session_, &wi, &fs), "xrWaitFrame");
   XrFrameBeginInfo bi{XR_TYPE_FRAME_BEGIN_INFO};
-  Check(xrBeginFrame(session_, &bi), "xrBeginFrame");
+  CheckXr(xrBeginFrame(session_, &bi), "xrBeginFrame");
   ++counts_.frames;
   XrFrame frame;
   frame.display_time = fs.predictedDisplayTime;
@@ -265,7 +264,7 @@ std::optional<XrFrame> XrEyeSession::BeginFrame() {
   const XrResult located = xrLocateViews(session_, &li, &vs, 2, &n, views);
   if (XR_FAILED(located)) {
     EndFrame(frame, {});  // every xrBeginFrame is ended, whatever the views
-    Check(located, "xrLocateViews");
+    CheckXr(located, "xrLocateViews");
   }
   if ((vs.viewStateFlags & kPoseValid) != kPoseValid) {
     ++counts_.untracked;
@@ -290,18 +289,11 @@ void XrEyeSession::EndFrame(const XrFrame& frame, const std::vector<const XrComp
   ei.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
   ei.layerCount = uint32_t(layers.size());
   ei.layers = layers.empty() ? nullptr : layers.data();
-  Check(xrEndFrame(session_, &ei), "xrEndFrame");
-}
-
-std::optional<EyeViewsSample> XrEyeSession::Step() {
-  auto frame = BeginFrame();
-  if (!frame) return std::nullopt;
-  EndFrame(*frame, {});  // headless: no layers
-  return frame->views;
+  CheckXr(xrEndFrame(session_, &ei), "xrEndFrame");
 }
 
 void XrEyeSession::RequestExit() {
-  if (running_ && !exiting_) Check(xrRequestExitSession(session_), "xrRequestExitSession");
+  if (running_ && !exiting_) CheckXr(xrRequestExitSession(session_), "xrRequestExitSession");
   if (!running_) exiting_ = true;  // never begun (or already ended): nothing to wait for
 }
 

@@ -48,6 +48,10 @@ class XrError : public std::runtime_error {
 /// XrResult's name ("XR_ERROR_RUNTIME_UNAVAILABLE"; "XrResult(-123)" for one
 /// the headers do not name), from the headers, with no runtime asked.
 std::string XrResultName(XrResult result);
+/// Throws XrError naming `call` (and what it means for hullpipe, if given)
+/// when `result` is a failure; success codes (XR_TIMEOUT_EXPIRED among them)
+/// pass.
+void CheckXr(XrResult result, const char* call, const std::string& meaning = "");
 
 /// The client's settings (hullpipe_openxr's flags).
 struct XrClientOptions {
@@ -133,27 +137,23 @@ class XrEyeSession {
   XrEyeSession(const XrEyeSession&) = delete;
   XrEyeSession& operator=(const XrEyeSession&) = delete;
 
-  /// One turn: the runtime's events (the session begun when READY, ended when
-  /// STOPPING), then, while it runs, one frame: xrWaitFrame (blocks until the
-  /// runtime's next frame), xrBeginFrame, the views located at its predicted
-  /// display time, xrEndFrame with no layers. Returns the views of that frame
-  /// (stamped at its display time on CLOCK_REALTIME; without the timespec
-  /// extension, when located), or nullopt (not running, tracking lost, or a
-  /// view that did not convert: counted, and the reason in last_skip()).
-  /// Throws XrError for a failed call.
-  std::optional<EyeViewsSample> Step();
-  /// Step's first half, for a session that shows images: the events, then,
-  /// while running, xrWaitFrame, xrBeginFrame and the views located; nullopt
-  /// when not running. Every frame it returns must be given to EndFrame
-  /// (OpenXR pairs each xrBeginFrame with an xrEndFrame); a failed location is
-  /// ended here, with no layers, and thrown as XrError.
+  /// One frame's first half: the runtime's events (the session begun when
+  /// READY, ended when STOPPING), then, while it runs, xrWaitFrame (blocks
+  /// until the runtime's next frame), xrBeginFrame and both views located at
+  /// its predicted display time. Returns the frame, its views stamped at that
+  /// display time on CLOCK_REALTIME (without the timespec extension, when
+  /// located) or absent (tracking lost, or a view that did not convert:
+  /// counted, and the reason in last_skip()); nullopt when not running. Every
+  /// frame it returns must be given to EndFrame (OpenXR pairs each
+  /// xrBeginFrame with an xrEndFrame); a failed location is ended here, with no
+  /// layers, and thrown as XrError, as is any other failed call.
   std::optional<XrFrame> BeginFrame();
   /// Ends `frame` showing `layers` (none: the headset shows nothing; pointers
   /// valid for the call). Throws XrError when xrEndFrame fails (a layer the
   /// runtime refuses: XR_ERROR_LAYER_INVALID, XR_ERROR_SWAPCHAIN_RECT_INVALID).
   void EndFrame(const XrFrame& frame, const std::vector<const XrCompositionLayerBaseHeader*>& layers);
-  /// Asks the runtime to end the session (xrRequestExitSession); Step() then
-  /// runs until exiting().
+  /// Asks the runtime to end the session (xrRequestExitSession); frames then
+  /// run (BeginFrame, EndFrame) until exiting().
   void RequestExit();
   /// The runtime ended the session (EXITING or LOSS_PENDING) or the instance
   /// is being lost: nothing more comes.
@@ -165,7 +165,6 @@ class XrEyeSession {
   const XrSessionCounts& counts() const { return counts_; }
   /// Why the last frame's views were not returned ("" if they were).
   const std::string& last_skip() const { return last_skip_; }
-  XrInstance instance() const { return instance_; }
   XrSession session() const { return session_; }
   /// The reference space the views are located in and layers are placed in.
   XrSpace space() const { return space_; }
