@@ -213,12 +213,19 @@ class RayQuery {
   Eigen::Vector3f gO_ = Eigen::Vector3f::Zero(), gD_ = Eigen::Vector3f::Zero();
 };
 
-// The bracket below plane k for refinement: the previous plane or the hull box
-// entry, whichever is deeper. The near plane (k == 0) is not refined: in front of
-// it the frustum is cut.
 constexpr size_t kMaxNearMisses = 8;
 constexpr int kMaxEdgeSteps = 256;
 
+// A near miss at plane k is scanned across its neighbours' planes, within the
+// ray's part [s0, s1] in the hull box: [*a, *b].
+void NearMissBracket(const std::vector<double>& depths, size_t k, double s0, double s1, double* a, double* b) {
+  *a = std::max(s0, k > 0 ? depths[k - 1] : depths[k]);
+  *b = std::min(s1, k + 1 < depths.size() ? depths[k + 1] : depths[k]);
+}
+
+// The bracket below plane k for refinement: the previous plane or the hull box
+// entry, whichever is deeper. The near plane (k == 0) is not refined: in front of
+// it the frustum is cut.
 bool RefineBracket(const std::vector<double>& depths, size_t k, double s0, float* lo) {
   if (k == 0) return false;
   *lo = float(std::max(depths[k - 1], s0));
@@ -279,10 +286,12 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
           // A near miss whose bracket (the scan's, below) its camera vetoes
           // whole has nothing to scan; it stays a near miss (the sweep keeps
           // as many as before).
-          near_pruned[n_near] =
-              prune && ray.vetoed_on_background &&
-              ray.CannotHit(ray.vetoer, float(std::max(s0, k > 0 ? depths[k - 1] : depths[k])),
-                            float(std::min(s1, k + 1 < depths.size() ? depths[k + 1] : depths[k])));
+          near_pruned[n_near] = false;
+          if (prune && ray.vetoed_on_background) {
+            double a = 0, b = 0;
+            NearMissBracket(depths, k, s0, s1, &a, &b);
+            near_pruned[n_near] = ray.CannotHit(ray.vetoer, float(a), float(b));
+          }
           local.pruned += near_pruned[n_near];
           near_misses[n_near++] = k;
         }
@@ -294,8 +303,8 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
         for (size_t m = 0; m < n_near; ++m) {
           if (near_pruned[m]) continue;
           const size_t k = near_misses[m];
-          const double a = std::max(s0, k > 0 ? depths[k - 1] : depths[k]);
-          const double b = std::min({s1, k + 1 < depths.size() ? depths[k + 1] : depths[k]});
+          double a = 0, b = 0;
+          NearMissBracket(depths, k, s0, s1, &a, &b);
           const double step = (b - a) / 16;
           if (!(step > 0)) continue;
           float t[16];
