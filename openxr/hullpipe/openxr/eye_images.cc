@@ -33,12 +33,12 @@ void EyeImagePairs::AddPose(uint64_t pose_seq, ViewEye eye, const NovelView& vie
 }
 
 void EyeImagePairs::Keep(EyeImage image, int k) {
-  if (newest_[size_t(k)] && newest_[size_t(k)]->pose_seq > image.pose_seq) {
-    ++counts_.superseded;  // a newer one is already here
-    return;
+  std::optional<EyeImage>& newest = newest_[size_t(k)];
+  if (newest) {
+    ++counts_.superseded;  // the older of the two
+    if (newest->pose_seq > image.pose_seq) return;
   }
-  if (newest_[size_t(k)]) ++counts_.superseded;
-  newest_[size_t(k)] = std::move(image);
+  newest = std::move(image);
 }
 
 std::string EyeImagePairs::AddImage(uint64_t pose_seq, ViewEye eye, uint64_t frame_seq, const cv::Mat& bgr) {
@@ -66,11 +66,10 @@ std::optional<std::array<EyeImage, 2>> EyeImagePairs::TakeNewPair() {
   const EyeImage& l = *newest_[0];
   const EyeImage& r = *newest_[1];
   if (r.pose_seq != l.pose_seq + 1 || r.frame_seq != l.frame_seq) return std::nullopt;
-  if (any_pair_ && l.pose_seq <= last_pair_left_seq_) return std::nullopt;
+  if (last_pair_left_seq_ && l.pose_seq <= *last_pair_left_seq_) return std::nullopt;
   std::array<EyeImage, 2> pair{std::move(*newest_[0]), std::move(*newest_[1])};
   newest_[0].reset();
   newest_[1].reset();
-  any_pair_ = true;
   last_pair_left_seq_ = pair[0].pose_seq;
   ++counts_.paired;
   return pair;

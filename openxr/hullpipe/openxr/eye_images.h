@@ -73,8 +73,7 @@ class EyeImagePairs {
   void Keep(EyeImage image, int k);
   std::array<std::optional<EyeImage>, 2> newest_;  // per eye, not yet paired
   std::deque<std::pair<int, EyeImage>> pending_;   // (eye, image) waiting for its ViewPose
-  uint64_t last_pair_left_seq_ = 0;
-  bool any_pair_ = false;
+  std::optional<uint64_t> last_pair_left_seq_;  // of the last pair handed out
   EyeImageCounts counts_;
 };
 
