@@ -499,23 +499,27 @@ TEST_F(OpenXrProcess, RendersCompositedEyesReachTheHeadsetThroughTheWholePipelin
   EXPECT_EQ(images, std::min<size_t>(64, 2 * size_t(shown)));
 }
 
-// SIGINT: the client ends its session and exits 0 within a second.
+// SIGINT: the client ends its session and exits 0 within a second, headless
+// and showing images.
 TEST_F(OpenXrProcess, SigintEndsTheSessionWithinASecond) {
   dds::Participant p(domain_);
   dds::Reader<hullpipe_msg_EyeViews> reader(p, "hullpipe/eye_views", dds::QosSpec{false, false, 128});
-  auto client = Start({});
-  size_t got = 0;
-  const double until = MonotonicSeconds() + 30;
-  while (got < 5 && client->Running() && MonotonicSeconds() < until) {
-    got += reader.TakeEach([](const hullpipe_msg_EyeViews&, const dds_sample_info_t&) {});
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  for (const std::vector<std::string>& args : {std::vector<std::string>{}, std::vector<std::string>{"--display"}}) {
+    const std::string mode = args.empty() ? "headless" : "--display";
+    auto client = Start(args);
+    size_t got = 0;
+    const double until = MonotonicSeconds() + 30;
+    while (got < 5 && client->Running() && MonotonicSeconds() < until) {
+      got += reader.TakeEach([](const hullpipe_msg_EyeViews&, const dds_sample_info_t&) {});
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ASSERT_GE(got, 5u) << mode << ": " << test::ReadFile(Log());
+    const double t0 = MonotonicSeconds();
+    client->Signal(SIGINT);
+    EXPECT_EQ(client->Wait(10), 0) << mode << ": " << test::ReadFile(Log());
+    EXPECT_LT(MonotonicSeconds() - t0, 1.0 * test::TimeScale()) << mode;
+    EXPECT_NE(test::ReadFile(Log()).find("sent "), std::string::npos) << mode;
   }
-  ASSERT_GE(got, 5u) << test::ReadFile(Log());
-  const double t0 = MonotonicSeconds();
-  client->Signal(SIGINT);
-  EXPECT_EQ(client->Wait(10), 0) << test::ReadFile(Log());
-  EXPECT_LT(MonotonicSeconds() - t0, 1.0 * test::TimeScale());
-  EXPECT_NE(test::ReadFile(Log()).find("sent "), std::string::npos);
 }
 
 // No runtime, a runtime with no headless session (or, for --display, no EGL
@@ -536,6 +540,7 @@ TEST_F(OpenXrProcess, NoRuntimeNoHeadlessSessionOrBadFlagsExitNonZeroNamingWhy) 
       // --display: a runtime with no EGL binding, or no format hullpipe uploads.
       {{"--display"}, {{"HULLPIPE_FAKE_XR_EGL", "0"}}, "", "XR_MNDX_egl_enable"},
       {{"--display"}, {{"HULLPIPE_FAKE_XR_FORMATS", "34842"}}, "", "xrEnumerateSwapchainFormats"},
+      {{"--display", "--gl-device", "40"}, {}, "", "--gl-device 40"},
   };
   for (const Case& c : cases) {
     auto client = Start(c.args, c.env, c.manifest);
@@ -545,7 +550,11 @@ TEST_F(OpenXrProcess, NoRuntimeNoHeadlessSessionOrBadFlagsExitNonZeroNamingWhy) 
     size_t errors = 0;
     for (size_t k = log.find("error"); k != std::string::npos; k = log.find("error", k + 1)) ++errors;
     EXPECT_EQ(errors, 1u) << "one line: " << log;
-  }
+  }  // A flag of --display's without it: refused at parsing (CLI11's exit code),
+  // naming both.
+  auto client = Start({"--gl-device", "0"});
+  EXPECT_NE(client->Wait(30), 0) << test::ReadFile(Log());
+  EXPECT_NE(test::ReadFile(Log()).find("--gl-device requires --display"), std::string::npos) << test::ReadFile(Log());
 }
 
 }  // namespace

@@ -91,10 +91,12 @@ int main(int argc, char** argv) {
   app.add_option("--tracker-id", o.tracker_id, "EyeViews.tracker_id of the views sent")->capture_default_str();
   app.add_option("--frames", frames, "Stop after this many views sent (0: when the runtime ends the session)")
       ->capture_default_str();
-  app.add_flag("--display", display,
-               "Show render_node's composited eyes in the headset (an EGL-bound session, XR_MNDX_egl_enable)");
+  auto* display_flag =
+      app.add_flag("--display", display,
+                   "Show render_node's composited eyes in the headset (an EGL-bound session, XR_MNDX_egl_enable)");
   app.add_option("--gl-device", gl_device, "With --display: the EGL device (-1: the first hardware one)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(display_flag);
   CLI11_PARSE(app, argc, argv);
   try {
     if (!world_from_space.empty()) o.world_from_space = openxr::RigidFromPoseText(world_from_space, "--world-from-space");
