@@ -291,6 +291,25 @@ XRAPI_ATTR XrResult XRAPI_CALL BeginFrame(XrSession, const XrFrameBeginInfo*) {
   return g.running ? XR_SUCCESS : XR_ERROR_SESSION_NOT_RUNNING;
 }
 
+// Each eye: recommended 1440x1600, at most 2048x2048 (a common headset's).
+XRAPI_ATTR XrResult XRAPI_CALL EnumerateViewConfigurationViews(XrInstance, XrSystemId system,
+                                                                XrViewConfigurationType type, uint32_t capacity,
+                                                                uint32_t* count, XrViewConfigurationView* views) {
+  if (system != 1) return XR_ERROR_SYSTEM_INVALID;
+  if (type != XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO) return XR_ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED;
+  *count = 2;
+  if (capacity == 0) return XR_SUCCESS;
+  if (capacity < 2) return XR_ERROR_SIZE_INSUFFICIENT;
+  for (uint32_t k = 0; k < 2; ++k) {
+    if (views[k].type != XR_TYPE_VIEW_CONFIGURATION_VIEW) return XR_ERROR_VALIDATION_FAILURE;
+    views[k].recommendedImageRectWidth = 1440;
+    views[k].recommendedImageRectHeight = 1600;
+    views[k].maxImageRectWidth = views[k].maxImageRectHeight = 2048;
+    views[k].recommendedSwapchainSampleCount = views[k].maxSwapchainSampleCount = 1;
+  }
+  return XR_SUCCESS;
+}
+
 XRAPI_ATTR XrResult XRAPI_CALL EnumerateSwapchainFormats(XrSession, uint32_t capacity, uint32_t* count,
                                                           int64_t* formats) {
   if (!g.graphics_session) return XR_ERROR_VALIDATION_FAILURE;
@@ -306,7 +325,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateSwapchain(XrSession, const XrSwapchainCreat
   bool offered = false;
   for (int64_t f : g.formats) offered = offered || f == ci->format;
   if (!offered) return XR_ERROR_SWAPCHAIN_FORMAT_UNSUPPORTED;
-  if (ci->width < 1 || ci->height < 1 || ci->width > 4096 || ci->height > 4096 || ci->faceCount != 1 ||
+  if (ci->width < 1 || ci->height < 1 || ci->width > 2048 || ci->height > 2048 || ci->faceCount != 1 ||
       ci->arraySize != 1 || ci->mipCount != 1 || ci->sampleCount != 1)
     return XR_ERROR_VALIDATION_FAILURE;
   Swapchain sc;
@@ -505,6 +524,7 @@ const std::map<std::string, PFN_xrVoidFunction>& Functions() {
       HULLPIPE_FAKE_XR("xrLocateViews", LocateViews),
       HULLPIPE_FAKE_XR("xrConvertTimeToTimespecTimeKHR", ConvertTimeToTimespecTime),
       HULLPIPE_FAKE_XR("xrGetOpenGLGraphicsRequirementsKHR", GetOpenGLGraphicsRequirements),
+      HULLPIPE_FAKE_XR("xrEnumerateViewConfigurationViews", EnumerateViewConfigurationViews),
       HULLPIPE_FAKE_XR("xrEnumerateSwapchainFormats", EnumerateSwapchainFormats),
       HULLPIPE_FAKE_XR("xrCreateSwapchain", CreateSwapchain),
       HULLPIPE_FAKE_XR("xrDestroySwapchain", DestroySwapchain),

@@ -338,7 +338,9 @@ cv::Mat EyePattern(int i, int eye) {
 // of flat blocks at quality 95: within 8 levels away from the edges), upright,
 // at the pose the runtime reported for the frame it was drawn for, in its
 // space. Before any pair, frames carry no layer (and a monitor's composite,
-// not an eye's, is not shown): the layers come from the composites alone.
+// not an eye's, is not shown): the layers come from the composites alone. A
+// hostile peer's oversized composites, flooding beside render's, are refused
+// undecoded while render's pairs are shown.
 TEST_F(OpenXrProcess, TheCompositedEyesReachTheHeadsetAtThePosesTheyWereDrawnFrom) {
   const std::filesystem::path layers = dir_ / "layers";
   std::filesystem::create_directories(layers);
@@ -346,9 +348,18 @@ TEST_F(OpenXrProcess, TheCompositedEyesReachTheHeadsetAtThePosesTheyWereDrawnFro
   dds::Reader<hullpipe_msg_EyeViews> eyes(p, "hullpipe/eye_views", dds::QosSpec{false, false, 128});
   dds::Writer<hullpipe_msg_ViewPose> poses(p);
   dds::Writer<hullpipe_msg_CompositedView> images(p);
+  // A hostile peer beside render: composites wider than any eye takes (the
+  // runtime's 2048), for a pose the client has, written every turn of the
+  // test's waits. None may be decoded or shown; render's pairs must still be.
+  dds::Participant hostile(domain_);
+  dds::Writer<hullpipe_msg_CompositedView> hostile_images(hostile);
+  const auto oversized =
+      dds::MakeCompositedViewMessage(cv::Mat(48, 2100, CV_8UC3, cv::Scalar(0, 255, 0)), 10, 100, 0, 0, {16384, 50},
+                                     ViewEye::kLeft);
   auto client = Start({"--display", "--world-from-space", kWorldFromStage},
                       {{"HULLPIPE_FAKE_XR_LAYERS_DIR", layers.string()}});
   const auto dumped = [&] {
+    hostile_images.Write(oversized.msg);
     size_t n = 0;
     for (const auto& e : std::filesystem::directory_iterator(layers)) n += e.path().extension() == ".ppm";
     return n;
@@ -394,6 +405,9 @@ TEST_F(OpenXrProcess, TheCompositedEyesReachTheHeadsetAtThePosesTheyWereDrawnFro
   EXPECT_NE(log.find("GL_SRGB8_ALPHA8"), std::string::npos) << log;
   EXPECT_NE(log.find("showed 3 composited eye pairs"), std::string::npos) << log;
   EXPECT_NE(log.find("not an eye"), std::string::npos) << log;
+  EXPECT_NE(log.find("CompositedView 2100x48 is larger than the headset's largest eye image 2048x2048"),
+            std::string::npos)
+      << log;
 
   const std::vector<LayerLine> lines = ReadLayers(layers / "layers.txt");
   ASSERT_FALSE(lines.empty());

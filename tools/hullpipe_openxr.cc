@@ -35,8 +35,12 @@ namespace {
 // The composites are best-effort; a few are kept so both eyes of a pose arrive.
 class CompositeInput {
  public:
-  explicit CompositeInput(const Participant& p)
-      : poses_(p), images_(p, TopicTraits<hullpipe_msg_CompositedView>::kName, QosSpec{false, false, 4, 0}) {}
+  // Composites larger than max_width x max_height are refused undecoded.
+  CompositeInput(const Participant& p, int max_width, int max_height)
+      : poses_(p),
+        images_(p, TopicTraits<hullpipe_msg_CompositedView>::kName, QosSpec{false, false, 4, 0}),
+        max_width_(max_width),
+        max_height_(max_height) {}
   // Takes what arrived; returns the newest pair not shown yet.
   std::optional<std::array<openxr::EyeImage, 2>> Take() {
     poses_.TakeEach([&](const hullpipe_msg_ViewPose& m, const dds_sample_info_t&) {
@@ -49,6 +53,12 @@ class CompositeInput {
     images_.TakeEach([&](const hullpipe_msg_CompositedView& m, const dds_sample_info_t&) {
       try {
         CheckCompositedViewMsg(m);
+        if (int64_t(m.width) > max_width_ || int64_t(m.height) > max_height_) {
+          Skip("CompositedView " + std::to_string(m.width) + "x" + std::to_string(m.height) +
+               " is larger than the headset's largest eye image " + std::to_string(max_width_) + "x" +
+               std::to_string(max_height_) + ": not decoded");
+          return;
+        }
         const std::string why = pairs_.AddImage(m.pose_seq, ViewEyeFromMsg("CompositedView", m.eye), m.frame_seq,
                                                 CompositedViewFromMsg(m));
         if (!why.empty()) Skip("CompositedView not shown: " + why);
@@ -68,6 +78,7 @@ class CompositeInput {
   }
   Reader<hullpipe_msg_ViewPose> poses_;
   Reader<hullpipe_msg_CompositedView> images_;
+  int max_width_, max_height_;
   openxr::EyeImagePairs pairs_;
   uint64_t skipped_ = 0;
   std::string last_;
@@ -120,7 +131,7 @@ int main(int argc, char** argv) {
     std::unique_ptr<CompositeInput> composites;
     if (display) {
       shown = std::make_unique<openxr::XrEyeDisplay>(session);
-      composites = std::make_unique<CompositeInput>(*participant);
+      composites = std::make_unique<CompositeInput>(*participant, shown->max_width(), shown->max_height());
       spdlog::info("OpenXR runtime {}; showing the composited eyes ({}, {}) and locating both eyes in its {} space",
                    session.runtime(), context->renderer(),
                    shown->format() == openxr::kGlSrgb8Alpha8 ? "GL_SRGB8_ALPHA8" : "GL_RGBA8", o.space);

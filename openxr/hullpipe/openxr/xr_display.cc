@@ -160,6 +160,13 @@ XrEyeDisplay::XrEyeDisplay(const XrEyeSession& session) : session_(session) {
   CheckXr(xrEnumerateSwapchainFormats(session.session(), n, &n, formats.data()), "xrEnumerateSwapchainFormats");
   formats.resize(std::min<size_t>(n, formats.size()));
   format_ = ChooseSwapchainFormat(formats);
+  std::array<XrViewConfigurationView, 2> views{XrViewConfigurationView{XR_TYPE_VIEW_CONFIGURATION_VIEW},
+                                               XrViewConfigurationView{XR_TYPE_VIEW_CONFIGURATION_VIEW}};
+  CheckXr(xrEnumerateViewConfigurationViews(session.instance(), session.system(),
+                                            XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO, 2, &n, views.data()),
+          "xrEnumerateViewConfigurationViews");
+  max_width_ = int(std::min(views[0].maxImageRectWidth, views[1].maxImageRectWidth));
+  max_height_ = int(std::min(views[0].maxImageRectHeight, views[1].maxImageRectHeight));
 }
 
 XrEyeDisplay::~XrEyeDisplay() = default;

@@ -65,7 +65,8 @@ struct XrDisplayCounts {
 /// thread-safe; not copyable or movable (the layer points into it).
 class XrEyeDisplay {
  public:
-  /// Picks the format (ChooseSwapchainFormat). Throws XrError.
+  /// Picks the format (ChooseSwapchainFormat) and reads the largest image
+  /// each eye takes (xrEnumerateViewConfigurationViews). Throws XrError.
   explicit XrEyeDisplay(const XrEyeSession& session);
   ~XrEyeDisplay();
   XrEyeDisplay(const XrEyeDisplay&) = delete;
@@ -82,12 +83,18 @@ class XrEyeDisplay {
   /// whole), or nullptr before any pair. Valid until the next Show.
   const XrCompositionLayerBaseHeader* Layer() const;
   int64_t format() const { return format_; }
+  /// The largest image both eyes take, pixels (the smaller of the two views'
+  /// maxImageRectWidth and maxImageRectHeight): a composite beyond it is
+  /// refused before it is decoded.
+  int max_width() const { return max_width_; }
+  int max_height() const { return max_height_; }
   const XrDisplayCounts& counts() const { return counts_; }
 
  private:
   struct Swapchains;
   const XrEyeSession& session_;
   int64_t format_ = 0;
+  int max_width_ = 0, max_height_ = 0;
   std::unique_ptr<Swapchains> swapchains_;
   XrDisplayCounts counts_;
 };

@@ -165,6 +165,8 @@ class XrEyeSession {
   const XrSessionCounts& counts() const { return counts_; }
   /// Why the last frame's views were not returned ("" if they were).
   const std::string& last_skip() const { return last_skip_; }
+  XrInstance instance() const { return instance_; }
+  XrSystemId system() const { return system_; }
   XrSession session() const { return session_; }
   /// The reference space the views are located in and layers are placed in.
   XrSpace space() const { return space_; }
