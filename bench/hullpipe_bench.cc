@@ -28,6 +28,7 @@
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_objects.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
+#include "hullpipe/gl/gl_texture.h"
 #include "hullpipe/gl/gl_triangle_query.h"
 #include "hullpipe/geometry/mesh.h"
 #include "hullpipe/reconstruction/empty_space.h"
@@ -234,10 +235,20 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       span.push_back(double(ns[3] - ns[0]) * 1e-6);
       wall.push_back((w1 - w0) * 1e3);
     }
-    char row[240];
-    std::snprintf(row, sizeof row, "| %dx%d | %d | %zu | %.2f | %.2f | %.2f | %.2f | %.2f / %.2f / %.2f | %.2f | %.2f |",
-                  view.width, view.height, int(in.images.size()), depths.size(), Median(t[0]), Median(t[1]),
-                  Median(t[2]), Median(t[3]), Median(g[0]), Median(g[1]), Median(g[2]), Median(span), Median(wall));
+    // The colour images' bytes the upload sends (each around its camera's
+    // object pixels, GlTexture::ObjectImageRects) against the whole images.
+    double part_kb = 0, whole_kb = 0;
+    const std::vector<cv::Rect> parts = gl::GlTexture::ObjectImageRects(q, in.images);
+    for (size_t k = 0; k < parts.size(); ++k) {
+      part_kb += parts[k].area() * 4e-3;
+      whole_kb += in.images[k].image.total() * 4e-3;
+    }
+    char row[280];
+    std::snprintf(row, sizeof row,
+                  "| %dx%d | %d | %zu | %.0f / %.0f | %.2f | %.2f | %.2f | %.2f | %.2f / %.2f / %.2f | %.2f | %.2f |",
+                  view.width, view.height, int(in.images.size()), depths.size(), part_kb, whole_kb, Median(t[0]),
+                  Median(t[1]), Median(t[2]), Median(t[3]), Median(g[0]), Median(g[1]), Median(g[2]), Median(span),
+                  Median(wall));
     stage_rows.push_back(row);
   };
   for (const int ncam : rows.cameras) {
@@ -467,9 +478,10 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   }
   if (!stage_rows.empty()) {
     std::printf("\nGL frame stage by stage, each waited for (median ms):\n\n"
-                "| view | cams | planes | upload | visibility maps | sweep (read back) | texture (read back) | "
-                "GPU timeline, not waited: upload / visibility / sweep + texture | GPU span | frame wall |\n"
-                "|---|---|---|---|---|---|---|---|---|---|\n");
+                "| view | cams | planes | image kB up / whole | upload | visibility maps | sweep (read back) | "
+                "texture (read back) | GPU timeline, not waited: upload / visibility / sweep + texture | GPU span | "
+                "frame wall |\n"
+                "|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const auto& r : stage_rows) std::printf("%s\n", r.c_str());
   }
   if (rows.triangles.empty()) return 0;

@@ -93,7 +93,10 @@ class GlBackend final : public SweepBackend {
   void BeginFrameset(const VolumeQuery& q, const std::vector<CameraImage>& images) override {
     ctx_.MakeCurrent();
     march_->Upload(q);
-    texture_->UploadImages(images);
+    // Only what a hull point can project to: each image around its camera's
+    // object pixels (the texture pass uploads an image whole if it reads past).
+    const std::vector<cv::Rect> rects = GlTexture::ObjectImageRects(q, images);
+    texture_->UploadImages(images, &rects);
     ForgetFrameset();
   }
   // The last frameset's visibility maps and tile are no longer this one's.
@@ -166,7 +169,9 @@ class GlBackend final : public SweepBackend {
     out.depth = march_->ReadTile();
     if (!swept) texture_->Dispatch(tile, v, images, {}, vis_views, vis_texture, 0, &out.depth);
     const double t1 = MonotonicSeconds();
+    const int64_t refetched = texture_->refetched_images();
     out.colour = texture_->ReadBack();
+    out.refetched_images = int(texture_->refetched_images() - refetched);
     out.texture_ms = (MonotonicSeconds() - t1) * 1e3;
     if (stats) stats->sweep_ms += (t1 - t0) * 1e3;
     last_tile_ = out.depth;

@@ -1,6 +1,8 @@
 #include "hullpipe/gl/gl_texture.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstddef>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -27,6 +29,7 @@ std::string TextureCs() {
   return std::string("#version 450 core\nlayout(local_size_x = 8, local_size_y = 8) in;\n") + kCameraBufferGlsl + R"(
 struct Extra { vec4 centre; vec4 vr0, vr1, vr2; vec4 vt; vec4 vintr; vec4 vsize; };
 layout(std430, binding = 2) readonly buffer Extras { Extra ex[]; };
+layout(std430, binding = 3) buffer Missing { uint missing; };  // bit k: camera k sampled off its upload
 layout(binding = 0) uniform usampler2DArray u_images;  // bytes B, G, R per texel
 layout(binding = 1) uniform sampler2DArray u_vis;      // hull depth from each camera
 layout(binding = 2) uniform sampler2DArray u_depth;    // the tile's eye-z depths (layer 0)
@@ -43,11 +46,20 @@ uniform vec3 u_O;
 uniform ivec2 u_size;
 const int MAXC = 32;
 
+// Camera k's colour at uv, bilinear over texel centres. Only the camera's
+// uploaded rectangle (cams[k].rect, [x0, x1) x [y0, y1)) holds this frameset's
+// texels: a footprint reaching outside it is flagged in u_missing (the CPU then
+// uploads that image whole and runs the pass again) and its colour is not used.
 vec3 Bilinear(int k, vec2 uv) {
   vec2 sz = cams[k].p.zw;
   float x = clamp(uv.x - 0.5, 0.0, sz.x - 1.0), y = clamp(uv.y - 0.5, 0.0, sz.y - 1.0);
   int x0 = int(x), y0 = int(y);
   int x1 = min(x0 + 1, int(sz.x) - 1), y1 = min(y0 + 1, int(sz.y) - 1);
+  vec4 r = cams[k].rect;
+  if (!(float(x0) >= r.x && float(y0) >= r.y && float(x1) < r.z && float(y1) < r.w)) {
+    atomicOr(missing, 1u << uint(k));
+    return vec3(0.0);
+  }
   float ax = x - float(x0), ay = y - float(y0);
   vec3 p00 = vec3(texelFetch(u_images, ivec3(x0, y0, k), 0).rgb), p01 = vec3(texelFetch(u_images, ivec3(x1, y0, k), 0).rgb);
   vec3 p10 = vec3(texelFetch(u_images, ivec3(x0, y1, k), 0).rgb), p11 = vec3(texelFetch(u_images, ivec3(x1, y1, k), 0).rgb);
@@ -77,7 +89,8 @@ void main() {
   vec3 X = u_O + d * (u_Rwe * ray);
   vec3 to_eye = normalize(u_O - X);
   float w[MAXC];
-  vec3 col[MAXC];
+  vec2 at[MAXC];  // where camera cam[i] sees X
+  int cam[MAXC];
   bool seen[MAXC];
   int n = 0;
   bool any_seen = false;
@@ -88,7 +101,8 @@ void main() {
     if (puv.x < 0.0) continue;
     // Cameras facing the eye's side dominate; when none does the least oblique wins.
     w[n] = (cosang > 0.0 ? pow(cosang, u_power) : 0.0) + 1e-9 * (1.0 + cosang);
-    col[n] = Bilinear(k, puv);
+    at[n] = puv;
+    cam[n] = k;
     seen[n] = u_has_vis == 0 || Visible(k, X);
     any_seen = any_seen || seen[n];
     ++n;
@@ -102,7 +116,7 @@ void main() {
     for (int i = 0; i < n; ++i)
       if ((seen[i] || !any_seen) && w[i] >= 0.0 && (best < 0 || w[i] > w[best])) best = i;
     if (best < 0) break;
-    sum += col[best] * w[best];
+    sum += Bilinear(cam[best], at[best]) * w[best];
     wsum += w[best];
     w[best] = -1.0;
   }
@@ -118,18 +132,60 @@ GlTexture::GlTexture()
     : program_(BuildComputeProgram(TextureCs().c_str())),
       images_(std::make_unique<LayerUploader>(GL_RGBA8UI, GL_RGBA_INTEGER, GL_UNSIGNED_BYTE, CV_8UC3)),
       visibility_(std::make_unique<LayerUploader>(GL_R32F, GL_RED, GL_FLOAT, CV_32FC1)),
+      missing_(MakeBuffer()),
       cams_(MakeBuffer()),
-      extra_(MakeBuffer()) {}
+      extra_(MakeBuffer()) {
+  glNamedBufferStorage(missing_.get(), sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  CheckGl("texture pass's flag buffer");
+}
 
 GlTexture::~GlTexture() = default;
 
-void GlTexture::UploadImages(const std::vector<CameraImage>& images) {
+void GlTexture::UploadImages(const std::vector<CameraImage>& images, const std::vector<cv::Rect>* rects) {
   if (images.size() > size_t(kMaxTextureCameras))
     throw std::invalid_argument("GlTexture: at most " + std::to_string(kMaxTextureCameras) + " images");
+  if (rects && rects->size() != images.size())
+    throw std::invalid_argument("GlTexture: " + std::to_string(rects->size()) + " rectangles for " +
+                                std::to_string(images.size()) + " images");
   std::vector<cv::Mat> layers;
   for (const auto& im : images) layers.push_back(im.image);
-  images_->Upload(layers);
+  std::vector<cv::Rect> parts;
+  for (size_t k = 0; k < layers.size(); ++k) {
+    const cv::Rect whole(0, 0, layers[k].cols, layers[k].rows);
+    parts.push_back(rects ? (*rects)[k] & whole : whole);
+  }
   uploaded_ = images.size();
+  kept_.clear();
+  rects_.clear();
+  uploaded_bytes_ = 0;
+  if (layers.empty()) return;
+  images_->Upload(layers, &parts);
+  uploaded_bytes_ = images_->last_bytes();
+  kept_ = std::move(layers);
+  rects_ = std::move(parts);
+}
+
+std::vector<cv::Rect> GlTexture::ObjectImageRects(const VolumeQuery& q, const std::vector<CameraImage>& images) {
+  std::vector<cv::Rect> out;
+  for (size_t k = 0; k < images.size(); ++k) {
+    const cv::Mat& img = images[k].image;
+    const cv::Rect whole(0, 0, img.cols, img.rows);
+    if (k >= q.size() || q.views()[k].camera.id != images[k].camera.id || q.views()[k].map.empty()) {
+      out.push_back(whole);
+      continue;
+    }
+    const cv::Rect& r = q.object_rect(k);
+    if (r.area() == 0) {
+      out.push_back(cv::Rect());
+      continue;
+    }
+    const double sx = double(img.cols) / q.views()[k].map.cols, sy = double(img.rows) / q.views()[k].map.rows;
+    const int gx = 2 + int(std::ceil(sx)), gy = 2 + int(std::ceil(sy));
+    const int x0 = int(std::floor(r.x * sx)) - gx, y0 = int(std::floor(r.y * sy)) - gy;
+    const int x1 = int(std::ceil(r.br().x * sx)) + gx, y1 = int(std::ceil(r.br().y * sy)) + gy;
+    out.push_back(cv::Rect(cv::Point(x0, y0), cv::Point(x1, y1)) & whole);
+  }
+  return out;
 }
 
 cv::Mat GlTexture::Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
@@ -197,7 +253,6 @@ void GlTexture::Dispatch(const cv::Rect& tile, const NovelView& view, const std:
       e.vsize[0] = float(v.width), e.vsize[1] = float(v.height);
     }
   }
-  glNamedBufferData(cams_.get(), GLsizeiptr(cams.size() * sizeof(GpuCamera)), cams.data(), GL_STREAM_DRAW);
   glNamedBufferData(extra_.get(), GLsizeiptr(extra.size() * sizeof(TexExtra)), extra.data(), GL_STREAM_DRAW);
 
   if (tile.width > w_ || tile.height > h_) {
@@ -217,33 +272,74 @@ void GlTexture::Dispatch(const cv::Rect& tile, const NovelView& view, const std:
     glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   }
 
+  for (size_t k = 0; k < cams.size(); ++k) {
+    const cv::Rect& r = rects_[k];
+    cams[k].rect[0] = float(r.x), cams[k].rect[1] = float(r.y);
+    cams[k].rect[2] = float(r.br().x), cams[k].rect[3] = float(r.br().y);
+  }
+  glNamedBufferData(cams_.get(), GLsizeiptr(cams.size() * sizeof(GpuCamera)), cams.data(), GL_STREAM_DRAW);
+  pending_ = Pending{tile, view, options, vis, vis ? vis_texture : 0, depth_texture ? depth_texture : depth_.get()};
+  Launch();
+}
+
+void GlTexture::Launch() {
+  const Pending& d = pending_;
+  const GLuint zero = 0;
+  glNamedBufferSubData(missing_.get(), 0, sizeof zero, &zero);
   const GLuint p = program_.get();
   glUseProgram(p);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, cams_.get());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, extra_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, missing_.get());
   glBindTextureUnit(0, images_->texture());
-  glBindTextureUnit(1, vis ? vis_texture : images_->texture());
-  glBindTextureUnit(2, depth_texture ? depth_texture : depth_.get());
+  glBindTextureUnit(1, d.vis ? d.vis_texture : images_->texture());
+  glBindTextureUnit(2, d.depth_texture);
   glBindImageTexture(0, out_.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8UI);
-  glUniform1i(glGetUniformLocation(p, "u_ncam"), GLint(images.size()));
-  glUniform1i(glGetUniformLocation(p, "u_max"), options.max_cameras);
-  glUniform1f(glGetUniformLocation(p, "u_power"), float(options.angle_power));
-  glUniform1f(glGetUniformLocation(p, "u_bias"), float(options.visibility_bias_m));
-  glUniform1i(glGetUniformLocation(p, "u_has_vis"), vis ? 1 : 0);
-  SetViewUniforms(p, view, tile.tl());
-  glUniform2i(glGetUniformLocation(p, "u_size"), tile.width, tile.height);
+  glUniform1i(glGetUniformLocation(p, "u_ncam"), GLint(uploaded_));
+  glUniform1i(glGetUniformLocation(p, "u_max"), d.options.max_cameras);
+  glUniform1f(glGetUniformLocation(p, "u_power"), float(d.options.angle_power));
+  glUniform1f(glGetUniformLocation(p, "u_bias"), float(d.options.visibility_bias_m));
+  glUniform1i(glGetUniformLocation(p, "u_has_vis"), d.vis ? 1 : 0);
+  SetViewUniforms(p, d.view, d.tile.tl());
+  glUniform2i(glGetUniformLocation(p, "u_size"), d.tile.width, d.tile.height);
   glUniform1i(glGetUniformLocation(p, "u_images"), 0);
   glUniform1i(glGetUniformLocation(p, "u_vis"), 1);
   glUniform1i(glGetUniformLocation(p, "u_depth"), 2);
-  glDispatchCompute(GLuint((tile.width + 7) / 8), GLuint((tile.height + 7) / 8), 1);
-  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  glDispatchCompute(GLuint((d.tile.width + 7) / 8), GLuint((d.tile.height + 7) / 8), 1);
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
   CheckGl("texture hull");
   dispatched_ = true;
 }
 
-cv::Mat GlTexture::ReadBack() const {
+cv::Mat GlTexture::ReadBack() {
+  if (!dispatched_) return cv::Mat(out_size_, CV_8UC3, cv::Scalar(0, 0, 0));
+  cv::Mat out = ReadOut();
+  GLuint missing = 0;
+  glGetNamedBufferSubData(missing_.get(), 0, sizeof missing, &missing);
+  CheckGl("texture hull's flags");
+  if (missing == 0) return out;
+  // Some camera was sampled outside the part of its image on the GPU (a point
+  // the given depth puts off its object pixels, or rounding at its view's
+  // edge): those images go up whole and the pass runs again.
+  std::vector<cv::Rect> parts(kept_.size());
+  for (size_t k = 0; k < kept_.size(); ++k)
+    if (missing & (1u << k)) {
+      parts[k] = rects_[k] = cv::Rect(0, 0, kept_[k].cols, kept_[k].rows);
+      ++refetched_;
+      const GLintptr at = GLintptr(k * sizeof(GpuCamera) + offsetof(GpuCamera, rect));
+      const float rect[4] = {0, 0, float(kept_[k].cols), float(kept_[k].rows)};
+      glNamedBufferSubData(cams_.get(), at, sizeof rect, rect);
+    }
+  images_->Upload(kept_, &parts);
+  Launch();
+  out = ReadOut();
+  glGetNamedBufferSubData(missing_.get(), 0, sizeof missing, &missing);
+  if (missing != 0) throw std::logic_error("GlTexture: a whole image's sample flagged outside it");
+  return out;
+}
+
+cv::Mat GlTexture::ReadOut() const {
   cv::Mat out(out_size_, CV_8UC3, cv::Scalar(0, 0, 0));
-  if (!dispatched_) return out;
   cv::Mat bgra(out_size_, CV_8UC4);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glGetTextureSubImage(out_.get(), 0, 0, 0, 0, out_size_.width, out_size_.height, 1, GL_RGBA_INTEGER,

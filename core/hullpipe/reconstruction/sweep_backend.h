@@ -27,6 +27,10 @@ struct TexturedTile {
   /// docs/latency.md): the CPU's texturing; on the GL backend only what follows
   /// the one read-back, whose wait for both passes counts as the sweep's.
   double texture_ms = 0;
+  /// Images the GL texture pass had to upload whole and run again for this
+  /// tile: it sampled them outside the part uploaded for the frameset (the
+  /// pixels around their object pixels; gl_texture.h). 0 on the CPU.
+  int refetched_images = 0;
 };
 
 /// What renders a frameset's hull: sweep, visibility maps and texture.

@@ -209,6 +209,9 @@ int ReconController::Render(const PendingPose& pose, const std::shared_ptr<const
     counters_.Stage("sweep", sweep_stats.sweep_ms);
     counters_.Stage("refine", sweep_stats.refine_ms);
     counters_.Stage("texture", swept.texture_ms);
+    if (swept.refetched_images > 0)
+      spdlog::debug("frameset {}, tile {}: {} image(s) uploaded whole for the texture pass", fs.seq, t,
+                    swept.refetched_images);
     tile.rect = rect;
     tile.node_id = uint32_t(o_.tile);
     tile.tile_index = uint32_t(t);

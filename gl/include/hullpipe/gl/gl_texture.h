@@ -3,6 +3,7 @@
 // equal to it up to float rounding (gl tests compare them).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -10,6 +11,7 @@
 
 #include "hullpipe/gl/gl_objects.h"
 #include "hullpipe/reconstruction/texture.h"
+#include "hullpipe/reconstruction/volume_query.h"
 
 namespace hullpipe::gl {
 
@@ -28,10 +30,27 @@ class GlTexture {
 
   /// Uploads a frameset's colour images (CV_8UC3 BGR; one texture array layer
   /// each, as BGRA, through double-buffered pixel buffers). Every Texture call until the
-  /// next upload reads these. Throws std::invalid_argument for more than
-  /// kMaxTextureCameras images or a non-CV_8UC3 image, GlError on a GL error.
-  void UploadImages(const std::vector<CameraImage>& images);
-
+  /// next upload reads these. With `rects` (one per image, image pixels), only
+  /// that part of each image goes up (ObjectImageRects: the pixels a hull point
+  /// can project to); a pass that samples an image outside its rectangle
+  /// uploads that image whole and runs again, so the colours are the same as
+  /// from whole images. Throws std::invalid_argument for more than
+  /// kMaxTextureCameras images, a non-CV_8UC3 image or a rects list of another
+  /// length, GlError on a GL error.
+  void UploadImages(const std::vector<CameraImage>& images, const std::vector<cv::Rect>* rects = nullptr);
+  /// Per image, the rectangle (image pixels, clipped to it) that holds every
+  /// pixel the texture pass reads for a point the volume query `q` finds
+  /// inside: a camera that sees such a point puts it on one of its object
+  /// pixels (VolumeQuery::object_rect), so its camera's object rectangle,
+  /// scaled from the map's size to the image's, grown by 2 image pixels (the
+  /// bilinear footprint's second texel and float rounding between the passes)
+  /// and by one map pixel. Empty for a camera with no object pixel. Images whose
+  /// camera (by id, in order) is not the query's get the whole image.
+  static std::vector<cv::Rect> ObjectImageRects(const VolumeQuery& q, const std::vector<CameraImage>& images);
+  /// Bytes the last UploadImages copied (BGRA), and how many images the passes
+  /// since had to upload whole again (a sample outside the image's rectangle).
+  size_t uploaded_bytes() const { return uploaded_bytes_; }
+  int64_t refetched_images() const { return refetched_; }
   /// Same contract as TextureHull(depth_tile, tile, view, images, options,
   /// visibility): CV_8UC3 of the tile's size. `images` must be the ones last
   /// uploaded (only their cameras and sizes are read here). Throws as TextureHull,
@@ -64,16 +83,36 @@ class GlTexture {
                 const TextureOptions& options, const std::vector<NovelView>* visibility_views,
                 GLuint visibility_texture, GLuint depth_texture, const cv::Mat* depth = nullptr);
   /// The last Dispatch's tile (CV_8UC3 BGR of its size; black where it
-  /// dispatched nothing: an empty tile or no images). Waits for the GPU.
-  cv::Mat ReadBack() const;
+  /// dispatched nothing: an empty tile or no images). Waits for the GPU. When
+  /// the pass sampled an image outside its uploaded rectangle, uploads that
+  /// image whole and runs the pass again (refetched_images() counts them), so the
+  /// depth and visibility textures the Dispatch named must be unchanged.
+  cv::Mat ReadBack();
 
  private:
   cv::Mat Run(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
               const std::vector<CameraImage>& images, const TextureOptions& options,
               const std::vector<NovelView>* visibility_views, GLuint visibility_texture, GLuint depth_texture);
   Program program_;
+  // Binds the pass's inputs as Dispatch set them (pending_) and queues it.
+  void Launch();
+  // Reads the pass's output into BGR.
+  cv::Mat ReadOut() const;
   std::unique_ptr<LayerUploader> images_, visibility_;
   size_t uploaded_ = 0;
+  std::vector<cv::Mat> kept_;        // the last upload's images (for a whole upload after a miss)
+  std::vector<cv::Rect> rects_;      // the part of each that is on the GPU
+  size_t uploaded_bytes_ = 0;
+  int64_t refetched_ = 0;
+  Buffer missing_;                   // the pass's bit mask of cameras sampled off their rectangle
+  struct Pending {
+    cv::Rect tile;
+    NovelView view;
+    TextureOptions options;
+    bool vis = false;
+    GLuint vis_texture = 0, depth_texture = 0;
+  };
+  Pending pending_;  // the last Dispatch's pass (its cameras in cams_)
   Buffer cams_, extra_;
   gl::Texture depth_, out_;
   int w_ = 0, h_ = 0;
