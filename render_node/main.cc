@@ -25,8 +25,9 @@ class Outputs final : public nodes::RenderSink {
   Outputs(const Writer<hullpipe_msg_ViewPose>& poses, const Writer<hullpipe_msg_CompositedView>& views,
           const nodes::RenderOptions& o, nodes::RenderOutputs& files)
       : poses_(poses), views_(views), o_(o), files_(files) {}
-  void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq, ViewEye eye) override {
-    poses_.Write(ViewToMsg(view, pose_seq, frame_seq, NowNs(), o_.run_id, eye));
+  void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq, ViewEye eye,
+                   int64_t stamp_ns) override {
+    poses_.Write(ViewToMsg(view, pose_seq, frame_seq, stamp_ns != 0 ? stamp_ns : NowNs(), o_.run_id, eye));
   }
   void WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_t count, const NovelView& view,
                   const cv::Mat& hull_depth, double path_time_s, const RightEye* right) override {

@@ -150,21 +150,22 @@ TEST(OpenXr, ALayersPoseIsTheEyesPoseBackInTheRuntimesSpace) {
 // a pose, and pairs older than one shown are not shown.
 TEST(OpenXr, ComposedEyesPairWithTheirPosesLeftWithRight) {
   openxr::EyeImagePairs pairs(4);
+  constexpr uint64_t kRun = 0xabc;
   const auto view = [](double x) {
     Rigid3d X;
     X.translation = {x, 0, 0};
     return EyeView(EyeFov{}, 8, 6, X);
   };
   const cv::Mat img(6, 8, CV_8UC3, cv::Scalar(1, 2, 3));
-  pairs.AddPose(1, ViewEye::kMono, view(0));
-  EXPECT_NE(pairs.AddImage(1, ViewEye::kMono, 1, img).find("not an eye"), std::string::npos);
-  pairs.AddPose(10, ViewEye::kLeft, view(-0.032));
+  pairs.AddPose(kRun, 1, ViewEye::kMono, view(0));
+  EXPECT_NE(pairs.AddImage(kRun, 1, ViewEye::kMono, 1, img).find("not an eye"), std::string::npos);
+  pairs.AddPose(kRun, 10, ViewEye::kLeft, view(-0.032));
   // The right eye's image before its pose: it waits for it.
-  EXPECT_EQ(pairs.AddImage(11, ViewEye::kRight, 5, img), "");
+  EXPECT_EQ(pairs.AddImage(kRun, 11, ViewEye::kRight, 5, img), "");
   EXPECT_FALSE(pairs.TakeNewPair());
-  pairs.AddPose(11, ViewEye::kRight, view(0.032));
+  pairs.AddPose(kRun, 11, ViewEye::kRight, view(0.032));
   EXPECT_FALSE(pairs.TakeNewPair());  // the left one missing
-  EXPECT_EQ(pairs.AddImage(10, ViewEye::kLeft, 5, img), "");
+  EXPECT_EQ(pairs.AddImage(kRun, 10, ViewEye::kLeft, 5, img), "");
   auto pair = pairs.TakeNewPair();
   ASSERT_TRUE(pair);
   EXPECT_EQ((*pair)[0].pose_seq, 10u);
@@ -173,37 +174,82 @@ TEST(OpenXr, ComposedEyesPairWithTheirPosesLeftWithRight) {
   EXPECT_EQ((*pair)[1].view.world_from_eye.translation.x(), 0.032);
   EXPECT_FALSE(pairs.TakeNewPair());  // handed out once
   // Two newer poses; the images of different framesets do not pair.
-  pairs.AddPose(12, ViewEye::kLeft, view(-0.1));
-  pairs.AddPose(13, ViewEye::kRight, view(0.1));
-  EXPECT_EQ(pairs.AddImage(12, ViewEye::kLeft, 6, img), "");
-  EXPECT_EQ(pairs.AddImage(13, ViewEye::kRight, 7, img), "");
+  pairs.AddPose(kRun, 12, ViewEye::kLeft, view(-0.1));
+  pairs.AddPose(kRun, 13, ViewEye::kRight, view(0.1));
+  EXPECT_EQ(pairs.AddImage(kRun, 12, ViewEye::kLeft, 6, img), "");
+  EXPECT_EQ(pairs.AddImage(kRun, 13, ViewEye::kRight, 7, img), "");
   EXPECT_FALSE(pairs.TakeNewPair());
   // The history holds 4 poses: 10 and 11 have fallen out, and an image of
   // either waits in vain. Images without a pose wait, 4 at most: the fifth
   // pushes the first out, named.
-  pairs.AddPose(14, ViewEye::kLeft, view(-0.2));
-  pairs.AddPose(15, ViewEye::kRight, view(0.2));
-  EXPECT_EQ(pairs.AddImage(10, ViewEye::kLeft, 5, img), "");
-  for (uint64_t seq : {30, 31, 32}) EXPECT_EQ(pairs.AddImage(seq, ViewEye::kLeft, 9, img), "");
-  EXPECT_NE(pairs.AddImage(33, ViewEye::kLeft, 9, img).find("no ViewPose 10"), std::string::npos);
-  EXPECT_EQ(pairs.AddImage(14, ViewEye::kLeft, 8, img), "");
-  EXPECT_EQ(pairs.AddImage(15, ViewEye::kRight, 8, img), "");
+  pairs.AddPose(kRun, 14, ViewEye::kLeft, view(-0.2));
+  pairs.AddPose(kRun, 15, ViewEye::kRight, view(0.2));
+  EXPECT_EQ(pairs.AddImage(kRun, 10, ViewEye::kLeft, 5, img), "");
+  for (uint64_t seq : {30, 31, 32}) EXPECT_EQ(pairs.AddImage(kRun, seq, ViewEye::kLeft, 9, img), "");
+  EXPECT_NE(pairs.AddImage(kRun, 33, ViewEye::kLeft, 9, img).find("no ViewPose 10"), std::string::npos);
+  EXPECT_EQ(pairs.AddImage(kRun, 14, ViewEye::kLeft, 8, img), "");
+  EXPECT_EQ(pairs.AddImage(kRun, 15, ViewEye::kRight, 8, img), "");
   pair = pairs.TakeNewPair();
   ASSERT_TRUE(pair);
   EXPECT_EQ((*pair)[0].frame_seq, 8u);
   EXPECT_EQ((*pair)[1].view.world_from_eye.translation.x(), 0.2);
   // An older image arriving after a newer one of its eye does not replace it.
-  pairs.AddPose(16, ViewEye::kLeft, view(-0.3));
-  pairs.AddPose(17, ViewEye::kRight, view(0.3));
-  pairs.AddPose(18, ViewEye::kLeft, view(-0.4));
-  EXPECT_EQ(pairs.AddImage(18, ViewEye::kLeft, 10, img), "");
-  EXPECT_EQ(pairs.AddImage(16, ViewEye::kLeft, 9, img), "");
-  EXPECT_EQ(pairs.AddImage(17, ViewEye::kRight, 9, img), "");
+  pairs.AddPose(kRun, 16, ViewEye::kLeft, view(-0.3));
+  pairs.AddPose(kRun, 17, ViewEye::kRight, view(0.3));
+  pairs.AddPose(kRun, 18, ViewEye::kLeft, view(-0.4));
+  EXPECT_EQ(pairs.AddImage(kRun, 18, ViewEye::kLeft, 10, img), "");
+  EXPECT_EQ(pairs.AddImage(kRun, 16, ViewEye::kLeft, 9, img), "");
+  EXPECT_EQ(pairs.AddImage(kRun, 17, ViewEye::kRight, 9, img), "");
   EXPECT_FALSE(pairs.TakeNewPair());  // 18 stays the left eye's; 17 is not its pair
   EXPECT_EQ(pairs.counts().paired, 2u);
   EXPECT_EQ(pairs.counts().not_an_eye, 2u);
   EXPECT_EQ(pairs.counts().no_pose, 1u);
   EXPECT_EQ(pairs.counts().superseded, 3u);  // 12 and 13 by 14 and 15; 16 by 18
+}
+
+
+// Runs: pose_seq restarts with a restarted render_node (a new run id), whose
+// pairs are shown although their pose_seqs are below the last pair's; an
+// image of another run never pairs with this run's pose of the same pose_seq
+// and eye.
+TEST(OpenXr, ComposedEyesPairWithinOneRunAndFollowARestartedRender) {
+  openxr::EyeImagePairs pairs(8);
+  const auto view = [](double x) {
+    Rigid3d X;
+    X.translation = {x, 0, 0};
+    return EyeView(EyeFov{}, 8, 6, X);
+  };
+  const cv::Mat mine(6, 8, CV_8UC3, cv::Scalar(1, 2, 3)), other(6, 8, CV_8UC3, cv::Scalar(9, 9, 9));
+  pairs.AddPose(1, 40, ViewEye::kLeft, view(-0.03));
+  pairs.AddPose(1, 41, ViewEye::kRight, view(0.03));
+  // Another run's images of the same pose_seqs (a replay on the domain): they
+  // wait for poses of their run, which never come.
+  EXPECT_EQ(pairs.AddImage(2, 40, ViewEye::kLeft, 7, other), "");
+  EXPECT_EQ(pairs.AddImage(2, 41, ViewEye::kRight, 7, other), "");
+  EXPECT_FALSE(pairs.TakeNewPair());
+  EXPECT_EQ(pairs.AddImage(1, 40, ViewEye::kLeft, 7, mine), "");
+  EXPECT_EQ(pairs.AddImage(1, 41, ViewEye::kRight, 7, mine), "");
+  auto pair = pairs.TakeNewPair();
+  ASSERT_TRUE(pair);
+  EXPECT_EQ((*pair)[0].run_id, 1u);
+  EXPECT_EQ((*pair)[0].bgr.at<cv::Vec3b>(0, 0), cv::Vec3b(1, 2, 3));
+  EXPECT_EQ((*pair)[1].bgr.at<cv::Vec3b>(0, 0), cv::Vec3b(1, 2, 3));
+  // render_node restarted: run 3 numbers from 1 again; its image came before
+  // its pose.
+  EXPECT_EQ(pairs.AddImage(3, 2, ViewEye::kRight, 1, mine), "");
+  pairs.AddPose(3, 1, ViewEye::kLeft, view(-0.05));
+  pairs.AddPose(3, 2, ViewEye::kRight, view(0.05));
+  EXPECT_EQ(pairs.AddImage(3, 1, ViewEye::kLeft, 1, mine), "");
+  pair = pairs.TakeNewPair();
+  ASSERT_TRUE(pair) << "a restarted render's first pair, pose_seq 1 after 40";
+  EXPECT_EQ((*pair)[0].pose_seq, 1u);
+  EXPECT_EQ((*pair)[1].run_id, 3u);
+  EXPECT_EQ((*pair)[1].view.world_from_eye.translation.x(), 0.05);
+  // Run 1's images after the restart find no pose of theirs.
+  EXPECT_EQ(pairs.AddImage(1, 42, ViewEye::kLeft, 8, mine), "");
+  EXPECT_FALSE(pairs.TakeNewPair());
+  EXPECT_EQ(pairs.counts().run_changes, 1u);
+  EXPECT_EQ(pairs.counts().paired, 2u);
 }
 
 class OpenXrProcess : public ::testing::Test {
@@ -356,6 +402,13 @@ TEST_F(OpenXrProcess, TheCompositedEyesReachTheHeadsetAtThePosesTheyWereDrawnFro
   const auto oversized =
       dds::MakeCompositedViewMessage(cv::Mat(48, 2100, CV_8UC3, cv::Scalar(0, 255, 0)), 10, 100, 0, 0, {16384, 50},
                                      ViewEye::kLeft);
+  // A replay of a recording on the domain: another run's poses, stamped when
+  // they were recorded (no views this client sent), and its composites, green,
+  // with render's pose_seqs. Its poses must not be taken nor its images shown.
+  dds::Participant replay(domain_);
+  dds::Writer<hullpipe_msg_ViewPose> replay_poses(replay);
+  dds::Writer<hullpipe_msg_CompositedView> replay_images(replay);
+  constexpr uint64_t kReplayRun = 0x5e;
   auto client = Start({"--display", "--world-from-space", kWorldFromStage},
                       {{"HULLPIPE_FAKE_XR_LAYERS_DIR", layers.string()}});
   const auto dumped = [&] {
@@ -385,9 +438,16 @@ TEST_F(OpenXrProcess, TheCompositedEyesReachTheHeadsetAtThePosesTheyWereDrawnFro
     std::array<NovelView, 2> v;
     const size_t before = dumped();
     for (int k = 0; k < 2; ++k) {
+      const ViewEye eye = k ? ViewEye::kRight : ViewEye::kLeft;
       v[size_t(k)] = EyeView(views->fov[size_t(k)], 64, 48, views->world_from_eye[size_t(k)]);
-      poses.Write(dds::ViewToMsg(v[size_t(k)], uint64_t(10 + 2 * i + k), uint64_t(100 + i), NowNs(), 0,
-                                 k ? ViewEye::kRight : ViewEye::kLeft));
+      const uint64_t seq = uint64_t(10 + 2 * i + k);
+      replay_poses.Write(dds::ViewToMsg(v[size_t(k)], seq, uint64_t(100 + i), views->stamp_ns - 60'000'000'000,
+                                        kReplayRun, eye));
+      replay_images.Write(dds::MakeCompositedViewMessage(cv::Mat(48, 64, CV_8UC3, cv::Scalar(0, 255, 0)), seq,
+                                                         uint64_t(100 + i), NowNs(), kReplayRun, {1280, 95}, eye)
+                              .msg);
+      // As render_node stamps a pose: the stamp of the views it was drawn from.
+      poses.Write(dds::ViewToMsg(v[size_t(k)], seq, uint64_t(100 + i), views->stamp_ns, 0, eye));
     }
     std::vector<dds::OwnedSample<hullpipe_msg_CompositedView>> pair;
     for (int k = 0; k < 2; ++k)
@@ -409,6 +469,8 @@ TEST_F(OpenXrProcess, TheCompositedEyesReachTheHeadsetAtThePosesTheyWereDrawnFro
   EXPECT_NE(log.find("GL_SRGB8_ALPHA8"), std::string::npos) << log;
   EXPECT_NE(log.find("showed 3 composited eye pairs"), std::string::npos) << log;
   EXPECT_NE(log.find("not an eye"), std::string::npos) << log;
+  EXPECT_NE(log.find("was not drawn from this client's views"), std::string::npos) << log;
+  EXPECT_NE(log.find("; 0 render run changes"), std::string::npos) << log << "the replay's run was never taken";
   EXPECT_NE(log.find("CompositedView 2100x48 is larger than the headset's largest eye image 2048x2048"),
             std::string::npos)
       << log;

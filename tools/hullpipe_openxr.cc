@@ -13,7 +13,9 @@
 // within a second of SIGINT (the session ended first). Exits 1 with one line
 // naming the OpenXR call when there is no runtime, no headset, no headless
 // session (or, with --display, no EGL binding or OpenGL context).
+#include <algorithm>
 #include <chrono>
+#include <deque>
 #include <memory>
 #include <thread>
 
@@ -33,6 +35,9 @@ namespace {
 
 // render_node's composited eyes, paired with their poses (openxr/eye_images.h).
 // The composites are best-effort; a few are kept so both eyes of a pose arrive.
+// Only poses drawn from views this client sent are taken (render_node stamps a
+// ViewPose with the EyeViews' stamp_ns): another render_node's, another
+// headset's or a replay's on the domain are not shown in this headset.
 class CompositeInput {
  public:
   // Composites larger than max_width x max_height are refused undecoded.
@@ -41,11 +46,23 @@ class CompositeInput {
         images_(p, TopicTraits<hullpipe_msg_CompositedView>::kName, QosSpec{false, false, 4, 0}),
         max_width_(max_width),
         max_height_(max_height) {}
+  // The EyeViews this client sent, by stamp (the last kSentKept).
+  void Sent(int64_t stamp_ns) {
+    sent_.push_back(stamp_ns);
+    if (sent_.size() > kSentKept) sent_.pop_front();
+  }
   // Takes what arrived; returns the newest pair not shown yet.
   std::optional<std::array<openxr::EyeImage, 2>> Take() {
     poses_.TakeEach([&](const hullpipe_msg_ViewPose& m, const dds_sample_info_t&) {
+      if (std::find(sent_.rbegin(), sent_.rend(), m.stamp_ns) == sent_.rend()) {
+        if (foreign_++ == 0)
+          spdlog::info("ViewPose {} (run {:x}) was not drawn from this client's views (another render_node, headset "
+                       "or replay on the domain, or render's own eyes before ours arrived): its images are not shown",
+                       m.pose_seq, m.run_id);
+        return;
+      }
       try {
-        pairs_.AddPose(m.pose_seq, ViewEyeFromMsg("ViewPose", m.eye), ViewFromMsg(m));
+        pairs_.AddPose(m.run_id, m.pose_seq, ViewEyeFromMsg("ViewPose", m.eye), ViewFromMsg(m));
       } catch (const std::exception& e) {
         Skip(std::string("ViewPose: ") + e.what());
       }
@@ -59,8 +76,8 @@ class CompositeInput {
                std::to_string(max_height_) + ": not decoded");
           return;
         }
-        const std::string why = pairs_.AddImage(m.pose_seq, ViewEyeFromMsg("CompositedView", m.eye), m.frame_seq,
-                                                CompositedViewFromMsg(m));
+        const std::string why = pairs_.AddImage(m.run_id, m.pose_seq, ViewEyeFromMsg("CompositedView", m.eye),
+                                                m.frame_seq, CompositedViewFromMsg(m));
         if (!why.empty()) Skip("CompositedView not shown: " + why);
       } catch (const std::exception& e) {
         Skip(std::string("CompositedView: ") + e.what());
@@ -69,6 +86,10 @@ class CompositeInput {
     return pairs_.TakeNewPair();
   }
   uint64_t skipped() const { return skipped_; }
+  // ViewPoses not drawn from this client's views.
+  uint64_t foreign() const { return foreign_; }
+  // Times render_node's run changed (a restarted render_node).
+  uint64_t run_changes() const { return pairs_.counts().run_changes; }
 
  private:
   void Skip(const std::string& why) {
@@ -80,7 +101,9 @@ class CompositeInput {
   Reader<hullpipe_msg_CompositedView> images_;
   int max_width_, max_height_;
   openxr::EyeImagePairs pairs_;
-  uint64_t skipped_ = 0;
+  static constexpr size_t kSentKept = 256;  // ~3 s of views at 90 Hz
+  std::deque<int64_t> sent_;
+  uint64_t skipped_ = 0, foreign_ = 0;
   std::string last_;
 };
 
@@ -145,6 +168,7 @@ int main(int argc, char** argv) {
       const auto frame = session.BeginFrame();
       if (!frame) return false;
       if (frame->views && send) {
+        if (composites) composites->Sent(frame->views->stamp_ns);
         writer.Write(EyeViewsToMsg(*frame->views));
         ++sent;
         counters.FrameOut(frame->views->stamp_ns);
@@ -174,8 +198,9 @@ int main(int argc, char** argv) {
     const auto& c = session.counts();
     spdlog::info("sent {} eye views of {} frames; {} untracked, {} refused", sent, c.frames, c.untracked, c.refused);
     if (shown)
-      spdlog::info("showed {} composited eye pairs; {} composites or poses not shown", shown->counts().pairs_shown,
-                   composites->skipped());
+      spdlog::info("showed {} composited eye pairs; {} composites or poses not shown; {} poses not drawn from "
+                   "this client's views; {} render run changes",
+                   shown->counts().pairs_shown, composites->skipped(), composites->foreign(), composites->run_changes());
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

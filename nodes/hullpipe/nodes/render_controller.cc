@@ -347,7 +347,7 @@ void RenderController::IssuePoses() {
     }
     const uint64_t key = pose_seq_ + 1;
     for (size_t k = 0; k < f.eyes.size(); ++k)
-      sink_.PublishPose(f.eyes[k].view, ++pose_seq_, fset->seq, ViewEyeOf(k, f.eyes.size()));
+      sink_.PublishPose(f.eyes[k].view, ++pose_seq_, fset->seq, ViewEyeOf(k, f.eyes.size()), f.head_stamp_ns);
     // Render's own frameset in (its last sample taken) to its pose out.
     counters_.StageSince("issue", fset->last_arrival_ns);
     in_flight_[key] = std::move(f);

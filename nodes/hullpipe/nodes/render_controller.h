@@ -119,8 +119,13 @@ class RenderSink {
   virtual ~RenderSink() = default;
   /// Ask the recon nodes for frameset frame_seq seen from `view`, the view of
   /// `eye` (kMono: the one view; in stereo the left eye's pose, then the
-  /// right's, pose_seq one apart).
-  virtual void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq, ViewEye eye) = 0;
+  /// right's, pose_seq one apart). stamp_ns: when the pose was sampled
+  /// (ViewPose.stamp_ns, CLOCK_REALTIME ns): the tracker's HeadPose or the
+  /// HMD runtime's EyeViews stamp it came from, so that a headset client can
+  /// tell the poses drawn from its views; 0 for a scripted view (the sink
+  /// stamps it now).
+  virtual void PublishPose(const NovelView& view, uint64_t pose_seq, uint64_t frame_seq, ViewEye eye,
+                           int64_t stamp_ns) = 0;
   /// One composited frame (CV_8UC3), the `count`-th, of frameset frame_seq, seen
   /// from `view`; hull_depth: the assembled tiles' eye-z depth (CV_32FC1 metres,
   /// kNoDepth where no hull), path_time_s: the time along the viewpoint's path

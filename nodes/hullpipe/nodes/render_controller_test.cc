@@ -19,11 +19,13 @@ struct Recorder final : RenderSink {
     NovelView view;
     uint64_t pose_seq, frame_seq;
     ViewEye eye;
+    int64_t stamp_ns;
   };
   std::vector<Pose> poses;
   std::vector<std::pair<uint64_t, cv::Mat>> frames;  // frame_seq, image
-  void PublishPose(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq, ViewEye eye) override {
-    poses.push_back({v, pose_seq, frame_seq, eye});
+  void PublishPose(const NovelView& v, uint64_t pose_seq, uint64_t frame_seq, ViewEye eye,
+                   int64_t stamp_ns) override {
+    poses.push_back({v, pose_seq, frame_seq, eye, stamp_ns});
   }
   std::vector<NovelView> right_views;  // the right eye's, for each stereo frame
   void WriteFrame(const cv::Mat& f, uint64_t frame_seq, uint64_t, const NovelView&, const cv::Mat&, double,
@@ -587,6 +589,11 @@ TEST_F(Render, TheEyesFollowAnHmdRuntimesLiveViews) {
     EXPECT_EQ(got.cx, want.cx) << k;
     EXPECT_EQ(got.fy, want.fy) << k;
   }
+  // Each eye's ViewPose carries the runtime's stamp of the views it was drawn
+  // from (the client shows only poses of views it sent); the orbit's, none.
+  EXPECT_EQ(sink_.poses[sink_.poses.size() - 2].stamp_ns, v.stamp_ns);
+  EXPECT_EQ(sink_.poses.back().stamp_ns, v.stamp_ns);
+  EXPECT_EQ(sink_.poses[0].stamp_ns, 0);
   ASSERT_TRUE(r.counters().stages().count("tracker_to_eye"));
   EXPECT_NEAR(r.counters().stages().at("tracker_to_eye").Percentile(50), 25.0, 1e-3);
 }
@@ -839,6 +846,7 @@ TEST_F(Render, TheViewFollowsTheOrbitThenTheTrackersNewestPose) {
   r.OnTile(WholeTile(p, kNoDepth, {0, 0, 0}));
   r.Step();
   const Rigid3d second = p.view.world_from_eye;
+  EXPECT_EQ(p.stamp_ns, clock_.WallNs() - 25'000'000) << "the pose is stamped with the tracker's sample";
   EXPECT_LT((second.translation - tracked.translation).norm(), 1e-12);
   EXPECT_LT((second.rotation - tracked.rotation).norm(), 1e-12);
   // Motion to eye image: the tracker's stamp to the frame written.

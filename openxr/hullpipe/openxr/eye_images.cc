@@ -8,10 +8,21 @@ EyeImagePairs::EyeImagePairs(size_t pose_history) : history_(pose_history) {
   if (history_ < 2) throw std::invalid_argument("EyeImagePairs keeps at least 2 poses");
 }
 
-void EyeImagePairs::AddPose(uint64_t pose_seq, ViewEye eye, const NovelView& view) {
+void EyeImagePairs::AddPose(uint64_t run_id, uint64_t pose_seq, ViewEye eye, const NovelView& view) {
   if (eye == ViewEye::kMono) {
     ++counts_.not_an_eye;
     return;
+  }
+  if (run_ != run_id) {
+    // A restarted render_node numbers its poses from 1 again: the last run's
+    // poses, unpaired images and last pair say nothing about this one's.
+    if (run_) ++counts_.run_changes;
+    run_ = run_id;
+    poses_.clear();
+    pose_order_.clear();
+    newest_[0].reset();
+    newest_[1].reset();
+    last_pair_left_seq_.reset();
   }
   const std::pair<uint64_t, int> key{pose_seq, int(eye) - 1};
   if (poses_.emplace(key, view).second) pose_order_.push_back(key);
@@ -21,7 +32,7 @@ void EyeImagePairs::AddPose(uint64_t pose_seq, ViewEye eye, const NovelView& vie
   }
   // An image that came first.
   for (auto it = pending_.begin(); it != pending_.end();) {
-    if (it->first == key.second && it->second.pose_seq == pose_seq) {
+    if (it->first == key.second && it->second.pose_seq == pose_seq && it->second.run_id == run_id) {
       EyeImage image = std::move(it->second);
       image.view = view;
       it = pending_.erase(it);
@@ -41,19 +52,20 @@ void EyeImagePairs::Keep(EyeImage image, int k) {
   newest = std::move(image);
 }
 
-std::string EyeImagePairs::AddImage(uint64_t pose_seq, ViewEye eye, uint64_t frame_seq, const cv::Mat& bgr) {
+std::string EyeImagePairs::AddImage(uint64_t run_id, uint64_t pose_seq, ViewEye eye, uint64_t frame_seq,
+                                    const cv::Mat& bgr) {
   if (eye == ViewEye::kMono) {
     ++counts_.not_an_eye;
     return "a composited view of the one view, not an eye (render_node runs without --stereo or "
            "--view eyes-topic)";
   }
   const int k = int(eye) - 1;
-  const auto pose = poses_.find({pose_seq, k});
+  const auto pose = run_ == run_id ? poses_.find({pose_seq, k}) : poses_.end();
   if (pose != poses_.end()) {
-    Keep(EyeImage{bgr, pose->second, pose_seq, frame_seq}, k);
+    Keep(EyeImage{bgr, pose->second, pose_seq, run_id, frame_seq}, k);
     return "";
   }
-  pending_.emplace_back(k, EyeImage{bgr, NovelView{}, pose_seq, frame_seq});
+  pending_.emplace_back(k, EyeImage{bgr, NovelView{}, pose_seq, run_id, frame_seq});
   if (pending_.size() <= kPendingImages) return "";
   const uint64_t dropped = pending_.front().second.pose_seq;
   pending_.pop_front();
