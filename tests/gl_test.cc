@@ -2,6 +2,7 @@
 // EGL display exists.
 #include <algorithm>
 #include <fstream>
+#include <functional>
 #include <tuple>
 
 #include <gtest/gtest.h>
@@ -503,22 +504,29 @@ struct TexturedSphere {
   PlaneSweepOptions vo;
 };
 
-TEST_F(Gl, TextureMatchesCpuWithAndWithoutVisibility) {
+// The textured sphere with a distorted lens, without skew and with, and its
+// cameras' visibility maps: f(sphere, visibility) for each.
+void ForEachDistortedSphere(const std::function<void(const TexturedSphere&, const HullVisibility&)>& f) {
   for (const double skew : {0.0, 0.06}) {
-  SCOPED_TRACE("skew " + std::to_string(skew));
-  const TexturedSphere t(Distortion{-0.2, 0.05, 0.001, -0.001, 0}, skew);
-  const auto& [views, q, images, view, depths, cams, vo] = t;
-  const HullVisibility vis = ComputeHullVisibility(q, cams, 80, vo, 4);
-  GlTexture tex;
-  tex.UploadImages(images);
-  for (const cv::Rect tile : {cv::Rect(0, 0, 200, 150), TileRect(0, 2, 200, 150)}) {
-    const cv::Mat depth = PlaneSweepCpu(q, view, depths, tile, nullptr, 1, 4);
-    ExpectColoursMatch(tex.Texture(depth, tile, view, images), TextureHull(depth, tile, view, images), 0.005,
-                       "no visibility");
-    ExpectColoursMatch(tex.Texture(depth, tile, view, images, {}, &vis),
-                       TextureHull(depth, tile, view, images, {}, &vis), 0.005, "visibility");
+    SCOPED_TRACE("skew " + std::to_string(skew));
+    const TexturedSphere t(Distortion{-0.2, 0.05, 0.001, -0.001, 0}, skew);
+    f(t, ComputeHullVisibility(t.q, t.cams, 80, t.vo, 4));
   }
-  }
+}
+
+TEST_F(Gl, TextureMatchesCpuWithAndWithoutVisibility) {
+  ForEachDistortedSphere([](const TexturedSphere& t, const HullVisibility& vis) {
+    const auto& [views, q, images, view, depths, cams, vo] = t;
+    GlTexture tex;
+    tex.UploadImages(images);
+    for (const cv::Rect tile : {cv::Rect(0, 0, 200, 150), TileRect(0, 2, 200, 150)}) {
+      const cv::Mat depth = PlaneSweepCpu(q, view, depths, tile, nullptr, 1, 4);
+      ExpectColoursMatch(tex.Texture(depth, tile, view, images), TextureHull(depth, tile, view, images), 0.005,
+                         "no visibility");
+      ExpectColoursMatch(tex.Texture(depth, tile, view, images, {}, &vis),
+                         TextureHull(depth, tile, view, images, {}, &vis), 0.005, "visibility");
+    }
+  });
 }
 
 TEST_F(Gl, TextureFromTheImagesObjectRectanglesIsTheWholeImagesTexture) {
@@ -529,11 +537,8 @@ TEST_F(Gl, TextureFromTheImagesObjectRectanglesIsTheWholeImagesTexture) {
   // would show. Too small a part, or a depth off the hull, is caught by the
   // pass itself: the image goes up whole and the pass runs again (the positive
   // control that the catch works: its colours still equal the whole images').
-  for (const double skew : {0.0, 0.06}) {
-    SCOPED_TRACE("skew " + std::to_string(skew));
-    const TexturedSphere t(Distortion{-0.2, 0.05, 0.001, -0.001, 0}, skew);
+  ForEachDistortedSphere([](const TexturedSphere& t, const HullVisibility& vis) {
     const auto& [views, q, images, view, depths, cams, vo] = t;
-    const HullVisibility vis = ComputeHullVisibility(q, cams, 80, vo, 4);
     std::vector<CameraImage> flat = images;
     for (auto& im : flat) im.image = cv::Mat(im.image.size(), CV_8UC3, cv::Scalar(7, 200, 31));
     const cv::Rect tile(0, 0, 200, 150);
@@ -573,7 +578,7 @@ TEST_F(Gl, TextureFromTheImagesObjectRectanglesIsTheWholeImagesTexture) {
       }
     }
     EXPECT_EQ(whole.refetched_images(), 0);
-  }
+  });
 }
 
 // The same on real rigs' frames (segmented maps, skewed and distorted lenses,
