@@ -252,6 +252,49 @@ TEST(OpenXr, ComposedEyesPairWithinOneRunAndFollowARestartedRender) {
   EXPECT_EQ(pairs.counts().paired, 2u);
 }
 
+// Decoding: an image is decoded only when its pair is handed out; one a newer
+// image of its eye supersedes first is never decoded (render outpacing the
+// headset); an image that does not decode drops its pair, counted.
+TEST(OpenXr, AnImageIsDecodedOnlyWhenItsPairIsHandedOut) {
+  openxr::EyeImagePairs pairs(8);
+  const auto view = [](double x) {
+    Rigid3d X;
+    X.translation = {x, 0, 0};
+    return EyeView(EyeFov{}, 8, 6, X);
+  };
+  std::vector<uint64_t> decoded;  // pose_seqs decoded
+  const auto image = [&](uint64_t seq, bool good) -> openxr::DecodeImageFn {
+    return [&decoded, seq, good] {
+      decoded.push_back(seq);
+      return good ? cv::Mat(6, 8, CV_8UC3, cv::Scalar(1, 2, 3)) : cv::Mat();
+    };
+  };
+  for (uint64_t seq = 20; seq < 28; ++seq)
+    pairs.AddPose(1, seq, seq % 2 ? ViewEye::kRight : ViewEye::kLeft, view(0));
+  // Three pairs arrive before the headset's next frame: only the newest is decoded.
+  for (uint64_t seq = 20; seq < 26; ++seq)
+    EXPECT_EQ(pairs.AddImage(1, seq, seq % 2 ? ViewEye::kRight : ViewEye::kLeft, seq / 2, image(seq, true)), "");
+  EXPECT_TRUE(decoded.empty());
+  auto pair = pairs.TakeNewPair();
+  ASSERT_TRUE(pair);
+  EXPECT_EQ((*pair)[0].pose_seq, 24u);
+  EXPECT_EQ((*pair)[1].bgr.size(), cv::Size(8, 6));
+  EXPECT_EQ(decoded, (std::vector<uint64_t>{24, 25}));
+  EXPECT_EQ(pairs.counts().decoded, 2u);
+  EXPECT_EQ(pairs.counts().superseded, 4u);
+  // A corrupt right eye: the pair is not handed out; its left waits for a
+  // right of its pose that decodes.
+  EXPECT_EQ(pairs.AddImage(1, 26, ViewEye::kLeft, 13, image(26, true)), "");
+  EXPECT_EQ(pairs.AddImage(1, 27, ViewEye::kRight, 13, image(27, false)), "");
+  EXPECT_FALSE(pairs.TakeNewPair());
+  EXPECT_EQ(pairs.counts().undecodable, 1u);
+  EXPECT_EQ(pairs.AddImage(1, 27, ViewEye::kRight, 13, image(27, true)), "");
+  pair = pairs.TakeNewPair();
+  ASSERT_TRUE(pair);
+  EXPECT_EQ((*pair)[0].pose_seq, 26u);
+  EXPECT_EQ(decoded, (std::vector<uint64_t>{24, 25, 26, 27, 27}));
+}
+
 class OpenXrProcess : public ::testing::Test {
  protected:
   OpenXrProcess() : dir_(test::TempDir("openxr")), config_(test::WriteLoopbackConfig(dir_)), domain_(test::UniqueDomain()) {

@@ -18,8 +18,10 @@
 #include <deque>
 #include <memory>
 #include <thread>
+#include <vector>
 
 #include <CLI/CLI.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
 
 #include "hullpipe/dds/convert.h"
@@ -27,6 +29,7 @@
 #include "hullpipe/openxr/xr_display.h"
 #include "hullpipe/pipeline/clock.h"
 #include "hullpipe/pipeline/node_counters.h"
+#include "hullpipe/util/image_file.h"
 
 using namespace hullpipe;
 using namespace hullpipe::dds;
@@ -76,8 +79,18 @@ class CompositeInput {
                std::to_string(max_height_) + ": not decoded");
           return;
         }
+        // Its header checked above; its pixels decoded only if it is shown (a
+        // newer composite of its eye may supersede it first).
+        auto bytes = std::make_shared<const std::vector<uint8_t>>(m.data._buffer, m.data._buffer + m.data._length);
+        const uint64_t frame_seq = m.frame_seq;
+        const auto decode = [this, bytes, frame_seq] {
+          std::string why;
+          cv::Mat img = DecodeImage(bytes->data(), bytes->size(), cv::IMREAD_COLOR, &why);
+          if (img.empty()) Skip("CompositedView of frame " + std::to_string(frame_seq) + ": " + why);
+          return img;
+        };
         const std::string why = pairs_.AddImage(m.run_id, m.pose_seq, ViewEyeFromMsg("CompositedView", m.eye),
-                                                m.frame_seq, CompositedViewFromMsg(m));
+                                                m.frame_seq, decode);
         if (!why.empty()) Skip("CompositedView not shown: " + why);
       } catch (const std::exception& e) {
         Skip(std::string("CompositedView: ") + e.what());

@@ -53,7 +53,7 @@ void EyeImagePairs::Keep(EyeImage image, int k) {
 }
 
 std::string EyeImagePairs::AddImage(uint64_t run_id, uint64_t pose_seq, ViewEye eye, uint64_t frame_seq,
-                                    const cv::Mat& bgr) {
+                                    DecodeImageFn decode) {
   if (eye == ViewEye::kMono) {
     ++counts_.not_an_eye;
     return "a composited view of the one view, not an eye (render_node runs without --stereo or "
@@ -62,10 +62,10 @@ std::string EyeImagePairs::AddImage(uint64_t run_id, uint64_t pose_seq, ViewEye 
   const int k = int(eye) - 1;
   const auto pose = run_ == run_id ? poses_.find({pose_seq, k}) : poses_.end();
   if (pose != poses_.end()) {
-    Keep(EyeImage{bgr, pose->second, pose_seq, run_id, frame_seq}, k);
+    Keep(EyeImage{cv::Mat(), pose->second, pose_seq, run_id, frame_seq, std::move(decode)}, k);
     return "";
   }
-  pending_.emplace_back(k, EyeImage{bgr, NovelView{}, pose_seq, run_id, frame_seq});
+  pending_.emplace_back(k, EyeImage{cv::Mat(), NovelView{}, pose_seq, run_id, frame_seq, std::move(decode)});
   if (pending_.size() <= kPendingImages) return "";
   const uint64_t dropped = pending_.front().second.pose_seq;
   pending_.pop_front();
@@ -79,6 +79,21 @@ std::optional<std::array<EyeImage, 2>> EyeImagePairs::TakeNewPair() {
   const EyeImage& r = *newest_[1];
   if (r.pose_seq != l.pose_seq + 1 || r.frame_seq != l.frame_seq) return std::nullopt;
   if (last_pair_left_seq_ && l.pose_seq <= *last_pair_left_seq_) return std::nullopt;
+  // Decoded now, once handed out: an image superseded before is never decoded.
+  bool decoded = true;
+  for (std::optional<EyeImage>& e : newest_) {
+    if (e->bgr.empty() && e->decode) {
+      e->bgr = e->decode();
+      ++counts_.decoded;
+      e->decode = nullptr;
+    }
+    if (e->bgr.empty()) {
+      ++counts_.undecodable;
+      e.reset();
+      decoded = false;
+    }
+  }
+  if (!decoded) return std::nullopt;
   std::array<EyeImage, 2> pair{std::move(*newest_[0]), std::move(*newest_[1])};
   newest_[0].reset();
   newest_[1].reset();

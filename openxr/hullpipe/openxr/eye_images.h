@@ -19,6 +19,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -30,6 +31,10 @@
 
 namespace hullpipe::openxr {
 
+/// Makes an image's pixels (a CompositedView's JPEG decoded): CV_8UC3, or empty
+/// when it cannot (the maker says why). Called only for images handed out.
+using DecodeImageFn = std::function<cv::Mat()>;
+
 /// One eye's composited image and the view it was drawn for.
 struct EyeImage {
   cv::Mat bgr;              ///< CV_8UC3, the CompositedView's decoded image (possibly smaller than the view).
@@ -37,6 +42,7 @@ struct EyeImage {
   uint64_t pose_seq = 0;    ///< ViewPose.pose_seq.
   uint64_t run_id = 0;      ///< The run of the ViewPose and the image.
   uint64_t frame_seq = 0;   ///< The frameset it shows.
+  DecodeImageFn decode;     ///< Until handed out: what makes bgr (bgr empty until then).
 };
 
 /// Counts of what EyeImagePairs was given and could not use.
@@ -46,6 +52,8 @@ struct EyeImageCounts {
   uint64_t not_an_eye = 0;   ///< Images or poses of the one view (VIEW_EYE_MONO): render_node not in stereo.
   uint64_t superseded = 0;   ///< Images replaced by a newer one of the same eye before a pair formed.
   uint64_t run_changes = 0;  ///< Times a pose of another run than the last pose's came (a restarted render_node).
+  uint64_t decoded = 0;      ///< Images decoded: only those of pairs handed out.
+  uint64_t undecodable = 0;  ///< Images of a pair whose decoding failed (the pair not handed out).
 };
 
 /// Pairs composited eye images with their poses and with each other. Not
@@ -61,15 +69,21 @@ class EyeImagePairs {
   /// the last pose's starts that run afresh: what was kept of the other is
   /// dropped, and its pose_seqs no longer order the pairs.
   void AddPose(uint64_t run_id, uint64_t pose_seq, ViewEye eye, const NovelView& view);
-  /// A decoded CompositedView of run `run_id`. An image whose ViewPose (same
-  /// run, pose_seq and eye) has not arrived (the two travel on different
-  /// topics) waits for it, at most kPendingImages of them. Returns why an image
-  /// cannot be shown ("" when none): this one is the one view's, or an older
-  /// waiting one was pushed out with no such ViewPose.
-  std::string AddImage(uint64_t run_id, uint64_t pose_seq, ViewEye eye, uint64_t frame_seq, const cv::Mat& bgr);
+  /// A CompositedView of run `run_id`, decoded by `decode` only if it is
+  /// handed out in a pair (a newer image of its eye supersedes it unread). An
+  /// image whose ViewPose (same run, pose_seq and eye) has not arrived (the two
+  /// travel on different topics) waits for it, at most kPendingImages of them.
+  /// Returns why an image cannot be shown ("" when none): this one is the one
+  /// view's, or an older waiting one was pushed out with no such ViewPose.
+  std::string AddImage(uint64_t run_id, uint64_t pose_seq, ViewEye eye, uint64_t frame_seq, DecodeImageFn decode);
+  /// The same with the image already decoded.
+  std::string AddImage(uint64_t run_id, uint64_t pose_seq, ViewEye eye, uint64_t frame_seq, const cv::Mat& bgr) {
+    return AddImage(run_id, pose_seq, eye, frame_seq, [bgr] { return bgr; });
+  }
   static constexpr size_t kPendingImages = 4;
-  /// The newest pair not handed out before ([0] left, [1] right), or nullopt.
-  /// A pair older than one already handed out is never handed out.
+  /// The newest pair not handed out before ([0] left, [1] right), decoded, or
+  /// nullopt. A pair older than one already handed out is never handed out; an
+  /// image that does not decode is dropped (counted) and its pair with it.
   std::optional<std::array<EyeImage, 2>> TakeNewPair();
   const EyeImageCounts& counts() const { return counts_; }
 
