@@ -145,25 +145,28 @@ TEST(OpenXr, ALayersPoseIsTheEyesPoseBackInTheRuntimesSpace) {
   }
 }
 
+// An 8x6 eye view with the default fov, x metres along the world's x axis
+// (the pairing tests' poses).
+NovelView EyeViewAt(double x) {
+  Rigid3d X;
+  X.translation = {x, 0, 0};
+  return EyeView(EyeFov{}, 8, 6, X);
+}
+
 // Pairs: each image with the ViewPose it was drawn for, left (pose_seq) with
 // right (pose_seq + 1) of one frameset; the one view's images, images without
 // a pose, and pairs older than one shown are not shown.
 TEST(OpenXr, ComposedEyesPairWithTheirPosesLeftWithRight) {
   openxr::EyeImagePairs pairs(4);
   constexpr uint64_t kRun = 0xabc;
-  const auto view = [](double x) {
-    Rigid3d X;
-    X.translation = {x, 0, 0};
-    return EyeView(EyeFov{}, 8, 6, X);
-  };
   const cv::Mat img(6, 8, CV_8UC3, cv::Scalar(1, 2, 3));
-  pairs.AddPose(kRun, 1, ViewEye::kMono, view(0));
+  pairs.AddPose(kRun, 1, ViewEye::kMono, EyeViewAt(0));
   EXPECT_NE(pairs.AddImage(kRun, 1, ViewEye::kMono, 1, img).find("not an eye"), std::string::npos);
-  pairs.AddPose(kRun, 10, ViewEye::kLeft, view(-0.032));
+  pairs.AddPose(kRun, 10, ViewEye::kLeft, EyeViewAt(-0.032));
   // The right eye's image before its pose: it waits for it.
   EXPECT_EQ(pairs.AddImage(kRun, 11, ViewEye::kRight, 5, img), "");
   EXPECT_FALSE(pairs.TakeNewPair());
-  pairs.AddPose(kRun, 11, ViewEye::kRight, view(0.032));
+  pairs.AddPose(kRun, 11, ViewEye::kRight, EyeViewAt(0.032));
   EXPECT_FALSE(pairs.TakeNewPair());  // the left one missing
   EXPECT_EQ(pairs.AddImage(kRun, 10, ViewEye::kLeft, 5, img), "");
   auto pair = pairs.TakeNewPair();
@@ -174,16 +177,16 @@ TEST(OpenXr, ComposedEyesPairWithTheirPosesLeftWithRight) {
   EXPECT_EQ((*pair)[1].view.world_from_eye.translation.x(), 0.032);
   EXPECT_FALSE(pairs.TakeNewPair());  // handed out once
   // Two newer poses; the images of different framesets do not pair.
-  pairs.AddPose(kRun, 12, ViewEye::kLeft, view(-0.1));
-  pairs.AddPose(kRun, 13, ViewEye::kRight, view(0.1));
+  pairs.AddPose(kRun, 12, ViewEye::kLeft, EyeViewAt(-0.1));
+  pairs.AddPose(kRun, 13, ViewEye::kRight, EyeViewAt(0.1));
   EXPECT_EQ(pairs.AddImage(kRun, 12, ViewEye::kLeft, 6, img), "");
   EXPECT_EQ(pairs.AddImage(kRun, 13, ViewEye::kRight, 7, img), "");
   EXPECT_FALSE(pairs.TakeNewPair());
   // The history holds 4 poses: 10 and 11 have fallen out, and an image of
   // either waits in vain. Images without a pose wait, 4 at most: the fifth
   // pushes the first out, named.
-  pairs.AddPose(kRun, 14, ViewEye::kLeft, view(-0.2));
-  pairs.AddPose(kRun, 15, ViewEye::kRight, view(0.2));
+  pairs.AddPose(kRun, 14, ViewEye::kLeft, EyeViewAt(-0.2));
+  pairs.AddPose(kRun, 15, ViewEye::kRight, EyeViewAt(0.2));
   EXPECT_EQ(pairs.AddImage(kRun, 10, ViewEye::kLeft, 5, img), "");
   for (uint64_t seq : {30, 31, 32}) EXPECT_EQ(pairs.AddImage(kRun, seq, ViewEye::kLeft, 9, img), "");
   EXPECT_NE(pairs.AddImage(kRun, 33, ViewEye::kLeft, 9, img).find("no ViewPose 10"), std::string::npos);
@@ -194,9 +197,9 @@ TEST(OpenXr, ComposedEyesPairWithTheirPosesLeftWithRight) {
   EXPECT_EQ((*pair)[0].frame_seq, 8u);
   EXPECT_EQ((*pair)[1].view.world_from_eye.translation.x(), 0.2);
   // An older image arriving after a newer one of its eye does not replace it.
-  pairs.AddPose(kRun, 16, ViewEye::kLeft, view(-0.3));
-  pairs.AddPose(kRun, 17, ViewEye::kRight, view(0.3));
-  pairs.AddPose(kRun, 18, ViewEye::kLeft, view(-0.4));
+  pairs.AddPose(kRun, 16, ViewEye::kLeft, EyeViewAt(-0.3));
+  pairs.AddPose(kRun, 17, ViewEye::kRight, EyeViewAt(0.3));
+  pairs.AddPose(kRun, 18, ViewEye::kLeft, EyeViewAt(-0.4));
   EXPECT_EQ(pairs.AddImage(kRun, 18, ViewEye::kLeft, 10, img), "");
   EXPECT_EQ(pairs.AddImage(kRun, 16, ViewEye::kLeft, 9, img), "");
   EXPECT_EQ(pairs.AddImage(kRun, 17, ViewEye::kRight, 9, img), "");
@@ -214,14 +217,9 @@ TEST(OpenXr, ComposedEyesPairWithTheirPosesLeftWithRight) {
 // and eye.
 TEST(OpenXr, ComposedEyesPairWithinOneRunAndFollowARestartedRender) {
   openxr::EyeImagePairs pairs(8);
-  const auto view = [](double x) {
-    Rigid3d X;
-    X.translation = {x, 0, 0};
-    return EyeView(EyeFov{}, 8, 6, X);
-  };
   const cv::Mat mine(6, 8, CV_8UC3, cv::Scalar(1, 2, 3)), other(6, 8, CV_8UC3, cv::Scalar(9, 9, 9));
-  pairs.AddPose(1, 40, ViewEye::kLeft, view(-0.03));
-  pairs.AddPose(1, 41, ViewEye::kRight, view(0.03));
+  pairs.AddPose(1, 40, ViewEye::kLeft, EyeViewAt(-0.03));
+  pairs.AddPose(1, 41, ViewEye::kRight, EyeViewAt(0.03));
   // Another run's images of the same pose_seqs (a replay on the domain): they
   // wait for poses of their run, which never come.
   EXPECT_EQ(pairs.AddImage(2, 40, ViewEye::kLeft, 7, other), "");
@@ -237,8 +235,8 @@ TEST(OpenXr, ComposedEyesPairWithinOneRunAndFollowARestartedRender) {
   // render_node restarted: run 3 numbers from 1 again; its image came before
   // its pose.
   EXPECT_EQ(pairs.AddImage(3, 2, ViewEye::kRight, 1, mine), "");
-  pairs.AddPose(3, 1, ViewEye::kLeft, view(-0.05));
-  pairs.AddPose(3, 2, ViewEye::kRight, view(0.05));
+  pairs.AddPose(3, 1, ViewEye::kLeft, EyeViewAt(-0.05));
+  pairs.AddPose(3, 2, ViewEye::kRight, EyeViewAt(0.05));
   EXPECT_EQ(pairs.AddImage(3, 1, ViewEye::kLeft, 1, mine), "");
   pair = pairs.TakeNewPair();
   ASSERT_TRUE(pair) << "a restarted render's first pair, pose_seq 1 after 40";
@@ -257,11 +255,6 @@ TEST(OpenXr, ComposedEyesPairWithinOneRunAndFollowARestartedRender) {
 // headset); an image that does not decode drops its pair, counted.
 TEST(OpenXr, AnImageIsDecodedOnlyWhenItsPairIsHandedOut) {
   openxr::EyeImagePairs pairs(8);
-  const auto view = [](double x) {
-    Rigid3d X;
-    X.translation = {x, 0, 0};
-    return EyeView(EyeFov{}, 8, 6, X);
-  };
   std::vector<uint64_t> decoded;  // pose_seqs decoded
   const auto image = [&](uint64_t seq, bool good) -> openxr::DecodeImageFn {
     return [&decoded, seq, good] {
@@ -270,7 +263,7 @@ TEST(OpenXr, AnImageIsDecodedOnlyWhenItsPairIsHandedOut) {
     };
   };
   for (uint64_t seq = 20; seq < 28; ++seq)
-    pairs.AddPose(1, seq, seq % 2 ? ViewEye::kRight : ViewEye::kLeft, view(0));
+    pairs.AddPose(1, seq, seq % 2 ? ViewEye::kRight : ViewEye::kLeft, EyeViewAt(0));
   // Three pairs arrive before the headset's next frame: only the newest is decoded.
   for (uint64_t seq = 20; seq < 26; ++seq)
     EXPECT_EQ(pairs.AddImage(1, seq, seq % 2 ? ViewEye::kRight : ViewEye::kLeft, seq / 2, image(seq, true)), "");
