@@ -95,8 +95,9 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
   const Eigen::Matrix3d& R = view.world_from_eye.rotation;
   struct Candidate {
     double weight;
-    cv::Vec3f colour;
-    bool seen;  // passes the visibility test (true without one)
+    size_t camera;
+    Eigen::Vector2d uv;  // where the camera sees the point (sampled only if blended)
+    bool seen;           // passes the visibility test (true without one)
   };
   std::vector<Candidate> cand;
   for (int r = 0; r < depth.rows; ++r) {
@@ -115,7 +116,7 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
         // rig has no camera behind the person) the least oblique one still wins.
         const double w = (cosang > 0 ? std::pow(cosang, options.angle_power) : 0.0) + 1e-9 * (1.0 + cosang);
         const bool seen = !visibility || Visible(*visibility, k, eye_from_world[k], X, options.visibility_bias_m);
-        cand.push_back({w, Bilinear(images[k].image, uv->x(), uv->y()), seen});
+        cand.push_back({w, k, *uv, seen});
       }
       // Only cameras that see the point, if any does; where none does (the back
       // of the person on the Utrecht rig) the best imaging camera still colours
@@ -133,8 +134,9 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
       cv::Vec3f sum(0, 0, 0);
       double wsum = 0;
       for (size_t k = 0; k < keep; ++k) {
-        sum += cand[k].colour * float(cand[k].weight);
-        wsum += cand[k].weight;
+        const Candidate& b = cand[k];
+        sum += Bilinear(images[b.camera].image, b.uv.x(), b.uv.y()) * float(b.weight);
+        wsum += b.weight;
       }
       sum *= float(1.0 / wsum);
       px = cv::Vec3b(cv::saturate_cast<uint8_t>(sum[0]), cv::saturate_cast<uint8_t>(sum[1]),
