@@ -34,7 +34,8 @@ class CaptureWriters final : public nodes::CaptureSink {
   nodes::PublishTimes PublishFrame(const nodes::CameraFrameOut& f) override {
     const double t0 = MonotonicSeconds();
     const auto map_msg = MakeMapMessage(f.stamp, f.camera_count, f.map, f.cam_from_world);
-    const auto image_msg = MakeImageMessage(f.stamp.camera_id, f.stamp.seq, f.stamp.capture_time_ns, f.image, jpeg_);
+    const auto image_msg =
+        MakeImageMessage(f.stamp.camera_id, f.stamp.seq, f.stamp.capture_time_ns, f.image, jpeg_, f.image_region);
     const double t1 = MonotonicSeconds();
     maps_.Write(map_msg.msg);
     images_.Write(image_msg.msg);
@@ -96,9 +97,10 @@ int main(int argc, char** argv) {
       });
     };
     const char* pacing = flags.options.fast ? " (unpaced)" : source->live() ? " (live)" : "";
-    spdlog::info("{} camera(s) of {}, {:.1f} fps{}, images {}", source->cameras().size(),
+    spdlog::info("{} camera(s) of {}, {:.1f} fps{}, images {}{}", source->cameras().size(),
                  source->rig_camera_count(), capture.rate(), pacing,
-                 flags.jpeg_quality > 0 ? "JPEG " + std::to_string(flags.jpeg_quality) : std::string("raw"));
+                 flags.jpeg_quality > 0 ? "JPEG " + std::to_string(flags.jpeg_quality) : std::string("raw"),
+                 flags.options.image_regions ? " around their object pixels" : "");
     NodeReporter reporter(*participant, name, capture.counters(), common.run_id);
     capture.PublishCalibration();
     if (flags.wait_readers > 0) {

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "hullpipe/foxglove/bridge_channels.h"
 #include "hullpipe/foxglove/bridge_state.h"
@@ -26,6 +27,23 @@ namespace {
 using bridge::BridgeState;
 using bridge::Channel;
 using nlohmann::json;
+
+// The bytes of a base64 text (RFC 4648, with padding), as a viewer reads a
+// foxglove.CompressedImage's data.
+std::vector<uint8_t> Base64Decode(const std::string& text) {
+  static const std::string kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::vector<uint8_t> out;
+  uint32_t bits = 0;
+  int n = 0;
+  for (const char c : text) {
+    if (c == '=') break;
+    const size_t v = kAlphabet.find(c);
+    if (v == std::string::npos) continue;
+    bits = (bits << 6) | uint32_t(v);
+    if ((n += 6) >= 8) out.push_back(uint8_t(bits >> (n -= 8)));
+  }
+  return out;
+}
 
 std::vector<Channel> TwoChannels() {
   return {{1, "hullpipe/camera_info", "cdr", "hullpipe::msg::CameraInfo", "module hullpipe {};", "omgidl"},
@@ -263,6 +281,19 @@ TEST(Foxglove, DerivesTheViewableChannelsFromSamplesOnTheWire) {
   ASSERT_EQ(got.size(), 2u);
   const std::string b64 = json::parse(got[1].json)["data"];
   EXPECT_EQ(b64.size(), (jpeg.msg.data._length + 2) / 3 * 4) << "passed through, not re-encoded";
+  // Sent as a region (capture_node --image-region): shown in its whole image.
+  const auto region = dds::MakeImageMessage(0, 3, 3000, bgr, 80, cv::Rect(16, 8, 24, 20));
+  ASSERT_TRUE(d.Add("hullpipe::msg::CameraImage", encode("hullpipe::msg::CameraImage", &region.msg), 2));
+  ASSERT_EQ(got.size(), 3u);
+  {
+    const json shown = json::parse(got[2].json);
+    EXPECT_EQ(shown["format"], "jpeg");
+    const cv::Mat img = cv::imdecode(Base64Decode(shown["data"].get<std::string>()), cv::IMREAD_COLOR);
+    ASSERT_EQ(img.size(), cv::Size(64, 48)) << "the whole image, not the region";
+    EXPECT_LE(cv::norm(img(cv::Rect(0, 0, 8, 48)), cv::NORM_INF), 12) << "black around the region";
+    EXPECT_LE(cv::norm(img(cv::Rect(18, 10, 20, 16)), bgr(cv::Rect(18, 10, 20, 16)), cv::NORM_INF), 12);
+  }
+  got.erase(got.begin() + 2);
   // Camera 1's image: nobody wants it, nothing derived (the sample is still valid).
   const auto other = dds::MakeImageMessage(1, 2, 2000, bgr, 0);
   EXPECT_TRUE(d.Add("hullpipe::msg::CameraImage", encode("hullpipe::msg::CameraImage", &other.msg), 3));

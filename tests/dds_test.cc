@@ -112,6 +112,75 @@ TEST(Convert, ImagesRawAndJpeg) {
   EXPECT_THROW(ImageFromMsg(jpg.msg), MessageError);
 }
 
+// capture_node --image-region: an image sent only around its object pixels
+// arrives as its whole image, the region's pixels at their place and black
+// elsewhere; an empty region sends nothing; a region of the whole image goes
+// as the whole image. A region that lies about its place is refused.
+TEST(Convert, AnImageRegionArrivesInItsWholeImage) {
+  // A gradient, so that a region put one pixel off would differ.
+  cv::Mat img(30, 40, CV_8UC3);
+  for (int r = 0; r < img.rows; ++r)
+    for (int c = 0; c < img.cols; ++c) img.at<cv::Vec3b>(r, c) = cv::Vec3b(uint8_t(6 * c), uint8_t(8 * r), 77);
+  const cv::Rect part(7, 5, 13, 11);
+  cv::Mat expected(img.size(), CV_8UC3, cv::Scalar::all(0));
+  img(part).copyTo(expected(part));
+  for (const int quality : {0, 95}) {
+    SCOPED_TRACE(quality);
+    auto s = MakeImageMessage(3, 1, 1, img, quality, part);
+    EXPECT_TRUE(ImageHasRegion(s.msg));
+    EXPECT_EQ(s.msg.x, 7u);
+    EXPECT_EQ(s.msg.y, 5u);
+    EXPECT_EQ(s.msg.width, 13u);
+    EXPECT_EQ(s.msg.height, 11u);
+    EXPECT_EQ(s.msg.full_width, 40u);
+    EXPECT_EQ(s.msg.full_height, 30u);
+    const cv::Mat back = ImageFromMsg(s.msg);
+    ASSERT_EQ(back.size(), img.size());
+    cv::Mat outside = back.clone();
+    outside(part).setTo(cv::Scalar::all(0));
+    EXPECT_EQ(cv::countNonZero(outside.reshape(1)), 0) << "black outside the region";
+    // Raw: exact; JPEG: its loss on a gradient of 6-8 levels a pixel.
+    EXPECT_LE(cv::norm(back(part), img(part), cv::NORM_INF), quality ? 24 : 0);
+    if (!quality) {
+      EXPECT_EQ(cv::norm(back, expected, cv::NORM_INF), 0);
+    }
+  }
+  // A region past the image is clipped to it; one of the whole image is none.
+  const auto clipped = MakeImageMessage(3, 1, 1, img, 0, cv::Rect(30, 20, 50, 50));
+  EXPECT_EQ(clipped.msg.width, 10u);
+  EXPECT_EQ(clipped.msg.height, 10u);
+  const auto whole = MakeImageMessage(3, 1, 1, img, 0, cv::Rect(-5, -5, 100, 100));
+  EXPECT_FALSE(ImageHasRegion(whole.msg));
+  EXPECT_EQ(cv::norm(ImageFromMsg(whole.msg), img, cv::NORM_INF), 0);
+  // No object pixels: no data, a black image of the whole size.
+  for (const int quality : {0, 90}) {
+    const auto none = MakeImageMessage(3, 1, 1, img, quality, cv::Rect());
+    EXPECT_TRUE(ImageHasRegion(none.msg));
+    EXPECT_EQ(none.msg.data._length, 0u);
+    const cv::Mat black = ImageFromMsg(none.msg);
+    ASSERT_EQ(black.size(), img.size());
+    EXPECT_EQ(cv::countNonZero(black.reshape(1)), 0);
+  }
+  // Lies: a region past its whole image, a whole image of one side or of an
+  // absurd size, an empty region with data.
+  const auto refused = [&](auto&& change, const std::string& says) {
+    auto s = MakeImageMessage(3, 1, 1, img, 0, part);
+    change(s.msg);
+    try {
+      ImageFromMsg(s.msg);
+      ADD_FAILURE() << says;
+    } catch (const MessageError& e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  };
+  refused([](auto& m) { m.x = 30; }, "region 13x11 at (30, 5) is not within the whole image 40x30");
+  refused([](auto& m) { m.y = 0xFFFFFFF0u; }, "is not within the whole image");
+  refused([](auto& m) { m.full_height = 0; }, "whole image size 40x0 out of range");
+  refused([](auto& m) { m.full_width = m.full_height = 1u << 20; }, "out of range");
+  refused([](auto& m) { m.width = m.height = 0; }, "an empty region (0x0) with");
+  refused([](auto& m) { m.height = 0; }, "an empty region (13x0) with");
+}
+
 // render_node's composited frame for viewers: scaled down to the publishing
 // bound with its aspect kept, a JPEG of the stated size, and refused when it
 // lies (another format, another size, larger than its view).
@@ -696,6 +765,55 @@ TEST(Dds, AViewOfTheEarlierLayoutReadsAsTheOneView) {
   }
 }
 
+// A recording made before CameraImage could hold a region of its image holds
+// samples that end with the image's bytes (then the padding to a multiple of
+// 4 its header declares). They read as what they were, the whole image, with
+// no region; replayed, they are published completed. A sample cut anywhere
+// else is still refused.
+TEST(Dds, ACameraImageOfTheEarlierLayoutReadsAsTheWholeImage) {
+  const auto dir = test::TempDir("dds_old_image");
+  setenv("CYCLONEDDS_URI", ("file://" + test::WriteLoopbackConfig(dir)).c_str(), 1);
+  Participant p(test::UniqueDomain());
+  const KnownType& kt = *FindKnownType("hullpipe::msg::CameraImage");
+  EXPECT_EQ(kt.appended_bytes, 16u);
+  EXPECT_EQ(kt.appended_alignment, 4u);
+  CdrWriter w(p, kt, kt.qos);
+  // Widths 4, 5, 6 and 7 of one row: 12, 15, 18 and 21 bytes, each padding.
+  for (const int width : {4, 5, 6, 7}) {
+    SCOPED_TRACE(width);
+    cv::Mat img(1, width, CV_8UC3);
+    for (int c = 0; c < width; ++c) img.at<cv::Vec3b>(0, c) = cv::Vec3b(uint8_t(c + 1), 9, 200);
+    const auto msg = MakeImageMessage(2, 5, 1000, img, 0);
+    const std::vector<uint8_t> cdr = w.Encode(&msg.msg);
+    // The earlier layout: the body less the region's 16 bytes; the data's
+    // alignment before them becomes the padding its header declares.
+    const size_t pad = (4 - (size_t(width) * 3) % 4) % 4;
+    EXPECT_EQ(cdr[3] & 3u, 0u);
+    std::vector<uint8_t> old(cdr.begin(), cdr.end() - 16);
+    old[3] = uint8_t(pad);
+    ASSERT_TRUE(w.DecodeWith<hullpipe_msg_CameraImage>(old, [&](const hullpipe_msg_CameraImage& m) {
+      EXPECT_FALSE(ImageHasRegion(m));
+      EXPECT_EQ(m.x, 0u);
+      EXPECT_EQ(m.frame_seq, 5u);
+      EXPECT_EQ(m.data._length, size_t(width) * 3);
+      EXPECT_EQ(cv::norm(ImageFromMsg(m), img, cv::NORM_INF), 0);
+    }));
+    EXPECT_NO_THROW(w.Write(old));
+    for (const size_t cut : {size_t(4), size_t(8), size_t(12)}) {
+      std::vector<uint8_t> bad(cdr.begin(), cdr.end() - std::ptrdiff_t(cut));
+      hullpipe_msg_CameraImage none{};
+      EXPECT_FALSE(w.Decode(bad, &none)) << cut;
+    }
+  }
+  // Control: the current layout keeps its region.
+  const auto region = MakeImageMessage(2, 6, 1000, cv::Mat(8, 8, CV_8UC3, cv::Scalar(1, 2, 3)), 0, cv::Rect(2, 3, 4, 5));
+  EXPECT_TRUE(w.DecodeWith<hullpipe_msg_CameraImage>(w.Encode(&region.msg), [&](const hullpipe_msg_CameraImage& m) {
+    EXPECT_EQ(m.x, 2u);
+    EXPECT_EQ(m.y, 3u);
+    EXPECT_EQ(m.full_width, 8u);
+  }));
+}
+
 // A recording made before CollisionReport had its hull velocity holds samples
 // 24 bytes shorter (a uint8, 7 bytes of alignment, two doubles, appended last).
 // They read as what they are: the rest of the report exactly, and "not
@@ -916,6 +1034,7 @@ TEST_P(FramesetInputOnItsThreadOrNot, DecodesJpegImagesAndRejectsABadOne) {
   ASSERT_GT(images.MatchedReaders(), 0u);
   for (const Camera& c : cams) info.Write(CameraToMsg(c, {}));
   // Camera k's image: a flat colour of its own (JPEG-safe), half size.
+  const cv::Rect kRegion(8, 3, 16, 16);  // camera 1's region: its object pixels at half size, grown
   auto colour = [](const Camera& c) { return cv::Scalar(40.0 * c.id, 200 - 30.0 * c.id, 90); };
   const int64_t t0 = NowNs();
   for (uint64_t seq : {1, 2}) {
@@ -926,7 +1045,9 @@ TEST_P(FramesetInputOnItsThreadOrNot, DecodesJpegImagesAndRejectsABadOne) {
       maps.Write(MakeMapMessage(FrameStamp{uint32_t(c.id), seq, t, double(seq) / 25}, 3, map, nullptr).msg);
       const cv::Mat bgr(c.height / 2, c.width / 2, CV_8UC3, colour(c));
       const int quality = c.id == cams.back().id ? 0 : 95;  // the last camera's images raw
-      auto img = MakeImageMessage(uint32_t(c.id), seq, t, bgr, quality);
+      // The first camera's only around its object pixels (capture_node --image-region).
+      auto img = MakeImageMessage(uint32_t(c.id), seq, t, bgr, quality,
+                                  c.id == cams[0].id ? std::optional<cv::Rect>(kRegion) : std::nullopt);
       std::vector<uint8_t> png;
       if (seq == 2 && c.id == cams[1].id) {  // marked JPEG, holding a PNG
         cv::imencode(".png", bgr, png);
@@ -947,7 +1068,12 @@ TEST_P(FramesetInputOnItsThreadOrNot, DecodesJpegImagesAndRejectsABadOne) {
   ASSERT_EQ(fs->images.size(), 3u);
   for (size_t i = 0; i < 3; ++i) {
     ASSERT_EQ(fs->images[i].image.size(), cv::Size(32, 24)) << i;
-    const cv::Mat expected(24, 32, CV_8UC3, colour(cams[i]));
+    cv::Mat expected(24, 32, CV_8UC3, colour(cams[i]));
+    if (i == 0) {  // its region in the whole image, black around
+      cv::Mat black(24, 32, CV_8UC3, cv::Scalar::all(0));
+      expected(kRegion).copyTo(black(kRegion));
+      expected = black;
+    }
     EXPECT_EQ(fs->images[i].camera.id, cams[i].id);
     EXPECT_LE(cv::norm(fs->images[i].image, expected, cv::NORM_INF), i == 2 ? 0 : 4) << i;  // JPEG loss, flat colour
   }

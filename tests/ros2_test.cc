@@ -1173,5 +1173,49 @@ TEST(Ros2Deriver, ModelPartsAreSentAgainOnlyWhenAContactChangesAndAreBounded) {
   EXPECT_EQ(colours.back().size(), 2u);  // the two parts, not the refused one
 }
 
+// A camera image sent as a region (capture_node --image-region) goes out as
+// the camera's whole image, black around the region, encoded again; a whole
+// JPEG is passed on byte for byte; raw regions go out whole as bgr8.
+TEST(Ros2Deriver, AnImageRegionGoesOutAsItsWholeImage) {
+  std::vector<std::pair<std::string, std::vector<uint8_t>>> out;
+  ros2::Ros2Deriver deriver({}, [&](const ros2::Ros2Message& m) {
+    if (m.type == "sensor_msgs/msg/CompressedImage") {
+      const auto* c = static_cast<const sensor_msgs_msg_dds__CompressedImage_*>(m.msg);
+      out.push_back({m.topic, std::vector<uint8_t>(c->data._buffer, c->data._buffer + c->data._length)});
+    } else if (m.type == "sensor_msgs/msg/Image") {
+      const auto* i = static_cast<const sensor_msgs_msg_dds__Image_*>(m.msg);
+      EXPECT_EQ(i->width, 64u);
+      EXPECT_EQ(i->height, 48u);
+      out.push_back({m.topic, std::vector<uint8_t>(i->data._buffer, i->data._buffer + i->data._length)});
+    }
+  });
+  Camera cam = RingCameras(1, 3, 2, Eigen::Vector3d::Zero(), 64, 48, 1.0, Distortion{})[0];
+  cam.id = 1;
+  EXPECT_EQ(deriver.OnCameraInfo(dds::CameraToMsg(cam, {}), 1), "");
+  out.clear();
+  const cv::Mat bgr(48, 64, CV_8UC3, cv::Scalar(40, 160, 220));
+  const cv::Rect part(16, 8, 24, 20);
+  const auto whole = dds::MakeImageMessage(1, 1, 1000, bgr, 80);
+  EXPECT_EQ(deriver.OnImage(whole.msg), "");
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].first, "/hullpipe/cam1/image/compressed");
+  EXPECT_EQ(out[0].second, whole.bytes) << "a whole JPEG passed on as it is";
+  for (const int quality : {80, 0}) {
+    out.clear();
+    const auto region = dds::MakeImageMessage(1, 2, 2000, bgr, quality, part);
+    EXPECT_EQ(deriver.OnImage(region.msg), "");
+    ASSERT_EQ(out.size(), 1u);
+    const cv::Mat shown = quality ? cv::imdecode(out[0].second, cv::IMREAD_COLOR)
+                                  : cv::Mat(48, 64, CV_8UC3, out[0].second.data()).clone();
+    ASSERT_EQ(shown.size(), cv::Size(64, 48)) << quality;
+    // Inside the region (a pixel in from its edge, where JPEG's blocks blur
+    // the step): the camera's colour; well outside it: black.
+    const double tol = quality ? 12 : 0;  // JPEG 80 twice over, on a flat colour
+    EXPECT_LE(cv::norm(shown(cv::Rect(18, 10, 20, 16)), bgr(cv::Rect(18, 10, 20, 16)), cv::NORM_INF), tol);
+    EXPECT_LE(cv::norm(shown(cv::Rect(0, 0, 8, 48)), cv::NORM_INF), tol);
+    EXPECT_LE(cv::norm(shown(cv::Rect(48, 0, 16, 48)), cv::NORM_INF), tol);
+  }
+}
+
 }  // namespace
 }  // namespace hullpipe

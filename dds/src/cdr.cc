@@ -4,6 +4,7 @@
 #include <dds/ddsi/ddsi_sertype.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <thread>
 
@@ -47,12 +48,17 @@ std::vector<KnownType> MakeKnownTypes() {
   // VirtualObjectState's box (7 bytes of alignment after its boolean, a Vec3)
   // and VirtualMesh's element key (a string). ViewPose's and CompositedView's
   // eye (a uint8 after a uint64: the serialized length then padded to 4).
+  // CameraImage's region (four uint32s after its data's bytes).
   for (KnownType& t : types) {
     if (t.type_name == "hullpipe::msg::CollisionReport") t.appended_bytes = 24;
     if (t.type_name == "hullpipe::msg::VirtualObjectState") t.appended_bytes = 31;
     if (t.type_name == "hullpipe::msg::ViewPose" || t.type_name == "hullpipe::msg::CompositedView")
       t.appended_bytes = 1;
     if (t.type_name == "hullpipe::msg::VirtualMesh") t.appended_empty_string = true;
+    if (t.type_name == "hullpipe::msg::CameraImage") {
+      t.appended_bytes = 16;  // x, y, full_width, full_height: no region
+      t.appended_alignment = 4;
+    }
   }
   return types;
 }
@@ -119,6 +125,7 @@ CdrWriter::CdrWriter(const Participant& p, const KnownType& type, const QosSpec&
     : topic_(Check(dds_create_topic(p.handle(), type.descriptor, type.topic_name.c_str(), nullptr, nullptr),
                    "dds_create_topic")),
       appended_bytes_(type.appended_bytes),
+      appended_alignment_(std::max<size_t>(1, type.appended_alignment)),
       appended_empty_string_(type.appended_empty_string),
       scope_(scope),
       descriptor_(type.descriptor) {
@@ -173,6 +180,8 @@ struct ddsi_serdata* CdrWriter::FromSer(const std::vector<uint8_t>& cdr) const {
   if (cdr.size() < 4 + padding) return nullptr;
   std::vector<uint8_t> completed(cdr.begin(), cdr.end() - std::ptrdiff_t(padding));
   completed[2] = completed[3] = 0;
+  // Alignment is counted from the body, after the 4-byte header.
+  while ((completed.size() - 4) % appended_alignment_ != 0) completed.push_back(0);
   completed.resize(completed.size() + appended_bytes_, 0);
   if (appended_empty_string_) {
     // Alignment is counted from the body, after the 4-byte header.

@@ -129,32 +129,46 @@ DecodedMap DecodedMapFromMsg(const hullpipe_msg_ObjectPixelMap& m) {
   }
 }
 
-OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint64_t frame_seq,
-                                                       int64_t t, const cv::Mat& bgr, int jpeg_quality) {
+OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint64_t frame_seq, int64_t t,
+                                                       const cv::Mat& bgr, int jpeg_quality,
+                                                       const std::optional<cv::Rect>& region) {
   CV_Assert(bgr.type() == CV_8UC3);
   OwnedSample<hullpipe_msg_CameraImage> s;
   auto& m = s.msg;
   m.camera_id = camera_id;
   m.frame_seq = frame_seq;
   m.capture_time_ns = t;
-  m.width = uint32_t(bgr.cols);
-  m.height = uint32_t(bgr.rows);
-  if (jpeg_quality > 0) {
+  const cv::Rect whole(0, 0, bgr.cols, bgr.rows);
+  const cv::Rect part = region ? *region & whole : whole;
+  if (part != whole) {
+    m.x = uint32_t(part.x);
+    m.y = uint32_t(part.y);
+    m.full_width = uint32_t(bgr.cols);
+    m.full_height = uint32_t(bgr.rows);
+  }
+  m.width = uint32_t(part.width);
+  m.height = uint32_t(part.height);
+  if (part.area() == 0) {
+    // No object pixels: nothing of the image is sent.
+    m.x = m.y = m.width = m.height = 0;
+    m.encoding = hullpipe_msg_IMAGE_ENCODING_BGR8;
+  } else if (jpeg_quality > 0) {
     m.encoding = hullpipe_msg_IMAGE_ENCODING_JPEG;
-    cv::imencode(".jpg", bgr, s.bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
+    cv::imencode(".jpg", bgr(part), s.bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
   } else {
     m.encoding = hullpipe_msg_IMAGE_ENCODING_BGR8;
-    const cv::Mat cont = bgr.isContinuous() ? bgr : bgr.clone();
+    const cv::Mat sent = bgr(part);
+    const cv::Mat cont = sent.isContinuous() ? sent : sent.clone();
     s.bytes.assign(cont.datastart, cont.dataend);
   }
   Borrow(&m.data, s.bytes);
   return s;
 }
 
-cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& m) {
-  const std::string who = "CameraImage of camera " + std::to_string(m.camera_id) + ": ";
-  if (m.width == 0 || m.height == 0 || m.width > kMaxSide || m.height > kMaxSide)
-    throw MessageError(who + "image size out of range");
+namespace {
+
+// The image `data` holds, width x height (checked to be in range).
+cv::Mat DecodeImageData(const std::string& who, const hullpipe_msg_CameraImage& m) {
   if (m.encoding == hullpipe_msg_IMAGE_ENCODING_BGR8) {
     if (uint64_t(m.data._length) != uint64_t(m.width) * m.height * 3)
       throw MessageError(who + "data has " + std::to_string(m.data._length) + " bytes, expected " +
@@ -172,6 +186,35 @@ cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& m) {
     return img;
   }
   throw MessageError(who + "unknown encoding " + std::to_string(int(m.encoding)));
+}
+
+}  // namespace
+
+bool ImageHasRegion(const hullpipe_msg_CameraImage& m) { return m.full_width != 0 || m.full_height != 0; }
+
+cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& m) {
+  const std::string who = "CameraImage of camera " + std::to_string(m.camera_id) + ": ";
+  if (!ImageHasRegion(m)) {
+    if (m.width == 0 || m.height == 0 || m.width > kMaxSide || m.height > kMaxSide)
+      throw MessageError(who + "image size out of range");
+    return DecodeImageData(who, m);
+  }
+  if (m.full_width == 0 || m.full_height == 0 || m.full_width > kMaxSide || m.full_height > kMaxSide)
+    throw MessageError(who + "whole image size " + std::to_string(m.full_width) + "x" +
+                       std::to_string(m.full_height) + " out of range");
+  if (uint64_t(m.x) + m.width > m.full_width || uint64_t(m.y) + m.height > m.full_height)
+    throw MessageError(who + "region " + std::to_string(m.width) + "x" + std::to_string(m.height) + " at (" +
+                       std::to_string(m.x) + ", " + std::to_string(m.y) + ") is not within the whole image " +
+                       std::to_string(m.full_width) + "x" + std::to_string(m.full_height));
+  cv::Mat whole(int(m.full_height), int(m.full_width), CV_8UC3, cv::Scalar::all(0));
+  if (m.width == 0 || m.height == 0) {
+    if (m.width != 0 || m.height != 0 || m.data._length != 0)
+      throw MessageError(who + "an empty region (" + std::to_string(m.width) + "x" + std::to_string(m.height) +
+                         ") with " + std::to_string(m.data._length) + " bytes of data");
+    return whole;
+  }
+  DecodeImageData(who, m).copyTo(whole(cv::Rect(int(m.x), int(m.y), int(m.width), int(m.height))));
+  return whole;
 }
 
 void CheckJpegOfSize(const std::string& who, const uint8_t* data, size_t n, uint32_t width, uint32_t height) {

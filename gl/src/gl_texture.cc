@@ -174,16 +174,7 @@ std::vector<cv::Rect> GlTexture::ObjectImageRects(const VolumeQuery& q, const st
       out.push_back(whole);
       continue;
     }
-    const cv::Rect& r = q.object_rect(k);
-    if (r.area() == 0) {
-      out.push_back(cv::Rect());
-      continue;
-    }
-    const double sx = double(img.cols) / q.views()[k].map.cols, sy = double(img.rows) / q.views()[k].map.rows;
-    const int gx = 2 + int(std::ceil(sx)), gy = 2 + int(std::ceil(sy));
-    const int x0 = int(std::floor(r.x * sx)) - gx, y0 = int(std::floor(r.y * sy)) - gy;
-    const int x1 = int(std::ceil(r.br().x * sx)) + gx, y1 = int(std::ceil(r.br().y * sy)) + gy;
-    out.push_back(cv::Rect(cv::Point(x0, y0), cv::Point(x1, y1)) & whole);
+    out.push_back(ImageRectAroundObjectPixels(q.object_rect(k), q.views()[k].map.size(), img.size()));
   }
   return out;
 }

@@ -16,6 +16,15 @@ void TextureOptions::Check() const {
   if (!(visibility_bias_m >= 0)) throw std::invalid_argument("TextureOptions: visibility_bias_m must be >= 0");
 }
 
+cv::Rect ImageRectAroundObjectPixels(const cv::Rect& r, cv::Size map_size, cv::Size image_size) {
+  if (r.area() <= 0 || map_size.area() <= 0 || image_size.area() <= 0) return {};
+  const double sx = double(image_size.width) / map_size.width, sy = double(image_size.height) / map_size.height;
+  const int gx = 2 + int(std::ceil(sx)), gy = 2 + int(std::ceil(sy));
+  const int x0 = int(std::floor(r.x * sx)) - gx, y0 = int(std::floor(r.y * sy)) - gy;
+  const int x1 = int(std::ceil(r.br().x * sx)) + gx, y1 = int(std::ceil(r.br().y * sy)) + gy;
+  return cv::Rect(cv::Point(x0, y0), cv::Point(x1, y1)) & cv::Rect(cv::Point(0, 0), image_size);
+}
+
 namespace {
 cv::Vec3f Bilinear(const cv::Mat& img, double u, double v) {
   // Continuous coords with centres at +0.5 -> sample grid.

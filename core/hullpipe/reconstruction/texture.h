@@ -20,6 +20,18 @@ struct CameraImage {
   cv::Mat image;
 };
 
+/// The part of a camera's colour image (image pixels, clipped to `image_size`)
+/// that holds every pixel TextureHull or the GL texture pass reads for a point
+/// the volume query finds inside the hull: a camera that sees such a point puts
+/// it on one of its object pixels, so `object_rect` (the object pixels'
+/// bounding rectangle in the map, VolumeQuery::object_rect) scaled from
+/// `map_size` to `image_size`, grown by 2 image pixels (the bilinear
+/// footprint's second texel and float rounding between the passes) and by one
+/// map pixel. Empty for an empty `object_rect`. capture_node sends only this
+/// part of each image (CameraImage's region; docs/gpu.md), the GL backend
+/// uploads only it.
+cv::Rect ImageRectAroundObjectPixels(const cv::Rect& object_rect, cv::Size map_size, cv::Size image_size);
+
 /// Texturing settings.
 struct TextureOptions {
   int max_cameras = 2;        ///< Blend at most this many best-aligned cameras (>= 1).

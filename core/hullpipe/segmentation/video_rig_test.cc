@@ -6,10 +6,12 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/evaluation/reprojection.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
+#include "hullpipe/reconstruction/texture.h"
 #include "hullpipe/reconstruction/volume_query.h"
 #include "hullpipe/testing/fixtures.h"
 
@@ -248,6 +250,73 @@ TEST(RigSource, RealRigsSweepTheSameSkippingEmptySpace) {
       EXPECT_GT(diff.hull, 0) << rig;  // control: the view sees the hull
     }
     EXPECT_GT(skipped, 1000) << rig;  // control: the grid answered many queries
+  }
+}
+
+// capture_node --image-region sends each camera's colour image only around its
+// object pixels (ImageRectAroundObjectPixels), black elsewhere: on the real
+// rigs (distorted, skewed) the hull is textured from such images exactly as
+// from the whole ones, in views from outside and inside the hull box, with
+// and without the visibility test, at capture's half-size images and at full
+// size. Control: a region a third smaller changes the colours.
+TEST(RigSource, RealRigsTextureFromTheirImagesObjectRegionsAsFromWholeImages) {
+  for (const std::string& rig : {std::string(HULLPIPE_DOME_DIR) + "/rig.yaml", std::string(HULLPIPE_RIG_DIR)}) {
+    if (!std::ifstream(rig) && !std::ifstream(rig + "/cam1/config.xml")) {
+      GTEST_SKIP() << rig << " not found (../shared beside the clone)";
+    }
+    SCOPED_TRACE(rig);
+    auto src = OpenVideoRig(rig, {});
+    RigFrame f;
+    ASSERT_TRUE(src->Next(&f));
+    std::vector<CameraMap> views;
+    for (size_t i = 0; i < src->cameras().size(); ++i) views.push_back({src->cameras()[i], f.maps[i]});
+    const VolumeQuery q(views, src->workspace());
+    const Aabb& box = q.hull_box();
+    ASSERT_FALSE(box.empty());
+    PlaneSweepOptions vo;
+    vo.num_planes = 48;
+    const HullVisibility vis = ComputeHullVisibility(q, src->cameras(), 80, vo, 6, 2);
+    for (const double scale : {0.5, 1.0}) {
+      // Whole images, regions around the object pixels, and regions too small.
+      std::vector<CameraImage> whole, region, small;
+      size_t sent = 0, all = 0;
+      for (size_t i = 0; i < src->cameras().size(); ++i) {
+        cv::Mat img = f.images[i];
+        if (scale < 1) cv::resize(img, img, cv::Size(), scale, scale, cv::INTER_AREA);
+        const cv::Rect r = ImageRectAroundObjectPixels(cv::boundingRect(f.maps[i]), f.maps[i].size(), img.size());
+        const cv::Rect less(r.x + r.width / 6, r.y + r.height / 6, r.width * 2 / 3, r.height * 2 / 3);
+        whole.push_back({src->cameras()[i], img});
+        for (auto [out, part] : {std::pair{&region, r}, std::pair{&small, less}}) {
+          cv::Mat black(img.size(), CV_8UC3, cv::Scalar::all(0));
+          img(part).copyTo(black(part));
+          out->push_back({src->cameras()[i], black});
+        }
+        sent += size_t(r.area()), all += size_t(img.total());
+      }
+      EXPECT_LT(sent, all / 2) << "the regions are a part of the images";
+      const double reach = (box.max - box.min).norm();
+      const Eigen::Vector3d up = -src->cameras()[0].cam_from_world.rotation.row(1).transpose();  // camera 0's up
+      double small_differs = 0;  // the most a colour differs from too small regions, in any view
+      for (const Eigen::Vector3d& eye : {Eigen::Vector3d(box.Center() + Eigen::Vector3d(0.8, 0.6, 0.5).normalized() *
+                                                                           1.5 * reach),
+                                         Eigen::Vector3d(box.Center() + 0.3 * (box.max - box.Center()))}) {
+        const NovelView view = NovelView::FromFov(120, 90, 1.2, LookAt(eye, box.Center(), up));
+        PlaneSweepOptions o;
+        o.num_planes = 100;
+        const cv::Rect tile(0, 0, view.width, view.height);
+        const cv::Mat depth = PlaneSweepCpu(q, view, SweepPlaneDepths(q, view, o), tile, nullptr, 2, 6);
+        for (const HullVisibility* v : {&vis, static_cast<const HullVisibility*>(nullptr)}) {
+          const cv::Mat want = TextureHull(depth, tile, view, whole, {}, v);
+          EXPECT_GT(cv::countNonZero(want.reshape(1)), 100) << "hull pixels textured";
+          EXPECT_EQ(cv::norm(TextureHull(depth, tile, view, region, {}, v), want, cv::NORM_INF), 0.0)
+              << "scale " << scale << (v ? ", visibility" : "");
+          small_differs = std::max(small_differs, cv::norm(TextureHull(depth, tile, view, small, {}, v), want,
+                                                           cv::NORM_INF));
+        }
+      }
+      EXPECT_GT(small_differs, 20.0) << "control: scale " << scale;
+      std::printf("%s at scale %.1f: region pixels %zu of %zu\n", rig.c_str(), scale, sent, all);
+    }
   }
 }
 

@@ -284,8 +284,9 @@ bool Deriver::Add(const std::string& type, const std::vector<uint8_t>& cdr, int6
     if (type == "hullpipe::msg::CameraImage")
       return d.With<hullpipe_msg_CameraImage>(type, cdr, [&](const auto& m) {
         if (!d.Want("/foxglove/" + Cam(m.camera_id) + "/image")) return;
-        if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG) {
+        if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG && !dds::ImageHasRegion(m)) {
           // Passed through: only a JPEG of the stated size (as ImageFromMsg checks).
+          // A region is shown in its whole image (black around it), encoded again.
           dds::CheckJpegOfSize("CameraImage: ", m.data._buffer, m.data._length, m.width, m.height);
           d.Compressed("/foxglove/" + Cam(m.camera_id) + "/image", m.capture_time_ns, Cam(m.camera_id),
                        m.data._buffer, m.data._length, "jpeg");

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
+#include "hullpipe/reconstruction/texture.h"
 #include "hullpipe/util/parallel.h"
 
 namespace hullpipe::nodes {
@@ -136,15 +137,29 @@ bool CaptureController::CatchUp(double lag_s, const char* why) {
   return true;
 }
 
-int ImageJpegQuality(int requested, const std::vector<Camera>& cameras, double image_scale) {
-  if (requested >= 0) return requested;
+namespace {
+// Bytes of one frame's images, raw, at image_scale (each side rounded as cv::resize does).
+double FrameImageBytes(const std::vector<Camera>& cameras, double image_scale) {
   double bytes = 0;
   for (const Camera& c : cameras) {
     const double w = image_scale < 1.0 ? std::round(c.width * image_scale) : c.width;
     const double h = image_scale < 1.0 ? std::round(c.height * image_scale) : c.height;
     bytes += w * h * 3;
   }
-  return bytes > kAutoJpegAboveBytes ? kAutoJpegQuality : 0;
+  return bytes;
+}
+}  // namespace
+
+int ImageJpegQuality(int requested, const std::vector<Camera>& cameras, double image_scale) {
+  if (requested >= 0) return requested;
+  return FrameImageBytes(cameras, image_scale) > kAutoJpegAboveBytes ? kAutoJpegQuality : 0;
+}
+
+bool ImageRegions(const std::string& requested, const std::vector<Camera>& cameras, double image_scale) {
+  if (requested == "object") return true;
+  if (requested == "whole") return false;
+  if (requested == "auto") return FrameImageBytes(cameras, image_scale) > kAutoJpegAboveBytes;
+  throw std::invalid_argument("--image-region must be whole, object or auto, not '" + requested + "'");
 }
 
 int CaptureController::PublishThreads() const { return ThreadsOrCores(o_.threads); }
@@ -259,13 +274,17 @@ bool CaptureController::Step() {
         const double t_scale = clock_.Now();
         cv::Mat img = frame_.images[i];
         if (o_.image_scale < 1.0) cv::resize(img, img, cv::Size(), o_.image_scale, o_.image_scale, cv::INTER_AREA);
+        std::optional<cv::Rect> region;
+        if (o_.image_regions)
+          region = ImageRectAroundObjectPixels(cv::boundingRect(frame_.maps[i]), frame_.maps[i].size(), img.size());
         spent[i].encode_ms += (clock_.Now() - t_scale) * 1e3;
         const Rigid3d* pose = live_pose[i]                                     ? &*live_pose[i]
                               : i < frame_.poses.size() && frame_.poses[i] ? &*frame_.poses[i]
                                                                            : nullptr;
         const FrameStamp stamp{uint32_t(source_.cameras()[i].id), seqs[i], stamps[i], frame_.time_s};
         const PublishTimes t = sink_.PublishFrame({.stamp = stamp, .camera_count = camera_count,
-                                                   .map = frame_.maps[i], .image = img, .cam_from_world = pose});
+                                                   .map = frame_.maps[i], .image = img, .image_region = region,
+                                                   .cam_from_world = pose});
         spent[i].encode_ms += t.encode_ms;
         spent[i].write_ms += t.write_ms;
       };

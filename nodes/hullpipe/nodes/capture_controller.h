@@ -17,7 +17,9 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
 #include <set>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -39,6 +41,10 @@ struct CaptureOptions {
   bool fast = false;        ///< Do not pace.
   bool loop = false;        ///< Rewind at the end of input.
   double image_scale = 0.5;  ///< Scale of the published colour images, [0.05, 1].
+  /// Send each colour image only around its camera's object pixels
+  /// (ImageRectAroundObjectPixels of the map's object rectangle: all that
+  /// texturing reads), as CameraImage's region (--image-region).
+  bool image_regions = false;
   /// The timeline's start (CLOCK_REALTIME ns; --start-time); 0: adopt an announced
   /// one or announce one at Start().
   int64_t start_ns = 0;
@@ -79,6 +85,14 @@ constexpr int kAutoJpegQuality = 90;
 /// would pass kAutoJpegAboveBytes raw, else 0.
 int ImageJpegQuality(int requested, const std::vector<Camera>& cameras, double image_scale);
 
+/// capture_node --image-region: "object" sends each image only around its
+/// object pixels (CaptureOptions::image_regions), "whole" the whole image,
+/// "auto" (the default) the former when the cameras' images at `image_scale`
+/// would pass kAutoJpegAboveBytes raw a frame, as --jpeg -1 decides. A
+/// viewer then shows black around the object (docs/gpu.md). Throws
+/// std::invalid_argument naming --image-region for another word.
+bool ImageRegions(const std::string& requested, const std::vector<Camera>& cameras, double image_scale);
+
 /// Wall milliseconds a sink spent on one camera's frame: encoding the map and
 /// image into messages, and writing them (the budget's "encode" and "publish").
 struct PublishTimes {
@@ -91,6 +105,9 @@ struct CameraFrameOut {
   uint32_t camera_count = 0;  ///< Cameras in the rig's frameset.
   cv::Mat map;                ///< Object-pixel map, CV_8UC1 (non-zero: object).
   cv::Mat image;              ///< Colour image, CV_8UC3, already scaled (--image-scale).
+  /// The part of `image` to send (image_regions: around the map's object
+  /// pixels, empty for none); nullopt: the whole image.
+  std::optional<cv::Rect> image_region;
   const Rigid3d* cam_from_world = nullptr;  ///< A tracked camera's pose this frame; nullptr: fixed.
 };
 

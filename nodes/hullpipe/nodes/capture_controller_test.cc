@@ -6,11 +6,13 @@
 #include <memory>
 #include <sstream>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <set>
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 
@@ -18,6 +20,7 @@
 #include "hullpipe/evaluation/synthetic.h"
 #include "hullpipe/evaluation/synthetic_source.h"
 #include "hullpipe/reconstruction/frameset.h"
+#include "hullpipe/reconstruction/texture.h"
 #include "hullpipe/reconstruction/volume_query.h"
 
 namespace hullpipe::nodes {
@@ -36,6 +39,8 @@ struct CaptureRecorder final : CaptureSink {
     int64_t t_ns;
     uint32_t count;
     cv::Size map, image;
+    cv::Rect object;                     ///< The map's object pixels' bounding rectangle.
+    std::optional<cv::Rect> region;      ///< The part of the image to send.
   };
   std::vector<Frame> frames;
   void PublishCameraInfo(const Camera&, const Aabb&) override { ++infos; }
@@ -47,7 +52,7 @@ struct CaptureRecorder final : CaptureSink {
     const std::lock_guard<std::mutex> lock(mutex);
     threads.insert(std::this_thread::get_id());
     frames.push_back({f.stamp.camera_id, f.stamp.seq, f.stamp.capture_time_ns, f.camera_count, f.map.size(),
-                      f.image.size()});
+                      f.image.size(), cv::boundingRect(f.map), f.image_region});
     return times;
   }
 };
@@ -142,6 +147,46 @@ TEST(Capture, ImagesGoOutAsJpegByDefaultOnlyWhenAFramesRawImagesAreLarge) {
   EXPECT_EQ(ImageJpegQuality(-1, rig(4, 644, 486), 1.0), kAutoJpegQuality);  // 3.8 MB at full size
   EXPECT_EQ(ImageJpegQuality(0, rig(20, 1024, 768), 0.5), 0);
   EXPECT_EQ(ImageJpegQuality(75, rig(1, 64, 48), 0.5), 75);
+  // --image-region auto decides by the same size.
+  EXPECT_FALSE(ImageRegions("auto", rig(4, 644, 486), 0.5));
+  EXPECT_TRUE(ImageRegions("auto", rig(20, 1024, 768), 0.5));
+  EXPECT_TRUE(ImageRegions("object", rig(1, 64, 48), 0.5));
+  EXPECT_FALSE(ImageRegions("whole", rig(20, 1024, 768), 0.5));
+  EXPECT_THROW(ImageRegions("half", rig(1, 64, 48), 0.5), std::invalid_argument);
+}
+
+// --image-region object: each camera's image goes to the sink with the part
+// to send, around its map's object pixels (all that texturing reads:
+// ImageRectAroundObjectPixels); without it, whole.
+TEST(Capture, ImagesGoOutAroundTheirObjectPixelsWhenAsked) {
+  for (const bool regions : {true, false}) {
+    SCOPED_TRACE(regions);
+    FakeClock clock;
+    auto source = Synthetic(2);
+    CaptureRecorder sink;
+    CaptureOptions o;
+    o.image_scale = 0.5;
+    o.image_regions = regions;
+    CaptureController c(o, clock, *source, sink);
+    c.Start();
+    while (c.Step()) {
+    }
+    ASSERT_EQ(sink.frames.size(), 6u);
+    for (const auto& f : sink.frames) {
+      if (!regions) {
+        EXPECT_FALSE(f.region);
+        continue;
+      }
+      ASSERT_TRUE(f.region);
+      ASSERT_GT(f.object.area(), 0) << "the sphere is seen";
+      EXPECT_EQ(*f.region, ImageRectAroundObjectPixels(f.object, f.map, f.image));
+      // The object rectangle at half size lies inside, with a margin.
+      const cv::Rect half(f.object.x / 2, f.object.y / 2, (f.object.width + 1) / 2, (f.object.height + 1) / 2);
+      const cv::Rect grown = (half + cv::Point(-2, -2) + cv::Size(4, 4)) & cv::Rect(cv::Point(0, 0), f.image);
+      EXPECT_EQ(*f.region & grown, grown);
+      EXPECT_LT(f.region->area(), f.image.area());
+    }
+  }
 }
 
 // The latency budget's capture stages (docs/latency.md): lag from the frame's

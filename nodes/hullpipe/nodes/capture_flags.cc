@@ -42,6 +42,11 @@ void CaptureFlags::Register(CLI::App& app) {
                  "would pass 2 MiB raw, else raw)")
       ->check(CLI::Range(-1, 100))
       ->capture_default_str();
+  app.add_option("--image-region", image_region,
+                 "Send each colour image whole, or only around its object pixels (all that texturing reads; "
+                 "viewers show black around them); auto: object when one frame's images would pass 2 MiB raw")
+      ->check(CLI::IsMember({"whole", "object", "auto"}))
+      ->capture_default_str();
   app.add_option("--background-frames", background_frames,
                  "Frames of each camera's background video (or, for a live camera without one, of its first "
                  "frames) to learn the background from")
@@ -108,6 +113,7 @@ std::unique_ptr<RigSource> CaptureFlags::OpenSource(std::function<bool()> stop_r
   }
   if (read_ahead) source = ReadAhead(std::move(source));
   jpeg_quality = ImageJpegQuality(jpeg_quality, source->cameras(), options.image_scale);
+  options.image_regions = ImageRegions(image_region, source->cameras(), options.image_scale);
   return source;
 }
 

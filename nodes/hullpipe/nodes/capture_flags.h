@@ -28,6 +28,9 @@ struct CaptureFlags {
   /// --jpeg: JPEG quality of the published images, 0 raw, -1 (the default)
   /// decided by the cameras' size at OpenSource (ImageJpegQuality).
   int jpeg_quality = -1;
+  /// --image-region whole|object|auto: settled at OpenSource into
+  /// options.image_regions (ImageRegions).
+  std::string image_region = "auto";
   int background_frames = 60;  ///< --background-frames
   double live_timeout_s = 5;   ///< --live-timeout
   uint32_t wait_readers = 0;   ///< --wait-readers
@@ -43,7 +46,8 @@ struct CaptureFlags {
   /// std::invalid_argument naming the flag.
   void Resolve();
   /// Opens the source the flags name (after Resolve), read one frame ahead
-  /// unless --no-read-ahead, and settles --jpeg -1 by its cameras' size.
+  /// unless --no-read-ahead, and settles --jpeg -1 and --image-region auto by
+  /// its cameras' size.
   /// `stop_requested` is polled while a live background is learnt. Throws the
   /// loaders' errors (naming the file) or std::invalid_argument.
   std::unique_ptr<RigSource> OpenSource(std::function<bool()> stop_requested);

@@ -87,6 +87,12 @@ TEST(CaptureFlags, OpenTheSourceTheyNameReadAheadByDefault) {
   const auto plain = big.OpenSource(nullptr);
   EXPECT_EQ(dynamic_cast<PrefetchingSource*>(plain.get()), nullptr);
   EXPECT_EQ(big.jpeg_quality, kAutoJpegQuality);  // 20 x 512x384 raw: 11.8 MB
+  EXPECT_TRUE(big.options.image_regions) << "--image-region auto: regions for such a frame";
+  EXPECT_FALSE(small.options.image_regions);
+  CaptureFlags whole = ParseCapture({"--synthetic", "--synthetic-cameras", "20", "--synthetic-size", "1024x768",
+                                     "--frames", "1", "--no-read-ahead", "--image-region", "whole"});
+  (void)whole.OpenSource(nullptr);
+  EXPECT_FALSE(whole.options.image_regions);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "hullpipe/ros2/ros2_deriver.h"
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "hullpipe/dds/convert.h"
 #include "hullpipe/ros2/ros2_messages.h"
 #include "hullpipe/ros2/ros2_topics.h"
@@ -8,6 +10,9 @@ namespace hullpipe::ros2 {
 
 namespace {
 std::string CameraBase(uint32_t id) { return "/hullpipe/cam" + std::to_string(id); }
+// The quality a camera image's region goes out with in its whole image (the
+// quality capture_node's JPEGs have by default).
+constexpr int kRegionJpegQuality = 90;
 }  // namespace
 
 template <typename F>
@@ -61,9 +66,17 @@ std::string Ros2Deriver::OnImage(const hullpipe_msg_CameraImage& m) {
     const std::string base = CameraBase(m.camera_id), frame = CameraFrameId(int(m.camera_id));
     if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG) {
       // Passed on as they are, once checked to be a JPEG of the stated size.
-      dds::CheckJpegOfSize("CameraImage: ", m.data._buffer, m.data._length, m.width, m.height);
-      const auto jpeg = MakeCompressedImage(std::vector<uint8_t>(m.data._buffer, m.data._buffer + m.data._length),
-                                            m.capture_time_ns, frame);
+      // A region (capture_node --image-region) goes out as its whole image,
+      // black around it, encoded again: a ROS 2 image is the camera's whole.
+      std::vector<uint8_t> bytes;
+      if (dds::ImageHasRegion(m)) {
+        if (!cv::imencode(".jpg", dds::ImageFromMsg(m), bytes, {cv::IMWRITE_JPEG_QUALITY, kRegionJpegQuality}))
+          throw dds::MessageError("CameraImage: the JPEG encoder failed");
+      } else {
+        dds::CheckJpegOfSize("CameraImage: ", m.data._buffer, m.data._length, m.width, m.height);
+        bytes.assign(m.data._buffer, m.data._buffer + m.data._length);
+      }
+      const auto jpeg = MakeCompressedImage(std::move(bytes), m.capture_time_ns, frame);
       emit_({base + "/image/compressed", "sensor_msgs/msg/CompressedImage", kDefaultQos, &jpeg.msg,
              m.capture_time_ns});
     } else {

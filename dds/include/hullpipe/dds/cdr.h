@@ -36,8 +36,14 @@ struct KnownType {
   /// multiple of 4, as the header declares) when it does not deserialize as it
   /// is. CollisionReport: 24 (its hull velocity fields); VirtualObjectState: 31
   /// (7 of alignment and its box's half extents); ViewPose and CompositedView:
-  /// 1 (the eye: VIEW_EYE_MONO).
+  /// 1 (the eye: VIEW_EYE_MONO); CameraImage: 16 (its region: none), after
+  /// appended_alignment.
   size_t appended_bytes = 0;
+  /// The appended fields' alignment (XCDR1, from the body's start): zeros pad
+  /// the earlier layout's body to it before the appended_bytes. 1 where the
+  /// earlier layout ends at a fixed offset (the counts above include that
+  /// alignment); CameraImage: 4 (its uint32s after its data's bytes).
+  size_t appended_alignment = 1;
   /// After those zeros, an empty string (the appended string field's empty
   /// value: length 1 and its NUL, in the sample's byte order, 4-aligned).
   /// VirtualMesh: its element key (read as an unnamed element).
@@ -121,6 +127,7 @@ class CdrWriter : public Entity {
   Entity topic_;
   struct ddsi_sertype* sertype_ = nullptr;
   size_t appended_bytes_ = 0;
+  size_t appended_alignment_ = 1;
   bool appended_empty_string_ = false;
   Scope scope_ = Scope::kPublish;
   const dds_topic_descriptor_t* descriptor_ = nullptr;

@@ -44,11 +44,20 @@ cv::Mat MapFromMsg(const hullpipe_msg_ObjectPixelMap& msg);
 /// the runs. Throws MessageError on a bad encoding or size.
 DecodedMap DecodedMapFromMsg(const hullpipe_msg_ObjectPixelMap& msg);
 
-/// CameraImage of a BGR image, raw (jpeg_quality <= 0) or JPEG.
+/// CameraImage of a BGR image, raw (jpeg_quality <= 0) or JPEG. With `region`
+/// (image pixels, clipped to the image) only that part is sent, as
+/// CameraImage's region (capture_node --image-region; docs/gpu.md); an empty
+/// one sends no data, a region of the whole image is sent as the whole image.
 OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint64_t frame_seq,
                                                        int64_t capture_time_ns, const cv::Mat& bgr,
-                                                       int jpeg_quality);
-/// Decoded BGR image. Throws MessageError on a bad encoding or size.
+                                                       int jpeg_quality,
+                                                       const std::optional<cv::Rect>& region = std::nullopt);
+/// True if the message holds only a region of its image (full_width or
+/// full_height set).
+bool ImageHasRegion(const hullpipe_msg_CameraImage& msg);
+/// Decoded BGR image, the whole image's size: a region's pixels at its place,
+/// black elsewhere. Throws MessageError on a bad encoding or size, or a region
+/// not within its whole image.
 cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& msg);
 
 /// Throws MessageError ("<who>data is not a JPEG of the stated size WxH") unless

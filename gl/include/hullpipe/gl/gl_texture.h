@@ -40,12 +40,9 @@ class GlTexture {
   void UploadImages(const std::vector<CameraImage>& images, const std::vector<cv::Rect>* rects = nullptr);
   /// Per image, the rectangle (image pixels, clipped to it) that holds every
   /// pixel the texture pass reads for a point the volume query `q` finds
-  /// inside: a camera that sees such a point puts it on one of its object
-  /// pixels (VolumeQuery::object_rect), so its camera's object rectangle,
-  /// scaled from the map's size to the image's, grown by 2 image pixels (the
-  /// bilinear footprint's second texel and float rounding between the passes)
-  /// and by one map pixel. Empty for a camera with no object pixel. Images whose
-  /// camera (by id, in order) is not the query's get the whole image.
+  /// inside (ImageRectAroundObjectPixels of its camera's object rectangle).
+  /// Empty for a camera with no object pixel. Images whose camera (by id, in
+  /// order) is not the query's get the whole image.
   static std::vector<cv::Rect> ObjectImageRects(const VolumeQuery& q, const std::vector<CameraImage>& images);
   /// Bytes the last UploadImages copied (BGRA), and how many images the passes
   /// since had to upload whole again (a sample outside the image's rectangle).
