@@ -587,21 +587,14 @@ TEST_F(Gl, TextureFromTheImagesObjectRectanglesIsTheWholeImagesTexture) {
 // uploaded only around their object pixels, are the whole images' to the bit,
 // and no image had to go up whole again.
 TEST_F(Gl, RealRigsTextureFromTheImagesObjectRectanglesAsFromWholeImages) {
-  for (const std::string& rig : {std::string(HULLPIPE_DOME_DIR) + "/rig.yaml", std::string(HULLPIPE_RIG_DIR)}) {
-    if (!std::ifstream(rig) && !std::ifstream(rig + "/cam1/config.xml"))
-      GTEST_SKIP() << rig << " not found (../shared beside the clone)";
+  for (const std::string& rig : test::RealRigs()) {
+    const test::RealRigFrame first = test::FirstFrameOf(rig);
+    if (!first.source) GTEST_SKIP() << rig << " not found (../shared beside the clone)";
     SCOPED_TRACE(rig);
-    auto src = OpenVideoRig(rig, {});
-    RigFrame f;
-    ASSERT_TRUE(src->Next(&f));
-    std::vector<CameraMap> views;
+    const auto& [src, f, views] = first;
+    const std::vector<Camera>& cams = src->cameras();
     std::vector<CameraImage> images;
-    std::vector<Camera> cams;
-    for (size_t i = 0; i < src->cameras().size(); ++i) {
-      views.push_back({src->cameras()[i], f.maps[i]});
-      images.push_back({src->cameras()[i], f.images[i]});
-      cams.push_back(src->cameras()[i]);
-    }
+    for (size_t i = 0; i < cams.size(); ++i) images.push_back({cams[i], f.images[i]});
     const VolumeQuery q(views, src->workspace());
     const Aabb& box = q.hull_box();
     ASSERT_FALSE(box.empty());

@@ -217,15 +217,10 @@ TEST(RigSource, APublishedDomesHullBoxIsItsHulls) {
 // bit what the sweep asking every camera returns, refined as recon refines, in
 // a view from outside the hull box and in one from inside it.
 TEST(RigSource, RealRigsSweepTheSameSkippingEmptySpace) {
-  for (const std::string& rig : {std::string(HULLPIPE_DOME_DIR) + "/rig.yaml", std::string(HULLPIPE_RIG_DIR)}) {
-    if (!std::ifstream(rig) && !std::ifstream(rig + "/cam1/config.xml")) {
-      GTEST_SKIP() << rig << " not found (../shared beside the clone)";
-    }
-    auto src = OpenVideoRig(rig, {});
-    RigFrame f;
-    ASSERT_TRUE(src->Next(&f));
-    std::vector<CameraMap> views;
-    for (size_t i = 0; i < src->cameras().size(); ++i) views.push_back({src->cameras()[i], f.maps[i]});
+  for (const std::string& rig : test::RealRigs()) {
+    const test::RealRigFrame first = test::FirstFrameOf(rig);
+    if (!first.source) GTEST_SKIP() << rig << " not found (../shared beside the clone)";
+    const auto& [src, f, views] = first;
     VolumeQueryOptions without_grid;
     without_grid.empty_space_cells = 0;
     const VolumeQuery with(views, src->workspace()), without(views, src->workspace(), without_grid);
@@ -260,16 +255,11 @@ TEST(RigSource, RealRigsSweepTheSameSkippingEmptySpace) {
 // and without the visibility test, at capture's half-size images and at full
 // size. Control: a region a third smaller changes the colours.
 TEST(RigSource, RealRigsTextureFromTheirImagesObjectRegionsAsFromWholeImages) {
-  for (const std::string& rig : {std::string(HULLPIPE_DOME_DIR) + "/rig.yaml", std::string(HULLPIPE_RIG_DIR)}) {
-    if (!std::ifstream(rig) && !std::ifstream(rig + "/cam1/config.xml")) {
-      GTEST_SKIP() << rig << " not found (../shared beside the clone)";
-    }
+  for (const std::string& rig : test::RealRigs()) {
+    const test::RealRigFrame first = test::FirstFrameOf(rig);
+    if (!first.source) GTEST_SKIP() << rig << " not found (../shared beside the clone)";
     SCOPED_TRACE(rig);
-    auto src = OpenVideoRig(rig, {});
-    RigFrame f;
-    ASSERT_TRUE(src->Next(&f));
-    std::vector<CameraMap> views;
-    for (size_t i = 0; i < src->cameras().size(); ++i) views.push_back({src->cameras()[i], f.maps[i]});
+    const auto& [src, f, views] = first;
     const VolumeQuery q(views, src->workspace());
     const Aabb& box = q.hull_box();
     ASSERT_FALSE(box.empty());

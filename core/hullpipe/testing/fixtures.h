@@ -10,6 +10,8 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <stdexcept>
 #include <filesystem>
 #include <ostream>
 #include <string>
@@ -23,6 +25,7 @@
 #include "hullpipe/reconstruction/exact_hull.h"
 #include "hullpipe/reconstruction/plane_sweep.h"
 #include "hullpipe/reconstruction/volume_query.h"
+#include "hullpipe/segmentation/video_rig.h"
 
 namespace hullpipe::test {
 
@@ -33,6 +36,29 @@ inline constexpr double kSphereRadius = 0.3;
 /// The Utrecht rig beside the repository (../shared/data/utrecht-4cam).
 inline std::string RigDir() { return HULLPIPE_RIG_DIR; }
 inline bool HaveRig() { return std::filesystem::exists(RigDir() + "/cam1/config.xml"); }
+
+#ifdef HULLPIPE_DOME_DIR
+/// The real rigs beside the repository: the published 20-camera dome's YAML
+/// rig (../shared/data/dome-20cam/rig.yaml) and the Utrecht rig's directory.
+inline std::vector<std::string> RealRigs() { return {std::string(HULLPIPE_DOME_DIR) + "/rig.yaml", RigDir()}; }
+#endif
+
+/// A real rig's first frame: its source, the frame, and each camera's map as
+/// the volume query takes them. `source` is null when the rig is not on disk
+/// (no ../shared beside the clone): the caller skips.
+struct RealRigFrame {
+  std::unique_ptr<RigSource> source;
+  RigFrame frame;
+  std::vector<CameraMap> views;
+};
+inline RealRigFrame FirstFrameOf(const std::string& rig) {
+  RealRigFrame f;
+  if (!std::filesystem::is_regular_file(rig) && !std::filesystem::exists(rig + "/cam1/config.xml")) return f;
+  f.source = OpenVideoRig(rig, {});
+  if (!f.source->Next(&f.frame)) throw std::runtime_error(rig + ": no first frame");
+  for (size_t i = 0; i < f.source->cameras().size(); ++i) f.views.push_back({f.source->cameras()[i], f.frame.maps[i]});
+  return f;
+}
 
 /// A fresh temporary directory, unique to this process and call.
 inline std::filesystem::path TempDir(const std::string& tag) {
