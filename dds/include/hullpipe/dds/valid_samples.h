@@ -33,7 +33,9 @@ inline std::map<std::string, std::vector<uint8_t>> ValidSampleOfEachTopic(const 
   encode("hullpipe::msg::CameraInfo", &info);
   const auto map_msg = MakeMapMessage({1, 1, kStampNs, 0.04}, 2, map);
   encode("hullpipe::msg::ObjectPixelMap", &map_msg.msg);
-  const auto image = MakeImageMessage(1, 1, kStampNs, cv::Mat(12, 16, CV_8UC3, cv::Scalar(1, 2, 3)), 0);
+  // A region of its image (capture_node --image-region), so that every field is in play.
+  const auto image =
+      MakeImageMessage(1, 1, kStampNs, cv::Mat(12, 16, CV_8UC3, cv::Scalar(1, 2, 3)), 0, cv::Rect(2, 3, 8, 6));
   encode("hullpipe::msg::CameraImage", &image.msg);
   NovelView view;
   view.width = 32, view.height = 24, view.fx = view.fy = 30, view.cx = 16, view.cy = 12;
