@@ -35,7 +35,9 @@ class CaptureWriters final : public nodes::CaptureSink {
     const double t0 = MonotonicSeconds();
     const auto map_msg = MakeMapMessage(f.stamp, f.camera_count, f.map, f.cam_from_world);
     const auto image_msg =
-        MakeImageMessage(f.stamp.camera_id, f.stamp.seq, f.stamp.capture_time_ns, f.image, jpeg_, f.image_region);
+        f.image_region ? MakeImageRegionMessage(f.stamp.camera_id, f.stamp.seq, f.stamp.capture_time_ns, f.image,
+                                                f.image_region->rect, f.image_region->whole, jpeg_)
+                       : MakeImageMessage(f.stamp.camera_id, f.stamp.seq, f.stamp.capture_time_ns, f.image, jpeg_);
     const double t1 = MonotonicSeconds();
     maps_.Write(map_msg.msg);
     images_.Write(image_msg.msg);

@@ -129,40 +129,47 @@ DecodedMap DecodedMapFromMsg(const hullpipe_msg_ObjectPixelMap& m) {
   }
 }
 
-OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint64_t frame_seq, int64_t t,
-                                                       const cv::Mat& bgr, int jpeg_quality,
-                                                       const std::optional<cv::Rect>& region) {
-  CV_Assert(bgr.type() == CV_8UC3);
+OwnedSample<hullpipe_msg_CameraImage> MakeImageRegionMessage(uint32_t camera_id, uint64_t frame_seq, int64_t t,
+                                                             const cv::Mat& part, const cv::Rect& rect, cv::Size whole,
+                                                             int jpeg_quality) {
+  CV_Assert(part.empty() || part.type() == CV_8UC3);
+  CV_Assert(part.size() == rect.size() && (rect & cv::Rect(cv::Point(0, 0), whole)) == rect);
   OwnedSample<hullpipe_msg_CameraImage> s;
   auto& m = s.msg;
   m.camera_id = camera_id;
   m.frame_seq = frame_seq;
   m.capture_time_ns = t;
-  const cv::Rect whole(0, 0, bgr.cols, bgr.rows);
-  const cv::Rect part = region ? *region & whole : whole;
-  if (part != whole) {
-    m.x = uint32_t(part.x);
-    m.y = uint32_t(part.y);
-    m.full_width = uint32_t(bgr.cols);
-    m.full_height = uint32_t(bgr.rows);
+  if (rect != cv::Rect(cv::Point(0, 0), whole)) {
+    m.x = rect.area() ? uint32_t(rect.x) : 0;
+    m.y = rect.area() ? uint32_t(rect.y) : 0;
+    m.full_width = uint32_t(whole.width);
+    m.full_height = uint32_t(whole.height);
   }
-  m.width = uint32_t(part.width);
-  m.height = uint32_t(part.height);
-  if (part.area() == 0) {
+  m.width = rect.area() ? uint32_t(rect.width) : 0;
+  m.height = rect.area() ? uint32_t(rect.height) : 0;
+  if (rect.area() == 0) {
     // No object pixels: nothing of the image is sent.
-    m.x = m.y = m.width = m.height = 0;
     m.encoding = hullpipe_msg_IMAGE_ENCODING_BGR8;
   } else if (jpeg_quality > 0) {
     m.encoding = hullpipe_msg_IMAGE_ENCODING_JPEG;
-    cv::imencode(".jpg", bgr(part), s.bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
+    cv::imencode(".jpg", part, s.bytes, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
   } else {
     m.encoding = hullpipe_msg_IMAGE_ENCODING_BGR8;
-    const cv::Mat sent = bgr(part);
-    const cv::Mat cont = sent.isContinuous() ? sent : sent.clone();
+    const cv::Mat cont = part.isContinuous() ? part : part.clone();
     s.bytes.assign(cont.datastart, cont.dataend);
   }
   Borrow(&m.data, s.bytes);
   return s;
+}
+
+OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint64_t frame_seq, int64_t t,
+                                                       const cv::Mat& bgr, int jpeg_quality,
+                                                       const std::optional<cv::Rect>& region) {
+  CV_Assert(bgr.type() == CV_8UC3);
+  const cv::Rect whole(0, 0, bgr.cols, bgr.rows);
+  const cv::Rect part = region ? *region & whole : whole;
+  return MakeImageRegionMessage(camera_id, frame_seq, t, part.area() ? bgr(part) : cv::Mat(), part, bgr.size(),
+                                jpeg_quality);
 }
 
 namespace {

@@ -155,6 +155,29 @@ int ImageJpegQuality(int requested, const std::vector<Camera>& cameras, double i
   return FrameImageBytes(cameras, image_scale) > kAutoJpegAboveBytes ? kAutoJpegQuality : 0;
 }
 
+cv::Size ScaledImageSize(cv::Size size, double scale) {
+  if (scale >= 1.0) return size;
+  return {cv::saturate_cast<int>(size.width * scale), cv::saturate_cast<int>(size.height * scale)};
+}
+
+cv::Mat ScaledImageRegion(const cv::Mat& image, double scale, const cv::Rect& region) {
+  const cv::Size whole = ScaledImageSize(image.size(), scale);
+  const cv::Rect r = region & cv::Rect(cv::Point(0, 0), whole);
+  if (r.area() == 0) return {};
+  if (scale >= 1.0) return image(r);
+  // INTER_AREA at a whole factor k averages each k x k block on its own (its
+  // fast path), so the region's blocks give the whole image's pixels there.
+  const int k = int(std::lround(1.0 / scale));
+  if (k >= 2 && 1.0 / scale == double(k) && image.cols == whole.width * k && image.rows == whole.height * k) {
+    cv::Mat out;
+    cv::resize(image(cv::Rect(r.x * k, r.y * k, r.width * k, r.height * k)), out, r.size(), 0, 0, cv::INTER_AREA);
+    return out;
+  }
+  cv::Mat scaled;
+  cv::resize(image, scaled, cv::Size(), scale, scale, cv::INTER_AREA);
+  return scaled(r);
+}
+
 bool ImageRegions(const std::string& requested, const std::vector<Camera>& cameras, double image_scale) {
   if (requested == "object") return true;
   if (requested == "whole") return false;
@@ -273,10 +296,16 @@ bool CaptureController::Step() {
         if (frame_.maps[i].empty()) return;
         const double t_scale = clock_.Now();
         cv::Mat img = frame_.images[i];
-        if (o_.image_scale < 1.0) cv::resize(img, img, cv::Size(), o_.image_scale, o_.image_scale, cv::INTER_AREA);
-        std::optional<cv::Rect> region;
-        if (o_.image_regions)
-          region = ImageRectAroundObjectPixels(cv::boundingRect(frame_.maps[i]), frame_.maps[i].size(), img.size());
+        std::optional<ImageRegion> region;
+        if (o_.image_regions) {
+          // Only the region is scaled (and sent): texturing reads nothing else.
+          const cv::Size whole = ScaledImageSize(img.size(), o_.image_scale);
+          region = ImageRegion{
+              ImageRectAroundObjectPixels(cv::boundingRect(frame_.maps[i]), frame_.maps[i].size(), whole), whole};
+          img = ScaledImageRegion(img, o_.image_scale, region->rect);
+        } else if (o_.image_scale < 1.0) {
+          cv::resize(img, img, cv::Size(), o_.image_scale, o_.image_scale, cv::INTER_AREA);
+        }
         spent[i].encode_ms += (clock_.Now() - t_scale) * 1e3;
         const Rigid3d* pose = live_pose[i]                                     ? &*live_pose[i]
                               : i < frame_.poses.size() && frame_.poses[i] ? &*frame_.poses[i]

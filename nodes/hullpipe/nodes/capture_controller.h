@@ -99,15 +99,34 @@ struct PublishTimes {
   double encode_ms = 0, write_ms = 0;
 };
 
+/// A region of a camera's scaled colour image (CaptureOptions::image_regions).
+struct ImageRegion {
+  cv::Rect rect;     ///< In the whole scaled image's pixels.
+  cv::Size whole;    ///< The whole scaled image's size.
+};
+
+/// The pixels of `region` (clipped to the scaled image) of `image` scaled by
+/// `scale` in (0, 1] with cv::INTER_AREA, exactly as cv::resize's whole image
+/// cropped to it; only the region's source pixels are resized where 1 / scale
+/// is a whole number dividing the image's size (the default half size), else
+/// the whole image. *whole (optional) gets the scaled size. An empty region
+/// gives an empty image.
+cv::Mat ScaledImageRegion(const cv::Mat& image, double scale, const cv::Rect& region);
+/// The size cv::resize gives `size` scaled by `scale` (each side rounded to
+/// the nearest, half to even).
+cv::Size ScaledImageSize(cv::Size size, double scale);
+
 /// One camera's share of a frame, as capture hands it to its sink.
 struct CameraFrameOut {
   FrameStamp stamp;           ///< The camera, its sequence number, capture and source time.
   uint32_t camera_count = 0;  ///< Cameras in the rig's frameset.
   cv::Mat map;                ///< Object-pixel map, CV_8UC1 (non-zero: object).
-  cv::Mat image;              ///< Colour image, CV_8UC3, already scaled (--image-scale).
-  /// The part of `image` to send (image_regions: around the map's object
-  /// pixels, empty for none); nullopt: the whole image.
-  std::optional<cv::Rect> image_region;
+  /// Colour image, CV_8UC3, already scaled (--image-scale): the whole image,
+  /// or with image_region only that region's pixels.
+  cv::Mat image;
+  /// With image_regions: where `image` lies in the whole scaled image (around
+  /// the map's object pixels; an empty rect and an empty `image` for none).
+  std::optional<ImageRegion> image_region;
   const Rigid3d* cam_from_world = nullptr;  ///< A tracked camera's pose this frame; nullptr: fixed.
 };
 

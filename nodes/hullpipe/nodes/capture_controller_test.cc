@@ -40,7 +40,8 @@ struct CaptureRecorder final : CaptureSink {
     uint32_t count;
     cv::Size map, image;
     cv::Rect object;                     ///< The map's object pixels' bounding rectangle.
-    std::optional<cv::Rect> region;      ///< The part of the image to send.
+    std::optional<ImageRegion> region;   ///< Where the image lies in the whole scaled image.
+    cv::Mat pixels;                      ///< The image's pixels.
   };
   std::vector<Frame> frames;
   void PublishCameraInfo(const Camera&, const Aabb&) override { ++infos; }
@@ -52,7 +53,7 @@ struct CaptureRecorder final : CaptureSink {
     const std::lock_guard<std::mutex> lock(mutex);
     threads.insert(std::this_thread::get_id());
     frames.push_back({f.stamp.camera_id, f.stamp.seq, f.stamp.capture_time_ns, f.camera_count, f.map.size(),
-                      f.image.size(), cv::boundingRect(f.map), f.image_region});
+                      f.image.size(), cv::boundingRect(f.map), f.image_region, f.image.clone()});
     return times;
   }
 };
@@ -155,14 +156,15 @@ TEST(Capture, ImagesGoOutAsJpegByDefaultOnlyWhenAFramesRawImagesAreLarge) {
   EXPECT_THROW(ImageRegions("half", rig(1, 64, 48), 0.5), std::invalid_argument);
 }
 
-// --image-region object: each camera's image goes to the sink with the part
-// to send, around its map's object pixels (all that texturing reads:
-// ImageRectAroundObjectPixels); without it, whole.
+// --image-region object: each camera's image goes to the sink as only its
+// region around the map's object pixels (all that texturing reads:
+// ImageRectAroundObjectPixels), its pixels exactly those of the whole scaled
+// image there; without it, whole.
 TEST(Capture, ImagesGoOutAroundTheirObjectPixelsWhenAsked) {
   for (const bool regions : {true, false}) {
     SCOPED_TRACE(regions);
     FakeClock clock;
-    auto source = Synthetic(2);
+    auto source = Synthetic(2), same = Synthetic(2);
     CaptureRecorder sink;
     CaptureOptions o;
     o.image_scale = 0.5;
@@ -172,21 +174,63 @@ TEST(Capture, ImagesGoOutAroundTheirObjectPixelsWhenAsked) {
     while (c.Step()) {
     }
     ASSERT_EQ(sink.frames.size(), 6u);
-    for (const auto& f : sink.frames) {
+    RigFrame rf;  // the same frame from a second source: what was scaled
+    for (size_t k = 0; k < sink.frames.size(); ++k) {
+      const auto& f = sink.frames[k];
+      if (k % 3 == 0) {
+        ASSERT_TRUE(same->Next(&rf));
+      }
+      cv::Mat whole;
+      cv::resize(rf.images[k % 3], whole, cv::Size(), 0.5, 0.5, cv::INTER_AREA);
       if (!regions) {
+        EXPECT_EQ(cv::norm(f.pixels, whole, cv::NORM_INF), 0.0);
         EXPECT_FALSE(f.region);
+        EXPECT_EQ(f.image, cv::Size(40, 30));
         continue;
       }
       ASSERT_TRUE(f.region);
       ASSERT_GT(f.object.area(), 0) << "the sphere is seen";
-      EXPECT_EQ(*f.region, ImageRectAroundObjectPixels(f.object, f.map, f.image));
+      EXPECT_EQ(f.region->whole, cv::Size(40, 30));
+      EXPECT_EQ(f.region->rect, ImageRectAroundObjectPixels(f.object, f.map, f.region->whole));
+      EXPECT_EQ(f.image, f.region->rect.size());
+      EXPECT_EQ(cv::norm(f.pixels, whole(f.region->rect), cv::NORM_INF), 0.0) << "the whole scaled image's pixels";
       // The object rectangle at half size lies inside, with a margin.
       const cv::Rect half(f.object.x / 2, f.object.y / 2, (f.object.width + 1) / 2, (f.object.height + 1) / 2);
-      const cv::Rect grown = (half + cv::Point(-2, -2) + cv::Size(4, 4)) & cv::Rect(cv::Point(0, 0), f.image);
-      EXPECT_EQ(*f.region & grown, grown);
-      EXPECT_LT(f.region->area(), f.image.area());
+      const cv::Rect grown = (half + cv::Point(-2, -2) + cv::Size(4, 4)) & cv::Rect(cv::Point(0, 0), f.region->whole);
+      EXPECT_EQ(f.region->rect & grown, grown);
+      EXPECT_LT(f.region->rect.area(), f.region->whole.area());
     }
   }
+}
+
+// Only a region's source pixels are scaled where 1 / scale is a whole number
+// dividing the image; every scale gives the whole image's scaled pixels there,
+// to the bit (noise, so that any other averaging would differ), at the image's
+// edges and for an empty region too.
+TEST(Capture, AScaledImageRegionIsTheWholeScaledImagesPixels) {
+  cv::Mat image(486, 644, CV_8UC3);
+  cv::randu(image, 0, 256);
+  for (const double scale : {1.0, 0.5, 0.25, 1.0 / 3, 0.4}) {
+    SCOPED_TRACE(scale);
+    cv::Mat whole = image;
+    if (scale < 1) cv::resize(image, whole, cv::Size(), scale, scale, cv::INTER_AREA);
+    EXPECT_EQ(ScaledImageSize(image.size(), scale), whole.size());
+    for (const cv::Rect r : {cv::Rect(10, 7, 31, 19), cv::Rect(0, 0, 5, 5), cv::Rect(whole.cols - 9, whole.rows - 4, 9, 4),
+                             cv::Rect(whole.cols - 3, 2, 40, 40), cv::Rect()}) {
+      const cv::Mat got = ScaledImageRegion(image, scale, r);
+      const cv::Rect in = r & cv::Rect(cv::Point(0, 0), whole.size());
+      ASSERT_EQ(got.size(), in.size()) << r;
+      if (in.area()) {
+        EXPECT_EQ(cv::norm(got, whole(in), cv::NORM_INF), 0.0) << r;
+      }
+    }
+  }
+  // An image whose size the factor does not divide: the whole image's pixels still.
+  const cv::Mat odd = image(cv::Rect(0, 0, 643, 485));
+  cv::Mat whole;
+  cv::resize(odd, whole, cv::Size(), 0.5, 0.5, cv::INTER_AREA);
+  const cv::Rect r(100, 50, 60, 40);
+  EXPECT_EQ(cv::norm(ScaledImageRegion(odd, 0.5, r), whole(r), cv::NORM_INF), 0.0);
 }
 
 // The latency budget's capture stages (docs/latency.md): lag from the frame's

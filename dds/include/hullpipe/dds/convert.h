@@ -52,6 +52,12 @@ OwnedSample<hullpipe_msg_CameraImage> MakeImageMessage(uint32_t camera_id, uint6
                                                        int64_t capture_time_ns, const cv::Mat& bgr,
                                                        int jpeg_quality,
                                                        const std::optional<cv::Rect>& region = std::nullopt);
+/// CameraImage of a region of an image: `part` (CV_8UC3) holds the pixels of
+/// `rect` of a whole image of `whole` size (rect within it; an empty rect and
+/// part send no data). A rect of the whole image is sent as the whole image.
+OwnedSample<hullpipe_msg_CameraImage> MakeImageRegionMessage(uint32_t camera_id, uint64_t frame_seq,
+                                                             int64_t capture_time_ns, const cv::Mat& part,
+                                                             const cv::Rect& rect, cv::Size whole, int jpeg_quality);
 /// True if the message holds only a region of its image (full_width or
 /// full_height set).
 bool ImageHasRegion(const hullpipe_msg_CameraImage& msg);
