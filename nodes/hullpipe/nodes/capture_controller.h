@@ -109,8 +109,8 @@ struct ImageRegion {
 /// `scale` in (0, 1] with cv::INTER_AREA, exactly as cv::resize's whole image
 /// cropped to it; only the region's source pixels are resized where 1 / scale
 /// is a whole number dividing the image's size (the default half size), else
-/// the whole image. *whole (optional) gets the scaled size. An empty region
-/// gives an empty image.
+/// the whole image. An empty region gives an empty image. The scaled image's
+/// size is ScaledImageSize(image.size(), scale).
 cv::Mat ScaledImageRegion(const cv::Mat& image, double scale, const cv::Rect& region);
 /// The size cv::resize gives `size` scaled by `scale` (each side rounded to
 /// the nearest, half to even).
