@@ -457,10 +457,18 @@ TEST_F(OpenXrProcess, TheCompositedEyesReachTheHeadsetAtThePosesTheyWereDrawnFro
   while (images.MatchedReaders() == 0 && client->Running() && MonotonicSeconds() < until)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   ASSERT_GT(images.MatchedReaders(), 0u) << test::ReadFile(Log());
-  // A monitor's composite first: not an eye, not shown.
+  // A monitor's composite first: not an eye, not shown. Written until the
+  // client names it: a best-effort sample sent before the client's reader
+  // has discovered this writer is dropped (the writer may match first).
   const NovelView mono = EyeView(EyeFov{}, 64, 48, Rigid3d{});
   poses.Write(dds::ViewToMsg(mono, 1, 1, NowNs(), 0, ViewEye::kMono));
-  images.Write(dds::MakeCompositedViewMessage(EyePattern(0, 0), 1, 1, NowNs(), 0, {1280, 95}).msg);
+  const auto monitor = dds::MakeCompositedViewMessage(EyePattern(0, 0), 1, 1, NowNs(), 0, {1280, 95});
+  until = MonotonicSeconds() + 30;
+  while (test::ReadFile(Log()).find("not an eye") == std::string::npos && client->Running() &&
+         MonotonicSeconds() < until) {
+    images.Write(monitor.msg);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
   std::vector<std::array<NovelView, 2>> drawn;  // per pair, each eye's view
   for (int i = 0; i < 3; ++i) {
     // The newest views the client sent, as render_node --view eyes-topic takes them.
