@@ -1057,12 +1057,19 @@ TEST_P(FramesetInputOnItsThreadOrNot, DecodesJpegImagesAndRejectsABadOne) {
       images.Write(img.msg);
     }
   }
+  // A region whose whole image is larger than its camera's calibration (a
+  // hostile peer's way to make each reader allocate 805 MB): refused before
+  // anything is allocated.
+  auto huge = MakeImageMessage(uint32_t(cams[2].id), 3, t0 + 120'000'000, cv::Mat(4, 4, CV_8UC3), 0,
+                               cv::Rect(0, 0, 2, 2));
+  huge.msg.full_width = huge.msg.full_height = 16384;
+  images.Write(huge.msg);
   const double end = MonotonicSeconds() + 10;
-  while ((!input.assembler().IsComplete(1) || input.malformed() == 0) && MonotonicSeconds() < end) {
+  while ((!input.assembler().IsComplete(1) || input.malformed() < 2) && MonotonicSeconds() < end) {
     ws.Wait(0.1);
     input.Poll();
   }
-  EXPECT_EQ(input.malformed(), 1u);
+  EXPECT_EQ(input.malformed(), 2u);
   std::optional<Frameset> fs = input.assembler().Take(1);
   ASSERT_TRUE(fs);
   ASSERT_EQ(fs->images.size(), 3u);

@@ -216,6 +216,16 @@ void FramesetInput::Take(Received* r) {
   std::vector<Deferred> jpegs;
   images_->TakeEach([&](const hullpipe_msg_CameraImage& m, const dds_sample_info_t& info) {
     try {
+      // The whole image's size against the calibration first: decoding (or a
+      // region's whole image) allocates it.
+      std::string why;
+      const bool region = ImageHasRegion(m);
+      if (!sizes_.CheckImageSize(int(m.camera_id), int(std::min(region ? m.full_width : m.width, 1u << 30)),
+                                 int(std::min(region ? m.full_height : m.height, 1u << 30)), &why)) {
+        ++r->malformed;
+        reject_log_.Log(why, MonotonicSeconds());
+        return;
+      }
       // (Images and maps come from different writers: only maps name the sender.)
       ImageSample image;
       image.camera_id = int(m.camera_id);

@@ -198,6 +198,15 @@ bool FramesetAssembler::CheckMapSize(int camera_id, int width, int height, std::
   return true;
 }
 
+bool FramesetAssembler::CheckImageSize(int camera_id, int width, int height, std::string* why) {
+  const auto cam = cameras_.find(camera_id);
+  if (cam != cameras_.end() && (width > cam->second.width || height > cam->second.height))
+    return Reject(why, "image of camera " + std::to_string(camera_id) + " is " + std::to_string(width) + "x" +
+                           std::to_string(height) + ", larger than its calibration's " +
+                           std::to_string(cam->second.width) + "x" + std::to_string(cam->second.height));
+  return true;
+}
+
 bool FramesetAssembler::AddMap(MapSample m, std::string* why) {
   const int camera_id = m.camera_id;
   if (m.map.type() != CV_8UC1 || m.map.empty())

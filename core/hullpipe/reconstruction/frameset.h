@@ -132,6 +132,12 @@ class FramesetAssembler {
   /// claiming 16384x16384 pixels for a 644x486 camera costs no 268-MB decode;
   /// false counts a rejection as AddMap does, *why says why.
   bool CheckMapSize(int camera_id, int width, int height, std::string* why = nullptr);
+  /// Whether a colour image of width x height (the whole image, where only a
+  /// region of it is sent) fits camera_id's calibration: at most its size
+  /// (images may be scaled down, never up; true while the camera has none
+  /// yet). Checked before a received image is decoded or a region's whole
+  /// image allocated; false counts a rejection as AddMap does, *why says why.
+  bool CheckImageSize(int camera_id, int width, int height, std::string* why = nullptr);
   /// Adds one camera's colour image of frame `seq`; same rules as AddMap. Its
   /// arrival_ns counts toward Frameset::last_arrival_ns (no clock check: images
   /// name no sender). A non-BGR8 image is rejected (false, *why says why).
