@@ -294,6 +294,12 @@ TEST(Foxglove, DerivesTheViewableChannelsFromSamplesOnTheWire) {
     EXPECT_LE(cv::norm(img(cv::Rect(18, 10, 20, 16)), bgr(cv::Rect(18, 10, 20, 16)), cv::NORM_INF), 12);
   }
   got.erase(got.begin() + 2);
+  // A region whose whole image is larger than the camera's calibration:
+  // refused, nothing allocated or sent.
+  auto huge = dds::MakeImageMessage(0, 4, 4000, bgr, 80, cv::Rect(16, 8, 24, 20));
+  huge.msg.full_width = huge.msg.full_height = 16384;
+  EXPECT_FALSE(d.Add("hullpipe::msg::CameraImage", encode("hullpipe::msg::CameraImage", &huge.msg), 3));
+  EXPECT_EQ(got.size(), 2u);
   // Camera 1's image: nobody wants it, nothing derived (the sample is still valid).
   const auto other = dds::MakeImageMessage(1, 2, 2000, bgr, 0);
   EXPECT_TRUE(d.Add("hullpipe::msg::CameraImage", encode("hullpipe::msg::CameraImage", &other.msg), 3));

@@ -1215,6 +1215,14 @@ TEST(Ros2Deriver, AnImageRegionGoesOutAsItsWholeImage) {
     EXPECT_LE(cv::norm(shown(cv::Rect(0, 0, 8, 48)), cv::NORM_INF), tol);
     EXPECT_LE(cv::norm(shown(cv::Rect(48, 0, 16, 48)), cv::NORM_INF), tol);
   }
+  // A region whose whole image is larger than the camera's calibration:
+  // refused, named, before its whole image is made.
+  out.clear();
+  auto huge = dds::MakeImageMessage(1, 3, 3000, bgr, 80, part);
+  huge.msg.full_width = huge.msg.full_height = 16384;
+  const std::string why = deriver.OnImage(huge.msg);
+  EXPECT_NE(why.find("whole image 16384x16384 is larger than its calibration's 64x48"), std::string::npos) << why;
+  EXPECT_TRUE(out.empty());
 }
 
 }  // namespace

@@ -199,6 +199,15 @@ cv::Mat DecodeImageData(const std::string& who, const hullpipe_msg_CameraImage& 
 
 bool ImageHasRegion(const hullpipe_msg_CameraImage& m) { return m.full_width != 0 || m.full_height != 0; }
 
+void CheckImageWithin(const hullpipe_msg_CameraImage& m, int width, int height) {
+  const bool region = ImageHasRegion(m);
+  const uint32_t w = region ? m.full_width : m.width, h = region ? m.full_height : m.height;
+  if (int64_t(w) > width || int64_t(h) > height)
+    throw MessageError("CameraImage of camera " + std::to_string(m.camera_id) + ": " + (region ? "whole image " : "") +
+                       std::to_string(w) + "x" + std::to_string(h) + " is larger than its calibration's " +
+                       std::to_string(width) + "x" + std::to_string(height));
+}
+
 cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& m) {
   const std::string who = "CameraImage of camera " + std::to_string(m.camera_id) + ": ";
   if (!ImageHasRegion(m)) {

@@ -62,7 +62,9 @@ std::string Ros2Deriver::OnMap(const hullpipe_msg_ObjectPixelMap& m) {
 
 std::string Ros2Deriver::OnImage(const hullpipe_msg_CameraImage& m) {
   return Guard([&] {
-    if (!o_.images || !cameras_.count(int(m.camera_id))) return;
+    const auto cam = cameras_.find(int(m.camera_id));
+    if (!o_.images || cam == cameras_.end()) return;
+    dds::CheckImageWithin(m, cam->second.width, cam->second.height);  // before a region's whole image is made
     const std::string base = CameraBase(m.camera_id), frame = CameraFrameId(int(m.camera_id));
     if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG) {
       // Passed on as they are, once checked to be a JPEG of the stated size.

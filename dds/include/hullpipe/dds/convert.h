@@ -61,6 +61,11 @@ OwnedSample<hullpipe_msg_CameraImage> MakeImageRegionMessage(uint32_t camera_id,
 /// True if the message holds only a region of its image (full_width or
 /// full_height set).
 bool ImageHasRegion(const hullpipe_msg_CameraImage& msg);
+/// Throws MessageError unless the message's whole image (a region's whole
+/// size, else its own) is at most width x height, its camera's calibrated
+/// size: a reader checks it before ImageFromMsg allocates that image (a
+/// region's whole image costs its size whatever the message's).
+void CheckImageWithin(const hullpipe_msg_CameraImage& msg, int width, int height);
 /// Decoded BGR image, the whole image's size: a region's pixels at its place,
 /// black elsewhere. Throws MessageError on a bad encoding or size, or a region
 /// not within its whole image.
