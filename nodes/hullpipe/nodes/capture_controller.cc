@@ -138,14 +138,10 @@ bool CaptureController::CatchUp(double lag_s, const char* why) {
 }
 
 namespace {
-// Bytes of one frame's images, raw, at image_scale (each side rounded as cv::resize does).
+// Bytes of one frame's images, raw, at image_scale (ScaledImageSize: as cv::resize makes them).
 double FrameImageBytes(const std::vector<Camera>& cameras, double image_scale) {
   double bytes = 0;
-  for (const Camera& c : cameras) {
-    const double w = image_scale < 1.0 ? std::round(c.width * image_scale) : c.width;
-    const double h = image_scale < 1.0 ? std::round(c.height * image_scale) : c.height;
-    bytes += w * h * 3;
-  }
+  for (const Camera& c : cameras) bytes += 3.0 * ScaledImageSize(cv::Size(c.width, c.height), image_scale).area();
   return bytes;
 }
 }  // namespace
