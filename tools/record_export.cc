@@ -151,8 +151,7 @@ class Exporter {
         (*j)["cam_from_world_rotation"] = Arr(m.cam_from_world_rotation);
         (*j)["cam_from_world_translation"] = Arr(m.cam_from_world_translation);
         (*j)["workspace_min"] = Arr(m.workspace_min), (*j)["workspace_max"] = Arr(m.workspace_max);
-        if (calibrated_.size() < 256 || calibrated_.count(m.camera_id))
-          calibrated_[m.camera_id] = cv::Size(int(std::min(m.width, 1u << 30)), int(std::min(m.height, 1u << 30)));
+        regions_.Calibrated(m.camera_id, int(std::min(m.width, 1u << 30)), int(std::min(m.height, 1u << 30)));
       });
     if (type == "hullpipe::msg::ObjectPixelMap")
       return With<hullpipe_msg_ObjectPixelMap>(w, s, [&](const auto& m) {
@@ -185,13 +184,8 @@ class Exporter {
         if (ImageHasRegion(m)) {
           // Only that region of a whole image was sent (capture_node --image-region).
           (*j)["x"] = m.x, (*j)["y"] = m.y, (*j)["full_width"] = m.full_width, (*j)["full_height"] = m.full_height;
-          // Its whole image is made from two numbers: only within the calibration.
-          const auto cal = calibrated_.find(m.camera_id);
-          if (cal == calibrated_.end())
-            throw MessageError("CameraImage region of camera " + std::to_string(m.camera_id) +
-                               " before its calibration");
-          CheckImageWithin(m, cal->second.width, cal->second.height);
         }
+        regions_.CheckRegion(m);
         const cv::Mat bgr = ImageFromMsg(m);
         if (o_.media) Frame("images_cam" + std::to_string(m.camera_id), bgr, c);
       });
@@ -353,7 +347,7 @@ class Exporter {
   std::map<std::string, cv::Size> video_size_;
   TileSet tiles_;  // HullView tiles by pose, until a view is whole
   std::map<uint64_t, ViewEye> eyes_;  // the newest 256 ViewPoses' eyes by pose_seq
-  std::map<uint32_t, cv::Size> calibrated_;  // cameras' calibrated sizes (at most 256): their images' bound
+  RegionBounds regions_;  // the cameras' calibrated sizes: what bounds a region's whole image
   std::unique_ptr<FoxgloveExport> fox_;
   std::unique_ptr<Ros2Export> ros2_;
   int64_t write_failures_ = 0;

@@ -199,13 +199,32 @@ cv::Mat DecodeImageData(const std::string& who, const hullpipe_msg_CameraImage& 
 
 bool ImageHasRegion(const hullpipe_msg_CameraImage& m) { return m.full_width != 0 || m.full_height != 0; }
 
-void CheckImageWithin(const hullpipe_msg_CameraImage& m, int width, int height) {
+cv::Size WholeImageSize(const hullpipe_msg_CameraImage& m) {
   const bool region = ImageHasRegion(m);
-  const uint32_t w = region ? m.full_width : m.width, h = region ? m.full_height : m.height;
-  if (int64_t(w) > width || int64_t(h) > height)
-    throw MessageError("CameraImage of camera " + std::to_string(m.camera_id) + ": " + (region ? "whole image " : "") +
-                       std::to_string(w) + "x" + std::to_string(h) + " is larger than its calibration's " +
-                       std::to_string(width) + "x" + std::to_string(height));
+  return {int(std::min(region ? m.full_width : m.width, 1u << 30)),
+          int(std::min(region ? m.full_height : m.height, 1u << 30))};
+}
+
+void CheckImageWithin(const hullpipe_msg_CameraImage& m, int width, int height) {
+  const cv::Size whole = WholeImageSize(m);
+  if (whole.width > width || whole.height > height)
+    throw MessageError("CameraImage of camera " + std::to_string(m.camera_id) + ": " +
+                       (ImageHasRegion(m) ? "whole image " : "") + std::to_string(whole.width) + "x" +
+                       std::to_string(whole.height) + " is larger than its calibration's " + std::to_string(width) +
+                       "x" + std::to_string(height));
+}
+
+void RegionBounds::Calibrated(uint32_t camera_id, int width, int height) {
+  if (sizes_.size() < kMaxCameras || sizes_.count(camera_id)) sizes_[camera_id] = cv::Size(width, height);
+}
+
+void RegionBounds::CheckRegion(const hullpipe_msg_CameraImage& m) const {
+  if (!ImageHasRegion(m)) return;
+  // Its whole image is made from two numbers: only within the calibration.
+  const auto cal = sizes_.find(m.camera_id);
+  if (cal == sizes_.end())
+    throw MessageError("CameraImage region of camera " + std::to_string(m.camera_id) + " before its calibration");
+  CheckImageWithin(m, cal->second.width, cal->second.height);
 }
 
 cv::Mat ImageFromMsg(const hullpipe_msg_CameraImage& m) {

@@ -219,9 +219,8 @@ void FramesetInput::Take(Received* r) {
       // The whole image's size against the calibration first: decoding (or a
       // region's whole image) allocates it.
       std::string why;
-      const bool region = ImageHasRegion(m);
-      if (!sizes_.CheckImageSize(int(m.camera_id), int(std::min(region ? m.full_width : m.width, 1u << 30)),
-                                 int(std::min(region ? m.full_height : m.height, 1u << 30)), &why)) {
+      const cv::Size whole = WholeImageSize(m);
+      if (!sizes_.CheckImageSize(int(m.camera_id), whole.width, whole.height, &why)) {
         ++r->malformed;
         reject_log_.Log(why, MonotonicSeconds());
         return;

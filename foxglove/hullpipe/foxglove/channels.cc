@@ -153,8 +153,6 @@ std::string Text(const json& j) { return j.dump(-1, ' ', false, json::error_hand
 constexpr size_t kMaxViews = 256;
 constexpr size_t kMaxParts = 4096;
 constexpr size_t kMaxPointSpheres = 4096;
-// Cameras whose calibrated size bounds their images (Rig::kMaxCameras is 64).
-constexpr size_t kMaxCalibratedCameras = 256;
 
 // A model part's geometry, ready to send (body frame), and what was last sent.
 struct PartGeometry {
@@ -232,7 +230,7 @@ struct Deriver::Impl {
   std::map<uint64_t, std::pair<NovelView, ViewEye>> views;          // recent ViewPoses by pose_seq
   TileSet tiles;                                                     // HullView tiles by pose
   std::map<uint32_t, PartGeometry> parts;                            // by object id
-  std::map<uint32_t, cv::Size> calibrated;  // each camera's calibrated size (the bound of its images)
+  dds::RegionBounds regions;  // the cameras' calibrated sizes: what bounds a region's whole image
 
   bool Want(const std::string& topic) const { return !wanted || wanted(topic); }
 
@@ -282,21 +280,13 @@ bool Deriver::Add(const std::string& type, const std::vector<uint8_t>& cdr, int6
     if (type == "hullpipe::msg::CameraInfo")
       return d.With<hullpipe_msg_CameraInfo>(type, cdr, [&](const auto& m) {
         const Camera cam = dds::CameraFromMsg(m);  // validated as the nodes validate it
-        if (d.calibrated.size() < kMaxCalibratedCameras || d.calibrated.count(m.camera_id))
-          d.calibrated[m.camera_id] = cv::Size(cam.width, cam.height);
+        d.regions.Calibrated(m.camera_id, cam.width, cam.height);
         Calibration(arrival_ns, m);
       });
     if (type == "hullpipe::msg::CameraImage")
       return d.With<hullpipe_msg_CameraImage>(type, cdr, [&](const auto& m) {
         if (!d.Want("/foxglove/" + Cam(m.camera_id) + "/image")) return;
-        if (dds::ImageHasRegion(m)) {
-          // Its whole image is made from two numbers: only within the calibration.
-          const auto cal = d.calibrated.find(m.camera_id);
-          if (cal == d.calibrated.end())
-            throw dds::MessageError("CameraImage region of camera " + std::to_string(m.camera_id) +
-                                    " before its calibration");
-          dds::CheckImageWithin(m, cal->second.width, cal->second.height);
-        }
+        d.regions.CheckRegion(m);
         if (m.encoding == hullpipe_msg_IMAGE_ENCODING_JPEG && !dds::ImageHasRegion(m)) {
           // Passed through: only a JPEG of the stated size (as ImageFromMsg checks).
           // A region is shown in its whole image (black around it), encoded again.

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -61,11 +62,31 @@ OwnedSample<hullpipe_msg_CameraImage> MakeImageRegionMessage(uint32_t camera_id,
 /// True if the message holds only a region of its image (full_width or
 /// full_height set).
 bool ImageHasRegion(const hullpipe_msg_CameraImage& msg);
-/// Throws MessageError unless the message's whole image (a region's whole
-/// size, else its own) is at most width x height, its camera's calibrated
-/// size: a reader checks it before ImageFromMsg allocates that image (a
-/// region's whole image costs its size whatever the message's).
+/// The size of the message's whole image: a region's whole size, else its
+/// own (each side at most 2^30, so that it fits an int).
+cv::Size WholeImageSize(const hullpipe_msg_CameraImage& msg);
+/// Throws MessageError unless the message's whole image (WholeImageSize) is
+/// at most width x height, its camera's calibrated size: a reader checks it
+/// before ImageFromMsg allocates that image (a region's whole image costs its
+/// size whatever the message's).
 void CheckImageWithin(const hullpipe_msg_CameraImage& msg, int width, int height);
+
+/// The cameras' calibrated sizes as a reader without a frameset assembler
+/// hears their CameraInfo (the bridges, the export), at most kMaxCameras of
+/// them: what bounds a region's whole image before ImageFromMsg makes it.
+class RegionBounds {
+ public:
+  static constexpr size_t kMaxCameras = 256;
+  /// Keeps camera camera_id's calibrated size (a camera past kMaxCameras is not kept).
+  void Calibrated(uint32_t camera_id, int width, int height);
+  /// Throws MessageError if `msg` holds a region (ImageHasRegion) of a camera
+  /// with no calibration kept, or whose whole image its calibration does not
+  /// bound (CheckImageWithin). A whole image passes.
+  void CheckRegion(const hullpipe_msg_CameraImage& msg) const;
+
+ private:
+  std::map<uint32_t, cv::Size> sizes_;
+};
 /// Decoded BGR image, the whole image's size: a region's pixels at its place,
 /// black elsewhere. Throws MessageError on a bad encoding or size, or a region
 /// not within its whole image.
