@@ -20,6 +20,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "hullpipe/geometry/calibration.h"
 #include "hullpipe/geometry/conventions.h"
@@ -1085,6 +1086,83 @@ TEST_F(RecordTools, AWholeRecordingReplayedIntoALiveRunIsNotMixedIn) {
 
 namespace hullpipe {
 namespace {
+
+// A camera image sent as a region (capture_node --image-region) exports in
+// its whole image, black around the region, and its JSON line names the
+// region. A region of a camera with no calibration yet, or one whose whole
+// image is larger than its camera's calibration, is refused before that image
+// is made: counted as not decoded, its line naming why, the export exit 3.
+TEST_F(RecordTools, ExportShowsAnImageRegionInItsWholeImageAndRefusesUnboundedOnes) {
+  const std::string path = (dir_ / "regions.mcap").string();
+  const Camera cam = test::SphereViews(1, 64, 48, Eigen::Vector3d(0, 0, -1), 0.3)[0].camera;
+  const cv::Mat bgr(48, 64, CV_8UC3, cv::Scalar(40, 160, 220));
+  const cv::Rect part(16, 8, 32, 24);
+  {
+    dds::Participant p(domain_);
+    WriterOptions o;
+    o.storage = Storage::kMcap;
+    RecordingWriter w(path, o);
+    int64_t t_ns = 1'000'000'000;
+    auto add = [&](const char* type, const void* msg) {
+      const dds::KnownType& kt = *dds::FindKnownType(type);
+      TopicInfo topic;
+      topic.name = kt.topic_name, topic.type = kt.type_name, topic.keyed = kt.keyed;
+      topic.reliable = kt.qos.reliable, topic.transient_local = kt.qos.transient_local, topic.depth = kt.qos.depth;
+      topic.type_description = dds::IdlText();
+      const int64_t id = w.AddTopic(topic);
+      t_ns += 40'000'000;
+      w.Append({id, t_ns, t_ns, dds::CdrWriter(p, kt, kt.qos, dds::CdrWriter::Scope::kDecodeOnly).Encode(msg)});
+    };
+    // Before camera 1's calibration: refused (the export cannot bound it).
+    const auto early = dds::MakeImageMessage(uint32_t(cam.id), 1, 1000, bgr, 0, part);
+    add("hullpipe::msg::CameraImage", &early.msg);
+    const auto info = dds::CameraToMsg(cam, test::BigBox());
+    add("hullpipe::msg::CameraInfo", &info);
+    const auto whole = dds::MakeImageMessage(uint32_t(cam.id), 2, 2000, bgr, 0);
+    add("hullpipe::msg::CameraImage", &whole.msg);
+    const auto region = dds::MakeImageMessage(uint32_t(cam.id), 3, 3000, bgr, 0, part);
+    add("hullpipe::msg::CameraImage", &region.msg);
+    auto huge = dds::MakeImageMessage(uint32_t(cam.id), 4, 4000, bgr, 0, part);
+    huge.msg.full_width = huge.msg.full_height = 16384;
+    add("hullpipe::msg::CameraImage", &huge.msg);
+  }
+  const std::string out = (dir_ / "regions_export").string();
+  const std::string log = (dir_ / "regions_export.log").string();
+  test::Process exp({test::BinDir() + "/hullpipe_record", "export", path, "-o", out, "--domain",
+                     std::to_string(test::UniqueDomain())}, log);
+  EXPECT_EQ(exp.Wait(60), 3) << test::ReadFile(log);
+  const auto e = nlohmann::json::parse(test::ReadFile(out + "/export.json"));
+  const auto& images = e["topics"]["hullpipe/camera_image"];
+  EXPECT_EQ(images["samples"], 4);
+  EXPECT_EQ(images["undecodable"], 2);
+  EXPECT_EQ(images["video_frames"], 2);
+  std::ifstream lines(out + "/hullpipe_camera_image.jsonl");
+  std::vector<nlohmann::json> j;
+  for (std::string line; std::getline(lines, line);) j.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(j.size(), 4u);
+  EXPECT_NE(j[0].value("error", "").find("before its calibration"), std::string::npos) << j[0];
+  EXPECT_FALSE(j[1].contains("x")) << "a whole image names no region: " << j[1];
+  EXPECT_EQ(j[2]["x"], 16);
+  EXPECT_EQ(j[2]["y"], 8);
+  EXPECT_EQ(j[2]["width"], 32);
+  EXPECT_EQ(j[2]["full_width"], 64);
+  EXPECT_EQ(j[2]["full_height"], 48);
+  EXPECT_FALSE(j[2].contains("error")) << j[2];
+  EXPECT_NE(j[3].value("error", "").find("whole image 16384x16384 is larger than its calibration's 64x48"),
+            std::string::npos) << j[3];
+  // The video: the whole image, then the region in its whole image. MPEG-4 at
+  // the writer's default quality blurs a flat colour's step by a few levels,
+  // well under the 160 between the colour and black.
+  cv::VideoCapture video(out + "/images_cam" + std::to_string(cam.id) + ".mp4");
+  cv::Mat first, second;
+  ASSERT_TRUE(video.read(first) && video.read(second));
+  ASSERT_EQ(second.size(), cv::Size(64, 48)) << "the whole image, not the region";
+  const cv::Rect inside(24, 16, 16, 8), left(0, 0, 8, 48);
+  const double kTol = 40;
+  EXPECT_LE(cv::norm(first(left), bgr(left), cv::NORM_INF), kTol) << "control: the whole image is coloured there";
+  EXPECT_LE(cv::norm(second(inside), bgr(inside), cv::NORM_INF), kTol);
+  EXPECT_LE(cv::norm(second(left), cv::NORM_INF), kTol) << "black around the region";
+}
 
 // The tools on bad recordings: one line naming the file, a non-zero exit, never
 // a signal (each of these crashed or aborted before).
