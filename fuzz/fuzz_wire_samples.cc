@@ -73,7 +73,14 @@ void Convert(const std::string& type, const void* sample) {
     MapPoseFromMsg(m);
     MapFromMsg(m);
   } else if (type == "hullpipe::msg::CameraImage") {
-    ImageFromMsg(*static_cast<const hullpipe_msg_CameraImage*>(sample));
+    // As every reader does (the frameset input, the bridges, the export): a
+    // region's whole image is bounded by its camera's calibration before it is
+    // made. A 1024x1024 calibration (the published dome's width) keeps each
+    // execution cheap; without it a region's two numbers make canvases of
+    // 800 MB. (A whole image's size is bounded by its own data.)
+    const auto& m = *static_cast<const hullpipe_msg_CameraImage*>(sample);
+    if (ImageHasRegion(m)) CheckImageWithin(m, 1024, 1024);
+    ImageFromMsg(m);
   } else if (type == "hullpipe::msg::ViewPose") {
     ViewFromMsg(*static_cast<const hullpipe_msg_ViewPose*>(sample));
   } else if (type == "hullpipe::msg::HullView") {
