@@ -26,35 +26,97 @@ void SegmentationOptions::Check() const {
   require(max_hole_fraction >= 0 && max_hole_fraction < 1, "max_hole_fraction must be in [0, 1)");
 }
 
+namespace {
+
+// out[x] = the k-th smallest (from 0) of rows[0][x], ..., rows[n - 1][x], for
+// x in [0, width): what std::nth_element gives for each byte position, found
+// by its bits from the top (the largest m with fewer than k + 1 values below
+// it is the k-th smallest; that count falls as m grows, so each bit is kept
+// where the count stays <= k). Eight passes of byte compares over contiguous
+// rows, which the compiler vectorizes, in place of a sort per byte: learning
+// a 1024x768 background from 31 frames took 0.6 s a camera with nth_element.
+// n <= 255 (the counts are bytes).
+constexpr int kSelectChunk = 256;
+// Counts, per byte x of a chunk, the row bytes below cand[x] (a fixed trip
+// count over restrict pointers, so that the compiler vectorizes it; inlined,
+// gcc 12 jams two rows into one scalar loop instead).
+__attribute__((noinline)) void CountBelow(const uint8_t* __restrict row, const uint8_t* __restrict cand, uint8_t* __restrict count) {
+  for (int x = 0; x < kSelectChunk; ++x) count[x] = uint8_t(count[x] + (row[x] < cand[x] ? 1 : 0));
+}
+
+void SelectKthPerByte(const std::vector<const uint8_t*>& rows, int width, size_t k, uint8_t* out) {
+  alignas(64) uint8_t prefix[kSelectChunk], cand[kSelectChunk], count[kSelectChunk];
+  const uint8_t kth = uint8_t(k);  // k < n <= 255
+  // The row's last, partial chunk is copied into zero-padded buffers.
+  std::vector<uint8_t> tail;
+  std::vector<const uint8_t*> tails;
+  for (int x0 = 0; x0 < width; x0 += kSelectChunk) {
+    const int m = std::min(kSelectChunk, width - x0);
+    const std::vector<const uint8_t*>* chunk_rows = &rows;
+    size_t offset = size_t(x0);
+    if (m < kSelectChunk) {
+      tail.assign(rows.size() * kSelectChunk, 0);
+      tails.resize(rows.size());
+      for (size_t i = 0; i < rows.size(); ++i) {
+        std::copy(rows[i] + x0, rows[i] + x0 + m, tail.data() + i * kSelectChunk);
+        tails[i] = tail.data() + i * kSelectChunk;
+      }
+      chunk_rows = &tails;
+      offset = 0;
+    }
+    std::fill(prefix, prefix + kSelectChunk, uint8_t(0));
+    for (int bit = 7; bit >= 0; --bit) {
+      const uint8_t b = uint8_t(1u << bit);
+      for (int x = 0; x < kSelectChunk; ++x) cand[x] = uint8_t(prefix[x] | b);
+      std::fill(count, count + kSelectChunk, uint8_t(0));
+      for (const uint8_t* row : *chunk_rows) CountBelow(row + offset, cand, count);
+      for (int x = 0; x < kSelectChunk; ++x) prefix[x] = count[x] <= kth ? cand[x] : prefix[x];
+    }
+    std::copy(prefix, prefix + m, out + x0);
+  }
+}
+
+}  // namespace
+
 BackgroundModel::BackgroundModel(const std::vector<cv::Mat>& frames) {
   if (frames.empty()) throw std::invalid_argument("BackgroundModel: no background frames");
   const cv::Size size = frames[0].size();
   for (const auto& f : frames)
     if (f.size() != size || f.type() != CV_8UC3)
       throw std::invalid_argument("BackgroundModel: frames must all be CV_8UC3 of one size");
-  // Per-pixel median over at most 31 evenly spaced frames (robust to passing noise).
+  // Per-pixel median over at most 31 evenly spaced frames (robust to passing
+  // noise): the middle one, index n / 2, of each pixel's sorted values (for an
+  // even n the upper of the two middle ones).
   const size_t n = std::min<size_t>(frames.size(), 31);
   std::vector<const cv::Mat*> used;
   for (size_t i = 0; i < n; ++i) used.push_back(&frames[i * frames.size() / n]);
   background_bgr_.create(size, CV_8UC3);
   value_spread_.create(size, CV_32F);
-  std::vector<uint8_t> samples(n);
-  std::vector<cv::Mat> hsv(n);
-  for (size_t i = 0; i < n; ++i) cv::cvtColor(*used[i], hsv[i], cv::COLOR_BGR2HSV);
+  const int w = size.width;
+  // One row of every frame at a time: its B, G, R bytes (each byte position a
+  // channel of a pixel), its values V (OpenCV's 8-bit HSV: max(B, G, R)), and
+  // their distances from the median V.
+  std::vector<const uint8_t*> rows(n);
+  std::vector<uint8_t> value(n * size_t(w)), spread(static_cast<size_t>(w)), median_value(static_cast<size_t>(w));
+  std::vector<const uint8_t*> value_rows(n);
+  for (size_t i = 0; i < n; ++i) value_rows[i] = value.data() + i * size_t(w);
   for (int r = 0; r < size.height; ++r) {
-    for (int c = 0; c < size.width; ++c) {
-      for (int ch = 0; ch < 3; ++ch) {
-        for (size_t i = 0; i < n; ++i) samples[i] = used[i]->ptr<uint8_t>(r)[3 * c + ch];
-        std::nth_element(samples.begin(), samples.begin() + n / 2, samples.end());
-        background_bgr_.ptr<uint8_t>(r)[3 * c + ch] = samples[n / 2];
-      }
-      for (size_t i = 0; i < n; ++i) samples[i] = hsv[i].ptr<uint8_t>(r)[3 * c + 2];
-      std::nth_element(samples.begin(), samples.begin() + n / 2, samples.end());
-      const int med = samples[n / 2];
-      for (size_t i = 0; i < n; ++i) samples[i] = uint8_t(std::abs(int(samples[i]) - med));
-      std::nth_element(samples.begin(), samples.begin() + n / 2, samples.end());
-      value_spread_.at<float>(r, c) = 1.4826f * samples[n / 2];
+    for (size_t i = 0; i < n; ++i) rows[i] = used[i]->ptr<uint8_t>(r);
+    SelectKthPerByte(rows, 3 * w, n / 2, background_bgr_.ptr<uint8_t>(r));
+    for (size_t i = 0; i < n; ++i) {
+      uint8_t* v = value.data() + i * size_t(w);
+      const uint8_t* p = rows[i];
+      for (int c = 0; c < w; ++c) v[c] = std::max({p[3 * c], p[3 * c + 1], p[3 * c + 2]});
     }
+    SelectKthPerByte(value_rows, w, n / 2, median_value.data());
+    // The median absolute deviation of V, scaled to a normal's sigma.
+    for (size_t i = 0; i < n; ++i) {
+      uint8_t* v = value.data() + i * size_t(w);
+      for (int c = 0; c < w; ++c) v[c] = uint8_t(std::abs(int(v[c]) - int(median_value[size_t(c)])));
+    }
+    SelectKthPerByte(value_rows, w, n / 2, spread.data());
+    float* out = value_spread_.ptr<float>(r);
+    for (int c = 0; c < w; ++c) out[c] = 1.4826f * spread[size_t(c)];
   }
   cv::cvtColor(background_bgr_, background_hsv_, cv::COLOR_BGR2HSV);
   cv::split(background_hsv_, background_planes_);

@@ -65,7 +65,13 @@ class BackgroundModel {
   void Follow(const cv::Mat& frame_bgr, const cv::Mat& map, double rate);
   bool empty() const { return background_bgr_.empty(); }
   cv::Size size() const { return background_bgr_.size(); }
+  /// The learnt background (CV_8UC3 BGR): per pixel and channel, the median of
+  /// at most 31 of the frames, evenly spaced (index n / 2 of the sorted values).
   const cv::Mat& background_bgr() const { return background_bgr_; }
+  /// Per-pixel robust spread of brightness (CV_32F, HSV value units): 1.4826
+  /// times the median absolute deviation of V from its median over the same
+  /// frames (a normal distribution's sigma).
+  const cv::Mat& value_spread() const { return value_spread_; }
 
  private:
   cv::Mat background_bgr_;  // CV_8UC3 median

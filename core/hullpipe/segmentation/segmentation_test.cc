@@ -146,6 +146,77 @@ cv::Mat ReferenceRule(const std::vector<cv::Mat>& bg, const cv::Mat& frame, cons
   return map;
 }
 
+// The learnt background written plainly (a sort per pixel and channel), as it
+// was before its selection was vectorized: the median of at most 31 evenly
+// spaced frames, and 1.4826 times the median absolute deviation of V.
+void ReferenceBackground(const std::vector<cv::Mat>& frames, cv::Mat* median, cv::Mat* spread) {
+  const size_t n = std::min<size_t>(frames.size(), 31);
+  std::vector<cv::Mat> used, value(n);
+  for (size_t i = 0; i < n; ++i) used.push_back(frames[i * frames.size() / n]);
+  for (size_t i = 0; i < n; ++i) {
+    cv::Mat h;
+    cv::cvtColor(used[i], h, cv::COLOR_BGR2HSV);
+    cv::extractChannel(h, value[i], 2);
+  }
+  const cv::Size size = frames[0].size();
+  median->create(size, CV_8UC3);
+  spread->create(size, CV_32F);
+  std::vector<uint8_t> v(n);
+  for (int r = 0; r < size.height; ++r)
+    for (int c = 0; c < size.width; ++c) {
+      for (int ch = 0; ch < 3; ++ch) {
+        for (size_t i = 0; i < n; ++i) v[i] = used[i].at<cv::Vec3b>(r, c)[ch];
+        std::nth_element(v.begin(), v.begin() + long(n / 2), v.end());
+        median->at<cv::Vec3b>(r, c)[ch] = v[n / 2];
+      }
+      for (size_t i = 0; i < n; ++i) v[i] = value[i].at<uint8_t>(r, c);
+      std::nth_element(v.begin(), v.begin() + long(n / 2), v.end());
+      const int med = v[n / 2];
+      for (auto& x : v) x = uint8_t(std::abs(int(x) - med));
+      std::nth_element(v.begin(), v.begin() + long(n / 2), v.end());
+      spread->at<float>(r, c) = 1.4826f * v[n / 2];
+    }
+}
+
+// The background's median and spread equal the plain per-pixel sort's, to the
+// bit: any number of frames (odd, even, one, past the 31 used), rows that end
+// inside and on the selection's chunks of 256 bytes, values of every byte, few
+// values (ties), and only 0 and 255.
+TEST(Segmentation, TheLearntBackgroundIsThePerPixelMedianAndSpread) {
+  std::mt19937 rng(11);
+  int cases = 0;
+  for (const int frames : {1, 2, 4, 5, 31, 40, 60})
+    for (const int width : {1, 85, 86, 171, 300})
+      for (const int kind : {0, 1, 2}) {
+        std::vector<cv::Mat> bg;
+        for (int k = 0; k < frames; ++k) {
+          cv::Mat f(3, width, CV_8UC3);
+          cv::randu(f, 0, 256);
+          if (kind == 1) f = f / 64 * 64 + 7;   // four values a channel: ties
+          if (kind == 2) f = f / 128 * 255;     // 0 and 255 only
+          bg.push_back(f);
+        }
+        const BackgroundModel model(bg);
+        cv::Mat median, spread;
+        ReferenceBackground(bg, &median, &spread);
+        const std::string what = std::to_string(frames) + " frames, width " + std::to_string(width) + ", kind " +
+                                 std::to_string(kind);
+        ASSERT_EQ(model.background_bgr().size(), median.size()) << what;
+        EXPECT_EQ(cv::norm(model.background_bgr(), median, cv::NORM_INF), 0) << what;
+        EXPECT_EQ(cv::norm(model.value_spread(), spread, cv::NORM_INF), 0) << what;
+        ++cases;
+      }
+  EXPECT_EQ(cases, 105);
+  // Control: the spread is not all zero here (the comparison can fail).
+  std::vector<cv::Mat> noisy;
+  for (int k = 0; k < 9; ++k) {
+    cv::Mat f(4, 40, CV_8UC3);
+    cv::randu(f, 100, 140);
+    noisy.push_back(f);
+  }
+  EXPECT_GT(cv::countNonZero(BackgroundModel(noisy).value_spread()), 100);
+}
+
 TEST(Segmentation, TheVectorizedTestGivesExactlyThePlainRule) {
   // Noisy backgrounds (a value spread), frames with dark, light and coloured
   // patches and shadows of every ratio, at odd widths (vector tails).
