@@ -243,10 +243,20 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       part_kb += parts[k].area() * 4e-3;
       whole_kb += in.images[k].image.total() * 4e-3;
     }
-    char row[280];
+    // The maps' bytes: as bits (32 pixels a 4-byte texel, the texels that
+    // hold each object rectangle: what goes up) against a byte a pixel.
+    double map_bits_kb = 0, map_bytes_kb = 0;
+    for (size_t c = 0; c < q.size(); ++c) {
+      const cv::Rect r = q.object_rect(c);
+      if (r.area() == 0) continue;
+      map_bits_kb += ((r.x + r.width + 31) / 32 - r.x / 32) * r.height * 4e-3;
+      map_bytes_kb += r.area() * 1e-3;
+    }
+    char row[320];
     std::snprintf(row, sizeof row,
-                  "| %dx%d | %d | %zu | %.0f / %.0f | %.2f | %.2f | %.2f | %.2f | %.2f / %.2f / %.2f | %.2f | %.2f |",
-                  view.width, view.height, int(in.images.size()), depths.size(), part_kb, whole_kb, Median(t[0]),
+                  "| %dx%d | %d | %zu | %.0f / %.0f | %.0f / %.0f | %.2f | %.2f | %.2f | %.2f | %.2f / %.2f / %.2f | %.2f | %.2f |",
+                  view.width, view.height, int(in.images.size()), depths.size(), part_kb, whole_kb, map_bits_kb,
+                  map_bytes_kb, Median(t[0]),
                   Median(t[1]), Median(t[2]), Median(t[3]), Median(g[0]), Median(g[1]), Median(g[2]), Median(span),
                   Median(wall));
     stage_rows.push_back(row);
@@ -478,10 +488,10 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   }
   if (!stage_rows.empty()) {
     std::printf("\nGL frame stage by stage, each waited for (median ms):\n\n"
-                "| view | cams | planes | image kB up / whole | upload | visibility maps | sweep (read back) | "
-                "texture (read back) | GPU timeline, not waited: upload / visibility / sweep + texture | GPU span | "
-                "frame wall |\n"
-                "|---|---|---|---|---|---|---|---|---|---|---|\n");
+                "| view | cams | planes | image kB up / whole | map kB up (bits) / as bytes | upload | visibility maps | "
+                "sweep (read back) | texture (read back) | GPU timeline, not waited: upload / visibility / sweep + "
+                "texture | GPU span | frame wall |\n"
+                "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const auto& r : stage_rows) std::printf("%s\n", r.c_str());
   }
   if (rows.triangles.empty()) return 0;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <fstream>
 #include <functional>
+#include <random>
 #include <tuple>
 
 #include <gtest/gtest.h>
@@ -24,6 +25,7 @@
 #include "hullpipe/scenes/model_scene.h"
 #include "hullpipe/scenes/virtual_scene.h"
 #include "hullpipe/segmentation/video_rig.h"
+#include "gl_upload.h"  // private to hullpipe_gl (gl/src): its packing is tested here
 #include "test_util.h"
 
 namespace hullpipe::gl {
@@ -444,6 +446,53 @@ TEST_F(Gl, RayMarchUploadsDoNotMixFramesets) {
   EXPECT_THROW(march.Sweep(VolumeQuery(test::SphereViews(3, 200, 150, kCentre, 0.3), test::BigBox()), view,
                            {1.0, 2.0}, {0, 0, 16, 16}),
                std::invalid_argument);
+}
+
+// The maps' upload as bits (LayerUploader::Packing::kBits, what the march and
+// the triangle query read), read back texel by texel: within each layer's
+// rectangle every pixel's bit is its map's, the rest of the texels that hold
+// the rectangle are the map's own pixels too, pixels past the width are 0, and
+// texels outside the rectangles keep an earlier upload's contents. Widths and
+// rectangles that start and end inside a word, on its edges and at the layer's.
+TEST_F(Gl, MapsGoUpAsBitsOfTheirObjectPixels) {
+  std::mt19937 rng(5);
+  LayerUploader up(GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, CV_8UC1, LayerUploader::Packing::kBits);
+  const std::vector<cv::Size> sizes = {{70, 5}, {64, 3}, {33, 4}, {1, 2}, {97, 6}};
+  auto noise = [&](cv::Size s, int value) {
+    cv::Mat m(s, CV_8UC1);
+    for (auto it = m.begin<uint8_t>(); it != m.end<uint8_t>(); ++it) *it = rng() % 2 ? uint8_t(value) : 0;
+    return m;
+  };
+  std::vector<cv::Mat> first, second;
+  for (const cv::Size& s : sizes) first.push_back(noise(s, 255)), second.push_back(noise(s, 1));  // any non-zero is object
+  up.Upload(first);
+  EXPECT_EQ(up.last_bytes(), size_t(4 * (3 * 5 + 2 * 3 + 2 * 4 + 1 * 2 + 4 * 6)));
+  const std::vector<cv::Rect> rects = {{31, 1, 2, 3}, {32, 0, 32, 3}, {0, 0, 33, 4}, {0, 0, 0, 0}, {33, 2, 64, 3}};
+  up.Upload(second, &rects);
+  const int tw = 4, th = 6;  // the array: the widest layer's 97 pixels in 4 texels, the tallest's 6 rows
+  std::vector<uint32_t> got(size_t(tw * th * int(sizes.size())));
+  glGetTextureImage(up.texture(), 0, GL_RED_INTEGER, GL_UNSIGNED_INT, GLsizei(got.size() * 4), got.data());
+  ASSERT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+  int checked = 0;
+  for (size_t l = 0; l < sizes.size(); ++l) {
+    const cv::Rect& r = rects[l];
+    for (int y = 0; y < sizes[l].height; ++y)
+      for (int tx = 0; tx < (sizes[l].width + 31) / 32; ++tx) {
+        // The texel went up in the second upload when it holds a pixel of the rectangle.
+        const bool now = r.area() > 0 && y >= r.y && y < r.y + r.height && 32 * tx < r.x + r.width && 32 * tx + 32 > r.x;
+        const cv::Mat& map = now ? second[l] : first[l];
+        const uint32_t word = got[size_t((int(l) * th + y) * tw + tx)];
+        for (int i = 0; i < 32; ++i) {
+          const int x = 32 * tx + i;
+          const bool object = x < sizes[l].width && map.at<uint8_t>(y, x) != 0;
+          EXPECT_EQ(((word >> i) & 1u) != 0, object) << "layer " << l << " pixel " << x << "," << y << (now ? " (second)" : " (first)");
+          ++checked;
+        }
+      }
+  }
+  EXPECT_EQ(checked, 32 * (3 * 5 + 2 * 3 + 2 * 4 + 1 * 2 + 4 * 6));
+  // Control: the two uploads differ in the texels the rectangles hold.
+  EXPECT_GT(cv::countNonZero((first[4] != 0) != (second[4] != 0)), 50);
 }
 
 // Colour images for the sphere cameras: a pattern that differs per camera and

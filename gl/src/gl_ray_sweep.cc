@@ -64,7 +64,9 @@ int VoteAt(int c, float d) {
   // Outside the map's object rectangle every pixel is background (not uploaded).
   vec4 r = cams[e].rect;
   if (!(uv.x >= r.x && uv.y >= r.y && uv.x < r.z && uv.y < r.w)) return 0;
-  return texelFetch(u_maps, ivec3(int(uv.x), int(uv.y), c), 0).r != 0u ? 1 : 0;
+  // The maps go up as bits, 32 pixels a texel (LayerUploader::Packing::kBits).
+  int x = int(uv.x);
+  return int((texelFetch(u_maps, ivec3(x >> 5, int(uv.y), c), 0).r >> uint(x & 31)) & 1u);
 }
 
 // Inside the hull at eye depth d? With want_near, *near is set when exactly one
@@ -290,7 +292,8 @@ struct GlRaySweep::Target {
 GlRaySweep::GlRaySweep()
     : march_(BuildComputeProgram(MarchCs().c_str())),
       edges_(BuildComputeProgram(EdgesCs().c_str())),
-      maps_(std::make_unique<LayerUploader>(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, CV_8UC1)),
+      maps_(std::make_unique<LayerUploader>(GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, CV_8UC1,
+                                            LayerUploader::Packing::kBits)),
       cams_(MakeBuffer()),
       planes_(MakeBuffer()),
       views_(MakeBuffer()),

@@ -48,7 +48,9 @@ int VoteOf(int c, vec3 X) {
   if (uv.x < 0.0) return 2;
   vec4 r = cams[c].rect;
   if (!(uv.x >= r.x && uv.y >= r.y && uv.x < r.z && uv.y < r.w)) return 0;
-  return texelFetch(u_maps, ivec3(int(uv.x), int(uv.y), c), 0).r != 0u ? 1 : 0;
+  // The maps go up as bits, 32 pixels a texel (LayerUploader::Packing::kBits).
+  int x = int(uv.x);
+  return int((texelFetch(u_maps, ivec3(x >> 5, int(uv.y), c), 0).r >> uint(x & 31)) & 1u);
 }
 
 bool Inside(vec3 X) {
@@ -216,7 +218,8 @@ std::vector<TriangleQueryResult> TriangleBatchResult::All() const {
 
 GlTriangleQuery::GlTriangleQuery(size_t initial_mask_words)
     : program_(BuildComputeProgram(TriangleCs().c_str())),
-      maps_(std::make_unique<LayerUploader>(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, CV_8UC1)),
+      maps_(std::make_unique<LayerUploader>(GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, CV_8UC1,
+                                            LayerUploader::Packing::kBits)),
       cams_(MakeBuffer()),
       tris_(MakeBuffer()),
       results_(MakeBuffer()),

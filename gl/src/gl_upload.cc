@@ -7,21 +7,64 @@
 
 #include <opencv2/imgproc.hpp>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace hullpipe::gl {
 
-LayerUploader::LayerUploader(GLenum internal_format, GLenum format, GLenum type, int mat_type)
+namespace {
+
+// Packs pixels 32 k .. 32 k + 31 of `row` (`cols` pixels; past them 0), for
+// k in [k0, k0 + n), into words[0..n): bit i of a word set where its pixel i
+// is not 0 (LayerUploader::Packing::kBits).
+void PackRowBits(const uint8_t* row, int cols, int k0, int n, uint32_t* words) {
+  for (int k = 0; k < n; ++k) {
+    const int x = 32 * (k0 + k);
+    uint32_t w = 0;
+#if defined(__SSE2__)
+    if (x + 32 <= cols) {
+      const __m128i zero = _mm_setzero_si128();
+      const __m128i lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + x));
+      const __m128i hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + x + 16));
+      const uint32_t zlo = uint32_t(_mm_movemask_epi8(_mm_cmpeq_epi8(lo, zero)));
+      const uint32_t zhi = uint32_t(_mm_movemask_epi8(_mm_cmpeq_epi8(hi, zero)));
+      words[k] = ~(zlo | zhi << 16);
+      continue;
+    }
+#endif
+    for (int i = 0; i < 32 && x + i < cols; ++i) w |= uint32_t(row[x + i] != 0) << i;
+    words[k] = w;
+  }
+}
+
+}  // namespace
+
+LayerUploader::LayerUploader(GLenum internal_format, GLenum format, GLenum type, int mat_type, Packing packing)
     : internal_format_(internal_format),
       format_(format),
       type_(type),
       mat_type_(mat_type),
-      expand_(mat_type == CV_8UC3 && format == GL_RGBA_INTEGER) {}
+      expand_(mat_type == CV_8UC3 && format == GL_RGBA_INTEGER),
+      bits_(packing == Packing::kBits) {
+  if (bits_ && !(mat_type == CV_8UC1 && internal_format == GL_R32UI && format == GL_RED_INTEGER &&
+                 type == GL_UNSIGNED_INT))
+    throw std::invalid_argument("LayerUploader: bits need CV_8UC1 layers into GL_R32UI");
+}
 
 void LayerUploader::Upload(const std::vector<cv::Mat>& layers, const std::vector<cv::Rect>* rects) {
   if (layers.empty()) throw std::invalid_argument("LayerUploader: no layers");
   if (rects && rects->size() != layers.size())
     throw std::invalid_argument("LayerUploader: " + std::to_string(rects->size()) + " rectangles for " +
                                 std::to_string(layers.size()) + " layers");
-  const size_t texel = expand_ ? 4 : CV_ELEM_SIZE(mat_type_);
+  const size_t texel = expand_ || bits_ ? 4 : CV_ELEM_SIZE(mat_type_);
+  // kBits: a layer of w pixels is (w + 31) / 32 texels wide; a rectangle of
+  // pixels goes up as the texels that hold it.
+  const auto texels = [&](const cv::Rect& r) {
+    if (!bits_ || r.area() == 0) return r;
+    const int x0 = r.x / 32, x1 = (r.x + r.width + 31) / 32;
+    return cv::Rect(x0, r.y, x1 - x0, r.height);
+  };
   int w = 0, h = 0;
   size_t bytes = 0;
   std::vector<cv::Rect> parts(layers.size());
@@ -30,10 +73,11 @@ void LayerUploader::Upload(const std::vector<cv::Mat>& layers, const std::vector
     if (m.type() != mat_type_ || m.empty())
       throw std::invalid_argument("LayerUploader: layer of type " + std::to_string(m.type()) + ", expected " +
                                   std::to_string(mat_type_));
-    w = std::max(w, m.cols);
+    w = std::max(w, bits_ ? (m.cols + 31) / 32 : m.cols);
     h = std::max(h, m.rows);
     parts[i] = cv::Rect(0, 0, m.cols, m.rows);
     if (rects) parts[i] &= (*rects)[i];
+    parts[i] = texels(parts[i]);
     bytes += size_t(parts[i].area()) * texel;
   }
   if (w > width_ || h > height_ || int(layers.size()) > layers_) {
@@ -66,11 +110,16 @@ void LayerUploader::Upload(const std::vector<cv::Mat>& layers, const std::vector
     const cv::Rect& r = parts[i];
     if (r.area() == 0) continue;
     uint8_t* dst = static_cast<uint8_t*>(s.mapped) + offset;
-    const cv::Mat src = layers[i](r);
-    if (expand_) {
+    if (bits_) {
+      for (int y = 0; y < r.height; ++y)
+        PackRowBits(layers[i].ptr<uint8_t>(r.y + y), layers[i].cols, r.x, r.width,
+                    reinterpret_cast<uint32_t*>(dst) + size_t(y) * size_t(r.width));
+    } else if (expand_) {
+      const cv::Mat src = layers[i](r);
       cv::Mat out(r.height, r.width, CV_8UC4, dst);
       cv::cvtColor(src, out, cv::COLOR_BGR2BGRA);
     } else {
+      const cv::Mat src = layers[i](r);
       const size_t row = size_t(r.width) * texel;
       for (int y = 0; y < r.height; ++y) std::memcpy(dst + size_t(y) * row, src.ptr(y), row);
     }

@@ -6,6 +6,8 @@
 // each layer may be sent (the object pixels of a map: the rest is background and
 // never read), and 3-channel images go up as 4 channels, expanded on the CPU
 // while copied (the driver would otherwise convert them texel by texel).
+// Object-pixel maps go up as bits, 32 pixels a texel (kBits): an eighth of
+// their bytes, and of the texture cache the volume queries read through.
 #pragma once
 
 #include <array>
@@ -20,16 +22,25 @@ namespace hullpipe::gl {
 
 class LayerUploader {
  public:
+  /// kTexels: a layer's pixels are its texels. kBits (CV_8UC1 layers into a
+  /// GL_R32UI array): texel (tx, y) holds pixels 32 tx .. 32 tx + 31 of row y,
+  /// bit i set where pixel 32 tx + i is not 0 (pixels past the layer's width
+  /// are 0); a shader reads pixel (x, y) as
+  /// (texelFetch(t, ivec3(x >> 5, y, layer), 0).r >> (x & 31)) & 1.
+  enum class Packing { kTexels, kBits };
   /// internal_format/format/type as glTexStorage3D/glTexSubImage3D take them;
   /// mat_type: the cv::Mat type every layer must have (e.g. CV_8UC1). With
   /// mat_type CV_8UC3 and format GL_RGBA_INTEGER, each BGR texel goes up as
   /// BGRA (alpha 255).
-  LayerUploader(GLenum internal_format, GLenum format, GLenum type, int mat_type);
+  LayerUploader(GLenum internal_format, GLenum format, GLenum type, int mat_type,
+                Packing packing = Packing::kTexels);
   /// Uploads layers[i] into layer i (row 0 of a Mat = texel row 0). Layers may
   /// differ in size; the array is as large as the largest (texels beyond a
   /// layer's own size are undefined: shaders bound-check). With `rects`, only
   /// rects[i] (clipped to the layer) of layer i goes up; the rest of the layer
-  /// keeps older contents, which shaders must not read. Throws
+  /// keeps older contents, which shaders must not read (kBits: the texels
+  /// that hold any of rects[i]'s pixels go up, so the pixels beside it in
+  /// those texels are the layer's own). Throws
   /// std::invalid_argument for a wrong Mat type, no layers or a rects list of
   /// another length, GlError on a GL error.
   void Upload(const std::vector<cv::Mat>& layers, const std::vector<cv::Rect>* rects = nullptr);
@@ -47,6 +58,7 @@ class LayerUploader {
   GLenum internal_format_, format_, type_;
   int mat_type_;
   bool expand_ = false;  // BGR layers sent as BGRA
+  bool bits_ = false;    // Packing::kBits
   Texture texture_;
   int width_ = 0, height_ = 0, layers_ = 0;
   std::array<Slot, 2> slots_;
