@@ -240,8 +240,8 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
     double part_kb = 0, whole_kb = 0;
     const std::vector<cv::Rect> parts = gl::GlTexture::ObjectImageRects(q, in.images);
     for (size_t k = 0; k < parts.size(); ++k) {
-      part_kb += parts[k].area() * 4e-3;
-      whole_kb += in.images[k].image.total() * 4e-3;
+      part_kb += parts[k].area() * 3e-3;  // three bytes a pixel (LayerUploader::Packing::kChannels)
+      whole_kb += in.images[k].image.total() * 3e-3;
     }
     // The maps' bytes: as bits (32 pixels a 4-byte texel, the texels that
     // hold each object rectangle: what goes up) against a byte a pixel.

@@ -30,7 +30,7 @@ std::string TextureCs() {
 struct Extra { vec4 centre; vec4 vr0, vr1, vr2; vec4 vt; vec4 vintr; vec4 vsize; };
 layout(std430, binding = 2) readonly buffer Extras { Extra ex[]; };
 layout(std430, binding = 3) buffer Missing { uint missing; };  // bit k: camera k sampled off its upload
-layout(binding = 0) uniform usampler2DArray u_images;  // bytes B, G, R per texel
+layout(binding = 0) uniform usampler2DArray u_images;  // bytes B, G, R of pixel x: texels 3 x .. 3 x + 2
 layout(binding = 1) uniform sampler2DArray u_vis;      // hull depth from each camera
 layout(binding = 2) uniform sampler2DArray u_depth;    // the tile's eye-z depths (layer 0)
 layout(rgba8ui, binding = 0) uniform writeonly uimage2D u_out;
@@ -45,6 +45,13 @@ uniform mat3 u_Rwe;
 uniform vec3 u_O;
 uniform ivec2 u_size;
 const int MAXC = 32;
+
+// Camera k's pixel (x, y): its B, G, R bytes, three texels side by side
+// (LayerUploader::Packing::kChannels).
+vec3 Pixel(int k, int x, int y) {
+  return vec3(texelFetch(u_images, ivec3(3 * x, y, k), 0).r, texelFetch(u_images, ivec3(3 * x + 1, y, k), 0).r,
+              texelFetch(u_images, ivec3(3 * x + 2, y, k), 0).r);
+}
 
 // Camera k's colour at uv, bilinear over texel centres. Only the camera's
 // uploaded rectangle (cams[k].rect, [x0, x1) x [y0, y1)) holds this frameset's
@@ -61,8 +68,7 @@ vec3 Bilinear(int k, vec2 uv) {
     return vec3(0.0);
   }
   float ax = x - float(x0), ay = y - float(y0);
-  vec3 p00 = vec3(texelFetch(u_images, ivec3(x0, y0, k), 0).rgb), p01 = vec3(texelFetch(u_images, ivec3(x1, y0, k), 0).rgb);
-  vec3 p10 = vec3(texelFetch(u_images, ivec3(x0, y1, k), 0).rgb), p11 = vec3(texelFetch(u_images, ivec3(x1, y1, k), 0).rgb);
+  vec3 p00 = Pixel(k, x0, y0), p01 = Pixel(k, x1, y0), p10 = Pixel(k, x0, y1), p11 = Pixel(k, x1, y1);
   return (p00 * (1.0 - ax) + p01 * ax) * (1.0 - ay) + (p10 * (1.0 - ax) + p11 * ax) * ay;
 }
 
@@ -130,7 +136,8 @@ void main() {
 
 GlTexture::GlTexture()
     : program_(BuildComputeProgram(TextureCs().c_str())),
-      images_(std::make_unique<LayerUploader>(GL_RGBA8UI, GL_RGBA_INTEGER, GL_UNSIGNED_BYTE, CV_8UC3)),
+      images_(std::make_unique<LayerUploader>(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, CV_8UC3,
+                                              LayerUploader::Packing::kChannels)),
       visibility_(std::make_unique<LayerUploader>(GL_R32F, GL_RED, GL_FLOAT, CV_32FC1)),
       missing_(MakeBuffer()),
       cams_(MakeBuffer()),

@@ -5,8 +5,6 @@
 #include <stdexcept>
 #include <string>
 
-#include <opencv2/imgproc.hpp>
-
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -45,11 +43,14 @@ LayerUploader::LayerUploader(GLenum internal_format, GLenum format, GLenum type,
       format_(format),
       type_(type),
       mat_type_(mat_type),
-      expand_(mat_type == CV_8UC3 && format == GL_RGBA_INTEGER),
-      bits_(packing == Packing::kBits) {
+      bits_(packing == Packing::kBits),
+      channels_(packing == Packing::kChannels ? CV_MAT_CN(mat_type) : 1) {
   if (bits_ && !(mat_type == CV_8UC1 && internal_format == GL_R32UI && format == GL_RED_INTEGER &&
                  type == GL_UNSIGNED_INT))
     throw std::invalid_argument("LayerUploader: bits need CV_8UC1 layers into GL_R32UI");
+  if (packing == Packing::kChannels && !(CV_MAT_DEPTH(mat_type) == CV_8U && internal_format == GL_R8UI &&
+                                         format == GL_RED_INTEGER && type == GL_UNSIGNED_BYTE))
+    throw std::invalid_argument("LayerUploader: channels as texels need 8-bit layers into GL_R8UI");
 }
 
 void LayerUploader::Upload(const std::vector<cv::Mat>& layers, const std::vector<cv::Rect>* rects) {
@@ -57,11 +58,13 @@ void LayerUploader::Upload(const std::vector<cv::Mat>& layers, const std::vector
   if (rects && rects->size() != layers.size())
     throw std::invalid_argument("LayerUploader: " + std::to_string(rects->size()) + " rectangles for " +
                                 std::to_string(layers.size()) + " layers");
-  const size_t texel = expand_ || bits_ ? 4 : CV_ELEM_SIZE(mat_type_);
-  // kBits: a layer of w pixels is (w + 31) / 32 texels wide; a rectangle of
-  // pixels goes up as the texels that hold it.
+  const size_t texel = bits_ ? 4 : size_t(CV_ELEM_SIZE(mat_type_) / channels_);
+  // kBits: a layer of w pixels is (w + 31) / 32 texels wide; kChannels: 3 w.
+  // A rectangle of pixels goes up as the texels that hold it.
   const auto texels = [&](const cv::Rect& r) {
-    if (!bits_ || r.area() == 0) return r;
+    if (r.area() == 0) return r;
+    if (channels_ > 1) return cv::Rect(r.x * channels_, r.y, r.width * channels_, r.height);
+    if (!bits_) return r;
     const int x0 = r.x / 32, x1 = (r.x + r.width + 31) / 32;
     return cv::Rect(x0, r.y, x1 - x0, r.height);
   };
@@ -73,7 +76,7 @@ void LayerUploader::Upload(const std::vector<cv::Mat>& layers, const std::vector
     if (m.type() != mat_type_ || m.empty())
       throw std::invalid_argument("LayerUploader: layer of type " + std::to_string(m.type()) + ", expected " +
                                   std::to_string(mat_type_));
-    w = std::max(w, bits_ ? (m.cols + 31) / 32 : m.cols);
+    w = std::max(w, bits_ ? (m.cols + 31) / 32 : m.cols * channels_);
     h = std::max(h, m.rows);
     parts[i] = cv::Rect(0, 0, m.cols, m.rows);
     if (rects) parts[i] &= (*rects)[i];
@@ -81,6 +84,11 @@ void LayerUploader::Upload(const std::vector<cv::Mat>& layers, const std::vector
     bytes += size_t(parts[i].area()) * texel;
   }
   if (w > width_ || h > height_ || int(layers.size()) > layers_) {
+    GLint max_side = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_side);
+    if (w > max_side || h > max_side)
+      throw GlError("LayerUploader: layers of " + std::to_string(w) + "x" + std::to_string(h) +
+                    " texels exceed this GL's largest texture (" + std::to_string(max_side) + ")");
     width_ = std::max(w, width_);
     height_ = std::max(h, height_);
     layers_ = std::max(int(layers.size()), layers_);
@@ -114,12 +122,9 @@ void LayerUploader::Upload(const std::vector<cv::Mat>& layers, const std::vector
       for (int y = 0; y < r.height; ++y)
         PackRowBits(layers[i].ptr<uint8_t>(r.y + y), layers[i].cols, r.x, r.width,
                     reinterpret_cast<uint32_t*>(dst) + size_t(y) * size_t(r.width));
-    } else if (expand_) {
-      const cv::Mat src = layers[i](r);
-      cv::Mat out(r.height, r.width, CV_8UC4, dst);
-      cv::cvtColor(src, out, cv::COLOR_BGR2BGRA);
     } else {
-      const cv::Mat src = layers[i](r);
+      // (kChannels: the pixels under the texels r holds; their bytes are the texels.)
+      const cv::Mat src = layers[i](cv::Rect(r.x / channels_, r.y, r.width / channels_, r.height));
       const size_t row = size_t(r.width) * texel;
       for (int y = 0; y < r.height; ++y) std::memcpy(dst + size_t(y) * row, src.ptr(y), row);
     }

@@ -4,10 +4,9 @@
 // frame f+1 waits only for the GPU to have consumed frame f-1's buffer, never for
 // frame f's sweep (pixel buffer objects, double-buffered). Only a rectangle of
 // each layer may be sent (the object pixels of a map: the rest is background and
-// never read), and 3-channel images go up as 4 channels, expanded on the CPU
-// while copied (the driver would otherwise convert them texel by texel).
-// Object-pixel maps go up as bits, 32 pixels a texel (kBits): an eighth of
-// their bytes, and of the texture cache the volume queries read through.
+// never read). Object-pixel maps go up as bits, 32 pixels a texel (kBits): an
+// eighth of their bytes, and of the texture cache the volume queries read
+// through; colour images as three one-byte texels a pixel (kChannels).
 #pragma once
 
 #include <array>
@@ -27,11 +26,15 @@ class LayerUploader {
   /// bit i set where pixel 32 tx + i is not 0 (pixels past the layer's width
   /// are 0); a shader reads pixel (x, y) as
   /// (texelFetch(t, ivec3(x >> 5, y, layer), 0).r >> (x & 31)) & 1.
-  enum class Packing { kTexels, kBits };
+  /// kChannels (CV_8UC3 layers into a GL_R8UI array): a pixel's three bytes
+  /// are three texels side by side, texel (3 x + i, y) channel i of pixel
+  /// (x, y), copied as they are (an RGB8 texture is stored as four bytes a
+  /// texel, so the driver or the CPU would expand every pixel; this sends
+  /// three). Layers at most GL_MAX_TEXTURE_SIZE / 3 pixels wide.
+  enum class Packing { kTexels, kBits, kChannels };
   /// internal_format/format/type as glTexStorage3D/glTexSubImage3D take them;
-  /// mat_type: the cv::Mat type every layer must have (e.g. CV_8UC1). With
-  /// mat_type CV_8UC3 and format GL_RGBA_INTEGER, each BGR texel goes up as
-  /// BGRA (alpha 255).
+  /// mat_type: the cv::Mat type every layer must have (e.g. CV_8UC1). Throws
+  /// std::invalid_argument for a packing the formats do not fit.
   LayerUploader(GLenum internal_format, GLenum format, GLenum type, int mat_type,
                 Packing packing = Packing::kTexels);
   /// Uploads layers[i] into layer i (row 0 of a Mat = texel row 0). Layers may
@@ -42,7 +45,8 @@ class LayerUploader {
   /// that hold any of rects[i]'s pixels go up, so the pixels beside it in
   /// those texels are the layer's own). Throws
   /// std::invalid_argument for a wrong Mat type, no layers or a rects list of
-  /// another length, GlError on a GL error.
+  /// another length, GlError on a GL error or layers wider or taller (in
+  /// texels) than GL_MAX_TEXTURE_SIZE.
   void Upload(const std::vector<cv::Mat>& layers, const std::vector<cv::Rect>* rects = nullptr);
   GLuint texture() const { return texture_.get(); }
   /// Bytes copied by the last Upload.
@@ -57,8 +61,8 @@ class LayerUploader {
   };
   GLenum internal_format_, format_, type_;
   int mat_type_;
-  bool expand_ = false;  // BGR layers sent as BGRA
   bool bits_ = false;    // Packing::kBits
+  int channels_ = 1;     // texels a pixel takes (Packing::kChannels: the Mat's channels)
   Texture texture_;
   int width_ = 0, height_ = 0, layers_ = 0;
   std::array<Slot, 2> slots_;

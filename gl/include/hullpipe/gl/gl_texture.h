@@ -29,14 +29,16 @@ class GlTexture {
   GlTexture& operator=(const GlTexture&) = delete;
 
   /// Uploads a frameset's colour images (CV_8UC3 BGR; one texture array layer
-  /// each, as BGRA, through double-buffered pixel buffers). Every Texture call until the
+  /// each, a pixel's B, G, R bytes as three one-byte texels, through
+  /// double-buffered pixel buffers). Every Texture call until the
   /// next upload reads these. With `rects` (one per image, image pixels), only
   /// that part of each image goes up (ObjectImageRects: the pixels a hull point
   /// can project to); a pass that samples an image outside its rectangle
   /// uploads that image whole and runs again, so the colours are the same as
   /// from whole images. Throws std::invalid_argument for more than
   /// kMaxTextureCameras images, a non-CV_8UC3 image or a rects list of another
-  /// length, GlError on a GL error.
+  /// length, GlError on a GL error or an image wider than this GL's largest
+  /// texture side / 3 (5,461 pixels where it is 16,384).
   void UploadImages(const std::vector<CameraImage>& images, const std::vector<cv::Rect>* rects = nullptr);
   /// Per image, the rectangle (image pixels, clipped to it) that holds every
   /// pixel the texture pass reads for a point the volume query `q` finds
@@ -44,7 +46,7 @@ class GlTexture {
   /// Empty for a camera with no object pixel. Images whose camera (by id, in
   /// order) is not the query's get the whole image.
   static std::vector<cv::Rect> ObjectImageRects(const VolumeQuery& q, const std::vector<CameraImage>& images);
-  /// Bytes the last UploadImages copied (BGRA), and how many images the passes
+  /// Bytes the last UploadImages copied (3 a pixel), and how many images the passes
   /// since had to upload whole again (a sample outside the image's rectangle).
   size_t uploaded_bytes() const { return uploaded_bytes_; }
   int64_t refetched_images() const { return refetched_; }
