@@ -495,6 +495,48 @@ TEST_F(Gl, MapsGoUpAsBitsOfTheirObjectPixels) {
   EXPECT_GT(cv::countNonZero((first[4] != 0) != (second[4] != 0)), 50);
 }
 
+// Colour images go up as three one-byte texels a pixel (Packing::kChannels),
+// read back: within each rectangle texel (3 x + i, y) is channel i of pixel
+// (x, y); outside it an earlier upload's. An image wider than the GL's largest
+// texture side / 3 is refused, named, before anything goes up.
+TEST_F(Gl, ImagesGoUpAsThreeTexelsAPixel) {
+  LayerUploader up(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, CV_8UC3, LayerUploader::Packing::kChannels);
+  std::vector<cv::Mat> first(2), second(2);
+  for (auto* v : {&first, &second})
+    for (int k = 0; k < 2; ++k) {
+      (*v)[size_t(k)].create(4, 7 + 3 * k, CV_8UC3);
+      cv::randu((*v)[size_t(k)], 0, 256);
+    }
+  up.Upload(first);
+  EXPECT_EQ(up.last_bytes(), size_t(3 * (4 * 7 + 4 * 10)));
+  const std::vector<cv::Rect> rects = {{2, 1, 3, 2}, {9, 0, 1, 4}};
+  up.Upload(second, &rects);
+  EXPECT_EQ(up.last_bytes(), size_t(3 * (3 * 2 + 1 * 4)));
+  const int tw = 30, th = 4;
+  std::vector<uint8_t> got(size_t(tw * th * 2));
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);  // rows of 30 bytes, unpadded
+  glGetTextureImage(up.texture(), 0, GL_RED_INTEGER, GL_UNSIGNED_BYTE, GLsizei(got.size()), got.data());
+  ASSERT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+  for (int k = 0; k < 2; ++k)
+    for (int y = 0; y < 4; ++y)
+      for (int x = 0; x < first[size_t(k)].cols; ++x) {
+        const bool now = rects[size_t(k)].contains(cv::Point(x, y));
+        const cv::Vec3b want = (now ? second : first)[size_t(k)].at<cv::Vec3b>(y, x);
+        for (int i = 0; i < 3; ++i)
+          EXPECT_EQ(got[size_t((k * th + y) * tw + 3 * x + i)], want[i]) << "image " << k << " pixel " << x << "," << y;
+      }
+  GLint max_side = 0;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_side);
+  LayerUploader wide(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, CV_8UC3, LayerUploader::Packing::kChannels);
+  try {
+    wide.Upload({cv::Mat(1, max_side / 3 + 1, CV_8UC3, cv::Scalar(1, 2, 3))});
+    ADD_FAILURE() << "an image of " << max_side / 3 + 1 << " pixels went up";
+  } catch (const GlError& e) {
+    EXPECT_NE(std::string(e.what()).find("exceed this GL's largest texture"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(wide.Upload({cv::Mat(1, max_side / 3, CV_8UC3, cv::Scalar(1, 2, 3))}));  // control: the widest
+}
+
 // Colour images for the sphere cameras: a pattern that differs per camera and
 // varies smoothly (so bilinear sampling matters) at half the maps' resolution.
 std::vector<CameraImage> PatternImages(const std::vector<CameraMap>& views) {
