@@ -28,22 +28,25 @@ void SegmentationOptions::Check() const {
 
 namespace {
 
-// out[x] = the k-th smallest (from 0) of rows[0][x], ..., rows[n - 1][x], for
-// x in [0, width): what std::nth_element gives for each byte position, found
-// by its bits from the top (the largest m with fewer than k + 1 values below
-// it is the k-th smallest; that count falls as m grows, so each bit is kept
-// where the count stays <= k). Eight passes of byte compares over contiguous
-// rows, which the compiler vectorizes, in place of a sort per byte: learning
-// a 1024x768 background from 31 frames took 0.6 s a camera with nth_element.
-// n <= 255 (the counts are bytes).
+// Bytes a selection pass takes at once (its counts and candidates stay in L1).
 constexpr int kSelectChunk = 256;
+
 // Counts, per byte x of a chunk, the row bytes below cand[x] (a fixed trip
 // count over restrict pointers, so that the compiler vectorizes it; inlined,
 // gcc 12 jams two rows into one scalar loop instead).
-__attribute__((noinline)) void CountBelow(const uint8_t* __restrict row, const uint8_t* __restrict cand, uint8_t* __restrict count) {
+__attribute__((noinline)) void CountBelow(const uint8_t* __restrict row, const uint8_t* __restrict cand,
+                                          uint8_t* __restrict count) {
   for (int x = 0; x < kSelectChunk; ++x) count[x] = uint8_t(count[x] + (row[x] < cand[x] ? 1 : 0));
 }
 
+// out[x] = the k-th smallest (from 0) of rows[0][x], ..., rows[n - 1][x], for
+// x in [0, width): what std::nth_element gives for each byte position, found
+// by its bits from the top. The k-th smallest is the largest m with at most k
+// values below it; that count only grows with m, so each bit, from the top,
+// is kept where the count stays <= k. Eight passes of byte compares over
+// contiguous rows, which the compiler vectorizes, in place of a sort per byte
+// (learning a 1024x768 background from 31 frames took 0.6 s a camera with
+// nth_element). n <= 255 (the counts are bytes).
 void SelectKthPerByte(const std::vector<const uint8_t*>& rows, int width, size_t k, uint8_t* out) {
   alignas(64) uint8_t prefix[kSelectChunk], cand[kSelectChunk], count[kSelectChunk];
   const uint8_t kth = uint8_t(k);  // k < n <= 255
