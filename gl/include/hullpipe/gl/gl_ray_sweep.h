@@ -33,12 +33,13 @@ class GlRaySweep {
   GlRaySweep& operator=(const GlRaySweep&) = delete;
 
   /// Uploads a frameset's object-pixel maps (one texture array layer per camera,
-  /// only each map's object rectangle, VolumeQuery::object_rect, through
+  /// 32 pixels a texel as bits; only the texels that hold each map's object
+  /// rectangle, VolumeQuery::object_rect, through
   /// double-buffered pixel buffers: the copy does not wait for an earlier
   /// frameset's sweep). Every sweep until the next Upload uses these maps.
   /// Throws GlError on a GL error.
   void Upload(const VolumeQuery& query);
-  /// Bytes of map pixels the last Upload sent.
+  /// Bytes the last Upload sent (4 per 32 pixels).
   size_t last_upload_bytes() const;
 
   /// Same contract as PlaneSweepCpu(query, view, depths, tile, nullptr, threads,
