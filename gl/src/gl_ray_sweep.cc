@@ -64,9 +64,7 @@ int VoteAt(int c, float d) {
   // Outside the map's object rectangle every pixel is background (not uploaded).
   vec4 r = cams[e].rect;
   if (!(uv.x >= r.x && uv.y >= r.y && uv.x < r.z && uv.y < r.w)) return 0;
-  // The maps go up as bits, 32 pixels a texel (LayerUploader::Packing::kBits).
-  int x = int(uv.x);
-  return int((texelFetch(u_maps, ivec3(x >> 5, int(uv.y), c), 0).r >> uint(x & 31)) & 1u);
+  return ObjectPixelBit(u_maps, int(uv.x), int(uv.y), c);  // the maps go up as bits
 }
 
 // Inside the hull at eye depth d? With want_near, *near is set when exactly one
@@ -144,7 +142,7 @@ bool Aim(ivec2 px, out float s0, out float s1) {
 
 std::string MarchCs() {
   return std::string("#version 450 core\nlayout(local_size_x = 8, local_size_y = 8) in;\n") + kCameraBufferGlsl +
-         kRayGlsl + R"(
+         kObjectPixelBitGlsl + kRayGlsl + R"(
 layout(r32f, binding = 0) uniform writeonly image2DArray u_out;
 void main() {
   int z = int(gl_GlobalInvocationID.z);
@@ -190,7 +188,7 @@ void main() {
 // The silhouette pass of the refinement (plane_sweep.cc, RefineEdges).
 std::string EdgesCs() {
   return std::string("#version 450 core\nlayout(local_size_x = 8, local_size_y = 8) in;\n") + kCameraBufferGlsl +
-         kRayGlsl + R"(
+         kObjectPixelBitGlsl + kRayGlsl + R"(
 layout(r32f, binding = 0) uniform readonly image2DArray u_swept;  // the march over each region
 layout(r32f, binding = 1) uniform writeonly image2DArray u_out;   // each tile
 void main() {

@@ -23,7 +23,7 @@ constexpr uint32_t kCentroid = 0xFFFFFFFDu;  // no pixel centre covered: its cen
 // memory, then the counts and, where any pixel is inside, the mask written at
 // an offset taken from one atomic counter.
 std::string TriangleCs() {
-  return std::string("#version 450 core\nlayout(local_size_x = 64) in;\n") + kCameraBufferGlsl + R"(
+  return std::string("#version 450 core\nlayout(local_size_x = 64) in;\n") + kCameraBufferGlsl + kObjectPixelBitGlsl + R"(
 layout(std430, binding = 1) readonly buffer Tris { float tris[]; };     // a, b, c: 9 floats per triangle
 layout(std430, binding = 2) writeonly buffer Results { uvec4 results[]; };  // tested, inside, mask offset, w | h << 16
 layout(std430, binding = 3) buffer Masks { uint mask_used; uint mask_capacity; uint pad0; uint pad1; uint masks[]; };
@@ -48,9 +48,7 @@ int VoteOf(int c, vec3 X) {
   if (uv.x < 0.0) return 2;
   vec4 r = cams[c].rect;
   if (!(uv.x >= r.x && uv.y >= r.y && uv.x < r.z && uv.y < r.w)) return 0;
-  // The maps go up as bits, 32 pixels a texel (LayerUploader::Packing::kBits).
-  int x = int(uv.x);
-  return int((texelFetch(u_maps, ivec3(x >> 5, int(uv.y), c), 0).r >> uint(x & 31)) & 1u);
+  return ObjectPixelBit(u_maps, int(uv.x), int(uv.y), c);  // the maps go up as bits
 }
 
 bool Inside(vec3 X) {

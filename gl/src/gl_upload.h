@@ -19,6 +19,15 @@
 
 namespace hullpipe::gl {
 
+/// GLSL for a shader that reads a texture array LayerUploader::Packing::kBits
+/// filled: ObjectPixelBit(maps, x, y, layer) is 1 where pixel (x, y) of the
+/// layer's map is not 0, else 0 (x, y within the layer's map).
+inline const char* kObjectPixelBitGlsl = R"(
+int ObjectPixelBit(usampler2DArray maps, int x, int y, int layer) {
+  return int((texelFetch(maps, ivec3(x >> 5, y, layer), 0).r >> uint(x & 31)) & 1u);
+}
+)";
+
 class LayerUploader {
  public:
   /// kTexels: a layer's pixels are its texels. kBits (CV_8UC1 layers into a
