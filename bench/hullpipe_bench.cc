@@ -28,6 +28,7 @@
 #include "hullpipe/gl/egl_context.h"
 #include "hullpipe/gl/gl_objects.h"
 #include "hullpipe/gl/gl_plane_sweep.h"
+#include "hullpipe/gl/gl_ray_sweep.h"
 #include "hullpipe/gl/gl_texture.h"
 #include "hullpipe/gl/gl_triangle_query.h"
 #include "hullpipe/geometry/mesh.h"
@@ -235,22 +236,23 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       span.push_back(double(ns[3] - ns[0]) * 1e-6);
       wall.push_back((w1 - w0) * 1e3);
     }
-    // The colour images' bytes the upload sends (each around its camera's
-    // object pixels, GlTexture::ObjectImageRects) against the whole images.
-    double part_kb = 0, whole_kb = 0;
-    const std::vector<cv::Rect> parts = gl::GlTexture::ObjectImageRects(q, in.images);
-    for (size_t k = 0; k < parts.size(); ++k) {
-      part_kb += parts[k].area() * 3e-3;  // three bytes a pixel (LayerUploader::Packing::kChannels)
-      whole_kb += in.images[k].image.total() * 3e-3;
-    }
-    // The maps' bytes: as bits (32 pixels a 4-byte texel, the texels that
-    // hold each object rectangle: what goes up) against a byte a pixel.
-    double map_bits_kb = 0, map_bytes_kb = 0;
-    for (size_t c = 0; c < q.size(); ++c) {
-      const cv::Rect r = q.object_rect(c);
-      if (r.area() == 0) continue;
-      map_bits_kb += ((r.x + r.width + 31) / 32 - r.x / 32) * r.height * 4e-3;
-      map_bytes_kb += r.area() * 1e-3;
+    // The bytes the backend's uploads send, as its uploaders count them (a
+    // probe of each in the backend's context, current since the Finish above):
+    // the colour images around their cameras' object pixels
+    // (GlTexture::ObjectImageRects) against the whole images, and the maps
+    // (their object rectangles, as bits) against a byte a pixel.
+    double part_kb = 0, whole_kb = 0, map_bits_kb = 0, map_bytes_kb = 0;
+    {
+      gl::GlTexture images;
+      const std::vector<cv::Rect> parts = gl::GlTexture::ObjectImageRects(q, in.images);
+      images.UploadImages(in.images, &parts);
+      part_kb = double(images.uploaded_bytes()) * 1e-3;
+      images.UploadImages(in.images);
+      whole_kb = double(images.uploaded_bytes()) * 1e-3;
+      gl::GlRaySweep maps;
+      maps.Upload(q);
+      map_bits_kb = double(maps.last_upload_bytes()) * 1e-3;
+      for (size_t c = 0; c < q.size(); ++c) map_bytes_kb += q.object_rect(c).area() * 1e-3;
     }
     char row[320];
     std::snprintf(row, sizeof row,
