@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
@@ -123,58 +124,162 @@ BackgroundModel::BackgroundModel(const std::vector<cv::Mat>& frames) {
   }
   cv::cvtColor(background_bgr_, background_hsv_, cv::COLOR_BGR2HSV);
   cv::split(background_hsv_, background_planes_);
+  rules_ = std::make_shared<Rules>();  // thresholds are made for the options Segment is given
 }
+
+// The per-pixel thresholds one set of options gives this model's background.
+// Every comparison of the rule is between bytes (or byte differences) and a
+// threshold; an integer x exceeds a real t exactly when x >= Above(t), so each
+// threshold becomes a byte the row test compares against (paper §3.1's test
+// in 16-byte vectors, where the float rule took 4 lanes and a division).
+struct BackgroundModel::Rule {
+  double value_threshold, value_noise_k, hue_min_saturation, shadow_min_ratio, shadow_max_ratio;  // the key
+  cv::Mat hue_gate;    // 255 where S_bg > hue_min_saturation (the hue can differ), else 0
+  cv::Mat value_over;  // |V - V_bg| > this is a value difference (255: none is); from the spread
+  cv::Mat shadow_lo;   // V in [shadow_lo, shadow_hi] is a shadow (lo > hi: none)
+  cv::Mat shadow_hi;
+  cv::Mat shadow_lo_of, shadow_hi_of;  // 1 x 256: the same bounds for each V_bg
+  bool Fits(const SegmentationOptions& o) const {
+    return value_threshold == o.value_threshold && value_noise_k == o.value_noise_k &&
+           hue_min_saturation == o.hue_min_saturation && shadow_min_ratio == o.shadow_min_ratio &&
+           shadow_max_ratio == o.shadow_max_ratio;
+  }
+};
+
+struct BackgroundModel::Rules {
+  std::mutex mu;
+  std::shared_ptr<const Rule> last;
+  // The rule of the background before Follow(): its value bounds (from the
+  // spread, which Follow keeps) and shadow bounds per V_bg still hold.
+  std::shared_ptr<const Rule> before_follow;
+};
 
 namespace {
 
-// One row of BackgroundModel::Segment's test (paper §3.1 with the options'
-// hue, saturation, value and shadow rules): object if the hue differs (both
-// saturated enough), the saturation differs, or the value differs beyond the
-// pixel's noise and is not a shadow (darker than the background by a ratio in
-// [smin, smax]). Branch-free over contiguous planes.
-void SegmentRow(const uint8_t* __restrict h, const uint8_t* __restrict s, const uint8_t* __restrict v,
-                const uint8_t* __restrict bh, const uint8_t* __restrict bs, const uint8_t* __restrict bv,
-                const float* __restrict spread, int width, float vt, float vk, int ht, int hs, int st, float smin,
-                float smax, uint8_t* __restrict out) {
+// The least integer in [0, 255] above t, 256 where none is (t >= 255 or NaN).
+int Above(double t) {
+  if (!(t < 255)) return 256;
+  if (t < 0) return 0;
+  return int(std::floor(t)) + 1;
+}
+
+// One row of the test (BackgroundModel::ObjectPixels): object if the hue
+// differs (both saturated enough), the saturation differs, or the value
+// differs beyond the pixel's noise and is not a shadow. Bytes throughout, no
+// branches: the compiler makes it 16 pixels a step.
+void ObjectPixelRow(const uint8_t* __restrict h, const uint8_t* __restrict s, const uint8_t* __restrict v,
+                    const uint8_t* __restrict bh, const uint8_t* __restrict bs, const uint8_t* __restrict bv,
+                    const uint8_t* __restrict hue_gate, const uint8_t* __restrict value_over,
+                    const uint8_t* __restrict shadow_lo, const uint8_t* __restrict shadow_hi, int width,
+                    uint8_t saturated, uint8_t hue_lo, uint8_t hue_hi, uint8_t sat_lo, uint8_t sat_on,
+                    uint8_t* __restrict out) {
   for (int c = 0; c < width; ++c) {
-    const int fh = h[c], fs = s[c], fv = v[c], gh = bh[c], gs = bs[c], gv = bv[c];
-    int dh = fh > gh ? fh - gh : gh - fh;
-    dh = dh < 180 - dh ? dh : 180 - dh;
-    const bool hue_differs = (fs > hs) & (gs > hs) & (dh > ht);
-    const bool sat_differs = (fs > gs ? fs - gs : gs - fs) > st;
-    const float dv = float(fv) - float(gv);
-    const float noise = vk * spread[c];
-    const bool value_differs = std::fabs(dv) > (vt > noise ? vt : noise);
-    const float ratio = float(fv) / float(gv > 0 ? gv : 1);
-    const bool shadow = (fv < gv) & (ratio >= smin) & (ratio <= smax);
-    out[c] = uint8_t(-int(hue_differs | sat_differs | (value_differs & !shadow)) & 255);
+    const uint8_t fh = h[c], fs = s[c], fv = v[c], gh = bh[c], gs = bs[c], gv = bv[c];
+    const uint8_t dh = uint8_t(std::max(fh, gh) - std::min(fh, gh));  // [0, 179]
+    const uint8_t ds = uint8_t(std::max(fs, gs) - std::min(fs, gs));
+    const uint8_t dv = uint8_t(std::max(fv, gv) - std::min(fv, gv));
+    // Circular hue distance min(dh, 180 - dh) above the threshold: dh in [hue_lo, hue_hi].
+    const uint8_t hue = uint8_t(hue_gate[c] & -uint8_t(fs >= saturated) & -uint8_t(dh >= hue_lo) &
+                                -uint8_t(dh <= hue_hi));
+    const uint8_t sat = uint8_t(sat_on & -uint8_t(ds >= sat_lo));
+    const uint8_t value = uint8_t(-uint8_t(dv > value_over[c]));
+    const uint8_t shadow = uint8_t(-uint8_t(fv >= shadow_lo[c]) & -uint8_t(fv <= shadow_hi[c]));
+    out[c] = uint8_t(hue | sat | (value & ~shadow));
   }
 }
 
 }  // namespace
 
-cv::Mat BackgroundModel::Segment(const cv::Mat& frame_bgr, const SegmentationOptions& o) const {
+std::shared_ptr<const BackgroundModel::Rule> BackgroundModel::RuleFor(const SegmentationOptions& o) const {
+  std::shared_ptr<const Rule> before;
+  {
+    std::lock_guard<std::mutex> lock(rules_->mu);
+    if (rules_->last && rules_->last->Fits(o)) return rules_->last;
+    before = rules_->before_follow;
+  }
+  auto rule = std::make_shared<Rule>();
+  rule->value_threshold = o.value_threshold;
+  rule->value_noise_k = o.value_noise_k;
+  rule->hue_min_saturation = o.hue_min_saturation;
+  rule->shadow_min_ratio = o.shadow_min_ratio;
+  rule->shadow_max_ratio = o.shadow_max_ratio;
+  // S_bg > hue_min_saturation.
+  const int saturated = Above(o.hue_min_saturation);
+  rule->hue_gate = cv::Mat::zeros(size(), CV_8UC1);
+  if (saturated < 256) cv::compare(background_planes_[1], saturated, rule->hue_gate, cv::CMP_GE);
+  // |dv| > max(value_threshold, k * spread) in floats, as the rule states it;
+  // Check() keeps the threshold >= 0, so the float bound is >= 0 or NaN.
+  if (before && before->value_threshold == o.value_threshold && before->value_noise_k == o.value_noise_k) {
+    rule->value_over = before->value_over;
+  } else {
+    const float vt = float(o.value_threshold), vk = float(o.value_noise_k);
+    rule->value_over.create(size(), CV_8UC1);
+    for (int r = 0; r < size().height; ++r) {
+      const float* spread = value_spread_.ptr<float>(r);
+      uint8_t* over = rule->value_over.ptr<uint8_t>(r);
+      for (int c = 0; c < size().width; ++c) over[c] = uint8_t(Above(std::max(vt, vk * spread[c])) - 1);  // [0, 255]
+    }
+  }
+  // A shadow: V < V_bg and the float ratio V / V_bg in [min, max]. The ratio
+  // grows with V (a division by a fixed divisor, correctly rounded), so the
+  // shadow's values for each V_bg are one interval, found here value by value.
+  if (before && before->shadow_min_ratio == o.shadow_min_ratio && before->shadow_max_ratio == o.shadow_max_ratio) {
+    rule->shadow_lo_of = before->shadow_lo_of;
+    rule->shadow_hi_of = before->shadow_hi_of;
+  } else {
+    rule->shadow_lo_of.create(1, 256, CV_8UC1);
+    rule->shadow_hi_of.create(1, 256, CV_8UC1);
+    const float smin = float(o.shadow_min_ratio), smax = float(o.shadow_max_ratio);
+    for (int gv = 0; gv < 256; ++gv) {
+      int first = 255, last = 0;  // none: first > last
+      for (int fv = 0; fv < gv; ++fv) {
+        const float ratio = float(fv) / float(gv);
+        if (ratio >= smin && ratio <= smax) {
+          first = std::min(first, fv);
+          last = fv;
+        }
+      }
+      rule->shadow_lo_of.at<uint8_t>(gv) = uint8_t(first);
+      rule->shadow_hi_of.at<uint8_t>(gv) = uint8_t(last);
+    }
+  }
+  cv::LUT(background_planes_[2], rule->shadow_lo_of, rule->shadow_lo);
+  cv::LUT(background_planes_[2], rule->shadow_hi_of, rule->shadow_hi);
+  std::lock_guard<std::mutex> lock(rules_->mu);
+  rules_->last = rule;
+  return rule;
+}
+
+cv::Mat BackgroundModel::ObjectPixels(const cv::Mat& frame_bgr, const SegmentationOptions& o) const {
   if (empty()) throw std::invalid_argument("BackgroundModel: not learnt");
   if (frame_bgr.size() != size() || frame_bgr.type() != CV_8UC3)
     throw std::invalid_argument("BackgroundModel: frame is " + std::to_string(frame_bgr.cols) +
                                 "x" + std::to_string(frame_bgr.rows) + ", model is " +
                                 std::to_string(size().width) + "x" + std::to_string(size().height));
+  o.Check();
+  const std::shared_ptr<const Rule> rule = RuleFor(o);
   cv::Mat hsv;
   cv::cvtColor(frame_bgr, hsv, cv::COLOR_BGR2HSV);
-  // One plane per channel, so the per-pixel test below runs over contiguous
-  // bytes without branches (the compiler vectorizes it: it was a quarter of
-  // capture_node's CPU time in a branchy loop over interleaved HSV).
+  // One plane per channel, so that the test runs over contiguous bytes.
   cv::Mat planes[3];
   cv::split(hsv, planes);
+  // The options' thresholds that are one for the whole map.
+  const int saturated = Above(o.hue_min_saturation);  // S > hue_min_saturation (256: the gate is shut)
+  const int hue_lo = std::min(Above(o.hue_threshold), 91);  // 91: no distance in [0, 90] is above
+  const int sat_lo = Above(o.saturation_threshold);
   cv::Mat map(size(), CV_8UC1);
-  const float vt = float(o.value_threshold), vk = float(o.value_noise_k);
-  const int ht = int(o.hue_threshold), hs = int(o.hue_min_saturation), st = int(o.saturation_threshold);
-  const float smin = float(o.shadow_min_ratio), smax = float(o.shadow_max_ratio);
   for (int r = 0; r < size().height; ++r)
-    SegmentRow(planes[0].ptr<uint8_t>(r), planes[1].ptr<uint8_t>(r), planes[2].ptr<uint8_t>(r),
-               background_planes_[0].ptr<uint8_t>(r), background_planes_[1].ptr<uint8_t>(r),
-               background_planes_[2].ptr<uint8_t>(r), value_spread_.ptr<float>(r), size().width, vt, vk, ht, hs, st,
-               smin, smax, map.ptr<uint8_t>(r));
+    ObjectPixelRow(planes[0].ptr<uint8_t>(r), planes[1].ptr<uint8_t>(r), planes[2].ptr<uint8_t>(r),
+                   background_planes_[0].ptr<uint8_t>(r), background_planes_[1].ptr<uint8_t>(r),
+                   background_planes_[2].ptr<uint8_t>(r), rule->hue_gate.ptr<uint8_t>(r),
+                   rule->value_over.ptr<uint8_t>(r), rule->shadow_lo.ptr<uint8_t>(r), rule->shadow_hi.ptr<uint8_t>(r),
+                   size().width, uint8_t(std::min(saturated, 255)), uint8_t(hue_lo), uint8_t(180 - hue_lo),
+                   uint8_t(std::min(sat_lo, 255)), uint8_t(sat_lo < 256 ? 255 : 0), map.ptr<uint8_t>(r));
+  return map;
+}
+
+cv::Mat BackgroundModel::Segment(const cv::Mat& frame_bgr, const SegmentationOptions& o) const {
+  cv::Mat map = ObjectPixels(frame_bgr, o);
   CleanObjectPixelMap(map, o);
   return map;
 }
@@ -199,6 +304,14 @@ void BackgroundModel::Follow(const cv::Mat& frame_bgr, const cv::Mat& map, doubl
   background_f_.convertTo(background_bgr_, CV_8UC3);
   cv::cvtColor(background_bgr_, background_hsv_, cv::COLOR_BGR2HSV);
   cv::split(background_hsv_, background_planes_);
+  // The background changed: the thresholds made from it are made again.
+  std::shared_ptr<const Rule> last;
+  {
+    std::lock_guard<std::mutex> lock(rules_->mu);
+    last = rules_->last ? rules_->last : rules_->before_follow;
+  }
+  rules_ = std::make_shared<Rules>();
+  rules_->before_follow = last;
 }
 
 void CleanObjectPixelMap(cv::Mat& map, const SegmentationOptions& o) {

@@ -12,6 +12,7 @@
 // the remaining components are filled when they are small.
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -52,8 +53,21 @@ class BackgroundModel {
   explicit BackgroundModel(const std::vector<cv::Mat>& empty_frames);
 
   /// Segments a BGR frame of the model's size into an object-pixel map (CV_8UC1,
-  /// 0/255). Throws std::invalid_argument if the frame's size or type differs.
+  /// 0/255): ObjectPixels, then CleanObjectPixelMap. Throws std::invalid_argument
+  /// if the frame's size or type differs or the options fail Check().
   cv::Mat Segment(const cv::Mat& frame_bgr, const SegmentationOptions& options = {}) const;
+
+  /// The per-pixel test of paper §3.1 alone, before cleaning (CV_8UC1, 0/255).
+  /// Frame and background in OpenCV's 8-bit HSV (cv::COLOR_BGR2HSV); a pixel is
+  /// object when its circular hue distance |H - H_bg| exceeds hue_threshold with
+  /// both S and S_bg above hue_min_saturation, or |S - S_bg| exceeds
+  /// saturation_threshold, or |V - V_bg| (as floats) exceeds the float
+  /// max(value_threshold, value_noise_k * spread) and is not a shadow: V < V_bg
+  /// with the float ratio V / V_bg in [shadow_min_ratio, shadow_max_ratio]. Each
+  /// comparison is made on the bytes with per-pixel thresholds derived from the
+  /// options once per model (and again after Follow), and gives what the float
+  /// rule gives, to the pixel. Throws as Segment.
+  cv::Mat ObjectPixels(const cv::Mat& frame_bgr, const SegmentationOptions& options = {}) const;
 
   /// Follows slow lighting change (the reference background of paper §3.1, kept
   /// current for live cameras): scales the whole model by the frame's brightness
@@ -74,11 +88,16 @@ class BackgroundModel {
   const cv::Mat& value_spread() const { return value_spread_; }
 
  private:
+  struct Rule;   // per-pixel byte thresholds of one set of options (segmentation.cc)
+  struct Rules;  // the last Rule made, shared by copies of one model
+  std::shared_ptr<const Rule> RuleFor(const SegmentationOptions& options) const;
+
   cv::Mat background_bgr_;  // CV_8UC3 median
   cv::Mat background_hsv_;  // CV_8UC3
   cv::Mat background_planes_[3];  // its H, S, V planes (CV_8UC1 each)
   cv::Mat value_spread_;    // CV_32F, per-pixel robust spread of V (MAD * 1.4826)
   cv::Mat background_f_;    // CV_32FC3, the model Follow() keeps (created on first use)
+  std::shared_ptr<Rules> rules_;  // made afresh by the constructor and by Follow()
 };
 
 /// Removes speckle, fills cracks and holes, drops small components (the cleaning

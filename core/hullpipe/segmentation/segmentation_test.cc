@@ -1,6 +1,8 @@
 #include "hullpipe/segmentation/segmentation.h"
 
 #include <algorithm>
+#include <limits>
+#include <set>
 #include <random>
 #include <vector>
 
@@ -98,44 +100,25 @@ TEST(Segmentation, AFollowingBackgroundKeepsUpWithABrightnessRamp) {
   EXPECT_LT(worst_fixed, 0.95) << "control: the ramp must defeat a fixed background, or the test shows nothing";
 }
 
-// The per-pixel rule written plainly, as it was before it was vectorized: the
-// model's test must give exactly this map (before cleaning) for any frame.
-cv::Mat ReferenceRule(const std::vector<cv::Mat>& bg, const cv::Mat& frame, const SegmentationOptions& o) {
-  cv::Mat median(frame.size(), CV_8UC3), hsv, bg_hsv;
-  std::vector<cv::Mat> bg_v(bg.size());
-  for (size_t i = 0; i < bg.size(); ++i) {
-    cv::Mat h;
-    cv::cvtColor(bg[i], h, cv::COLOR_BGR2HSV);
-    cv::extractChannel(h, bg_v[i], 2);
-  }
-  for (int r = 0; r < frame.rows; ++r)
-    for (int c = 0; c < frame.cols; ++c)
-      for (int ch = 0; ch < 3; ++ch) {
-        std::vector<uint8_t> v;
-        for (const auto& b : bg) v.push_back(b.at<cv::Vec3b>(r, c)[ch]);
-        std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-        median.at<cv::Vec3b>(r, c)[ch] = v[v.size() / 2];
-      }
+// The per-pixel rule written plainly, in floats and doubles as the options
+// state it (before it was vectorized): the model's test must give exactly this
+// map (before cleaning) for any frame, given its background and spread.
+cv::Mat ReferenceRule(const cv::Mat& median, const cv::Mat& spread, const cv::Mat& frame,
+                      const SegmentationOptions& o) {
+  cv::Mat hsv, bg_hsv;
   cv::cvtColor(median, bg_hsv, cv::COLOR_BGR2HSV);
   cv::cvtColor(frame, hsv, cv::COLOR_BGR2HSV);
   cv::Mat map(frame.size(), CV_8UC1);
   for (int r = 0; r < frame.rows; ++r)
     for (int c = 0; c < frame.cols; ++c) {
-      std::vector<uint8_t> v;
-      for (const auto& b : bg_v) v.push_back(b.at<uint8_t>(r, c));
-      std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-      const int med = v[v.size() / 2];
-      for (auto& x : v) x = uint8_t(std::abs(int(x) - med));
-      std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-      const float spread = 1.4826f * v[v.size() / 2];
       const cv::Vec3b f = hsv.at<cv::Vec3b>(r, c), b = bg_hsv.at<cv::Vec3b>(r, c);
       int dh = std::abs(int(f[0]) - int(b[0]));
       dh = std::min(dh, 180 - dh);
       const bool hue_differs = f[1] > o.hue_min_saturation && b[1] > o.hue_min_saturation && dh > o.hue_threshold;
-      const bool sat_differs = std::abs(int(f[1]) - int(b[1])) > int(o.saturation_threshold);
+      const bool sat_differs = std::abs(int(f[1]) - int(b[1])) > o.saturation_threshold;
       const float dv = float(f[2]) - float(b[2]);
       const bool value_differs =
-          std::abs(dv) > std::max(float(o.value_threshold), float(o.value_noise_k) * spread);
+          std::abs(dv) > std::max(float(o.value_threshold), float(o.value_noise_k) * spread.at<float>(r, c));
       bool object = hue_differs || sat_differs || value_differs;
       if (object && !hue_differs && !sat_differs && dv < 0 && b[2] > 0) {
         const float ratio = float(f[2]) / float(b[2]);
@@ -217,12 +200,35 @@ TEST(Segmentation, TheLearntBackgroundIsThePerPixelMedianAndSpread) {
   EXPECT_GT(cv::countNonZero(BackgroundModel(noisy).value_spread()), 100);
 }
 
-TEST(Segmentation, TheVectorizedTestGivesExactlyThePlainRule) {
-  // Noisy backgrounds (a value spread), frames with dark, light and coloured
-  // patches and shadows of every ratio, at odd widths (vector tails).
+// The byte test with its per-pixel thresholds gives the float rule's map to the
+// pixel: noisy backgrounds (a value spread), frames with dark, light and
+// coloured patches and shadows of every ratio, widths around the 16-byte steps
+// (vector tails), and options at their limits: thresholds of 0, fractional
+// ones, ones no difference reaches (hue 90, saturation 255 and above, an
+// infinite noise factor), a hue gate that is always open (saturation below 0)
+// or always shut (255), shadows of one ratio, of none and of every ratio.
+// After Follow the model's thresholds follow its background.
+TEST(Segmentation, TheByteTestGivesExactlyTheFloatRuleForAnyOptions) {
+  std::vector<SegmentationOptions> options(14);
+  options[1].value_noise_k = 1.5, options[1].shadow_min_ratio = 0.3, options[1].hue_threshold = 5;
+  options[2].value_threshold = 0, options[2].value_noise_k = 0;
+  options[3].value_threshold = 12.5, options[3].value_noise_k = 2.25, options[3].hue_threshold = 7.5,
+  options[3].saturation_threshold = 20.5, options[3].hue_min_saturation = 30.5;
+  options[4].hue_threshold = 90, options[4].saturation_threshold = 255, options[4].value_threshold = 255;
+  options[5].saturation_threshold = 1e9, options[5].value_noise_k = std::numeric_limits<double>::infinity();
+  options[6].hue_min_saturation = -1, options[6].hue_threshold = 0, options[6].saturation_threshold = 0;
+  options[7].hue_min_saturation = 255;
+  options[8].hue_min_saturation = 254.5, options[8].value_threshold = 254.5;
+  options[9].shadow_min_ratio = options[9].shadow_max_ratio = 0.5;
+  options[10].shadow_min_ratio = 0, options[10].shadow_max_ratio = 1;
+  options[11].shadow_min_ratio = options[11].shadow_max_ratio = 1;
+  options[12].shadow_min_ratio = options[12].shadow_max_ratio = 0;
+  options[13].value_noise_k = 1e6, options[13].value_threshold = 0.25;
   std::mt19937 rng(7);
   std::uniform_int_distribution<int> byte(0, 255), noise(-6, 6);
-  for (const cv::Size size : {cv::Size(37, 11), cv::Size(64, 9), cv::Size(5, 3)}) {
+  int cases = 0;
+  for (const cv::Size size : {cv::Size(37, 11), cv::Size(64, 9), cv::Size(5, 3), cv::Size(15, 2), cv::Size(16, 2),
+                              cv::Size(17, 2), cv::Size(1, 4)}) {
     cv::Mat base(size, CV_8UC3);
     cv::randu(base, 0, 256);
     std::vector<cv::Mat> bg;
@@ -232,38 +238,65 @@ TEST(Segmentation, TheVectorizedTestGivesExactlyThePlainRule) {
         for (int ch = 0; ch < 3; ++ch) (*it)[ch] = cv::saturate_cast<uint8_t>((*it)[ch] + noise(rng));
       bg.push_back(b);
     }
-    const BackgroundModel model(bg);
-    for (int trial = 0; trial < 4; ++trial) {
-      cv::Mat frame = base.clone();
+    BackgroundModel model(bg);
+    auto frame_like = [&](const cv::Mat& from) {
+      cv::Mat frame = from.clone();
       for (auto it = frame.begin<cv::Vec3b>(); it != frame.end<cv::Vec3b>(); ++it) {
         const int kind = byte(rng) % 4;  // unchanged+noise, shadow, new colour, brighter
         for (int ch = 0; ch < 3; ++ch) {
           const int v = (*it)[ch];
-          (*it)[ch] = cv::saturate_cast<uint8_t>(kind == 0 ? v + noise(rng) : kind == 1 ? v * (30 + byte(rng) % 70) / 100
+          (*it)[ch] = cv::saturate_cast<uint8_t>(kind == 0 ? v + noise(rng) : kind == 1 ? v * (30 + byte(rng) % 71) / 100
                                                  : kind == 2 ? byte(rng) : v + 40);
         }
       }
-      SegmentationOptions o;
-      o.open_radius = o.close_radius = 0;  // the rule alone: no cleaning...
-      o.min_component_fraction = 0;
-      o.min_component_ratio = 0;
-      o.max_hole_fraction = 0;
-      if (trial % 2) {
-        o.value_noise_k = 1.5;
-        o.shadow_min_ratio = 0.3;
-        o.shadow_max_ratio = 0.95;
-        o.hue_threshold = 5;
+      return frame;
+    };
+    for (int trial = 0; trial < 3; ++trial) {
+      const cv::Mat frame = frame_like(base);
+      for (size_t k = 0; k < options.size(); ++k) {
+        const cv::Mat ref = ReferenceRule(model.background_bgr(), model.value_spread(), frame, options[k]);
+        const cv::Mat got = model.ObjectPixels(frame, options[k]);
+        EXPECT_EQ(cv::countNonZero(got != ref), 0) << size << " trial " << trial << " options " << k;
+        ++cases;
       }
-      const cv::Mat ref = ReferenceRule(bg, frame, o);
-      // ...but the components' cleaning still runs: compare with it applied to the reference.
-      cv::Mat expected = ref.clone();
-      CleanObjectPixelMap(expected, o);
-      const cv::Mat got = model.Segment(frame, o);
-      EXPECT_EQ(cv::countNonZero(got != expected), 0) << size << " trial " << trial;
-      EXPECT_GT(cv::countNonZero(ref), 0);
-      EXPECT_LT(cv::countNonZero(ref), int(ref.total()));
     }
+    // The background moves (Follow): the thresholds are made again from it
+    // (those of the spread and of the shadow ratios carried over where the
+    // options are the same: the default options are the last and the first).
+    (void)model.ObjectPixels(base, options[0]);
+    const cv::Mat before = model.background_bgr().clone();
+    const cv::Mat lit = base * 0.6;
+    model.Follow(lit, cv::Mat::zeros(size, CV_8UC1), 1.0);
+    const cv::Mat frame = frame_like(base);
+    ASSERT_GT(cv::norm(model.background_bgr(), before, cv::NORM_INF), 20) << "control: the background moved";
+    for (size_t k = 0; k < options.size(); ++k) {
+      const cv::Mat ref = ReferenceRule(model.background_bgr(), model.value_spread(), frame, options[k]);
+      EXPECT_EQ(cv::countNonZero(model.ObjectPixels(frame, options[k]) != ref), 0) << size << " after Follow, options " << k;
+    }
+    // Segment is the test, then the cleaning.
+    cv::Mat expected = model.ObjectPixels(frame);
+    CleanObjectPixelMap(expected, SegmentationOptions{});
+    EXPECT_EQ(cv::countNonZero(model.Segment(frame) != expected), 0) << size;
   }
+  EXPECT_EQ(cases, 7 * 3 * 14);
+  // Controls: the options tell the maps apart (a threshold read wrongly would
+  // show), and the test throws on options Check() refuses.
+  cv::Mat base(24, 40, CV_8UC3);
+  cv::randu(base, 0, 256);
+  const BackgroundModel model(std::vector<cv::Mat>{base});
+  cv::Mat frame = base.clone();
+  cv::randu(frame(cv::Rect(0, 0, 40, 12)), 0, 256);
+  frame(cv::Rect(0, 12, 40, 12)) *= 0.7;
+  std::set<std::vector<uint8_t>> distinct;
+  for (const auto& o : options) {
+    const cv::Mat m = model.ObjectPixels(frame, o);
+    distinct.insert(std::vector<uint8_t>(m.begin<uint8_t>(), m.end<uint8_t>()));
+  }
+  EXPECT_GE(distinct.size(), 8u);
+  SegmentationOptions bad;
+  bad.value_threshold = -1;
+  EXPECT_THROW(model.ObjectPixels(frame, bad), std::invalid_argument);
+  EXPECT_THROW(model.Segment(frame, bad), std::invalid_argument);
 }
 
 // Cleaning only around the object pixels gives the whole map's cleaning pixel
