@@ -684,6 +684,14 @@ int main(int argc, char** argv) {
     std::snprintf(frames, sizeof frames, "644x486, %zu frames", bg.size());
     Row("background learnt (1 camera)", frames, MedianMs(repeats, [&] { (void)BackgroundModel(bg); }));
     Row("segmentation (1 camera)", "644x486", MedianMs(repeats * 3, [&] { (void)model.Segment(f.images[0]); }));
+    // Its parts: the per-pixel test (HSV conversion included) and the cleaning.
+    Row("  object-pixel test", "644x486, before cleaning",
+        MedianMs(repeats * 3, [&] { (void)model.ObjectPixels(f.images[0]); }));
+    const cv::Mat raw = model.ObjectPixels(f.images[0]);
+    Row("  cleaning", "644x486", MedianMs(repeats * 3, [&] {
+          cv::Mat m = raw.clone();
+          CleanObjectPixelMap(m, SegmentationOptions{});
+        }));
   }
 
   std::optional<gl::EglContext> ctx;
