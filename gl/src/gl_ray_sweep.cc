@@ -138,12 +138,66 @@ bool Aim(ivec2 px, out float s0, out float s1) {
   s1 = hi;
   return true;
 }
+
+// Narrows [a, b] to where g0 + t g1 >= 0 (empty: a > b).
+void KeepWhereNonNegative(float g0, float g1, inout float a, inout float b) {
+  if (g1 > 0.0) a = max(a, -g0 / g1);
+  else if (g1 < 0.0) b = min(b, -g0 / g1);
+  else if (g0 < 0.0) { a = INF; b = -INF; }
+}
+
+// The part [lo, hi] of the current ray's [s0, s1] outside which at least two
+// cameras veto every point, so that the march need not ask about them: a
+// vetoed-twice point is neither inside nor a near miss, and the march returns
+// the same depth (the CPU's empty-space grid skips the same points,
+// docs/gpu.md). An undistorted camera that sees the whole segment (both ends
+// in its image and lens disc, which are convex) vetoes every point whose pixel
+// lies outside its map's object rectangle; grown by a pixel here, so that the
+// float arithmetic of the bounds and of VoteAt cannot disagree.
+void Narrow(float s0, float s1, out float lo, out float hi) {
+  float lo1 = -INF, lo2 = -INF, hi1 = INF, hi2 = INF;  // the two largest starts, the two smallest ends
+  for (int c = 0; c < u_ncam; ++c) {
+    int e = g_v.idx.z + c;
+    vec4 k = cams[e].k, p = cams[e].p, intr = cams[e].intr;
+    if (k.x != 0.0 || k.y != 0.0 || k.z != 0.0 || p.x != 0.0 || p.y != 0.0) continue;
+    vec3 B = vec3(dot(cams[e].m0.xyz, g_ray), dot(cams[e].m1.xyz, g_ray), dot(cams[e].m2.xyz, g_ray));
+    vec3 A = cams[e].a.xyz;
+    float skew = cams[e].a.w;
+    vec3 X0 = A + s0 * B, X1 = A + s1 * B;
+    if (!(X0.z > 1e-3 && X1.z > 1e-3)) continue;
+    vec2 n0 = X0.xy / X0.z, n1 = X1.xy / X1.z;
+    if (!(dot(n0, n0) <= k.w && dot(n1, n1) <= k.w)) continue;
+    vec2 u0 = vec2(intr.x * n0.x + skew * n0.y + intr.z, intr.y * n0.y + intr.w);
+    vec2 u1 = vec2(intr.x * n1.x + skew * n1.y + intr.z, intr.y * n1.y + intr.w);
+    if (!(u0.x >= 0.0 && u0.y >= 0.0 && u0.x < p.z && u0.y < p.w && u1.x >= 0.0 && u1.y >= 0.0 && u1.x < p.z &&
+          u1.y < p.w))
+      continue;
+    // u(t) = U(A + t B) / z(t), U(X) = fx X.x + skew X.y + cx X.z, z > 0 on the segment:
+    // u >= x0 is U(A) - x0 A.z + t (U(B) - x0 B.z) >= 0, and so on.
+    vec4 r = cams[e].rect + vec4(-1.0, -1.0, 1.0, 1.0);
+    float ua = intr.x * A.x + skew * A.y + intr.z * A.z, ub = intr.x * B.x + skew * B.y + intr.z * B.z;
+    float va = intr.y * A.y + intr.w * A.z, vb = intr.y * B.y + intr.w * B.z;
+    float a = s0, b = s1;
+    KeepWhereNonNegative(ua - r.x * A.z, ub - r.x * B.z, a, b);
+    KeepWhereNonNegative(r.z * A.z - ua, r.z * B.z - ub, a, b);
+    KeepWhereNonNegative(va - r.y * A.z, vb - r.y * B.z, a, b);
+    KeepWhereNonNegative(r.w * A.z - va, r.w * B.z - vb, a, b);
+    if (a > b) { a = INF; b = -INF; }  // this camera vetoes the whole segment
+    if (a > lo1) { lo2 = lo1; lo1 = a; } else if (a > lo2) { lo2 = a; }
+    if (b < hi1) { hi2 = hi1; hi1 = b; } else if (b < hi2) { hi2 = b; }
+  }
+  lo = max(s0, lo2);
+  hi = min(s1, hi2);
+}
 )";
 
 std::string MarchCs() {
   return std::string("#version 450 core\nlayout(local_size_x = 8, local_size_y = 8) in;\n") + kCameraBufferGlsl +
          kObjectPixelBitGlsl + kRayGlsl + R"(
 layout(r32f, binding = 0) uniform writeonly image2DArray u_out;
+layout(std430, binding = 4) buffer Counter { uint g_asked; };
+uniform int u_narrow;  // 1: skip where two cameras' object rectangles veto (Narrow)
+uniform int u_count;   // 1: add the plane points asked to g_asked
 void main() {
   int z = int(gl_GlobalInvocationID.z);
   g_v = views[z];
@@ -155,7 +209,11 @@ void main() {
     bool want = u_refine > 0;
     int near_k[8];
     int n_near = 0, hit = -1;
-    for (int k = LowerBound(s0); k < g_v.idx.y && Plane(k) <= s1; ++k) {
+    float m0 = s0, m1 = s1;
+    if (u_narrow != 0) Narrow(s0, s1, m0, m1);
+    uint asked = 0u;
+    for (int k = LowerBound(m0); k < g_v.idx.y && Plane(k) <= m1; ++k) {
+      ++asked;
       bool near;
       if (InsideAt(Plane(k), want, near)) { hit = k; break; }
       if (near && n_near < 8) near_k[n_near++] = k;
@@ -179,6 +237,7 @@ void main() {
     }
     if (!done && hit >= 0)
       result = want && hit > 0 ? Bisect(max(Plane(hit - 1), s0), Plane(hit), u_refine) : Plane(hit);
+    if (u_count != 0 && asked > 0u) atomicAdd(g_asked, asked);
   }
   imageStore(u_out, ivec3(px, z), vec4(result, 0.0, 0.0, 0.0));
 }
@@ -295,8 +354,12 @@ GlRaySweep::GlRaySweep()
       cams_(MakeBuffer()),
       planes_(MakeBuffer()),
       views_(MakeBuffer()),
+      counter_(MakeBuffer()),
       tile_target_(std::make_unique<Target>()),
-      view_target_(std::make_unique<Target>()) {}
+      view_target_(std::make_unique<Target>()) {
+  const uint32_t zero = 0;
+  glNamedBufferStorage(counter_.get(), sizeof zero, &zero, GL_DYNAMIC_STORAGE_BIT);
+}
 
 GlRaySweep::~GlRaySweep() = default;
 
@@ -365,6 +428,12 @@ void GlRaySweep::Run(const VolumeQuery& q, const std::vector<NovelView>& views,
   glBindTextureUnit(0, maps_->texture());
 
   SetPassUniforms(march_.get(), q, refine);
+  const uint32_t zero = 0;
+  if (counting_) glNamedBufferSubData(counter_.get(), 0, sizeof zero, &zero);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, counter_.get());
+  glUniform1i(glGetUniformLocation(march_.get(), "u_narrow"), narrowing_ ? 1 : 0);
+  glUniform1i(glGetUniformLocation(march_.get(), "u_count"), counting_ ? 1 : 0);
+  counted_ = counting_;
   glBindImageTexture(0, target.swept.get(), 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_R32F);
   glDispatchCompute(Groups(max_rw), Groups(max_rh), GLuint(layers));
   target.result = target.swept.get();
@@ -395,6 +464,7 @@ bool GlRaySweep::SweepOnGpu(const VolumeQuery& q, const NovelView& view, const s
     throw std::invalid_argument("GlRaySweep: the query has " + std::to_string(q.size()) +
                                 " cameras, the last Upload " + std::to_string(uploaded_cameras_));
   tile_valid_ = false;
+  counted_ = false;
   tile_size_ = tile.size();
   if (depths.empty() || tile.area() == 0 || q.hull_box().empty()) return false;
   Run(q, {view}, {depths}, {tile}, refine, *tile_target_);
@@ -428,9 +498,19 @@ void GlRaySweep::SweepViews(const VolumeQuery& q, const std::vector<NovelView>& 
   if (q.hull_box().empty())
     for (auto& d : used) d.clear();
   view_sizes_.clear();
+  counted_ = false;
   for (const NovelView& v : views) view_sizes_.emplace_back(v.width, v.height);
   if (views.empty()) return;
   Run(q, views, used, tiles, refine, *view_target_);
+}
+
+uint64_t GlRaySweep::points_asked() const {
+  if (!counted_) return 0;
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  uint32_t n = 0;
+  glGetNamedBufferSubData(counter_.get(), 0, sizeof n, &n);
+  CheckGl("ray-march count read-back");
+  return n;
 }
 
 GLuint GlRaySweep::views_texture() const { return view_target_->result; }

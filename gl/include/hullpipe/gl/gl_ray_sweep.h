@@ -78,6 +78,16 @@ class GlRaySweep {
   /// std::out_of_range for a k it did not sweep.
   cv::Mat ReadView(size_t k) const;
 
+  /// Whether the march skips the parts of each ray where at least two cameras
+  /// veto every point by their maps' object rectangles alone (docs/gpu.md,
+  /// "Narrowing the march"; default on). The depths are the same either way.
+  void set_narrowing(bool on) { narrowing_ = on; }
+  /// Whether each sweep counts the plane points its march asks the cameras
+  /// about (an atomic add per pixel; default off, for tests and benchmarks).
+  void set_counting(bool on) { counting_ = on; }
+  /// The last sweep's count (0 when it did not count). Waits for the GPU.
+  uint64_t points_asked() const;
+
  private:
   struct Target;  // the pass images of one kind of sweep
   void Run(const VolumeQuery& q, const std::vector<NovelView>& views, const std::vector<std::vector<double>>& depths,
@@ -85,7 +95,8 @@ class GlRaySweep {
   Program march_, edges_;
   std::unique_ptr<LayerUploader> maps_;
   size_t uploaded_cameras_ = 0;
-  Buffer cams_, planes_, views_;
+  Buffer cams_, planes_, views_, counter_;
+  bool narrowing_ = true, counting_ = false, counted_ = false;
   std::unique_ptr<Target> tile_target_, view_target_;
   std::vector<cv::Size> view_sizes_;
   bool tile_valid_ = false;
