@@ -179,11 +179,20 @@ TEST(EmptySpace, ARaysSamplesOutsideItsDepthBoundsAreVetoedTwice) {
 }
 
 // The sweep with the grid against the sweep without, bit for bit.
+// `unfitted`: planes from 0.3 m in front of the hull box's centre to 0.3 m
+// behind, not fitted to the box, so that planes lie inside the hull and on
+// the rays' ends.
 void ExpectSameSweep(const std::vector<CameraMap>& views, const NovelView& view, int planes, int refine,
-                     const cv::Rect& tile, int64_t* skipped) {
+                     const cv::Rect& tile, int64_t* skipped, bool unfitted = false) {
   const VolumeQuery with = Query(views, 32), without = Query(views, 0);
   PlaneSweepOptions o;
   o.num_planes = planes;
+  if (unfitted) {
+    const double dist = (view.world_from_eye.Inverse() * with.hull_box().Center()).z();
+    o.fit_planes_to_hull_box = false;
+    o.near = dist - 0.3;
+    o.far = dist + 0.3;
+  }
   const auto depths = SweepPlaneDepths(with, view, o);
   ASSERT_FALSE(depths.empty());
   SweepStats sw, sn;
@@ -227,6 +236,8 @@ TEST(EmptySpace, SkippingLeavesTheSweepUnchangedBitForBit) {
   const Distortion d{-0.25, 0.08, 0.001, -0.001, -0.01};
   ExpectSameSweep(FigureViews(6, d, 0.02), side, 100, 6, {0, 0, 120, 90}, &skipped);
   EXPECT_GT(skipped, 10000);  // control: the grid answered many of the sweeps' queries
+  // Planes inside the hull, one at each end of the rays' parts.
+  for (const int refine : {0, 6}) ExpectSameSweep(FigureViews(4), side, 41, refine, {0, 0, 120, 90}, &skipped, true);
 }
 
 // An eye inside the hull box (a participant standing in the workspace): no
