@@ -205,8 +205,14 @@ std::shared_ptr<const BackgroundModel::Rule> BackgroundModel::RuleFor(const Segm
   rule->shadow_max_ratio = o.shadow_max_ratio;
   // S_bg > hue_min_saturation.
   const int saturated = Above(o.hue_min_saturation);
-  rule->hue_gate = cv::Mat::zeros(size(), CV_8UC1);
-  if (saturated < 256) cv::compare(background_planes_[1], saturated, rule->hue_gate, cv::CMP_GE);
+  // (No cv::Mat::zeros: its expression's first use from several cameras'
+  // threads at once is a race inside OpenCV.)
+  if (saturated < 256) {
+    cv::compare(background_planes_[1], saturated, rule->hue_gate, cv::CMP_GE);
+  } else {
+    rule->hue_gate.create(size(), CV_8UC1);
+    rule->hue_gate.setTo(cv::Scalar(0));
+  }
   // |dv| > max(value_threshold, k * spread) in floats, as the rule states it;
   // Check() keeps the threshold >= 0, so the float bound is >= 0 or NaN.
   if (before && before->value_threshold == o.value_threshold && before->value_noise_k == o.value_noise_k) {
