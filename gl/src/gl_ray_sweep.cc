@@ -159,19 +159,12 @@ void Narrow(float s0, float s1, out float lo, out float hi) {
   for (int c = 0; c < u_ncam; ++c) {
     int e = g_v.idx.z + c;
     vec4 k = cams[e].k, p = cams[e].p, intr = cams[e].intr;
-    if (k.x != 0.0 || k.y != 0.0 || k.z != 0.0 || p.x != 0.0 || p.y != 0.0) continue;
+    if (k.x != 0.0 || k.y != 0.0 || k.z != 0.0 || p.x != 0.0 || p.y != 0.0) continue;  // curved projections
     vec3 B = vec3(dot(cams[e].m0.xyz, g_ray), dot(cams[e].m1.xyz, g_ray), dot(cams[e].m2.xyz, g_ray));
     vec3 A = cams[e].a.xyz;
     float skew = cams[e].a.w;
     vec3 X0 = A + s0 * B, X1 = A + s1 * B;
-    if (!(X0.z > 1e-3 && X1.z > 1e-3)) continue;
-    vec2 n0 = X0.xy / X0.z, n1 = X1.xy / X1.z;
-    if (!(dot(n0, n0) <= k.w && dot(n1, n1) <= k.w)) continue;
-    vec2 u0 = vec2(intr.x * n0.x + skew * n0.y + intr.z, intr.y * n0.y + intr.w);
-    vec2 u1 = vec2(intr.x * n1.x + skew * n1.y + intr.z, intr.y * n1.y + intr.w);
-    if (!(u0.x >= 0.0 && u0.y >= 0.0 && u0.x < p.z && u0.y < p.w && u1.x >= 0.0 && u1.y >= 0.0 && u1.x < p.z &&
-          u1.y < p.w))
-      continue;
+    if (!(X0.z > 1e-3 && X1.z > 1e-3) || CamPixel(e, X0).x < 0.0 || CamPixel(e, X1).x < 0.0) continue;
     // u(t) = U(A + t B) / z(t), U(X) = fx X.x + skew X.y + cx X.z, z > 0 on the segment:
     // u >= x0 is U(A) - x0 A.z + t (U(B) - x0 B.z) >= 0, and so on.
     vec4 r = cams[e].rect + vec4(-1.0, -1.0, 1.0, 1.0);
