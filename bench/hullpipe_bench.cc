@@ -708,27 +708,38 @@ int main(int argc, char** argv) {
   }
 
   if (!synthetic) {
-    // Segmentation of one 644x486 camera frame (the capture node does 4 per frame).
+    // Segmentation of one camera frame (the capture node does one per camera
+    // per frame), where the rig gives a background to learn; a rig of
+    // ready-made maps (masks) has none, and its maps are not segmented.
     const Rig r = LoadRig(rig);
-    cv::VideoCapture bgcap(r.cameras[0].background);
     std::vector<cv::Mat> bg;
-    cv::Mat img;
-    while (bg.size() < 60 && bgcap.read(img)) bg.push_back(img.clone());
-    const BackgroundModel model(bg);
-    // Learning it: capture_node's start-up, once per camera (a 20-camera rig's
-    // cameras on its cores).
-    char frames[48];
-    std::snprintf(frames, sizeof frames, "644x486, %zu frames", bg.size());
-    Row("background learnt (1 camera)", frames, MedianMs(repeats, [&] { (void)BackgroundModel(bg); }));
-    Row("segmentation (1 camera)", "644x486", MedianMs(repeats * 3, [&] { (void)model.Segment(f.images[0]); }));
-    // Its parts: the per-pixel test (HSV conversion included) and the cleaning.
-    Row("  object-pixel test", "644x486, before cleaning",
-        MedianMs(repeats * 3, [&] { (void)model.ObjectPixels(f.images[0]); }));
-    const cv::Mat raw = model.ObjectPixels(f.images[0]);
-    Row("  cleaning", "644x486", MedianMs(repeats * 3, [&] {
-          cv::Mat m = raw.clone();
-          CleanObjectPixelMap(m, SegmentationOptions{});
-        }));
+    if (!r.cameras[0].background.empty()) {
+      cv::VideoCapture bgcap(r.cameras[0].background);
+      cv::Mat img;
+      while (bg.size() < 60 && bgcap.read(img)) bg.push_back(img.clone());
+    }
+    if (bg.empty()) {
+      std::fprintf(stderr, "no segmentation rows: %s: camera %d has no background %s\n", rig.c_str(),
+                   r.cameras[0].camera.id,
+                   r.cameras[0].background.empty() ? "(its maps are given)"
+                                                   : ("frames in " + r.cameras[0].background).c_str());
+    } else {
+      const BackgroundModel model(bg);
+      const std::string size = std::to_string(f.images[0].cols) + "x" + std::to_string(f.images[0].rows);
+      // Learning it: capture_node's start-up, once per camera (a 20-camera rig's
+      // cameras on its cores).
+      Row("background learnt (1 camera)", size + ", " + std::to_string(bg.size()) + " frames",
+          MedianMs(repeats, [&] { (void)BackgroundModel(bg); }));
+      Row("segmentation (1 camera)", size, MedianMs(repeats * 3, [&] { (void)model.Segment(f.images[0]); }));
+      // Its parts: the per-pixel test (HSV conversion included) and the cleaning.
+      Row("  object-pixel test", size + ", before cleaning",
+          MedianMs(repeats * 3, [&] { (void)model.ObjectPixels(f.images[0]); }));
+      const cv::Mat raw = model.ObjectPixels(f.images[0]);
+      Row("  cleaning", size, MedianMs(repeats * 3, [&] {
+            cv::Mat m = raw.clone();
+            CleanObjectPixelMap(m, SegmentationOptions{});
+          }));
+    }
   }
 
   std::optional<gl::EglContext> ctx;
@@ -777,9 +788,10 @@ int main(int argc, char** argv) {
       for (const auto& im : images) cams.push_back(im.camera);
       PlaneSweepOptions vo;
       vo.num_planes = 48;
-      Row("visibility maps (4 cameras)", "80 px across, 48 planes, refine 6",
+      const std::string vis_name = "visibility maps (" + std::to_string(cams.size()) + " cameras)";
+      Row(vis_name, "80 px across, 48 planes, refine 6",
           MedianMs(repeats, [&] { (void)ComputeHullVisibility(q, cams, 80, vo, 6); }));
-      Row("visibility maps (4 cameras)", "80 px across, 48 planes, refine 0",
+      Row(vis_name, "80 px across, 48 planes, refine 0",
           MedianMs(repeats, [&] { (void)ComputeHullVisibility(q, cams, 80, vo, 0); }));
       // A frameset's first sweep, as recon's: the query made, then the maps
       // (which make the empty-space grid), without the grid and with it.
