@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -243,6 +244,23 @@ class CellProver {
   // True if no hull point lies in `cell`. *hint: the camera tried first, set to
   // the one that proved it (neighbouring cells share it).
   bool Empty(const Aabb& cell, size_t* hint) const;
+  // What a searched cell's cameras said, as far as its search needed them
+  // (bit i: camera i; rigs of at most 64 cameras).
+  struct CellCameras {
+    uint64_t may = 0;   // may put a point of the cell on an object pixel
+    uint64_t part = 0;  // see part of it, on background wherever they do
+  };
+  // Empty(cell) for a cell inside `parent`, a cell found not empty, asking
+  // only the cameras that can still decide: a camera that misses the parent
+  // misses the cell, and one on background wherever it sees the parent is on
+  // background wherever it sees the cell (its projection lies within the
+  // parent's). So the cameras that may see the cell are among the parent's
+  // `may`, and only those and the parent's `part` (which may see all of the
+  // cell on background) can prove it empty. Proves every cell Empty() proves,
+  // and others whose own corner rectangle is looser than the parent's. When
+  // false, *own holds the cell's cameras for its halves.
+  bool EmptyWithin(const Aabb& cell, const CellCameras& parent, size_t* hint, CellCameras* own) const;
+  size_t size() const { return views_.size(); }
   // True if camera i's map has no object pixel in [x0, x1) x [y0, y1) (within
   // the image), from the summed-area table of its object rectangle.
   bool NoObjectPixel(size_t i, int x0, int y0, int x1, int y1) const {
@@ -387,6 +405,52 @@ bool CellProver::Empty(const Aabb& cell, size_t* hint_io) const {
   return seeing < required_seen_;
 }
 
+bool CellProver::EmptyWithin(const Aabb& cell, const CellCameras& parent, size_t* hint_io, CellCameras* own) const {
+  const size_t n = views_.size();
+  size_t& hint = *hint_io;
+  *own = {};
+  int left = std::popcount(parent.may), seeing = 0;
+  // Asks camera i; true when its verdict proves the cell empty.
+  auto proves = [&](size_t i) {
+    --left;
+    switch (Classify(cell, i, 0)) {
+      case Verdict::kBackground: return hint = i, true;
+      case Verdict::kMisses:
+        if (outside_vetoes_) return hint = i, true;
+        break;
+      case Verdict::kPartBackground:
+        if (outside_vetoes_) return hint = i, true;
+        own->part |= uint64_t{1} << i;
+        break;
+      case Verdict::kMaySee:
+        ++seeing;
+        own->may |= uint64_t{1} << i;
+        break;
+    }
+    return false;
+  };
+  uint64_t ask = parent.may;
+  if (hint < n && (ask >> hint & 1)) {
+    ask &= ~(uint64_t{1} << hint);
+    if (proves(hint)) return true;
+  }
+  for (; ask; ask &= ask - 1) {
+    // Too few cameras left that may see a point of it: empty whatever they say.
+    if (seeing + left < required_seen_) return true;
+    if (proves(size_t(std::countr_zero(ask)))) return true;
+  }
+  if (seeing < required_seen_) return true;
+  for (uint64_t rest = parent.part; rest; rest &= rest - 1) {
+    const size_t i = size_t(std::countr_zero(rest));
+    const Verdict v = Classify(cell, i, 0);
+    if (v == Verdict::kBackground) return hint = i, true;
+    // Its own rectangle may reach object pixels the parent's did not: still
+    // on background wherever it sees the cell (the parent's bound holds).
+    if (v != Verdict::kMisses) own->part |= uint64_t{1} << i;
+  }
+  return false;
+}
+
 int CellProver::WholeBackground(const Aabb& cell, int need, size_t* hint_io) const {
   const size_t n = views_.size();
   size_t& hint = *hint_io;
@@ -457,13 +521,17 @@ struct CellCache {
       return size_t(h);
     }
   };
+  struct Verdict {
+    bool empty;
+    detail::CellProver::CellCameras cameras;  // when not empty: for its halves
+  };
   struct Shard {
-    std::unordered_map<Key, bool, Hash> verdicts;
+    std::unordered_map<Key, Verdict, Hash> verdicts;
     std::mutex mutex;
   };
   static constexpr size_t kShards = 64;
   explicit CellCache(bool at_once) : concurrent(at_once) {}
-  std::optional<bool> Find(const Key& k) {
+  std::optional<Verdict> Find(const Key& k) {
     Shard& s = shards[Hash{}(k) % kShards];
     std::unique_lock<std::mutex> lock(s.mutex, std::defer_lock);
     if (concurrent) lock.lock();
@@ -471,7 +539,7 @@ struct CellCache {
     if (it == s.verdicts.end()) return std::nullopt;
     return it->second;
   }
-  void Put(const Key& k, bool v) {
+  void Put(const Key& k, const Verdict& v) {
     Shard& s = shards[Hash{}(k) % kShards];
     std::unique_lock<std::mutex> lock(s.mutex, std::defer_lock);
     if (concurrent) lock.lock();
@@ -482,29 +550,36 @@ struct CellCache {
 };
 std::optional<double> FaceReach(const detail::CellProver& prover, const Aabb& box, double leaf, int face,
                                 CellCache& known, size_t& hint) {
-  auto empty = [&](const Aabb& c) {
+  using Cameras = detail::CellProver::CellCameras;
+  // Up to 64 cameras, a cell asks only the cameras its parent left undecided
+  // (CellProver::EmptyWithin); the box, where the search starts, asks all.
+  const bool within = prover.size() <= 64;
+  const Cameras all{prover.size() >= 64 ? ~uint64_t{0} : (uint64_t{1} << prover.size()) - 1, 0};
+  auto empty = [&](const Aabb& c, const Cameras& parent, Cameras* own) {
     const CellCache::Key key{c.min.x(), c.min.y(), c.min.z(), c.max.x(), c.max.y(), c.max.z()};
-    if (const std::optional<bool> v = known.Find(key)) return *v;
-    const bool e = prover.Empty(c, &hint);
-    known.Put(key, e);
+    if (const std::optional<CellCache::Verdict> v = known.Find(key)) return *own = v->cameras, v->empty;
+    const bool e = within ? prover.EmptyWithin(c, parent, &hint, own) : prover.Empty(c, &hint);
+    known.Put(key, {e, *own});
     return e;
   };
   struct Item {
     double reach;
     Aabb cell;
+    Cameras parent;  // what the cell's parent's cameras said
     bool operator<(const Item& o) const { return reach < o.reach; }
   };
   const int axis = face / 2;
   const double sign = face % 2 ? 1.0 : -1.0;
   auto reach = [&](const Aabb& c) { return sign > 0 ? c.max[axis] : -c.min[axis]; };
   std::priority_queue<Item> queue;
-  queue.push({reach(box), box});
+  queue.push({reach(box), box, all});
   for (int pops = 0; !queue.empty(); ++pops) {
     // A pathological rig: stop where the search stands (still conservative).
     if (pops > 20000) return queue.top().reach;
     const Item it = queue.top();
     queue.pop();
-    if (empty(it.cell)) continue;
+    Cameras own;
+    if (empty(it.cell, it.parent, &own)) continue;
     const Eigen::Vector3d size = it.cell.max - it.cell.min;
     if (size.maxCoeff() <= leaf) return it.reach;
     // Split in two along every axis longer than half the cell's largest side.
@@ -523,7 +598,7 @@ std::optional<double> FaceReach(const detail::CellProver& prover, const Aabb& bo
       }
       parts.swap(next);
     }
-    for (const Aabb& p : parts) queue.push({reach(p), p});
+    for (const Aabb& p : parts) queue.push({reach(p), p, own});
   }
   return std::nullopt;  // every cell proven empty: no hull
 }

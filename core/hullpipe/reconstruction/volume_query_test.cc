@@ -55,28 +55,46 @@ TEST_F(SphereHull, HullBoxContainsTheSphereAndIsTight) {
 }
 
 // A standing capsule in a ring of 6 cameras (three opposite pairs, as labs set
-// them up), under both policies, with and without lens distortion. The hull's
-// box must hold every hull point (conservative) and lie within two leaves of
-// the octree search (leaf: at most the workspace's largest side / 64 and 2 cm; a
-// leaf's projected rectangle reaches past its outline by up to about another)
-// plus the 2-cm sampling step of the hull's own box found here by brute force.
-// The pyramid boxes it starts from are metres wider under kUnknown (each pair of
-// cameras meets along the line between them): a box not tightened fails this.
+// them up), under both policies, with and without lens distortion; and in a
+// dome of 12 distorted cameras whose workspace reaches past what most of them
+// see (as the published dome's does), where a cell's search asks only the
+// cameras its parent left undecided. The hull's box must hold every hull point
+// (conservative) and lie within two leaves of the octree search (leaf: at most
+// the workspace's largest side / 64 and 2 cm; a leaf's projected rectangle
+// reaches past its outline by up to about another) plus the 2-cm sampling step
+// of the hull's own box found here by brute force. The pyramid boxes it starts
+// from are metres wider under kUnknown (each pair of cameras meets along the
+// line between them): a box not tightened fails this.
 TEST(HullBox, TightToTheHullsOwnBoxOnARingAndConservative) {
   SyntheticScene scene;
   scene.shapes.push_back(Shape::Capsule({0.3, -0.2, -0.2}, {0.3, -0.2, -1.5}, 0.15));
+  struct Rig {
+    std::string name;
+    std::vector<Camera> cams;
+    Aabb workspace;
+  };
+  std::vector<Rig> rigs;
   for (const double k1 : {0.0, -0.3}) {
     Distortion d{};
     d[0] = k1;
     const auto cams = RingCameras(6, 3.0, 1.6, {0.3, -0.2, -0.9}, 240, 180, 1.1, d);
-    const Aabb workspace = CommonViewWorkspace(cams);
+    rigs.push_back({k1 ? "ring, distorted" : "ring, pinhole", cams, CommonViewWorkspace(cams)});
+  }
+  {
+    Distortion d{};
+    d[0] = -0.04, d[1] = 0.06;
+    const auto cams = DomeCameras(12, 3.0, {0.3, -0.2, -0.9}, 200, 150, 0.9, d);
+    const Eigen::Vector3d c(0.3, -0.2, -0.9);
+    rigs.push_back({"dome, distorted", cams, Aabb{c - Eigen::Vector3d(1.0, 1.0, 0.9), c + Eigen::Vector3d(1.0, 1.0, 0.9)}});
+  }
+  for (const Rig& rig : rigs) {
+    const Aabb& workspace = rig.workspace;
     ASSERT_FALSE(workspace.empty());
     for (const OutOfView policy : {OutOfView::kUnknown, OutOfView::kOutside}) {
-      SCOPED_TRACE(std::string(k1 ? "distorted, " : "pinhole, ") +
-                   (policy == OutOfView::kUnknown ? "kUnknown" : "kOutside"));
+      SCOPED_TRACE(rig.name + (policy == OutOfView::kUnknown ? ", kUnknown" : ", kOutside"));
       VolumeQueryOptions o;
       o.out_of_view = policy;
-      const VolumeQuery q(test::ExactViews(cams, scene), workspace, o);
+      const VolumeQuery q(test::ExactViews(rig.cams, scene), workspace, o);
       const Aabb& box = q.hull_box();
       ASSERT_FALSE(box.empty());
       // The hull's own box by brute force: every 2 cm of the workspace.
