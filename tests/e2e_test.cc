@@ -1119,6 +1119,36 @@ TEST(Tools, JsonOutputStandsAloneOnStdoutWhileWarningsGoToStderr) {
   }
 }
 
+// A rig of ready-made maps (the published dome: masks, no background videos)
+// through the tools that segment: `vh_eval segmentation`, whose every setting
+// would print the same row, refuses it in one line naming the rig and the
+// masks, exit 1; `hullpipe_bench` leaves out its segmentation rows, says so,
+// and prints the rest (it ended in an uncaught exception before). The bench's
+// hull box row is the positive control that the rig was read.
+TEST(Tools, ARigOfGivenMapsIsRefusedWhereItWouldBeSegmentedAndBenchedElsewhere) {
+  const std::string dome = test::RealRigs()[0];
+  if (!std::filesystem::exists(dome)) GTEST_SKIP() << "no dome at " << dome;
+  const auto out = test::TempDir("given_maps");
+  const std::string seg_log = (out / "seg.log").string(), seg_out = (out / "seg.txt").string();
+  test::Process seg({test::BinDir() + "/vh_eval", "segmentation", "--rig", dome}, seg_out, {}, seg_log);
+  EXPECT_EQ(seg.Wait(60), 1) << test::ReadFile(seg_log);
+  const std::string said = test::ReadFile(seg_log);
+  EXPECT_NE(said.find(dome), std::string::npos) << said;
+  EXPECT_NE(said.find("masks"), std::string::npos) << said;
+  EXPECT_EQ(std::count(said.begin(), said.end(), '\n'), 1) << said;
+  EXPECT_EQ(test::ReadFile(seg_out), "") << "no table";
+  const std::string bench_log = (out / "bench.log").string(), bench_out = (out / "bench.txt").string();
+  test::Process bench({test::BinDir() + "/hullpipe_bench", "--rig", dome, "--frame", "0", "--no-gl", "--repeats", "1"},
+                      bench_out, {}, bench_log);
+  ASSERT_EQ(bench.Wait(120), 0) << test::ReadFile(bench_log);
+  EXPECT_NE(test::ReadFile(bench_log).find("no segmentation rows: " + dome), std::string::npos)
+      << test::ReadFile(bench_log);
+  const std::string table = test::ReadFile(bench_out);
+  EXPECT_NE(table.find("volume query set-up + box    | 20 cameras"), std::string::npos) << table;
+  EXPECT_NE(table.find("visibility maps (20 cameras)"), std::string::npos) << table;
+  EXPECT_EQ(table.find("segmentation (1 camera)"), std::string::npos) << table;
+}
+
 TEST(Tools, VhEvalSweepPrintsOneJsonObjectWithTheDocumentedFields) {
   // The smoke grid of `vh_eval sweep --json`: synthetic, so it runs anywhere.
   const auto out = test::TempDir("vh_eval_sweep");

@@ -14,6 +14,7 @@
 #include "hullpipe/evaluation/held_out_rendering.h"
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/evaluation/synthetic_source.h"
+#include "hullpipe/geometry/calibration.h"
 #include "hullpipe/segmentation/video_rig.h"
 #include "hullpipe/util/logging.h"
 
@@ -237,6 +238,12 @@ int RunHeldOutEval(const HeldOutEvalOptions& o) {
 }
 
 int RunSegmentationEval(const HeldOutEvalOptions& o) {
+  // A camera whose maps are given (masks) is not segmented: every setting
+  // would print the same row.
+  for (const RigCamera& c : LoadRig(o.rig).cameras)
+    if (!c.masks.empty())
+      throw std::invalid_argument(o.rig + ": camera " + std::to_string(c.camera.id) + "'s object-pixel maps are given (masks: " +
+                                  c.masks + "), not segmented: the settings table needs a rig with background videos");
   struct Setting {
     std::string name;
     VideoRigOptions rig;
