@@ -228,18 +228,19 @@ namespace detail {
 // VolumeQuery::ProvesEmpty.
 class CellProver {
  public:
+  // threads: the cameras' integral images made on this many at once.
   CellProver(const std::vector<CameraMap>& views, std::vector<cv::Rect> rects, bool outside_vetoes,
-             int required_seen)
+             int required_seen, int threads)
       : views_(views), rects_(std::move(rects)), outside_vetoes_(outside_vetoes), required_seen_(required_seen) {
     const size_t n = views.size();
     // Integral images of each map within its object pixels' bounding rectangle
     // (none outside it): 0 under a rectangle iff it holds no object pixel.
     sums_.resize(n);
     bounds_.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-      if (rects_[i].area() > 0) cv::integral(views[i].map(rects_[i]), sums_[i], CV_32S);
-      bounds_[i] = BoundsOf(views[i].camera);
-    }
+    for (size_t i = 0; i < n; ++i) bounds_[i] = BoundsOf(views[i].camera);
+    ForEachRowDynamic(int(n), threads, [&](int i, int) {
+      if (rects_[size_t(i)].area() > 0) cv::integral(views[size_t(i)].map(rects_[size_t(i)]), sums_[size_t(i)], CV_32S);
+    });
   }
   // True if no hull point lies in `cell`. *hint: the camera tried first, set to
   // the one that proved it (neighbouring cells share it).
@@ -667,7 +668,7 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
   const bool outside = options_.out_of_view == OutOfView::kOutside;
   hull_box_ = outside ? HullBoundingBox(cams, rects, workspace_)
                       : UnknownPolicyHullBox(cams, rects, workspace_, required_seen_);
-  prover_ = std::make_shared<const detail::CellProver>(views_, rects, outside, required_seen_);
+  prover_ = std::make_shared<const detail::CellProver>(views_, rects, outside, required_seen_, options_.threads);
   hull_box_ = TightenHullBox(*prover_, hull_box_, options_.threads);
   empty_space_ = std::make_shared<detail::LazyEmptySpace>();
 }
