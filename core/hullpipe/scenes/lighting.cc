@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "hullpipe/geometry/conventions.h"
 
@@ -33,22 +34,36 @@ bool ShadowMap::Shadowed(const Eigen::Vector3d& X, double bias) const {
   return double(depth.at<float>(int(v), int(u))) < e.z() - bias;
 }
 
+cv::Mat HullDepthFromLight(const LightConfig& light, const Eigen::Vector3d& up, const VolumeQuery* hull,
+                           int threads) {
+  light.Check();
+  const NovelView view = LightView(light, up);
+  if (hull) {
+    PlaneSweepOptions o;
+    o.num_planes = light.planes;
+    const auto depths = SweepPlaneDepths(*hull, view, o);
+    if (!depths.empty())
+      return PlaneSweepCpu(*hull, view, depths, cv::Rect(0, 0, view.width, view.height), nullptr, threads,
+                           light.refine);
+  }
+  return cv::Mat(view.height, view.width, CV_32FC1, cv::Scalar(kNoDepth));
+}
+
 ShadowMap RenderShadowMap(const LightConfig& light, const Eigen::Vector3d& up, const VolumeQuery* hull,
                           const std::vector<VirtualSphere>& spheres, const MeshDraws& meshes,
                           int threads) {
+  return RenderShadowMap(light, up, HullDepthFromLight(light, up, hull, threads), spheres, meshes);
+}
+
+ShadowMap RenderShadowMap(const LightConfig& light, const Eigen::Vector3d& up, const cv::Mat& hull_depth,
+                          const std::vector<VirtualSphere>& spheres, const MeshDraws& meshes) {
   light.Check();
   ShadowMap s;
   s.view = LightView(light, up);
   s.eye_from_world = s.view.world_from_eye.Inverse();  // once, not per shadow test
-  cv::Mat hull_depth(s.view.height, s.view.width, CV_32FC1, cv::Scalar(kNoDepth));
-  if (hull) {
-    PlaneSweepOptions o;
-    o.num_planes = light.planes;
-    const auto depths = SweepPlaneDepths(*hull, s.view, o);
-    if (!depths.empty())
-      hull_depth = PlaneSweepCpu(*hull, s.view, depths, cv::Rect(0, 0, s.view.width, s.view.height), nullptr, threads,
-                                 light.refine);
-  }
+  if (hull_depth.type() != CV_32FC1 || hull_depth.cols != s.view.width || hull_depth.rows != s.view.height)
+    throw std::invalid_argument("RenderShadowMap: the hull's depth from the light must be CV_32FC1 " +
+                                std::to_string(s.view.width) + "x" + std::to_string(s.view.height));
   // The virtual objects' depth from the light, nearest wins (the rasteriser of
   // Composite, without the floor: the floor receives shadows, casts none).
   CompositeOptions co;

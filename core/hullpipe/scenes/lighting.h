@@ -50,10 +50,28 @@ struct ShadowMap {
 };
 
 /// The shadow map of the hull of `hull` (nullptr: none) and the given virtual
-/// objects, seen from the light.
+/// objects, seen from the light: RenderShadowMap of HullDepthFromLight.
 ShadowMap RenderShadowMap(const LightConfig& light, const Eigen::Vector3d& up, const VolumeQuery* hull,
                           const std::vector<VirtualSphere>& spheres, const MeshDraws& meshes,
                           int threads = 1);
+
+/// The hull's part of the shadow map: eye-z depth (metres) of the hull of `hull`
+/// seen from the light (LightView(light, up)), by the plane sweep with the
+/// light's planes and refinement on `threads` threads; kNoDepth (+inf) where
+/// none, everywhere when `hull` is null or its box is not in the light's view.
+/// CV_32FC1 of the light view's size. It needs only the frameset, so render_node
+/// makes it while the recon nodes sweep, and adds the objects when its tiles are
+/// in (its stage light_hull: docs/latency.md). Throws std::invalid_argument if
+/// the light fails Check().
+cv::Mat HullDepthFromLight(const LightConfig& light, const Eigen::Vector3d& up, const VolumeQuery* hull,
+                           int threads = 1);
+
+/// The shadow map of a hull depth from the light made by HullDepthFromLight (of
+/// the same light and up) and the given virtual objects. Throws
+/// std::invalid_argument if the light fails Check() or `hull_depth` is not
+/// CV_32FC1 of the light view's size.
+ShadowMap RenderShadowMap(const LightConfig& light, const Eigen::Vector3d& up, const cv::Mat& hull_depth,
+                          const std::vector<VirtualSphere>& spheres, const MeshDraws& meshes);
 
 /// Lights a composited view in place: every pixel with a surface (finite depth:
 /// floor, hull, virtual objects) the light cannot see (ShadowMap::Shadowed) is

@@ -219,6 +219,40 @@ TEST(Lighting, LitViewMatchesTheAnalyticallyLitScene) {
 
 // A stop request ends the lighting pass (polled per row); without one the same
 // call lights (positive control: the image changes).
+// The hull's depth from the light made ahead (render_node makes it while the
+// recon nodes sweep) and the objects added later give the shadow map made in
+// one call, to the bit, on one thread or two; a depth of another size is
+// refused, naming what it must be. The positive control: the hull's depth
+// holds the sphere (finite pixels) and differs from the no-hull map's.
+TEST(Lighting, TheHullsDepthFromTheLightMadeAheadGivesTheSameShadowMap) {
+  const VolumeQuery q(test::SphereViews(6, 320, 240, kLitCentre, kLitRadius), test::BigBox());
+  LightConfig light;
+  light.position = Eigen::Vector3d(0.4, -0.3, -3.0);
+  light.target = Eigen::Vector3d(0, 0, -0.4);
+  light.fov_deg = 60;
+  light.map_size = 128;
+  const std::vector<VirtualSphere> balls = {{Eigen::Vector3d(0.5, 0.4, -0.5), 0.08, false}};
+  const ShadowMap whole = RenderShadowMap(light, kUp, &q, balls, {});
+  for (const int threads : {1, 2}) {
+    const cv::Mat ahead = HullDepthFromLight(light, kUp, &q, threads);
+    ASSERT_EQ(ahead.type(), CV_32FC1);
+    int finite = 0;
+    for (int r = 0; r < ahead.rows; ++r)
+      for (int c = 0; c < ahead.cols; ++c) finite += std::isfinite(ahead.at<float>(r, c));
+    EXPECT_GT(finite, 100) << "the sphere seen from the light";
+    const ShadowMap later = RenderShadowMap(light, kUp, ahead, balls, {});
+    EXPECT_EQ(cv::norm(later.depth, whole.depth, cv::NORM_INF), 0) << threads << " thread(s)";
+  }
+  const ShadowMap no_hull = RenderShadowMap(light, kUp, HullDepthFromLight(light, kUp, nullptr), balls, {});
+  EXPECT_GT(cv::norm(no_hull.depth != whole.depth, cv::NORM_L1), 0);
+  try {
+    (void)RenderShadowMap(light, kUp, cv::Mat(10, 10, CV_32FC1, cv::Scalar(1.0f)), balls, {});
+    FAIL() << "a depth of another size";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("128x"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Lighting, AStopRequestEndsItWithInterrupted) {
   Lit l = Render();
   cv::Mat image = cv::Mat(l.image.size(), CV_8UC3, cv::Scalar(150, 150, 150));

@@ -279,10 +279,12 @@ void RenderController::IssuePoses() {
       any_frame_ = true;
       first_source_time_ = fset->source_time_s;
     }
-    // The frameset's hull: for the orbit centre until it is known, and for the
-    // light's shadow map (one VolumeQuery, one hull box, for both).
+    // The frameset's hull: for the orbit centre and the floor until they are
+    // known, before the pose; for the light's shadow map, after the pose is out
+    // (below), while the recon nodes sweep. One VolumeQuery, one hull box, for
+    // both.
     std::shared_ptr<const VolumeQuery> hull;
-    if (o_.light || !centre_known_ || !floor_known_ || !floor_checked_)
+    if (!centre_known_ || !floor_known_ || !floor_checked_)
       hull = std::make_shared<const VolumeQuery>(fset->maps, assembler_.workspace());
     const std::optional<double> reach_down =
         hull && !hull->hull_box().empty() && (!floor_known_ || !floor_checked_) ? HullExtentAlong(*hull, -orbit_.up)
@@ -321,7 +323,6 @@ void RenderController::IssuePoses() {
     f.capture_time_ns = fset->capture_time_ns;
     f.path_time_s = t;
     f.sent_s = clock_.Now();
-    if (o_.light) f.hull = hull;
     Rigid3d world_from_eye = orbit_.WorldFromEye(t);
     if (o_.view == RenderOptions::View::kFile) world_from_eye = o_.track.At(t);
     if (o_.view == RenderOptions::View::kTopic && tracked_) {
@@ -350,6 +351,13 @@ void RenderController::IssuePoses() {
       sink_.PublishPose(f.eyes[k].view, ++pose_seq_, fset->seq, ViewEyeOf(k, f.eyes.size()), f.head_stamp_ns);
     // Render's own frameset in (its last sample taken) to its pose out.
     counters_.StageSince("issue", fset->last_arrival_ns);
+    if (o_.light) {
+      // The hull's part of the shadow map needs only the frameset: made now,
+      // while the tiles are being swept, not after they are in.
+      StageTimer lt(counters_, "light_hull");
+      if (!hull) hull = std::make_shared<const VolumeQuery>(fset->maps, assembler_.workspace());
+      f.light_hull_depth = HullDepthFromLight(*o_.light, orbit_.up, hull.get());
+    }
     in_flight_[key] = std::move(f);
     last_requested_ = fset->seq;
   }
@@ -421,7 +429,7 @@ void RenderController::Composite(uint64_t pose_seq, InFlight& f) {
   double shadow_ms = 0;
   if (o_.light) {
     const double ts = MonotonicSeconds();
-    shadow = RenderShadowMap(*o_.light, orbit_.up, f.hull.get(), objects.spheres, objects.draws);
+    shadow = RenderShadowMap(*o_.light, orbit_.up, f.light_hull_depth, objects.spheres, objects.draws);
     shadow_ms = (MonotonicSeconds() - ts) * 1e3;
   }
   std::vector<EyeImage> eyes(f.eyes.size());

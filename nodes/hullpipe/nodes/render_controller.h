@@ -255,7 +255,7 @@ class RenderController {
       std::map<uint32_t, HullTile> tiles;  // by tile index
     };
     std::vector<Eye> eyes;                     // one, or left and right: eye k's pose_seq is the key + k
-    std::shared_ptr<const VolumeQuery> hull;   // for the light's shadow map
+    cv::Mat light_hull_depth;                  // the hull seen from the light (HullDepthFromLight), with a light
     int64_t head_stamp_ns = 0;                 // the tracker's sample it was seen from (0: none)
     bool Complete(int tiles_per_eye) const {
       for (const Eye& e : eyes)

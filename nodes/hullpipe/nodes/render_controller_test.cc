@@ -873,6 +873,39 @@ TEST_F(Render, TimesTheBudgetsStages) {
   EXPECT_NEAR(st.at("transport_tile").Percentile(50), 3.0, 1e-3);
 }
 
+// With a light (scenes with `light:`) the shadow map's hull part is made as
+// the pose goes out (its own stage, light_hull), before any tile is in, not
+// after the tiles; the frame is then lit. Without a light there is no such
+// stage (the control).
+TEST_F(Render, TheLightsHullDepthIsMadeWhileTheTilesAreSwept) {
+  for (const bool lit : {true, false}) {
+    SCOPED_TRACE(lit ? "light" : "no light");
+    Recorder sink;
+    RenderOptions o = Options();
+    if (lit) {
+      LightConfig light;
+      light.position = hullpipe::test::kSphereCentre + Eigen::Vector3d(0.5, -0.5, -2.0);
+      light.target = hullpipe::test::kSphereCentre;
+      light.map_size = 64;
+      o.light = light;
+    }
+    RenderController r(o, clock_, assembler_, sink);
+    rig_.AddFrame(assembler_, lit ? 1 : 2, clock_.WallNs());  // one assembler: a frame each
+    r.Step();
+    ASSERT_EQ(sink.poses.size(), 1u);
+    EXPECT_EQ(r.counters().stages().count("light_hull"), lit ? 1u : 0u);
+    EXPECT_EQ(r.counters().stages().count("light"), 0u) << "nothing lit before the tiles";
+    clock_.Advance(0.02);
+    r.OnTile(WholeTile(sink.poses[0], 2.0f, {90, 90, 90}), clock_.WallNs());
+    r.Step();
+    ASSERT_EQ(sink.frames.size(), 1u);
+    EXPECT_EQ(r.counters().stages().count("light"), lit ? 1u : 0u);
+    if (lit) {
+      EXPECT_EQ(r.counters().stages().at("light_hull").count(), 1u) << "made once, at the pose";
+    }
+  }
+}
+
 // floor: hull (docs/rigs.md): no floor is drawn until the first hull, then the
 // plane up . x = that hull's lowest point along up (HullExtentAlong; not its
 // box's corner); stats.json states it with the box, so a run shows whether the
