@@ -54,6 +54,12 @@ if [ "$GPU" = 1 ] && want bench; then
   "$BIN/hullpipe_bench" --backend cpu --cameras 4 --sizes 64x48 --planes 8 --triangles 100000 --repeats 3 \
     > "$OUT/bench_cpu_tri.md" 2> "$OUT/bench_cpu_tri.err"
 fi
+# The published dome's hull box search on this machine's cores (recon's hull_box
+# stage: the query's set-up at 1, 2, 6 and 8 threads), with its per-frame rows.
+if want bench && [ -f "$DOME/rig.yaml" ]; then
+  say "hullpipe_bench on the published dome"
+  "$BIN/hullpipe_bench" --rig "$DOME/rig.yaml" --frame 0 --no-gl --repeats 5 > "$OUT/bench_dome.md" 2> "$OUT/bench_dome.err"
+fi
 if want scaling; then
   say "scaling_bench"
   "$BIN/scaling_bench" --sizes 644x486,1024x768 --repeats 3 > "$OUT/scaling.txt" 2> "$OUT/scaling.err"
@@ -181,7 +187,7 @@ with open(os.path.join(out, "table.md"), "w") as f:
     f.write("\n".join(rows) + "\n")
     if not gpu:
         f.write("\nGPU rows not measured: no hardware GL renderer here (the CPU rows only).\n")
-    for name in ("bench_gl.md", "bench_cpu_tri.md", "scaling.txt"):
+    for name in ("bench_gl.md", "bench_cpu_tri.md", "bench_dome.md", "scaling.txt"):
         p = os.path.join(out, name)
         if os.path.exists(p):
             f.write(f"\n{name}:\n\n" + open(p).read())
