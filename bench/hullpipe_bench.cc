@@ -749,7 +749,13 @@ int main(int argc, char** argv) {
     std::string why;
     ctx = gl::EglContext::TryCreate(&why);
     if (ctx) {
-      gl_sweep = std::make_unique<gl::GlPlaneSweep>();
+      // The paper's GL plane sweep binds one texture unit a map (at most
+      // kMaxGlCameras); recon's GL backend marches more (--backend gl's table).
+      if (views.size() <= size_t(gl::kMaxGlCameras))
+        gl_sweep = std::make_unique<gl::GlPlaneSweep>();
+      else
+        std::fprintf(stderr, "no GL plane sweep rows: the rig has %zu cameras, GlPlaneSweep takes at most %d\n",
+                     views.size(), gl::kMaxGlCameras);
       gl_tri = std::make_unique<gl::GlTriangleQuery>();
     } else {
       std::fprintf(stderr, "no GL rows: %s\n", why.c_str());
