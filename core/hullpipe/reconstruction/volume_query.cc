@@ -238,8 +238,9 @@ class CellProver {
     sums_.resize(n);
     bounds_.resize(n);
     for (size_t i = 0; i < n; ++i) bounds_[i] = BoundsOf(views[i].camera);
-    ForEachRowDynamic(int(n), threads, [&](int i, int) {
-      if (rects_[size_t(i)].area() > 0) cv::integral(views[size_t(i)].map(rects_[size_t(i)]), sums_[size_t(i)], CV_32S);
+    ForEachRowDynamic(int(n), threads, [&](int row, int) {
+      const size_t i = size_t(row);
+      if (rects_[i].area() > 0) cv::integral(views[i].map(rects_[i]), sums_[i], CV_32S);
     });
   }
   // True if no hull point lies in `cell`. *hint: the camera tried first, set to

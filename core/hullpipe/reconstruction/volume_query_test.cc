@@ -85,7 +85,8 @@ TEST(HullBox, TightToTheHullsOwnBoxOnARingAndConservative) {
     d[0] = -0.04, d[1] = 0.06;
     const auto cams = DomeCameras(12, 3.0, {0.3, -0.2, -0.9}, 200, 150, 0.9, d);
     const Eigen::Vector3d c(0.3, -0.2, -0.9);
-    rigs.push_back({"dome, distorted", cams, Aabb{c - Eigen::Vector3d(1.0, 1.0, 0.9), c + Eigen::Vector3d(1.0, 1.0, 0.9)}});
+    const Eigen::Vector3d half(1.0, 1.0, 0.9);
+    rigs.push_back({"dome, distorted", cams, Aabb{c - half, c + half}});
   }
   for (const Rig& rig : rigs) {
     const Aabb& workspace = rig.workspace;

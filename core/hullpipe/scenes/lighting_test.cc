@@ -217,8 +217,6 @@ TEST(Lighting, LitViewMatchesTheAnalyticallyLitScene) {
   }
 }
 
-// A stop request ends the lighting pass (polled per row); without one the same
-// call lights (positive control: the image changes).
 // The hull's depth from the light made ahead (render_node makes it while the
 // recon nodes sweep) and the objects added later give the shadow map made in
 // one call, to the bit, on one thread or two; a depth of another size is
@@ -253,6 +251,8 @@ TEST(Lighting, TheHullsDepthFromTheLightMadeAheadGivesTheSameShadowMap) {
   }
 }
 
+// A stop request ends the lighting pass (polled per row); without one the same
+// call lights (positive control: the image changes).
 TEST(Lighting, AStopRequestEndsItWithInterrupted) {
   Lit l = Render();
   cv::Mat image = cv::Mat(l.image.size(), CV_8UC3, cv::Scalar(150, 150, 150));

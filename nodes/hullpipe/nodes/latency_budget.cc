@@ -29,8 +29,8 @@ const std::map<std::string, std::vector<StageDef>>& Stages() {
         {"visibility", true}, {"sweep", true}, {"refine", true}, {"texture", true}, {"publish", true}}},
       {"sim", {{"transport_map", true}, {"wait", true}, {"step", true}, {"publish", true}}},
       {"render",
-       {{"transport_map", false}, {"issue", false}, {"light_hull", false}, {"tiles", false}, {"transport_tile", true}, {"composite", true},
-        {"light", true}, {"write", true}, {"publish", true}}},
+       {{"transport_map", false}, {"issue", false}, {"light_hull", false}, {"tiles", false},
+        {"transport_tile", true}, {"composite", true}, {"light", true}, {"write", true}, {"publish", true}}},
   };
   return stages;
 }
