@@ -109,25 +109,9 @@ class RayQuery {
     return AskCameras(d, near_miss);
   }
   // True when camera c vetoes every point of the aimed ray between eye depths
-  // a and b (a near miss's scan bracket): undistorted, the bracket's
-  // projection is the segment between its ends' pixels, and every pixel of
-  // that segment's bounding rectangle (grown by a pixel for float rounding) is
-  // background.
+  // a and b (a near miss's scan bracket): VolumeQuery::SegmentOnBackground.
   bool CannotHit(size_t c, float a, float b) const {
-    const detail::FastCamera& cam = cams_[c];
-    if (cam.distorted) return false;
-    const Eigen::Vector3f Xa = A_[c] + a * B_[c], Xb = A_[c] + b * B_[c];
-    if (!(Xa.z() > 1e-6f && Xb.z() > 1e-6f)) return false;
-    const auto pixel = [&](const Eigen::Vector3f& P) {
-      const float xn = P.x() / P.z(), yn = P.y() / P.z();
-      return Eigen::Vector2f(cam.fx * xn + cam.skew * yn + cam.cx, cam.fy * yn + cam.cy);
-    };
-    const Eigen::Vector2f pa = pixel(Xa), pb = pixel(Xb);
-    const float u0 = std::min(pa.x(), pb.x()) - 1.0f, u1 = std::max(pa.x(), pb.x()) + 1.0f;
-    const float v0 = std::min(pa.y(), pb.y()) - 1.0f, v1 = std::max(pa.y(), pb.y()) + 1.0f;
-    // Any part outside the image is no veto's proof.
-    if (!(u0 >= 0.0f && v0 >= 0.0f && u1 < cam.width_f && v1 < cam.height_f)) return false;
-    return q_.NoObjectPixelIn(c, int(u0), int(v0), int(u1) + 1, int(v1) + 1);
+    return q_.SegmentOnBackground(c, A_[c] + a * B_[c], A_[c] + b * B_[c]);
   }
   // InsideAt's questions to the cameras.
   bool AskCameras(float d, bool* near_miss) {

@@ -352,11 +352,11 @@ CellProver::Verdict CellProver::Classify(const Aabb& cell, size_t i, double marg
       r = {p.u0 - lens.shift, p.v0 - lens.shift, p.u1 + lens.shift, p.v1 + lens.shift};
       bounded = true;
     }
-    if (!bounded || p.span() <= 32) {
+    if (!bounded || p.span() <= kMaxBulgeSpanPx) {
       Rect d;
       for (const auto& x : xn) d.Extend(cam.PixelFromImagePlane(cam.Distort(x)));
-      if (d.span() <= 32) {
-        const double m = 0.5 + d.span() * d.span() / 400;
+      if (d.span() <= kMaxBulgeSpanPx) {
+        const double m = LensBulgePx(d.span());
         const Rect g{d.u0 - m, d.v0 - m, d.u1 + m, d.v1 + m};
         r = bounded ? Rect{std::max(r.u0, g.u0), std::max(r.v0, g.v0), std::min(r.u1, g.u1), std::min(r.v1, g.v1)}
                     : g;
@@ -676,6 +676,38 @@ VolumeQuery::VolumeQuery(std::vector<CameraMap> views, const Aabb& workspace, co
 
 bool VolumeQuery::NoObjectPixelIn(size_t i, int x0, int y0, int x1, int y1) const {
   return prover_->NoObjectPixel(i, x0, y0, x1, y1);
+}
+
+bool VolumeQuery::SegmentOnBackground(size_t i, const Eigen::Vector3f& a_cam, const Eigen::Vector3f& b_cam) const {
+  const detail::FastCamera& cam = fast_.at(i);
+  float grow = 1.0f;
+  Eigen::Vector2f pa, pb;
+  if (!cam.distorted) {
+    if (!(a_cam.z() > 1e-6f && b_cam.z() > 1e-6f)) return false;
+    const auto pixel = [&](const Eigen::Vector3f& P) {
+      const float xn = P.x() / P.z(), yn = P.y() / P.z();
+      return Eigen::Vector2f(cam.fx * xn + cam.skew * yn + cam.cx, cam.fy * yn + cam.cy);
+    };
+    pa = pixel(a_cam), pb = pixel(b_cam);
+  } else {
+    if (!(a_cam.z() > 1e-3f && b_cam.z() > 1e-3f)) return false;
+    const Camera& k = views_[i].camera;
+    const double r2max = double(cam.r2max) * (1 - 1e-4);
+    const Eigen::Vector2d xa = a_cam.head<2>().cast<double>() / double(a_cam.z());
+    const Eigen::Vector2d xb = b_cam.head<2>().cast<double>() / double(b_cam.z());
+    // Both ends within the (convex) valid disk: so is every point between.
+    if (!(xa.squaredNorm() <= r2max && xb.squaredNorm() <= r2max)) return false;
+    const Eigen::Vector2d da = k.PixelFromImagePlane(k.Distort(xa)), db = k.PixelFromImagePlane(k.Distort(xb));
+    const double span = (da - db).cwiseAbs().maxCoeff();
+    if (!(span <= kMaxBulgeSpanPx)) return false;
+    grow += float(LensBulgePx(span));
+    pa = da.cast<float>(), pb = db.cast<float>();
+  }
+  const float u0 = std::min(pa.x(), pb.x()) - grow, u1 = std::max(pa.x(), pb.x()) + grow;
+  const float v0 = std::min(pa.y(), pb.y()) - grow, v1 = std::max(pa.y(), pb.y()) + grow;
+  // Any part outside the image is no veto's proof.
+  if (!(u0 >= 0.0f && v0 >= 0.0f && u1 < cam.width_f && v1 < cam.height_f)) return false;
+  return NoObjectPixelIn(i, int(u0), int(v0), int(u1) + 1, int(v1) + 1);
 }
 
 const EmptySpace& VolumeQuery::empty_space(int threads) const {

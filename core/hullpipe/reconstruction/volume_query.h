@@ -61,6 +61,19 @@ enum class OutOfView {
 /// One camera's verdict on a point (VolumeQuery::Vote).
 enum class Vote : uint8_t { kBackground = 0, kObject = 1, kUnseen = 2 };
 
+/// How far a lens bends a small piece of the world's image, as the hull box
+/// search, the empty-space grid and the sweep's near-miss scans bound it: the
+/// distorted image of a segment or cell (in front of the camera and within its
+/// lens model's valid radius) whose distorted corners' pixel box has larger
+/// side span_px <= kMaxBulgeSpanPx lies within that box grown by
+/// LensBulgePx(span_px) pixels. A segment whose normalised image moves by
+/// |dx| bends from its chord by at most |D''| |dx|^2 f / 8 px (D the
+/// distortion, f the focal length): for the Utrecht rig's lenses (k1 = -0.37,
+/// f = 491 px) at most span^2 / 4500 over its images (100,000 segments of 2 to
+/// 32 px sampled), a tenth of this margin.
+inline constexpr double kMaxBulgeSpanPx = 32;
+inline double LensBulgePx(double span_px) { return 0.5 + span_px * span_px / 400; }
+
 /// Settings of a volume query.
 struct VolumeQueryOptions {
   OutOfView out_of_view = OutOfView::kUnknown;  ///< Default: do not clip by views.
@@ -76,8 +89,9 @@ struct VolumeQueryOptions {
   int empty_space_cells = 32;
   /// Whether the CPU sweep's refinement skips the scan of a near miss (a point
   /// exactly one camera vetoes) when that camera's object-pixel map is
-  /// background under the whole bracket's projection (NoObjectPixelIn;
-  /// undistorted cameras only): such a scan finds nothing. The sweep's result
+  /// background under the whole bracket's projection (NoObjectPixelIn; a
+  /// distorted camera's curved projection bounded by LensBulgePx): such a
+  /// scan finds nothing. The sweep's result
   /// is the same either way (docs/benchmarks.md, "Near-miss scans a camera
   /// vetoes whole").
   bool prune_near_misses = true;
@@ -159,6 +173,20 @@ class VolumeQuery {
   /// whether the vetoing camera vetoes a whole bracket (plane_sweep.cc).
   /// Thread-safe.
   bool NoObjectPixelIn(size_t i, int x0, int y0, int x1, int y1) const;
+
+  /// True if camera i puts every point of the segment from a_cam to b_cam
+  /// (its own frame, metres; the points the sweep computes as A + t B in
+  /// floats) on a background pixel, as VoteFast votes: every pixel of a
+  /// rectangle holding the segment's image, grown by a pixel for float
+  /// rounding, lies in the image and is background (NoObjectPixelIn). For a
+  /// pinhole camera the image is the segment between its ends' pixels; a
+  /// distorted camera's bends from that chord by at most LensBulgePx, and
+  /// both ends must be a millimetre in front and within the lens model's
+  /// valid radius by a relative 1e-4 (as the hull box search's strict cells).
+  /// Conservative: false does not mean an object pixel is there. The sweep's
+  /// near-miss scans skip a bracket the vetoing camera holds on background
+  /// (VolumeQueryOptions::prune_near_misses). Thread-safe.
+  bool SegmentOnBackground(size_t i, const Eigen::Vector3f& a_cam, const Eigen::Vector3f& b_cam) const;
 
   /// Camera i's verdict on X (world metres), in double precision.
   Vote VoteOf(size_t i, const Eigen::Vector3d& X_world) const;
