@@ -89,11 +89,11 @@ struct VolumeQueryOptions {
   int empty_space_cells = 32;
   /// Whether the CPU sweep's refinement skips the scan of a near miss (a point
   /// exactly one camera vetoes) when that camera's object-pixel map is
-  /// background under the whole bracket's projection (NoObjectPixelIn; a
-  /// distorted camera's curved projection bounded by LensBulgePx): such a
-  /// scan finds nothing. The sweep's result
-  /// is the same either way (docs/benchmarks.md, "Near-miss scans a camera
-  /// vetoes whole").
+  /// background under the whole bracket's projection (SegmentOnBackground; a
+  /// distorted camera's curved projection bounded by LensBulgePx): such a scan
+  /// finds nothing. The sweep's result is the same either way
+  /// (docs/benchmarks.md, "Near-miss scans a camera vetoes whole" and
+  /// "Near-miss scans skipped through real lenses").
   bool prune_near_misses = true;
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;

@@ -230,8 +230,10 @@ TEST(VolumeQuery, ASegmentOnBackgroundHasNoPointOnAnObjectPixel) {
   const Eigen::Vector3d centre = kSphereCentre;
   SyntheticScene scene;
   scene.shapes.push_back(Shape::Sphere(centre, 0.15));
-  scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(-0.4, 0.3, 0.1), centre + Eigen::Vector3d(0.4, 0.35, -0.2), 0.012));
-  scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(0.1, -0.4, 0.3), centre + Eigen::Vector3d(-0.2, 0.3, -0.4), 0.03));
+  scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(-0.4, 0.3, 0.1),
+                                        centre + Eigen::Vector3d(0.4, 0.35, -0.2), 0.012));
+  scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(0.1, -0.4, 0.3),
+                                        centre + Eigen::Vector3d(-0.2, 0.3, -0.4), 0.03));
   const Distortion lenses[] = {Distortion{}, Distortion{-0.369, 0.203, 3.3e-4, 1.8e-5, -0.0712},
                                Distortion{-0.5, 0.25, 0.002, -0.003, -0.05}};
   cv::RNG rng(11);
@@ -244,10 +246,12 @@ TEST(VolumeQuery, ASegmentOnBackgroundHasNoPointOnAnObjectPixel) {
       cv::Mat near_object;  // object pixels grown by two
       cv::dilate(q.views()[i].map, near_object, cv::Mat::ones(5, 5, CV_8UC1));
       for (int k = 0; k < 20000; ++k) {
-        const Eigen::Vector3d a = centre + Eigen::Vector3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5));
+        const Eigen::Vector3d a =
+            centre + Eigen::Vector3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5));
         const Eigen::Vector3d dir = Eigen::Vector3d(rng.gaussian(1), rng.gaussian(1), rng.gaussian(1)).normalized();
         const Eigen::Vector3d b = a + rng.uniform(0.01, 0.06) * dir;
-        const Eigen::Vector3f ac = (cams[i].cam_from_world * a).cast<float>(), bc = (cams[i].cam_from_world * b).cast<float>();
+        const Eigen::Vector3f ac = (cams[i].cam_from_world * a).cast<float>();
+        const Eigen::Vector3f bc = (cams[i].cam_from_world * b).cast<float>();
         if (!q.SegmentOnBackground(i, ac, bc)) continue;
         ++said;
         bool passes_close = false;
@@ -257,7 +261,8 @@ TEST(VolumeQuery, ASegmentOnBackgroundHasNoPointOnAnObjectPixel) {
           ASSERT_EQ(VolumeQuery::VoteFast(f, X.x(), X.y(), X.z()), Vote::kBackground)
               << "lens " << l << ", camera " << i << ", segment " << ac.transpose() << " -> " << bc.transpose();
           const auto uv = cams[i].Project(cams[i].cam_from_world.Inverse() * X.cast<double>());
-          if (uv && cams[i].InImage(*uv) && near_object.at<uint8_t>(int(uv->y()), int(uv->x())) != 0) passes_close = true;
+          if (uv && cams[i].InImage(*uv) && near_object.at<uint8_t>(int(uv->y()), int(uv->x())) != 0)
+            passes_close = true;
         }
         close += passes_close;
       }
