@@ -603,7 +603,7 @@ TEST(NearMissPruning, SkippedScansChangeNoPixel) {
         const bool distorted = lens > 0;
         Distortion d{};
         if (lens == 1) d[0] = -0.12;
-        if (lens == 2) d = {-0.369, 0.203, 3.3e-4, 1.8e-5, -0.0712};  // cam1's config.xml
+        if (lens == 2) d = test::kUtrechtCam1Lens;
         const auto cams = test::WithSkew(RingCameras(ncam, 3.0, 1.8, centre, 240, 180, 1.0, d), skew);
         const std::vector<CameraMap> views = test::ExactViews(cams, scene);
         VolumeQueryOptions on, off;

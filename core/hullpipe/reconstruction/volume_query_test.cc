@@ -221,7 +221,7 @@ TEST(HullBox, EmptyMapGivesEmptyBox) {
 // all be background in VoteFast's float arithmetic, also through a lens whose
 // image of the bracket is curved. Random short segments (1 to 6 cm: a bracket
 // is two plane spacings) around a figure of thin limbs, seen by pinhole,
-// skewed, Utrecht-lensed (cam1's config.xml) and strongly barrelled cameras;
+// skewed, Utrecht-lensed (test::kUtrechtCam1Lens) and strongly barrelled cameras;
 // each segment the camera is said to hold on background is sampled at 257
 // points. Positive controls: thousands are said to be on background, hundreds
 // of them passing within two pixels of an object pixel (where a bound that
@@ -234,7 +234,7 @@ TEST(VolumeQuery, ASegmentOnBackgroundHasNoPointOnAnObjectPixel) {
                                         centre + Eigen::Vector3d(0.4, 0.35, -0.2), 0.012));
   scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(0.1, -0.4, 0.3),
                                         centre + Eigen::Vector3d(-0.2, 0.3, -0.4), 0.03));
-  const Distortion lenses[] = {Distortion{}, Distortion{-0.369, 0.203, 3.3e-4, 1.8e-5, -0.0712},
+  const Distortion lenses[] = {Distortion{}, test::kUtrechtCam1Lens,
                                Distortion{-0.5, 0.25, 0.002, -0.003, -0.05}};
   cv::RNG rng(11);
   for (size_t l = 0; l < 3; ++l) {

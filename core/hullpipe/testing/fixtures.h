@@ -33,6 +33,10 @@ namespace hullpipe::test {
 inline const Eigen::Vector3d kSphereCentre(0.1, -0.2, -1.0);
 inline constexpr double kSphereRadius = 0.3;
 
+/// The Utrecht rig's cam1 lens (its config.xml's k1 k2 p1 p2 k3, rounded): a
+/// strong barrel, for tests that need a real lens without reading the rig.
+inline constexpr Distortion kUtrechtCam1Lens{-0.369, 0.203, 3.3e-4, 1.8e-5, -0.0712};
+
 /// The Utrecht rig beside the repository (../shared/data/utrecht-4cam).
 inline std::string RigDir() { return HULLPIPE_RIG_DIR; }
 inline bool HaveRig() { return std::filesystem::exists(RigDir() + "/cam1/config.xml"); }
