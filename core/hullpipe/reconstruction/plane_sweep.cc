@@ -104,6 +104,7 @@ class RayQuery {
     if (empty_ && empty_->Vetoes(gO_.x() + d * gD_.x(), gO_.y() + d * gD_.y(), gO_.z() + d * gD_.z()) >=
                       (near_miss ? 2 : 1)) {
       ++skipped;
+      vetoer_saw_background = false;
       return false;
     }
     return AskCameras(d, near_miss);
@@ -115,6 +116,7 @@ class RayQuery {
   }
   // InsideAt's questions to the cameras.
   bool AskCameras(float d, bool* near_miss) {
+    vetoer_saw_background = false;
     int object = 0, unseen = 0;
     for (size_t j = 0; j < n_; ++j) {
       const size_t c = order_[j];
@@ -127,6 +129,7 @@ class RayQuery {
         // usually rejected by the same camera.
         if (j > 0) std::rotate(order_.begin(), order_.begin() + long(j), order_.begin() + long(j) + 1);
         vetoer = c;
+        vetoer_saw_background = vote == Vote::kBackground;
         if (near_miss) {
           // A near miss needs every other camera's vote: the search for a second
           // veto ends at the first. The camera that gave it goes second next time
@@ -181,8 +184,10 @@ class RayQuery {
   int64_t projections = 0, skipped = 0;
   // The last near miss's veto was a background pixel (not a point out of view).
   bool vetoed_on_background = false;
-  // The camera whose veto answered the last AskCameras that returned outside.
+  // The camera whose veto answered the last AskCameras that returned outside,
+  // and whether its vote was a background pixel (not a point out of view).
   size_t vetoer = 0;
+  bool vetoer_saw_background = false;
 
  private:
   const VolumeQuery& q_;
@@ -198,6 +203,11 @@ class RayQuery {
 };
 
 constexpr size_t kMaxNearMisses = 8;
+constexpr size_t kNoCamera = std::numeric_limits<size_t>::max();
+// Plane points a run skip tries at once: doubled after each skip, back to the
+// least after a failed try (docs/benchmarks.md, "Runs of background skipped in
+// the CPU sweep").
+constexpr size_t kMinRunSpan = 4, kMaxRunSpan = 32;
 constexpr int kMaxEdgeSteps = 256;
 
 // A near miss at plane k is scanned across its neighbours' planes, within the
@@ -226,8 +236,14 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
                SweepStats* stats, int refine_iterations, StopFlag stop) {
   RayQuery ray(query, view, &empty);
   const bool prune = refine_iterations > 0 && query.options().prune_near_misses;
+  // Without refinement a point costs about one projection (the camera that
+  // vetoed the last point is asked first): a run's test, two, does not pay.
+  const bool skip_runs = refine_iterations > 0 && query.options().skip_background_runs;
   const std::vector<float> d(depths.begin(), depths.end());
   SweepStats local;
+  // The runs of plane points skipped on the ray being swept whose near misses
+  // are not counted yet: (first plane, count).
+  std::vector<std::pair<size_t, size_t>> uncounted;
   for (int r = row_begin; r < row_end && !Stopped(stop); ++r) {
     float* out_row = out.ptr<float>(r);
     for (int col = 0; col < tile.width; ++col) {
@@ -250,14 +266,50 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       from = std::max(from, s0);
       to = std::min(to, s1);
       const size_t first = size_t(std::lower_bound(depths.begin(), depths.end(), from) - depths.begin());
+      const size_t end = size_t(std::upper_bound(depths.begin() + long(first), depths.end(), to) - depths.begin());
       // Refinement remembers the planes where the stencil count was n - 1 before the
       // first inside plane: a piece of hull thinner than the spacing may lie
-      // between them and their neighbours.
+      // between them and their neighbours. The first kMaxNearMisses near misses
+      // are kept (n_near counts them), and of those, the ones whose scan could
+      // find a hit are scanned (near_misses, near_vetoer; n_scan of them).
       size_t near_misses[kMaxNearMisses], near_vetoer[kMaxNearMisses];
-      bool near_pruned[kMaxNearMisses];
-      size_t n_near = 0;
+      size_t n_near = 0, n_scan = 0;
+      // Runs of points one camera puts on background, brackets included, are
+      // skipped whole (VolumeQueryOptions::skip_background_runs): their near
+      // misses, if any, would not be scanned, and are counted (`uncounted`,
+      // `n_uncounted` points) only when whether a near miss to scan is within
+      // the first kMaxNearMisses depends on them. A failed try waits 1, 2, 4,
+      // then 8 points before the next.
+      uncounted.clear();
+      size_t n_uncounted = 0;
+      size_t run_camera = kNoCamera, span = kMinRunSpan, next_try = 0, backoff = 1;
       size_t hit = d.size();
-      for (size_t k = first; k < d.size() && depths[k] <= to; ++k) {
+      for (size_t k = first; k < end; ++k) {
+        if (run_camera != kNoCamera && k >= next_try) {
+          // The run's points k .. k + m - 1, their brackets [d[k - 1], d[k + m]]
+          // within the ray's part in the hull box (NearMissBracket).
+          const size_t m = std::min(span, end - k);
+          if (m >= 2) {
+            const double a = std::max(s0, k > 0 ? depths[k - 1] : depths[k]);
+            const double b = std::min(s1, k + m < depths.size() ? depths[k + m] : depths[k + m - 1]);
+            if (ray.CannotHit(run_camera, float(a), float(b))) {
+              local.plane_points += int64_t(m);
+              local.run_skipped += int64_t(m);
+              if (refine_iterations > 0 && n_near < kMaxNearMisses) {
+                uncounted.emplace_back(k, m);
+                n_uncounted += m;
+              }
+              k += m - 1;
+              span = std::min(2 * span, kMaxRunSpan);
+              backoff = 1;
+              continue;
+            }
+          }
+          run_camera = kNoCamera;
+          span = kMinRunSpan;
+          next_try = k + backoff;
+          backoff = std::min<size_t>(2 * backoff, 8);
+        }
         ++local.plane_points;
         bool near = false;
         // Past kMaxNearMisses no more are kept: nor looked for.
@@ -265,27 +317,44 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
           hit = k;
           break;
         }
-        if (near && n_near < kMaxNearMisses) {
-          near_vetoer[n_near] = ray.vetoer;
-          // A near miss whose bracket (the scan's, below) its camera vetoes
-          // whole has nothing to scan; it stays a near miss (the sweep keeps
-          // as many as before).
-          near_pruned[n_near] = false;
-          if (prune && ray.vetoed_on_background) {
-            double a = 0, b = 0;
-            NearMissBracket(depths, k, s0, s1, &a, &b);
-            near_pruned[n_near] = ray.CannotHit(ray.vetoer, float(a), float(b));
-          }
-          local.pruned += near_pruned[n_near];
-          near_misses[n_near++] = k;
+        // A run is tried after a camera's background veto, not after the grid's
+        // (whose points cost less than a run's test).
+        run_camera = skip_runs && ray.vetoer_saw_background ? ray.vetoer : kNoCamera;
+        if (!near || n_near >= kMaxNearMisses) continue;
+        const size_t vetoer = ray.vetoer;
+        // A near miss whose bracket (the scan's, below) its camera vetoes
+        // whole has nothing to scan; it still counts against the kept ones.
+        bool pruned = false;
+        if (prune && ray.vetoed_on_background) {
+          double a = 0, b = 0;
+          NearMissBracket(depths, k, s0, s1, &a, &b);
+          pruned = ray.CannotHit(vetoer, float(a), float(b));
         }
+        local.pruned += pruned;
+        if (!pruned && n_near + n_uncounted >= kMaxNearMisses) {
+          // Is this near miss among the first kMaxNearMisses? Count the
+          // skipped runs' (every point of them outside, so only the count changes).
+          for (const auto& [k0, m] : uncounted)
+            for (size_t j = k0; j < k0 + m && n_near < kMaxNearMisses; ++j) {
+              bool skipped_near = false;
+              ray.InsideAt(d[j], &skipped_near);
+              n_near += skipped_near;
+            }
+          uncounted.clear();
+          n_uncounted = 0;
+          if (n_near >= kMaxNearMisses) continue;
+        }
+        if (!pruned) {
+          near_misses[n_scan] = k;
+          near_vetoer[n_scan++] = vetoer;
+        }
+        ++n_near;
       }
       if (refine_iterations > 0) {
         // Scan around each near miss, front to back, at 1/8 of the spacing: the
         // points the near miss's one vetoing camera vetoes are outside, so only
         // the others are asked (the first inside one is the same).
-        for (size_t m = 0; m < n_near; ++m) {
-          if (near_pruned[m]) continue;
+        for (size_t m = 0; m < n_scan; ++m) {
           const size_t k = near_misses[m];
           double a = 0, b = 0;
           NearMissBracket(depths, k, s0, s1, &a, &b);
@@ -325,6 +394,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
     stats->projections += local.projections;
     stats->skipped += local.skipped;
     stats->pruned += local.pruned;
+    stats->run_skipped += local.run_skipped;
   }
 }
 
@@ -341,6 +411,7 @@ void ForRowBands(int height, int threads, SweepStats* stats, Rows rows) {
       stats->projections += st.projections;
       stats->skipped += st.skipped;
       stats->pruned += st.pruned;
+      stats->run_skipped += st.run_skipped;
     }
 }
 

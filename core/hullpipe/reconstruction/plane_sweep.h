@@ -68,6 +68,10 @@ struct SweepStats {
   /// Near misses whose scan was skipped: their vetoing camera vetoes the whole
   /// bracket (VolumeQueryOptions::prune_near_misses).
   int64_t pruned = 0;
+  /// Plane points skipped in runs that one camera puts on background, their
+  /// brackets included (VolumeQueryOptions::skip_background_runs); counted in
+  /// plane_points, not in projections.
+  int64_t run_skipped = 0;
   /// Wall milliseconds (added to, not reset): the sweep with its per-ray
   /// bisection, and the silhouette/rim refinement pass (the latency budget's
   /// recon "sweep" and "refine", docs/latency.md).
