@@ -231,14 +231,17 @@ struct RayBounds {
   cv::Mat near, far;
 };
 
+// kRefine: refine_iterations > 0 (a loop of its own: the sweep without
+// refinement looks for no near misses and skips no runs).
+template <bool kRefine>
 void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBounds& bounds, const NovelView& view,
                const std::vector<double>& depths, const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out,
                SweepStats* stats, int refine_iterations, StopFlag stop) {
   RayQuery ray(query, view, &empty);
-  const bool prune = refine_iterations > 0 && query.options().prune_near_misses;
+  const bool prune = kRefine && query.options().prune_near_misses;
   // Without refinement a point costs about one projection (the camera that
   // vetoed the last point is asked first): a run's test, two, does not pay.
-  const bool skip_runs = refine_iterations > 0 && query.options().skip_background_runs;
+  const bool skip_runs = kRefine && query.options().skip_background_runs;
   const std::vector<float> d(depths.begin(), depths.end());
   SweepStats local;
   // The runs of plane points skipped on the ray being swept whose near misses
@@ -295,7 +298,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
             if (ray.CannotHit(run_camera, float(a), float(b))) {
               local.plane_points += int64_t(m);
               local.run_skipped += int64_t(m);
-              if (refine_iterations > 0 && n_near < kMaxNearMisses) {
+              if (n_near < kMaxNearMisses) {
                 uncounted.emplace_back(k, m);
                 n_uncounted += m;
               }
@@ -313,14 +316,14 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
         ++local.plane_points;
         bool near = false;
         // Past kMaxNearMisses no more are kept: nor looked for.
-        if (ray.InsideAt(d[k], refine_iterations > 0 && n_near < kMaxNearMisses ? &near : nullptr)) {
+        if (ray.InsideAt(d[k], kRefine && n_near < kMaxNearMisses ? &near : nullptr)) {
           hit = k;
           break;
         }
         // A run is tried after a camera's background veto, not after the grid's
         // (whose points cost less than a run's test).
-        run_camera = skip_runs && ray.vetoer_saw_background ? ray.vetoer : kNoCamera;
-        if (!near || n_near >= kMaxNearMisses) continue;
+        if (skip_runs) run_camera = ray.vetoer_saw_background ? ray.vetoer : kNoCamera;
+        if (!kRefine || !near || n_near >= kMaxNearMisses) continue;
         const size_t vetoer = ray.vetoer;
         // A near miss whose bracket (the scan's, below) its camera vetoes
         // whole has nothing to scan; it still counts against the kept ones.
@@ -350,7 +353,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
         }
         ++n_near;
       }
-      if (refine_iterations > 0) {
+      if (kRefine) {
         // Scan around each near miss, front to back, at 1/8 of the spacing: the
         // points the near miss's one vetoing camera vetoes are outside, so only
         // the others are asked (the first inside one is the same).
@@ -381,7 +384,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       }
       if (hit == d.size()) continue;
       float lo = 0;
-      out_row[col] = refine_iterations > 0 && RefineBracket(depths, hit, s0, &lo)
+      out_row[col] = kRefine && RefineBracket(depths, hit, s0, &lo)
                          ? ray.Bisect(lo, d[hit], refine_iterations)
                          : d[hit];
     }
@@ -550,7 +553,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
     const double t0 = t_grid;
     empty.DepthBounds(view, tile, &bounds.near, &bounds.far, stop);
     ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
-      SweepRows(query, empty, bounds, view, depths, tile, r0, r1, out, st, 0, stop);
+      SweepRows<false>(query, empty, bounds, view, depths, tile, r0, r1, out, st, 0, stop);
     });
     ThrowIfStopped(stop, "the plane sweep");
     if (stats) stats->sweep_ms += (MonotonicSeconds() - t0) * 1e3;
@@ -565,7 +568,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   cv::Mat swept(region.height, region.width, CV_32FC1);  // every pixel written by SweepRows
   empty.DepthBounds(view, region, &bounds.near, &bounds.far, stop);
   ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
-    SweepRows(query, empty, bounds, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
+    SweepRows<true>(query, empty, bounds, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
   });
   ThrowIfStopped(stop, "the plane sweep");
   const double t1 = MonotonicSeconds();
