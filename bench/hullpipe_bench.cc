@@ -451,66 +451,44 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
         std::fflush(stdout);
     });
   }
-  // Near-miss pruning (VolumeQueryOptions::prune_near_misses) in the CPU
-  // sweep: one eye's sweep (refine 6, one thread) with and without, same
-  // input, interleaved (the summed-area tables are the hull box search's); the
-  // depth images compared bit for bit.
-  if (cpu) {
-    std::printf("\nCPU sweep with and without near-miss pruning (one eye, the stereo table's view, refine 6, 1 thread; "
+  // A sweep option's table: one eye's sweep (refine 6, one thread) with the
+  // option and without, same input, interleaved; the depth images compared bit
+  // for bit. `off` turns the option off; `count` is the column it fills.
+  const auto option_table = [&](const char* title, const char* column, void (*off)(VolumeQueryOptions*),
+                                std::string (*count)(const SweepStats&)) {
+    std::printf("\nCPU sweep with and without %s (one eye, the stereo table's view, refine 6, 1 thread; "
                 "interleaved, median of %d):\n\n"
-                "| cams | eye view | planes | near misses pruned | sweep ms without | sweep ms with | "
+                "| cams | eye view | planes | %s | sweep ms without | sweep ms with | "
                 "without / with | projections without / with | same depth |\n"
                 "|---|---|---|---|---|---|---|---|---|\n",
-                repeats);
+                title, repeats, column);
     for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
         const NovelView& v = eyes.eye[0];
         VolumeQueryOptions with, without;
-        without.prune_near_misses = false;
+        off(&without);
         const VolumeQuery qw(in.views, DefaultWorkspace(in.cameras), with);
         const VolumeQuery qn(in.views, DefaultWorkspace(in.cameras), without);
         PlaneSweepOptions o;
         o.num_planes = rows.planes.front();
         const auto depths = SweepPlaneDepths(qw, v, o);
-        const cv::Rect all(0, 0, w, h);
-        const SweepPair ab = CompareSweeps(qn, qw, v, depths, all, repeats);
-        const std::vector<double>&tn = ab.ms_a, &tw = ab.ms_b;
-        const SweepStats &sn = ab.stats_a, &sw = ab.stats_b;
-        const bool same = ab.same;
-        std::printf("| %d | %dx%d | %d | %lld | %.2f | %.2f | %.2f | %lld / %lld | %s |\n", ncam, w, h,
-                    o.num_planes, (long long)sw.pruned, Median(tn), Median(tw),
-                    Median(tn) / Median(tw), (long long)sn.projections, (long long)sw.projections,
-                    same ? "yes" : "NO");
+        const SweepPair ab = CompareSweeps(qn, qw, v, depths, cv::Rect(0, 0, w, h), repeats);
+        std::printf("| %d | %dx%d | %d | %s | %.2f | %.2f | %.2f | %lld / %lld | %s |\n", ncam, w, h, o.num_planes,
+                    count(ab.stats_b).c_str(), Median(ab.ms_a), Median(ab.ms_b), Median(ab.ms_a) / Median(ab.ms_b),
+                    (long long)ab.stats_a.projections, (long long)ab.stats_b.projections, ab.same ? "yes" : "NO");
         std::fflush(stdout);
     });
-  }
-  // Runs of background skipped (VolumeQueryOptions::skip_background_runs) in
-  // the CPU sweep: one eye's sweep (refine 6, one thread) with and without,
-  // same input, interleaved; the depth images compared bit for bit.
+  };
   if (cpu) {
-    std::printf("\nCPU sweep with and without background runs skipped (one eye, the stereo table's view, refine 6, "
-                "1 thread; interleaved, median of %d):\n\n"
-                "| cams | eye view | planes | points skipped in runs | sweep ms without | sweep ms with | "
-                "without / with | projections without / with | same depth |\n"
-                "|---|---|---|---|---|---|---|---|---|\n",
-                repeats);
-    for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
-        const NovelView& v = eyes.eye[0];
-        VolumeQueryOptions with, without;
-        without.skip_background_runs = false;
-        const VolumeQuery qw(in.views, DefaultWorkspace(in.cameras), with);
-        const VolumeQuery qn(in.views, DefaultWorkspace(in.cameras), without);
-        PlaneSweepOptions o;
-        o.num_planes = rows.planes.front();
-        const auto depths = SweepPlaneDepths(qw, v, o);
-        const cv::Rect all(0, 0, w, h);
-        const SweepPair ab = CompareSweeps(qn, qw, v, depths, all, repeats);
-        const SweepStats &sn = ab.stats_a, &sw = ab.stats_b;
-        std::printf("| %d | %dx%d | %d | %lld of %lld | %.2f | %.2f | %.2f | %lld / %lld | %s |\n", ncam, w, h,
-                    o.num_planes, (long long)sw.run_skipped, (long long)sw.plane_points, Median(ab.ms_a),
-                    Median(ab.ms_b), Median(ab.ms_a) / Median(ab.ms_b), (long long)sn.projections,
-                    (long long)sw.projections, ab.same ? "yes" : "NO");
-        std::fflush(stdout);
-    });
+    // Near-miss pruning (VolumeQueryOptions::prune_near_misses; the summed-area
+    // tables are the hull box search's).
+    option_table(
+        "near-miss pruning", "near misses pruned", [](VolumeQueryOptions* q) { q->prune_near_misses = false; },
+        [](const SweepStats& st) { return std::to_string(st.pruned); });
+    // Runs of background skipped (VolumeQueryOptions::skip_background_runs).
+    option_table(
+        "background runs skipped", "points skipped in runs",
+        [](VolumeQueryOptions* q) { q->skip_background_runs = false; },
+        [](const SweepStats& st) { return std::to_string(st.run_skipped) + " of " + std::to_string(st.plane_points); });
   }
   // A node's first frameset on a fresh backend (a new context: programs built,
   // nothing allocated at the frameset's sizes), with and without the backend's

@@ -582,37 +582,54 @@ TEST(PlaneSweepOptions, PlanesAreBounded) {
 namespace hullpipe {
 namespace {
 
-// The refinement's near-miss scans a camera vetoes whole are skipped
-// (VolumeQueryOptions::prune_near_misses): on a hard scene (a sphere, a capsule
-// thinner than the plane spacing, a torus) from rings of 4 and 5 cameras,
-// skewed and not, pinhole, mildly distorted and with the Utrecht rig's lenses
-// (whose projections of a scan's bracket are curved: LensBulgePx), and views
-// from three sides, the depth images with and without are the same to the
-// bit. Positive control: scans were skipped (most of the near misses) under
-// every lens.
-TEST(NearMissPruning, SkippedScansChangeNoPixel) {
+// A hard scene for the sweep's shortcuts: a sphere, a capsule thinner than the
+// plane spacing and a torus.
+SyntheticScene ThinPartsScene() {
   const Eigen::Vector3d centre = kSphereCentre;
   SyntheticScene scene;
   scene.shapes.push_back(Shape::Sphere(centre, 0.22));
   scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(-0.4, 0.3, 0.1),
                                         centre + Eigen::Vector3d(0.4, 0.35, -0.2), 0.012));
   scene.shapes.push_back(Shape::Torus(centre + Eigen::Vector3d(0.0, -0.35, 0.0), 0.15, 0.04));
+  return scene;
+}
+
+// A ring of ncam 240x180 cameras around it: lens 0 pinhole, 1 mildly
+// distorted (k1 = -0.12), 2 the Utrecht rig's cam1 lens; with that skew.
+std::vector<CameraMap> ThinPartsViews(int ncam, int lens, double skew) {
+  Distortion d{};
+  if (lens == 1) d[0] = -0.12;
+  if (lens == 2) d = test::kUtrechtCam1Lens;
+  return test::ExactViews(test::WithSkew(RingCameras(ncam, 3.0, 1.8, kSphereCentre, 240, 180, 1.0, d), skew),
+                          ThinPartsScene());
+}
+
+// Three 200x150 views of it, from three sides.
+std::vector<NovelView> ThinPartsEyes() {
+  std::vector<NovelView> eyes;
+  for (const Eigen::Vector3d& from : {Eigen::Vector3d(2.0, 1.2, -0.5), Eigen::Vector3d(-1.5, 2.0, -1.0),
+                                      Eigen::Vector3d(0.3, -2.2, -0.2)})
+    eyes.push_back(NovelView::FromFov(200, 150, 0.8, LookAt(kSphereCentre + from, kSphereCentre, {0, 0, -1})));
+  return eyes;
+}
+
+// The refinement's near-miss scans a camera vetoes whole are skipped
+// (VolumeQueryOptions::prune_near_misses): on the thin parts scene from rings
+// of 4 and 5 cameras, skewed and not, pinhole, mildly distorted and with the
+// Utrecht rig's lenses (whose projections of a scan's bracket are curved:
+// LensBulgePx), and views from three sides, the depth images with and without
+// are the same to the bit. Positive control: scans were skipped (most of the
+// near misses) under every lens.
+TEST(NearMissPruning, SkippedScansChangeNoPixel) {
   for (const int ncam : {4, 5}) {
     for (const double skew : {0.0, 0.06}) {
       for (const int lens : {0, 1, 2}) {
-        const bool distorted = lens > 0;
-        Distortion d{};
-        if (lens == 1) d[0] = -0.12;
-        if (lens == 2) d = test::kUtrechtCam1Lens;
-        const auto cams = test::WithSkew(RingCameras(ncam, 3.0, 1.8, centre, 240, 180, 1.0, d), skew);
-        const std::vector<CameraMap> views = test::ExactViews(cams, scene);
+        const std::vector<CameraMap> views = ThinPartsViews(ncam, lens, skew);
         VolumeQueryOptions on, off;
         off.prune_near_misses = false;
         const VolumeQuery qa(views, test::BigBox(), on), qb(views, test::BigBox(), off);
         int64_t pruned = 0, scanned_before = 0;
-        for (const Eigen::Vector3d& from : {Eigen::Vector3d(2.0, 1.2, -0.5), Eigen::Vector3d(-1.5, 2.0, -1.0),
-                                            Eigen::Vector3d(0.3, -2.2, -0.2)}) {
-          const NovelView view = NovelView::FromFov(200, 150, 0.8, LookAt(centre + from, centre, {0, 0, -1}));
+        for (const NovelView& view : ThinPartsEyes()) {
           for (const int planes : {30, 100}) {
             PlaneSweepOptions o;
             o.num_planes = planes;
@@ -620,9 +637,8 @@ TEST(NearMissPruning, SkippedScansChangeNoPixel) {
             SweepStats sa, sb;
             const cv::Mat a = PlaneSweepCpu(qa, view, depths, {0, 0, 200, 150}, &sa, 1, 6);
             const cv::Mat b = PlaneSweepCpu(qb, view, depths, {0, 0, 200, 150}, &sb, 1, 6);
-            const std::string what = std::to_string(ncam) + " cameras, skew " + std::to_string(skew) +
-                                     (distorted ? ", lens " + std::to_string(lens) : "") + ", " +
-                                     std::to_string(planes) + " planes";
+            const std::string what = std::to_string(ncam) + " cameras, skew " + std::to_string(skew) + ", lens " +
+                                     std::to_string(lens) + ", " + std::to_string(planes) + " planes";
             EXPECT_EQ(cv::countNonZero(a != b), 0) << what;
             EXPECT_EQ(sb.pruned, 0) << what;
             EXPECT_LE(sa.projections, sb.projections) << what;
@@ -637,43 +653,24 @@ TEST(NearMissPruning, SkippedScansChangeNoPixel) {
   }
 }
 
-}  // namespace
-}  // namespace hullpipe
-
-namespace hullpipe {
-namespace {
-
 // Runs of plane points one camera puts on background are skipped whole
-// (VolumeQueryOptions::skip_background_runs): on the pruning test's hard scene
-// (a sphere, a capsule thinner than the plane spacing, a torus), rings of 4 and
-// 5 cameras, pinhole, mildly distorted and with the Utrecht rig's lenses, three
-// views, 30 to 300 planes, with and without refinement, the depth images are
-// the same to the bit as the sweep that asks every point. The near misses in
-// skipped runs are counted only when a scannable near miss's place among the
-// first eight depends on it; dense planes make rays with more than eight, and
-// leaving those counts out changes pixels here. Positive control: points
+// (VolumeQueryOptions::skip_background_runs): on the thin parts scene, rings of
+// 4 and 5 cameras, pinhole, mildly distorted and with the Utrecht rig's lenses,
+// three views, 30 to 300 planes, with and without refinement, the depth images
+// are the same to the bit as the sweep that asks every point. The near misses
+// in skipped runs are counted only when a scannable near miss's place among
+// the first eight depends on it; dense planes make rays with more than eight,
+// and leaving those counts out changes pixels here. Positive control: points
 // were skipped under every lens, and most projections saved.
 TEST(BackgroundRuns, SkippedRunsChangeNoPixel) {
-  const Eigen::Vector3d centre = kSphereCentre;
-  SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(centre, 0.22));
-  scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(-0.4, 0.3, 0.1),
-                                        centre + Eigen::Vector3d(0.4, 0.35, -0.2), 0.012));
-  scene.shapes.push_back(Shape::Torus(centre + Eigen::Vector3d(0.0, -0.35, 0.0), 0.15, 0.04));
   for (const int ncam : {4, 5}) {
     for (const int lens : {0, 1, 2}) {
-      Distortion dist{};
-      if (lens == 1) dist[0] = -0.12;
-      if (lens == 2) dist = test::kUtrechtCam1Lens;
-      const auto cams = test::WithSkew(RingCameras(ncam, 3.0, 1.8, centre, 240, 180, 1.0, dist), 0.06 * lens);
-      const std::vector<CameraMap> views = test::ExactViews(cams, scene);
+      const std::vector<CameraMap> views = ThinPartsViews(ncam, lens, 0.06 * lens);
       VolumeQueryOptions on, off;
       off.skip_background_runs = false;
       const VolumeQuery qa(views, test::BigBox(), on), qb(views, test::BigBox(), off);
       int64_t skipped = 0, visited = 0, saved = 0, asked = 0;
-      for (const Eigen::Vector3d& from : {Eigen::Vector3d(2.0, 1.2, -0.5), Eigen::Vector3d(-1.5, 2.0, -1.0),
-                                          Eigen::Vector3d(0.3, -2.2, -0.2)}) {
-        const NovelView view = NovelView::FromFov(200, 150, 0.8, LookAt(centre + from, centre, {0, 0, -1}));
+      for (const NovelView& view : ThinPartsEyes()) {
         for (const int planes : {30, 100, 300}) {
           for (const int refine : {0, 6}) {
             PlaneSweepOptions o;
