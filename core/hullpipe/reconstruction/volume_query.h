@@ -95,14 +95,15 @@ struct VolumeQueryOptions {
   /// (docs/benchmarks.md, "Near-miss scans a camera vetoes whole" and
   /// "Near-miss scans skipped through real lenses").
   bool prune_near_misses = true;
-  /// Whether the CPU sweep, after a camera puts a ray's point on a background
-  /// pixel, tries the next planes' points as one segment (4 to 32 points,
-  /// with the planes either side): where that camera holds the whole segment
-  /// on background (SegmentOnBackground) they are all outside, and any near
-  /// miss among them has nothing to scan, so they are skipped without a
-  /// projection. Their near misses are counted only where the count decides
-  /// which near misses are scanned. The sweep's result is the same either way
-  /// (docs/benchmarks.md, "Runs of background skipped in the CPU sweep").
+  /// Whether the CPU sweep with refinement, after a camera puts a ray's point
+  /// on a background pixel, tries the next planes' points as one segment (4 to
+  /// 32 points, with the planes either side): where that camera holds the
+  /// whole segment on background (SegmentOnBackground) they are all outside,
+  /// and any near miss among them has nothing to scan, so they are skipped
+  /// without a projection. Their near misses are counted only where the count
+  /// decides which near misses are scanned. The sweep's result is the same
+  /// either way (docs/benchmarks.md, "Runs of background skipped in the CPU
+  /// sweep").
   bool skip_background_runs = true;
   /// Throws std::invalid_argument naming the bad field.
   void Check() const;
