@@ -144,7 +144,6 @@ class RayQuery {
               break;
             }
           }
-          vetoed_on_background = vote == Vote::kBackground;
         }
         return false;
       } else {
@@ -182,8 +181,6 @@ class RayQuery {
     return hi;
   }
   int64_t projections = 0, skipped = 0;
-  // The last near miss's veto was a background pixel (not a point out of view).
-  bool vetoed_on_background = false;
   // The camera whose veto answered the last AskCameras that returned outside,
   // and whether its vote was a background pixel (not a point out of view).
   size_t vetoer = 0;
@@ -210,11 +207,14 @@ constexpr size_t kNoCamera = std::numeric_limits<size_t>::max();
 constexpr size_t kMinRunSpan = 4, kMaxRunSpan = 32;
 constexpr int kMaxEdgeSteps = 256;
 
-// A near miss at plane k is scanned across its neighbours' planes, within the
-// ray's part [s0, s1] in the hull box: [*a, *b].
-void NearMissBracket(const std::vector<double>& depths, size_t k, double s0, double s1, double* a, double* b) {
-  *a = std::max(s0, k > 0 ? depths[k - 1] : depths[k]);
-  *b = std::min(s1, k + 1 < depths.size() ? depths[k + 1] : depths[k]);
+// The brackets of the points at planes first .. last: from the plane before
+// the first to the plane after the last, within the ray's part [s0, s1] in the
+// hull box: [*a, *b]. A near miss at plane k (first = last = k) is scanned
+// across it; a run of points skipped whole holds all of theirs.
+void NearMissBracket(const std::vector<double>& depths, size_t first, size_t last, double s0, double s1, double* a,
+                     double* b) {
+  *a = std::max(s0, first > 0 ? depths[first - 1] : depths[first]);
+  *b = std::min(s1, last + 1 < depths.size() ? depths[last + 1] : depths[last]);
 }
 
 // The bracket below plane k for refinement: the previous plane or the hull box
@@ -289,12 +289,11 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       size_t hit = d.size();
       for (size_t k = first; k < end; ++k) {
         if (run_camera != kNoCamera && k >= next_try) {
-          // The run's points k .. k + m - 1, their brackets [d[k - 1], d[k + m]]
-          // within the ray's part in the hull box (NearMissBracket).
+          // The run's points k .. k + m - 1 with their brackets.
           const size_t m = std::min(span, end - k);
           if (m >= 2) {
-            const double a = std::max(s0, k > 0 ? depths[k - 1] : depths[k]);
-            const double b = std::min(s1, k + m < depths.size() ? depths[k + m] : depths[k + m - 1]);
+            double a = 0, b = 0;
+            NearMissBracket(depths, k, k + m - 1, s0, s1, &a, &b);
             if (ray.CannotHit(run_camera, float(a), float(b))) {
               local.plane_points += int64_t(m);
               local.run_skipped += int64_t(m);
@@ -328,9 +327,9 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
         // A near miss whose bracket (the scan's, below) its camera vetoes
         // whole has nothing to scan; it still counts against the kept ones.
         bool pruned = false;
-        if (prune && ray.vetoed_on_background) {
+        if (prune && ray.vetoer_saw_background) {
           double a = 0, b = 0;
-          NearMissBracket(depths, k, s0, s1, &a, &b);
+          NearMissBracket(depths, k, k, s0, s1, &a, &b);
           pruned = ray.CannotHit(vetoer, float(a), float(b));
         }
         local.pruned += pruned;
@@ -360,7 +359,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
         for (size_t m = 0; m < n_scan; ++m) {
           const size_t k = near_misses[m];
           double a = 0, b = 0;
-          NearMissBracket(depths, k, s0, s1, &a, &b);
+          NearMissBracket(depths, k, k, s0, s1, &a, &b);
           const double step = (b - a) / 16;
           if (!(step > 0)) continue;
           float t[16];
