@@ -353,8 +353,8 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   // sweep and texture. Same input, same planes, measured in one run.
   {
     std::printf("\nStereo frame (two eyes of one frameset, render_node --stereo) against one eye, median of %d:\n\n"
-                "| backend | cams | eye view | planes | one eye ms | two eyes ms | two / one | shared ms: query + maps + visibility | each eye ms: sweep / refine / texture |\n"
-                "|---|---|---|---|---|---|---|---|---|\n",
+                "| backend | cams | eye view | planes | one eye ms | two eyes ms | two / one | shared ms: query + maps + visibility | of which query / grid (CPU) | each eye ms: sweep / refine / texture |\n"
+                "|---|---|---|---|---|---|---|---|---|---|\n",
                 repeats);
     for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
         const std::vector<Camera>& cams = in.cameras;
@@ -365,15 +365,22 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
           if (!b) continue;
           // Where the two-eye frame's time goes (CPU: the sweep's own clocks;
           // GL: queued work, so the shared part holds what the GPU has not done).
-          std::vector<double> shared, sweep, refine, texture;
+          // The shared part's query (hull box included) and, on the CPU, the
+          // empty-space grid its first sweep (a visibility map's) makes.
+          std::vector<double> shared, query, grid, sweep, refine, texture;
           auto eyes_frame = [&](int n_eyes) {
             return MedianMs(repeats, [&] {
               const double t0 = MonotonicSeconds();
               // The query is the frameset's (recon makes it once, hull box included).
               const VolumeQuery q(in.views, DefaultWorkspace(cams));
+              const double t1 = MonotonicSeconds();
               b->BeginFrameset(q, in.images);
               b->ComputeVisibility(q, cams, 80, vo);
-              if (n_eyes == 2) shared.push_back((MonotonicSeconds() - t0) * 1e3);
+              if (n_eyes == 2) {
+                shared.push_back((MonotonicSeconds() - t0) * 1e3);
+                query.push_back((t1 - t0) * 1e3);
+                if (b == cpu.get()) grid.push_back(q.empty_space().build_ms());
+              }
               for (int e = 0; e < n_eyes; ++e) {
                 PlaneSweepOptions o;
                 o.num_planes = planes;
@@ -390,9 +397,10 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
             });
           };
           const double one = eyes_frame(1), two = eyes_frame(2);
-          std::printf("| %s | %d | %dx%d | %d | %.2f | %.2f | %.2f | %.2f | %.2f / %.2f / %.2f |\n",
+          const std::string grid_ms = grid.empty() ? "-" : Ms2(Median(grid));
+          std::printf("| %s | %d | %dx%d | %d | %.2f | %.2f | %.2f | %.2f | %.2f / %s | %.2f / %.2f / %.2f |\n",
                       b == cpu.get() ? "cpu" : "gl", ncam, w, h, planes, one, two, two / one, Median(shared),
-                      Median(sweep), Median(refine), Median(texture));
+                      Median(query), grid_ms.c_str(), Median(sweep), Median(refine), Median(texture));
           std::fflush(stdout);
         }
     });
