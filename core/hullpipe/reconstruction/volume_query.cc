@@ -691,17 +691,21 @@ bool VolumeQuery::SegmentOnBackground(size_t i, const Eigen::Vector3f& a_cam, co
     pa = pixel(a_cam), pb = pixel(b_cam);
   } else {
     if (!(a_cam.z() > 1e-3f && b_cam.z() > 1e-3f)) return false;
-    const Camera& k = views_[i].camera;
-    const double r2max = double(cam.r2max) * (1 - 1e-4);
-    const Eigen::Vector2d xa = a_cam.head<2>().cast<double>() / double(a_cam.z());
-    const Eigen::Vector2d xb = b_cam.head<2>().cast<double>() / double(b_cam.z());
-    // Both ends within the (convex) valid disk: so is every point between.
-    if (!(xa.squaredNorm() <= r2max && xb.squaredNorm() <= r2max)) return false;
-    const Eigen::Vector2d da = k.PixelFromImagePlane(k.Distort(xa)), db = k.PixelFromImagePlane(k.Distort(xb));
-    const double span = (da - db).cwiseAbs().maxCoeff();
-    if (!(span <= kMaxBulgeSpanPx)) return false;
-    grow += float(LensBulgePx(span));
-    pa = da.cast<float>(), pb = db.cast<float>();
+    // The ends' pixels in VoteFast's float arithmetic (its samples' pixels
+    // differ from them by float rounding, well within the pixel of growth).
+    const float r2max = cam.r2max * (1 - 1e-4f);
+    const auto pixel = [&](const Eigen::Vector3f& P, Eigen::Vector2f* px) {
+      const float iz = 1.0f / P.z(), xn = P.x() * iz, yn = P.y() * iz;
+      const float r2 = xn * xn + yn * yn;
+      // Both ends within the (convex) valid disk: so is every point between.
+      if (!(r2 <= r2max)) return false;
+      detail::FastPixel(cam, xn, yn, r2, &px->x(), &px->y());
+      return true;
+    };
+    if (!pixel(a_cam, &pa) || !pixel(b_cam, &pb)) return false;
+    const float span = (pa - pb).cwiseAbs().maxCoeff();
+    if (!(span <= float(kMaxBulgeSpanPx))) return false;
+    grow += float(LensBulgePx(double(span)));
   }
   const float u0 = std::min(pa.x(), pb.x()) - grow, u1 = std::max(pa.x(), pb.x()) + grow;
   const float v0 = std::min(pa.y(), pb.y()) - grow, v1 = std::max(pa.y(), pb.y()) + grow;

@@ -41,6 +41,22 @@ struct FastCamera {
   const uint8_t* data;
   size_t step;
 };
+/// The pixel (u, v) of a point at normalised image coordinates (xn, yn),
+/// r2 = xn^2 + yn^2, through camera c's lens (Brown-Conrady k1, k2, p1, p2,
+/// k3 as Camera::Distort) and intrinsics, in floats: VoteFast's arithmetic,
+/// which every float test of the sweep shares.
+inline void FastPixel(const FastCamera& c, float xn, float yn, float r2, float* u, float* v) {
+  if (c.distorted) {
+    const float radial = 1.0f + r2 * (c.k1 + r2 * (c.k2 + r2 * c.k3));
+    const float xy = xn * yn;
+    const float xd = xn * radial + 2.0f * c.p1 * xy + c.p2 * (r2 + 2.0f * xn * xn);
+    const float yd = yn * radial + c.p1 * (r2 + 2.0f * yn * yn) + 2.0f * c.p2 * xy;
+    xn = xd;
+    yn = yd;
+  }
+  *u = c.fx * xn + c.skew * yn + c.cx;
+  *v = c.fy * yn + c.cy;
+}
 class CellProver;  // volume_query.cc: the hull box search's rule for empty cells
 struct LazyEmptySpace;  // volume_query.cc: the grid, made on first use
 }  // namespace detail
@@ -221,18 +237,11 @@ class VolumeQuery {
   static Vote VoteFast(const detail::FastCamera& c, float x, float y, float z) {
     if (!(z > 1e-6f)) return Vote::kUnseen;
     const float iz = 1.0f / z;
-    float xn = x * iz, yn = y * iz;
+    const float xn = x * iz, yn = y * iz;
     const float r2 = xn * xn + yn * yn;
     if (!(r2 <= c.r2max)) return Vote::kUnseen;
-    if (c.distorted) {
-      const float radial = 1.0f + r2 * (c.k1 + r2 * (c.k2 + r2 * c.k3));
-      const float xy = xn * yn;
-      const float xd = xn * radial + 2.0f * c.p1 * xy + c.p2 * (r2 + 2.0f * xn * xn);
-      const float yd = yn * radial + c.p1 * (r2 + 2.0f * yn * yn) + 2.0f * c.p2 * xy;
-      xn = xd;
-      yn = yd;
-    }
-    const float u = c.fx * xn + c.skew * yn + c.cx, v = c.fy * yn + c.cy;
+    float u = 0, v = 0;
+    detail::FastPixel(c, xn, yn, r2, &u, &v);
     if (!(u >= 0.0f && v >= 0.0f && u < c.width_f && v < c.height_f)) return Vote::kUnseen;
     // In [0, width) x [0, height): int truncation is the pixel.
     return c.data[size_t(int(v)) * c.step + size_t(int(u))] != 0 ? Vote::kObject : Vote::kBackground;
