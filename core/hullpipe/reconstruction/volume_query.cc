@@ -680,29 +680,26 @@ bool VolumeQuery::NoObjectPixelIn(size_t i, int x0, int y0, int x1, int y1) cons
 
 bool VolumeQuery::SegmentOnBackground(size_t i, const Eigen::Vector3f& a_cam, const Eigen::Vector3f& b_cam) const {
   const detail::FastCamera& cam = fast_.at(i);
-  float grow = 1.0f;
+  // A distorted camera's ends a millimetre in front (a pinhole's just in
+  // front), and within the lens model's valid radius by a relative 1e-4.
+  const float z_min = cam.distorted ? 1e-3f : 1e-6f;
+  if (!(a_cam.z() > z_min && b_cam.z() > z_min)) return false;
+  const float r2max = cam.r2max * (1 - 1e-4f);
+  // The ends' pixels in VoteFast's float arithmetic (its samples' pixels
+  // differ from them by float rounding, well within the pixel of growth).
+  const auto pixel = [&](const Eigen::Vector3f& P, Eigen::Vector2f* px) {
+    const float iz = 1.0f / P.z(), xn = P.x() * iz, yn = P.y() * iz;
+    const float r2 = xn * xn + yn * yn;
+    // Both ends within the (convex) valid disk: so is every point between.
+    if (!(r2 <= r2max)) return false;
+    detail::FastPixel(cam, xn, yn, r2, &px->x(), &px->y());
+    return true;
+  };
   Eigen::Vector2f pa, pb;
-  if (!cam.distorted) {
-    if (!(a_cam.z() > 1e-6f && b_cam.z() > 1e-6f)) return false;
-    const auto pixel = [&](const Eigen::Vector3f& P) {
-      const float xn = P.x() / P.z(), yn = P.y() / P.z();
-      return Eigen::Vector2f(cam.fx * xn + cam.skew * yn + cam.cx, cam.fy * yn + cam.cy);
-    };
-    pa = pixel(a_cam), pb = pixel(b_cam);
-  } else {
-    if (!(a_cam.z() > 1e-3f && b_cam.z() > 1e-3f)) return false;
-    // The ends' pixels in VoteFast's float arithmetic (its samples' pixels
-    // differ from them by float rounding, well within the pixel of growth).
-    const float r2max = cam.r2max * (1 - 1e-4f);
-    const auto pixel = [&](const Eigen::Vector3f& P, Eigen::Vector2f* px) {
-      const float iz = 1.0f / P.z(), xn = P.x() * iz, yn = P.y() * iz;
-      const float r2 = xn * xn + yn * yn;
-      // Both ends within the (convex) valid disk: so is every point between.
-      if (!(r2 <= r2max)) return false;
-      detail::FastPixel(cam, xn, yn, r2, &px->x(), &px->y());
-      return true;
-    };
-    if (!pixel(a_cam, &pa) || !pixel(b_cam, &pb)) return false;
+  if (!pixel(a_cam, &pa) || !pixel(b_cam, &pb)) return false;
+  float grow = 1.0f;
+  if (cam.distorted) {
+    // The image bends from the chord between the ends by at most LensBulgePx.
     const float span = (pa - pb).cwiseAbs().maxCoeff();
     if (!(span <= float(kMaxBulgeSpanPx))) return false;
     grow += float(LensBulgePx(double(span)));
