@@ -77,20 +77,25 @@ class RayQuery {
   // points InsideAt answers without asking the cameras (exactly as they would).
   RayQuery(const VolumeQuery& q, const NovelView& view, const EmptySpace* empty = nullptr)
       : q_(q), cams_(q.fast()), n_(cams_.size()), view_(view), A_(n_), B_(n_), order_(n_),
-        empty_(empty && !empty->knows_nothing() ? empty : nullptr) {
+        empty_(empty && !empty->knows_nothing() ? empty : nullptr), cam_from_eye_(n_), row_B_(n_) {
     if (empty_) gO_ = empty_->GridFromWorld(view.world_from_eye.translation).cast<float>();
     const Eigen::Vector3d O = view.world_from_eye.translation;
     for (size_t c = 0; c < n_; ++c) {
       A_[c] = (q.views()[c].camera.cam_from_world * O).cast<float>();
+      cam_from_eye_[c] = q.views()[c].camera.cam_from_world.rotation * view.world_from_eye.rotation;
       order_[c] = c;
     }
   }
   // Aims at pixel (u, v) of the view; returns the ray's part [*s0, *s1] in the
-  // hull box (false if it misses).
+  // hull box (false if it misses). The ray's direction is linear in u along a
+  // row (NovelView::EyeRay), so each frame's direction is its row's part
+  // (made once a row) plus u's: three multiply-adds a frame, not a rotation.
   bool Aim(double u, double v, double* s0, double* s1) {
-    const Eigen::Vector3d D = view_.world_from_eye.rotation * view_.EyeRay(u, v);
+    if (v != row_v_) AimRow(v);
+    const double x = (u - view_.cx) / view_.fx;
+    const Eigen::Vector3d D = view_.world_from_eye.rotation.col(0) * x + row_D_;
     if (!q_.hull_box().ClipRay(view_.world_from_eye.translation, D, s0, s1)) return false;
-    for (size_t c = 0; c < n_; ++c) B_[c] = (q_.views()[c].camera.cam_from_world.rotation * D).cast<float>();
+    for (size_t c = 0; c < n_; ++c) B_[c] = (cam_from_eye_[c].col(0) * x + row_B_[c]).cast<float>();
     if (empty_) gD_ = empty_->GridFromWorldDirection(D).cast<float>();
     return true;
   }
@@ -194,6 +199,20 @@ class RayQuery {
   std::vector<Eigen::Vector3f> A_, B_;
   std::vector<size_t> order_;
   const EmptySpace* empty_;
+  // Each camera's rotation from the eye frame, and the row being aimed along:
+  // its v and the parts of its rays' directions (world, each camera's) that
+  // do not depend on u.
+  std::vector<Eigen::Matrix3d> cam_from_eye_;
+  std::vector<Eigen::Vector3d> row_B_;
+  Eigen::Vector3d row_D_ = Eigen::Vector3d::Zero();
+  double row_v_ = std::numeric_limits<double>::quiet_NaN();
+  void AimRow(double v) {
+    row_v_ = v;
+    const double y = (v - view_.cy) / view_.fy;
+    const Eigen::Matrix3d& R = view_.world_from_eye.rotation;
+    row_D_ = R.col(1) * y + R.col(2);
+    for (size_t c = 0; c < n_; ++c) row_B_[c] = cam_from_eye_[c].col(1) * y + cam_from_eye_[c].col(2);
+  }
   // The ray in grid units: the point at eye depth d is gO_ + d * gD_ (float
   // like VoteFast's; the cubes were proven grown by 0.1 mm and a pixel).
   Eigen::Vector3f gO_ = Eigen::Vector3f::Zero(), gD_ = Eigen::Vector3f::Zero();
