@@ -116,9 +116,9 @@ EmptySpace::EmptySpace(const VolumeQuery& query, int cells_per_axis, int threads
 }
 
 bool EmptySpace::DepthBounds(const NovelView& view, const cv::Rect& region, cv::Mat* near, cv::Mat* far,
-                             StopFlag stop) const {
-  *near = cv::Mat();
-  *far = cv::Mat();
+                             StopFlag stop, cv::Mat* hit_near, cv::Mat* hit_far) const {
+  for (cv::Mat* m : {near, far, hit_near, hit_far})
+    if (m) *m = cv::Mat();
   if (knows_nothing() || region.area() <= 0) return false;
   // Each cube two cameras do not veto is projected: for a view of few pixels
   // (the visibility maps' 80x60) that costs more than its bounds save.
@@ -134,11 +134,13 @@ bool EmptySpace::DepthBounds(const NovelView& view, const cv::Rect& region, cv::
   const Eigen::Vector3d ex = R.col(0), ey = R.col(1), ez = R.col(2);
   cv::Mat lo(block_rows, block_cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::infinity()));
   cv::Mat hi(block_rows, block_cols, CV_32FC1, cv::Scalar(-std::numeric_limits<float>::infinity()));
+  cv::Mat lo0 = lo.clone(), hi0 = hi.clone();  // the cubes no camera vetoes
   constexpr double kZMin = 1e-3;
   for (int k = 0; k < dims_.z(); ++k)
     for (int j = 0; j < dims_.y(); ++j)
       for (int i = 0; i < dims_.x(); ++i) {
-        if (vetoes_[Stored(size_t(i + 1), size_t(j + 1), size_t(k + 1))] >= 2) continue;
+        const uint8_t vetoes = vetoes_[Stored(size_t(i + 1), size_t(j + 1), size_t(k + 1))];
+        if (vetoes >= 2) continue;
         ThrowIfStopped(stop, "the plane sweep's depth bounds");
         const Eigen::Vector3d c = p0 + double(i) * ex + double(j) * ey + double(k) * ez;
         std::array<Eigen::Vector3d, 8> p;
@@ -173,10 +175,19 @@ bool EmptySpace::DepthBounds(const NovelView& view, const cv::Rect& region, cv::
             l[col] = std::min(l[col], zn);
             h[col] = std::max(h[col], zf);
           }
+          if (vetoes != 0) continue;
+          float* l0 = lo0.ptr<float>(r);
+          float* h0 = hi0.ptr<float>(r);
+          for (int col = c0; col <= c1; ++col) {
+            l0[col] = std::min(l0[col], zn);
+            h0[col] = std::max(h0[col], zf);
+          }
         }
       }
   *near = lo;
   *far = hi;
+  if (hit_near) *hit_near = lo0;
+  if (hit_far) *hit_far = hi0;
   return true;
 }
 

@@ -91,8 +91,14 @@ class EmptySpace {
   /// (then no pixel is bounded). A ray's samples outside its bounds are neither inside nor
   /// near misses, so the sweep need not visit them. `stop` is polled per cube:
   /// once set, throws Interrupted.
+  /// `hit_near`, `hit_far` (if given; left empty when false is returned): the
+  /// same for the cubes no camera vetoes, made the same way: the eye depths
+  /// outside of which a block's rays meet only cubes some camera vetoes whole,
+  /// where no point is inside the hull. A ray's depth (its first inside
+  /// point, planes, near-miss scans and silhouette pass alike) lies within
+  /// them; near > far: the block's rays meet the hull nowhere.
   bool DepthBounds(const NovelView& view, const cv::Rect& region, cv::Mat* near, cv::Mat* far,
-                   StopFlag stop = nullptr) const;
+                   StopFlag stop = nullptr, cv::Mat* hit_near = nullptr, cv::Mat* hit_far = nullptr) const;
 
   /// Cubes along x, y, z (0 when the grid skips nothing).
   const Eigen::Vector3i& dims() const { return dims_; }

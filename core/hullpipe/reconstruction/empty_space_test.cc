@@ -142,14 +142,20 @@ TEST(EmptySpace, ARaysSamplesOutsideItsDepthBoundsAreVetoedTwice) {
   const NovelView view = FarView(240, 180);
   ASSERT_FALSE(q.hull_box().Contains(view.world_from_eye.translation));
   const cv::Rect region(9, 6, 210, 150);
-  cv::Mat near, far;
-  ASSERT_TRUE(grid.DepthBounds(view, region, &near, &far));
+  cv::Mat near, far, hit_near, hit_far;
+  ASSERT_TRUE(grid.DepthBounds(view, region, &near, &far, nullptr, &hit_near, &hit_far));
   constexpr int B = EmptySpace::kBoundsBlock;
   ASSERT_EQ(near.size(), cv::Size((region.width + B - 1) / B, (region.height + B - 1) / B));
-  int64_t outside = 0, all = 0;
+  ASSERT_EQ(hit_near.size(), near.size());
+  int64_t outside = 0, all = 0, outside_hit = 0;
   for (int r = 0; r < region.height; r += 7)
     for (int c = 0; c < region.width; c += 7) {
       const float lo = near.at<float>(r / B, c / B), hi = far.at<float>(r / B, c / B);
+      const float lo0 = hit_near.at<float>(r / B, c / B), hi0 = hit_far.at<float>(r / B, c / B);
+      // The cubes no camera vetoes are among those two do not.
+      if (lo0 <= hi0) {
+        ASSERT_TRUE(lo <= lo0 && hi0 <= hi) << "block " << c / B << "," << r / B;
+      }
       const Eigen::Vector3d O = view.world_from_eye.translation;
       const Eigen::Vector3d D =
           view.world_from_eye.rotation * view.EyeRay(region.x + c + 0.5, region.y + r + 0.5);
@@ -157,6 +163,12 @@ TEST(EmptySpace, ARaysSamplesOutsideItsDepthBoundsAreVetoedTwice) {
       if (!q.hull_box().ClipRay(O, D, &s0, &s1)) continue;
       for (double s = s0; s <= s1; s += 0.004) {
         ++all;
+        if (!(s >= lo0 && s <= hi0)) {
+          ++outside_hit;
+          bool vetoed = false;
+          for (size_t k = 0; k < q.size() && !vetoed; ++k) vetoed = q.VoteOf(k, O + s * D) == Vote::kBackground;
+          ASSERT_TRUE(vetoed) << "outside the hit bounds: pixel " << c << "," << r << " depth " << s;
+        }
         if (s >= lo && s <= hi) continue;
         ++outside;
         int background = 0;
@@ -167,6 +179,8 @@ TEST(EmptySpace, ARaysSamplesOutsideItsDepthBoundsAreVetoedTwice) {
   // Control: the bounds do cut (16% of the samples here: the figure fills most
   // of this narrow view, and a block of 8x8 pixels takes its cubes' extremes).
   EXPECT_GT(double(outside) / double(all), 0.1);
+  // ...and the hit bounds cut more: the samples only one camera vetoes too.
+  EXPECT_GT(double(outside_hit - outside) / double(all), 0.1);
   // An eye inside the hull box: cubes behind it are left out, and a cube
   // across its plane gives no bounds at all.
   NovelView inside = view;

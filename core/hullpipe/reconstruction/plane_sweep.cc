@@ -245,9 +245,11 @@ bool RefineBracket(const std::vector<double>& depths, size_t k, double s0, float
   return true;
 }
 
-// bounds (may be empty): EmptySpace::DepthBounds of `tile`, per block of pixels.
+// bounds (may be empty): EmptySpace::DepthBounds of `tile`, per block of
+// pixels: where a ray's points may be inside or near misses (near, far), and
+// where they may be inside (hit_near, hit_far).
 struct RayBounds {
-  cv::Mat near, far;
+  cv::Mat near, far, hit_near, hit_far;
 };
 
 // kRefine: refine_iterations > 0 (a loop of its own: the sweep without
@@ -272,13 +274,19 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       out_row[col] = kNoDepth;
       // A ray can take 4096 planes x n cameras of tests: poll per pixel.
       if (Stopped(stop)) break;
-      // The ray's bounds in the empty space: its samples outside them are
-      // neither inside nor near misses (none, when near > far).
+      // The ray's bounds in the empty space: outside [from, to] its points are
+      // neither inside nor near misses; outside [hit_from, hit_to] none is
+      // inside, so no near miss's scan wholly outside them finds one.
       double from = -std::numeric_limits<double>::infinity(), to = std::numeric_limits<double>::infinity();
+      double hit_from = from, hit_to = to;
       if (!bounds.near.empty()) {
-        from = bounds.near.at<float>(r / EmptySpace::kBoundsBlock, col / EmptySpace::kBoundsBlock);
-        to = bounds.far.at<float>(r / EmptySpace::kBoundsBlock, col / EmptySpace::kBoundsBlock);
-        if (!(from <= to)) continue;
+        const int br = r / EmptySpace::kBoundsBlock, bc = col / EmptySpace::kBoundsBlock;
+        from = bounds.near.at<float>(br, bc);
+        to = bounds.far.at<float>(br, bc);
+        hit_from = bounds.hit_near.at<float>(br, bc);
+        hit_to = bounds.hit_far.at<float>(br, bc);
+        // No point of the ray is inside: no depth, near misses or not.
+        if (!(from <= to) || !(hit_from <= hit_to)) continue;
       }
       double s0 = depths.front(), s1 = depths.back();
       if (!ray.Aim(tile.x + col + 0.5, tile.y + r + 0.5, &s0, &s1)) continue;
@@ -288,7 +296,13 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       from = std::max(from, s0);
       to = std::min(to, s1);
       const size_t first = size_t(std::lower_bound(depths.begin(), depths.end(), from) - depths.begin());
-      const size_t end = size_t(std::upper_bound(depths.begin() + long(first), depths.end(), to) - depths.begin());
+      size_t end = size_t(std::upper_bound(depths.begin() + long(first), depths.end(), to) - depths.begin());
+      const size_t past_hits = size_t(std::upper_bound(depths.begin(), depths.end(), hit_to) - depths.begin());
+      // Past hit_to likewise, but for the first plane beyond it: with
+      // refinement a near miss whose scan may reach back.
+      const size_t bounded_end = end;
+      end = std::max(first, std::min(end, kRefine ? past_hits + 1 : past_hits));
+      local.hit_skipped += int64_t(bounded_end - end);
       // Refinement remembers the planes where the stencil count was n - 1 before the
       // first inside plane: a piece of hull thinner than the spacing may lie
       // between them and their neighbours. The first kMaxNearMisses near misses
@@ -306,7 +320,26 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       size_t n_uncounted = 0;
       size_t run_camera = kNoCamera, span = kMinRunSpan, next_try = 0, backoff = 1;
       size_t hit = d.size();
-      for (size_t k = first; k < end; ++k) {
+      // The points in front of hit_from hold no inside point. With
+      // refinement, the first plane whose bracket reaches it is visited (its
+      // scan may), and the points before it are skipped as a run is: they
+      // hold no near miss with anything to scan, but count against the kept
+      // ones, so they are counted if that matters.
+      size_t k_begin = first;
+      {
+        const size_t hp = size_t(std::lower_bound(depths.begin(), depths.end(), hit_from) - depths.begin());
+        const size_t kh = kRefine && hp > 0 ? hp - 1 : hp;
+        const size_t m = std::min(kh, end) - std::min(kh, first);
+        if (m > 0) {
+          if (kRefine) {
+            uncounted.emplace_back(first, m);
+            n_uncounted += m;
+          }
+          k_begin = first + m;
+          local.hit_skipped += int64_t(m);
+        }
+      }
+      for (size_t k = k_begin; k < end; ++k) {
         if (run_camera != kNoCamera && k >= next_try) {
           // The run's points k .. k + m - 1 with their brackets.
           const size_t m = std::min(span, end - k);
@@ -416,6 +449,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
     stats->skipped += local.skipped;
     stats->pruned += local.pruned;
     stats->run_skipped += local.run_skipped;
+    stats->hit_skipped += local.hit_skipped;
   }
 }
 
@@ -433,6 +467,7 @@ void ForRowBands(int height, int threads, SweepStats* stats, Rows rows) {
       stats->skipped += st.skipped;
       stats->pruned += st.pruned;
       stats->run_skipped += st.run_skipped;
+      stats->hit_skipped += st.hit_skipped;
     }
 }
 
@@ -569,7 +604,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   RayBounds bounds;
   if (refine_iterations <= 0) {
     const double t0 = t_grid;
-    empty.DepthBounds(view, tile, &bounds.near, &bounds.far, stop);
+    empty.DepthBounds(view, tile, &bounds.near, &bounds.far, stop, &bounds.hit_near, &bounds.hit_far);
     ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
       SweepRows<false>(query, empty, bounds, view, depths, tile, r0, r1, out, st, 0, stop);
     });
@@ -584,7 +619,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                           cv::Rect(0, 0, view.width, view.height);
   const double t0 = t_grid;
   cv::Mat swept(region.height, region.width, CV_32FC1);  // every pixel written by SweepRows
-  empty.DepthBounds(view, region, &bounds.near, &bounds.far, stop);
+  empty.DepthBounds(view, region, &bounds.near, &bounds.far, stop, &bounds.hit_near, &bounds.hit_far);
   ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
     SweepRows<true>(query, empty, bounds, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
   });

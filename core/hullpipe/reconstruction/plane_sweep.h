@@ -61,7 +61,9 @@ std::vector<double> SweepPlaneDepths(const VolumeQuery& query, const NovelView& 
 
 /// Counters of a sweep (for benchmarks).
 struct SweepStats {
-  int64_t rays = 0;          ///< Pixels whose ray met the hull box outside the empty space (EmptySpace).
+  /// Pixels whose ray met the hull box where the empty space (EmptySpace)
+  /// leaves room for the hull.
+  int64_t rays = 0;
   int64_t plane_points = 0;  ///< Plane points visited.
   int64_t projections = 0;   ///< Point-in-camera tests made.
   int64_t skipped = 0;       ///< Point queries answered by the empty-space grid (EmptySpace), no camera asked.
@@ -72,6 +74,12 @@ struct SweepStats {
   /// brackets included (VolumeQueryOptions::skip_background_runs); counted in
   /// plane_points, not in projections.
   int64_t run_skipped = 0;
+  /// Plane points within a ray's depth bounds where no point can be inside
+  /// (EmptySpace::DepthBounds' hit bounds), not visited: before the first plane
+  /// whose near miss could scan into them (their near misses counted only
+  /// when which are the first kept depends on it) and past the first plane
+  /// beyond them. Not in plane_points.
+  int64_t hit_skipped = 0;
   /// Wall milliseconds (added to, not reset): the sweep with its per-ray
   /// bisection, and the silhouette/rim refinement pass (the latency budget's
   /// recon "sweep" and "refine", docs/latency.md).
