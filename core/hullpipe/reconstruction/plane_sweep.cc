@@ -268,6 +268,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
   // The runs of plane points skipped on the ray being swept whose near misses
   // are not counted yet: (first plane, count).
   std::vector<std::pair<size_t, size_t>> uncounted;
+  const bool bounded = !bounds.near.empty();
   for (int r = row_begin; r < row_end && !Stopped(stop); ++r) {
     float* out_row = out.ptr<float>(r);
     for (int col = 0; col < tile.width; ++col) {
@@ -279,7 +280,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       // inside, so no near miss's scan wholly outside them finds one.
       double from = -std::numeric_limits<double>::infinity(), to = std::numeric_limits<double>::infinity();
       double hit_from = from, hit_to = to;
-      if (!bounds.near.empty()) {
+      if (bounded) {
         const int br = r / EmptySpace::kBoundsBlock, bc = col / EmptySpace::kBoundsBlock;
         from = bounds.near.at<float>(br, bc);
         to = bounds.far.at<float>(br, bc);
