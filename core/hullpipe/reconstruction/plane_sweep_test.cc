@@ -654,6 +654,30 @@ TEST(NearMissPruning, SkippedScansChangeNoPixel) {
   }
 }
 
+// Sweeps `views` through queries a and b (a shortcut on and off) from the thin
+// parts eyes (width x height), at 30, 100 and 300 planes, without and with
+// refinement; expects the same depth images and hands each pair's stats and
+// description to `check`.
+template <class Check>
+void CompareThinPartsSweeps(const VolumeQuery& qa, const VolumeQuery& qb, int width, int height, Check check) {
+  for (const NovelView& view : ThinPartsEyes(width, height)) {
+    for (const int planes : {30, 100, 300}) {
+      for (const int refine : {0, 6}) {
+        PlaneSweepOptions o;
+        o.num_planes = planes;
+        const auto depths = SweepPlaneDepths(qa, view, o);
+        SweepStats sa, sb;
+        const cv::Mat a = PlaneSweepCpu(qa, view, depths, {0, 0, width, height}, &sa, 1, refine);
+        const cv::Mat b = PlaneSweepCpu(qb, view, depths, {0, 0, width, height}, &sb, 1, refine);
+        const std::string what = std::to_string(qa.size()) + " cameras, " + std::to_string(planes) +
+                                 " planes, refine " + std::to_string(refine);
+        EXPECT_EQ(cv::countNonZero(a != b), 0) << what;
+        check(sa, sb, what);
+      }
+    }
+  }
+}
+
 // The empty-space grid's hit bounds (EmptySpace::DepthBounds: where a cube no
 // camera vetoes lies) end each ray's march and skip its points in front, whose
 // near misses are counted only when which are the first kept depends on them:
@@ -671,24 +695,12 @@ TEST(HitBounds, PointsWhereNoHitCanBeAreSkippedChangingNoPixel) {
       off.empty_space_cells = 0;
       const VolumeQuery qa(views, test::BigBox()), qb(views, test::BigBox(), off);
       int64_t skipped = 0, visited = 0;
-      for (const NovelView& view : ThinPartsEyes(320, 240)) {
-        for (const int planes : {30, 100, 300}) {
-          for (const int refine : {0, 6}) {
-            PlaneSweepOptions o;
-            o.num_planes = planes;
-            const auto depths = SweepPlaneDepths(qa, view, o);
-            SweepStats sa, sb;
-            const cv::Mat a = PlaneSweepCpu(qa, view, depths, {0, 0, 320, 240}, &sa, 1, refine);
-            const cv::Mat b = PlaneSweepCpu(qb, view, depths, {0, 0, 320, 240}, &sb, 1, refine);
-            const std::string what = std::to_string(ncam) + " cameras, lens " + std::to_string(lens) + ", " +
-                                     std::to_string(planes) + " planes, refine " + std::to_string(refine);
-            EXPECT_EQ(cv::countNonZero(a != b), 0) << what;
-            EXPECT_EQ(sb.hit_skipped, 0) << what;
-            skipped += sa.hit_skipped;
-            visited += sa.plane_points;
-          }
-        }
-      }
+      SCOPED_TRACE("lens " + std::to_string(lens));
+      CompareThinPartsSweeps(qa, qb, 320, 240, [&](const SweepStats& sa, const SweepStats& sb, const std::string& w) {
+        EXPECT_EQ(sb.hit_skipped, 0) << w;
+        skipped += sa.hit_skipped;
+        visited += sa.plane_points;
+      });
       EXPECT_GT(skipped, visited / 10) << ncam << " cameras, lens " << lens;
     }
   }
@@ -711,27 +723,15 @@ TEST(BackgroundRuns, SkippedRunsChangeNoPixel) {
       off.skip_background_runs = false;
       const VolumeQuery qa(views, test::BigBox(), on), qb(views, test::BigBox(), off);
       int64_t skipped = 0, visited = 0, saved = 0, asked = 0;
-      for (const NovelView& view : ThinPartsEyes()) {
-        for (const int planes : {30, 100, 300}) {
-          for (const int refine : {0, 6}) {
-            PlaneSweepOptions o;
-            o.num_planes = planes;
-            const auto depths = SweepPlaneDepths(qa, view, o);
-            SweepStats sa, sb;
-            const cv::Mat a = PlaneSweepCpu(qa, view, depths, {0, 0, 200, 150}, &sa, 1, refine);
-            const cv::Mat b = PlaneSweepCpu(qb, view, depths, {0, 0, 200, 150}, &sb, 1, refine);
-            const std::string what = std::to_string(ncam) + " cameras, lens " + std::to_string(lens) + ", " +
-                                     std::to_string(planes) + " planes, refine " + std::to_string(refine);
-            EXPECT_EQ(cv::countNonZero(a != b), 0) << what;
-            EXPECT_EQ(sb.run_skipped, 0) << what;
-            EXPECT_EQ(sa.plane_points, sb.plane_points) << what << ": every point visited or skipped";
-            skipped += sa.run_skipped;
-            visited += sa.plane_points;
-            saved += sb.projections - sa.projections;
-            asked += sb.projections;
-          }
-        }
-      }
+      SCOPED_TRACE("lens " + std::to_string(lens));
+      CompareThinPartsSweeps(qa, qb, 200, 150, [&](const SweepStats& sa, const SweepStats& sb, const std::string& w) {
+        EXPECT_EQ(sb.run_skipped, 0) << w;
+        EXPECT_EQ(sa.plane_points, sb.plane_points) << w << ": every point visited or skipped";
+        skipped += sa.run_skipped;
+        visited += sa.plane_points;
+        saved += sb.projections - sa.projections;
+        asked += sb.projections;
+      });
       const std::string what = std::to_string(ncam) + " cameras, lens " + std::to_string(lens);
       EXPECT_GT(skipped, visited / 10) << what;
       EXPECT_GT(saved, asked / 5) << what;
