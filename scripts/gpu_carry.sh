@@ -4,7 +4,7 @@
 # this build's binaries with their libraries (scripts/bundle_binaries.py), the
 # Utrecht rig and the published dome, as one xz archive in an ignored folder
 # that the device's `run` carries. The whole working tree that travels must
-# stay under 64 MiB; the bundle alone is ~85 MiB, ~23 MiB packed.
+# stay under 64 MiB; the bundle alone is ~87 MiB, the archive with both rigs ~42.
 #
 # Usage: scripts/gpu_carry.sh [BUILD_DIR]   (default build)
 #   writes .carry/gpu.tar.xz and prints the call to make:
