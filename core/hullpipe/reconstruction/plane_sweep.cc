@@ -88,8 +88,8 @@ class RayQuery {
   }
   // Aims at pixel (u, v) of the view; returns the ray's part [*s0, *s1] in the
   // hull box (false if it misses). The ray's direction is linear in u along a
-  // row (NovelView::EyeRay), so each frame's direction is its row's part
-  // (made once a row) plus u's: three multiply-adds a frame, not a rotation.
+  // row (NovelView::EyeRay), so each pixel's direction is its row's part
+  // (made once a row) plus u's: three multiply-adds a pixel, not a rotation.
   bool Aim(double u, double v, double* s0, double* s1) {
     if (v != row_v_) AimRow(v);
     const double x = (u - view_.cx) / view_.fx;
@@ -298,12 +298,14 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       to = std::min(to, s1);
       const size_t first = size_t(std::lower_bound(depths.begin(), depths.end(), from) - depths.begin());
       size_t end = size_t(std::upper_bound(depths.begin() + long(first), depths.end(), to) - depths.begin());
-      const size_t past_hits = size_t(std::upper_bound(depths.begin(), depths.end(), hit_to) - depths.begin());
-      // Past hit_to likewise, but for the first plane beyond it: with
-      // refinement a near miss whose scan may reach back.
-      const size_t bounded_end = end;
-      end = std::max(first, std::min(end, kRefine ? past_hits + 1 : past_hits));
-      local.hit_skipped += int64_t(bounded_end - end);
+      if (bounded) {
+        // Past hit_to none is inside either; the first plane beyond it is
+        // still visited with refinement: its near miss's scan may reach back.
+        const size_t past_hits = size_t(std::upper_bound(depths.begin(), depths.end(), hit_to) - depths.begin());
+        const size_t bounded_end = end;
+        end = std::max(first, std::min(end, kRefine ? past_hits + 1 : past_hits));
+        local.hit_skipped += int64_t(bounded_end - end);
+      }
       // Refinement remembers the planes where the stencil count was n - 1 before the
       // first inside plane: a piece of hull thinner than the spacing may lie
       // between them and their neighbours. The first kMaxNearMisses near misses
@@ -327,7 +329,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       // hold no near miss with anything to scan, but count against the kept
       // ones, so they are counted if that matters.
       size_t k_begin = first;
-      {
+      if (bounded) {
         const size_t hp = size_t(std::lower_bound(depths.begin(), depths.end(), hit_from) - depths.begin());
         const size_t kh = kRefine && hp > 0 ? hp - 1 : hp;
         const size_t m = std::min(kh, end) - std::min(kh, first);
