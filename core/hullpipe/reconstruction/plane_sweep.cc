@@ -496,20 +496,39 @@ double SpacingAt(const std::vector<double>& depths, double d) {
 void RefineEdges(const VolumeQuery& query, const EmptySpace& empty, const NovelView& view,
                  const std::vector<double>& depths, const cv::Rect& region, const cv::Rect& inner, int iterations,
                  const cv::Mat& swept, cv::Mat& out, int threads, StopFlag stop) {
+  // Most pixels have no window: no depth and no neighbour with one, or a
+  // neighbour not 1.5 spacings in front. The smallest spacing settles the
+  // latter without SpacingAt's search (1.5 * sp >= 1.5 * least: rounding is
+  // monotone, so a neighbour it passes passes with its own spacing too).
+  double least = std::numeric_limits<double>::infinity();
+  for (size_t k = 1; k < depths.size(); ++k) least = std::min(least, depths[k] - depths[k - 1]);
+  // Rows of the sweep with a depth: a row whose neighbours and itself have
+  // none has no window.
+  std::vector<uint8_t> row_has_depth(size_t(swept.rows), 0);
+  for (int y = 0; y < swept.rows; ++y) {
+    const float* row = swept.ptr<float>(y);
+    row_has_depth[size_t(y)] = std::any_of(row, row + swept.cols, [](float x) { return std::isfinite(x); });
+  }
   ForRowBands(inner.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
     RayQuery ray(query, view, &empty);
     std::vector<std::pair<double, double>> windows;
     for (int rr = r0; rr < r1 && !Stopped(stop); ++rr) {
       const int r = inner.y + rr;
+      const bool above = r > 0 && row_has_depth[size_t(r - 1)];
+      const bool below = r + 1 < swept.rows && row_has_depth[size_t(r + 1)];
+      if (!above && !below && !row_has_depth[size_t(r)]) continue;
+      const float* mid = swept.ptr<float>(r);
+      const float* up = above ? swept.ptr<float>(r - 1) : nullptr;
+      const float* down = below ? swept.ptr<float>(r + 1) : nullptr;
       for (int c = inner.x; c < inner.x + inner.width && !Stopped(stop); ++c) {
-        const float dp = swept.at<float>(r, c);
+        const float dp = mid[c];
+        // The four neighbours (above, below, left, right) where inside the sweep.
+        const float nb[4] = {up ? up[c] : kNoDepth, down ? down[c] : kNoDepth, c > 0 ? mid[c - 1] : kNoDepth,
+                             c + 1 < swept.cols ? mid[c + 1] : kNoDepth};
         windows.clear();
-        const int nb[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
-        for (const auto& o : nb) {
-          const int y = r + o[0], x = c + o[1];
-          if (y < 0 || x < 0 || y >= swept.rows || x >= swept.cols) continue;
-          const float dq = swept.at<float>(y, x);
+        for (const float dq : nb) {
           if (!std::isfinite(dq)) continue;
+          if (std::isfinite(dp) && dq >= dp - 1.5 * least) continue;
           const double sp = SpacingAt(depths, dq);
           if (std::isfinite(dp) && dq >= dp - 1.5 * sp) continue;
           windows.emplace_back(dq - 2 * sp, dq + 2 * sp);
