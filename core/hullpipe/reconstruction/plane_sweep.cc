@@ -252,6 +252,79 @@ struct RayBounds {
   cv::Mat near, far, hit_near, hit_far;
 };
 
+// Planes per slab of TightenHitBounds.
+constexpr size_t kSlabPlanes = 2;
+
+// The float at or below x, and at or above it.
+float FloatDown(double x) {
+  const float f = float(x);
+  return double(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+float FloatUp(double x) {
+  const float f = float(x);
+  return double(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+
+// Narrows each block's hit bounds (RayBounds) to the view's own frustum: the
+// rays of a block of pixels between two eye depths fill a convex piece of the
+// frustum (its 8 vertices: the block's corner rays at both depths), and a
+// camera that puts all of it on background (VolumeQuery::CountWholeBackground)
+// proves that no point of those rays there is inside. The grid's cubes are the
+// world's and coarse (a cube straddling a silhouette cone is vetoed by no
+// camera, and a block meets many), a block's pieces thin across its rays: the
+// pieces proven empty from the front and from the back, slab by slab
+// (kSlabPlanes planes each, between the bounds), are cut off; a block whose
+// pieces all are has no hit. Valid hit bounds still, so the sweep's depths are
+// unchanged (SweepRows visits fewer points); rounded outward to floats.
+void TightenHitBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
+                      const std::vector<double>& depths, RayBounds* bounds, StopFlag stop) {
+  if (bounds->hit_near.empty() || depths.empty()) return;
+  const int B = EmptySpace::kBoundsBlock;
+  const Rigid3d& world_from_eye = view.world_from_eye;
+  size_t hint = 0;
+  std::vector<double> cuts;
+  for (int i = 0; i < bounds->hit_near.rows; ++i) {
+    ThrowIfStopped(stop, "the plane sweep's hit bounds");
+    for (int j = 0; j < bounds->hit_near.cols; ++j) {
+      float& hit_near = bounds->hit_near.at<float>(i, j);
+      float& hit_far = bounds->hit_far.at<float>(i, j);
+      if (!(hit_near <= hit_far) || !(hit_near > 0)) continue;
+      // The block's pixel edges, and its corner rays' directions (eye z = 1).
+      const double x0 = region.x + j * B, x1 = region.x + std::min((j + 1) * B, region.width);
+      const double y0 = region.y + i * B, y1 = region.y + std::min((i + 1) * B, region.height);
+      const Eigen::Vector3d ray[4] = {view.EyeRay(x0, y0), view.EyeRay(x1, y0), view.EyeRay(x0, y1),
+                                      view.EyeRay(x1, y1)};
+      // The slabs' depths: the bounds and every kSlabPlanes-th plane between.
+      cuts.clear();
+      cuts.push_back(hit_near);
+      const auto lo = std::upper_bound(depths.begin(), depths.end(), double(hit_near));
+      const auto hi = std::lower_bound(lo, depths.end(), double(hit_far));
+      for (auto it = lo; it < hi; it += long(std::min<size_t>(kSlabPlanes, size_t(hi - it)))) cuts.push_back(*it);
+      cuts.push_back(hit_far);
+      auto empty_slab = [&](size_t k) {
+        std::array<Eigen::Vector3d, 8> c;
+        for (size_t r = 0; r < 4; ++r) {
+          c[r] = world_from_eye * Eigen::Vector3d(ray[r] * cuts[k]);
+          c[r + 4] = world_from_eye * Eigen::Vector3d(ray[r] * cuts[k + 1]);
+        }
+        return query.CountWholeBackground(c, 1, &hint) > 0;
+      };
+      const size_t slabs = cuts.size() - 1;
+      size_t front = 0;
+      while (front < slabs && empty_slab(front)) ++front;
+      if (front == slabs) {
+        hit_near = std::numeric_limits<float>::infinity();
+        hit_far = -std::numeric_limits<float>::infinity();
+        continue;
+      }
+      size_t back = slabs;
+      while (back > front + 1 && empty_slab(back - 1)) --back;
+      hit_near = FloatDown(cuts[front]);
+      hit_far = FloatUp(cuts[back]);
+    }
+  }
+}
+
 // kRefine: refine_iterations > 0 (a loop of its own: the sweep without
 // refinement looks for no near misses and skips no runs).
 template <bool kRefine>
@@ -627,6 +700,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   if (refine_iterations <= 0) {
     const double t0 = t_grid;
     empty.DepthBounds(view, tile, &bounds.near, &bounds.far, stop, &bounds.hit_near, &bounds.hit_far);
+    TightenHitBounds(query, view, tile, depths, &bounds, stop);
     ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
       SweepRows<false>(query, empty, bounds, view, depths, tile, r0, r1, out, st, 0, stop);
     });
@@ -642,6 +716,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   const double t0 = t_grid;
   cv::Mat swept(region.height, region.width, CV_32FC1);  // every pixel written by SweepRows
   empty.DepthBounds(view, region, &bounds.near, &bounds.far, stop, &bounds.hit_near, &bounds.hit_far);
+  TightenHitBounds(query, view, region, depths, &bounds, stop);
   ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
     SweepRows<true>(query, empty, bounds, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
   });

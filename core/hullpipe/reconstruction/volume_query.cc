@@ -276,6 +276,8 @@ class CellProver {
   // How many cameras, up to `need`, see all of `cell` (grown by a pixel) and
   // put it on background (VolumeQuery::CountWholeBackground).
   int WholeBackground(const Aabb& cell, int need, size_t* hint) const;
+  // The same for the convex cell with these 8 vertices (world metres).
+  int WholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need, size_t* hint) const;
 
  private:
   // What camera i says of every point of `cell`, its projection's rectangle
@@ -288,6 +290,8 @@ class CellProver {
     kMaySee,          // may put a point of it on an object pixel
   };
   Verdict Classify(const Aabb& cell, size_t i, double margin_px) const;
+  // Classify for any convex cell with these 8 vertices (camera i's frame).
+  Verdict ClassifyCorners(const std::array<Eigen::Vector3d, 8>& pc, size_t i, double margin_px) const;
 
   std::vector<CameraMap> views_;  // shares the maps
   std::vector<cv::Rect> rects_;
@@ -301,6 +305,21 @@ class CellProver {
 static size_t HintFirst(size_t j, size_t hint) { return j == 0 ? hint : (j <= hint ? j - 1 : j); }
 
 CellProver::Verdict CellProver::Classify(const Aabb& cell, size_t i, double margin_px) const {
+  const Eigen::Vector3d size = cell.max - cell.min;
+  // The corners in the camera's frame (its rotation applied to the cell's
+  // edges once, not to each corner).
+  const Eigen::Matrix3d& R = views_[i].camera.cam_from_world.rotation;
+  const Eigen::Vector3d base = R * cell.min + views_[i].camera.cam_from_world.translation;
+  const Eigen::Vector3d ex = R.col(0) * size.x(), ey = R.col(1) * size.y(), ez = R.col(2) * size.z();
+  std::array<Eigen::Vector3d, 8> pc;
+  for (int k = 0; k < 8; ++k)
+    pc[size_t(k)] = base + (k & 1 ? ex : Eigen::Vector3d::Zero()) + (k & 2 ? ey : Eigen::Vector3d::Zero()) +
+                    (k & 4 ? ez : Eigen::Vector3d::Zero());
+  return ClassifyCorners(pc, i, margin_px);
+}
+
+CellProver::Verdict CellProver::ClassifyCorners(const std::array<Eigen::Vector3d, 8>& pc, size_t i,
+                                                double margin_px) const {
   // A pixel rectangle [u0, u1] x [v0, v1].
   struct Rect {
     double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
@@ -311,23 +330,14 @@ CellProver::Verdict CellProver::Classify(const Aabb& cell, size_t i, double marg
     }
   };
   const bool strict = margin_px > 0;
-  const Eigen::Vector3d size = cell.max - cell.min;
   const Camera& cam = views_[i].camera;
-  // The corners in the camera's frame (its rotation applied to the cell's
-  // edges once, not to each corner), and their normalised image points as
-  // Camera::Project finds them: none where a corner is not in front or lies
-  // beyond the lens model's valid radius. In front, the cell's image in the
-  // normalised plane is the convex hull of its corners' (perspective keeps
-  // convexity), so corners within the valid disk (convex) put all of it there.
-  // Strict (a margin): in front by a millimetre and within the radius by a
-  // relative 1e-4, so that float arithmetic (VoteFast) agrees for every point.
-  const Eigen::Matrix3d& R = cam.cam_from_world.rotation;
-  const Eigen::Vector3d base = R * cell.min + cam.cam_from_world.translation;
-  const Eigen::Vector3d ex = R.col(0) * size.x(), ey = R.col(1) * size.y(), ez = R.col(2) * size.z();
-  std::array<Eigen::Vector3d, 8> pc;
-  for (int k = 0; k < 8; ++k)
-    pc[size_t(k)] = base + (k & 1 ? ex : Eigen::Vector3d::Zero()) + (k & 2 ? ey : Eigen::Vector3d::Zero()) +
-                    (k & 4 ? ez : Eigen::Vector3d::Zero());
+  // The corners' normalised image points as Camera::Project finds them: none
+  // where a corner is not in front or lies beyond the lens model's valid
+  // radius. In front, the cell's image in the normalised plane is the convex
+  // hull of its corners' (perspective keeps convexity), so corners within the
+  // valid disk (convex) put all of it there. Strict (a margin): in front by a
+  // millimetre and within the radius by a relative 1e-4, so that float
+  // arithmetic (VoteFast) agrees for every point.
   const double r2max = cam.MaxValidRadius2() * (strict ? 1 - 1e-4 : 1.0);
   const double zmin = strict ? 1e-3 : 1e-9;
   std::array<Eigen::Vector2d, 8> xn;
@@ -461,6 +471,22 @@ int CellProver::WholeBackground(const Aabb& cell, int need, size_t* hint_io) con
   for (size_t j = 0; j < n && found < need; ++j) {
     const size_t i = HintFirst(j, hint);
     if (Classify(cell, i, 1.0) == Verdict::kBackground && found++ == 0) hint = i;
+  }
+  return found;
+}
+
+int CellProver::WholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need,
+                                size_t* hint_io) const {
+  const size_t n = views_.size();
+  size_t& hint = *hint_io;
+  if (hint >= n) hint = 0;
+  int found = 0;
+  std::array<Eigen::Vector3d, 8> pc;
+  for (size_t j = 0; j < n && found < need; ++j) {
+    const size_t i = HintFirst(j, hint);
+    const Rigid3d& T = views_[i].camera.cam_from_world;
+    for (size_t k = 0; k < 8; ++k) pc[k] = T * corners_world[k];
+    if (ClassifyCorners(pc, i, 1.0) == Verdict::kBackground && found++ == 0) hint = i;
   }
   return found;
 }
@@ -759,6 +785,15 @@ int VolumeQuery::CountWholeBackground(const Aabb& box, int need, size_t* hint) c
   if (box.empty() || need <= 0) return 0;
   size_t local = 0;
   return prover_->WholeBackground(box, need, hint ? hint : &local);
+}
+
+int VolumeQuery::CountWholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need,
+                                      size_t* hint) const {
+  if (need <= 0) return 0;
+  for (const auto& c : corners_world)
+    if (!c.allFinite()) return 0;
+  size_t local = 0;
+  return prover_->WholeBackground(corners_world, need, hint ? hint : &local);
 }
 
 VolumeQuery VolumeQuery::Subset(const std::vector<int>& indices) const {

@@ -4,6 +4,7 @@
 // is tested against.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -185,6 +186,16 @@ class VolumeQuery {
   /// (optional, in/out): the camera tried first, set to the first one counted.
   /// Thread-safe. Used to skip empty space in the sweep (EmptySpace).
   int CountWholeBackground(const Aabb& box, int need, size_t* hint = nullptr) const;
+
+  /// CountWholeBackground for any convex cell given by its 8 vertices (world
+  /// metres, in any order; a frustum's piece between two depths, say): the
+  /// same proof from the vertices' projections, which bound the cell's
+  /// (perspective keeps convexity). Cells with other vertices, or a
+  /// non-convex one, get no such guarantee. 0 for a non-finite corner or need
+  /// <= 0. Thread-safe. Used to tighten the sweep's hit bounds per block of
+  /// pixels (plane_sweep.cc).
+  int CountWholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need,
+                           size_t* hint = nullptr) const;
 
   /// This frameset's grid of cubes where the CPU sweep may skip every point
   /// (EmptySpace, options().empty_space_cells along the longest side), made on
