@@ -226,6 +226,23 @@ constexpr size_t kNoCamera = std::numeric_limits<size_t>::max();
 constexpr size_t kMinRunSpan = 4, kMaxRunSpan = 32;
 constexpr int kMaxEdgeSteps = 256;
 
+// std::lower_bound and std::upper_bound over the plane depths, as indices,
+// without data-dependent branches (a conditional move per halving): the sweep
+// searches four times a ray, and a branching search mispredicts about every
+// other step (callgrind --branch-sim: a tenth of the eye's mispredictions).
+size_t FirstNotBelow(const std::vector<double>& a, double x) {
+  if (a.empty()) return 0;
+  const double* base = a.data();
+  for (size_t n = a.size(); n > 1; n -= n / 2) base = base[n / 2] < x ? base + n / 2 : base;
+  return size_t(base - a.data()) + size_t(*base < x);
+}
+size_t FirstAbove(const std::vector<double>& a, double x) {
+  if (a.empty()) return 0;
+  const double* base = a.data();
+  for (size_t n = a.size(); n > 1; n -= n / 2) base = !(x < base[n / 2]) ? base + n / 2 : base;
+  return size_t(base - a.data()) + size_t(!(x < *base));
+}
+
 // The brackets of the points at planes first .. last: from the plane before
 // the first to the plane after the last, within the ray's part [s0, s1] in the
 // hull box: [*a, *b]. A near miss at plane k (first = last = k) is scanned
@@ -369,12 +386,12 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       // within the bounds (the refinement still brackets with s0 and s1).
       from = std::max(from, s0);
       to = std::min(to, s1);
-      const size_t first = size_t(std::lower_bound(depths.begin(), depths.end(), from) - depths.begin());
-      size_t end = size_t(std::upper_bound(depths.begin() + long(first), depths.end(), to) - depths.begin());
+      const size_t first = FirstNotBelow(depths, from);
+      size_t end = std::max(first, FirstAbove(depths, to));
       if (bounded) {
         // Past hit_to none is inside either; the first plane beyond it is
         // still visited with refinement: its near miss's scan may reach back.
-        const size_t past_hits = size_t(std::upper_bound(depths.begin(), depths.end(), hit_to) - depths.begin());
+        const size_t past_hits = FirstAbove(depths, hit_to);
         const size_t bounded_end = end;
         end = std::max(first, std::min(end, kRefine ? past_hits + 1 : past_hits));
         local.hit_skipped += int64_t(bounded_end - end);
@@ -403,7 +420,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBound
       // ones, so they are counted if that matters.
       size_t k_begin = first;
       if (bounded) {
-        const size_t hp = size_t(std::lower_bound(depths.begin(), depths.end(), hit_from) - depths.begin());
+        const size_t hp = FirstNotBelow(depths, hit_from);
         const size_t kh = kRefine && hp > 0 ? hp - 1 : hp;
         const size_t m = std::min(kh, end) - std::min(kh, first);
         if (m > 0) {
