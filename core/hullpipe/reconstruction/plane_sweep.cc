@@ -262,14 +262,7 @@ bool RefineBracket(const std::vector<double>& depths, size_t k, double s0, float
   return true;
 }
 
-// bounds (may be empty): EmptySpace::DepthBounds of `tile`, per block of
-// pixels: where a ray's points may be inside or near misses (near, far), and
-// where they may be inside (hit_near, hit_far).
-struct RayBounds {
-  cv::Mat near, far, hit_near, hit_far;
-};
-
-// Planes per slab of TightenHitBounds.
+// Planes per slab of TightenBounds.
 constexpr size_t kSlabPlanes = 2;
 
 // The float at or below x, and at or above it.
@@ -282,62 +275,77 @@ float FloatUp(double x) {
   return double(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
 }
 
-// Narrows each block's hit bounds (RayBounds) to the view's own frustum: the
-// rays of a block of pixels between two eye depths fill a convex piece of the
+// Narrows each block's bounds (SweepBounds) to the view's own frustum: the rays
+// of a block of pixels between two eye depths fill a convex piece of the
 // frustum (its 8 vertices: the block's corner rays at both depths), and a
 // camera that puts all of it on background (VolumeQuery::CountWholeBackground)
-// proves that no point of those rays there is inside. The grid's cubes are the
-// world's and coarse (a cube straddling a silhouette cone is vetoed by no
-// camera, and a block meets many), a block's pieces thin across its rays: the
-// pieces proven empty from the front and from the back, slab by slab
-// (kSlabPlanes planes each, between the bounds), are cut off; a block whose
-// pieces all are has no hit. Valid hit bounds still, so the sweep's depths are
-// unchanged (SweepRows visits fewer points); rounded outward to floats.
-void TightenHitBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
-                      const std::vector<double>& depths, RayBounds* bounds, StopFlag stop) {
-  if (bounds->hit_near.empty() || depths.empty()) return;
+// vetoes every point of those rays there. The grid's cubes are the world's and
+// coarse (a cube straddling a silhouette cone is vetoed by no camera, and a
+// block meets many), a block's pieces thin across its rays. Slab by slab
+// (kSlabPlanes planes each):
+//   - the hit bounds: pieces one camera vetoes hold no inside point; those
+//     from the front and from the back are cut off, and a block whose pieces
+//     all are has no hit;
+//   - the near bound, where near misses may start: pieces two cameras veto
+//     hold no near miss either; those from the front are cut off (the sweep
+//     then neither visits nor counts their points).
+// Valid bounds still, so the sweep's depths are unchanged (SweepRows visits
+// fewer points); rounded outward to floats.
+void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
+                   const std::vector<double>& depths, SweepBounds* bounds, StopFlag stop) {
   const int B = EmptySpace::kBoundsBlock;
   const Rigid3d& world_from_eye = view.world_from_eye;
   size_t hint = 0;
   std::vector<double> cuts;
+  VolumeQuery::RayBundle rays;
+  // The slabs' depths between a and b: a, every kSlabPlanes-th plane between, b.
+  auto slabs_between = [&](double a, double b) {
+    cuts.clear();
+    cuts.push_back(a);
+    const auto lo = std::upper_bound(depths.begin(), depths.end(), a);
+    const auto hi = std::lower_bound(lo, depths.end(), b);
+    for (auto it = lo; it < hi; it += long(std::min<size_t>(kSlabPlanes, size_t(hi - it)))) cuts.push_back(*it);
+    cuts.push_back(b);
+    return cuts.size() - 1;
+  };
   for (int i = 0; i < bounds->hit_near.rows; ++i) {
     ThrowIfStopped(stop, "the plane sweep's hit bounds");
     for (int j = 0; j < bounds->hit_near.cols; ++j) {
       float& hit_near = bounds->hit_near.at<float>(i, j);
       float& hit_far = bounds->hit_far.at<float>(i, j);
       if (!(hit_near <= hit_far) || !(hit_near > 0)) continue;
-      // The block's pixel edges, and its corner rays' directions (eye z = 1).
+      // The block's pixel edges, and its corner rays (eye z = 1) in each camera.
       const double x0 = region.x + j * B, x1 = region.x + std::min((j + 1) * B, region.width);
       const double y0 = region.y + i * B, y1 = region.y + std::min((i + 1) * B, region.height);
-      const Eigen::Vector3d ray[4] = {view.EyeRay(x0, y0), view.EyeRay(x1, y0), view.EyeRay(x0, y1),
-                                      view.EyeRay(x1, y1)};
-      // The slabs' depths: the bounds and every kSlabPlanes-th plane between.
-      cuts.clear();
-      cuts.push_back(hit_near);
-      const auto lo = std::upper_bound(depths.begin(), depths.end(), double(hit_near));
-      const auto hi = std::lower_bound(lo, depths.end(), double(hit_far));
-      for (auto it = lo; it < hi; it += long(std::min<size_t>(kSlabPlanes, size_t(hi - it)))) cuts.push_back(*it);
-      cuts.push_back(hit_far);
-      auto empty_slab = [&](size_t k) {
-        std::array<Eigen::Vector3d, 8> c;
-        for (size_t r = 0; r < 4; ++r) {
-          c[r] = world_from_eye * Eigen::Vector3d(ray[r] * cuts[k]);
-          c[r + 4] = world_from_eye * Eigen::Vector3d(ray[r] * cuts[k + 1]);
-        }
-        return query.CountWholeBackground(c, 1, &hint) > 0;
+      const Eigen::Matrix3d& R = world_from_eye.rotation;
+      query.BundleOf(world_from_eye.translation,
+                     {R * view.EyeRay(x0, y0), R * view.EyeRay(x1, y0), R * view.EyeRay(x0, y1),
+                      R * view.EyeRay(x1, y1)},
+                     &rays);
+      // How many cameras (up to `need`) veto all of slab k.
+      auto vetoes = [&](size_t k, int need) {
+        return query.CountWholeBackground(rays, cuts[k], cuts[k + 1], need, &hint);
       };
-      const size_t slabs = cuts.size() - 1;
+      size_t slabs = slabs_between(hit_near, hit_far);
       size_t front = 0;
-      while (front < slabs && empty_slab(front)) ++front;
+      while (front < slabs && vetoes(front, 1) > 0) ++front;
       if (front == slabs) {
         hit_near = std::numeric_limits<float>::infinity();
         hit_far = -std::numeric_limits<float>::infinity();
         continue;
       }
       size_t back = slabs;
-      while (back > front + 1 && empty_slab(back - 1)) --back;
+      while (back > front + 1 && vetoes(back - 1, 1) > 0) --back;
+      const double first_hit = cuts[front];
       hit_near = FloatDown(cuts[front]);
       hit_far = FloatUp(cuts[back]);
+      // The near bound, up to the first piece that may hold a hit.
+      float& near = bounds->near.at<float>(i, j);
+      if (!(near > 0) || !(near < first_hit)) continue;
+      slabs = slabs_between(near, first_hit);
+      size_t twice = 0;
+      while (twice < slabs && vetoes(twice, 2) == 2) ++twice;
+      near = FloatDown(cuts[twice]);
     }
   }
 }
@@ -345,7 +353,7 @@ void TightenHitBounds(const VolumeQuery& query, const NovelView& view, const cv:
 // kRefine: refine_iterations > 0 (a loop of its own: the sweep without
 // refinement looks for no near misses and skips no runs).
 template <bool kRefine>
-void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const RayBounds& bounds, const NovelView& view,
+void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const SweepBounds& bounds, const NovelView& view,
                const std::vector<double>& depths, const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out,
                SweepStats* stats, int refine_iterations, StopFlag stop) {
   RayQuery ray(query, view, &empty);
@@ -665,6 +673,16 @@ void RefineEdges(const VolumeQuery& query, const EmptySpace& empty, const NovelV
 
 }  // namespace
 
+bool SweepDepthBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
+                      const std::vector<double>& plane_depths, SweepBounds* out, StopFlag stop) {
+  *out = {};
+  if (plane_depths.empty() || query.hull_box().empty()) return false;
+  const EmptySpace& grid = query.empty_space();
+  if (!grid.DepthBounds(view, region, &out->near, &out->far, stop, &out->hit_near, &out->hit_far)) return false;
+  TightenBounds(query, view, region, plane_depths, out, stop);
+  return true;
+}
+
 void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std::vector<double>& depths,
                       const cv::Rect& tile, int iterations, cv::Mat* depth, int threads, StopFlag stop) {
   view.Check();
@@ -713,11 +731,10 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   // visibility maps), its time counted in that sweep's.
   const double t_grid = MonotonicSeconds();
   const EmptySpace& empty = query.empty_space(threads);
-  RayBounds bounds;
+  SweepBounds bounds;
   if (refine_iterations <= 0) {
     const double t0 = t_grid;
-    empty.DepthBounds(view, tile, &bounds.near, &bounds.far, stop, &bounds.hit_near, &bounds.hit_far);
-    TightenHitBounds(query, view, tile, depths, &bounds, stop);
+    SweepDepthBounds(query, view, tile, depths, &bounds, stop);
     ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
       SweepRows<false>(query, empty, bounds, view, depths, tile, r0, r1, out, st, 0, stop);
     });
@@ -732,8 +749,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                           cv::Rect(0, 0, view.width, view.height);
   const double t0 = t_grid;
   cv::Mat swept(region.height, region.width, CV_32FC1);  // every pixel written by SweepRows
-  empty.DepthBounds(view, region, &bounds.near, &bounds.far, stop, &bounds.hit_near, &bounds.hit_far);
-  TightenHitBounds(query, view, region, depths, &bounds, stop);
+  SweepDepthBounds(query, view, region, depths, &bounds, stop);
   ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
     SweepRows<true>(query, empty, bounds, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
   });

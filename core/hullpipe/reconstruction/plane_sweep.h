@@ -108,6 +108,31 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                       SweepStats* stats = nullptr, int threads = 1, int refine_iterations = 0,
                       StopFlag stop = nullptr);
 
+/// Where the CPU sweep visits the rays of a region of a view (PlaneSweepCpu):
+/// per block of EmptySpace::kBoundsBlock x kBoundsBlock pixels (block (i, j)
+/// from pixel (kBoundsBlock * j, kBoundsBlock * i) of the region), eye depths
+/// in metres, CV_32FC1:
+///   - [near, far]: outside them a block's rays hold no point that is inside
+///     or a near miss (one camera alone vetoes it);
+///   - [hit_near, hit_far]: outside them none is inside (near > far or
+///     hit_near > hit_far: nowhere).
+struct SweepBounds {
+  cv::Mat near, far, hit_near, hit_far;
+};
+
+/// SweepBounds of `region` of `view` for the sweep over `plane_depths`: the
+/// empty-space grid's (EmptySpace::DepthBounds) narrowed by pieces of the
+/// view's own frustum, a block's rays between two planes (kSlabPlanes apart,
+/// plane_sweep.cc): pieces one camera puts wholly on background
+/// (VolumeQuery::CountWholeBackground) are cut from the hit bounds from the
+/// front and the back, and pieces two cameras do from the near bound; the cut
+/// depths rounded outward to floats. False, leaving *out empty, when the grid
+/// gives no bounds (an eye within reach of the hull box, a region too small
+/// for the grid's cost). Throws Interrupted once `stop` is set (polled per
+/// row of blocks).
+bool SweepDepthBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
+                      const std::vector<double>& plane_depths, SweepBounds* out, StopFlag stop = nullptr);
+
 /// Depth refinement (beyond the paper; docs/benchmarks.md) of a finished sweep, for backends
 /// that cannot refine themselves (the GL sweep): each finite depth in *depth (a
 /// plane of `depths`, as the sweep returned it for `tile`) is bisected

@@ -278,6 +278,10 @@ class CellProver {
   int WholeBackground(const Aabb& cell, int need, size_t* hint) const;
   // The same for the convex cell with these 8 vertices (world metres).
   int WholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need, size_t* hint) const;
+  // The same for the cell with vertices o + t d at t0 and t1 for each
+  // camera's (o, d_0..d_3) = in_camera[i].
+  int WholeBackground(const std::vector<std::array<Eigen::Vector3d, 5>>& in_camera, double t0, double t1, int need,
+                      size_t* hint) const;
 
  private:
   // What camera i says of every point of `cell`, its projection's rectangle
@@ -486,6 +490,25 @@ int CellProver::WholeBackground(const std::array<Eigen::Vector3d, 8>& corners_wo
     const size_t i = HintFirst(j, hint);
     const Rigid3d& T = views_[i].camera.cam_from_world;
     for (size_t k = 0; k < 8; ++k) pc[k] = T * corners_world[k];
+    if (ClassifyCorners(pc, i, 1.0) == Verdict::kBackground && found++ == 0) hint = i;
+  }
+  return found;
+}
+
+int CellProver::WholeBackground(const std::vector<std::array<Eigen::Vector3d, 5>>& in_camera, double t0,
+                                double t1, int need, size_t* hint_io) const {
+  const size_t n = views_.size();
+  size_t& hint = *hint_io;
+  if (hint >= n) hint = 0;
+  int found = 0;
+  std::array<Eigen::Vector3d, 8> pc;
+  for (size_t j = 0; j < n && found < need; ++j) {
+    const size_t i = HintFirst(j, hint);
+    const auto& r = in_camera[i];
+    for (size_t k = 0; k < 4; ++k) {
+      pc[k] = r[0] + t0 * r[k + 1];
+      pc[k + 4] = r[0] + t1 * r[k + 1];
+    }
     if (ClassifyCorners(pc, i, 1.0) == Verdict::kBackground && found++ == 0) hint = i;
   }
   return found;
@@ -794,6 +817,23 @@ int VolumeQuery::CountWholeBackground(const std::array<Eigen::Vector3d, 8>& corn
     if (!c.allFinite()) return 0;
   size_t local = 0;
   return prover_->WholeBackground(corners_world, need, hint ? hint : &local);
+}
+
+void VolumeQuery::BundleOf(const Eigen::Vector3d& origin_world, const std::array<Eigen::Vector3d, 4>& dirs_world,
+                           RayBundle* out) const {
+  out->in_camera.resize(views_.size());
+  for (size_t i = 0; i < views_.size(); ++i) {
+    const Rigid3d& T = views_[i].camera.cam_from_world;
+    auto& r = out->in_camera[i];
+    r[0] = T * origin_world;
+    for (size_t k = 0; k < 4; ++k) r[k + 1] = T.rotation * dirs_world[k];
+  }
+}
+
+int VolumeQuery::CountWholeBackground(const RayBundle& rays, double t0, double t1, int need, size_t* hint) const {
+  if (need <= 0 || rays.in_camera.size() != views_.size() || !std::isfinite(t0) || !std::isfinite(t1)) return 0;
+  size_t local = 0;
+  return prover_->WholeBackground(rays.in_camera, t0, t1, need, hint ? hint : &local);
 }
 
 VolumeQuery VolumeQuery::Subset(const std::vector<int>& indices) const {

@@ -197,6 +197,23 @@ class VolumeQuery {
   int CountWholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need,
                            size_t* hint = nullptr) const;
 
+  /// Four rays from one point in every camera's frame (views() order): per
+  /// camera the origin, then the four directions, metres. Filled by BundleOf.
+  struct RayBundle {
+    std::vector<std::array<Eigen::Vector3d, 5>> in_camera;
+  };
+  /// The rays origin_world + t * dirs_world[r] (world metres) as a RayBundle,
+  /// into *out (its storage reused).
+  void BundleOf(const Eigen::Vector3d& origin_world, const std::array<Eigen::Vector3d, 4>& dirs_world,
+                RayBundle* out) const;
+  /// CountWholeBackground of the cell whose 8 vertices are the bundle's rays
+  /// at t0 and at t1: a piece of a view's frustum between two eye depths when
+  /// the directions are a block of pixels' corner rays scaled to eye z = 1
+  /// (NovelView::EyeRay, rotated to the world), which makes the cell convex.
+  /// The same proof as the corners', without transforming 8 corners into
+  /// each camera: the sweep's hit bounds test thousands of pieces a view.
+  int CountWholeBackground(const RayBundle& rays, double t0, double t1, int need, size_t* hint = nullptr) const;
+
   /// This frameset's grid of cubes where the CPU sweep may skip every point
   /// (EmptySpace, options().empty_space_cells along the longest side), made on
   /// the first call with `threads` threads (>= 1) and shared by later calls and
