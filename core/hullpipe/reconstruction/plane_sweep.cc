@@ -343,8 +343,19 @@ void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Re
       float& near = bounds->near.at<float>(i, j);
       if (!(near > 0) || !(near < first_hit)) continue;
       slabs = slabs_between(near, first_hit);
+      // Pieces of doubling length while two cameras veto them, halved after
+      // one they do not (the front's pieces are mostly far from the hull).
       size_t twice = 0;
-      while (twice < slabs && vetoes(twice, 2) == 2) ++twice;
+      for (size_t span = 1; twice < slabs;) {
+        const size_t m = std::min(span, slabs - twice);
+        if (query.CountWholeBackground(rays, cuts[twice], cuts[twice + m], 2, &hint) == 2) {
+          twice += m, span = 2 * m;
+        } else if (m == 1) {
+          break;
+        } else {
+          span = m / 2;
+        }
+      }
       near = FloatDown(cuts[twice]);
     }
   }
