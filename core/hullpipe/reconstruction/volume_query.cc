@@ -467,51 +467,46 @@ bool CellProver::EmptyWithin(const Aabb& cell, const CellCameras& parent, size_t
   return false;
 }
 
-int CellProver::WholeBackground(const Aabb& cell, int need, size_t* hint_io) const {
-  const size_t n = views_.size();
+// How many of n cameras, up to `need`, background(i) is true for, *hint_io
+// asked first and set to the first counted.
+template <class Background>
+static int CountBackground(size_t n, int need, size_t* hint_io, Background background) {
   size_t& hint = *hint_io;
   if (hint >= n) hint = 0;
   int found = 0;
   for (size_t j = 0; j < n && found < need; ++j) {
     const size_t i = HintFirst(j, hint);
-    if (Classify(cell, i, 1.0) == Verdict::kBackground && found++ == 0) hint = i;
+    if (background(i) && found++ == 0) hint = i;
   }
   return found;
+}
+
+int CellProver::WholeBackground(const Aabb& cell, int need, size_t* hint_io) const {
+  return CountBackground(views_.size(), need, hint_io,
+                         [&](size_t i) { return Classify(cell, i, 1.0) == Verdict::kBackground; });
 }
 
 int CellProver::WholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need,
                                 size_t* hint_io) const {
-  const size_t n = views_.size();
-  size_t& hint = *hint_io;
-  if (hint >= n) hint = 0;
-  int found = 0;
   std::array<Eigen::Vector3d, 8> pc;
-  for (size_t j = 0; j < n && found < need; ++j) {
-    const size_t i = HintFirst(j, hint);
+  return CountBackground(views_.size(), need, hint_io, [&](size_t i) {
     const Rigid3d& T = views_[i].camera.cam_from_world;
     for (size_t k = 0; k < 8; ++k) pc[k] = T * corners_world[k];
-    if (ClassifyCorners(pc, i, 1.0) == Verdict::kBackground && found++ == 0) hint = i;
-  }
-  return found;
+    return ClassifyCorners(pc, i, 1.0) == Verdict::kBackground;
+  });
 }
 
 int CellProver::WholeBackground(const std::vector<std::array<Eigen::Vector3d, 5>>& in_camera, double t0,
                                 double t1, int need, size_t* hint_io) const {
-  const size_t n = views_.size();
-  size_t& hint = *hint_io;
-  if (hint >= n) hint = 0;
-  int found = 0;
   std::array<Eigen::Vector3d, 8> pc;
-  for (size_t j = 0; j < n && found < need; ++j) {
-    const size_t i = HintFirst(j, hint);
+  return CountBackground(views_.size(), need, hint_io, [&](size_t i) {
     const auto& r = in_camera[i];
     for (size_t k = 0; k < 4; ++k) {
       pc[k] = r[0] + t0 * r[k + 1];
       pc[k + 4] = r[0] + t1 * r[k + 1];
     }
-    if (ClassifyCorners(pc, i, 1.0) == Verdict::kBackground && found++ == 0) hint = i;
-  }
-  return found;
+    return ClassifyCorners(pc, i, 1.0) == Verdict::kBackground;
+  });
 }
 
 struct LazyEmptySpace {

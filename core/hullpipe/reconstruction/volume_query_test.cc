@@ -230,16 +230,25 @@ TEST(HullBox, EmptyMapGivesEmptyBox) {
 // points. Positive controls: thousands are said to be on background, hundreds
 // of them passing within two pixels of an object pixel (where a bound that
 // left out the lens's bending fails).
-TEST(VolumeQuery, ASegmentOnBackgroundHasNoPointOnAnObjectPixel) {
+// The proofs' scene: a sphere and a capsule 1.2 cm thick about the test
+// sphere's centre; and their lenses: none, the Utrecht rig's, strongly barrelled.
+SyntheticScene ProofScene() {
   const Eigen::Vector3d centre = kSphereCentre;
   SyntheticScene scene;
   scene.shapes.push_back(Shape::Sphere(centre, 0.15));
   scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(-0.4, 0.3, 0.1),
                                         centre + Eigen::Vector3d(0.4, 0.35, -0.2), 0.012));
+  return scene;
+}
+const Distortion kProofLenses[] = {Distortion{}, test::kUtrechtCam1Lens,
+                                   Distortion{-0.5, 0.25, 0.002, -0.003, -0.05}};
+
+TEST(VolumeQuery, ASegmentOnBackgroundHasNoPointOnAnObjectPixel) {
+  const Eigen::Vector3d centre = kSphereCentre;
+  SyntheticScene scene = ProofScene();
   scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(0.1, -0.4, 0.3),
                                         centre + Eigen::Vector3d(-0.2, 0.3, -0.4), 0.03));
-  const Distortion lenses[] = {Distortion{}, test::kUtrechtCam1Lens,
-                               Distortion{-0.5, 0.25, 0.002, -0.003, -0.05}};
+  const auto& lenses = kProofLenses;
   cv::RNG rng(11);
   for (size_t l = 0; l < 3; ++l) {
     const auto cams = test::WithSkew(RingCameras(4, 2.2, 1.4, centre, 320, 240, 1.2, lenses[l]), l == 2 ? 0.05 : 0.0);
@@ -283,12 +292,8 @@ TEST(VolumeQuery, ASegmentOnBackgroundHasNoPointOnAnObjectPixel) {
 // does.
 TEST(VolumeQuery, ACellProvenByItsCornersHasNoPointOnAnObjectPixel) {
   const Eigen::Vector3d centre = kSphereCentre;
-  SyntheticScene scene;
-  scene.shapes.push_back(Shape::Sphere(centre, 0.15));
-  scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(-0.4, 0.3, 0.1),
-                                        centre + Eigen::Vector3d(0.4, 0.35, -0.2), 0.012));
-  const Distortion lenses[] = {Distortion{}, test::kUtrechtCam1Lens,
-                               Distortion{-0.5, 0.25, 0.002, -0.003, -0.05}};
+  const SyntheticScene scene = ProofScene();
+  const auto& lenses = kProofLenses;
   cv::RNG rng(12);
   for (size_t l = 0; l < 3; ++l) {
     const auto cams = test::WithSkew(RingCameras(4, 2.2, 1.4, centre, 320, 240, 1.2, lenses[l]), l == 2 ? 0.05 : 0.0);
