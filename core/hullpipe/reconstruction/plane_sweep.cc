@@ -292,7 +292,7 @@ float FloatUp(double x) {
 // Valid bounds still, so the sweep's depths are unchanged (SweepRows visits
 // fewer points); rounded outward to floats.
 void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
-                   const std::vector<double>& depths, SweepBounds* bounds, StopFlag stop) {
+                   const std::vector<double>& depths, bool near_misses, SweepBounds* bounds, StopFlag stop) {
   const int B = EmptySpace::kBoundsBlock;
   const Rigid3d& world_from_eye = view.world_from_eye;
   size_t hint = 0;
@@ -341,7 +341,7 @@ void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Re
       hit_far = FloatUp(cuts[back]);
       // The near bound, up to the first piece that may hold a hit.
       float& near = bounds->near.at<float>(i, j);
-      if (!(near > 0) || !(near < first_hit)) continue;
+      if (!near_misses || !(near > 0) || !(near < first_hit)) continue;
       slabs = slabs_between(near, first_hit);
       // Pieces of doubling length while two cameras veto them, halved after
       // one they do not (the front's pieces are mostly far from the hull).
@@ -685,12 +685,12 @@ void RefineEdges(const VolumeQuery& query, const EmptySpace& empty, const NovelV
 }  // namespace
 
 bool SweepDepthBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
-                      const std::vector<double>& plane_depths, SweepBounds* out, StopFlag stop) {
+                      const std::vector<double>& plane_depths, bool near_misses, SweepBounds* out, StopFlag stop) {
   *out = {};
   if (plane_depths.empty() || query.hull_box().empty()) return false;
   const EmptySpace& grid = query.empty_space();
   if (!grid.DepthBounds(view, region, &out->near, &out->far, stop, &out->hit_near, &out->hit_far)) return false;
-  TightenBounds(query, view, region, plane_depths, out, stop);
+  TightenBounds(query, view, region, plane_depths, near_misses, out, stop);
   return true;
 }
 
@@ -745,7 +745,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   SweepBounds bounds;
   if (refine_iterations <= 0) {
     const double t0 = t_grid;
-    SweepDepthBounds(query, view, tile, depths, &bounds, stop);
+    SweepDepthBounds(query, view, tile, depths, false, &bounds, stop);
     ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
       SweepRows<false>(query, empty, bounds, view, depths, tile, r0, r1, out, st, 0, stop);
     });
@@ -760,7 +760,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                           cv::Rect(0, 0, view.width, view.height);
   const double t0 = t_grid;
   cv::Mat swept(region.height, region.width, CV_32FC1);  // every pixel written by SweepRows
-  SweepDepthBounds(query, view, region, depths, &bounds, stop);
+  SweepDepthBounds(query, view, region, depths, true, &bounds, stop);
   ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
     SweepRows<true>(query, empty, bounds, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
   });

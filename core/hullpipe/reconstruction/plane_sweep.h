@@ -125,13 +125,15 @@ struct SweepBounds {
 /// view's own frustum, a block's rays between two planes (kSlabPlanes apart,
 /// plane_sweep.cc): pieces one camera puts wholly on background
 /// (VolumeQuery::CountWholeBackground) are cut from the hit bounds from the
-/// front and the back, and pieces two cameras do from the near bound; the cut
-/// depths rounded outward to floats. False, leaving *out empty, when the grid
-/// gives no bounds (an eye within reach of the hull box, a region too small
-/// for the grid's cost). Throws Interrupted once `stop` is set (polled per
-/// row of blocks).
+/// front and the back, and (`near_misses`: for a sweep that looks for them,
+/// refining) pieces two cameras do from the near bound; the cut depths
+/// rounded outward to floats. False, leaving *out empty, when the grid gives
+/// no bounds (an eye within reach of the hull box, a region too small for the
+/// grid's cost). Throws Interrupted once `stop` is set (polled per row of
+/// blocks).
 bool SweepDepthBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
-                      const std::vector<double>& plane_depths, SweepBounds* out, StopFlag stop = nullptr);
+                      const std::vector<double>& plane_depths, bool near_misses, SweepBounds* out,
+                      StopFlag stop = nullptr);
 
 /// Depth refinement (beyond the paper; docs/benchmarks.md) of a finished sweep, for backends
 /// that cannot refine themselves (the GL sweep): each finite depth in *depth (a

@@ -725,7 +725,7 @@ TEST(SweepBounds, NarrowedByTheFrustumsPiecesAndStillBounds) {
       const auto depths = SweepPlaneDepths(q, view, o);
       const cv::Rect region(0, 0, 320, 240);
       SweepBounds b, grid;
-      ASSERT_TRUE(SweepDepthBounds(q, view, region, depths, &b));
+      ASSERT_TRUE(SweepDepthBounds(q, view, region, depths, true, &b));
       ASSERT_TRUE(q.empty_space().DepthBounds(view, region, &grid.near, &grid.far, nullptr, &grid.hit_near,
                                               &grid.hit_far));
       const cv::Mat swept = PlaneSweepCpu(q, view, depths, region, nullptr, 1, 6);
