@@ -322,20 +322,20 @@ void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Re
                      {R * view.EyeRay(x0, y0), R * view.EyeRay(x1, y0), R * view.EyeRay(x0, y1),
                       R * view.EyeRay(x1, y1)},
                      &rays);
-      // How many cameras (up to `need`) veto all of slab k.
-      auto vetoes = [&](size_t k, int need) {
-        return query.CountWholeBackground(rays, cuts[k], cuts[k + 1], need, &hint);
+      // Whether `need` cameras veto all of slabs a .. b - 1 (one piece).
+      auto vetoed = [&](size_t a, size_t b, int need) {
+        return query.CountWholeBackground(rays, cuts[a], cuts[b], need, &hint) >= need;
       };
       size_t slabs = slabs_between(hit_near, hit_far);
       size_t front = 0;
-      while (front < slabs && vetoes(front, 1) > 0) ++front;
+      while (front < slabs && vetoed(front, front + 1, 1)) ++front;
       if (front == slabs) {
         hit_near = std::numeric_limits<float>::infinity();
         hit_far = -std::numeric_limits<float>::infinity();
         continue;
       }
       size_t back = slabs;
-      while (back > front + 1 && vetoes(back - 1, 1) > 0) --back;
+      while (back > front + 1 && vetoed(back - 1, back, 1)) --back;
       const double first_hit = cuts[front];
       hit_near = FloatDown(cuts[front]);
       hit_far = FloatUp(cuts[back]);
@@ -348,7 +348,7 @@ void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Re
       size_t twice = 0;
       for (size_t span = 1; twice < slabs;) {
         const size_t m = std::min(span, slabs - twice);
-        if (query.CountWholeBackground(rays, cuts[twice], cuts[twice + m], 2, &hint) == 2) {
+        if (vetoed(twice, twice + m, 2)) {
           twice += m, span = 2 * m;
         } else if (m == 1) {
           break;

@@ -276,8 +276,6 @@ class CellProver {
   // How many cameras, up to `need`, see all of `cell` (grown by a pixel) and
   // put it on background (VolumeQuery::CountWholeBackground).
   int WholeBackground(const Aabb& cell, int need, size_t* hint) const;
-  // The same for the convex cell with these 8 vertices (world metres).
-  int WholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need, size_t* hint) const;
   // The same for the cell with vertices o + t d at t0 and t1 for each
   // camera's (o, d_0..d_3) = in_camera[i].
   int WholeBackground(const std::vector<std::array<Eigen::Vector3d, 5>>& in_camera, double t0, double t1, int need,
@@ -484,16 +482,6 @@ static int CountBackground(size_t n, int need, size_t* hint_io, Background backg
 int CellProver::WholeBackground(const Aabb& cell, int need, size_t* hint_io) const {
   return CountBackground(views_.size(), need, hint_io,
                          [&](size_t i) { return Classify(cell, i, 1.0) == Verdict::kBackground; });
-}
-
-int CellProver::WholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need,
-                                size_t* hint_io) const {
-  std::array<Eigen::Vector3d, 8> pc;
-  return CountBackground(views_.size(), need, hint_io, [&](size_t i) {
-    const Rigid3d& T = views_[i].camera.cam_from_world;
-    for (size_t k = 0; k < 8; ++k) pc[k] = T * corners_world[k];
-    return ClassifyCorners(pc, i, 1.0) == Verdict::kBackground;
-  });
 }
 
 int CellProver::WholeBackground(const std::vector<std::array<Eigen::Vector3d, 5>>& in_camera, double t0,
@@ -803,15 +791,6 @@ int VolumeQuery::CountWholeBackground(const Aabb& box, int need, size_t* hint) c
   if (box.empty() || need <= 0) return 0;
   size_t local = 0;
   return prover_->WholeBackground(box, need, hint ? hint : &local);
-}
-
-int VolumeQuery::CountWholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need,
-                                      size_t* hint) const {
-  if (need <= 0) return 0;
-  for (const auto& c : corners_world)
-    if (!c.allFinite()) return 0;
-  size_t local = 0;
-  return prover_->WholeBackground(corners_world, need, hint ? hint : &local);
 }
 
 void VolumeQuery::BundleOf(const Eigen::Vector3d& origin_world, const std::array<Eigen::Vector3d, 4>& dirs_world,

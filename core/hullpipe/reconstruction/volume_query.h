@@ -187,16 +187,6 @@ class VolumeQuery {
   /// Thread-safe. Used to skip empty space in the sweep (EmptySpace).
   int CountWholeBackground(const Aabb& box, int need, size_t* hint = nullptr) const;
 
-  /// CountWholeBackground for any convex cell given by its 8 vertices (world
-  /// metres, in any order; a frustum's piece between two depths, say): the
-  /// same proof from the vertices' projections, which bound the cell's
-  /// (perspective keeps convexity). Cells with other vertices, or a
-  /// non-convex one, get no such guarantee. 0 for a non-finite corner or need
-  /// <= 0. Thread-safe. Used to tighten the sweep's hit bounds per block of
-  /// pixels (plane_sweep.cc).
-  int CountWholeBackground(const std::array<Eigen::Vector3d, 8>& corners_world, int need,
-                           size_t* hint = nullptr) const;
-
   /// Four rays from one point in every camera's frame (views() order): per
   /// camera the origin, then the four directions, metres. Filled by BundleOf.
   struct RayBundle {
@@ -210,8 +200,10 @@ class VolumeQuery {
   /// at t0 and at t1: a piece of a view's frustum between two eye depths when
   /// the directions are a block of pixels' corner rays scaled to eye z = 1
   /// (NovelView::EyeRay, rotated to the world), which makes the cell convex.
-  /// The same proof as the corners', without transforming 8 corners into
-  /// each camera: the sweep's hit bounds test thousands of pieces a view.
+  /// The box's proof from the vertices' projections (perspective keeps
+  /// convexity); other cells get no such guarantee. 0 for non-finite depths,
+  /// a bundle of another query's cameras, or need <= 0. Thread-safe. The
+  /// sweep's bounds test thousands of pieces a view (SweepDepthBounds).
   int CountWholeBackground(const RayBundle& rays, double t0, double t1, int need, size_t* hint = nullptr) const;
 
   /// This frameset's grid of cubes where the CPU sweep may skip every point
