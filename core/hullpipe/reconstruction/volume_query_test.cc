@@ -242,16 +242,19 @@ SyntheticScene ProofScene() {
 }
 const Distortion kProofLenses[] = {Distortion{}, test::kUtrechtCam1Lens,
                                    Distortion{-0.5, 0.25, 0.002, -0.003, -0.05}};
+// A ring of 4 cameras about it through lens l of kProofLenses (the third skewed).
+std::vector<Camera> ProofCameras(size_t l) {
+  return test::WithSkew(RingCameras(4, 2.2, 1.4, kSphereCentre, 320, 240, 1.2, kProofLenses[l]), l == 2 ? 0.05 : 0.0);
+}
 
 TEST(VolumeQuery, ASegmentOnBackgroundHasNoPointOnAnObjectPixel) {
   const Eigen::Vector3d centre = kSphereCentre;
   SyntheticScene scene = ProofScene();
   scene.shapes.push_back(Shape::Capsule(centre + Eigen::Vector3d(0.1, -0.4, 0.3),
                                         centre + Eigen::Vector3d(-0.2, 0.3, -0.4), 0.03));
-  const auto& lenses = kProofLenses;
   cv::RNG rng(11);
   for (size_t l = 0; l < 3; ++l) {
-    const auto cams = test::WithSkew(RingCameras(4, 2.2, 1.4, centre, 320, 240, 1.2, lenses[l]), l == 2 ? 0.05 : 0.0);
+    const auto cams = ProofCameras(l);
     const VolumeQuery q(test::ExactViews(cams, scene), test::BigBox());
     int said = 0, close = 0;
     for (size_t i = 0; i < cams.size(); ++i) {
@@ -292,10 +295,9 @@ TEST(VolumeQuery, ASegmentOnBackgroundHasNoPointOnAnObjectPixel) {
 TEST(VolumeQuery, AFrustumPieceProvenHasNoPointOnAnObjectPixel) {
   const Eigen::Vector3d centre = kSphereCentre;
   const SyntheticScene scene = ProofScene();
-  const auto& lenses = kProofLenses;
   cv::RNG rng(12);
   for (size_t l = 0; l < 3; ++l) {
-    const auto cams = test::WithSkew(RingCameras(4, 2.2, 1.4, centre, 320, 240, 1.2, lenses[l]), l == 2 ? 0.05 : 0.0);
+    const auto cams = ProofCameras(l);
     const VolumeQuery q(test::ExactViews(cams, scene), test::BigBox());
     int said = 0, close = 0;
     for (int k = 0; k < 4000; ++k) {
