@@ -292,24 +292,27 @@ float FloatUp(double x) {
 // Valid bounds still, so the sweep's depths are unchanged (SweepRows visits
 // fewer points); rounded outward to floats.
 void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
-                   const std::vector<double>& depths, bool near_misses, SweepBounds* bounds, StopFlag stop) {
+                   const std::vector<double>& depths, bool near_misses, SweepBounds* bounds, StopFlag stop,
+                   int threads) {
   const int B = EmptySpace::kBoundsBlock;
   const Rigid3d& world_from_eye = view.world_from_eye;
-  size_t hint = 0;
-  std::vector<double> cuts;
-  VolumeQuery::RayBundle rays;
-  // The slabs' depths between a and b: a, every kSlabPlanes-th plane between, b.
-  auto slabs_between = [&](double a, double b) {
-    cuts.clear();
-    cuts.push_back(a);
-    const auto lo = std::upper_bound(depths.begin(), depths.end(), a);
-    const auto hi = std::lower_bound(lo, depths.end(), b);
-    for (auto it = lo; it < hi; it += long(std::min<size_t>(kSlabPlanes, size_t(hi - it)))) cuts.push_back(*it);
-    cuts.push_back(b);
-    return cuts.size() - 1;
-  };
-  for (int i = 0; i < bounds->hit_near.rows; ++i) {
-    ThrowIfStopped(stop, "the plane sweep's hit bounds");
+  // Rows of blocks handed out one at a time: the open blocks gather about the
+  // hull's image.
+  ForEachRowDynamic(bounds->hit_near.rows, threads, [&](int i, int) {
+    if (Stopped(stop)) return;
+    size_t hint = 0;
+    std::vector<double> cuts;
+    VolumeQuery::RayBundle rays;
+    // The slabs' depths between a and b: a, every kSlabPlanes-th plane between, b.
+    auto slabs_between = [&](double a, double b) {
+      cuts.clear();
+      cuts.push_back(a);
+      const auto lo = std::upper_bound(depths.begin(), depths.end(), a);
+      const auto hi = std::lower_bound(lo, depths.end(), b);
+      for (auto it = lo; it < hi; it += long(std::min<size_t>(kSlabPlanes, size_t(hi - it)))) cuts.push_back(*it);
+      cuts.push_back(b);
+      return cuts.size() - 1;
+    };
     for (int j = 0; j < bounds->hit_near.cols; ++j) {
       float& hit_near = bounds->hit_near.at<float>(i, j);
       float& hit_far = bounds->hit_far.at<float>(i, j);
@@ -358,7 +361,8 @@ void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Re
       }
       near = FloatDown(cuts[twice]);
     }
-  }
+  });
+  ThrowIfStopped(stop, "the plane sweep's hit bounds");
 }
 
 // kRefine: refine_iterations > 0 (a loop of its own: the sweep without
@@ -565,12 +569,18 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const SweepBou
   }
 }
 
-// Runs rows(r0, r1, stats) over `threads` bands of [0, height), summing each
-// band's counters into *stats.
+// Rows a worker of a threaded sweep takes at a time: a block row of the
+// bounds. A view's cost lies in the rows about the hull's image, so fixed
+// bands left a worker idle (docs/benchmarks.md, "Rows handed out in chunks").
+constexpr int kRowChunk = EmptySpace::kBoundsBlock;
+
+// Runs rows(r0, r1, stats) over chunks of [0, height) on `threads` workers
+// (ForEachRowChunk), summing each worker's counters into *stats.
 template <class Rows>
 void ForRowBands(int height, int threads, SweepStats* stats, Rows rows) {
-  std::vector<SweepStats> per(size_t(std::clamp(threads, 1, std::max(1, height))));
-  ForEachRowBand(height, threads, [&](int r0, int r1, int band) { rows(r0, r1, &per[size_t(band)]); });
+  const int chunks = (std::max(0, height) + kRowChunk - 1) / kRowChunk;
+  std::vector<SweepStats> per(size_t(std::clamp(threads, 1, std::max(1, chunks))));
+  ForEachRowChunk(height, kRowChunk, threads, [&](int r0, int r1, int t) { rows(r0, r1, &per[size_t(t)]); });
   if (stats)
     for (const auto& st : per) {
       stats->rays += st.rays;
@@ -685,12 +695,13 @@ void RefineEdges(const VolumeQuery& query, const EmptySpace& empty, const NovelV
 }  // namespace
 
 bool SweepDepthBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
-                      const std::vector<double>& plane_depths, bool near_misses, SweepBounds* out, StopFlag stop) {
+                      const std::vector<double>& plane_depths, bool near_misses, SweepBounds* out, StopFlag stop,
+                      int threads) {
   *out = {};
   if (plane_depths.empty() || query.hull_box().empty()) return false;
   const EmptySpace& grid = query.empty_space();
   if (!grid.DepthBounds(view, region, &out->near, &out->far, stop, &out->hit_near, &out->hit_far)) return false;
-  TightenBounds(query, view, region, plane_depths, near_misses, out, stop);
+  TightenBounds(query, view, region, plane_depths, near_misses, out, stop, threads);
   return true;
 }
 
@@ -745,7 +756,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   SweepBounds bounds;
   if (refine_iterations <= 0) {
     const double t0 = t_grid;
-    SweepDepthBounds(query, view, tile, depths, false, &bounds, stop);
+    SweepDepthBounds(query, view, tile, depths, false, &bounds, stop, threads);
     ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
       SweepRows<false>(query, empty, bounds, view, depths, tile, r0, r1, out, st, 0, stop);
     });
@@ -760,7 +771,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
                           cv::Rect(0, 0, view.width, view.height);
   const double t0 = t_grid;
   cv::Mat swept(region.height, region.width, CV_32FC1);  // every pixel written by SweepRows
-  SweepDepthBounds(query, view, region, depths, true, &bounds, stop);
+  SweepDepthBounds(query, view, region, depths, true, &bounds, stop, threads);
   ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
     SweepRows<true>(query, empty, bounds, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
   });

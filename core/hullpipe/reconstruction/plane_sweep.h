@@ -130,10 +130,11 @@ struct SweepBounds {
 /// rounded outward to floats. False, leaving *out empty, when the grid gives
 /// no bounds (an eye within reach of the hull box, a region too small for the
 /// grid's cost). Throws Interrupted once `stop` is set (polled per row of
-/// blocks).
+/// blocks). The rows of blocks are shared by `threads` workers (>= 1), the
+/// bounds the same on any number.
 bool SweepDepthBounds(const VolumeQuery& query, const NovelView& view, const cv::Rect& region,
                       const std::vector<double>& plane_depths, bool near_misses, SweepBounds* out,
-                      StopFlag stop = nullptr);
+                      StopFlag stop = nullptr, int threads = 1);
 
 /// Depth refinement (beyond the paper; docs/benchmarks.md) of a finished sweep, for backends
 /// that cannot refine themselves (the GL sweep): each finite depth in *depth (a

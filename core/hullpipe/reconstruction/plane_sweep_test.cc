@@ -768,6 +768,57 @@ TEST(SweepBounds, NarrowedByTheFrustumsPiecesAndStillBounds) {
   }
 }
 
+// The threaded stages hand out rows (or rows of blocks) as workers finish
+// (ForEachRowChunk, ForEachRowDynamic), so which thread sweeps a ray, and
+// the camera order it inherits, varies from run to run: on the thin parts
+// scene from 4 cameras with the Utrecht rig's lenses, three 320x240 views
+// (grid and frustum bounds on), 100 planes, without and with refinement, the
+// bounds, the depth images, the rays counted and the textured colours (with
+// the visibility maps) on 2 and 3 threads are those of 1, to the bit.
+// Positive control: every view has hull and open blocks to hand out.
+TEST(PlaneSweep, ThreadsChangeNoBoundDepthOrColour) {
+  const std::vector<CameraMap> views = ThinPartsViews(4, 2, 0.12);
+  const VolumeQuery q(views, test::BigBox());
+  std::vector<Camera> cams;
+  std::vector<CameraImage> images;
+  for (const CameraMap& v : views) {
+    cams.push_back(v.camera);
+    cv::Mat img(v.map.size(), CV_8UC3);
+    cv::randu(img, cv::Scalar::all(0), cv::Scalar::all(255));
+    images.push_back({v.camera, img});
+  }
+  const HullVisibility vis = ComputeHullVisibility(q, cams, 80, {}, 6, 1);
+  const cv::Rect whole(0, 0, 320, 240);
+  for (const NovelView& view : ThinPartsEyes(320, 240)) {
+    PlaneSweepOptions o;
+    o.num_planes = 100;
+    const auto depths = SweepPlaneDepths(q, view, o);
+    SweepBounds b1;
+    ASSERT_TRUE(SweepDepthBounds(q, view, whole, depths, true, &b1, nullptr, 1));
+    ASSERT_GT(cv::countNonZero(b1.hit_near <= b1.hit_far), 10);
+    for (const int refine : {0, 6}) {
+      SweepStats s1;
+      const cv::Mat d1 = PlaneSweepCpu(q, view, depths, whole, &s1, 1, refine);
+      ASSERT_GT(cv::countNonZero(d1 == d1), 1000) << "refine " << refine << ": the view sees hull";
+      const cv::Mat c1 = TextureHull(d1, whole, view, images, {}, &vis, nullptr, 1);
+      for (const int threads : {2, 3}) {
+        const std::string what = std::to_string(threads) + " threads, refine " + std::to_string(refine);
+        SweepBounds bt;
+        ASSERT_TRUE(SweepDepthBounds(q, view, whole, depths, true, &bt, nullptr, threads));
+        for (const auto& [m1, mt] : {std::pair{b1.near, bt.near}, {b1.far, bt.far}, {b1.hit_near, bt.hit_near},
+                                     {b1.hit_far, bt.hit_far}})
+          EXPECT_EQ(std::memcmp(m1.data, mt.data, m1.total() * m1.elemSize()), 0) << what;
+        SweepStats st;
+        const cv::Mat dt = PlaneSweepCpu(q, view, depths, whole, &st, threads, refine);
+        EXPECT_EQ(std::memcmp(d1.data, dt.data, d1.total() * d1.elemSize()), 0) << what;
+        EXPECT_EQ(s1.rays, st.rays) << what;
+        EXPECT_EQ(cv::norm(c1, TextureHull(dt, whole, view, images, {}, &vis, nullptr, threads), cv::NORM_INF), 0.0)
+            << what;
+      }
+    }
+  }
+}
+
 // Runs of plane points one camera puts on background are skipped whole
 // (VolumeQueryOptions::skip_background_runs): on the thin parts scene, rings of
 // 4 and 5 cameras, pinhole, mildly distorted and with the Utrecht rig's lenses,

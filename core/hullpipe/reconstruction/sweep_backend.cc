@@ -27,7 +27,7 @@ class CpuBackend final : public SweepBackend {
   cv::Mat Texture(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
                   const std::vector<CameraImage>& images, bool with_visibility) override {
     if (with_visibility && !has_vis_) throw std::logic_error("Texture with visibility before ComputeVisibility");
-    return TextureHull(depth, tile, view, images, {}, with_visibility ? &vis_ : nullptr, stop());
+    return TextureHull(depth, tile, view, images, {}, with_visibility ? &vis_ : nullptr, stop(), threads());
   }
   std::string Name() const override { return "cpu"; }
 

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "hullpipe/geometry/conventions.h"
+#include "hullpipe/util/parallel.h"
 
 namespace hullpipe {
 
@@ -95,7 +96,7 @@ bool Visible(const HullVisibility& vis, size_t k, const Rigid3d& eye_from_world,
 
 cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView& view,
                     const std::vector<CameraImage>& images, const TextureOptions& options,
-                    const HullVisibility* visibility, StopFlag stop) {
+                    const HullVisibility* visibility, StopFlag stop, int threads) {
   options.Check();
   CV_Assert(depth.type() == CV_32FC1 && depth.size() == tile.size());
   if (visibility && (visibility->views.size() != images.size() || visibility->depth.size() != images.size()))
@@ -119,50 +120,55 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
     Eigen::Vector2d uv;  // where the camera sees the point (sampled only if blended)
     bool seen;           // passes the visibility test (true without one)
   };
-  std::vector<Candidate> cand;
-  for (int r = 0; r < depth.rows; ++r) {
-    ThrowIfStopped(stop, "texturing");
-    for (int c = 0; c < depth.cols; ++c) {
-      const float d = depth.at<float>(r, c);
-      if (!std::isfinite(d)) continue;
-      const Eigen::Vector3d X = O + double(d) * (R * view.EyeRay(tile.x + c + 0.5, tile.y + r + 0.5));
-      const Eigen::Vector3d to_eye = (O - X).normalized();
-      cand.clear();
-      for (size_t k = 0; k < cams.size(); ++k) {
-        const double cosang = to_eye.dot((centres[k] - X).normalized());
-        const auto uv = cams[k].Project(X);
-        if (!uv || !cams[k].InImage(*uv)) continue;
-        // Cameras facing the eye's side dominate; when none does (the Utrecht
-        // rig has no camera behind the person) the least oblique one still wins.
-        const double w = (cosang > 0 ? PowerOf(cosang, options.angle_power) : 0.0) + 1e-9 * (1.0 + cosang);
-        const bool seen = !visibility || Visible(*visibility, k, eye_from_world[k], X, options.visibility_bias_m);
-        cand.push_back({w, k, *uv, seen});
+  // Rows in chunks of 8 (a hull covers few rows of a wide view: fixed bands
+  // would leave a worker idle); the stop flag is polled per row and thrown
+  // from this thread.
+  ForEachRowChunk(depth.rows, 8, threads, [&](int r0, int r1, int) {
+    std::vector<Candidate> cand;
+    for (int r = r0; r < r1 && !Stopped(stop); ++r) {
+      for (int c = 0; c < depth.cols; ++c) {
+        const float d = depth.at<float>(r, c);
+        if (!std::isfinite(d)) continue;
+        const Eigen::Vector3d X = O + double(d) * (R * view.EyeRay(tile.x + c + 0.5, tile.y + r + 0.5));
+        const Eigen::Vector3d to_eye = (O - X).normalized();
+        cand.clear();
+        for (size_t k = 0; k < cams.size(); ++k) {
+          const double cosang = to_eye.dot((centres[k] - X).normalized());
+          const auto uv = cams[k].Project(X);
+          if (!uv || !cams[k].InImage(*uv)) continue;
+          // Cameras facing the eye's side dominate; when none does (the Utrecht
+          // rig has no camera behind the person) the least oblique one still wins.
+          const double w = (cosang > 0 ? PowerOf(cosang, options.angle_power) : 0.0) + 1e-9 * (1.0 + cosang);
+          const bool seen = !visibility || Visible(*visibility, k, eye_from_world[k], X, options.visibility_bias_m);
+          cand.push_back({w, k, *uv, seen});
+        }
+        // Only cameras that see the point, if any does; where none does (the back
+        // of the person on the Utrecht rig) the best imaging camera still colours
+        // it, as without the test: a guess rather than a grey hole.
+        if (std::any_of(cand.begin(), cand.end(), [](const Candidate& x) { return x.seen; }))
+          cand.erase(std::remove_if(cand.begin(), cand.end(), [](const Candidate& x) { return !x.seen; }), cand.end());
+        cv::Vec3b& px = out.at<cv::Vec3b>(r, c);
+        if (cand.empty()) {
+          px = cv::Vec3b(128, 128, 128);
+          continue;
+        }
+        const size_t keep = std::min(cand.size(), size_t(options.max_cameras));
+        std::partial_sort(cand.begin(), cand.begin() + long(keep), cand.end(),
+                          [](const Candidate& a, const Candidate& b) { return a.weight > b.weight; });
+        cv::Vec3f sum(0, 0, 0);
+        double wsum = 0;
+        for (size_t k = 0; k < keep; ++k) {
+          const Candidate& b = cand[k];
+          sum += Bilinear(images[b.camera].image, b.uv.x(), b.uv.y()) * float(b.weight);
+          wsum += b.weight;
+        }
+        sum *= float(1.0 / wsum);
+        px = cv::Vec3b(cv::saturate_cast<uint8_t>(sum[0]), cv::saturate_cast<uint8_t>(sum[1]),
+                       cv::saturate_cast<uint8_t>(sum[2]));
       }
-      // Only cameras that see the point, if any does; where none does (the back
-      // of the person on the Utrecht rig) the best imaging camera still colours
-      // it, as without the test: a guess rather than a grey hole.
-      if (std::any_of(cand.begin(), cand.end(), [](const Candidate& x) { return x.seen; }))
-        cand.erase(std::remove_if(cand.begin(), cand.end(), [](const Candidate& x) { return !x.seen; }), cand.end());
-      cv::Vec3b& px = out.at<cv::Vec3b>(r, c);
-      if (cand.empty()) {
-        px = cv::Vec3b(128, 128, 128);
-        continue;
-      }
-      const size_t keep = std::min(cand.size(), size_t(options.max_cameras));
-      std::partial_sort(cand.begin(), cand.begin() + long(keep), cand.end(),
-                        [](const Candidate& a, const Candidate& b) { return a.weight > b.weight; });
-      cv::Vec3f sum(0, 0, 0);
-      double wsum = 0;
-      for (size_t k = 0; k < keep; ++k) {
-        const Candidate& b = cand[k];
-        sum += Bilinear(images[b.camera].image, b.uv.x(), b.uv.y()) * float(b.weight);
-        wsum += b.weight;
-      }
-      sum *= float(1.0 / wsum);
-      px = cv::Vec3b(cv::saturate_cast<uint8_t>(sum[0]), cv::saturate_cast<uint8_t>(sum[1]),
-                     cv::saturate_cast<uint8_t>(sum[2]));
     }
-  }
+  });
+  ThrowIfStopped(stop, "texturing");
   return out;
 }
 

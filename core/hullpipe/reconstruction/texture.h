@@ -76,9 +76,10 @@ HullVisibility ComputeHullVisibility(const VolumeQuery& query, const std::vector
 /// it (a guess, not a grey hole); a point no camera images stays mid-grey. Without
 /// `visibility`, a camera whose view of the point is blocked by another part of
 /// the hull may still contribute. Throws Interrupted once `stop` is set (polled
-/// per row).
+/// per row). The rows are shared by `threads` workers (>= 1; chunks of rows
+/// handed out as each finishes), the colours the same on any number.
 cv::Mat TextureHull(const cv::Mat& depth_tile, const cv::Rect& tile, const NovelView& view,
                     const std::vector<CameraImage>& images, const TextureOptions& options = {},
-                    const HullVisibility* visibility = nullptr, StopFlag stop = nullptr);
+                    const HullVisibility* visibility = nullptr, StopFlag stop = nullptr, int threads = 1);
 
 }  // namespace hullpipe

@@ -47,4 +47,22 @@ void ForEachRowDynamic(int count, int threads, Rows&& rows) {
   for (auto& th : pool) th.join();
 }
 
+/// Calls rows(r0, r1, thread) for the chunks [r0, r1) of `chunk` rows (the
+/// last may be shorter) covering [0, height), handed out in order to `threads`
+/// workers (thread 0 the calling thread) as each finishes its last: rows of
+/// unequal cost (a view's rays near the hull) spread over the workers, each
+/// call's set-up paid once a chunk. One call with all rows when threads is 1.
+/// threads is clamped to [1, max(1, chunks)] (chunk to at least 1); rows must
+/// be safe to run concurrently on different chunks.
+template <class Rows>
+void ForEachRowChunk(int height, int chunk, int threads, Rows&& rows) {
+  chunk = std::max(1, chunk);
+  const int chunks = height > 0 ? (height + chunk - 1) / chunk : 0;
+  if (std::clamp(threads, 1, std::max(1, chunks)) == 1) {
+    if (height > 0) rows(0, height, 0);
+    return;
+  }
+  ForEachRowDynamic(chunks, threads, [&](int i, int t) { rows(i * chunk, std::min(height, (i + 1) * chunk), t); });
+}
+
 }  // namespace hullpipe
