@@ -93,7 +93,10 @@ EmptySpace::EmptySpace(const VolumeQuery& query, int cells_per_axis, int threads
     if (!first && cost > budget) break;
     budget -= cost;
     std::vector<uint8_t> settled(level.size(), 0);
-    ForEachRowDynamic(int(level.size()), std::max(1, threads), [&](int i, int) {
+    // A coarse level's few blocks are tested on this thread: starting threads
+    // for them cost more than their tests (a level of 2 blocks each ~14 levels).
+    const int level_threads = level.size() >= kMinBlocksPerThreadedLevel ? std::max(1, threads) : 1;
+    ForEachRowDynamic(int(level.size()), level_threads, [&](int i, int) {
       size_t hint = 0;
       settled[size_t(i)] = test(level[size_t(i)], &hint) ? 1 : 0;
     });

@@ -35,6 +35,9 @@ class EmptySpace {
   /// demo on two cores, four times as many cost recon more than the finer
   /// cubes saved its sweep (docs/benchmarks.md).
   static constexpr int64_t kMaxCameraTests = 8192;
+  /// A level of fewer blocks is tested on the calling thread alone: a thread
+  /// started for it costs more than its tests.
+  static constexpr size_t kMinBlocksPerThreadedLevel = 1024;
 
   /// A grid that knows nothing (every cube 0).
   EmptySpace() = default;
@@ -46,7 +49,8 @@ class EmptySpace {
   /// halved on to find parts a second camera vetoes; a level runs only while
   /// its blocks x cameras fit in kMaxCameraTests (the blocks of a level not run
   /// keep their parent's count); each level's blocks are handed to `threads`
-  /// threads (>= 1), the grid the same on any number. The query must outlive
+  /// threads (>= 1; one for a level under kMinBlocksPerThreadedLevel blocks),
+  /// the grid the same on any number. The query must outlive
   /// only this call.
   EmptySpace(const VolumeQuery& query, int cells_per_axis, int threads);
 
