@@ -137,11 +137,12 @@ struct TableRows {
   std::vector<std::string> sizes{"320x240", "640x480", "1280x720"};
   std::vector<int> planes{50, 100, 200};
   std::vector<int> triangles{720, 10000, 100000};
+  int cpu_threads = 1;  // the CPU backend's threads (recon_node --threads)
 };
 
 int BackendTable(const std::string& which, int repeats, int gl_device, const TableRows& rows) {
   std::unique_ptr<SweepBackend> cpu, gpu;
-  if (which != "gl") cpu = gl::MakeSweepBackend("cpu", 1, 6);
+  if (which != "gl") cpu = gl::MakeSweepBackend("cpu", rows.cpu_threads, 6);
   std::optional<gl::EglContext> tri_ctx;
   if (which != "cpu") {
     BackendOptions o;
@@ -155,8 +156,8 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       return 1;
     }
   }
-  std::printf("backend table: %u hardware threads, CPU backend 1 thread; GL: %s\n",
-              std::thread::hardware_concurrency(), gpu ? gpu->GlSummary().c_str() : "not run");
+  std::printf("backend table: %u hardware threads, CPU backend %d thread(s); GL: %s\n",
+              std::thread::hardware_concurrency(), rows.cpu_threads, gpu ? gpu->GlSummary().c_str() : "not run");
   std::printf("frame = upload + visibility maps (4..16 x 80 px, 48 planes) + sweep (refine 6) + texture; median of %d\n\n",
               repeats);
   std::printf("| view      | cams | planes | CPU sweep ms | CPU frame ms | GL sweep ms | GL frame ms | GL two waits ms | frame CPU/GL |\n");
@@ -653,6 +654,9 @@ int main(int argc, char** argv) {
       ->delimiter(',')->check(CLI::Range(2, PlaneSweepOptions::kMaxPlanes))->capture_default_str();
   app.add_option("--triangles", rows.triangles, "Backend table: triangle counts (0 alone: none)")
       ->delimiter(',')->check(CLI::Range(0, 10000000))->capture_default_str();
+  app.add_option("--cpu-threads", rows.cpu_threads,
+                 "Backend table: the CPU backend's threads (recon_node --threads; the sweep tables' own stay at 1)")
+      ->check(CLI::Range(1, 256))->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
   if (!(repeats >= 1 && repeats <= 1000)) {
