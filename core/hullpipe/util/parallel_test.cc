@@ -1,6 +1,13 @@
 #include "hullpipe/util/parallel.h"
 
 #include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <future>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -40,6 +47,67 @@ TEST(Parallel, EveryRowOnceInBandsAndDynamically) {
         EXPECT_EQ(chunk_hits[size_t(r)].load(), 1) << "row " << r << " of " << count << ", " << threads << " threads";
       }
     }
+}
+
+// Waits until `arrived` reaches n (each part counts itself in first), for at
+// most 10 s: parts that all wait for each other prove they ran at once.
+bool AllArrive(std::atomic<int>& arrived, int n) {
+  ++arrived;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (arrived.load() < n)
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    else std::this_thread::yield();
+  return true;
+}
+
+// The kept threads: n parts that wait for each other all run at once (no part
+// waits behind another on one thread), later rounds start no thread, and calls
+// from several threads at once each get every part exactly once.
+TEST(Parallel, ThreadsAreKeptAndSharedByConcurrentCallers) {
+  constexpr int n = 4;
+  for (int round = 0; round < 20; ++round) {
+    std::atomic<int> arrived{0}, late{0};
+    RunOnThreads(n, [&](int) { late += !AllArrive(arrived, n); });
+    ASSERT_EQ(late.load(), 0) << "round " << round << ": the parts did not all run at once";
+  }
+  const int kept = KeptThreads();
+  EXPECT_GE(kept, n - 1);
+  for (int round = 0; round < 20; ++round) RunOnThreads(n, [](int) {});
+  EXPECT_EQ(KeptThreads(), kept) << "rounds after the first started threads";
+  std::vector<std::thread> callers;
+  std::vector<std::vector<std::atomic<int>>> hits(6);
+  for (auto& h : hits) h = std::vector<std::atomic<int>>(5);
+  for (size_t c = 0; c < hits.size(); ++c)
+    callers.emplace_back([&, c] {
+      for (int round = 0; round < 20; ++round) RunOnThreads(5, [&](int t) { ++hits[c][size_t(t)]; });
+    });
+  for (auto& th : callers) th.join();
+  for (size_t c = 0; c < hits.size(); ++c)
+    for (size_t t = 0; t < 5; ++t) EXPECT_EQ(hits[c][t].load(), 20) << "caller " << c << ", part " << t;
+}
+
+// A call from inside a part runs on its own thread and returns (the kept
+// threads may all be busy with the outer call); a part's exception reaches
+// the caller once every part has returned.
+TEST(Parallel, NestedCallsFinishAndExceptionsReachTheCaller) {
+  auto nested = std::async(std::launch::async, [] {
+    std::atomic<int> inner{0};
+    RunOnThreads(3, [&](int) { RunOnThreads(3, [&](int) { ++inner; }); });
+    return inner.load();
+  });
+  if (nested.wait_for(std::chrono::seconds(10)) != std::future_status::ready) {
+    std::fprintf(stderr, "nested RunOnThreads did not return within 10 s\n");
+    std::abort();
+  }
+  EXPECT_EQ(nested.get(), 9);
+  std::atomic<int> ran{0};
+  EXPECT_THROW(RunOnThreads(4,
+                            [&](int t) {
+                              ++ran;
+                              if (t == 2) throw std::runtime_error("part 2");
+                            }),
+               std::runtime_error);
+  EXPECT_EQ(ran.load(), 4) << "every part ran before the exception came back";
 }
 
 }  // namespace
