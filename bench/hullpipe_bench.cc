@@ -372,8 +372,11 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
           // One frame of n_eyes eyes, wall ms.
           auto eyes_frame = [&](int n_eyes) {
             const double t0 = MonotonicSeconds();
-            // The query is the frameset's (recon makes it once, hull box included).
-            const VolumeQuery q(in.views, DefaultWorkspace(cams));
+            // The query is the frameset's (recon makes it once, hull box
+            // included, its search on recon's threads as the CPU sweep's).
+            VolumeQueryOptions qo;
+            qo.threads = b == cpu.get() ? rows.cpu_threads : 1;
+            const VolumeQuery q(in.views, DefaultWorkspace(cams), qo);
             const double t1 = MonotonicSeconds();
             b->BeginFrameset(q, in.images);
             b->ComputeVisibility(q, cams, 80, vo);
