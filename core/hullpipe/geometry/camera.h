@@ -83,6 +83,8 @@ struct Camera {
   /// Squared normalized radius beyond which the radial polynomial stops being
   /// monotonic: points farther out would fold back into the image, so they are
   /// reported as not projectable. +infinity where the polynomial never folds.
+  /// Cached in the camera on the first call (Project makes it): call it once
+  /// before threads share a fresh camera.
   double MaxValidRadius2() const;
 
   /// Projects a world point (metres) to continuous pixel coordinates. Returns
