@@ -577,7 +577,7 @@ constexpr int kRowChunk = EmptySpace::kBoundsBlock;
 // Runs rows(r0, r1, stats) over chunks of [0, height) on `threads` workers
 // (ForEachRowChunk), summing each worker's counters into *stats.
 template <class Rows>
-void ForRowBands(int height, int threads, SweepStats* stats, Rows rows) {
+void ForRowChunks(int height, int threads, SweepStats* stats, Rows rows) {
   const int chunks = (std::max(0, height) + kRowChunk - 1) / kRowChunk;
   std::vector<SweepStats> per(size_t(std::clamp(threads, 1, std::max(1, chunks))));
   ForEachRowChunk(height, kRowChunk, threads, [&](int r0, int r1, int t) { rows(r0, r1, &per[size_t(t)]); });
@@ -628,7 +628,7 @@ void RefineEdges(const VolumeQuery& query, const EmptySpace& empty, const NovelV
     const float* row = swept.ptr<float>(y);
     row_has_depth[size_t(y)] = std::any_of(row, row + swept.cols, [](float x) { return std::isfinite(x); });
   }
-  ForRowBands(inner.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
+  ForRowChunks(inner.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
     RayQuery ray(query, view, &empty);
     std::vector<std::pair<double, double>> windows;
     for (int rr = r0; rr < r1 && !Stopped(stop); ++rr) {
@@ -712,7 +712,7 @@ void RefineSweepDepth(const VolumeQuery& query, const NovelView& view, const std
     throw std::invalid_argument("RefineSweepDepth: depth must be CV_32FC1 of the tile's size");
   if (iterations <= 0 || depths.empty() || query.hull_box().empty()) return;
   const EmptySpace& empty = query.empty_space(threads);
-  ForRowBands(tile.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
+  ForRowChunks(tile.height, threads, nullptr, [&](int r0, int r1, SweepStats*) {
     RayQuery ray(query, view, &empty);
     for (int r = r0; r < r1 && !Stopped(stop); ++r) {
       float* row = depth->ptr<float>(r);
@@ -757,7 +757,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   if (refine_iterations <= 0) {
     const double t0 = t_grid;
     SweepDepthBounds(query, view, tile, depths, false, &bounds, stop, threads);
-    ForRowBands(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
+    ForRowChunks(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
       SweepRows<false>(query, empty, bounds, view, depths, tile, r0, r1, out, st, 0, stop);
     });
     ThrowIfStopped(stop, "the plane sweep");
@@ -772,7 +772,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   const double t0 = t_grid;
   cv::Mat swept(region.height, region.width, CV_32FC1);  // every pixel written by SweepRows
   SweepDepthBounds(query, view, region, depths, true, &bounds, stop, threads);
-  ForRowBands(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
+  ForRowChunks(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
     SweepRows<true>(query, empty, bounds, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
   });
   ThrowIfStopped(stop, "the plane sweep");
