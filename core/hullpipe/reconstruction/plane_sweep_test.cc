@@ -125,7 +125,9 @@ TEST_F(SphereHull, TilesAssembleToTheWholeView) {
 TEST(PlaneSweep, NoNanOrInfiniteDepthOtherThanNoHull) {
   const VolumeQuery q(test::SphereViews(4, 160, 120, kSphereCentre, kSphereRadius), test::BigBox());
   // A view from inside the hull box, looking through the sphere's centre.
-  const NovelView view = NovelView::FromFov(80, 60, 1.5, LookAt(kSphereCentre + Eigen::Vector3d(0.05, 0, 0), kSphereCentre + Eigen::Vector3d(1, 0, 0), {0, 0, -1}));
+  const Rigid3d pose =
+      LookAt(kSphereCentre + Eigen::Vector3d(0.05, 0, 0), kSphereCentre + Eigen::Vector3d(1, 0, 0), {0, 0, -1});
+  const NovelView view = NovelView::FromFov(80, 60, 1.5, pose);
   const cv::Mat d = PlaneSweepCpu(q, view, SweepPlaneDepths(q, view, {}), {0, 0, 80, 60});
   for (auto it = d.begin<float>(); it != d.end<float>(); ++it) EXPECT_TRUE(!std::isnan(*it) && *it > 0);
 }
