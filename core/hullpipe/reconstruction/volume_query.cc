@@ -605,7 +605,9 @@ std::optional<double> FaceReach(const detail::CellProver& prover, const Aabb& bo
   const int axis = face / 2;
   const double sign = face % 2 ? 1.0 : -1.0;
   auto reach = [&](const Aabb& c) { return sign > 0 ? c.max[axis] : -c.min[axis]; };
-  std::priority_queue<Item> queue;
+  std::vector<Item> storage;
+  storage.reserve(1024);
+  std::priority_queue<Item> queue(std::less<Item>(), std::move(storage));
   queue.push({reach(box), box, all});
   for (int pops = 0; !queue.empty(); ++pops) {
     // A pathological rig: stop where the search stands (still conservative).
@@ -616,23 +618,22 @@ std::optional<double> FaceReach(const detail::CellProver& prover, const Aabb& bo
     if (empty(it.cell, it.parent, &own)) continue;
     const Eigen::Vector3d size = it.cell.max - it.cell.min;
     if (size.maxCoeff() <= leaf) return it.reach;
-    // Split in two along every axis longer than half the cell's largest side.
+    // Split in two along every axis longer than half the cell's largest side
+    // (at most 8 parts, kept on the stack: a search pops thousands of cells).
     const Eigen::Vector3d c = it.cell.Center();
     const double half = 0.5 * size.maxCoeff();
-    std::vector<Aabb> parts{it.cell};
+    std::array<Aabb, 8> parts;
+    parts[0] = it.cell;
+    size_t n_parts = 1;
     for (int a = 0; a < 3; ++a) {
       if (size[a] < half) continue;
-      std::vector<Aabb> next;
-      for (const Aabb& p : parts) {
-        Aabb lo = p, hi = p;
-        lo.max[a] = c[a];
-        hi.min[a] = c[a];
-        next.push_back(lo);
-        next.push_back(hi);
+      for (size_t i = n_parts; i-- > 0;) {  // part i becomes parts 2i (low) and 2i + 1 (high)
+        parts[2 * i] = parts[2 * i + 1] = parts[i];
+        parts[2 * i].max[a] = parts[2 * i + 1].min[a] = c[a];
       }
-      parts.swap(next);
+      n_parts *= 2;
     }
-    for (const Aabb& p : parts) queue.push({reach(p), p, own});
+    for (size_t i = 0; i < n_parts; ++i) queue.push({reach(parts[i]), parts[i], own});
   }
   return std::nullopt;  // every cell proven empty: no hull
 }
