@@ -118,7 +118,9 @@ BackendInput MakeBackendInput(int cameras) {
   scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0.1, 0, 0.15), c + Eigen::Vector3d(0.12, 0.45, 0.6), 0.07));
   scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(-0.1, 0, 0.15), c + Eigen::Vector3d(-0.12, 0.45, 0.6), 0.07));
   for (const Camera& cam : RingCameras(cameras, 3.0, 1.8, c, 644, 486, 1.0)) {
-    in.views.push_back({cam, RenderExactMap(cam, scene)});
+    // With its object rectangle, as recon's maps arrive (the map's decoded runs give it).
+    const cv::Mat map = RenderExactMap(cam, scene);
+    in.views.push_back({cam, map, cv::boundingRect(map)});
     in.cameras.push_back(cam);
     cv::Mat img(243, 322, CV_8UC3);
     for (int r = 0; r < img.rows; ++r)
