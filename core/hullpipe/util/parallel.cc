@@ -5,6 +5,7 @@
 #include <exception>
 #include <memory>
 #include <mutex>
+#include <system_error>
 
 #include <unistd.h>
 
@@ -13,8 +14,9 @@ namespace {
 
 // Threads started once and kept for RunOnThreads: starting and joining a
 // thread costs tens of microseconds, and a frameset's stages run a dozen rounds
-// of them (docs/benchmarks.md, "Threads kept"). Never destroyed: its threads
-// idle on a condition variable until the process ends.
+// of them (docs/benchmarks.md, "Rows handed out in chunks, and threads kept").
+// Never destroyed: its threads idle on a condition variable until the process
+// ends.
 class WorkerPool {
  public:
   static WorkerPool& Get() {
@@ -25,15 +27,20 @@ class WorkerPool {
   void Run(int n, const std::function<void(int)>& fn) {
     // A nested call (from one of these threads) or one in a forked child
     // (where these threads do not exist and a lock may be held) runs here.
+    auto job = std::make_shared<Job>(&fn, n);
     if (n <= 1 || in_pool_ || ::getpid() != pid_) {
-      for (int t = 0; t < n; ++t) fn(t);
+      for (int t = 0; t < n; ++t) job->Do(t);
+      if (job->error) std::rethrow_exception(job->error);
       return;
     }
-    auto job = std::make_shared<Job>(&fn, n);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       while (started_ < std::min(n - 1, kMaxThreads)) {
-        std::thread(&WorkerPool::Serve, this).detach();
+        try {
+          std::thread(&WorkerPool::Serve, this).detach();
+        } catch (const std::system_error&) {
+          break;  // no more threads to be had: this thread takes the parts left
+        }
         ++started_;
       }
       for (int t = 1; t < n; ++t) queue_.push_back(job);

@@ -12,8 +12,8 @@ namespace hullpipe {
 
 /// Calls fn(t) once for every t in [0, n) and returns when all have returned:
 /// t = 0 on the calling thread, the others on threads started on first need
-/// and kept for later calls (up to 255, idle between calls), or on the
-/// calling thread where it is free first. Where fn throws, the first
+/// and kept for later calls (up to 255, idle between calls; as many as the
+/// system gives), or on the calling thread where it is free first. Where fn throws, the first
 /// exception is rethrown here once every call has returned. A call from
 /// inside fn (nested), or in a process forked after the threads started,
 /// runs every t on the calling thread, in order. Thread-safe: calls from

@@ -88,7 +88,7 @@ TEST(Parallel, ThreadsAreKeptAndSharedByConcurrentCallers) {
 
 // A call from inside a part runs on its own thread and returns (the kept
 // threads may all be busy with the outer call); a part's exception reaches
-// the caller once every part has returned.
+// the caller once every part has returned, nested or not.
 TEST(Parallel, NestedCallsFinishAndExceptionsReachTheCaller) {
   auto nested = std::async(std::launch::async, [] {
     std::atomic<int> inner{0};
@@ -108,6 +108,17 @@ TEST(Parallel, NestedCallsFinishAndExceptionsReachTheCaller) {
                             }),
                std::runtime_error);
   EXPECT_EQ(ran.load(), 4) << "every part ran before the exception came back";
+  // The same from nested calls, which run their parts on their own thread.
+  std::atomic<int> inner_ran{0};
+  EXPECT_THROW(RunOnThreads(2,
+                            [&](int) {
+                              RunOnThreads(3, [&](int t) {
+                                ++inner_ran;
+                                if (t == 1) throw std::runtime_error("inner part 1");
+                              });
+                            }),
+               std::runtime_error);
+  EXPECT_EQ(inner_ran.load(), 6) << "every nested part ran before the exception came back";
 }
 
 }  // namespace
