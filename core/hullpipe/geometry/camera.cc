@@ -67,7 +67,7 @@ Eigen::Vector2d Camera::Undistort(const Eigen::Vector2d& xd) const {
 }
 
 double Camera::MaxValidRadius2() const {
-  if (max_valid_radius2_ >= 0) return max_valid_radius2_;
+  if (const double cached = max_valid_radius2_.value.load(std::memory_order_relaxed); cached >= 0) return cached;
   // d/dr [r (1 + k1 r^2 + k2 r^4 + k3 r^6)] = 1 + 3 k1 r^2 + 5 k2 r^4 + 7 k3 r^6:
   // its first zero in s = r^2 (up to s = 100). Between the zeros of its own
   // derivative (a quadratic in s) it is monotonic, so the first interval whose
@@ -108,7 +108,7 @@ double Camera::MaxValidRadius2() const {
     }
     lo = hi;
   }
-  max_valid_radius2_ = result;
+  max_valid_radius2_.value.store(result, std::memory_order_relaxed);
   return result;
 }
 

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <optional>
 #include <string>
 
@@ -83,8 +84,8 @@ struct Camera {
   /// Squared normalized radius beyond which the radial polynomial stops being
   /// monotonic: points farther out would fold back into the image, so they are
   /// reported as not projectable. +infinity where the polynomial never folds.
-  /// Cached in the camera on the first call (Project makes it): call it once
-  /// before threads share a fresh camera.
+  /// Cached in the camera on the first call (Project makes it); safe to call
+  /// from threads sharing the camera.
   double MaxValidRadius2() const;
 
   /// Projects a world point (metres) to continuous pixel coordinates. Returns
@@ -103,7 +104,19 @@ struct Camera {
   Eigen::Vector3d PixelRayWorld(const Eigen::Vector2d& uv) const;
 
  private:
-  mutable double max_valid_radius2_ = -1;  // cache; -1 = not computed
+  // MaxValidRadius2's cache (-1: not computed). Threads sharing a const
+  // camera may fill it at once, each with the same value: relaxed atomic
+  // loads and stores, copied with the camera.
+  struct RadiusCache {
+    std::atomic<double> value{-1};
+    RadiusCache() = default;
+    RadiusCache(const RadiusCache& o) : value(o.value.load(std::memory_order_relaxed)) {}
+    RadiusCache& operator=(const RadiusCache& o) {
+      value.store(o.value.load(std::memory_order_relaxed), std::memory_order_relaxed);
+      return *this;
+    }
+  };
+  mutable RadiusCache max_valid_radius2_;
 };
 
 /// Returns the Camera scaled to a new image size (intrinsics scaled: fx, skew

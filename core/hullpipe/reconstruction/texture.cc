@@ -107,9 +107,6 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
   std::vector<Eigen::Vector3d> centres;
   for (const auto& ci : images) {
     cams.push_back(ScaledCamera(ci.camera, ci.image.cols, ci.image.rows));
-    // Project's lens radius, cached on first use: made here, before the
-    // threads share the cameras.
-    (void)cams.back().MaxValidRadius2();
     centres.push_back(cams.back().Center());
   }
   std::vector<Rigid3d> eye_from_world;
