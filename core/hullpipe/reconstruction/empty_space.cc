@@ -93,8 +93,8 @@ EmptySpace::EmptySpace(const VolumeQuery& query, int cells_per_axis, int threads
     if (!first && cost > budget) break;
     budget -= cost;
     std::vector<uint8_t> settled(level.size(), 0);
-    // A coarse level's few blocks are tested on this thread: starting threads
-    // for them cost more than their tests (a level of 2 blocks each ~14 levels).
+    // A coarse level's few blocks are tested on this thread: handing them to
+    // the threads costs more than their tests (most of the ~14 levels are small).
     const int level_threads = level.size() >= kMinBlocksPerThreadedLevel ? std::max(1, threads) : 1;
     ForEachRowDynamic(int(level.size()), level_threads, [&](int i, int) {
       size_t hint = 0;

@@ -35,8 +35,8 @@ class EmptySpace {
   /// demo on two cores, four times as many cost recon more than the finer
   /// cubes saved its sweep (docs/benchmarks.md).
   static constexpr int64_t kMaxCameraTests = 8192;
-  /// A level of fewer blocks is tested on the calling thread alone: a thread
-  /// started for it costs more than its tests.
+  /// A level of fewer blocks is tested on the calling thread alone: handing
+  /// its blocks to the threads costs more than their tests.
   static constexpr size_t kMinBlocksPerThreadedLevel = 1024;
 
   /// A grid that knows nothing (every cube 0).
@@ -50,8 +50,7 @@ class EmptySpace {
   /// its blocks x cameras fit in kMaxCameraTests (the blocks of a level not run
   /// keep their parent's count); each level's blocks are handed to `threads`
   /// threads (>= 1; one for a level under kMinBlocksPerThreadedLevel blocks),
-  /// the grid the same on any number. The query must outlive
-  /// only this call.
+  /// the grid the same on any number. The query must outlive only this call.
   EmptySpace(const VolumeQuery& query, int cells_per_axis, int threads);
 
   /// True when every cube is 0 (the sweep then skips the lookups).

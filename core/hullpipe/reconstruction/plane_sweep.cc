@@ -578,8 +578,7 @@ constexpr int kRowChunk = EmptySpace::kBoundsBlock;
 // (ForEachRowChunk), summing each worker's counters into *stats.
 template <class Rows>
 void ForRowChunks(int height, int threads, SweepStats* stats, Rows rows) {
-  const int chunks = (std::max(0, height) + kRowChunk - 1) / kRowChunk;
-  std::vector<SweepStats> per(size_t(std::clamp(threads, 1, std::max(1, chunks))));
+  std::vector<SweepStats> per(size_t(std::max(1, threads)));  // a worker's index is below threads
   ForEachRowChunk(height, kRowChunk, threads, [&](int r0, int r1, int t) { rows(r0, r1, &per[size_t(t)]); });
   if (stats)
     for (const auto& st : per) {

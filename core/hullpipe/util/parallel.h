@@ -13,11 +13,11 @@ namespace hullpipe {
 /// Calls fn(t) once for every t in [0, n) and returns when all have returned:
 /// t = 0 on the calling thread, the others on threads started on first need
 /// and kept for later calls (up to 255, idle between calls; as many as the
-/// system gives), or on the calling thread where it is free first. Where fn throws, the first
-/// exception is rethrown here once every call has returned. A call from
-/// inside fn (nested), or in a process forked after the threads started,
-/// runs every t on the calling thread, in order. Thread-safe: calls from
-/// several threads share the kept threads.
+/// system gives), or on the calling thread where it is free first. Where fn
+/// throws, the first exception is rethrown here once every call has
+/// returned. A call from inside fn (nested), or in a process forked after the
+/// threads started, runs every t on the calling thread, in order.
+/// Thread-safe: calls from several threads share the kept threads.
 void RunOnThreads(int n, const std::function<void(int)>& fn);
 
 /// The threads RunOnThreads has started so far in this process (kept for
@@ -46,10 +46,9 @@ void ForEachRowBand(int height, int threads, Rows&& rows) {
 }
 
 /// Calls rows(r, thread) once for every r in [0, count), the rows handed out one
-/// at a time to `threads` workers (thread 0 the calling thread; the others kept,
-/// RunOnThreads) as each finishes
-/// its last: for rows of very unequal cost, where fixed bands would leave one
-/// thread waiting on another. threads is clamped to [1, max(1, count)]; rows
+/// at a time to `threads` workers (thread 0 the calling thread, the others kept:
+/// RunOnThreads) as each finishes its last: for rows of very unequal cost,
+/// where fixed bands would leave one thread waiting on another. threads is clamped to [1, max(1, count)]; rows
 /// must be safe to run concurrently on different rows.
 template <class Rows>
 void ForEachRowDynamic(int count, int threads, Rows&& rows) {
