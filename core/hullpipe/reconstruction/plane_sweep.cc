@@ -9,6 +9,7 @@
 
 #include "hullpipe/geometry/conventions.h"
 #include "hullpipe/reconstruction/empty_space.h"
+#include "hullpipe/reconstruction/plane_index.h"
 #include "hullpipe/util/parallel.h"
 
 namespace hullpipe {
@@ -226,23 +227,6 @@ constexpr size_t kNoCamera = std::numeric_limits<size_t>::max();
 constexpr size_t kMinRunSpan = 4, kMaxRunSpan = 32;
 constexpr int kMaxEdgeSteps = 256;
 
-// std::lower_bound and std::upper_bound over the plane depths, as indices,
-// without data-dependent branches (a conditional move per halving): the sweep
-// searches four times a ray, and a branching search mispredicts about every
-// other step (callgrind --branch-sim: a tenth of the eye's mispredictions).
-size_t FirstNotBelow(const std::vector<double>& a, double x) {
-  if (a.empty()) return 0;
-  const double* base = a.data();
-  for (size_t n = a.size(); n > 1; n -= n / 2) base = base[n / 2] < x ? base + n / 2 : base;
-  return size_t(base - a.data()) + size_t(*base < x);
-}
-size_t FirstAbove(const std::vector<double>& a, double x) {
-  if (a.empty()) return 0;
-  const double* base = a.data();
-  for (size_t n = a.size(); n > 1; n -= n / 2) base = !(x < base[n / 2]) ? base + n / 2 : base;
-  return size_t(base - a.data()) + size_t(!(x < *base));
-}
-
 // The brackets of the points at planes first .. last: from the plane before
 // the first to the plane after the last, within the ray's part [s0, s1] in the
 // hull box: [*a, *b]. A near miss at plane k (first = last = k) is scanned
@@ -369,8 +353,8 @@ void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Re
 // refinement looks for no near misses and skips no runs).
 template <bool kRefine>
 void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const SweepBounds& bounds, const NovelView& view,
-               const std::vector<double>& depths, const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out,
-               SweepStats* stats, int refine_iterations, StopFlag stop) {
+               const std::vector<double>& depths, const PlaneIndex& planes, const cv::Rect& tile, int row_begin,
+               int row_end, cv::Mat& out, SweepStats* stats, int refine_iterations, StopFlag stop) {
   RayQuery ray(query, view, &empty);
   const bool prune = kRefine && query.options().prune_near_misses;
   // Without refinement a point costs about one projection (the camera that
@@ -409,12 +393,12 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const SweepBou
       // within the bounds (the refinement still brackets with s0 and s1).
       from = std::max(from, s0);
       to = std::min(to, s1);
-      const size_t first = FirstNotBelow(depths, from);
-      size_t end = std::max(first, FirstAbove(depths, to));
+      const size_t first = planes.FirstNotBelow(from);
+      size_t end = std::max(first, planes.FirstAbove(to));
       if (bounded) {
         // Past hit_to none is inside either; the first plane beyond it is
         // still visited with refinement: its near miss's scan may reach back.
-        const size_t past_hits = FirstAbove(depths, hit_to);
+        const size_t past_hits = planes.FirstAbove(hit_to);
         const size_t bounded_end = end;
         end = std::max(first, std::min(end, kRefine ? past_hits + 1 : past_hits));
         local.hit_skipped += int64_t(bounded_end - end);
@@ -443,7 +427,7 @@ void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const SweepBou
       // ones, so they are counted if that matters.
       size_t k_begin = first;
       if (bounded) {
-        const size_t hp = FirstNotBelow(depths, hit_from);
+        const size_t hp = planes.FirstNotBelow(hit_from);
         const size_t kh = kRefine && hp > 0 ? hp - 1 : hp;
         const size_t m = std::min(kh, end) - std::min(kh, first);
         if (m > 0) {
@@ -756,8 +740,9 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   if (refine_iterations <= 0) {
     const double t0 = t_grid;
     SweepDepthBounds(query, view, tile, depths, false, &bounds, stop, threads);
+    const PlaneIndex planes(depths);
     ForRowChunks(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
-      SweepRows<false>(query, empty, bounds, view, depths, tile, r0, r1, out, st, 0, stop);
+      SweepRows<false>(query, empty, bounds, view, depths, planes, tile, r0, r1, out, st, 0, stop);
     });
     ThrowIfStopped(stop, "the plane sweep");
     if (stats) stats->sweep_ms += (MonotonicSeconds() - t0) * 1e3;
@@ -771,8 +756,10 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   const double t0 = t_grid;
   cv::Mat swept(region.height, region.width, CV_32FC1);  // every pixel written by SweepRows
   SweepDepthBounds(query, view, region, depths, true, &bounds, stop, threads);
+  const PlaneIndex planes(depths);
   ForRowChunks(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
-    SweepRows<true>(query, empty, bounds, view, depths, region, r0, r1, swept, st, refine_iterations, stop);
+    SweepRows<true>(query, empty, bounds, view, depths, planes, region, r0, r1, swept, st, refine_iterations,
+                    stop);
   });
   ThrowIfStopped(stop, "the plane sweep");
   const double t1 = MonotonicSeconds();
