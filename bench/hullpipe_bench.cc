@@ -113,10 +113,13 @@ BackendInput MakeBackendInput(int cameras) {
   SyntheticScene scene;
   scene.shapes.push_back(Shape::Sphere(c + Eigen::Vector3d(0, 0, -0.55), 0.11));
   scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0, 0, -0.35), c + Eigen::Vector3d(0, 0, 0.1), 0.16));
-  scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0.2, 0, -0.3), c + Eigen::Vector3d(0.45, 0.25, 0.0), 0.045));
-  scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(-0.2, 0, -0.3), c + Eigen::Vector3d(-0.4, 0.3, -0.1), 0.045));
+  scene.shapes.push_back(
+      Shape::Capsule(c + Eigen::Vector3d(0.2, 0, -0.3), c + Eigen::Vector3d(0.45, 0.25, 0.0), 0.045));
+  scene.shapes.push_back(
+      Shape::Capsule(c + Eigen::Vector3d(-0.2, 0, -0.3), c + Eigen::Vector3d(-0.4, 0.3, -0.1), 0.045));
   scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0.1, 0, 0.15), c + Eigen::Vector3d(0.12, 0.45, 0.6), 0.07));
-  scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(-0.1, 0, 0.15), c + Eigen::Vector3d(-0.12, 0.45, 0.6), 0.07));
+  scene.shapes.push_back(
+      Shape::Capsule(c + Eigen::Vector3d(-0.1, 0, 0.15), c + Eigen::Vector3d(-0.12, 0.45, 0.6), 0.07));
   for (const Camera& cam : RingCameras(cameras, 3.0, 1.8, c, 644, 486, 1.0)) {
     // With its object rectangle, as recon's maps arrive (the map's decoded runs give it).
     const cv::Mat map = RenderExactMap(cam, scene);
@@ -160,10 +163,13 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   }
   std::printf("backend table: %u hardware threads, CPU backend %d thread(s); GL: %s\n",
               std::thread::hardware_concurrency(), rows.cpu_threads, gpu ? gpu->GlSummary().c_str() : "not run");
-  std::printf("frame = upload + visibility maps (4..16 x 80 px, 48 planes) + sweep (refine 6) + texture; median of %d\n\n",
-              repeats);
-  std::printf("| view      | cams | planes | CPU sweep ms | CPU frame ms | GL sweep ms | GL frame ms | GL two waits ms | frame CPU/GL |\n");
-  std::printf("|-----------|------|--------|--------------|--------------|-------------|-------------|-------------------|--------------|\n");
+  std::printf(
+      "frame = upload + visibility maps (4..16 x 80 px, 48 planes) + sweep (refine 6) + texture; median of %d\n\n",
+      repeats);
+  std::printf(
+      "| view      | cams | planes | CPU sweep ms | CPU frame ms | GL sweep ms | GL frame ms | GL two waits ms | frame CPU/GL |\n");
+  std::printf(
+      "|-----------|------|--------|--------------|--------------|-------------|-------------|-------------------|--------------|\n");
   // The frame as recon_node renders it (SweepTextured: on GL one wait for the
   // GPU per tile); *two_waits_ms the same with Sweep and Texture called apart
   // (a read-back each), as recon did before.
@@ -290,12 +296,12 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       narrow_rows.push_back(nrow);
     }
     char row[320];
-    std::snprintf(row, sizeof row,
-                  "| %dx%d | %d | %zu | %.0f / %.0f | %.0f / %.0f | %.2f | %.2f | %.2f | %.2f | %.2f / %.2f / %.2f | %.2f | %.2f |",
-                  view.width, view.height, int(in.images.size()), depths.size(), part_kb, whole_kb, map_bits_kb,
-                  map_bytes_kb, Median(t[0]),
-                  Median(t[1]), Median(t[2]), Median(t[3]), Median(g[0]), Median(g[1]), Median(g[2]), Median(span),
-                  Median(wall));
+    std::snprintf(
+        row, sizeof row,
+        "| %dx%d | %d | %zu | %.0f / %.0f | %.0f / %.0f | %.2f | %.2f | %.2f | %.2f | %.2f / %.2f / %.2f | %.2f | %.2f |",
+        view.width, view.height, int(in.images.size()), depths.size(), part_kb, whole_kb, map_bits_kb, map_bytes_kb,
+        Median(t[0]), Median(t[1]), Median(t[2]), Median(t[3]), Median(g[0]), Median(g[1]), Median(g[2]), Median(span),
+        Median(wall));
     stage_rows.push_back(row);
   };
   for (const int ncam : rows.cameras) {
@@ -324,7 +330,9 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
           gf = frame(*gpu, in, q, view, depths, &gs, &g2);
           stages(*gpu, in, q, view, depths);
         }
-        auto cell = [](double v) { return v > 0 ? std::to_string(v).substr(0, std::to_string(v).find('.') + 3) : std::string("-"); };
+        auto cell = [](double v) {
+          return v > 0 ? std::to_string(v).substr(0, std::to_string(v).find('.') + 3) : std::string("-");
+        };
         std::printf("| %4dx%-4d | %4d | %6d | %12s | %12s | %11s | %11s | %17s | %12s |\n", w, h, ncam, planes,
                     cell(cs).c_str(), cell(cf).c_str(), cell(gs).c_str(), cell(gf).c_str(), cell(g2).c_str(),
                     cpu && gpu ? cell(cf / gf).c_str() : "-");
@@ -355,10 +363,11 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   // visibility are the frameset's, made once; each eye adds its plane depths,
   // sweep and texture. Same input, same planes, measured in one run.
   {
-    std::printf("\nStereo frame (two eyes of one frameset, render_node --stereo) against one eye, alternated, median of %d:\n\n"
-                "| backend | cams | eye view | planes | one eye ms | two eyes ms | two / one | shared ms: query + maps + visibility | of which query / grid (CPU) | each eye ms: sweep / refine / texture |\n"
-                "|---|---|---|---|---|---|---|---|---|---|\n",
-                repeats);
+    std::printf(
+        "\nStereo frame (two eyes of one frameset, render_node --stereo) against one eye, alternated, median of %d:\n\n"
+        "| backend | cams | eye view | planes | one eye ms | two eyes ms | two / one | shared ms: query + maps + visibility | of which query / grid (CPU) | each eye ms: sweep / refine / texture |\n"
+        "|---|---|---|---|---|---|---|---|---|---|\n",
+        repeats);
     for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
         const std::vector<Camera>& cams = in.cameras;
         const int planes = rows.planes.front();
@@ -430,12 +439,13 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   // interleaved, and the grid's own cost (made once per frameset). The depth
   // images are compared: skipping must not change one pixel.
   if (cpu) {
-    std::printf("\nCPU sweep with and without empty-space skipping (one eye, the stereo table's view, refine 6, 1 thread; "
-                "interleaved, median of %d):\n\n"
-                "| cams | eye view | planes | grid cubes | grid ms | cubes vetoed once / twice | points skipped | sweep ms without | "
-                "sweep ms with | without / with | same depth | one-eye frame ms without / with |\n"
-                "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-                repeats);
+    std::printf(
+        "\nCPU sweep with and without empty-space skipping (one eye, the stereo table's view, refine 6, 1 thread; "
+        "interleaved, median of %d):\n\n"
+        "| cams | eye view | planes | grid cubes | grid ms | cubes vetoed once / twice | points skipped | sweep ms without | "
+        "sweep ms with | without / with | same depth | one-eye frame ms without / with |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        repeats);
     for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
         const NovelView& v = eyes.eye[0];
         VolumeQueryOptions with_grid, without_grid;
@@ -471,11 +481,12 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
             (void)cpu->SweepTextured(q, v, SweepPlaneDepths(q, v, o), all, in.images, true);
             if (r > 0) (qo == &with_grid ? fw : fn).push_back((MonotonicSeconds() - t0) * 1e3);
           }
-        std::printf("| %d | %dx%d | %d | %dx%dx%d | %.2f | %lld / %lld | %.0f%% | %.2f | %.2f | %.2f | %s | %.2f / %.2f |\n",
-                    ncam, w, h, o.num_planes, grid.dims().x(), grid.dims().y(), grid.dims().z(), Median(grid_ms),
-                    (long long)grid.vetoed_once(), (long long)grid.vetoed_twice(),
-                    sw.plane_points ? 100.0 * double(sw.skipped) / double(sw.plane_points) : 0.0, Median(tn),
-                    Median(tw), Median(tn) / Median(tw), same ? "yes" : "NO", Median(fn), Median(fw));
+        std::printf(
+            "| %d | %dx%d | %d | %dx%dx%d | %.2f | %lld / %lld | %.0f%% | %.2f | %.2f | %.2f | %s | %.2f / %.2f |\n",
+            ncam, w, h, o.num_planes, grid.dims().x(), grid.dims().y(), grid.dims().z(), Median(grid_ms),
+            (long long)grid.vetoed_once(), (long long)grid.vetoed_twice(),
+            sw.plane_points ? 100.0 * double(sw.skipped) / double(sw.plane_points) : 0.0, Median(tn), Median(tw),
+            Median(tn) / Median(tw), same ? "yes" : "NO", Median(fn), Median(fw));
         std::fflush(stdout);
     });
   }
@@ -522,8 +533,9 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   // nothing allocated at the frameset's sizes), with and without the backend's
   // warm-up frame at creation; then its second. One run each: a first is once.
   if (gpu) {
-    std::printf("\nGL backend's first framesets (16 cameras 640x480 in the view, 100 planes; one fresh backend each):\n\n"
-                "| warm-up at creation | creation ms | first frame ms | second frame ms |\n|---|---|---|---|\n");
+    std::printf(
+        "\nGL backend's first framesets (16 cameras 640x480 in the view, 100 planes; one fresh backend each):\n\n"
+        "| warm-up at creation | creation ms | first frame ms | second frame ms |\n|---|---|---|---|\n");
     const BackendInput in = MakeBackendInput(16);
     const std::vector<Camera>& cams = in.cameras;
     const VolumeQuery q(in.views, DefaultWorkspace(cams));
@@ -556,11 +568,12 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
     }
   }
   if (!stage_rows.empty()) {
-    std::printf("\nGL frame stage by stage, each waited for (median ms):\n\n"
-                "| view | cams | planes | image kB up / whole | map kB up (bits) / as bytes | upload | visibility maps | "
-                "sweep (read back) | texture (read back) | GPU timeline, not waited: upload / visibility / sweep + "
-                "texture | GPU span | frame wall |\n"
-                "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf(
+        "\nGL frame stage by stage, each waited for (median ms):\n\n"
+        "| view | cams | planes | image kB up / whole | map kB up (bits) / as bytes | upload | visibility maps | "
+        "sweep (read back) | texture (read back) | GPU timeline, not waited: upload / visibility / sweep + "
+        "texture | GPU span | frame wall |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const auto& r : stage_rows) std::printf("%s\n", r.c_str());
     std::printf("\nThe GL march with and without narrowing to the maps' object rectangles (refine 6, read back; "
                 "median ms):\n\n"
@@ -613,8 +626,9 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
       }) : 0;
       const double pms = gl_tri ? MedianMs(reps, [&] { (void)gl_tri->Query(q, tris, o); }) : 0;
       auto rate = [&](double ms) { return ms > 0 ? count / ms * 1e3 : 0.0; };
-      std::printf("| %d | %zu | %.1f | %.0f | %.2f | %.0f | %.2f | %.0f | %s |\n", count, colliding, cms, rate(cms), gms,
-                  rate(gms), pms, rate(pms), cms > 0 && gms > 0 ? std::to_string(cms / gms).substr(0, 6).c_str() : "-");
+      std::printf("| %d | %zu | %.1f | %.0f | %.2f | %.0f | %.2f | %.0f | %s |\n", count, colliding, cms, rate(cms),
+                  gms, rate(gms), pms, rate(pms),
+                  cms > 0 && gms > 0 ? std::to_string(cms / gms).substr(0, 6).c_str() : "-");
       if (gl_tri)
         part_rows.push_back("| " + std::to_string(count) + " | " + Ms2(parts.prepare_ms) + " | " + Ms2(parts.pass_ms) +
                             " | " + Ms2(parts.read_ms) + " | " + Ms2(parts.cpu_ms) + " |");
@@ -715,8 +729,8 @@ int main(int argc, char** argv) {
       return std::string(note);
     };
     const std::string cfg = std::to_string(cams.size()) + " cameras";
-    Row("hull box: pyramids only", cfg, MedianMs(repeats * 3, [&] { (void)HullBoundingBox(cams, maps, src->workspace()); }),
-        size_note(pyramids));
+    Row("hull box: pyramids only", cfg,
+        MedianMs(repeats * 3, [&] { (void)HullBoundingBox(cams, maps, src->workspace()); }), size_note(pyramids));
     Row("volume query set-up + box", cfg, MedianMs(repeats * 3, [&] { (void)VolumeQuery(views, src->workspace()); }),
         size_note(q.hull_box()));
     // On the threads recon_node gives it (--threads 0: the host's cores shared
@@ -815,13 +829,15 @@ int main(int argc, char** argv) {
       char note[64];
       std::snprintf(note, sizeof note, "%.1fk rays, %.0f planes/ray", st.rays / 1e3,
                     double(st.plane_points) / double(std::max<int64_t>(1, st.rays)));
-      Row("plane sweep CPU, 1 thread", cfg, MedianMs(repeats, [&] { (void)PlaneSweepCpu(q, view, depths, full); }), note);
+      Row("plane sweep CPU, 1 thread", cfg, MedianMs(repeats, [&] { (void)PlaneSweepCpu(q, view, depths, full); }),
+          note);
       Row("plane sweep CPU, half view", cfg + " (one recon tile)",
           MedianMs(repeats, [&] { (void)PlaneSweepCpu(q, view, depths, TileRect(0, 2, w, h)); }));
       Row("plane sweep CPU + refine 6", cfg + " (one recon tile)",
           MedianMs(repeats, [&] { (void)PlaneSweepCpu(q, view, depths, TileRect(0, 2, w, h), nullptr, 1, 6); }));
       if (gl_sweep)
-        Row("plane sweep " + gl_name, cfg, MedianMs(std::max(3, repeats / 2), [&] { (void)gl_sweep->Sweep(q, view, depths, full); }));
+        Row("plane sweep " + gl_name, cfg,
+            MedianMs(std::max(3, repeats / 2), [&] { (void)gl_sweep->Sweep(q, view, depths, full); }));
     }
     const auto depths = SweepPlaneDepths(q, view, {});
     const cv::Mat d = PlaneSweepCpu(q, view, depths, full);
@@ -842,7 +858,8 @@ int main(int argc, char** argv) {
       VolumeQueryOptions no_grid;
       no_grid.empty_space_cells = 0;
       for (const VolumeQueryOptions& qo : {no_grid, VolumeQueryOptions{}})
-        Row("query + visibility maps", std::string("refine 6, ") + (qo.empty_space_cells ? "with" : "without") + " the grid",
+        Row("query + visibility maps",
+            std::string("refine 6, ") + (qo.empty_space_cells ? "with" : "without") + " the grid",
             MedianMs(repeats, [&] {
               const VolumeQuery fresh(views, src->workspace(), qo);
               (void)ComputeHullVisibility(fresh, cams, 80, vo, 6);

@@ -73,7 +73,8 @@ int main(int argc, char** argv) {
   app.add_option("--first", first, "First rig frame")->check(CLI::Range(0, 100000))->capture_default_str();
   app.add_option("--stride", stride, "Rig frames between framesets")->check(CLI::Range(1, 1000))->capture_default_str();
   int element_only = 0;
-  app.add_option("--element-only", element_only, "Only time the sim step, this many rounds over the framesets (profiling)")
+  app.add_option("--element-only", element_only,
+                 "Only time the sim step, this many rounds over the framesets (profiling)")
       ->check(CLI::Range(0, 1000));
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
@@ -113,7 +114,8 @@ int main(int argc, char** argv) {
     }
     std::printf("model: %s, %d framesets of %s (frames %d + k * %d)\n\n", entry.file.c_str(), int(hulls.size()),
                 rig.c_str(), first, stride);
-    std::printf("| model | triangles | method | ms/frameset p50 | scene tris/s/core | tris queried | boxes tested | colliding tris |\n");
+    std::printf(
+        "| model | triangles | method | ms/frameset p50 | scene tris/s/core | tris queried | boxes tested | colliding tris |\n");
     std::printf("|---|---:|---|---:|---:|---:|---:|---:|\n");
     for (const auto& [name, mesh] : {std::pair<std::string, const TriangleMesh*>{"engine", &engine},
                                      std::pair<std::string, const TriangleMesh*>{"engine x16", &fine}}) {
@@ -145,8 +147,8 @@ int main(int argc, char** argv) {
       };
       row("every triangle (§4.1 as in the paper)", Median(brute_ms), queried_brute / n, 0);
       row("hierarchy", Median(bvh_ms), queried / n, boxes / n);
-      std::printf("| %s | %.0f | clearance (one mesh, 2 cm grid + 6 refinements) | %.2f | | | | |\n", name.c_str(), tris,
-                  Median(clear_ms));
+      std::printf("| %s | %.0f | clearance (one mesh, 2 cm grid + 6 refinements) | %.2f | | | | |\n", name.c_str(),
+                  tris, Median(clear_ms));
       std::printf("| %s | %.0f | hierarchy build (once, at load) | %.1f | | | | |\n", name.c_str(), tris, build_ms);
       if (!equal) std::printf("\nMISMATCH: the hierarchy's result differs from brute force on %s\n", name.c_str());
     }
@@ -176,7 +178,8 @@ int main(int argc, char** argv) {
           NovelView::FromFov(320, 240, 50 * M_PI / 180, LookAt(centre + Eigen::Vector3d(0, 3, -0.5), centre, up));
       const cv::Mat depth(240, 320, CV_32FC1, cv::Scalar(kNoDepth)), colour(240, 320, CV_8UC3, cv::Scalar(0, 0, 0));
       std::vector<double> ms;
-      for (int r = 0; r < 9; ++r) ms.push_back(Ms([&] { (void)Composite(view, depth, colour, {}, {}, nullptr, draw_ptrs); }));
+      for (int r = 0; r < 9; ++r)
+        ms.push_back(Ms([&] { (void)Composite(view, depth, colour, {}, {}, nullptr, draw_ptrs); }));
       std::vector<double> empty_ms;
       for (int r = 0; r < 9; ++r) empty_ms.push_back(Ms([&] { (void)Composite(view, depth, colour, {}); }));
       std::printf("render composite at 320x240 (CPU): with the model %.2f ms p50, without %.2f ms\n", Median(ms),
@@ -226,12 +229,14 @@ int main(int argc, char** argv) {
         }
         queries += int64_t(points.size());
       }
-      std::printf("\nsigned distance (mesh_distance.h) on the engine's %lld closed parts of %lld (100+ triangles, "
-                  "%lld triangles): %.1f us/query through the hierarchy, %.1f us by every triangle + winding "
-                  "number; %lld queries, largest distance difference %.3g m, %lld sign disagreements\n",
-                  (long long)closed, (long long)parts, (long long)tris, hierarchy_ns / 1e3 / double(std::max<int64_t>(queries, 1)),
-                  brute_ns / 1e3 / double(std::max<int64_t>(queries, 1)), (long long)queries, max_error,
-                  (long long)sign_errors);
+      std::printf(
+          "\nsigned distance (mesh_distance.h) on the engine's %lld closed parts of %lld (100+ triangles, "
+          "%lld triangles): %.1f us/query through the hierarchy, %.1f us by every triangle + winding "
+          "number; %lld queries, largest distance difference %.3g m, %lld sign disagreements\n",
+          (long long)closed, (long long)parts, (long long)tris,
+          hierarchy_ns / 1e3 / double(std::max<int64_t>(queries, 1)),
+          brute_ns / 1e3 / double(std::max<int64_t>(queries, 1)), (long long)queries, max_error,
+          (long long)sign_errors);
       for (const char* name : {"payload", "payload_engine"}) {
         const SceneConfig pc = LoadSceneConfig(std::string(HULLPIPE_SOURCE_DIR) + "/scenes/" + name + ".yaml");
         const PayloadConfig& payload = *pc.Find<PayloadConfig>();

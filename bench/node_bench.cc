@@ -156,9 +156,11 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
   // Inputs grouped by frameset.
   std::map<uint64_t, std::vector<const Sample*>> maps, images;
   std::map<uint64_t, const Sample*> poses;
-  for (const auto& s : rec["hullpipe/object_pixel_map"].samples) maps[FrameOf<hullpipe_msg_ObjectPixelMap>(*map_w, s)].push_back(&s);
+  for (const auto& s : rec["hullpipe/object_pixel_map"].samples)
+    maps[FrameOf<hullpipe_msg_ObjectPixelMap>(*map_w, s)].push_back(&s);
   if (recon) {
-    for (const auto& s : rec["hullpipe/camera_image"].samples) images[FrameOf<hullpipe_msg_CameraImage>(*img_w, s)].push_back(&s);
+    for (const auto& s : rec["hullpipe/camera_image"].samples)
+      images[FrameOf<hullpipe_msg_CameraImage>(*img_w, s)].push_back(&s);
     for (const auto& s : rec["hullpipe/view_pose"].samples) {
       const uint64_t f = FrameOf<hullpipe_msg_ViewPose>(*pose_w, s);
       if (f && !poses.count(f)) poses[f] = &s;
@@ -169,7 +171,8 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
   Reader<hullpipe_msg_HullView> tiles(p);
   // Wait until the node is there, then send the calibration.
   const double until = MonotonicSeconds() + 20;
-  while (map_w->MatchedReaders() == 0 && MonotonicSeconds() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  while (map_w->MatchedReaders() == 0 && MonotonicSeconds() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   if (map_w->MatchedReaders() == 0) throw std::runtime_error(node + "_node did not appear on the domain");
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // its side matches too
   for (const auto& s : rec["hullpipe/camera_info"].samples) info_w->Write(s.data);
@@ -187,10 +190,13 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
     bool got = false;
     while (!got && MonotonicSeconds() - sent < 3.0) {
       if (recon) {
-        tiles.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
+        tiles.TakeEach(
+            [&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
       } else {
-        reports.TakeEach([&](const hullpipe_msg_CollisionReport& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
-        meshes.TakeEach([&](const hullpipe_msg_VirtualMesh& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
+        reports.TakeEach(
+            [&](const hullpipe_msg_CollisionReport& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
+        meshes.TakeEach(
+            [&](const hullpipe_msg_VirtualMesh& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
       }
       if (!got) std::this_thread::sleep_for(std::chrono::microseconds(200));
     }
@@ -224,9 +230,11 @@ Result BenchRender(const Participant& p, pid_t pid, const std::string& recording
   Reader<hullpipe_msg_ViewPose> poses(p);
   std::map<uint64_t, std::vector<const Sample*>> maps, states;
   std::map<uint64_t, std::map<uint32_t, const Sample*>> frame_tiles;  // frame -> tile index -> sample
-  for (const auto& s : rec["hullpipe/object_pixel_map"].samples) maps[FrameOf<hullpipe_msg_ObjectPixelMap>(*map_w, s)].push_back(&s);
+  for (const auto& s : rec["hullpipe/object_pixel_map"].samples)
+    maps[FrameOf<hullpipe_msg_ObjectPixelMap>(*map_w, s)].push_back(&s);
   if (state_w)
-    for (const auto& s : rec["hullpipe/object_state"].samples) states[FrameOf<hullpipe_msg_VirtualObjectState>(*state_w, s)].push_back(&s);
+    for (const auto& s : rec["hullpipe/object_state"].samples)
+      states[FrameOf<hullpipe_msg_VirtualObjectState>(*state_w, s)].push_back(&s);
   for (const auto& s : rec["hullpipe/hull_view"].samples) {
     hullpipe_msg_HullView m{};
     if (!tile_decoder->Decode(s.data, &m)) continue;
@@ -318,7 +326,9 @@ int main(int argc, char** argv) {
   std::string node, recording, rig, bin_dir = fs::path(argv[0]).parent_path().string(), scene;
   int frames = 0;
   bool json = false;
-  app.add_option("--node", node, "capture | recon | sim | render")->required()->check(CLI::IsMember({"capture", "recon", "sim", "render"}));
+  app.add_option("--node", node, "capture | recon | sim | render")
+      ->required()
+      ->check(CLI::IsMember({"capture", "recon", "sim", "render"}));
   app.add_option("--recording", recording, "Recording to feed recon or sim (hullpipe_record)");
   app.add_option("--rig", rig, "Rig directory for capture");
   app.add_option("--frames", frames, "Stop after this many framesets (0: all)");
@@ -339,8 +349,8 @@ int main(int argc, char** argv) {
     std::vector<std::string> args = {bin_dir + "/" + node + "_node", "--domain", std::to_string(domain)};
     if (node == "recon") args.insert(args.end(), {"--tile", "0/1"});
     if (node == "render")
-      args.insert(args.end(), {"--out", (dir / "out").string(), "--tiles", "2", "--max-in-flight", "1", "--window", "off",
-                               "--idle-timeout", "30", "--tile-timeout", "5"});
+      args.insert(args.end(), {"--out", (dir / "out").string(), "--tiles", "2", "--max-in-flight", "1", "--window",
+                               "off", "--idle-timeout", "30", "--tile-timeout", "5"});
     if (node == "sim" && !scene.empty()) args.insert(args.end(), {"--scene", fs::absolute(scene).string()});
     if (node == "capture") {
       if (rig.empty()) throw std::runtime_error("--node capture needs --rig DIR");
@@ -359,9 +369,14 @@ int main(int argc, char** argv) {
     proc.Stop(10);
     const double fps = r.seconds > 0 ? r.frames / r.seconds : 0;
     if (json) {
-      nlohmann::json j = {{"node", r.node}, {"frames", r.frames}, {"timeouts", r.timeouts}, {"fps", fps},
-                          {"latency_ms_p50", Percentile(r.latency_ms, 50)}, {"latency_ms_p95", Percentile(r.latency_ms, 95)},
-                          {"latency_ms_p99", Percentile(r.latency_ms, 99)}, {"cpu_percent", r.seconds > 0 ? 100 * r.cpu_s / r.seconds : 0},
+      nlohmann::json j = {{"node", r.node},
+                          {"frames", r.frames},
+                          {"timeouts", r.timeouts},
+                          {"fps", fps},
+                          {"latency_ms_p50", Percentile(r.latency_ms, 50)},
+                          {"latency_ms_p95", Percentile(r.latency_ms, 95)},
+                          {"latency_ms_p99", Percentile(r.latency_ms, 99)},
+                          {"cpu_percent", r.seconds > 0 ? 100 * r.cpu_s / r.seconds : 0},
                           {"peak_rss_mib", r.rss_mib}};
       j["command"] = CommandLine();
       std::printf("%s\n", j.dump().c_str());

@@ -126,7 +126,8 @@ int Publish(int n, uint32_t domain) {
   // last 4 per camera: nothing is overwritten before the recorder has it).
   for (int i = 0; i < n && !hullpipe::dds::StopRequested(); ++i) {
     img.at<cv::Vec3b>(0, 0)[0] = uint8_t(i);
-    writer.Write(hullpipe::dds::MakeImageMessage(uint32_t(i % 4 + 1), uint64_t(i / 4 + 1), hullpipe::NowNs(), img, 0).msg);
+    writer.Write(
+        hullpipe::dds::MakeImageMessage(uint32_t(i % 4 + 1), uint64_t(i / 4 + 1), hullpipe::NowNs(), img, 0).msg);
     if (i % 4 == 3 || i == n - 1)
       hullpipe::dds::Check(dds_wait_for_acks(writer.handle(), DDS_SECS(10)), "dds_wait_for_acks");
   }
@@ -217,7 +218,8 @@ int main(int argc, char** argv) {
       return Write(dir, std::string("rig traffic, ") + v.name, traffic, rec.topics(), v.c, 1, 64, v.storage);
     }));
   Print(median([&] {
-    return Write(dir, "rig traffic, sqlite, zstd 3", traffic, rec.topics(), Compression::kZstd, 3, 64, Storage::kSqlite);
+    return Write(dir, "rig traffic, sqlite, zstd 3", traffic, rec.topics(), Compression::kZstd, 3, 64,
+                 Storage::kSqlite);
   }));
   // Per topic: zstd 1's ratio and CPU.
   std::printf("\n| %-28s | %8s | %10s | %7s | %12s |\n", "topic (zstd 1)", "samples", "MB", "ratio", "ms CPU / MB");

@@ -11,7 +11,10 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const int parser = data[0] % 3;
-  hullpipe::fuzz::InputFile file(data + 1, size - 1, parser == 0 ? "_config.xml" : parser == 1 ? "_rig.yaml" : "_calib.yml");
+  hullpipe::fuzz::InputFile file(data + 1, size - 1,
+                                 parser == 0   ? "_config.xml"
+                                 : parser == 1 ? "_rig.yaml"
+                                               : "_calib.yml");
   try {
     if (parser == 0) {
       hullpipe::ReadOpenCvCameraConfig(file.path(), 1, 644, 486).Check();

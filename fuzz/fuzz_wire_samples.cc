@@ -128,8 +128,8 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   for (const char* name : {"geometry_msgs/msg/PoseStamped", "tf2_msgs/msg/TFMessage", "hullpipe_msgs/msg/EyeViews"}) {
     g->ros2_types.push_back(ros2::Ros2KnownType(name));
     g->ros2_types.back().type_name = name;
-    g->ros2_writers.push_back(std::make_unique<CdrWriter>(*g->participant, g->ros2_types.back(), g->ros2_types.back().qos,
-                                                          CdrWriter::Scope::kDecodeOnly));
+    g->ros2_writers.push_back(std::make_unique<CdrWriter>(*g->participant, g->ros2_types.back(),
+                                                          g->ros2_types.back().qos, CdrWriter::Scope::kDecodeOnly));
   }
   return 0;
 }

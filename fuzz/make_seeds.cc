@@ -29,7 +29,8 @@ namespace {
 
 void WriteFile(const fs::path& path, const std::vector<uint8_t>& bytes) {
   fs::create_directories(path.parent_path());
-  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
 }
 
 }  // namespace
@@ -118,7 +119,8 @@ int main(int argc, char** argv) {
       }
     }
     // Maps: a silhouette of the sphere fixture, and the all-empty map.
-    for (const auto& [name, map] : {std::pair{"sphere", sphere.map}, {"empty", cv::Mat(cv::Mat::zeros(48, 64, CV_8UC1))}}) {
+    for (const auto& [name, map] :
+         {std::pair{"sphere", sphere.map}, {"empty", cv::Mat(cv::Mat::zeros(48, 64, CV_8UC1))}}) {
       const auto runs = RunLengthEncode(map);
       std::vector<uint8_t> bytes(8 + runs.size() * 4);
       const int32_t w = map.cols, h = map.rows;

@@ -123,13 +123,17 @@ int main(int argc, char** argv) {
       take(tile_reader, [&](const hullpipe_msg_HullView& m, const dds_sample_info_t& info) {
         render.OnTile(TileFromMsg(m), info.source_timestamp);
       });
-      take(state_reader, [&](const hullpipe_msg_VirtualObjectState& m) { render.OnObjectState(VirtualObjectFromMsg(m)); });
+      take(state_reader,
+           [&](const hullpipe_msg_VirtualObjectState& m) { render.OnObjectState(VirtualObjectFromMsg(m)); });
       take(head_reader, [&](const hullpipe_msg_HeadPose& m) { render.OnHeadPose(HeadPoseFromMsg(m), m.stamp_ns); });
       take(eyes_reader, [&](const hullpipe_msg_EyeViews& m) { render.OnEyeViews(EyeViewsFromMsg(m)); });
       take(mesh_reader, [&](const hullpipe_msg_VirtualMesh& m) { render.OnMesh(VirtualMeshFromMsg(m)); });
       take(part_reader, [&](const hullpipe_msg_ModelPart& m) { render.OnModelPart(ModelPartFromMsg(m)); });
       take(model_reader, [&](const hullpipe_msg_ModelState& m) { render.OnModelState(ModelStateFromMsg(m)); });
-      take(report_reader, [&](const hullpipe_msg_CollisionReport& m) { render.OnCollisionReport(m.collision_points._length > 0, m.has_response ? m.hull_velocity_status : 0, m.hull_normal_speed); });
+      take(report_reader, [&](const hullpipe_msg_CollisionReport& m) {
+        render.OnCollisionReport(m.collision_points._length > 0, m.has_response ? m.hull_velocity_status : 0,
+                                 m.hull_normal_speed);
+      });
       take_stats();
       render.SetMalformedInput(input.malformed());
       try {

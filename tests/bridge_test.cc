@@ -125,7 +125,8 @@ TEST(BridgeState, HostileMessagesAreBoundedAndAnsweredOnce) {
   EXPECT_NE(status(R"({"op":"subscribe","subscriptions":[{"id":2,"channelId":2}]})").find("already subscribed as 1"),
             std::string::npos);
   std::string many = R"({"op":"subscribe","subscriptions":[)";
-  for (int k = 3; k < 1003; ++k) many += (k > 3 ? "," : "") + std::string(R"({"id":)") + std::to_string(k) + R"(,"channelId":2})";
+  for (int k = 3; k < 1003; ++k)
+    many += (k > 3 ? "," : "") + std::string(R"({"id":)") + std::to_string(k) + R"(,"channelId":2})";
   EXPECT_EQ(s.OnText(7, many + "]}").size(), 1000u);  // 1000 refusals, no subscription
   EXPECT_EQ(s.Route(2, 0, {1}).size(), 1u) << "one copy of each sample for the one subscription";
   EXPECT_EQ(status(R"({"op":"subscribe","subscriptions":[{"id":5,"channelId":4294967297}]})"), "no channel 4294967297");

@@ -604,9 +604,9 @@ TEST(Dds, ASampleNotInXcdr1FromTheWireIsRefusedBeforeDeserializing) {
   Participant node(domain);
   Reader<hullpipe_msg_CameraInfo> reader(node);
   // The foreign writer: this test binary again, running the helper below.
-  test::Process writer({"/proc/self/exe", "--gtest_filter=Dds.ForeignXcdr2WriterHelper"},
-                       (dir / "writer.log").string(),
-                       {{"CYCLONEDDS_URI", "file://" + config}, {"HULLPIPE_TEST_XCDR2_DOMAIN", std::to_string(domain)}});
+  test::Process writer(
+      {"/proc/self/exe", "--gtest_filter=Dds.ForeignXcdr2WriterHelper"}, (dir / "writer.log").string(),
+      {{"CYCLONEDDS_URI", "file://" + config}, {"HULLPIPE_TEST_XCDR2_DOMAIN", std::to_string(domain)}});
   int valid = 0, other = 0;
   bool last = false;
   const double end = MonotonicSeconds() + 30;
@@ -717,8 +717,8 @@ TEST(Dds, AViewOfTheEarlierLayoutReadsAsTheOneView) {
     const KnownType& kt = *FindKnownType("hullpipe::msg::ViewPose");
     EXPECT_EQ(kt.appended_bytes, 1u);
     CdrWriter w(p, kt, kt.qos);
-    const hullpipe_msg_ViewPose pose = ViewToMsg(NovelView::FromFov(64, 48, 1.0, LookAt({1, 2, 3}, {0, 0, 0}, {0, 0, -1})),
-                                                 7, 3, 1000, 0xabc, ViewEye::kLeft);
+    const hullpipe_msg_ViewPose pose = ViewToMsg(
+        NovelView::FromFov(64, 48, 1.0, LookAt({1, 2, 3}, {0, 0, 0}, {0, 0, -1})), 7, 3, 1000, 0xabc, ViewEye::kLeft);
     const std::vector<uint8_t> cdr = w.Encode(&pose);
     hullpipe_msg_ViewPose whole{};
     ASSERT_TRUE(w.Decode(cdr, &whole));  // control: the current layout keeps its eye
@@ -806,7 +806,8 @@ TEST(Dds, ACameraImageOfTheEarlierLayoutReadsAsTheWholeImage) {
     }
   }
   // Control: the current layout keeps its region.
-  const auto region = MakeImageMessage(2, 6, 1000, cv::Mat(8, 8, CV_8UC3, cv::Scalar(1, 2, 3)), 0, cv::Rect(2, 3, 4, 5));
+  const auto region =
+      MakeImageMessage(2, 6, 1000, cv::Mat(8, 8, CV_8UC3, cv::Scalar(1, 2, 3)), 0, cv::Rect(2, 3, 4, 5));
   EXPECT_TRUE(w.DecodeWith<hullpipe_msg_CameraImage>(w.Encode(&region.msg), [&](const hullpipe_msg_CameraImage& m) {
     EXPECT_EQ(m.x, 2u);
     EXPECT_EQ(m.y, 3u);
@@ -983,7 +984,8 @@ TEST(Dds, ANewKeyFloodFillsAReaderOnlyToItsTopicsInstanceBound) {
       m.tracker_id = id;
       writer.Write(m);
       if (id % 100 == 99) {
-        bounded.TakeEach([&](const hullpipe_msg_EyeViews& s, const dds_sample_info_t&) { seen_bounded.insert(s.tracker_id); });
+        bounded.TakeEach(
+            [&](const hullpipe_msg_EyeViews& s, const dds_sample_info_t&) { seen_bounded.insert(s.tracker_id); });
         unbounded.TakeEach(
             [&](const hullpipe_msg_EyeViews& s, const dds_sample_info_t&) { seen_unbounded.insert(s.tracker_id); });
       }

@@ -64,9 +64,10 @@ TEST(EndToEnd, FiveProcessesOnTheRealRig) {
     if (row["on_path"].get<bool>()) on_path.insert(name);
     EXPECT_FALSE(row["crosses_hosts"].get<bool>()) << name;  // one host
   }
-  for (const char* stage : {"capture lag", "capture read", "capture segment", "capture encode", "capture publish",
-                            "recon0 transport_map", "recon0 wait", "recon0 sweep", "recon1 texture", "sim step",
-                            "render issue", "render tiles", "render transport_tile", "render composite", "render write"})
+  for (const char* stage :
+       {"capture lag", "capture read", "capture segment", "capture encode", "capture publish", "recon0 transport_map",
+        "recon0 wait", "recon0 sweep", "recon1 texture", "sim step", "render issue", "render tiles",
+        "render transport_tile", "render composite", "render write"})
     EXPECT_TRUE(timed.count(stage)) << stage << "\n" << j["latency_budget"].dump(1);
   EXPECT_TRUE(on_path.count("capture segment") && on_path.count("render composite"));
   EXPECT_GT(j["latency_budget"]["end_to_end_ms"]["p50"].get<double>(), 0);
@@ -275,8 +276,9 @@ nlohmann::json ExpectTheCompositedHullIsExact(const std::string& name, const Syn
     const NovelView& view = rv.view;
     // The view is the tracker log's pose at the frame's time (in stereo, the
     // head's: the eye's pose and asymmetric projection from it).
-    const Rigid3d logged = run.stereo ? MakeStereoViews(track.At(rv.path_time_s), stereo).eye[size_t(eye)].world_from_eye
-                                      : track.At(rv.path_time_s);
+    const Rigid3d logged = run.stereo
+                               ? MakeStereoViews(track.At(rv.path_time_s), stereo).eye[size_t(eye)].world_from_eye
+                               : track.At(rv.path_time_s);
     EXPECT_LT((logged.rotation - view.world_from_eye.rotation).norm(), 1e-9) << "frame " << seq;
     EXPECT_LT((logged.translation - view.world_from_eye.translation).norm(), 1e-9) << "frame " << seq;
     if (run.stereo) {
@@ -1183,8 +1185,8 @@ TEST(Tools, SpacingSweepFindsTheKnownAnswerOfItsExampleMotion) {
   // hull of 8 dome cameras of 320 px is larger than the pipe by up to a pixel
   // footprint (~7 mm at 2.5 m), so the smallest free spacing is within 1 cm above.
   const auto out = test::TempDir("spacing_sweep");
-  test::Process sweep({test::BinDir() + "/spacing_sweep", "--scene", std::string(HULLPIPE_SOURCE_DIR) + "/scenes/payload.yaml",
-                       "--example-travel", "0.08", "--json"},
+  test::Process sweep({test::BinDir() + "/spacing_sweep", "--scene",
+                       std::string(HULLPIPE_SOURCE_DIR) + "/scenes/payload.yaml", "--example-travel", "0.08", "--json"},
                       (out / "sweep.json").string(), {}, (out / "sweep.log").string());
   ASSERT_EQ(sweep.Wait(120), 0) << test::ReadFile((out / "sweep.log").string());
   const auto j = nlohmann::json::parse(test::ReadFile((out / "sweep.json").string()));  // stdout alone
@@ -1226,8 +1228,9 @@ TEST(Tools, HullpipeRigConvertWritesALiveRigWithTheSameCameras) {
   EXPECT_NE(test::ReadFile((out / "bad.log").string()).find("--latency"), std::string::npos);
   // Onto a full disk (/dev/full: every write fails with ENOSPC): exit 1 naming
   // the file, never "wrote" (it said so over a 0-byte file before).
-  for (const std::vector<std::string>& args : {std::vector<std::string>{"convert", test::RigDir(), "-o", "/dev/full"},
-                                              std::vector<std::string>{"check", test::RigDir(), "--write", "/dev/full"}}) {
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"convert", test::RigDir(), "-o", "/dev/full"},
+        std::vector<std::string>{"check", test::RigDir(), "--write", "/dev/full"}}) {
     std::vector<std::string> argv = {test::BinDir() + "/hullpipe_rig"};
     argv.insert(argv.end(), args.begin(), args.end());
     test::Process full(argv, (out / "full.log").string());
@@ -1271,7 +1274,8 @@ TEST(Tools, VhEvalCollisionPrintsOneJsonObjectWithTheDocumentedFields) {
     } else {
       // The paper's triangle scan samples every 1 mm: 1-5 mm off (docs).
       EXPECT_LE(r["cp_hull_err_mm_p95"].get<double>(), 5.0) << r.dump();
-      EXPECT_GT(r["n_hull_err_deg_median"].get<double>(), 10.0) << r.dump() << " (measured 28-41: the scan's normal is coarse)";
+      EXPECT_GT(r["n_hull_err_deg_median"].get<double>(), 10.0)
+          << r.dump() << " (measured 28-41: the scan's normal is coarse)";
     }
   }
   EXPECT_EQ(methods, (std::set<std::string>{"exact", "paper"}));

@@ -415,14 +415,16 @@ bool DumpImage(const Swapchain& sc, const std::string& path) {
   std::ofstream f(path, std::ios::binary);
   f << "P6\n" << sc.width << " " << sc.height << "\n255\n";
   for (int y = sc.height - 1; y >= 0; --y)  // GL's first row is the bottom
-    for (int x = 0; x < sc.width; ++x) f.write(reinterpret_cast<const char*>(&rgba[(size_t(y) * size_t(sc.width) + size_t(x)) * 4]), 3);
+    for (int x = 0; x < sc.width; ++x)
+      f.write(reinterpret_cast<const char*>(&rgba[(size_t(y) * size_t(sc.width) + size_t(x)) * 4]), 3);
   return bool(f);
 }
 
 XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession, const XrFrameEndInfo* info) {
   if (!g.running) return XR_ERROR_SESSION_NOT_RUNNING;
   if (info->layerCount != 0 && !g.graphics_session) return XR_ERROR_LAYER_INVALID;  // headless: nothing to show
-  if (info->environmentBlendMode != XR_ENVIRONMENT_BLEND_MODE_OPAQUE) return XR_ERROR_ENVIRONMENT_BLEND_MODE_UNSUPPORTED;
+  if (info->environmentBlendMode != XR_ENVIRONMENT_BLEND_MODE_OPAQUE)
+    return XR_ERROR_ENVIRONMENT_BLEND_MODE_UNSUPPORTED;
   std::ostringstream line;
   line << g.frames - 1 << " layers " << info->layerCount;
   for (uint32_t i = 0; i < info->layerCount; ++i) {

@@ -457,8 +457,9 @@ TEST_F(Gl, RayMarchUploadsDoNotMixFramesets) {
       PlaneSweepOptions o;
       const auto depths = SweepPlaneDepths(*q, view, o);
       march.Upload(*q);
-      ExpectMarchMatches(march.Sweep(*q, view, depths, {0, 0, 160, 120}), PlaneSweepCpu(*q, view, depths, {0, 0, 160, 120}),
-                         depths[1] - depths[0], 0.005, "round " + std::to_string(round));
+      ExpectMarchMatches(march.Sweep(*q, view, depths, {0, 0, 160, 120}),
+                         PlaneSweepCpu(*q, view, depths, {0, 0, 160, 120}), depths[1] - depths[0], 0.005,
+                         "round " + std::to_string(round));
     }
   EXPECT_THROW(march.Sweep(VolumeQuery(test::SphereViews(3, 200, 150, kCentre, 0.3), test::BigBox()), view,
                            {1.0, 2.0}, {0, 0, 16, 16}),
@@ -546,7 +547,8 @@ TEST_F(Gl, MapsGoUpAsBitsOfTheirObjectPixels) {
     return m;
   };
   std::vector<cv::Mat> first, second;
-  for (const cv::Size& s : sizes) first.push_back(noise(s, 255)), second.push_back(noise(s, 1));  // any non-zero is object
+  for (const cv::Size& s : sizes)
+    first.push_back(noise(s, 255)), second.push_back(noise(s, 1));  // any non-zero is object
   up.Upload(first);
   EXPECT_EQ(up.last_bytes(), size_t(4 * (3 * 5 + 2 * 3 + 2 * 4 + 1 * 2 + 4 * 6)));
   const std::vector<cv::Rect> rects = {{31, 1, 2, 3}, {32, 0, 32, 3}, {0, 0, 33, 4}, {0, 0, 0, 0}, {33, 2, 64, 3}};
@@ -561,13 +563,15 @@ TEST_F(Gl, MapsGoUpAsBitsOfTheirObjectPixels) {
     for (int y = 0; y < sizes[l].height; ++y)
       for (int tx = 0; tx < (sizes[l].width + 31) / 32; ++tx) {
         // The texel went up in the second upload when it holds a pixel of the rectangle.
-        const bool now = r.area() > 0 && y >= r.y && y < r.y + r.height && 32 * tx < r.x + r.width && 32 * tx + 32 > r.x;
+        const bool now =
+            r.area() > 0 && y >= r.y && y < r.y + r.height && 32 * tx < r.x + r.width && 32 * tx + 32 > r.x;
         const cv::Mat& map = now ? second[l] : first[l];
         const uint32_t word = got[size_t((int(l) * th + y) * tw + tx)];
         for (int i = 0; i < 32; ++i) {
           const int x = 32 * tx + i;
           const bool object = x < sizes[l].width && map.at<uint8_t>(y, x) != 0;
-          EXPECT_EQ(((word >> i) & 1u) != 0, object) << "layer " << l << " pixel " << x << "," << y << (now ? " (second)" : " (first)");
+          EXPECT_EQ(((word >> i) & 1u) != 0, object)
+              << "layer " << l << " pixel " << x << "," << y << (now ? " (second)" : " (first)");
           ++checked;
         }
       }
@@ -771,7 +775,8 @@ TEST_F(Gl, RealRigsTextureFromTheImagesObjectRectanglesAsFromWholeImages) {
     const VolumeQuery q(views, src->workspace());
     const Aabb& box = q.hull_box();
     ASSERT_FALSE(box.empty());
-    const Eigen::Vector3d eye = box.Center() + Eigen::Vector3d(0.8, 0.6, 0.5).normalized() * 1.5 * (box.max - box.min).norm();
+    const Eigen::Vector3d eye =
+        box.Center() + Eigen::Vector3d(0.8, 0.6, 0.5).normalized() * 1.5 * (box.max - box.min).norm();
     const Eigen::Vector3d up = -src->cameras()[0].cam_from_world.rotation.row(1).transpose();  // camera 0's up
     const NovelView view = NovelView::FromFov(160, 120, 1.0, LookAt(eye, box.Center(), up));
     PlaneSweepOptions o, vo;
@@ -841,7 +846,8 @@ TEST_F(Gl, GlBackendRendersAFramesetAsTheCpuBackend) {
   const NovelView away = NovelView::FromFov(200, 150, 0.3,
                                             LookAt(eye, eye - view.world_from_eye.rotation.col(2),
                                                    -view.world_from_eye.rotation.col(1)));  // facing away
-  const TexturedTile off = gpu->SweepTextured(q, away, SweepPlaneDepths(q, away, PlaneSweepOptions{}), tile, images, true);
+  const TexturedTile off =
+      gpu->SweepTextured(q, away, SweepPlaneDepths(q, away, PlaneSweepOptions{}), tile, images, true);
   EXPECT_EQ(cv::countNonZero(off.depth != kNoDepth), 0);
   EXPECT_EQ(cv::countNonZero(off.colour.reshape(1)), 0);
 }

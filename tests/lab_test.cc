@@ -73,7 +73,8 @@ struct Lab {
 // node on host "cap", or with capture_per_camera one per camera on hosts
 // "cap1".."cap4", all given one capture timeline starting `start_delay_s` from
 // now (so every node publishes from the first frame, as the one node does).
-nlohmann::json RunPipeline(const std::filesystem::path& out, const std::function<std::vector<std::string>(const std::string&)>& prefix,
+nlohmann::json RunPipeline(const std::filesystem::path& out,
+                           const std::function<std::vector<std::string>(const std::string&)>& prefix,
                            const std::function<std::string(const std::string&)>& config,
                            const std::function<void()>& while_running = {}, bool capture_per_camera = false) {
   const std::string domain = std::to_string(test::UniqueDomain());

@@ -84,7 +84,8 @@ class NodeTest : public ::testing::Test {
   }
   /// One frameset of `views` (their calibration, maps and `image`, numbered seq)
   /// written now: what the mid-work tests feed a node until it works.
-  static void WriteFrameset(const Writer<hullpipe_msg_CameraInfo>& info, const Writer<hullpipe_msg_ObjectPixelMap>& maps,
+  static void WriteFrameset(const Writer<hullpipe_msg_CameraInfo>& info,
+                            const Writer<hullpipe_msg_ObjectPixelMap>& maps,
                             const Writer<hullpipe_msg_CameraImage>& images, const std::vector<CameraMap>& views,
                             const cv::Mat& image, uint64_t seq) {
     for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
@@ -134,7 +135,8 @@ TEST_F(NodeTest, ReconNodeSurvivesMalformedSamplesAndAStoppedCamera) {
   const auto views = test::SphereViews(2, 64, 48, kCentre, 0.3);
   for (const auto& v : views) info.Write(CameraToMsg(v.camera, test::BigBox()));
   const cv::Mat img(48, 64, CV_8UC3, cv::Scalar(50, 60, 70));
-  const NovelView view = NovelView::FromFov(40, 30, 1.0, LookAt(kCentre + Eigen::Vector3d(2, 0, -0.5), kCentre, {0, 0, -1}));
+  const NovelView view =
+      NovelView::FromFov(40, 30, 1.0, LookAt(kCentre + Eigen::Vector3d(2, 0, -0.5), kCentre, {0, 0, -1}));
 
   auto send_frame = [&](uint64_t seq, bool both) {
     const int64_t t = NowNs();  // the cameras' frames of one instant: one capture time

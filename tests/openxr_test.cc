@@ -42,7 +42,9 @@ Rigid3d WorldFromStage() {
 }
 
 // The head's turn in the stage: kYaw about +y.
-Eigen::Matrix3d StageFromHead() { return Eigen::AngleAxisd(fake_xr::kYaw, Eigen::Vector3d::UnitY()).toRotationMatrix(); }
+Eigen::Matrix3d StageFromHead() {
+  return Eigen::AngleAxisd(fake_xr::kYaw, Eigen::Vector3d::UnitY()).toRotationMatrix();
+}
 
 // An eye as the checks read it: where it is, where it looks (OpenCV +z) and
 // which way is up in its image (OpenCV -y), in the rig's world.
@@ -290,7 +292,8 @@ TEST(OpenXr, AnImageIsDecodedOnlyWhenItsPairIsHandedOut) {
 
 class OpenXrProcess : public ::testing::Test {
  protected:
-  OpenXrProcess() : dir_(test::TempDir("openxr")), config_(test::WriteLoopbackConfig(dir_)), domain_(test::UniqueDomain()) {
+  OpenXrProcess()
+      : dir_(test::TempDir("openxr")), config_(test::WriteLoopbackConfig(dir_)), domain_(test::UniqueDomain()) {
     setenv("CYCLONEDDS_URI", ("file://" + config_).c_str(), 1);
     manifest_ = (dir_ / "fake_runtime.json").string();
     std::ofstream(manifest_) << R"({"file_format_version": "1.0.0", "runtime": {"name": "hullpipe fake", )"
@@ -324,7 +327,8 @@ TEST_F(OpenXrProcess, ALoadedRuntimesEyesArriveAsEyeViewsInTheRigsWorld) {
   std::vector<EyeViewsSample> got;
   const double until = MonotonicSeconds() + 60;
   const auto take = [&] {
-    reader.TakeEach([&](const hullpipe_msg_EyeViews& m, const dds_sample_info_t&) { got.push_back(dds::EyeViewsFromMsg(m)); });
+    reader.TakeEach(
+        [&](const hullpipe_msg_EyeViews& m, const dds_sample_info_t&) { got.push_back(dds::EyeViewsFromMsg(m)); });
   };
   while (client->Running() && MonotonicSeconds() < until) {
     take();

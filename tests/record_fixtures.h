@@ -23,11 +23,18 @@ namespace hullpipe::test {
 inline const record::TopicInfo kInfoTopic{0, "hullpipe/camera_info", "hullpipe::msg::CameraInfo", true, true, true, 1,
                                           "module hullpipe { module msg { @final struct CameraInfo { long x; }; }; };"};
 /// A keyed, unlatched map topic of depth 4.
-inline const record::TopicInfo kMapTopic{0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true,
-                                         false, 4,
-                                         "module hullpipe { module msg { @final struct ObjectPixelMap { long y; }; }; };"};
+inline const record::TopicInfo kMapTopic{
+    0,
+    "hullpipe/object_pixel_map",
+    "hullpipe::msg::ObjectPixelMap",
+    true,
+    true,
+    false,
+    4,
+    "module hullpipe { module msg { @final struct ObjectPixelMap { long y; }; }; };"};
 /// An unkeyed topic with no IDL text.
-inline const record::TopicInfo kPoseTopic{0, "hullpipe/head_pose", "hullpipe::msg::HeadPose", false, false, false, 1, ""};
+inline const record::TopicInfo kPoseTopic{0, "hullpipe/head_pose", "hullpipe::msg::HeadPose", false, false, false, 1,
+                                          ""};
 
 /// Sample k of a synthetic stream on `topic`: arrival 1 s + k * 10 ms, source
 /// time 777 ns earlier, 40..6000 bytes (some spill over SQLite pages), even k

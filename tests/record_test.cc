@@ -53,7 +53,8 @@ TEST(Recording, RoundTripInfoAndNeverOverwrites) {
     TopicInfo info{0, "hullpipe/camera_info", "hullpipe::msg::CameraInfo", true, true, true, 1, ""};
     const int64_t a = w.AddTopic(info);
     EXPECT_EQ(w.AddTopic(info), a);  // same name, same id
-    const int64_t b = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
+    const int64_t b =
+        w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
     w.Append(MakeSample(a, 1'000'000'000, 1));
     w.Append(MakeSample(b, 1'500'000'000, 2, 1000));
     w.Append(MakeSample(b, 3'000'000'000, 3, 1000));
@@ -129,9 +130,10 @@ std::map<std::string, std::pair<std::string, std::string>> BadRecordings(const s
   const std::string text = (dir / "text.hprec").string();
   std::ofstream(text) << std::string(4096, 'x');
   bad["not SQLite"] = {text, "not a hullpipe recording"};
-  bad["no samples table"] = {MakeDb(dir, "nosamples.hprec", std::string(kLooseTables) +
-                                                               "INSERT INTO meta VALUES('format', 'hullpipe-recording-2');"),
-                             "no table 'samples'"};
+  bad["no samples table"] = {
+      MakeDb(dir, "nosamples.hprec",
+             std::string(kLooseTables) + "INSERT INTO meta VALUES('format', 'hullpipe-recording-2');"),
+      "no table 'samples'"};
   const std::string samples =
       "CREATE TABLE samples(id INTEGER PRIMARY KEY, topic_id INTEGER, source_ns INTEGER, arrival_ns INTEGER,"
       " data BLOB, crc INTEGER);";
@@ -172,7 +174,8 @@ TEST(Recording, BadFilesGiveOneErrorNamingTheFile) {
 std::string WriteRecording(const std::filesystem::path& dir, const std::string& name, int n) {
   const std::string path = (dir / name).string();
   RecordingWriter w(path);
-  const int64_t t = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
+  const int64_t t =
+      w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
   for (int k = 0; k < n; ++k) {
     Sample s = MakeSample(t, (k + 1) * 1'000'000, uint8_t(k), 1000);
     for (size_t i = 0; i < s.data.size(); ++i) s.data[i] = uint8_t(k * 31 + i * 7);
@@ -684,7 +687,8 @@ TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   EXPECT_EQ(maps["undecodable"], 0);
   EXPECT_EQ(e["topics"]["hullpipe/camera_info"]["json_lines"], 2);
   int pngs = 0;
-  for (const auto& f : std::filesystem::recursive_directory_iterator(out + "/maps")) pngs += f.path().extension() == ".png";
+  for (const auto& f : std::filesystem::recursive_directory_iterator(out + "/maps"))
+    pngs += f.path().extension() == ".png";
   EXPECT_EQ(pngs, maps_sent);
   std::ifstream lines(out + "/hullpipe_object_pixel_map.jsonl");
   int n = 0;
@@ -698,7 +702,8 @@ TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   std::istringstream echoed(test::ReadFile(echo_log));
   int lines_echoed = 0;
   for (std::string line; std::getline(echoed, line);)
-    if (!line.empty() && line[0] == '{') lines_echoed += nlohmann::json::parse(line)["topic"] == "hullpipe/object_pixel_map";
+    if (!line.empty() && line[0] == '{')
+      lines_echoed += nlohmann::json::parse(line)["topic"] == "hullpipe/object_pixel_map";
   EXPECT_EQ(lines_echoed, maps_sent);
   // The directory replays as one recording.
   const uint32_t d2 = test::UniqueDomain();
@@ -720,9 +725,10 @@ TEST_P(RecordToolsOn, ASplitCompressedRecordingInfosExportsAndReplaysAsOne) {
   // limit the recording does not open (exit 1 too, for another reason).
   if (Ext() == ".mcap") {
     const std::string full_log = (dir_ / "export_full.log").string();
-    test::Process full({"/bin/sh", "-c", "trap '' XFSZ; ulimit -f 2; exec \"$0\" \"$@\"", test::BinDir() + "/hullpipe_record",
-                        "export", set, "-o", (dir_ / "export_full").string(), "--domain", std::to_string(test::UniqueDomain())},
-                       full_log);
+    test::Process full(
+        {"/bin/sh", "-c", "trap '' XFSZ; ulimit -f 2; exec \"$0\" \"$@\"", test::BinDir() + "/hullpipe_record",
+         "export", set, "-o", (dir_ / "export_full").string(), "--domain", std::to_string(test::UniqueDomain())},
+        full_log);
     EXPECT_EQ(full.Wait(60), 1) << test::ReadFile(full_log);
     EXPECT_NE(test::ReadFile(full_log).find("could not be written (a full disk?), the first"), std::string::npos)
         << test::ReadFile(full_log);
@@ -774,7 +780,11 @@ TEST_P(RecordToolsOn, SnapshotsHoldTheLastSecondsWhenTold) {
   const std::string cmd_log = (dir_ / "cmd.log").string();
   test::Process cmd({test::BinDir() + "/hullpipe_cmd", "snapshot", "--domain", std::to_string(domain_)}, cmd_log);
   ASSERT_EQ(cmd.Wait(30), 0) << test::ReadFile(cmd_log);
-  WaitFor([&] { return std::filesystem::exists(first) && Log("hullpipe_record").find("snapshot (command)") != std::string::npos; }, 20);
+  WaitFor(
+      [&] {
+        return std::filesystem::exists(first) && Log("hullpipe_record").find("snapshot (command)") != std::string::npos;
+      },
+      20);
   ASSERT_TRUE(std::filesystem::exists(first)) << Log("hullpipe_record");
   recorder->Signal(SIGUSR1);
   WaitFor([&] { return Log("hullpipe_record").find("snapshot (SIGUSR1)") != std::string::npos; }, 20);
@@ -925,7 +935,8 @@ TEST_P(RecordToolsOn, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
     WaitFor([&] {
       reports.TakeEach([&](const hullpipe_msg_CollisionReport& m, const dds_sample_info_t&) {
         auto& pts = out[m.frame_seq];
-        for (uint32_t i = 0; i < m.collision_points._length; ++i) pts.push_back(dds::FromMsg(m.collision_points._buffer[i]));
+        for (uint32_t i = 0; i < m.collision_points._length; ++i)
+          pts.push_back(dds::FromMsg(m.collision_points._buffer[i]));
       });
       return out.size() >= 50;
     }, 40);
@@ -1009,7 +1020,8 @@ TEST_F(RecordTools, AWholeRecordingReplayedIntoALiveRunIsNotMixedIn) {
   const uint32_t d = test::UniqueDomain();
   auto recon = Start("recon_node", with_run(recon_args, "b"), d);
   auto render = Start("render_node", render_args("b", out_b), d);
-  auto replay = Start("hullpipe_replay", {path, "--all-topics", "--wait-readers", "2", "--rate", "1", "--no-keyboard"}, d);
+  auto replay =
+      Start("hullpipe_replay", {path, "--all-topics", "--wait-readers", "2", "--rate", "1", "--no-keyboard"}, d);
   EXPECT_EQ(replay->Wait(60), 0) << Log("hullpipe_replay");
   // The recorded capture's final report is another run's: render B ends when no
   // frameset came for its idle time-out (5 s).
@@ -1424,8 +1436,9 @@ TEST_F(RecordTools, TheRigsDemoAsMcapOpensInTheFieldsOwnReaders) {
       EXPECT_EQ(c["schema"], t["type"]);
       EXPECT_EQ(c["schemaEncoding"], "omgidl");
       EXPECT_EQ(c["messageEncoding"], "cdr");
-      EXPECT_NE(c["qos"].get<std::string>().find(t["reliable"].get<bool>() ? "reliability: true" : "reliability: false"),
-                std::string::npos);
+      EXPECT_NE(
+          c["qos"].get<std::string>().find(t["reliable"].get<bool>() ? "reliability: true" : "reliability: false"),
+          std::string::npos);
     }
     // The decoded calibration is the rig's, to the last bit printed (%.17g).
     ASSERT_EQ(nj["cameraInfo"].size(), cams) << name;

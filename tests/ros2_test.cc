@@ -186,8 +186,9 @@ TEST_F(Ros2Messages, FoxglovesRos2DecoderReadsEveryFieldHullpipeWrites) {
   const json& ps = decoded[4];
   EXPECT_EQ(ps["header"]["frame_id"], "hullpipe_world");
   EXPECT_DOUBLE_EQ(ps["pose"]["position"]["y"].get<double>(), 1.5);
-  const Eigen::Quaterniond pq(ps["pose"]["orientation"]["w"].get<double>(), ps["pose"]["orientation"]["x"].get<double>(),
-                              ps["pose"]["orientation"]["y"].get<double>(), ps["pose"]["orientation"]["z"].get<double>());
+  const Eigen::Quaterniond pq(
+      ps["pose"]["orientation"]["w"].get<double>(), ps["pose"]["orientation"]["x"].get<double>(),
+      ps["pose"]["orientation"]["y"].get<double>(), ps["pose"]["orientation"]["z"].get<double>());
   EXPECT_TRUE(pq.toRotationMatrix().isApprox(head.rotation, 1e-12));
   ros2::PoseCheck check;
   check.now_ns = stamp;
@@ -600,7 +601,8 @@ TEST(Ros2Process, ATrackersPoseStampedPosesTheHeadMountedCamerasFrames) {
   // 0.1 rad about its own y axis, at 100 Hz, stamped now.
   const Rigid3d calibrated_world = calibrated.cam_from_world.Inverse();
   Rigid3d tracked_world;
-  tracked_world.rotation = calibrated_world.rotation * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  tracked_world.rotation =
+      calibrated_world.rotation * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix();
   tracked_world.translation = calibrated_world.translation + Eigen::Vector3d(0.25, 0, 0);
   dds::Writer<geometry_msgs_msg_dds__PoseStamped_> tracker(p, "rt/lab/hmd_camera", ros2::kDefaultQos);
   int posed = 0;
@@ -739,7 +741,8 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
          report_codec = codec("hullpipe::msg::CollisionReport"), mesh_codec = codec("hullpipe::msg::VirtualMesh");
     record::RecordingWriter w(rec);
     const int64_t ti = w.AddTopic({0, "hullpipe/camera_info", "hullpipe::msg::CameraInfo", true, true, true, 1, ""});
-    const int64_t tm = w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
+    const int64_t tm =
+        w.AddTopic({0, "hullpipe/object_pixel_map", "hullpipe::msg::ObjectPixelMap", true, true, false, 4, ""});
     const int64_t tc = w.AddTopic({0, "hullpipe/camera_image", "hullpipe::msg::CameraImage", true, true, false, 4, ""});
     const hullpipe_msg_CameraInfo info = dds::CameraToMsg(cam, {});
     w.Append({ti, t0, t0, info_codec->Encode(&info)});
@@ -751,8 +754,10 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
       w.Append({tc, t + 2000, t, image_codec->Encode(&img.msg)});
     }
     // sim_node's: a ball (colliding, with its collision points), a box, a curtain.
-    const int64_t ts = w.AddTopic({0, "hullpipe/object_state", "hullpipe::msg::VirtualObjectState", true, true, false, 1, ""});
-    const int64_t tr = w.AddTopic({0, "hullpipe/collision_report", "hullpipe::msg::CollisionReport", true, true, false, 16, ""});
+    const int64_t ts =
+        w.AddTopic({0, "hullpipe/object_state", "hullpipe::msg::VirtualObjectState", true, true, false, 1, ""});
+    const int64_t tr =
+        w.AddTopic({0, "hullpipe/collision_report", "hullpipe::msg::CollisionReport", true, true, false, 16, ""});
     const int64_t tv = w.AddTopic({0, "hullpipe/virtual_mesh", "hullpipe::msg::VirtualMesh", true, true, false, 1, ""});
     VirtualObjectSample ball;
     ball.object_id = 1, ball.radius = 0.1, ball.position = {0.2, 0.3, -1}, ball.colliding = true;
@@ -846,7 +851,8 @@ TEST(Ros2Export, TheRecordingAsARosbag2McapOpensInFoxglovesRos2Reader) {
   const json& first = j["first"];
   EXPECT_EQ(first["/hullpipe/cam2/camera_info"]["header"]["frame_id"], "hullpipe_cam2");
   EXPECT_EQ(first["/hullpipe/cam2/camera_info"]["header"]["stamp"]["sec"], 1'700'000'000);
-  EXPECT_EQ(first["/hullpipe/cam2/camera_info"]["header"]["stamp"]["nanosec"], 40'000'000);  // the first map's capture time
+  EXPECT_EQ(first["/hullpipe/cam2/camera_info"]["header"]["stamp"]["nanosec"],
+            40'000'000);  // the first map's capture time
   EXPECT_DOUBLE_EQ(first["/hullpipe/cam2/camera_info"]["k"][2].get<double>(), cam.cx - 0.5);
   EXPECT_EQ(first["/hullpipe/cam2/object_pixel_map"]["encoding"], "mono8");
   EXPECT_EQ(first["/hullpipe/cam2/object_pixel_map"]["data"]["length"], 64 * 48);
@@ -1057,9 +1063,10 @@ TEST_F(Ros2Messages, CollisionReportsAndModelPartsDecodeWithTheirDefinitions) {
   const auto tf = ros2::MakePartTransforms(state);
 
   auto encode = [&](const char* type, const void* msg) { return Encode(ros2::Ros2KnownType(type), msg); };
-  const auto decoded = Decode({{"hullpipe_msgs/msg/CollisionReport", encode("hullpipe_msgs/msg/CollisionReport", &report.msg)},
-                               {"visualization_msgs/msg/MarkerArray", encode("visualization_msgs/msg/MarkerArray", &markers.msg)},
-                               {"tf2_msgs/msg/TFMessage", encode("tf2_msgs/msg/TFMessage", &tf.msg)}});
+  const auto decoded =
+      Decode({{"hullpipe_msgs/msg/CollisionReport", encode("hullpipe_msgs/msg/CollisionReport", &report.msg)},
+              {"visualization_msgs/msg/MarkerArray", encode("visualization_msgs/msg/MarkerArray", &markers.msg)},
+              {"tf2_msgs/msg/TFMessage", encode("tf2_msgs/msg/TFMessage", &tf.msg)}});
   ASSERT_EQ(decoded.size(), 3u);
   for (const json& d : decoded) ASSERT_FALSE(d.contains("error")) << d.dump();
   const json& c = decoded[0];

@@ -80,8 +80,8 @@ inline std::unique_ptr<Process> StartExe(const std::string& exe, std::vector<std
                                          const std::string& config, const std::string& log) {
   args.insert(args.begin(), BinDir() + "/" + exe);
   args.insert(args.end(), {"--domain", std::to_string(domain)});
-  return std::make_unique<Process>(args, log,
-                                   std::vector<std::pair<std::string, std::string>>{{"CYCLONEDDS_URI", "file://" + config}});
+  return std::make_unique<Process>(
+      args, log, std::vector<std::pair<std::string, std::string>>{{"CYCLONEDDS_URI", "file://" + config}});
 }
 
 /// The whole file at `path`, byte for byte (empty where it cannot be read).

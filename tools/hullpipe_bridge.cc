@@ -56,7 +56,9 @@ int main(int argc, char** argv) {
   int port = 8765, max_clients = 8;
   double queue_mib = 16;
   app.add_option("--address", address, "Address to listen on (0.0.0.0: every interface)")->capture_default_str();
-  app.add_option("--port", port, "TCP port (0: any free one, logged)")->capture_default_str()->check(CLI::Range(0, 65535));
+  app.add_option("--port", port, "TCP port (0: any free one, logged)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 65535));
   app.add_option("--max-clients", max_clients, "Most clients at once")->capture_default_str()->check(CLI::Range(1, 64));
   app.add_option("--queue-mib", queue_mib, "Most MiB queued for one client before its messages are dropped")
       ->capture_default_str()

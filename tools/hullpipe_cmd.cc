@@ -80,7 +80,8 @@ int main(int argc, char** argv) {
     if (!std::isfinite(spacing) || spacing < 0 || spacing > 10)
       throw std::invalid_argument("set-spacing: metres must be a finite number in [0, 10]");
     if (!(seek >= 0 && seek <= 1e6)) throw std::invalid_argument("seek: seconds must be in [0, 1e6]");
-    if (!(rate == 0 || (rate >= 1e-3 && rate <= 1e3))) throw std::invalid_argument("rate: x must be 0 or in [0.001, 1000]");
+    if (!(rate == 0 || (rate >= 1e-3 && rate <= 1e3)))
+      throw std::invalid_argument("rate: x must be 0 or in [0.001, 1000]");
     if (steps < 1 || steps > 1'000'000) throw std::invalid_argument("step: samples must be in [1, 1000000]");
     if (!(timeout > 0 && timeout <= 3600)) throw std::invalid_argument("--timeout must be in (0, 3600] s");
     auto participant = StartNode("cmd", common);

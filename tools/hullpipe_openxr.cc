@@ -146,7 +146,8 @@ int main(int argc, char** argv) {
       ->needs(display_flag);
   CLI11_PARSE(app, argc, argv);
   try {
-    if (!world_from_space.empty()) o.world_from_space = openxr::RigidFromPoseText(world_from_space, "--world-from-space");
+    if (!world_from_space.empty())
+      o.world_from_space = openxr::RigidFromPoseText(world_from_space, "--world-from-space");
     o.Check();
     auto participant = StartNode("openxr", common);
     Writer<hullpipe_msg_EyeViews> writer(*participant);
@@ -211,9 +212,10 @@ int main(int argc, char** argv) {
     const auto& c = session.counts();
     spdlog::info("sent {} eye views of {} frames; {} untracked, {} refused", sent, c.frames, c.untracked, c.refused);
     if (shown)
-      spdlog::info("showed {} composited eye pairs; {} composites or poses not shown; {} poses not drawn from "
-                   "this client's views; {} render run changes",
-                   shown->counts().pairs_shown, composites->skipped(), composites->foreign(), composites->run_changes());
+      spdlog::info(
+          "showed {} composited eye pairs; {} composites or poses not shown; {} poses not drawn from "
+          "this client's views; {} render run changes",
+          shown->counts().pairs_shown, composites->skipped(), composites->foreign(), composites->run_changes());
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

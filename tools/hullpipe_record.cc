@@ -71,7 +71,8 @@ int main(int argc, char** argv) {
   info->add_flag("--json", info_json, "One JSON object");
   info->add_flag("--idl", info_idl, "Print each topic's IDL text as recorded");
   std::string repair_in, repair_out;
-  auto* repair = app.add_subcommand("repair", "Recover what a killed recorder or a cut file holds into a new recording");
+  auto* repair =
+      app.add_subcommand("repair", "Recover what a killed recorder or a cut file holds into a new recording");
   repair->add_option("file", repair_in, "Damaged recording (its -wal beside it is read too)")->required();
   repair->add_option("-o,--output", repair_out, "New recording (never overwritten)")->required();
   std::string convert_in, convert_out, convert_storage, convert_compression = "none";

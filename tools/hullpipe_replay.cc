@@ -71,7 +71,8 @@ int main(int argc, char** argv) {
   app.add_option("--exclude", po.exclude, "Do not replay topics matching these globs");
   app.add_option("--wait-readers", wait_readers, "Before playing, wait until --wait-topic has this many readers");
   app.add_option("--wait-topic", wait_topic, "The topic --wait-readers counts on")->capture_default_str();
-  app.add_option("--wait-timeout", wait_timeout, "Give up waiting for readers after this many s")->capture_default_str();
+  app.add_option("--wait-timeout", wait_timeout, "Give up waiting for readers after this many s")
+      ->capture_default_str();
   app.add_option("--settle", settle, "After --wait-readers matched: wait this long, so the readers' side has "
                  "matched too (else a volatile reader misses the first samples)")->capture_default_str();
   app.add_option("--linger", linger, "Stay this many s after the end (transient-local data stays available)")
@@ -103,7 +104,8 @@ int main(int argc, char** argv) {
       for (const auto& t : rec.topics())
         if (!TopicSelected(po.include, po.exclude, t.name)) outputs.push_back(t.name);
       if (!outputs.empty())
-        spdlog::info("not replaying the recorded nodes' outputs ({}): --all-topics plays them", fmt::join(outputs, ", "));
+        spdlog::info("not replaying the recorded nodes' outputs ({}): --all-topics plays them",
+                     fmt::join(outputs, ", "));
     }
     auto participant = StartNode("replay", common);
     std::map<int64_t, std::unique_ptr<CdrWriter>> writers;

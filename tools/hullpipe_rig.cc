@@ -105,7 +105,9 @@ int main(int argc, char** argv) {
   import->add_option("--from", from, "colmap | nerf | middlebury | opencv-yaml | pmvs")
       ->required()
       ->check(CLI::IsMember({"colmap", "nerf", "middlebury", "opencv-yaml", "pmvs"}));
-  import->add_option("in", in, "COLMAP model directory, transforms.json, *_par.txt, OpenCV YAML file/directory, or PMVS directory")
+  import
+      ->add_option("in", in,
+                   "COLMAP model directory, transforms.json, *_par.txt, OpenCV YAML file/directory, or PMVS directory")
       ->required();
   import->add_option("-o,--out", out, "YAML rig file to write")->required();
   import->add_option("--scale", io.scale, "Metres per unit of the file's lengths (0.001: millimetres)")
@@ -149,7 +151,8 @@ int main(int argc, char** argv) {
                   f.frames_pattern.c_str(), out.c_str(), f.background_pattern.c_str());
       return 0;
     }
-    if (latency != -1 && !(latency >= 0 && latency <= 10)) throw std::invalid_argument("--latency must be in [0, 10] s");
+    if (latency != -1 && !(latency >= 0 && latency <= 10))
+      throw std::invalid_argument("--latency must be in [0, 10] s");
     if (import->parsed()) {
       io.poses_world_from_camera = poses == "world_from_camera";
       hullpipe::Rig rig = hullpipe::ImportRig(from, in, io);

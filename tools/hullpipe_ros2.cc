@@ -45,7 +45,8 @@ int main(int argc, char** argv) {
   app.add_flag("--no-hull-points", no_hull, "Do not publish the hull's points (PointCloud2)");
   app.add_flag("--no-markers", no_markers,
                "Do not publish the virtual objects, meshes, model parts and contacts as markers");
-  app.add_flag("--no-collisions", no_collisions, "Do not publish the collision reports (hullpipe_msgs/CollisionReport)");
+  app.add_flag("--no-collisions", no_collisions,
+               "Do not publish the collision reports (hullpipe_msgs/CollisionReport)");
   app.add_option("--model-marker-period", o.derive.model_marker_period_s,
                  "Least seconds between two /hullpipe/model_markers (every part's geometry, sent again when a "
                  "part's contact state changes)")
@@ -70,7 +71,8 @@ int main(int argc, char** argv) {
   app.add_option("--ros-node-name", o.node_name,
                  "The ROS node named on ros_discovery_info for ros2 node list (\"\": none)")
       ->capture_default_str();
-  app.add_option("--tracker-id", o.tracker_id, "HeadPose.tracker_id (and EyeViews') of the poses passed on")->capture_default_str();
+  app.add_option("--tracker-id", o.tracker_id, "HeadPose.tracker_id (and EyeViews') of the poses passed on")
+      ->capture_default_str();
   std::vector<std::string> camera_pose_specs, camera_frame_specs;
   app.add_option("--camera-pose", camera_pose_specs,
                  "ID=TOPIC: a ROS 2 PoseStamped topic as tracked camera ID's pose (its optical frame in "

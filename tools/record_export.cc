@@ -253,7 +253,8 @@ class Exporter {
         (*j)["frames_in"] = st.frames_in, (*j)["frames_out"] = st.frames_out, (*j)["dropped"] = st.dropped;
         (*j)["rejected"] = st.rejected, (*j)["final_report"] = st.final_report;
         for (const auto& [name, g] : st.stages)
-          (*j)["stages"][name] = {{"ms_mean", g.ms_mean}, {"ms_p50", g.ms_p50}, {"ms_p95", g.ms_p95}, {"count", g.count}};
+          (*j)["stages"][name] = {
+              {"ms_mean", g.ms_mean}, {"ms_p50", g.ms_p50}, {"ms_p95", g.ms_p95}, {"count", g.count}};
         if (o_.media) {
           auto& f = Csv("node_stats",
                         "arrival_ns,node,host,fps,latency_ms_p50,latency_ms_p95,frames_in,frames_out,dropped,"
@@ -310,10 +311,11 @@ class Exporter {
         json parts = json::array();
         for (size_t i = 0; i < st.parts.size() && i < 64; ++i) {
           const PartStateSample& ps = st.parts[i];
-          parts.push_back({{"position", {ps.position.x(), ps.position.y(), ps.position.z()}},
-                           {"orientation_wxyz", {ps.orientation[0], ps.orientation[1], ps.orientation[2], ps.orientation[3]}},
-                           {"contact", ps.contact},
-                           {"clearance", ps.clearance}});
+          parts.push_back(
+              {{"position", {ps.position.x(), ps.position.y(), ps.position.z()}},
+               {"orientation_wxyz", {ps.orientation[0], ps.orientation[1], ps.orientation[2], ps.orientation[3]}},
+               {"contact", ps.contact},
+               {"clearance", ps.clearance}});
         }
         (*j)["parts"] = std::move(parts), (*j)["part_count"] = st.parts.size();
       });
@@ -409,7 +411,8 @@ int Export(const ExportOptions& o, const dds::CommonOptions& common) {
     if (!ex.Add(t, s, &c)) {
       ++c.undecodable;
       if (reported.insert(t.name).second)
-        spdlog::warn("{}: a sample at {} ns does not decode as {} (further ones counted)", t.name, s.arrival_ns, t.type);
+        spdlog::warn("{}: a sample at {} ns does not decode as {} (further ones counted)", t.name, s.arrival_ns,
+                     t.type);
     }
     return true;
   }, ids);

@@ -71,7 +71,8 @@ bool Ros2Export::Add(const TopicInfo& topic, const Sample& sample) {
   };
   bool decoded = true;
   if (type == "hullpipe::msg::CameraInfo")
-    decoded = with(std::type_identity<hullpipe_msg_CameraInfo>{}, [&](const auto& m) { return deriver_.OnCameraInfo(m, log_ns_); });
+    decoded = with(std::type_identity<hullpipe_msg_CameraInfo>{},
+                   [&](const auto& m) { return deriver_.OnCameraInfo(m, log_ns_); });
   else if (type == "hullpipe::msg::ObjectPixelMap")
     decoded = with(std::type_identity<hullpipe_msg_ObjectPixelMap>{}, [&](const auto& m) { return deriver_.OnMap(m); });
   else if (type == "hullpipe::msg::CameraImage")
@@ -81,17 +82,22 @@ bool Ros2Export::Add(const TopicInfo& topic, const Sample& sample) {
   else if (type == "hullpipe::msg::HullView")
     decoded = with(std::type_identity<hullpipe_msg_HullView>{}, [&](const auto& m) { return deriver_.OnHullView(m); });
   else if (type == "hullpipe::msg::CompositedView")
-    decoded = with(std::type_identity<hullpipe_msg_CompositedView>{}, [&](const auto& m) { return deriver_.OnCompositedView(m); });
+    decoded = with(std::type_identity<hullpipe_msg_CompositedView>{},
+                   [&](const auto& m) { return deriver_.OnCompositedView(m); });
   else if (type == "hullpipe::msg::VirtualObjectState")
-    decoded = with(std::type_identity<hullpipe_msg_VirtualObjectState>{}, [&](const auto& m) { return deriver_.OnObjectState(m); });
+    decoded = with(std::type_identity<hullpipe_msg_VirtualObjectState>{},
+                   [&](const auto& m) { return deriver_.OnObjectState(m); });
   else if (type == "hullpipe::msg::CollisionReport")
-    decoded = with(std::type_identity<hullpipe_msg_CollisionReport>{}, [&](const auto& m) { return deriver_.OnCollisionReport(m); });
+    decoded = with(std::type_identity<hullpipe_msg_CollisionReport>{},
+                   [&](const auto& m) { return deriver_.OnCollisionReport(m); });
   else if (type == "hullpipe::msg::VirtualMesh")
     decoded = with(std::type_identity<hullpipe_msg_VirtualMesh>{}, [&](const auto& m) { return deriver_.OnMesh(m); });
   else if (type == "hullpipe::msg::ModelPart")
-    decoded = with(std::type_identity<hullpipe_msg_ModelPart>{}, [&](const auto& m) { return deriver_.OnModelPart(m); });
+    decoded =
+        with(std::type_identity<hullpipe_msg_ModelPart>{}, [&](const auto& m) { return deriver_.OnModelPart(m); });
   else if (type == "hullpipe::msg::ModelState")
-    decoded = with(std::type_identity<hullpipe_msg_ModelState>{}, [&](const auto& m) { return deriver_.OnModelState(m); });
+    decoded =
+        with(std::type_identity<hullpipe_msg_ModelState>{}, [&](const auto& m) { return deriver_.OnModelState(m); });
   return decoded && why.empty();
 }
 

@@ -84,7 +84,8 @@ int main(int argc, char** argv) {
       j["frames"] = motion.size();
       j["cameras"] = cameras;
       j["camera_size"] = {width, height};
-      j["smallest_free_spacing_m"] = std::isnan(r.smallest_free) ? nlohmann::json(nullptr) : nlohmann::json(r.smallest_free);
+      j["smallest_free_spacing_m"] =
+          std::isnan(r.smallest_free) ? nlohmann::json(nullptr) : nlohmann::json(r.smallest_free);
       j["known_answer_m"] = std::isnan(needed) ? nlohmann::json(nullptr) : nlohmann::json(needed);
       j["pmt_frames_colliding"] = r.pmt_frames_colliding;
       for (const auto& row : r.rows)
@@ -98,8 +99,10 @@ int main(int argc, char** argv) {
         std::printf("%10.1f %17d %18.1f\n", row.spacing * 100, row.frames_colliding, row.min_clearance * 1e3);
       if (std::isnan(r.smallest_free)) std::printf("\nno spacing in [%.1f, %.1f] cm is free\n", from * 100, to * 100);
       else std::printf("\nsmallest collision-free spacing: %.1f cm\n", r.smallest_free * 100);
-      if (!std::isnan(needed)) std::printf("the true pipe needs: %.1f cm (the hull differs by up to a pixel footprint)\n", needed * 100);
-      if (r.pmt_frames_colliding) std::printf("the PMT itself collides in %d frames at every spacing\n", r.pmt_frames_colliding);
+      if (!std::isnan(needed))
+        std::printf("the true pipe needs: %.1f cm (the hull differs by up to a pixel footprint)\n", needed * 100);
+      if (r.pmt_frames_colliding)
+        std::printf("the PMT itself collides in %d frames at every spacing\n", r.pmt_frames_colliding);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "spacing_sweep: %s\n", e.what());

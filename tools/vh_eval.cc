@@ -99,15 +99,21 @@ int main(int argc, char** argv) {
   auto* rep = app.add_subcommand("reprojection", "Per-camera IoU of the hull's reprojection with the maps");
   AddReprojectionOptions(rep, ro);
   RunEvalOptions rn;
-  auto* run = app.add_subcommand("run", "A pipeline run's composited hull against the same frames' direct sweep and exact hull");
+  auto* run = app.add_subcommand(
+      "run", "A pipeline run's composited hull against the same frames' direct sweep and exact hull");
   AddRunEvalOptions(run, rn);
   HeldOutEvalOptions ho;
-  auto* held = app.add_subcommand("held-out", "Rendering error from each held-out camera's pose, per texturing variant");
+  auto* held =
+      app.add_subcommand("held-out", "Rendering error from each held-out camera's pose, per texturing variant");
   auto* seg = app.add_subcommand("segmentation", "Held-out rendering error per segmentation setting");
   for (auto* sub : {held, seg}) {
     sub->add_option("--rig", ho.rig, "Rig directory or YAML rig file")->required();
-    sub->add_option("--stride", ho.stride, "Evaluate every S-th frame")->check(CLI::Range(1, 1000000))->capture_default_str();
-    sub->add_option("--first", ho.first, "First frame evaluated (0-based)")->check(CLI::Range(0, 100000000))->capture_default_str();
+    sub->add_option("--stride", ho.stride, "Evaluate every S-th frame")
+        ->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
+    sub->add_option("--first", ho.first, "First frame evaluated (0-based)")
+        ->check(CLI::Range(0, 100000000))
+        ->capture_default_str();
     sub->add_option("--max-frames", ho.max_frames, "At most this many frames (0: to the end)")
         ->check(CLI::Range(0, 100000000))
         ->capture_default_str();

@@ -486,7 +486,8 @@ int RunCollisionEval(const CollisionEvalOptions& o_in) {
   }
   std::printf("%zu cases (%d ambiguous CP_obj, %d on hull edges), reference %.1f s\n", cases.size(), ambiguous, edges,
               ref_seconds);
-  std::printf("| method | backend | viewport | thr | tris/s | cp p95 mm | CP_obj p95 | CP_hull p95 | D_rec p95 | N_hull p95 deg | resp us |\n");
+  std::printf(
+      "| method | backend | viewport | thr | tris/s | cp p95 mm | CP_obj p95 | CP_hull p95 | D_rec p95 | N_hull p95 deg | resp us |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& r : rows)
     std::printf("| %s | %s | %s | %d | %.0f | %s | %s | %s | %s | %s | %s |\n", r["method"].get<std::string>().c_str(),

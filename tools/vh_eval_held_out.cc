@@ -170,7 +170,8 @@ void WriteFigure(const std::string& path, const std::vector<std::vector<HeldOutR
     if (c == 0) first_starts = starts;
     width = std::max(width, rows.back().cols);
   }
-  for (auto& r : rows) cv::copyMakeBorder(r, r, 0, 2, 0, width - r.cols, cv::BORDER_CONSTANT, cv::Scalar(255, 255, 255));
+  for (auto& r : rows)
+    cv::copyMakeBorder(r, r, 0, 2, 0, width - r.cols, cv::BORDER_CONSTANT, cv::Scalar(255, 255, 255));
   cv::Mat header(22, width, CV_8UC3, cv::Scalar(255, 255, 255));
   cv::putText(header, "real", {4, 16}, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0));
   for (size_t v = 0; v < variants.size() && v + 1 < first_starts.size(); ++v)
@@ -187,8 +188,9 @@ void WriteFigure(const std::string& path, const std::vector<std::vector<HeldOutR
 int RunHeldOutEval(const HeldOutEvalOptions& o) {
   const auto variants = TexturingVariants(o.threads);
   auto not_evaluated = [&](int f) {
-    return std::invalid_argument("--image-frame " + std::to_string(f) +
-                                 ": not an evaluated frame (frames --first + k * --stride, within --max-frames and the video)");
+    return std::invalid_argument(
+        "--image-frame " + std::to_string(f) +
+        ": not an evaluated frame (frames --first + k * --stride, within --max-frames and the video)");
   };
   for (int f : o.image_frames)  // what arithmetic rules out fails before the run
     if (f < o.first || (f - o.first) % std::max(1, o.stride) != 0 ||
@@ -242,8 +244,9 @@ int RunSegmentationEval(const HeldOutEvalOptions& o) {
   // would print the same row.
   for (const RigCamera& c : LoadRig(o.rig).cameras)
     if (!c.masks.empty())
-      throw std::invalid_argument(o.rig + ": camera " + std::to_string(c.camera.id) + "'s object-pixel maps are given (masks: " +
-                                  c.masks + "), not segmented: the settings table needs a rig with background videos");
+      throw std::invalid_argument(o.rig + ": camera " + std::to_string(c.camera.id) +
+                                  "'s object-pixel maps are given (masks: " + c.masks +
+                                  "), not segmented: the settings table needs a rig with background videos");
   struct Setting {
     std::string name;
     VideoRigOptions rig;
@@ -260,7 +263,8 @@ int RunSegmentationEval(const HeldOutEvalOptions& o) {
   add("noise k 2", [](VideoRigOptions* r) { r->segmentation.value_noise_k = 2; });
   add("noise k 6", [](VideoRigOptions* r) { r->segmentation.value_noise_k = 6; });
   add("hue off", [](VideoRigOptions* r) { r->segmentation.hue_threshold = 90; });
-  add("no shadows", [](VideoRigOptions* r) { r->segmentation.shadow_min_ratio = r->segmentation.shadow_max_ratio = 1; });
+  add("no shadows",
+      [](VideoRigOptions* r) { r->segmentation.shadow_min_ratio = r->segmentation.shadow_max_ratio = 1; });
   add("open 0", [](VideoRigOptions* r) { r->segmentation.open_radius = 0; });
   add("close 0", [](VideoRigOptions* r) { r->segmentation.close_radius = 0; });
   add("close 6", [](VideoRigOptions* r) { r->segmentation.close_radius = 6; });

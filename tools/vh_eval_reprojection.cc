@@ -80,7 +80,9 @@ void AddReprojectionOptions(CLI::App* rep, ReprojectionEvalOptions& o) {
       ->check(CLI::Range(2, 64))
       ->excludes(rig_opt);
   rep->add_option("--width", o.width, "--synthetic: image width")->check(CLI::Range(16, 4096))->capture_default_str();
-  rep->add_option("--height", o.height, "--synthetic: image height")->check(CLI::Range(16, 4096))->capture_default_str();
+  rep->add_option("--height", o.height, "--synthetic: image height")
+      ->check(CLI::Range(16, 4096))
+      ->capture_default_str();
   rep->add_option("--method", o.method, "exact (ray–hull intervals) or march (--step)")
       ->check(CLI::IsMember({"exact", "march"}))
       ->capture_default_str();

@@ -32,7 +32,8 @@ void AddRunEvalOptions(CLI::App* sub, RunEvalOptions& o) {
       ->capture_default_str();
   sub->add_option("--threads", o.threads, "Threads")->check(CLI::Range(1, 256))->capture_default_str();
   sub->add_flag("--json", o.json, "Print one JSON object");
-  sub->add_option("--eye", o.eye, "A stereo run's eye (render_node --stereo): left (views.csv) or right (views_right.csv)")
+  sub->add_option("--eye", o.eye,
+                  "A stereo run's eye (render_node --stereo): left (views.csv) or right (views_right.csv)")
       ->check(CLI::IsMember({"left", "right"}))
       ->capture_default_str();
 }

@@ -185,7 +185,8 @@ int RunSweepEval(const SweepEvalOptions& o) {
     // A few seconds' worth, for tests: 160x120, 4 cameras, 16 and 64 planes.
     grid.clear();
     for (int planes : {16, 64})
-      for (int refine : {0, 8}) grid.push_back({planes, PlaneSpacing::kUniformDepth, 160, 120, 4, "cpu", refine, "none"});
+      for (int refine : {0, 8})
+        grid.push_back({planes, PlaneSpacing::kUniformDepth, 160, 120, 4, "cpu", refine, "none"});
     if (ctx) grid.push_back({16, PlaneSpacing::kUniformDepth, 160, 120, 4, "gl", 0, "none"});
   }
   if (o.placement == "rig") {

@@ -36,13 +36,14 @@ KnownType Make() {
 }
 
 std::vector<KnownType> MakeKnownTypes() {
-  std::vector<KnownType> types = {
-      Make<hullpipe_msg_CameraInfo>(),   Make<hullpipe_msg_ObjectPixelMap>(),     Make<hullpipe_msg_CameraImage>(),
-      Make<hullpipe_msg_ViewPose>(),     Make<hullpipe_msg_HullView>(),           Make<hullpipe_msg_VirtualObjectState>(),
-      Make<hullpipe_msg_CollisionReport>(), Make<hullpipe_msg_NodeStats>(),       Make<hullpipe_msg_VirtualMesh>(),
-      Make<hullpipe_msg_SceneCommand>(), Make<hullpipe_msg_HeadPose>(),          Make<hullpipe_msg_ModelPart>(),
-      Make<hullpipe_msg_ModelState>(),   Make<hullpipe_msg_CompositedView>(),   Make<hullpipe_msg_CameraPose>(),
-      Make<hullpipe_msg_EyeViews>()};
+  std::vector<KnownType> types = {Make<hullpipe_msg_CameraInfo>(),      Make<hullpipe_msg_ObjectPixelMap>(),
+                                  Make<hullpipe_msg_CameraImage>(),     Make<hullpipe_msg_ViewPose>(),
+                                  Make<hullpipe_msg_HullView>(),        Make<hullpipe_msg_VirtualObjectState>(),
+                                  Make<hullpipe_msg_CollisionReport>(), Make<hullpipe_msg_NodeStats>(),
+                                  Make<hullpipe_msg_VirtualMesh>(),     Make<hullpipe_msg_SceneCommand>(),
+                                  Make<hullpipe_msg_HeadPose>(),        Make<hullpipe_msg_ModelPart>(),
+                                  Make<hullpipe_msg_ModelState>(),      Make<hullpipe_msg_CompositedView>(),
+                                  Make<hullpipe_msg_CameraPose>(),      Make<hullpipe_msg_EyeViews>()};
   // Fields appended since the first recordings (idl/hullpipe.idl): the hull
   // velocity of CollisionReport, uint8 + 7 bytes of alignment + 2 doubles.
   // VirtualObjectState's box (7 bytes of alignment after its boolean, a Vec3)
@@ -219,7 +220,8 @@ struct ddsi_serdata* CdrWriter::FromSer(const std::vector<uint8_t>& cdr) const {
 void CdrWriter::Write(const std::vector<uint8_t>& cdr) const {
   if (scope_ == Scope::kDecodeOnly) throw std::logic_error("CdrWriter::Write on a decode-only writer");
   if (cdr.size() < 4) throw std::invalid_argument("CDR sample shorter than its header");
-  if (!IsXcdr1(cdr.data(), cdr.size())) throw std::invalid_argument("CDR sample is not XCDR1 (encapsulation CDR_LE or CDR_BE)");
+  if (!IsXcdr1(cdr.data(), cdr.size()))
+    throw std::invalid_argument("CDR sample is not XCDR1 (encapsulation CDR_LE or CDR_BE)");
   struct ddsi_serdata* d = FromSer(cdr);
   if (!d) throw std::invalid_argument("CDR sample does not deserialize as its topic's type");
   Check(dds_writecdr(handle(), d), "dds_writecdr");  // takes the serdata's reference

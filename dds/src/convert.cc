@@ -743,7 +743,8 @@ OwnedSample<hullpipe_msg_ModelPart> MakeModelPartMessage(const ModelPartSample& 
 ModelPartSample ModelPartFromMsg(const hullpipe_msg_ModelPart& m) {
   const std::string who = "ModelPart " + std::to_string(m.object_id) + ": ";
   if (m.part_count == 0 || m.part_index >= m.part_count) throw MessageError(who + "part_index past part_count");
-  if (uint64_t(m.model_id) + m.part_index != m.object_id) throw MessageError(who + "object_id is not model_id + part_index");
+  if (uint64_t(m.model_id) + m.part_index != m.object_id)
+    throw MessageError(who + "object_id is not model_id + part_index");
   if (m.vertices._length % 3 != 0 || m.vertices._length / 3 > kMaxPartVertices)
     throw MessageError(who + "vertex floats not a multiple of 3 or too many");
   if (m.triangles._length % 3 != 0) throw MessageError(who + "triangle indices not a multiple of 3");

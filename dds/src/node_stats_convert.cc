@@ -42,7 +42,8 @@ namespace {
 // the run's record).
 std::string WireText(const char* p, size_t max_len, const std::string& what) {
   const std::string t = p ? p : "";
-  if (t.size() > max_len) throw MessageError("NodeStats: " + what + " longer than " + std::to_string(max_len) + " bytes");
+  if (t.size() > max_len)
+    throw MessageError("NodeStats: " + what + " longer than " + std::to_string(max_len) + " bytes");
   for (size_t i = 0; i < t.size();) {
     const auto c = uint8_t(t[i]);
     const size_t n = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;

@@ -23,7 +23,8 @@ constexpr uint32_t kCentroid = 0xFFFFFFFDu;  // no pixel centre covered: its cen
 // memory, then the counts and, where any pixel is inside, the mask written at
 // an offset taken from one atomic counter.
 std::string TriangleCs() {
-  return std::string("#version 450 core\nlayout(local_size_x = 64) in;\n") + kCameraBufferGlsl + kObjectPixelBitGlsl + R"(
+  return std::string("#version 450 core\nlayout(local_size_x = 64) in;\n") + kCameraBufferGlsl + kObjectPixelBitGlsl +
+         R"(
 layout(std430, binding = 1) readonly buffer Tris { float tris[]; };     // a, b, c: 9 floats per triangle
 layout(std430, binding = 2) writeonly buffer Results { uvec4 results[]; };  // tested, inside, mask offset, w | h << 16
 layout(std430, binding = 3) buffer Masks { uint mask_used; uint mask_capacity; uint pad0; uint pad1; uint masks[]; };

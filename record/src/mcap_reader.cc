@@ -368,8 +368,8 @@ void McapReader::Bound() {
     const uint64_t size = u.chunk ? u.uncompressed_size : u.records_size;
     if (size > kMaxChunkBytes) {
       u.refused = "the " + std::string(u.chunk ? "chunk" : "message") + " at byte " + std::to_string(u.offset) +
-                  " has a declared size of " + std::to_string(size) + " bytes, over the " + std::to_string(kMaxChunkBytes >> 20) +
-                  " MiB a chunk this reader holds";
+                  " has a declared size of " + std::to_string(size) + " bytes, over the " +
+                  std::to_string(kMaxChunkBytes >> 20) + " MiB a chunk this reader holds";
       Finding(u.refused);
       continue;
     }
@@ -501,7 +501,8 @@ void McapReader::MessageAt(const std::vector<uint8_t>& records, uint32_t offset,
   *size = size_t(len - 22);
 }
 
-void McapReader::Fill(Survey* s, const Unit& u, const std::vector<uint8_t>& records, const std::vector<Msg>& msgs) const {
+void McapReader::Fill(Survey* s, const Unit& u, const std::vector<uint8_t>& records,
+                      const std::vector<Msg>& msgs) const {
   s->ok = true;
   uint64_t total = 0;
   std::vector<size_t> sizes(msgs.size());

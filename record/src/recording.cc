@@ -80,9 +80,10 @@ void WriterOptions::Check(Storage s) const {
   for (const StorageKind& o : Storages())
     if (std::find(o.compressions.begin(), o.compressions.end(), compression) != o.compressions.end())
       others += std::string(others.empty() ? "" : ", ") + "-o FILE" + o.extension + " or --storage " + o.name;
-  throw std::invalid_argument(std::string("--compression ") + CompressionName(compression) + " is not for " + k.name +
-                              " recordings (they take " + takes + ")" +
-                              (others.empty() ? "" : std::string("; for ") + CompressionName(compression) + ": " + others));
+  throw std::invalid_argument(
+      std::string("--compression ") + CompressionName(compression) + " is not for " + k.name +
+      " recordings (they take " + takes + ")" +
+      (others.empty() ? "" : std::string("; for ") + CompressionName(compression) + ": " + others));
 }
 
 bool DecodeSampleData(const uint8_t* data, size_t n, int codec, int64_t size, std::vector<uint8_t>* out) {
@@ -108,7 +109,8 @@ bool DecodeSampleData(const uint8_t* data, size_t n, int codec, int64_t size, st
         const size_t r = ZSTD_decompressStream(d.get(), &o, &in);
         return !ZSTD_isError(r) && o.pos == 0 && r == 0 && in.pos == in.size;
       }
-      out->resize(size_t(std::min<uint64_t>(uint64_t(size), std::max<uint64_t>(2 * out->size(), uint64_t(n) * 4 + 65536))));
+      out->resize(
+          size_t(std::min<uint64_t>(uint64_t(size), std::max<uint64_t>(2 * out->size(), uint64_t(n) * 4 + 65536))));
     }
     ZSTD_outBuffer o{out->data(), out->size(), have};
     const size_t r = ZSTD_decompressStream(d.get(), &o, &in);
@@ -344,8 +346,9 @@ RecordingInfo RecordingReader::Info() const {
     info.damaged_samples = damaged_ - before;
   }
   if (info.damaged_samples > 0)
-    info.damage += (info.damage.empty() ? "" : "; ") + std::to_string(info.damaged_samples) +
-                   " sample(s) whose row does not match its CRC-32, whose data does not decode, or whose topic is unknown";
+    info.damage +=
+        (info.damage.empty() ? "" : "; ") + std::to_string(info.damaged_samples) +
+        " sample(s) whose row does not match its CRC-32, whose data does not decode, or whose topic is unknown";
   return info;
 }
 

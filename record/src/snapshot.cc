@@ -37,8 +37,8 @@ void SnapshotBuffer::Add(Sample sample) {
   while (bytes_ > options_.max_bytes && size() > 1) {
     auto oldest_durable = durable_.end();
     for (auto it = durable_.begin(); it != durable_.end(); ++it)
-      if (!it->second.empty() &&
-          (oldest_durable == durable_.end() || it->second.front().arrival_ns < oldest_durable->second.front().arrival_ns))
+      if (!it->second.empty() && (oldest_durable == durable_.end() ||
+                                  it->second.front().arrival_ns < oldest_durable->second.front().arrival_ns))
         oldest_durable = it;
     if (oldest_durable != durable_.end()) {
       bytes_ -= int64_t(oldest_durable->second.front().data.size());
@@ -75,7 +75,8 @@ void SnapshotBuffer::Expire(int64_t now_ns) {
 std::vector<Sample> SnapshotBuffer::Contents() const {
   std::vector<Sample> out;
   for (const auto& [id, d] : durable_) out.insert(out.end(), d.begin(), d.end());
-  std::stable_sort(out.begin(), out.end(), [](const Sample& a, const Sample& b) { return a.arrival_ns < b.arrival_ns; });
+  std::stable_sort(out.begin(), out.end(),
+                   [](const Sample& a, const Sample& b) { return a.arrival_ns < b.arrival_ns; });
   out.insert(out.end(), window_.begin(), window_.end());
   return out;
 }

@@ -114,10 +114,11 @@ SqliteWriter::SqliteWriter(const std::string& path, const WriterOptions& options
          "INSERT INTO meta VALUES('format', 'hullpipe-recording-3');",
          path_);
     SetMeta("compression", CompressionName(options_.compression));
-    CheckSql(sqlite3_prepare_v2(
-                 db_, "INSERT INTO samples(topic_id, source_ns, arrival_ns, data, crc, codec, size) VALUES(?,?,?,?,?,?,?)",
-                 -1, &insert_, nullptr),
-             db_, "sqlite3_prepare_v2", path_);
+    CheckSql(
+        sqlite3_prepare_v2(
+            db_, "INSERT INTO samples(topic_id, source_ns, arrival_ns, data, crc, codec, size) VALUES(?,?,?,?,?,?,?)",
+            -1, &insert_, nullptr),
+        db_, "sqlite3_prepare_v2", path_);
     if (options_.compression == Compression::kZstd) {
       zstd_ = ZSTD_createCCtx();
       if (!zstd_) throw RecordingError(path_ + ": ZSTD_createCCtx failed");
@@ -303,7 +304,8 @@ SqliteReader::SqliteReader(const std::string& path) : path_(path) {
     {
       // The columns the reader selects, so a table of the wrong shape is named
       // here rather than failing in the middle of a replay.
-      const char* sql = format_ == 3   ? "SELECT topic_id, source_ns, arrival_ns, data, crc, codec, size FROM samples LIMIT 0"
+      const char* sql = format_ == 3
+                            ? "SELECT topic_id, source_ns, arrival_ns, data, crc, codec, size FROM samples LIMIT 0"
                         : format_ == 2 ? "SELECT topic_id, source_ns, arrival_ns, data, crc FROM samples LIMIT 0"
                                        : "SELECT topic_id, source_ns, arrival_ns, data FROM samples LIMIT 0";
       sqlite3_stmt* st = nullptr;
@@ -312,11 +314,12 @@ SqliteReader::SqliteReader(const std::string& path) : path_(path) {
       sqlite3_finalize(st);
       if (rc != SQLITE_OK) throw not_ours("table 'samples': " + msg);
     }
-    Stmt st(db_,
-            format_ == 3
-                ? "SELECT id, name, type, keyed, reliable, transient_local, depth, type_description FROM topics ORDER BY id"
-                : "SELECT id, name, type, keyed, reliable, transient_local, depth, NULL FROM topics ORDER BY id",
-            path);
+    Stmt st(
+        db_,
+        format_ == 3
+            ? "SELECT id, name, type, keyed, reliable, transient_local, depth, type_description FROM topics ORDER BY id"
+            : "SELECT id, name, type, keyed, reliable, transient_local, depth, NULL FROM topics ORDER BY id",
+        path);
     int rc;
     while ((rc = sqlite3_step(st.s)) == SQLITE_ROW) {
       TopicInfo t;
@@ -414,11 +417,11 @@ std::string SqliteReader::QuickCheck() const {
 }
 
 std::map<int64_t, StorageReader::TopicCount> SqliteReader::Counts() const {
-  const char* sql = format_ == 3
-                        ? "SELECT topic_id, COUNT(*), COALESCE(SUM(CASE WHEN size >= 0 THEN size ELSE LENGTH(data) END), 0),"
-                          " COALESCE(SUM(LENGTH(data)), 0) FROM samples GROUP BY topic_id"
-                        : "SELECT topic_id, COUNT(*), COALESCE(SUM(LENGTH(data)), 0), COALESCE(SUM(LENGTH(data)), 0)"
-                          " FROM samples GROUP BY topic_id";
+  const char* sql =
+      format_ == 3 ? "SELECT topic_id, COUNT(*), COALESCE(SUM(CASE WHEN size >= 0 THEN size ELSE LENGTH(data) END), 0),"
+                     " COALESCE(SUM(LENGTH(data)), 0) FROM samples GROUP BY topic_id"
+                   : "SELECT topic_id, COUNT(*), COALESCE(SUM(LENGTH(data)), 0), COALESCE(SUM(LENGTH(data)), 0)"
+                     " FROM samples GROUP BY topic_id";
   Stmt st(db_, sql, path_);
   std::map<int64_t, TopicCount> out;
   int rc;

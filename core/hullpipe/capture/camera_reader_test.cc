@@ -72,7 +72,8 @@ TEST(CameraReader, AnImageSequenceIsCheckedFromItsHeadersBeforeAnyDecode) {
     // The 8-byte signature and an IHDR chunk of 20000 x 20000, 8-bit RGB.
     std::vector<uint8_t> png = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A, 0, 0, 0, 13, 'I', 'H', 'D', 'R',
                                 0,    0,   0x4E, 0x20, 0, 0, 0x4E, 0x20, 8, 2, 0, 0, 0, 0, 0, 0, 0};
-    std::ofstream(third, std::ios::binary).write(reinterpret_cast<const char*>(png.data()), std::streamsize(png.size()));
+    std::ofstream(third, std::ios::binary)
+        .write(reinterpret_cast<const char*>(png.data()), std::streamsize(png.size()));
   }
   expect_refused("20000x20000");
   std::ofstream(third, std::ios::binary) << "not an image at all, just text";

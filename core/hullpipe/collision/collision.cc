@@ -89,7 +89,9 @@ std::optional<Eigen::Vector3d> RefineFarthestCollisionPoint(const VolumeQuery& q
         // The interval's end is the hull's exact boundary: keep a point that is
         // inside by VolumeQuery's own rounding.
         const double len = (other - end).norm();
-        const Eigen::Vector3d e = query.Inside(end) || len == 0 ? end : Eigen::Vector3d(end + std::min(1e-7, 0.5 * len) / len * (other - end));
+        const Eigen::Vector3d e = query.Inside(end) || len == 0
+                                      ? end
+                                      : Eigen::Vector3d(end + std::min(1e-7, 0.5 * len) / len * (other - end));
         if (!query.Inside(e)) continue;
         const double d = (e - rp).norm();
         if (d > best) best = d, found = e, found_triangle = owner[k];

@@ -71,7 +71,8 @@ std::optional<CollisionResponse> ComputeResponse(const VolumeQuery& query,
 }
 
 void PaperResponseOptions::Check() const {
-  if (!(apex_deg > 0 && apex_deg < 180)) throw std::invalid_argument("PaperResponseOptions.apex_deg must be in (0, 180)");
+  if (!(apex_deg > 0 && apex_deg < 180))
+    throw std::invalid_argument("PaperResponseOptions.apex_deg must be in (0, 180)");
   if (!(length > 0)) throw std::invalid_argument("PaperResponseOptions.length must be > 0");
   if (!(pixel > 0 && pixel < length)) throw std::invalid_argument("PaperResponseOptions.pixel must be in (0, length)");
 }

@@ -115,7 +115,8 @@ TEST(CollisionResponse, GivenRecoveryDirectionAndDegenerateCases) {
   EXPECT_GT(zero->v_rec.dot(cp - q.hull_box().Center()), 0);
   // Nothing collided: no response; CP_obj outside the hull: no CP_hull.
   EXPECT_FALSE(ComputeResponse(q, {}, cp).has_value());
-  EXPECT_FALSE(ComputeResponse(q, {kCentre + Eigen::Vector3d(2, 0, 0)}, kCentre + Eigen::Vector3d(3, 0, 0)).has_value());
+  EXPECT_FALSE(
+      ComputeResponse(q, {kCentre + Eigen::Vector3d(2, 0, 0)}, kCentre + Eigen::Vector3d(3, 0, 0)).has_value());
 }
 
 }  // namespace

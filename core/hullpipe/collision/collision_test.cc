@@ -93,7 +93,8 @@ TEST(ContactError, GridOfPointsAgainstASquare) {
 }
 
 TEST_F(SphereCollision, TriangleWhollyInsideIsOneCollisionPointPerPixel) {
-  const Triangle t{kSphereCentre, kSphereCentre + Eigen::Vector3d(0.02, 0, 0), kSphereCentre + Eigen::Vector3d(0, 0.02, 0.005)};
+  const Triangle t{kSphereCentre, kSphereCentre + Eigen::Vector3d(0.02, 0, 0),
+                   kSphereCentre + Eigen::Vector3d(0, 0.02, 0.005)};
   const Checked c = Check(q_, t);
   EXPECT_EQ(int(c.r.collision_points.size()), c.r.pixels_tested);
   // The region is the whole triangle; pixel centres cover it to half a diagonal,

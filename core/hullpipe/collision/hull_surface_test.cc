@@ -77,7 +77,8 @@ TEST(HullSurface, SampledCrossingsAgreeWithTheExactIntervals) {
   }
   // Already of the wanted kind at s_begin; never of it.
   EXPECT_EQ(FirstSampledCrossing(q, kSphereCentre, {1, 0, 0}, 0.0, 1.0, true, 0.002, 1e-5).value(), 0.0);
-  EXPECT_FALSE(FirstSampledCrossing(q, kSphereCentre + Eigen::Vector3d(5, 0, 0), {1, 0, 0}, 0.0, 1.0, true, 0.002, 1e-5));
+  EXPECT_FALSE(
+      FirstSampledCrossing(q, kSphereCentre + Eigen::Vector3d(5, 0, 0), {1, 0, 0}, 0.0, 1.0, true, 0.002, 1e-5));
 }
 
 TEST(HullSurface, NormalFromTheSilhouetteEdgeMatchesTheAnalyticCone) {

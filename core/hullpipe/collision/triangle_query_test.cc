@@ -26,7 +26,8 @@ using test::kSphereRadius;
 using test::SphereHull;
 
 TEST_F(SphereHull, TriangleInsideCollidesEverywhere) {
-  const Eigen::Vector3d a = kSphereCentre + Eigen::Vector3d(-0.05, 0, 0), b = kSphereCentre + Eigen::Vector3d(0.05, 0, 0),
+  const Eigen::Vector3d a = kSphereCentre + Eigen::Vector3d(-0.05, 0, 0),
+                        b = kSphereCentre + Eigen::Vector3d(0.05, 0, 0),
                         c = kSphereCentre + Eigen::Vector3d(0, 0.06, 0.02);
   const auto r = QueryTriangleCpu(query_, a, b, c);
   EXPECT_GT(r.pixels_tested, 100);  // 10 cm triangle, 2 mm pixels
@@ -34,7 +35,8 @@ TEST_F(SphereHull, TriangleInsideCollidesEverywhere) {
 }
 
 TEST_F(SphereHull, TriangleCuttingTheHullGivesPointsOnTriangleInsideHull) {
-  const Eigen::Vector3d a = kSphereCentre + Eigen::Vector3d(-0.5, -0.1, 0), b = kSphereCentre + Eigen::Vector3d(0.5, -0.1, 0),
+  const Eigen::Vector3d a = kSphereCentre + Eigen::Vector3d(-0.5, -0.1, 0),
+                        b = kSphereCentre + Eigen::Vector3d(0.5, -0.1, 0),
                         c = kSphereCentre + Eigen::Vector3d(0, 0.5, 0.1);
   const auto r = QueryTriangleCpu(query_, a, b, c, {0.01, 0, 64});
   ASSERT_FALSE(r.collision_points.empty());
@@ -67,8 +69,9 @@ TEST_F(SphereHull, TriangleFarAwayAndTinyAndSliver) {
   EXPECT_EQ(tiny.pixels_tested, 1);
   EXPECT_EQ(tiny.collision_points.size(), 1u);
   // A 1000:1 sliver through the centre.
-  const auto sliver = QueryTriangleCpu(query_, kSphereCentre - Eigen::Vector3d(0.1, 0, 0), kSphereCentre + Eigen::Vector3d(0.1, 0, 0),
-                                       kSphereCentre + Eigen::Vector3d(0, 0.0002, 0));
+  const auto sliver =
+      QueryTriangleCpu(query_, kSphereCentre - Eigen::Vector3d(0.1, 0, 0), kSphereCentre + Eigen::Vector3d(0.1, 0, 0),
+                       kSphereCentre + Eigen::Vector3d(0, 0.0002, 0));
   EXPECT_GE(sliver.pixels_tested, 1);
   EXPECT_FALSE(sliver.collision_points.empty());
   // Degenerate (zero area): no crash, centroid tested.

@@ -17,8 +17,9 @@ namespace hullpipe {
 PinholeTruth UndistortToPinhole(const Camera& camera, const cv::Mat& image, const cv::Mat& map) {
   const cv::Size size(camera.width, camera.height);
   if (image.type() != CV_8UC3 || image.size() != size || map.type() != CV_8UC1 || map.size() != size)
-    throw std::invalid_argument("UndistortToPinhole: camera " + std::to_string(camera.id) + " needs a CV_8UC3 image and a CV_8UC1 map of " +
-                                std::to_string(camera.width) + "x" + std::to_string(camera.height));
+    throw std::invalid_argument("UndistortToPinhole: camera " + std::to_string(camera.id) +
+                                " needs a CV_8UC3 image and a CV_8UC1 map of " + std::to_string(camera.width) + "x" +
+                                std::to_string(camera.height));
   PinholeTruth t;
   t.view.width = camera.width, t.view.height = camera.height;
   t.view.fx = camera.fx, t.view.fy = camera.fy, t.view.cx = camera.cx, t.view.cy = camera.cy;
@@ -66,7 +67,8 @@ ImageError MaskedImageError(const cv::Mat& truth, const cv::Mat& rendered, const
       for (int k = 0; k < 3; ++k) sum_sq += double(int(a[k]) - int(b[k])) * double(int(a[k]) - int(b[k]));
     }
   const double mse = sum_sq / (3.0 * double(e.pixels));
-  e.psnr_db = mse > 0 ? std::min(ImageError::kMaxPsnrDb, 10.0 * std::log10(255.0 * 255.0 / mse)) : ImageError::kMaxPsnrDb;
+  e.psnr_db =
+      mse > 0 ? std::min(ImageError::kMaxPsnrDb, 10.0 * std::log10(255.0 * 255.0 / mse)) : ImageError::kMaxPsnrDb;
   cv::Mat a = cv::Mat::zeros(truth.size(), CV_8UC3), b = cv::Mat::zeros(truth.size(), CV_8UC3);
   truth.copyTo(a, mask);
   rendered.copyTo(b, mask);

@@ -39,7 +39,8 @@ TEST(HeldOutRendering, UndistortionMatchesThePinholeRendering) {
   const Camera distorted = DomeCameras(3, 1.6, Eigen::Vector3d(0, 0, -1), 200, 150, 1.3, barrel)[0];
   Camera pinhole = distorted;
   pinhole.distortion = {};
-  const PinholeTruth t = UndistortToPinhole(distorted, RenderColour(distorted, scene), RenderExactMap(distorted, scene));
+  const PinholeTruth t =
+      UndistortToPinhole(distorted, RenderColour(distorted, scene), RenderExactMap(distorted, scene));
   const cv::Mat map = RenderExactMap(pinhole, scene);
   // Nearest-pixel resampling moves a silhouette by at most half a pixel each
   // way, so only pixels on the pinhole silhouette's border may differ.
@@ -55,7 +56,8 @@ TEST(HeldOutRendering, UndistortionMatchesThePinholeRendering) {
   // were the pinhole one is far worse.
   const cv::Mat full(map.size(), CV_8UC1, cv::Scalar(255));
   cv::Mat inside;
-  cv::erode(UndistortToPinhole(distorted, RenderColour(distorted, scene), full).map, inside, cv::Mat::ones(3, 3, CV_8UC1));
+  cv::erode(UndistortToPinhole(distorted, RenderColour(distorted, scene), full).map, inside,
+            cv::Mat::ones(3, 3, CV_8UC1));
   inside &= ~border;
   const ImageError resampled = MaskedImageError(RenderColour(pinhole, scene), t.image, inside);
   const ImageError raw = MaskedImageError(RenderColour(pinhole, scene), RenderColour(distorted, scene), inside);

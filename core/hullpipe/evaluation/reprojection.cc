@@ -398,7 +398,8 @@ struct TileClassifier {
         continue;
       }
       ++seeing;
-      const int count = o.sum->at<int>(y1, x1) - o.sum->at<int>(y0, x1) - o.sum->at<int>(y1, x0) + o.sum->at<int>(y0, x0);
+      const int count =
+          o.sum->at<int>(y1, x1) - o.sum->at<int>(y0, x1) - o.sum->at<int>(y1, x0) + o.sum->at<int>(y0, x0);
       if (count == 0) {  // background under the whole tile's rays: vetoed
         *hint = oi;
         return Kind::kEmpty;

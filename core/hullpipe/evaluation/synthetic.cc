@@ -191,8 +191,8 @@ Eigen::Vector3d Shape::Normal(const Eigen::Vector3d& p) const {
     case Type::kTorus: {
       const Eigen::Vector3d q = rotation.transpose() * (p - a);
       const double rho = std::hypot(q.x(), q.y());
-      const Eigen::Vector3d ring =
-          rho > 0 ? Eigen::Vector3d(q.x() * major_radius / rho, q.y() * major_radius / rho, 0) : Eigen::Vector3d::Zero();
+      const Eigen::Vector3d ring = rho > 0 ? Eigen::Vector3d(q.x() * major_radius / rho, q.y() * major_radius / rho, 0)
+                                           : Eigen::Vector3d::Zero();
       return rotation * (q - ring).normalized();
     }
   }

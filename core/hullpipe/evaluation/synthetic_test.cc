@@ -51,7 +51,8 @@ TEST(Synthetic, EveryNamedSceneIsInsideItsExactHull) {
   for (const char* name : {"sphere", "box", "torus", "hand", "mixed"}) {
     const SyntheticScene scene = NamedScene(name, 0.7);
     std::vector<CameraMap> views;
-    for (const auto& c : DomeCameras(6, 3.0, {0, 0, -1.0}, 320, 240, 0.9)) views.push_back({c, RenderExactMap(c, scene)});
+    for (const auto& c : DomeCameras(6, 3.0, {0, 0, -1.0}, 320, 240, 0.9))
+      views.push_back({c, RenderExactMap(c, scene)});
     const VolumeQuery q(views, test::BigBox());
     int inside = 0;
     for (double x = -0.5; x <= 0.5; x += 0.01)

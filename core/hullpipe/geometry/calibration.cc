@@ -278,7 +278,8 @@ Rig LoadYamlRig(const fs::path& file) {
         rc.latency_s = -1;
       }
       if (!(rc.latency_s >= 0 && rc.latency_s <= 10))
-        throw CalibrationError(path + ": camera " + std::to_string(c.id) + ": key 'latency' must be seconds in [0, 10]");
+        throw CalibrationError(path + ": camera " + std::to_string(c.id) +
+                               ": key 'latency' must be seconds in [0, 10]");
     }
     if (const YAML::Node m = cam["mask_threshold"]) {
       rc.mask_threshold = m.as<int>(-1);
@@ -313,7 +314,8 @@ Rig LoadYamlRig(const fs::path& file) {
     if (rig.workspace.empty()) throw CalibrationError(path + ": workspace min must be <= max");
   }
   if (const YAML::Node w = root["world"]) {
-    if (!w.IsMap()) throw CalibrationError(path + ": key 'world' must be a map {up, floor, orbit_radius, orbit_height}");
+    if (!w.IsMap())
+      throw CalibrationError(path + ": key 'world' must be a map {up, floor, orbit_radius, orbit_height}");
     RejectUnknownKeys(w, path, "world: ", {"up", "floor", "orbit_radius", "orbit_height"});
     if (w["up"]) {
       const auto u = ReadList(w, path, "up", 3, true);
@@ -333,7 +335,8 @@ Rig LoadYamlRig(const fs::path& file) {
         rig.world.floor = RigWorld::Floor::kPlane;
         rig.world.floor_height = f.as<double>(std::nan(""));
         if (!(std::abs(rig.world.floor_height) <= kMaxStatedExtentM))
-          throw CalibrationError(path + ": world: key 'floor' must be metres along up (within 10 km), 'hull' or 'none'");
+          throw CalibrationError(path +
+                                 ": world: key 'floor' must be metres along up (within 10 km), 'hull' or 'none'");
       }
       rig.world.floor_stated = true;
     }

@@ -115,7 +115,8 @@ TEST(Calibration, YamlRigRoundTrip) {
 
 TEST(Calibration, YamlMissingKeyIsNamed) {
   const auto dir = test::TempDir("rig_yaml_bad");
-  std::ofstream(dir / "rig.yaml") << "cameras:\n  - id: 1\n    width: 10\n    height: 10\n    K: [1,0,5,0,1,5,0,0,1]\n    t: [0,0,0]\n";
+  std::ofstream(dir / "rig.yaml")
+      << "cameras:\n  - id: 1\n    width: 10\n    height: 10\n    K: [1,0,5,0,1,5,0,0,1]\n    t: [0,0,0]\n";
   try {
     LoadRig((dir / "rig.yaml").string());
     FAIL();
@@ -234,8 +235,9 @@ TEST(Calibration, YamlRigKeysAndBoundsAreChecked) {
             std::string::npos);
   EXPECT_NE(load("cameras:\n" + cam + "world: {orbit_radius: 1e308}\n").find("'orbit_radius' must be in (0, 10000] m"),
             std::string::npos);
-  EXPECT_NE(load("cameras:\n" + cam + "world: {floor: -1e30}\n").find("key 'floor' must be metres along up (within 10 km)"),
-            std::string::npos);
+  EXPECT_NE(
+      load("cameras:\n" + cam + "world: {floor: -1e30}\n").find("key 'floor' must be metres along up (within 10 km)"),
+      std::string::npos);
   EXPECT_EQ(load("cameras:\n" + cam + "world: {orbit_radius: 3, floor: -0.5}\n"), "") << "the control";
   // A Utrecht-style directory whose cam<N> overflows int: "stoi" was the whole message.
   const auto utrecht = test::TempDir("rig_cam_overflow");

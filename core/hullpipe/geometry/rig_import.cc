@@ -203,7 +203,8 @@ void ReadColmapText(const fs::path& dir, std::map<uint32_t, ColmapCamera>* cams,
       while (ls >> v) c.params.push_back(v);
       if (int(c.params.size()) != m->params)
         throw CalibrationError(where + ": line " + std::to_string(n) + ": " + c.model_name + " has " +
-                               std::to_string(m->params) + " parameters, the line has " + std::to_string(c.params.size()));
+                               std::to_string(m->params) + " parameters, the line has " +
+                               std::to_string(c.params.size()));
       (*cams)[id] = c;
     }
   }
@@ -419,8 +420,10 @@ Rig ImportNerfChecked(const std::string& path, const ImportOptions& o) {
     }
     // Models other than hullpipe's: a fisheye's k4, or a camera_model that says so.
     const double k4 = num("k4");
-    const nlohmann::json model = fr.contains("camera_model") ? fr["camera_model"] : j.value("camera_model", nlohmann::json());
-    const bool other_model = model.is_string() && model.get<std::string>() != "OPENCV" && model.get<std::string>() != "PINHOLE";
+    const nlohmann::json model =
+        fr.contains("camera_model") ? fr["camera_model"] : j.value("camera_model", nlohmann::json());
+    const bool other_model =
+        model.is_string() && model.get<std::string>() != "OPENCV" && model.get<std::string>() != "PINHOLE";
     if (other_model || (std::isfinite(k4) && k4 != 0))
       throw CalibrationError(where + ": camera model " + (other_model ? model.dump() : "with k4 (a fisheye)") +
                              " is not hullpipe's (a pinhole with OpenCV's k1 k2 p1 p2 k3)");
@@ -714,7 +717,8 @@ Rig ImportPmvs(const std::string& path, const ImportOptions& o) {
     const std::string stem = files[i].stem().string();
     fs::path image;
     for (const char* ext : {".jpg", ".ppm", ".png"})
-      if (fs::exists(dir.parent_path() / "visualize" / (stem + ext))) image = dir.parent_path() / "visualize" / (stem + ext);
+      if (fs::exists(dir.parent_path() / "visualize" / (stem + ext)))
+        image = dir.parent_path() / "visualize" / (stem + ext);
     SetSize(&c, 0, 0, o, image, where);
     // PMVS samples images at integer pixel centres (as OpenCV).
     SetCameraIntrinsics({K(0, 0), K(0, 1), K(0, 2), K(1, 0), K(1, 1), K(1, 2), K(2, 0), K(2, 1), K(2, 2)},

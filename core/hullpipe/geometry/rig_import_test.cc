@@ -260,7 +260,8 @@ TEST(RigImport, OpenCvMulticalibReadsBackInMillimetresAndEitherPoseDirection) {
   const RigReport report = CheckRig(wrong.Cameras(), wrong.workspace, wrong.world);
   bool hinted = false;
   for (const auto& w : report.warnings) hinted |= w.find("world_from_camera") != std::string::npos;
-  EXPECT_TRUE(hinted) << "no warning names the pose-direction trap; " << report.warnings.size() << " warnings: " << (report.warnings.empty() ? "" : report.warnings[0]);
+  EXPECT_TRUE(hinted) << "no warning names the pose-direction trap; " << report.warnings.size()
+                      << " warnings: " << (report.warnings.empty() ? "" : report.warnings[0]);
   const RigReport right = CheckRig(cams, DefaultWorkspace(cams), wrong.world);
   EXPECT_TRUE(right.warnings.empty()) << right.warnings.front();  // control: the right rig warns of nothing
 }
@@ -273,7 +274,8 @@ TEST(RigImport, OpenCvStereoCalibrationReadsBothCameras) {
     cv::FileStorage in((dir / "intrinsics.yml").string(), cv::FileStorage::WRITE);
     for (int i = 0; i < 2; ++i) {
       const Camera& c = cams[size_t(i)];
-      in << "M" + std::to_string(i + 1) << (cv::Mat_<double>(3, 3) << c.fx, 0, c.cx - 0.5, 0, c.fy, c.cy - 0.5, 0, 0, 1);
+      in << "M" + std::to_string(i + 1)
+         << (cv::Mat_<double>(3, 3) << c.fx, 0, c.cx - 0.5, 0, c.fy, c.cy - 0.5, 0, 0, 1);
       in << "D" + std::to_string(i + 1)
          << (cv::Mat_<double>(1, 5) << c.distortion[0], c.distortion[1], c.distortion[2], c.distortion[3], 0);
     }
@@ -478,19 +480,22 @@ TEST(RigImport, HostileOpenCvFilesAreRefusedInOneLine) {
   // within kMaxStorageParseSeconds.
   const auto t0 = std::chrono::steady_clock::now();
   expect_refused("loops.yml", "%YAML:1.\n s:3\na-\n-", "did not finish reading it within 5 s");
-  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), kMaxStorageParseSeconds + 2.0);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+            kMaxStorageParseSeconds + 2.0);
   // Many flat sequences, none deep: bounded by their number.
   std::string flat = "%YAML:1.0\nx: [";
   for (int i = 0; i < 5000; ++i) flat += "[1],";
   expect_refused("flat.yml", flat + "]\n", "more than 4096 sequences and maps");
   // A stereo calibration whose R is 1x9: nine values, read as 3x3 past its buffer.
-  const std::string m = "!!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n";
+  const std::string m =
+      "!!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n";
   const std::string d = "!!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n";
-  expect_refused("stereo.yml",
-                 "%YAML:1.0\nM1: " + m + "D1: " + d + "M2: " + m + "D2: " + d +
-                     "R: !!opencv-matrix\n   rows: 1\n   cols: 9\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\n"
-                     "T: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ -0.1, 0., 0. ]\n",
-                 "R is 1x9");
+  expect_refused(
+      "stereo.yml",
+      "%YAML:1.0\nM1: " + m + "D1: " + d + "M2: " + m + "D2: " + d +
+          "R: !!opencv-matrix\n   rows: 1\n   cols: 9\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\n"
+          "T: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ -0.1, 0., 0. ]\n",
+      "R is 1x9");
   // Control: the same stereo file with a 3x3 R imports.
   const fs::path good = dir / "good.yml";
   std::ofstream(good) << "%YAML:1.0\nM1: " + m + "D1: " + d + "M2: " + m + "D2: " + d +
@@ -547,7 +552,9 @@ TEST(RigImport, DuplicateOrOutOfRangeIdsAndBadNumbersAreNamed) {
 
   WriteNerf(dir / "huge.json", cams);
   edit(dir / "huge.json", "\"w\": 640", "\"w\": 1e300");
-  EXPECT_NE(error_of([&] { ImportNerf((dir / "huge.json").string()); }).find("key 'w' must be whole pixels in [1, 16384], not 1e+300"),
+  EXPECT_NE(error_of([&] {
+              ImportNerf((dir / "huge.json").string());
+            }).find("key 'w' must be whole pixels in [1, 16384], not 1e+300"),
             std::string::npos);
   WriteNerf(dir / "typed.json", cams);
   edit(dir / "typed.json", "\"file_path\": \"", "\"file_path\": 5, \"x\": \"");

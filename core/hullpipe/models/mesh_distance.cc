@@ -24,7 +24,8 @@ MeshSignedDistance::MeshSignedDistance(TriangleMesh mesh) : mesh_(std::move(mesh
   const int nv = int(mesh_.vertices.size());
   for (const auto& t : mesh_.triangles)
     for (int k = 0; k < 3; ++k)
-      if (t[k] < 0 || t[k] >= nv) throw std::invalid_argument("MeshSignedDistance: a triangle indexes past the vertices");
+      if (t[k] < 0 || t[k] >= nv)
+        throw std::invalid_argument("MeshSignedDistance: a triangle indexes past the vertices");
   bvh_ = TriangleBvh(mesh_);
   bounds_ = mesh_.Bounds();
   // Weld vertices at the same position (exactly: a file's per-face copies).

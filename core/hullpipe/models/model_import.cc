@@ -32,8 +32,10 @@ void ImportLimits::Check() const {
   if (max_file_bytes < 1) throw std::invalid_argument("ImportLimits.max_file_bytes must be >= 1");
   if (max_triangles < 1) throw std::invalid_argument("ImportLimits.max_triangles must be >= 1");
   if (max_parts < 1) throw std::invalid_argument("ImportLimits.max_parts must be >= 1");
-  if (max_memory_bytes < (int64_t(64) << 20)) throw std::invalid_argument("ImportLimits.max_memory_bytes must be >= 64 MiB");
-  if (!(max_seconds >= 0.1 && max_seconds <= 3600)) throw std::invalid_argument("ImportLimits.max_seconds must be in [0.1, 3600]");
+  if (max_memory_bytes < (int64_t(64) << 20))
+    throw std::invalid_argument("ImportLimits.max_memory_bytes must be >= 64 MiB");
+  if (!(max_seconds >= 0.1 && max_seconds <= 3600))
+    throw std::invalid_argument("ImportLimits.max_seconds must be in [0.1, 3600]");
 }
 
 int64_t ImportedModel::triangles() const {
@@ -126,7 +128,8 @@ class PartBuilder {
                              " out of range (" + std::to_string(mesh.mNumVertices) + " vertices)");
           t[c] = base_index + int(face.mIndices[c]);
         }
-        const Eigen::Vector3d a = part.vertices[size_t(t[0])].cast<double>(), b = part.vertices[size_t(t[1])].cast<double>(),
+        const Eigen::Vector3d a = part.vertices[size_t(t[0])].cast<double>(),
+                              b = part.vertices[size_t(t[1])].cast<double>(),
                               c = part.vertices[size_t(t[2])].cast<double>();
         const double edge2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
         if (!((b - a).cross(c - a).norm() > 1e-12 * edge2)) {
@@ -195,7 +198,8 @@ class ImportWarnings {
       const size_t at = text_.find(key);
       if (at == std::string::npos) continue;
       const size_t begin = text_.rfind('\n', at), end = text_.find('\n', at);
-      line = text_.substr(begin == std::string::npos ? 0 : begin + 1, end == std::string::npos ? std::string::npos : end - begin - 1);
+      line = text_.substr(begin == std::string::npos ? 0 : begin + 1,
+                          end == std::string::npos ? std::string::npos : end - begin - 1);
       const size_t colon = line.find(": ");
       if (colon != std::string::npos) line = line.substr(colon + 2);
       throw ModelError(name + ": indices out of range (Assimp: " + line + ")");
@@ -343,7 +347,8 @@ std::string SerializeModel(const ImportedModel& m) {
 
 ImportedModel DeserializeModel(const std::string& bytes, const std::string& name, const ImportLimits& limits) {
   Cursor c(bytes, name);
-  if (std::memcmp(c.Take(sizeof(kMagic)), kMagic, sizeof(kMagic)) != 0) throw ModelError(name + ": importer result has a bad header");
+  if (std::memcmp(c.Take(sizeof(kMagic)), kMagic, sizeof(kMagic)) != 0)
+    throw ModelError(name + ": importer result has a bad header");
   ImportedModel m;
   m.path = name;
   m.counts.meshes = c.Get<int64_t>(), m.counts.lines_and_points = c.Get<int64_t>();
@@ -465,7 +470,8 @@ ImportedModel ImportModel(const std::string& path, const ImportLimits& limits) {
     throw ModelError(path + ": the importer crashed on this file (signal " + std::to_string(sig) + ", " +
                      strsignal(sig) + ")");
   }
-  if (got.empty()) throw ModelError(path + ": the importer ended without a result (exit " + std::to_string(WEXITSTATUS(status)) + ")");
+  if (got.empty())
+    throw ModelError(path + ": the importer ended without a result (exit " + std::to_string(WEXITSTATUS(status)) + ")");
   if (got[0] == 'M')
     throw ModelError(path + ": the importer exceeded the " + Mb(limits.max_memory_bytes) +
                      " memory bound (models.max_import_memory)");

@@ -74,7 +74,8 @@ struct BvhQueryStats {
   int64_t boxes_tested = 0;        ///< Hierarchy nodes tested against the hull.
   int64_t triangles_queried = 0;   ///< Triangles volume-queried (§4.1 viewports).
   void Add(const BvhQueryStats& o) {
-    triangles_in_scene += o.triangles_in_scene, boxes_tested += o.boxes_tested, triangles_queried += o.triangles_queried;
+    triangles_in_scene += o.triangles_in_scene, boxes_tested += o.boxes_tested,
+        triangles_queried += o.triangles_queried;
   }
 };
 

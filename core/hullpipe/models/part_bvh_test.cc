@@ -38,7 +38,8 @@ TEST(TriangleBvh, ClosestPointMatchesBruteForce) {
     EXPECT_NEAR(bvh.Distance(mesh, p, 10.0), brute, 1e-12);
   }
   // Degenerate triangles: a point's distance to a collinear one is to its segment.
-  EXPECT_TRUE(ClosestPointOnTriangle({0.5, 1, 0}, {0, 0, 0}, {1, 0, 0}, {2, 0, 0}).isApprox(Eigen::Vector3d(0.5, 0, 0)));
+  EXPECT_TRUE(
+      ClosestPointOnTriangle({0.5, 1, 0}, {0, 0, 0}, {1, 0, 0}, {2, 0, 0}).isApprox(Eigen::Vector3d(0.5, 0, 0)));
 }
 
 // The hierarchy's result equals testing every triangle (paper §4.1's box test,
@@ -111,7 +112,8 @@ TEST(HullToPartClearance, MatchesTheExactHull) {
     for (double y = region.min.y(); y <= region.max.y(); y += d)
       for (double z = region.min.z(); z <= region.max.z(); z += d) {
         const Eigen::Vector3d o(region.min.x(), y, z);
-        for (const auto& [s0, s1] : RayHullIntervals(q, o, Eigen::Vector3d::UnitX(), 0, region.max.x() - region.min.x())) {
+        for (const auto& [s0, s1] :
+             RayHullIntervals(q, o, Eigen::Vector3d::UnitX(), 0, region.max.x() - region.min.x())) {
           for (double s = s0;; s += d) {
             const double ss = std::min(s, s1);
             ref = std::min(ref, bvh.Distance(part, o + ss * Eigen::Vector3d::UnitX(), ref));

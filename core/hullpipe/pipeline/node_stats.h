@@ -16,7 +16,8 @@ struct CameraSkewReport {
   double skew_ms_p50 = 0, skew_ms_p95 = 0, skew_ms_max = 0;  ///< |capture time - t_ref| over framesets taken.
   uint64_t frames = 0;         ///< Samples received.
   uint64_t unpartnered = 0;    ///< Samples that left the history without belonging to a complete frameset.
-  uint64_t pauses = 0;         ///< Gaps of more than FramesetAssembler::kPausePeriods frame periods (and kPauseMinS) in its capture times.
+  /// Gaps of more than FramesetAssembler::kPausePeriods frame periods (and kPauseMinS) in its capture times.
+  uint64_t pauses = 0;
   uint64_t restarts = 0;       ///< Its capture source restarted (a new writer, or frame numbers starting over).
   uint64_t clock_offsets = 0;  ///< Episodes of FramesetAssembler::kOffsetFramesets framesets in a row out of tolerance.
   double period_ms = 0;        ///< Measured frame period (median of recent capture-time steps); 0 until known.

@@ -72,8 +72,10 @@ void DrawMeshes(const NovelView& view, const MeshDraws& meshes, const Eigen::Vec
       if (std::abs(area) < 1e-12) continue;
       // Only pixels whose centre (x + 0.5, y + 0.5) lies in the triangle's box:
       // most of a CAD model's triangles cover no pixel centre at all.
-      const double min_x = std::min(p0.x(), std::min(p1.x(), p2.x())), max_x = std::max(p0.x(), std::max(p1.x(), p2.x()));
-      const double min_y = std::min(p0.y(), std::min(p1.y(), p2.y())), max_y = std::max(p0.y(), std::max(p1.y(), p2.y()));
+      const double min_x = std::min(p0.x(), std::min(p1.x(), p2.x())),
+                   max_x = std::max(p0.x(), std::max(p1.x(), p2.x()));
+      const double min_y = std::min(p0.y(), std::min(p1.y(), p2.y())),
+                   max_y = std::max(p0.y(), std::max(p1.y(), p2.y()));
       if (!(max_x >= 0.5 && max_y >= 0.5 && min_x <= view.width - 0.5 && min_y <= view.height - 0.5)) continue;
       const int x0 = std::max(0, CeilPixel(min_x - 0.5));
       const int x1 = std::min(view.width - 1, FloorPixel(max_x - 0.5));

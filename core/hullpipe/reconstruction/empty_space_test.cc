@@ -30,7 +30,8 @@ std::vector<CameraMap> FigureViews(int n, const Distortion& d = {}, double skew 
   SyntheticScene scene;
   scene.shapes.push_back(Shape::Sphere(c + Eigen::Vector3d(0, 0, -0.55), 0.11));
   scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0, 0, -0.35), c + Eigen::Vector3d(0, 0, 0.1), 0.16));
-  scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0.2, 0, -0.3), c + Eigen::Vector3d(0.45, 0.25, 0.0), 0.045));
+  scene.shapes.push_back(
+      Shape::Capsule(c + Eigen::Vector3d(0.2, 0, -0.3), c + Eigen::Vector3d(0.45, 0.25, 0.0), 0.045));
   scene.shapes.push_back(Shape::Capsule(c + Eigen::Vector3d(0.1, 0, 0.15), c + Eigen::Vector3d(0.12, 0.45, 0.6), 0.07));
   return test::ExactViews(test::WithSkew(RingCameras(n, 3.0, 1.8, c, 322, 243, 1.0, d), skew), scene);
 }

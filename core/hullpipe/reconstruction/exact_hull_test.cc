@@ -207,7 +207,8 @@ TEST(HullExtentAlong, ReachesTheHullsExtremePointAlongATiltedDirection) {
   double ref = -1e300, bx = 0, by = 0;
   auto reach = [&](double x, double y) {
     for (const auto& iv : RayHullIntervals(q, start + x * a + y * b, dir, 0, 2.0))
-      if (dir.dot(start + x * a + y * b) + iv.second > ref) ref = dir.dot(start + x * a + y * b) + iv.second, bx = x, by = y;
+      if (dir.dot(start + x * a + y * b) + iv.second > ref)
+        ref = dir.dot(start + x * a + y * b) + iv.second, bx = x, by = y;
   };
   for (double x = -0.36; x <= 0.36; x += 0.004)
     for (double y = -0.36; y <= 0.36; y += 0.004) reach(x, y);
@@ -229,7 +230,8 @@ TEST(HullExtentAlong, ReachesTheHullsExtremePointAlongATiltedDirection) {
 // the published dome whose first box kept four workspace faces is not at hand.)
 TEST(SampledHullBox, IsWithinAStepOfTheHullOnEveryFace) {
   SyntheticScene scene;
-  scene.shapes.push_back(Shape::Capsule(kCentre + Eigen::Vector3d(-0.2, 0.1, 0.3), kCentre + Eigen::Vector3d(0.25, -0.1, -0.35), 0.12));
+  scene.shapes.push_back(
+      Shape::Capsule(kCentre + Eigen::Vector3d(-0.2, 0.1, 0.3), kCentre + Eigen::Vector3d(0.25, -0.1, -0.35), 0.12));
   // Under kUnknown in a workspace that holds the cameras (the nodes' rule on
   // a dome): a cell just in front of a camera cannot be ruled out by it.
   VolumeQueryOptions o;

@@ -228,7 +228,8 @@ TEST_F(Assembler, ImagesCanBeRequired) {
   for (int id = 1; id <= 3; ++id) a.AddMap(MapSample{.camera_id = id, .seq = 1, .capture_time_ns = 0,
       .camera_count = 3, .map = Map()});
   EXPECT_FALSE(a.IsComplete(1));
-  for (int id = 1; id <= 3; ++id) a.AddImage({.camera_id = id, .seq = 1, .image = cv::Mat(12, 16, CV_8UC3, cv::Scalar(1, 2, 3))});
+  for (int id = 1; id <= 3; ++id)
+    a.AddImage({.camera_id = id, .seq = 1, .image = cv::Mat(12, 16, CV_8UC3, cv::Scalar(1, 2, 3))});
   ASSERT_TRUE(a.IsComplete(1));
   EXPECT_EQ(a.Take(1)->images.size(), 3u);
 }

@@ -144,7 +144,8 @@ StereoViewTrack LoadStereoViewTrack(const std::string& path) {
     const auto& v = row.values;
     StereoViewTrack::Row r;
     r.t = v[0];
-    if (v[1] != 0 && v[1] != 1) throw std::runtime_error(CsvWhere(path, row.line) + "eye must be 0 (left) or 1 (right)");
+    if (v[1] != 0 && v[1] != 1)
+      throw std::runtime_error(CsvWhere(path, row.line) + "eye must be 0 (left) or 1 (right)");
     r.eye = v[1] == 0 ? Eye::kLeft : Eye::kRight;
     try {
       r.world_from_eye = EyePoseFromXr(Eigen::Vector3d(v[2], v[3], v[4]), Eigen::Vector4d(v[5], v[6], v[7], v[8]));

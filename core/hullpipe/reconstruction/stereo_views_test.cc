@@ -53,7 +53,8 @@ TEST(EyeView, TheFrustumsSidesAreTheImagesEdges) {
 // image), including a frustum wholly to one side and a pinhole not made by
 // EyeView; round-trip error is atan's rounding (1e-12 rad).
 TEST(EyeView, FovOfViewGivesBackTheFrustum) {
-  for (const EyeFov& fov : {EyeFov{}, EyeFov{}.Mirrored(), EyeFov{0.1, 0.7, 0.5, -0.2}, EyeFov{-0.9, 0.6, -0.1, -0.7}}) {
+  for (const EyeFov& fov :
+       {EyeFov{}, EyeFov{}.Mirrored(), EyeFov{0.1, 0.7, 0.5, -0.2}, EyeFov{-0.9, 0.6, -0.1, -0.7}}) {
     const EyeFov back = FovOfView(EyeView(fov, 333, 217, Rigid3d{}));
     EXPECT_NEAR(back.left, fov.left, 1e-12);
     EXPECT_NEAR(back.right, fov.right, 1e-12);
@@ -137,7 +138,8 @@ TEST(StereoViews, EachEyesSweepIsTheExactHullFromThatEye) {
   int both = 0, checked = 0;
   for (int r = 4; r < L.height; r += 10)
     for (int c = 4; c < L.width; c += 10) {
-      const Eigen::Vector3d O = L.world_from_eye.translation, D = L.world_from_eye.rotation * L.EyeRay(c + 0.5, r + 0.5);
+      const Eigen::Vector3d O = L.world_from_eye.translation,
+                            D = L.world_from_eye.rotation * L.EyeRay(c + 0.5, r + 0.5);
       const Intervals iv = RayHullIntervals(q, O, D, 1e-6, 100);
       if (iv.empty()) continue;
       const Eigen::Vector3d X = O + iv.front().first * D;

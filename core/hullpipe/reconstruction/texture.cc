@@ -120,10 +120,11 @@ cv::Mat TextureHull(const cv::Mat& depth, const cv::Rect& tile, const NovelView&
     Eigen::Vector2d uv;  // where the camera sees the point (sampled only if blended)
     bool seen;           // passes the visibility test (true without one)
   };
-  // Rows in chunks of 8 (a hull covers few rows of a wide view: fixed bands
-  // would leave a worker idle); the stop flag is polled per row and thrown
-  // from this thread.
-  ForEachRowChunk(depth.rows, 8, threads, [&](int r0, int r1, int) {
+  // Rows in chunks (a hull covers few rows of a wide view: fixed bands would
+  // leave a worker idle); the stop flag is polled per row and thrown from this
+  // thread.
+  constexpr int kRowChunk = 8;  // as the sweep's (a block row of its bounds)
+  ForEachRowChunk(depth.rows, kRowChunk, threads, [&](int r0, int r1, int) {
     std::vector<Candidate> cand;
     for (int r = r0; r < r1 && !Stopped(stop); ++r) {
       for (int c = 0; c < depth.cols; ++c) {

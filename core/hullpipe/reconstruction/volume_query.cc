@@ -127,8 +127,10 @@ struct LensBound {
       x0 = std::min(x0, p.x()), y0 = std::min(y0, p.y()), x1 = std::max(x1, p.x()), y1 = std::max(y1, p.y());
       shift = std::max({shift, std::abs(p.x() - u), std::abs(p.y() - v)});
     };
-    for (double u = 0; u < c.width + 8; u += 8) visit(std::min(u, double(c.width)), 0), visit(std::min(u, double(c.width)), c.height);
-    for (double v = 0; v < c.height + 8; v += 8) visit(0, std::min(v, double(c.height))), visit(c.width, std::min(v, double(c.height)));
+    for (double u = 0; u < c.width + 8; u += 8)
+      visit(std::min(u, double(c.width)), 0), visit(std::min(u, double(c.width)), c.height);
+    for (double v = 0; v < c.height + 8; v += 8)
+      visit(0, std::min(v, double(c.height))), visit(c.width, std::min(v, double(c.height)));
     for (int i = 0; i <= 16; ++i)
       for (int j = 0; j <= 16; ++j) {
         const Eigen::Vector2d xn = c.ImagePlaneFromPixel({x0 + (x1 - x0) * i / 16, y0 + (y1 - y0) * j / 16});

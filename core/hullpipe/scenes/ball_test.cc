@@ -163,7 +163,8 @@ struct ShotFrame {
   TimedHull timed;
 };
 
-ShotFrame ShootSphere(const std::vector<Camera>& cams, int k, double fps, const std::function<SyntheticScene(double)>& at) {
+ShotFrame ShootSphere(const std::vector<Camera>& cams, int k, double fps,
+                      const std::function<SyntheticScene(double)>& at) {
   std::vector<CameraMap> views;
   std::vector<int64_t> skew_ns;
   const int64_t t_ref = int64_t(std::llround(k / fps * 1e9)) + 1'000'000'000;

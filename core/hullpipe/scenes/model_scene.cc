@@ -27,7 +27,8 @@ void ModelEntry::Check() const {
   if (!position.allFinite()) throw std::invalid_argument("models: position must be finite");
   if (!std::isfinite(yaw_deg)) throw std::invalid_argument("models: yaw_deg must be finite");
   if (first_id < 0) throw std::invalid_argument("models: first_id must be >= 0");
-  if (!(warn_distance >= 0 && warn_distance <= 1)) throw std::invalid_argument("models: warn_distance must be in [0, 1] m");
+  if (!(warn_distance >= 0 && warn_distance <= 1))
+    throw std::invalid_argument("models: warn_distance must be in [0, 1] m");
   if (!(max_clearance > 0 && max_clearance <= 1 && max_clearance >= warn_distance))
     throw std::invalid_argument("models: max_clearance must be in (0, 1] m and >= warn_distance");
   if (!(max_pixel_size >= 1e-4 && max_pixel_size <= 0.1))
@@ -178,7 +179,8 @@ class ModelsElement final : public SceneElement {
         for (const auto& v : p.mesh.vertices) box.Extend(v);
         b.centre_body = box.empty() ? Eigen::Vector3d::Zero() : box.Center();
         b.support = -1e300;
-        for (const auto& v : p.mesh.vertices) b.support = std::max(b.support, g_hat_.dot(p.world_from_body.rotation * v));
+        for (const auto& v : p.mesh.vertices)
+          b.support = std::max(b.support, g_hat_.dot(p.world_from_body.rotation * v));
         b.reach = box.empty() ? kMinReach : std::max(kMinReach, 0.5 * (box.max - box.min).minCoeff());
       }
       m.results.resize(m.parts.size());
@@ -353,7 +355,8 @@ class ModelsElement final : public SceneElement {
         }
         if (!hull || p.mesh.triangles.empty()) continue;
         BvhQueryStats one;
-        CollisionResult c = DetectCollisionsBvh(*hull, p.mesh, p.bvh, p.world_from_body, options, batch, threads_, &one);
+        CollisionResult c =
+            DetectCollisionsBvh(*hull, p.mesh, p.bvh, p.world_from_body, options, batch, threads_, &one);
         stats->boxes_tested += one.boxes_tested;
         stats->triangles_queried += one.triangles_queried;
         if (!c.colliding()) continue;
@@ -445,11 +448,21 @@ std::shared_ptr<const SceneElementConfig> ReadModelsSection(const YAML::Node& n,
     entry.Field("file", &e.file, Need::kRequired)
         .Choice<std::optional<double>>("units", &units, {{"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}})
         .Field("scale", &e.scale)
-        .Choice<std::optional<Eigen::Vector3d>>(
-            "up", &up, {{"+x", ux}, {"x", ux}, {"-x", -ux}, {"+y", uy}, {"y", uy}, {"-y", -uy}, {"+z", uz}, {"z", uz}, {"-z", -uz}},
-            "one of +x -x +y -y +z -z")
+        .Choice<std::optional<Eigen::Vector3d>>("up", &up,
+                                                {{"+x", ux},
+                                                 {"x", ux},
+                                                 {"-x", -ux},
+                                                 {"+y", uy},
+                                                 {"y", uy},
+                                                 {"-y", -uy},
+                                                 {"+z", uz},
+                                                 {"z", uz},
+                                                 {"-z", -uz}},
+                                                "one of +x -x +y -y +z -z")
         .Choice("anchor", &e.anchor,
-                {{"origin", Anchor::kOrigin}, {"centre", Anchor::kCentre}, {"center", Anchor::kCentre},
+                {{"origin", Anchor::kOrigin},
+                 {"centre", Anchor::kCentre},
+                 {"center", Anchor::kCentre},
                  {"bottom", Anchor::kBottom}},
                 "origin, centre or bottom")
         .Vec("position", &e.position)

@@ -75,8 +75,9 @@ TEST(ModelScene, UnitsUpAxisAndPoseGiveTheSameWorldTriangles) {
   EXPECT_EQ(*obj.begin(), want);
   EXPECT_EQ(stl, obj);
   // yaw_deg turns about the world's up (-z): 90 degrees takes (0.2, 0, 0) off the x axis.
-  EXPECT_NE(WorldTriangles(Load(dir, head + "  - {file: t.obj, units: mm, up: +y, yaw_deg: 90, position: [1, 2, 3]}\n")),
-            obj);
+  EXPECT_NE(
+      WorldTriangles(Load(dir, head + "  - {file: t.obj, units: mm, up: +y, yaw_deg: 90, position: [1, 2, 3]}\n")),
+      obj);
   // scale: is units' other spelling.
   EXPECT_EQ(WorldTriangles(Load(dir, head + "  - {file: t.obj, scale: 0.001, up: +y, position: [1, 2, 3]}\n")), obj);
   // anchor centre: the model box's centre goes to position.
@@ -112,9 +113,10 @@ TEST(ModelScene, BadEntriesNameTheKey) {
   EXPECT_NE(LoadError(dir, head + "  - {file: absent.obj, units: m}\n").find("absent.obj"), std::string::npos);
   EXPECT_NE(LoadError(dir, "balls: []\nmodels: {file: t.obj}\n").find("list of model entries"), std::string::npos);
   // Two models whose ids overlap.
-  EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, first_id: 5}\n  - {file: t.obj, units: m, first_id: 5}\n")
-                .find("overlap"),
-            std::string::npos);
+  EXPECT_NE(
+      LoadError(dir, head + "  - {file: t.obj, units: m, first_id: 5}\n  - {file: t.obj, units: m, first_id: 5}\n")
+          .find("overlap"),
+      std::string::npos);
   // Read without importing (render_node): keys only, the file is not opened.
   const fs::path p = dir / "noimport.yaml";
   std::ofstream(p) << head << "  - {file: absent.obj, units: m}\n";
@@ -132,8 +134,9 @@ TEST(ModelScene, AbsurdScalesAndPartFloodsAreRefusedNamingTheKey) {
   std::ofstream(dir / "far.obj") << "o t\nv 0 0 0\nv 1e38 0 0\nv 0 1e38 0\nf 1 2 3\n";
   const std::string head = "balls: []\nmodels:\n";
   for (const char* scale : {"1e308", "1e30", "0", "-1", "1e-9", ".nan"})
-    EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, scale: " + scale + "}\n").find("models[0]': models: scale must be in"),
-              std::string::npos)
+    EXPECT_NE(
+        LoadError(dir, head + "  - {file: t.obj, scale: " + scale + "}\n").find("models[0]': models: scale must be in"),
+        std::string::npos)
         << scale;
   EXPECT_NE(LoadError(dir, head + "  - {file: t.obj, units: m, position: [1e300, 0, 0]}\n").find("position"),
             std::string::npos);

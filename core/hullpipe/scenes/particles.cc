@@ -14,7 +14,8 @@
 namespace hullpipe {
 
 void ParticleConfig::Check() const {
-  if (!emitter.allFinite() || !velocity.allFinite()) throw std::invalid_argument("particles: emitter and velocity must be finite");
+  if (!emitter.allFinite() || !velocity.allFinite())
+    throw std::invalid_argument("particles: emitter and velocity must be finite");
   if (!(emitter_radius >= 0)) throw std::invalid_argument("particles: emitter_radius must be >= 0");
   if (!(velocity_jitter >= 0)) throw std::invalid_argument("particles: velocity_jitter must be >= 0");
   if (!(rate >= 0 && rate <= 1e6)) throw std::invalid_argument("particles: rate must be in [0, 1e6]");

@@ -98,7 +98,8 @@ void PayloadConfig::Check() const {
   if (!(spacing >= 0 && spacing < 10)) throw std::invalid_argument("payload: spacing must be in [0, 10) m");
   if (!(shaft_radius > 0) || !(shaft_length > 0))
     throw std::invalid_argument("payload: shaft_radius and shaft_length must be > 0");
-  if (!(max_clearance > 0 && max_clearance <= 2)) throw std::invalid_argument("payload: max_clearance must be in (0, 2]");
+  if (!(max_clearance > 0 && max_clearance <= 2))
+    throw std::invalid_argument("payload: max_clearance must be in (0, 2]");
   if (!(collision.max_pixel_size >= TriangleQueryOptions::kMinPixelSize && collision.max_pixel_size <= 1))
     throw std::invalid_argument("payload: max_pixel_size must be in [1e-05, 1] m");
   collision.Check();

@@ -191,7 +191,8 @@ SceneConfig LoadSceneConfig(const std::string& path, const SceneLoadOptions& loa
     }
     if (root["response"]) {
       const std::string r = root["response"].as<std::string>();
-      if (r != "exact" && r != "paper") throw std::runtime_error(path + ": 'response' must be exact or paper, not " + r);
+      if (r != "exact" && r != "paper")
+        throw std::runtime_error(path + ": 'response' must be exact or paper, not " + r);
       cfg.response = r == "exact" ? SceneConfig::Response::kExact : SceneConfig::Response::kPaper;
     }
     if (const YAML::Node v = root["hull_velocity"]) {

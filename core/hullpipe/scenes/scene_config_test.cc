@@ -23,7 +23,8 @@ namespace hullpipe {
 namespace {
 
 TEST(SceneFiles, EveryShippedSceneLoads) {
-  for (const char* name : {"ball", "ball_blocks", "bat", "bat_rig", "curtain", "particles", "payload", "payload_engine", "lighting"}) {
+  for (const char* name :
+       {"ball", "ball_blocks", "bat", "bat_rig", "curtain", "particles", "payload", "payload_engine", "lighting"}) {
     const std::string path = std::string(HULLPIPE_SOURCE_DIR) + "/scenes/" + name + ".yaml";
     EXPECT_NO_THROW(VirtualScene(LoadSceneConfig(path))) << path;
   }
@@ -66,7 +67,8 @@ TEST(SceneFiles, BadFilesNameTheKey) {
        "300 balls; at most 256"},
       {[] {
          std::string t = "balls:\n";
-         for (int k = 0; k < 60; ++k) t += "  - {radius: 0.1, start: [1, 0, -1], target: [0, 0, -1], subdivisions: 5}\n";
+         for (int k = 0; k < 60; ++k)
+           t += "  - {radius: 0.1, start: [1, 0, -1], target: [0, 0, -1], subdivisions: 5}\n";
          return t;
        }(),
        "the balls have 1228800 triangles together; at most 1048576"},

@@ -49,7 +49,8 @@ TEST(ObjectPixelMap, RunLengthEncodeEqualsThePlainPerPixelEncoder) {
     bool obj = rng() % 2;
     for (int i = 0; i < w * h;) {
       const int len = int(rng() % 20);
-      for (int k = 0; k < len && i < w * h; ++k, ++i) map.at<uint8_t>(i / w, i % w) = obj ? uint8_t(1 + rng() % 255) : 0;
+      for (int k = 0; k < len && i < w * h; ++k, ++i)
+        map.at<uint8_t>(i / w, i % w) = obj ? uint8_t(1 + rng() % 255) : 0;
       obj = !obj;
     }
     ASSERT_EQ(RunLengthEncode(map), plain(map)) << w << "x" << h << " trial " << trial;

@@ -245,8 +245,10 @@ TEST(Segmentation, TheByteTestGivesExactlyTheFloatRuleForAnyOptions) {
         const int kind = byte(rng) % 4;  // unchanged+noise, shadow, new colour, brighter
         for (int ch = 0; ch < 3; ++ch) {
           const int v = (*it)[ch];
-          (*it)[ch] = cv::saturate_cast<uint8_t>(kind == 0 ? v + noise(rng) : kind == 1 ? v * (30 + byte(rng) % 71) / 100
-                                                 : kind == 2 ? byte(rng) : v + 40);
+          (*it)[ch] = cv::saturate_cast<uint8_t>(kind == 0   ? v + noise(rng)
+                                                 : kind == 1 ? v * (30 + byte(rng) % 71) / 100
+                                                 : kind == 2 ? byte(rng)
+                                                             : v + 40);
         }
       }
       return frame;
@@ -271,7 +273,8 @@ TEST(Segmentation, TheByteTestGivesExactlyTheFloatRuleForAnyOptions) {
     ASSERT_GT(cv::norm(model.background_bgr(), before, cv::NORM_INF), 20) << "control: the background moved";
     for (size_t k = 0; k < options.size(); ++k) {
       const cv::Mat ref = ReferenceRule(model.background_bgr(), model.value_spread(), frame, options[k]);
-      EXPECT_EQ(cv::countNonZero(model.ObjectPixels(frame, options[k]) != ref), 0) << size << " after Follow, options " << k;
+      EXPECT_EQ(cv::countNonZero(model.ObjectPixels(frame, options[k]) != ref), 0)
+          << size << " after Follow, options " << k;
     }
     // Segment is the test, then the cleaning.
     cv::Mat expected = model.ObjectPixels(frame);

@@ -268,8 +268,8 @@ class VideoRig final : public RigSource {
       ++index_;
       return true;
     }
-    const double timeout =
-        any_live_frame_ ? options_.live_timeout_s : std::max(options_.live_timeout_s, VideoRigOptions::kFirstLiveFrameS);
+    const double timeout = any_live_frame_ ? options_.live_timeout_s
+                                           : std::max(options_.live_timeout_s, VideoRigOptions::kFirstLiveFrameS);
     if (now - last_live_frame_s_ > timeout) {
       f->errors.push_back(cv::format("no frame from any live camera for %.1f s%s: input ended", timeout,
                                      any_live_frame_ ? "" : " (none since the start)"));
@@ -311,11 +311,11 @@ class VideoRig final : public RigSource {
         wrong = 0;
         frames.push_back(img);
       } else if (++wrong >= kWrongSizeFrames || MonotonicSeconds() - last > options_.live_timeout_s) {
-        throw std::runtime_error("camera " + std::to_string(c.camera.id) + ": " + c.frames_spec + " delivers " +
-                                 std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                                 (img.type() == CV_8UC3 ? "" : " (not 8-bit colour)") + " frames, its calibration says " +
-                                 std::to_string(c.camera.width) + "x" + std::to_string(c.camera.height) +
-                                 ": set the camera's mode to the calibrated size, or calibrate it at this one");
+        throw std::runtime_error(
+            "camera " + std::to_string(c.camera.id) + ": " + c.frames_spec + " delivers " + std::to_string(img.cols) +
+            "x" + std::to_string(img.rows) + (img.type() == CV_8UC3 ? "" : " (not 8-bit colour)") +
+            " frames, its calibration says " + std::to_string(c.camera.width) + "x" + std::to_string(c.camera.height) +
+            ": set the camera's mode to the calibrated size, or calibrate it at this one");
       }
     }
     c.background = BackgroundModel(frames);

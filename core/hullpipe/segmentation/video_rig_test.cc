@@ -31,7 +31,8 @@ std::string WriteImageRig(const std::filesystem::path& dir, bool with_masks, int
       cv::imwrite((dir / cd / cv::format("frame_%03d.png", k)).string(), RenderColour(c, s));
       cv::imwrite((dir / cd / cv::format("mask_%03d.png", k)).string(), RenderExactMap(c, s));
     }
-    rig.cameras.push_back({c, cd + "/background.png", cd + "/frame_%03d.png", with_masks ? cd + "/mask_%03d.png" : "", 0.0, ""});
+    rig.cameras.push_back(
+        {c, cd + "/background.png", cd + "/frame_%03d.png", with_masks ? cd + "/mask_%03d.png" : "", 0.0, ""});
   }
   WriteRigYaml(rig, (dir / "rig.yaml").string());
   return (dir / "rig.yaml").string();

@@ -14,7 +14,8 @@ namespace {
 TEST(RejectLog, AFloodIsWrittenAsABurstThenALineASecondWithTheCount) {
   std::ostringstream text;
   auto previous = spdlog::default_logger();
-  spdlog::set_default_logger(std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::ostream_sink_mt>(text)));
+  spdlog::set_default_logger(
+      std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::ostream_sink_mt>(text)));
   RejectLog log;
   // 10,000 rejections 1/4096 s apart (exact in binary) on the node's clock.
   int written = 0;

@@ -28,7 +28,10 @@ inline std::optional<uint64_t> ParseRunId(const std::string& text) {
   if (text.empty() || text.size() > 16) return std::nullopt;
   uint64_t id = 0;
   for (const char c : text) {
-    const int d = c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+    const int d = c >= '0' && c <= '9'   ? c - '0'
+                  : c >= 'a' && c <= 'f' ? c - 'a' + 10
+                  : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                         : -1;
     if (d < 0) return std::nullopt;
     id = id << 4 | uint64_t(d);
   }

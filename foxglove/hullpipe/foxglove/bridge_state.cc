@@ -179,7 +179,8 @@ std::vector<Outgoing> BridgeState::OnText(uint64_t client, const std::string& te
       mine[uint32_t(id)] = uint32_t(channel);
       const auto latched = latched_.find(uint32_t(channel));
       if (latched != latched_.end())
-        for (const auto& [key, l] : latched->second) out.push_back({client, true, Data(uint32_t(id), l.stamp_ns, l.payload)});
+        for (const auto& [key, l] : latched->second)
+          out.push_back({client, true, Data(uint32_t(id), l.stamp_ns, l.payload)});
     }
   } else if (op == "unsubscribe") {
     if (!j.contains("subscriptionIds") || !j["subscriptionIds"].is_array())

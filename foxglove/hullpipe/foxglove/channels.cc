@@ -28,7 +28,8 @@ std::string Schema(const std::string& title, const std::string& properties) {
   return R"({"title":")" + title + R"(","type":"object","properties":{)" + properties + "}}";
 }
 
-const std::string kVec3 = R"({"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}})";
+const std::string kVec3 =
+    R"({"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}})";
 const std::string kQuat =
     R"({"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}})";
 const std::string kColor =
@@ -36,8 +37,9 @@ const std::string kColor =
 const std::string kPose = R"({"type":"object","properties":{"position":)" + kVec3 + R"(,"orientation":)" + kQuat + "}}";
 
 const std::string kCompressedImage = Schema(
-    "foxglove.CompressedImage", std::string(R"("timestamp":)") + kTime +
-                                    R"(,"frame_id":{"type":"string"},"data":{"type":"string","contentEncoding":"base64"},"format":{"type":"string"})");
+    "foxglove.CompressedImage",
+    std::string(R"("timestamp":)") + kTime +
+        R"(,"frame_id":{"type":"string"},"data":{"type":"string","contentEncoding":"base64"},"format":{"type":"string"})");
 const std::string kCameraCalibration = Schema(
     "foxglove.CameraCalibration",
     std::string(R"("timestamp":)") + kTime +
@@ -118,7 +120,8 @@ json Bgr(const cv::Vec3b& c) { return Rgba(c[2] / 255.0, c[1] / 255.0, c[0] / 25
 json Vec(double x, double y, double z) { return {{"x", x}, {"y", y}, {"z", z}}; }
 
 json Pose(const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
-  return {{"position", Vec(p.x(), p.y(), p.z())}, {"orientation", {{"x", q.x()}, {"y", q.y()}, {"z", q.z()}, {"w", q.w()}}}};
+  return {{"position", Vec(p.x(), p.y(), p.z())},
+          {"orientation", {{"x", q.x()}, {"y", q.y()}, {"z", q.z()}, {"w", q.w()}}}};
 }
 
 json Sphere(const Eigen::Vector3d& p, double diameter, json color) {

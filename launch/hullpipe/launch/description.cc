@@ -71,9 +71,10 @@ NodeSpec ParseNode(const YAML::Node& n) {
   bool known = false;
   for (const char* e : kNodeExecs) known |= s.exec == e;
   if (!known)
-    throw std::runtime_error("node " + s.name + ": exec '" + s.exec +
-                             "' is not a hullpipe node (render_node, recon_node, sim_node, capture_node, hullpipe_bridge, "
-                             "hullpipe_ros2)");
+    throw std::runtime_error(
+        "node " + s.name + ": exec '" + s.exec +
+        "' is not a hullpipe node (render_node, recon_node, sim_node, capture_node, hullpipe_bridge, "
+        "hullpipe_ros2)");
   if (n["start_delay"]) {
     s.start_delay = n["start_delay"].as<double>(-1.0);  // not a number: refused here, naming the key
     if (!(s.start_delay >= 0 && s.start_delay <= 60))

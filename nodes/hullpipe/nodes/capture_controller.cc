@@ -22,7 +22,8 @@ void CaptureOptions::Check() const {
   if (!(max_lag_s > 0 && max_lag_s <= 60)) throw std::invalid_argument("--max-lag must be in (0, 60] seconds");
   if (!(timeline_window_s >= 1 && timeline_window_s <= 86400))
     throw std::invalid_argument("--timeline-window must be in [1, 86400] seconds");
-  if (threads < 0 || threads > 256) throw std::invalid_argument("--threads must be in [0, 256] (0: the machine's cores)");
+  if (threads < 0 || threads > 256)
+    throw std::invalid_argument("--threads must be in [0, 256] (0: the machine's cores)");
   if (!(camera_pose_hold_s > 0 && camera_pose_hold_s <= 1))
     throw std::invalid_argument("--camera-pose-hold must be in (0, 1] seconds");
 }

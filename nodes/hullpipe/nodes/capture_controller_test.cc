@@ -215,8 +215,9 @@ TEST(Capture, AScaledImageRegionIsTheWholeScaledImagesPixels) {
     cv::Mat whole = image;
     if (scale < 1) cv::resize(image, whole, cv::Size(), scale, scale, cv::INTER_AREA);
     EXPECT_EQ(ScaledImageSize(image.size(), scale), whole.size());
-    for (const cv::Rect r : {cv::Rect(10, 7, 31, 19), cv::Rect(0, 0, 5, 5), cv::Rect(whole.cols - 9, whole.rows - 4, 9, 4),
-                             cv::Rect(whole.cols - 3, 2, 40, 40), cv::Rect()}) {
+    for (const cv::Rect r :
+         {cv::Rect(10, 7, 31, 19), cv::Rect(0, 0, 5, 5), cv::Rect(whole.cols - 9, whole.rows - 4, 9, 4),
+          cv::Rect(whole.cols - 3, 2, 40, 40), cv::Rect()}) {
       const cv::Mat got = ScaledImageRegion(image, scale, r);
       const cv::Rect in = r & cv::Rect(cv::Point(0, 0), whole.size());
       ASSERT_EQ(got.size(), in.size()) << r;

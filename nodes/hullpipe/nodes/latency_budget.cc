@@ -55,7 +55,9 @@ std::string Stamps(const std::string& stage) {
 
 // Hosts of the writers of a transport stage's samples.
 std::set<std::string> WriterHosts(const std::string& stage, const std::map<std::string, NodeStatsSample>& reports) {
-  const std::string writer_kind = stage == "transport_tile" ? "recon" : stage == "transport_map" || stage == "transport_image" ? "capture" : "";
+  const std::string writer_kind = stage == "transport_tile"                                ? "recon"
+                                  : stage == "transport_map" || stage == "transport_image" ? "capture"
+                                                                                           : "";
   std::set<std::string> hosts;
   for (const auto& [name, r] : reports)
     if (!writer_kind.empty() && Kind(name) == writer_kind && !r.host.empty()) hosts.insert(r.host);
@@ -183,12 +185,14 @@ nlohmann::json LatencyBudget::ToJson() const {
                       {"on_path", r.on_path}, {"start_ms", r.start_ms}, {"stamps", r.stamps},
                       {"crosses_hosts", r.crosses_hosts}});
   return {{"rows", rows_j},
-          {"end_to_end_ms", {{"p50", end_to_end_p50_ms}, {"p95", end_to_end_p95_ms}, {"crosses_hosts", end_to_end_crosses_hosts}}},
+          {"end_to_end_ms",
+           {{"p50", end_to_end_p50_ms}, {"p95", end_to_end_p95_ms}, {"crosses_hosts", end_to_end_crosses_hosts}}},
           {"path_p50_sum_ms", path_p50_sum_ms},
           {"critical_recon", critical_recon},
-          {"clocks", "node: both stamps on the node's monotonic clock; writer->reader: the DDS source timestamp "
-                     "(writer's host) to the take (reader's host); timeline->node: the frame's due time on the "
-                     "capture timeline to the node's read (docs/latency.md)"}};
+          {"clocks",
+           "node: both stamps on the node's monotonic clock; writer->reader: the DDS source timestamp "
+           "(writer's host) to the take (reader's host); timeline->node: the frame's due time on the "
+           "capture timeline to the node's read (docs/latency.md)"}};
 }
 
 std::string LatencyBudget::Table() const {

@@ -28,9 +28,11 @@ const BudgetRow* Find(const LatencyBudget& b, const std::string& node, const std
 std::map<std::string, NodeStatsSample> FiveNodes() {
   std::map<std::string, NodeStatsSample> m;
   m["capture"] = Report("capture", "a", {{"publish", 0.5}, {"read", 3}, {"lag", 2}, {"segment", 4}, {"encode", 1}});
-  m["recon0"] = Report("recon0", "b", {{"transport_map", 1}, {"wait", 5}, {"sweep", 10}, {"texture", 3}, {"publish", 0.25}});
-  m["recon1"] = Report("recon1", "a", {{"transport_map", 1}, {"wait", 5}, {"sweep", 12}, {"texture", 3}, {"publish", 0.25},
-                                       {"transport_image", 2}});
+  m["recon0"] =
+      Report("recon0", "b", {{"transport_map", 1}, {"wait", 5}, {"sweep", 10}, {"texture", 3}, {"publish", 0.25}});
+  m["recon1"] = Report(
+      "recon1", "a",
+      {{"transport_map", 1}, {"wait", 5}, {"sweep", 12}, {"texture", 3}, {"publish", 0.25}, {"transport_image", 2}});
   m["sim"] = Report("sim", "a", {{"step", 4}, {"transport_map", 1}});
   m["render"] = Report("render", "a", {{"composite", 2}, {"write", 1}, {"transport_tile", 0.5}, {"issue", 1},
                                        {"tiles", 30}, {"transport_map", 1}, {"gamma", 0.1}, {"publish", 0.5}});

@@ -32,7 +32,9 @@ Flags ParseAs(const std::string& exe, std::vector<std::string> args, ResolveArgs
 LaunchFlags ParseLaunch(const std::vector<std::string>& args) {
   return ParseAs<LaunchFlags>("hullpipe_launch", args, std::string(HULLPIPE_SOURCE_DIR));
 }
-RenderFlags ParseRender(const std::vector<std::string>& args) { return ParseAs<RenderFlags>("render_node", args, false); }
+RenderFlags ParseRender(const std::vector<std::string>& args) {
+  return ParseAs<RenderFlags>("render_node", args, false);
+}
 ReconFlags ParseRecon(const std::vector<std::string>& args) { return ParseAs<ReconFlags>("recon_node", args); }
 
 TEST(LaunchFlags, DefaultsGiveTheDescriptionItsVariablesAndRenderNothingMore) {

@@ -379,7 +379,8 @@ TEST_F(Render, CompositesWithTheDepthTestAndDrawsCollidingObjectsRed) {
   r.OnObjectState(box);
   r.OnTile(WholeTile(sink_.poses.back(), kNoDepth, {0, 0, 0}));
   ASSERT_EQ(r.Step(), 1);
-  EXPECT_TRUE(Red(sink_.frames.back().second.at<cv::Vec3b>(24, 32))) << sink_.frames.back().second.at<cv::Vec3b>(24, 32);
+  EXPECT_TRUE(Red(sink_.frames.back().second.at<cv::Vec3b>(24, 32)))
+      << sink_.frames.back().second.at<cv::Vec3b>(24, 32);
 }
 
 // Once a pose's tiles are in, render waits briefly for the simulation's step of
@@ -569,15 +570,17 @@ TEST_F(Render, TheEyesFollowAnHmdRuntimesLiveViews) {
   StereoOptions so;
   so.width = o.width, so.height = o.height;
   const auto [l0, r0] = frame(1);
-  EXPECT_LT((l0.world_from_eye.translation - MakeStereoViews(r.orbit().WorldFromEye(0), so).eye[0].world_from_eye.translation)
-                .norm(),
-            1e-12)
+  EXPECT_LT(
+      (l0.world_from_eye.translation - MakeStereoViews(r.orbit().WorldFromEye(0), so).eye[0].world_from_eye.translation)
+          .norm(),
+      1e-12)
       << "the orbit's eyes before any sample";
   EXPECT_FALSE(r.counters().stages().count("tracker_to_eye"));
   EyeViewsSample v;
   v.stamp_ns = clock_.WallNs() - 20'000'000;  // the runtime's views, 20 ms old
   v.world_from_eye[0] = LookAt(Eigen::Vector3d(1.0, 2, -1.5), hullpipe::test::kSphereCentre, Eigen::Vector3d(0, 0, -1));
-  v.world_from_eye[1] = LookAt(Eigen::Vector3d(1.07, 2, -1.5), hullpipe::test::kSphereCentre, Eigen::Vector3d(0, 0, -1));
+  v.world_from_eye[1] =
+      LookAt(Eigen::Vector3d(1.07, 2, -1.5), hullpipe::test::kSphereCentre, Eigen::Vector3d(0, 0, -1));
   v.fov = {EyeFov{-0.7, 0.5, 0.6, -0.6}, EyeFov{-0.5, 0.7, 0.6, -0.6}};
   r.OnEyeViews(v);
   const auto [l1, r1] = frame(2);
@@ -1158,7 +1161,8 @@ TEST(RenderFlags, ParsedAndResolvedOnce) {
   for (const auto& [args, flag] : std::vector<std::pair<std::vector<std::string>, std::string>>{
            {{"--view", "file"}, "--head-poses"},
            {{"--view", "eyes"}, "--eye-views"},
-           {{"--view", "eyes-topic", "--eye-views", HULLPIPE_SOURCE_DIR "/scenes/eye_views_example.csv"}, "--eye-views"},
+           {{"--view", "eyes-topic", "--eye-views", HULLPIPE_SOURCE_DIR "/scenes/eye_views_example.csv"},
+            "--eye-views"},
            {{"--ipd", "0.07"}, "--stereo"},
            {{"--view", "eyes-topic", "--fov-left", "-0.8,0.7,0.8,-0.8"}, "--fov-left"},
            {{"--stereo", "--ipd", "0.2"}, "--ipd"},

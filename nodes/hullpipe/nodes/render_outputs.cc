@@ -47,7 +47,8 @@ void RenderOutputs::WriteFrame(const cv::Mat& frame, uint64_t frame_seq, uint64_
   }
   const auto every = uint64_t(o_.png_every);
   if (o_.png_every > 0 && count % every == 1 % every) {
-    const std::string stem = (fs::path(o_.out_dir) / cv::format("frame_%05llu", (unsigned long long)frame_seq)).string();
+    const std::string stem =
+        (fs::path(o_.out_dir) / cv::format("frame_%05llu", (unsigned long long)frame_seq)).string();
     Write(stem + ".png", frame);
     if (o_.save_depth) {
       // The hull's eye-z depth (float TIFF, metres, +inf: no hull) and the view

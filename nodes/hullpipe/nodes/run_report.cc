@@ -31,7 +31,8 @@ bool RunReport::OnNodeStats(const NodeStatsSample& m) {
 void RunReport::OnCollisionReport(bool has_points, uint8_t hull_velocity_status, double hull_normal_speed) {
   if (has_points) ++collision_reports_;
   using S = HullVelocityStatus;
-  if (hull_velocity_status == uint8_t(S::kNone) || hull_velocity_status > uint8_t(S::kAppeared)) return;  // none, or unknown
+  if (hull_velocity_status == uint8_t(S::kNone) || hull_velocity_status > uint8_t(S::kAppeared))
+    return;  // none, or unknown
   ++hull_velocity_statuses_[hull_velocity_status];
   if ((hull_velocity_status == uint8_t(S::kMeasured) || hull_velocity_status == uint8_t(S::kClamped)) &&
       std::isfinite(hull_normal_speed)) {

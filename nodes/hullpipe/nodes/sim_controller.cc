@@ -38,7 +38,8 @@ int SimController::Step() {
   }
   counters_.SetDropped(assembler_.dropped());
   counters_.SetAssembly(assembler_.SkewReports(), assembler_.dropped_for_skew());
-  counters_.SetRejected(assembler_.rejected() + assembler_.calibrations_refused() + commands_rejected_ + malformed_input_);
+  counters_.SetRejected(assembler_.rejected() + assembler_.calibrations_refused() + commands_rejected_ +
+                        malformed_input_);
   return stepped;
 }
 
@@ -102,8 +103,8 @@ void SimController::StepOne(const Frameset& fs) {
   }
   collisions_ += out.colliding_bodies;
   // Part events at a bounded rate (a token bucket on source time).
-  part_event_tokens_ = std::min(kPartEventBurst, part_event_tokens_ + std::max(0.0, fs.source_time_s - part_event_time_s_) *
-                                                                          kPartEventLinesPerS);
+  part_event_tokens_ = std::min(
+      kPartEventBurst, part_event_tokens_ + std::max(0.0, fs.source_time_s - part_event_time_s_) * kPartEventLinesPerS);
   part_event_time_s_ = fs.source_time_s;
   for (const PartCollisionEvent& e : out.events) {
     ++part_events_;

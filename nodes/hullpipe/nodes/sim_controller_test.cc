@@ -42,11 +42,13 @@ TEST(Sim, PartCollisionEventsAreLoggedAtABoundedRateWithCounts) {
     {
       std::ofstream o(dir / "parts.obj");
       for (int k = 0; k < n_parts; ++k)
-        hullpipe::test::WriteObjCube(o, "p" + std::to_string(k),
-                                     hullpipe::test::kSphereCentre + Eigen::Vector3d(0.002 * (k % 10), 0.002 * (k / 10 % 10), 0.002 * (k / 100)),
-                                     0.001, 8 * k);
+        hullpipe::test::WriteObjCube(
+            o, "p" + std::to_string(k),
+            hullpipe::test::kSphereCentre + Eigen::Vector3d(0.002 * (k % 10), 0.002 * (k / 10 % 10), 0.002 * (k / 100)),
+            0.001, 8 * k);
     }
-    std::ofstream(dir / "scene.yaml") << "balls: []\nmodels:\n  - {file: parts.obj, units: m, up: -z, anchor: origin}\n";
+    std::ofstream(dir / "scene.yaml")
+        << "balls: []\nmodels:\n  - {file: parts.obj, units: m, up: -z, anchor: origin}\n";
     const SceneConfig scene = LoadSceneConfig((dir / "scene.yaml").string());
     FakeClock clock;
     FramesetAssembler assembler(6, false);

@@ -29,7 +29,8 @@ std::vector<std::string> OfferedExtensions() {
   CheckXr(xrEnumerateInstanceExtensionProperties(nullptr, 0, &n, nullptr), "xrEnumerateInstanceExtensionProperties",
         "no OpenXR runtime is active (XR_RUNTIME_JSON, or the system's active_runtime.json)");
   std::vector<XrExtensionProperties> props(n, XrExtensionProperties{XR_TYPE_EXTENSION_PROPERTIES, nullptr, {}, 0});
-  CheckXr(xrEnumerateInstanceExtensionProperties(nullptr, n, &n, props.data()), "xrEnumerateInstanceExtensionProperties");
+  CheckXr(xrEnumerateInstanceExtensionProperties(nullptr, n, &n, props.data()),
+          "xrEnumerateInstanceExtensionProperties");
   std::vector<std::string> names;
   for (uint32_t i = 0; i < n && i < props.size(); ++i)
     names.emplace_back(props[i].extensionName, strnlen(props[i].extensionName, XR_MAX_EXTENSION_NAME_SIZE));

@@ -180,7 +180,8 @@ size_t Ros2Bridge::Step() {
 }
 
 void Ros2Bridge::OnPose(const geometry_msgs_msg_dds__PoseStamped_& m) {
-  if (const auto pose = Checked([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, "a tracker pose"))
+  if (const auto pose =
+          Checked([&](const PoseCheck& check) { return HeadFromPoseStamped(m, check); }, "a tracker pose"))
     PassOnHead(*pose, m.header.stamp);
 }
 

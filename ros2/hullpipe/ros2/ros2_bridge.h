@@ -107,7 +107,8 @@ class Ros2Bridge {
   auto Checked(const Convert& convert, const std::string& what)
       -> std::optional<std::invoke_result_t<const Convert&, const PoseCheck&>>;
   void PassOnHead(const Rigid3d& world_from_eye, const builtin_interfaces_msg_dds__Time_& stamp);
-  void PassOnCamera(uint32_t camera_id, const Rigid3d& world_from_camera, const builtin_interfaces_msg_dds__Time_& stamp);
+  void PassOnCamera(uint32_t camera_id, const Rigid3d& world_from_camera,
+                    const builtin_interfaces_msg_dds__Time_& stamp);
   void Refused(uint64_t* counter, const std::string& kind, const std::string& why);
 
   const dds::Participant& ros_;

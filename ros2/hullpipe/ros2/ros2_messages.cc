@@ -109,7 +109,8 @@ RosSample<sensor_msgs_msg_dds__Image_> MakeMono8Image(const cv::Mat& map, int64_
   return PackedImage(map, stamp_ns, frame_id, "mono8");
 }
 
-RosSample<sensor_msgs_msg_dds__Image_> MakeBgr8Image(const cv::Mat& bgr, int64_t stamp_ns, const std::string& frame_id) {
+RosSample<sensor_msgs_msg_dds__Image_> MakeBgr8Image(const cv::Mat& bgr, int64_t stamp_ns,
+                                                     const std::string& frame_id) {
   if (bgr.empty() || bgr.type() != CV_8UC3) throw dds::MessageError("Image: a camera frame is CV_8UC3");
   return PackedImage(bgr, stamp_ns, frame_id, "bgr8");
 }
