@@ -28,16 +28,18 @@ namespace hullpipe {
 // every plane counted before a query's bucket is below the query's depth.
 class PlaneIndex {
  public:
-  // depths: non-decreasing and finite (a sweep's planes), possibly empty; held
-  // by reference, so it must outlive the index and not change. Throws
-  // std::invalid_argument when the list is not sorted or holds a NaN or an
-  // infinity.
+  /// depths: non-decreasing and finite (a sweep's planes), possibly empty; held
+  /// by reference, so it must outlive the index and not change. Throws
+  /// std::invalid_argument when the list is not sorted or holds a NaN or an
+  /// infinity.
   explicit PlaneIndex(const std::vector<double>& depths);
 
-  // The first index i with depths[i] >= x (std::lower_bound's), or size().
+  /// The first index i with depths[i] >= x (std::lower_bound's), or size().
   size_t FirstNotBelow(double x) const { return Find<false>(x); }
-  // The first index i with depths[i] > x (std::upper_bound's), or size().
+  /// The first index i with depths[i] > x (std::upper_bound's), or size().
   size_t FirstAbove(double x) const { return Find<true>(x); }
+  /// The plane depths indexed (the list given, not a copy), and their count.
+  const std::vector<double>& depths() const { return depths_; }
   size_t size() const { return depths_.size(); }
 
  private:

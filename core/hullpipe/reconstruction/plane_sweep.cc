@@ -353,8 +353,9 @@ void TightenBounds(const VolumeQuery& query, const NovelView& view, const cv::Re
 // refinement looks for no near misses and skips no runs).
 template <bool kRefine>
 void SweepRows(const VolumeQuery& query, const EmptySpace& empty, const SweepBounds& bounds, const NovelView& view,
-               const std::vector<double>& depths, const PlaneIndex& planes, const cv::Rect& tile, int row_begin,
-               int row_end, cv::Mat& out, SweepStats* stats, int refine_iterations, StopFlag stop) {
+               const PlaneIndex& planes, const cv::Rect& tile, int row_begin, int row_end, cv::Mat& out,
+               SweepStats* stats, int refine_iterations, StopFlag stop) {
+  const std::vector<double>& depths = planes.depths();
   RayQuery ray(query, view, &empty);
   const bool prune = kRefine && query.options().prune_near_misses;
   // Without refinement a point costs about one projection (the camera that
@@ -742,7 +743,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
     SweepDepthBounds(query, view, tile, depths, false, &bounds, stop, threads);
     const PlaneIndex planes(depths);
     ForRowChunks(tile.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
-      SweepRows<false>(query, empty, bounds, view, depths, planes, tile, r0, r1, out, st, 0, stop);
+      SweepRows<false>(query, empty, bounds, view, planes, tile, r0, r1, out, st, 0, stop);
     });
     ThrowIfStopped(stop, "the plane sweep");
     if (stats) stats->sweep_ms += (MonotonicSeconds() - t0) * 1e3;
@@ -758,8 +759,7 @@ cv::Mat PlaneSweepCpu(const VolumeQuery& query, const NovelView& view,
   SweepDepthBounds(query, view, region, depths, true, &bounds, stop, threads);
   const PlaneIndex planes(depths);
   ForRowChunks(region.height, threads, stats, [&](int r0, int r1, SweepStats* st) {
-    SweepRows<true>(query, empty, bounds, view, depths, planes, region, r0, r1, swept, st, refine_iterations,
-                    stop);
+    SweepRows<true>(query, empty, bounds, view, planes, region, r0, r1, swept, st, refine_iterations, stop);
   });
   ThrowIfStopped(stop, "the plane sweep");
   const double t1 = MonotonicSeconds();

@@ -48,8 +48,9 @@ void ForEachRowBand(int height, int threads, Rows&& rows) {
 /// Calls rows(r, thread) once for every r in [0, count), the rows handed out one
 /// at a time to `threads` workers (thread 0 the calling thread, the others kept:
 /// RunOnThreads) as each finishes its last: for rows of very unequal cost,
-/// where fixed bands would leave one thread waiting on another. threads is clamped to [1, max(1, count)]; rows
-/// must be safe to run concurrently on different rows.
+/// where fixed bands would leave one thread waiting on another. threads is
+/// clamped to [1, max(1, count)]; rows must be safe to run concurrently on
+/// different rows.
 template <class Rows>
 void ForEachRowDynamic(int count, int threads, Rows&& rows) {
   threads = std::clamp(threads, 1, std::max(1, count));
