@@ -434,6 +434,55 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
         }
     });
   }
+  // The stereo frame of each recon node as the demo runs them (hullpipe_launch:
+  // two recon nodes on one host, --threads 0 giving each one of its two
+  // cores): each node makes the frameset's query, grid and visibility maps
+  // itself and sweeps and textures its tile of the view (--tile i/2, rows),
+  // in stereo its tile of each eye. One-eye and two-eye frames alternated as
+  // above, on one thread.
+  if (cpu) {
+    std::printf(
+        "\nStereo frame of each of two recon nodes (each its half of each eye's rows, one thread; alternated, median "
+        "of %d):\n\n"
+        "| cams | eye view | planes | recon node (tile) | one eye ms | two eyes ms | two / one |\n"
+        "|---|---|---|---|---|---|---|\n",
+        repeats);
+    const std::unique_ptr<SweepBackend> node = gl::MakeSweepBackend("cpu", 1, 6);
+    for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
+      for (int tile = 0; tile < 2; ++tile) {
+        const cv::Rect rect = TileRect(tile, 2, w, h);
+        PlaneSweepOptions vo;
+        vo.num_planes = 48;
+        auto eyes_frame = [&](int n_eyes) {
+          const double t0 = MonotonicSeconds();
+          const VolumeQuery q(in.views, DefaultWorkspace(in.cameras));
+          node->BeginFrameset(q, in.images);
+          node->ComputeVisibility(q, in.cameras, 80, vo);
+          for (int e = 0; e < n_eyes; ++e) {
+            PlaneSweepOptions o;
+            o.num_planes = rows.planes.front();
+            const NovelView& v = eyes.eye[size_t(e)];
+            (void)node->SweepTextured(q, v, SweepPlaneDepths(q, v, o), rect, in.images, true, nullptr);
+          }
+          return (MonotonicSeconds() - t0) * 1e3;
+        };
+        (void)eyes_frame(1), (void)eyes_frame(2);  // warm-up
+        std::vector<double> ones, twos, ratios;
+        for (int r = 0; r < repeats; ++r) {
+          double t1 = 0, t2 = 0;
+          if (r % 2 == 0) {
+            t1 = eyes_frame(1), t2 = eyes_frame(2);
+          } else {
+            t2 = eyes_frame(2), t1 = eyes_frame(1);
+          }
+          ones.push_back(t1), twos.push_back(t2), ratios.push_back(t2 / t1);
+        }
+        std::printf("| %d | %dx%d | %d | recon%d (%d/2) | %.2f | %.2f | %.2f |\n", ncam, w, h, rows.planes.front(),
+                    tile, tile, Median(ones), Median(twos), Median(ratios));
+        std::fflush(stdout);
+      }
+    });
+  }
   // Empty-space skipping (EmptySpace) in the CPU sweep: one eye's sweep (refine
   // 6, one thread) with the frameset's grid and without it, same input, runs
   // interleaved, and the grid's own cost (made once per frameset). The depth
