@@ -47,6 +47,28 @@ using namespace hullpipe;
 
 namespace {
 
+// Milliseconds of one-eye and two-eye frames (frame(n_eyes), wall ms) and
+// their ratios, `repeats` rounds after a warm-up of each. The two alternate,
+// the order swapped each round, so the machine's drift falls on both; the
+// ratio is the median of each round's.
+struct EyeFrames {
+  std::vector<double> ones, twos, ratios;
+};
+EyeFrames AlternateEyes(int repeats, const std::function<double(int)>& frame) {
+  (void)frame(1), (void)frame(2);  // warm-up
+  EyeFrames f;
+  for (int r = 0; r < repeats; ++r) {
+    double t1 = 0, t2 = 0;
+    if (r % 2 == 0) {
+      t1 = frame(1), t2 = frame(2);
+    } else {
+      t2 = frame(2), t1 = frame(1);
+    }
+    f.ones.push_back(t1), f.twos.push_back(t2), f.ratios.push_back(t2 / t1);
+  }
+  return f;
+}
+
 double MedianMs(int repeats, const std::function<void()>& f) {
   std::vector<double> t;
   f();  // warm-up
@@ -411,24 +433,11 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
             }
             return (MonotonicSeconds() - t0) * 1e3;
           };
-          // The one-eye and two-eye frames alternate (the order swapped each
-          // round), so the machine's drift falls on both; the ratio is the
-          // median of each round's.
-          (void)eyes_frame(1), (void)eyes_frame(2);  // warm-up
-          std::vector<double> ones, twos, ratios;
-          for (int r = 0; r < repeats; ++r) {
-            double t1 = 0, t2 = 0;
-            if (r % 2 == 0) {
-              t1 = eyes_frame(1), t2 = eyes_frame(2);
-            } else {
-              t2 = eyes_frame(2), t1 = eyes_frame(1);
-            }
-            ones.push_back(t1), twos.push_back(t2), ratios.push_back(t2 / t1);
-          }
-          const double one = Median(ones), two = Median(twos);
+          const EyeFrames f = AlternateEyes(repeats, eyes_frame);
+          const double one = Median(f.ones), two = Median(f.twos);
           const std::string grid_ms = grid.empty() ? "-" : Ms2(Median(grid));
           std::printf("| %s | %d | %dx%d | %d | %.2f | %.2f | %.2f | %.2f | %.2f / %s | %.2f / %.2f / %.2f |\n",
-                      b == cpu.get() ? "cpu" : "gl", ncam, w, h, planes, one, two, Median(ratios), Median(shared),
+                      b == cpu.get() ? "cpu" : "gl", ncam, w, h, planes, one, two, Median(f.ratios), Median(shared),
                       Median(query), grid_ms.c_str(), Median(sweep), Median(refine), Median(texture));
           std::fflush(stdout);
         }
@@ -438,8 +447,8 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
   // two recon nodes on one host, --threads 0 giving each one of its two
   // cores): each node makes the frameset's query, grid and visibility maps
   // itself and sweeps and textures its tile of the view (--tile i/2, rows),
-  // in stereo its tile of each eye. One-eye and two-eye frames alternated as
-  // above, on one thread.
+  // in stereo its tile of each eye. One-eye and two-eye frames alternated
+  // (AlternateEyes), on one thread.
   if (cpu) {
     std::printf(
         "\nStereo frame of each of two recon nodes (each its half of each eye's rows, one thread; alternated, median "
@@ -466,19 +475,9 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
           }
           return (MonotonicSeconds() - t0) * 1e3;
         };
-        (void)eyes_frame(1), (void)eyes_frame(2);  // warm-up
-        std::vector<double> ones, twos, ratios;
-        for (int r = 0; r < repeats; ++r) {
-          double t1 = 0, t2 = 0;
-          if (r % 2 == 0) {
-            t1 = eyes_frame(1), t2 = eyes_frame(2);
-          } else {
-            t2 = eyes_frame(2), t1 = eyes_frame(1);
-          }
-          ones.push_back(t1), twos.push_back(t2), ratios.push_back(t2 / t1);
-        }
+        const EyeFrames f = AlternateEyes(repeats, eyes_frame);
         std::printf("| %d | %dx%d | %d | recon%d (%d/2) | %.2f | %.2f | %.2f |\n", ncam, w, h, rows.planes.front(),
-                    tile, tile, Median(ones), Median(twos), Median(ratios));
+                    tile, tile, Median(f.ones), Median(f.twos), Median(f.ratios));
         std::fflush(stdout);
       }
     });
