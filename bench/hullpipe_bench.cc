@@ -157,6 +157,49 @@ BackendInput MakeBackendInput(int cameras) {
   return in;
 }
 
+// One recon_node frame of a stereo frameset, as recon makes it: the
+// frameset's query (hull box included, its search on query_threads), upload
+// and visibility maps (recon's default width, 80 px; 48 planes), made once,
+// then for each of the first n_eyes eyes its plane depths (`planes`) and its
+// tile's sweep and texture. Wall ms of the whole and of its parts; on the CPU
+// backend (cpu_backend) also the empty-space grid's, which its first sweep
+// (a visibility map's) makes.
+struct ReconFrameMs {
+  double total = 0;
+  double shared = 0;  // query, upload and visibility maps
+  double query = 0;
+  double grid = 0;  // the CPU's empty-space grid
+  std::vector<SweepStats> eye_stats;
+  std::vector<double> eye_texture;
+};
+ReconFrameMs ReconFrame(SweepBackend& b, const BackendInput& in, const StereoViews& eyes, int n_eyes,
+                        const cv::Rect& tile, int planes, int query_threads, bool cpu_backend) {
+  ReconFrameMs ms;
+  const double t0 = MonotonicSeconds();
+  VolumeQueryOptions qo;
+  qo.threads = query_threads;
+  const VolumeQuery q(in.views, DefaultWorkspace(in.cameras), qo);
+  const double t1 = MonotonicSeconds();
+  b.BeginFrameset(q, in.images);
+  PlaneSweepOptions vo;
+  vo.num_planes = 48;
+  b.ComputeVisibility(q, in.cameras, 80, vo);
+  ms.query = (t1 - t0) * 1e3;
+  ms.shared = (MonotonicSeconds() - t0) * 1e3;
+  for (int e = 0; e < n_eyes; ++e) {
+    PlaneSweepOptions o;
+    o.num_planes = planes;
+    const NovelView& v = eyes.eye[size_t(e)];
+    SweepStats st;
+    const TexturedTile t = b.SweepTextured(q, v, SweepPlaneDepths(q, v, o), tile, in.images, true, &st);
+    ms.eye_stats.push_back(st);
+    ms.eye_texture.push_back(t.texture_ms);
+  }
+  ms.total = (MonotonicSeconds() - t0) * 1e3;
+  if (cpu_backend) ms.grid = q.empty_space().build_ms();
+  return ms;
+}
+
 // Which rows of the backend table to run (--cameras, --sizes, --planes,
 // --triangles): all by default.
 struct TableRows {
@@ -391,10 +434,7 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
         "|---|---|---|---|---|---|---|---|---|---|\n",
         repeats);
     for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
-        const std::vector<Camera>& cams = in.cameras;
         const int planes = rows.planes.front();
-        PlaneSweepOptions vo;
-        vo.num_planes = 48;
         for (SweepBackend* b : {cpu.get(), gpu.get()}) {
           if (!b) continue;
           // Where the two-eye frame's time goes (CPU: the sweep's own clocks;
@@ -402,36 +442,23 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
           // The shared part's query (hull box included) and, on the CPU, the
           // empty-space grid its first sweep (a visibility map's) makes.
           std::vector<double> shared, query, grid, sweep, refine, texture;
-          // One frame of n_eyes eyes, wall ms.
+          // One frame of n_eyes eyes, wall ms. The query's search runs on
+          // recon's threads, as the CPU sweep's.
           auto eyes_frame = [&](int n_eyes) {
-            const double t0 = MonotonicSeconds();
-            // The query is the frameset's (recon makes it once, hull box
-            // included, its search on recon's threads as the CPU sweep's).
-            VolumeQueryOptions qo;
-            qo.threads = b == cpu.get() ? rows.cpu_threads : 1;
-            const VolumeQuery q(in.views, DefaultWorkspace(cams), qo);
-            const double t1 = MonotonicSeconds();
-            b->BeginFrameset(q, in.images);
-            b->ComputeVisibility(q, cams, 80, vo);
+            const bool on_cpu = b == cpu.get();
+            const ReconFrameMs ms =
+                ReconFrame(*b, in, eyes, n_eyes, cv::Rect(0, 0, w, h), planes, on_cpu ? rows.cpu_threads : 1, on_cpu);
             if (n_eyes == 2) {
-              shared.push_back((MonotonicSeconds() - t0) * 1e3);
-              query.push_back((t1 - t0) * 1e3);
-              if (b == cpu.get()) grid.push_back(q.empty_space().build_ms());
-            }
-            for (int e = 0; e < n_eyes; ++e) {
-              PlaneSweepOptions o;
-              o.num_planes = planes;
-              const NovelView& v = eyes.eye[size_t(e)];
-              SweepStats st;
-              const TexturedTile t =
-                  b->SweepTextured(q, v, SweepPlaneDepths(q, v, o), cv::Rect(0, 0, w, h), in.images, true, &st);
-              if (n_eyes == 2) {
-                sweep.push_back(st.sweep_ms);
-                refine.push_back(st.refine_ms);
-                texture.push_back(t.texture_ms);
+              shared.push_back(ms.shared);
+              query.push_back(ms.query);
+              if (on_cpu) grid.push_back(ms.grid);
+              for (int e = 0; e < n_eyes; ++e) {
+                sweep.push_back(ms.eye_stats[size_t(e)].sweep_ms);
+                refine.push_back(ms.eye_stats[size_t(e)].refine_ms);
+                texture.push_back(ms.eye_texture[size_t(e)]);
               }
             }
-            return (MonotonicSeconds() - t0) * 1e3;
+            return ms.total;
           };
           const EyeFrames f = AlternateEyes(repeats, eyes_frame);
           const double one = Median(f.ones), two = Median(f.twos);
@@ -460,20 +487,8 @@ int BackendTable(const std::string& which, int repeats, int gl_device, const Tab
     for_each_eye_row([&](int ncam, const BackendInput& in, int w, int h, const StereoViews& eyes) {
       for (int tile = 0; tile < 2; ++tile) {
         const cv::Rect rect = TileRect(tile, 2, w, h);
-        PlaneSweepOptions vo;
-        vo.num_planes = 48;
         auto eyes_frame = [&](int n_eyes) {
-          const double t0 = MonotonicSeconds();
-          const VolumeQuery q(in.views, DefaultWorkspace(in.cameras));
-          node->BeginFrameset(q, in.images);
-          node->ComputeVisibility(q, in.cameras, 80, vo);
-          for (int e = 0; e < n_eyes; ++e) {
-            PlaneSweepOptions o;
-            o.num_planes = rows.planes.front();
-            const NovelView& v = eyes.eye[size_t(e)];
-            (void)node->SweepTextured(q, v, SweepPlaneDepths(q, v, o), rect, in.images, true, nullptr);
-          }
-          return (MonotonicSeconds() - t0) * 1e3;
+          return ReconFrame(*node, in, eyes, n_eyes, rect, rows.planes.front(), 1, true).total;
         };
         const EyeFrames f = AlternateEyes(repeats, eyes_frame);
         std::printf("| %d | %dx%d | %d | recon%d (%d/2) | %.2f | %.2f | %.2f |\n", ncam, w, h, rows.planes.front(),
