@@ -1,13 +1,15 @@
 // node_bench: one node alone, fed as fast as it takes its input (docs/architecture.md).
 //   node_bench --node sim   --recording run.hprec [--frames 200]
-//   node_bench --node recon --recording run.hprec
+//   node_bench --node recon --recording run.hprec [--views first] [--tile 0/2] [--threads 1]
 //   node_bench --node render --recording run.hprec   (needs hull_view in it)
 //   node_bench --node capture --rig ../shared/data/utrecht-4cam
 // sim and recon run closed-loop on a replayed recording (hullpipe_record): the
 // bench publishes frameset f byte for byte (plus, for recon, the recorded
-// ViewPose naming f), waits for the node's output for f (CollisionReport or
-// VirtualMesh / HullView), then sends f+1 (a frameset with no output in 3 s
-// counts as a timeout). Throughput is framesets per second of that loop;
+// ViewPoses naming f: both eyes' of a stereo run, or with --views first only
+// the first, the left eye, as a mono frame of the same view), waits for the
+// node's output for f (CollisionReport or VirtualMesh / a HullView for each
+// ViewPose), then sends f+1 (a frameset with no output in 3 s counts as a
+// timeout). Throughput is framesets per second of that loop;
 // latency is, per frameset, the output's arrival minus the moment its last input
 // was written (both on this machine's clock). capture runs on its own input
 // (--fast) and its latency is a map's arrival minus its capture_time_ns. CPU is
@@ -76,6 +78,7 @@ double PeakRssMiB(pid_t pid) {
 struct Result {
   std::string node;
   int frames = 0, timeouts = 0;
+  int64_t view_poses_sent = 0;  // recon: the ViewPoses written (two a frameset for a stereo run's both eyes)
   double seconds = 0, cpu_s = 0, rss_mib = 0;
   std::vector<double> latency_ms;
   /// One frameset's outcome: its output came `since` (monotonic s) ago, or not.
@@ -138,8 +141,18 @@ uint64_t FrameOf(const CdrWriter& w, const Sample& s) {
   return f;
 }
 
+// The pose_seq of a recorded ViewPose (0 if it does not decode).
+uint64_t PoseSeqOf(const CdrWriter& w, const Sample& s) {
+  hullpipe_msg_ViewPose m{};
+  if (!w.Decode(s.data, &m)) return 0;
+  const uint64_t k = m.pose_seq;
+  dds_sample_free(&m, TopicTraits<hullpipe_msg_ViewPose>::Descriptor(), DDS_FREE_CONTENTS);
+  return k;
+}
+
+// first_view_only (recon): send only the first recorded ViewPose of each frameset.
 Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, const std::string& recording,
-                     int max_frames) {
+                     int max_frames, bool first_view_only) {
   Result r;
   r.node = node;
   const bool recon = node == "recon";
@@ -155,7 +168,8 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
   if (recon) img_w = writer_for("hullpipe/camera_image"), pose_w = writer_for("hullpipe/view_pose");
   // Inputs grouped by frameset.
   std::map<uint64_t, std::vector<const Sample*>> maps, images;
-  std::map<uint64_t, const Sample*> poses;
+  // Per frameset its ViewPoses in pose order (a stereo run's two eyes), with their pose_seq.
+  std::map<uint64_t, std::vector<std::pair<uint64_t, const Sample*>>> poses;
   for (const auto& s : rec["hullpipe/object_pixel_map"].samples)
     maps[FrameOf<hullpipe_msg_ObjectPixelMap>(*map_w, s)].push_back(&s);
   if (recon) {
@@ -163,7 +177,11 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
       images[FrameOf<hullpipe_msg_CameraImage>(*img_w, s)].push_back(&s);
     for (const auto& s : rec["hullpipe/view_pose"].samples) {
       const uint64_t f = FrameOf<hullpipe_msg_ViewPose>(*pose_w, s);
-      if (f && !poses.count(f)) poses[f] = &s;
+      if (f == 0) continue;
+      auto& fp = poses[f];
+      const uint64_t k = PoseSeqOf(*pose_w, s);
+      const bool seen = std::any_of(fp.begin(), fp.end(), [&](const auto& e) { return e.first == k; });
+      if (!seen && !(first_view_only && !fp.empty())) fp.emplace_back(k, &s);
     }
   }
   Reader<hullpipe_msg_CollisionReport> reports(p);  // sim: per ball...
@@ -185,13 +203,18 @@ Result BenchReplayed(const std::string& node, const Participant& p, pid_t pid, c
     if (recon)
       for (const Sample* s : images[f]) img_w->Write(s->data);
     for (const Sample* s : ms) map_w->Write(s->data);
-    if (recon) pose_w->Write(poses[f]->data);
+    // recon: the pose_seqs still awaiting their HullView.
+    std::vector<uint64_t> awaited;
+    if (recon)
+      for (const auto& [k, s] : poses[f]) pose_w->Write(s->data), awaited.push_back(k), ++r.view_poses_sent;
     const double sent = MonotonicSeconds();
     bool got = false;
     while (!got && MonotonicSeconds() - sent < 3.0) {
       if (recon) {
-        tiles.TakeEach(
-            [&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
+        tiles.TakeEach([&](const hullpipe_msg_HullView& m, const dds_sample_info_t&) {
+          if (m.frame_seq == f) std::erase(awaited, m.pose_seq);
+        });
+        got = awaited.empty();
       } else {
         reports.TakeEach(
             [&](const hullpipe_msg_CollisionReport& m, const dds_sample_info_t&) { got = got || m.frame_seq == f; });
@@ -324,7 +347,8 @@ int main(int argc, char** argv) {
   hullpipe::SetCommandLine(argc, argv);
   CLI::App app{"node_bench: one hullpipe node alone, fed as fast as it takes input"};
   std::string node, recording, rig, bin_dir = fs::path(argv[0]).parent_path().string(), scene;
-  int frames = 0;
+  std::string tile = "0/1", views = "all";
+  int frames = 0, threads = -1;
   bool json = false;
   app.add_option("--node", node, "capture | recon | sim | render")
       ->required()
@@ -333,6 +357,13 @@ int main(int argc, char** argv) {
   app.add_option("--rig", rig, "Rig directory for capture");
   app.add_option("--frames", frames, "Stop after this many framesets (0: all)");
   app.add_option("--scene", scene, "sim_node's scene file");
+  app.add_option("--views", views,
+                 "recon: each frameset's recorded ViewPoses to send, all (a stereo run's two eyes) or first (its "
+                 "left eye alone: the mono frame of the same view)")
+      ->check(CLI::IsMember({"all", "first"}))
+      ->capture_default_str();
+  app.add_option("--tile", tile, "recon: its --tile i/N (0/1: the whole view)")->capture_default_str();
+  app.add_option("--threads", threads, "recon: its --threads (unset: the node's default)")->check(CLI::Range(0, 256));
   app.add_option("--bin-dir", bin_dir, "Where the node executables are")->capture_default_str();
   app.add_flag("--json", json, "One JSON object");
   CLI11_PARSE(app, argc, argv);
@@ -347,7 +378,8 @@ int main(int argc, char** argv) {
     const launch::DomainLease lease;  // no other live run on this machine holds it
     const uint32_t domain = lease.id();
     std::vector<std::string> args = {bin_dir + "/" + node + "_node", "--domain", std::to_string(domain)};
-    if (node == "recon") args.insert(args.end(), {"--tile", "0/1"});
+    if (node == "recon") args.insert(args.end(), {"--tile", tile});
+    if (node == "recon" && threads >= 0) args.insert(args.end(), {"--threads", std::to_string(threads)});
     if (node == "render")
       args.insert(args.end(), {"--out", (dir / "out").string(), "--tiles", "2", "--max-in-flight", "1", "--window",
                                "off", "--idle-timeout", "30", "--tile-timeout", "5"});
@@ -365,7 +397,7 @@ int main(int argc, char** argv) {
     const pid_t pid = proc.pid();
     Result r = node == "capture" ? BenchCapture(p, proc, frames)
                : node == "render" ? BenchRender(p, pid, recording, frames)
-                                  : BenchReplayed(node, p, pid, recording, frames);
+                                  : BenchReplayed(node, p, pid, recording, frames, views == "first");
     proc.Stop(10);
     const double fps = r.seconds > 0 ? r.frames / r.seconds : 0;
     if (json) {
@@ -377,7 +409,9 @@ int main(int argc, char** argv) {
                           {"latency_ms_p95", Percentile(r.latency_ms, 95)},
                           {"latency_ms_p99", Percentile(r.latency_ms, 99)},
                           {"cpu_percent", r.seconds > 0 ? 100 * r.cpu_s / r.seconds : 0},
+                          {"cpu_ms_per_frameset", r.frames > 0 ? 1e3 * r.cpu_s / r.frames : 0},
                           {"peak_rss_mib", r.rss_mib}};
+      if (node == "recon") j["views"] = views, j["tile"] = tile, j["view_poses_sent"] = r.view_poses_sent;
       j["command"] = CommandLine();
       std::printf("%s\n", j.dump().c_str());
     } else {

@@ -984,6 +984,49 @@ TEST_P(RecordToolsOn, ReplayingTwiceIntoSimNodeGivesIdenticalCollisionReports) {
   }
 }
 
+// The per-node benchmark of a recon node on a head-mounted display's run
+// (docs/hmd.md, "What it costs"): a stereo run recorded (two ViewPoses a
+// frameset, one per eye), node_bench sends a frameset with both of its
+// ViewPoses and counts it only when a HullView answered each; with --views
+// first it sends the left eye's alone, the mono frame of the same view.
+TEST_F(RecordTools, TheReconBenchAnswersBothEyesOfAStereoRecordingOrTheFirstAlone) {
+  const std::string path = (dir_ / "stereo.hprec").string();
+  {
+    auto recorder = Start("hullpipe_record",
+                          {"-o", path, "--include", "hullpipe/camera_info", "--include", "hullpipe/object_pixel_map",
+                           "--include", "hullpipe/camera_image", "--include", "hullpipe/view_pose"});
+    auto recon = Start("recon_node", {"--tile", "0/1", "--backend", "cpu", "--planes", "20"});
+    auto render = Start("render_node", {"--stereo", "--width", "64", "--height", "48", "--tiles", "1", "--window",
+                                        "off", "--out", (dir_ / "out").string(), "--max-in-flight", "1"});
+    auto capture = Start("capture_node", {"--synthetic", "--frames", "12", "--fps", "10", "--wait-readers", "3",
+                                          "--wait-timeout", "30", "--max-lag", "30"});
+    ASSERT_EQ(capture->Wait(60), 0) << Log("capture_node");
+    ASSERT_EQ(render->Wait(30), 0) << Log("render_node");
+    EXPECT_EQ(recon->Stop(), 0) << Log("recon_node");
+    ASSERT_EQ(recorder->Stop(), 0) << Log("hullpipe_record");
+  }
+  auto bench = [&](const std::string& views) {
+    const std::string log = (dir_ / ("node_bench_" + views + ".log")).string();
+    test::Process b({test::BinDir() + "/node_bench", "--node", "recon", "--recording", path, "--views", views,
+                     "--threads", "1", "--json"},
+                    log, {}, log + ".err");
+    EXPECT_EQ(b.Wait(120), 0) << test::ReadFile(log + ".err");
+    const std::string out = test::ReadFile(log);
+    EXPECT_TRUE(nlohmann::json::accept(out)) << "stdout must hold the JSON alone: " << out;
+    return nlohmann::json::accept(out) ? nlohmann::json::parse(out) : nlohmann::json::object();
+  };
+  const nlohmann::json both = bench("all"), first = bench("first");
+  ASSERT_TRUE(both.contains("frames") && first.contains("frames")) << both.dump() << first.dump();
+  // Every recorded frameset with its views answered: two HullViews each, or one.
+  EXPECT_GE(both["frames"].get<int>(), 6) << both.dump();
+  EXPECT_EQ(both["timeouts"].get<int>(), 0) << both.dump();
+  EXPECT_EQ(both["view_poses_sent"].get<int>(), 2 * both["frames"].get<int>()) << both.dump();
+  EXPECT_EQ(first["frames"], both["frames"]) << first.dump();
+  EXPECT_EQ(first["timeouts"].get<int>(), 0) << first.dump();
+  EXPECT_EQ(first["view_poses_sent"], first["frames"]) << first.dump();
+  EXPECT_GT(both["cpu_ms_per_frameset"].get<double>(), 0) << both.dump();
+}
+
 // The README's replay into live nodes, with the whole recording: run A
 // (capture, recon, render) is recorded with every topic; run B is a live recon
 // and render fed by replaying that recording with --all-topics. The recorded
