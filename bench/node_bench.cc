@@ -362,7 +362,8 @@ int main(int argc, char** argv) {
                  "left eye alone: the mono frame of the same view)")
       ->check(CLI::IsMember({"all", "first"}))
       ->capture_default_str();
-  app.add_option("--tile", tile, "recon: its --tile i/N (0/1: the whole view)")->capture_default_str();
+  app.add_option("--tile", tile, "recon: its --tile i/N (0/1: the whole view; of several, it adopts no other)")
+      ->capture_default_str();
   app.add_option("--threads", threads, "recon: its --threads (unset: the node's default)")->check(CLI::Range(0, 256));
   app.add_option("--bin-dir", bin_dir, "Where the node executables are")->capture_default_str();
   app.add_flag("--json", json, "One JSON object");
@@ -379,6 +380,9 @@ int main(int argc, char** argv) {
     const uint32_t domain = lease.id();
     std::vector<std::string> args = {bin_dir + "/" + node + "_node", "--domain", std::to_string(domain)};
     if (node == "recon") args.insert(args.end(), {"--tile", tile});
+    // A tile of several: no peer plays the others here, and the node would
+    // adopt their tiles after its fail-over time (recon_controller.h).
+    if (node == "recon" && tile.substr(tile.find('/') + 1) != "1") args.insert(args.end(), {"--failover", "3600"});
     if (node == "recon" && threads >= 0) args.insert(args.end(), {"--threads", std::to_string(threads)});
     if (node == "render")
       args.insert(args.end(), {"--out", (dir / "out").string(), "--tiles", "2", "--max-in-flight", "1", "--window",
