@@ -78,13 +78,16 @@ fuzz() {
 # GarbageVideo run the same capture threads), the whole-pipeline replay (the
 # recorder's and replayer's threads are Storage/RecordToolsOn's), the exact
 # reprojection at the dome's real size (MatchesRayHullIntervalsPixelByPixel runs
-# its threads), and two single-threaded exactness tests (a skewed rig's exact
-# hull, the ring's hull box). HULLPIPE_TSAN=0 skips the stage.
+# its threads), four single-threaded exactness tests (a skewed rig's exact
+# hull, the ring's hull box, the sweep's hit bounds and its background runs
+# against a sweep without them), and node_bench on a stereo recording (the
+# recon, render and capture processes NodeTest runs). HULLPIPE_TSAN=0 skips
+# the stage.
 build_tsan() {
   stage "TSan build (clang-14)"
   cmake -S . -B build-tsan -G Ninja "${CLANG[@]}" -DHULLPIPE_SANITIZE=thread -DHULLPIPE_WERROR=OFF >/dev/null
   cmake --build build-tsan --target "${THREADED_CORE_TESTS[@]}" dds_tests record_tests node_tests hullpipe_record hullpipe_replay \
-      hullpipe_cmd node_bench capture_node recon_node sim_node render_node
+      hullpipe_cmd capture_node recon_node sim_node render_node
 }
 
 test_tsan() {
@@ -100,7 +103,9 @@ test_tsan() {
                   RecordTools.AWholeRecordingReplayedIntoALiveRunIsNotMixedIn
                   ReprojectionExact.TwentyDistortedCamerasAtTheirRealSize
                   ExactHull.ASkewedRigHasTheHullOfTheSameRigResampledWithoutSkew
-                  HullBox.TightToTheHullsOwnBoxOnARingAndConservative)
+                  HullBox.TightToTheHullsOwnBoxOnARingAndConservative
+                  HitBounds.PointsWhereNoHitCanBeAreSkippedChangingNoPixel BackgroundRuns.SkippedRunsChangeNoPixel
+                  TheReconBenchAnswersBothEyesOfAStereoRecordingOrTheFirstAlone)
   ctest --test-dir build-tsan -j2 --output-on-failure --timeout 600 -L 'core|dds|record|nodes' \
       -E "$(IFS='|'; echo "${left_out[*]}")"
 }
