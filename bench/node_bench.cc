@@ -131,23 +131,26 @@ std::unique_ptr<CdrWriter> WriterFor(const Participant& p, const Recorded& r0) {
   return std::make_unique<CdrWriter>(p, *kt, QosSpec{r0.topic.reliable, r0.topic.transient_local, r0.topic.depth});
 }
 
-// The frame_seq of each recorded sample of type T (decoded with the writer's type).
-template <typename T>
-uint64_t FrameOf(const CdrWriter& w, const Sample& s) {
+// get(m) of a recorded sample m of type T (decoded with the writer's type); 0
+// if it does not decode.
+template <typename T, typename Get>
+uint64_t FieldOf(const CdrWriter& w, const Sample& s, Get get) {
   T m{};
   if (!w.Decode(s.data, &m)) return 0;
-  const uint64_t f = m.frame_seq;
+  const uint64_t v = get(m);
   dds_sample_free(&m, TopicTraits<T>::Descriptor(), DDS_FREE_CONTENTS);
-  return f;
+  return v;
 }
 
-// The pose_seq of a recorded ViewPose (0 if it does not decode).
+// The frame_seq of a recorded sample of type T.
+template <typename T>
+uint64_t FrameOf(const CdrWriter& w, const Sample& s) {
+  return FieldOf<T>(w, s, [](const T& m) { return uint64_t(m.frame_seq); });
+}
+
+// The pose_seq of a recorded ViewPose.
 uint64_t PoseSeqOf(const CdrWriter& w, const Sample& s) {
-  hullpipe_msg_ViewPose m{};
-  if (!w.Decode(s.data, &m)) return 0;
-  const uint64_t k = m.pose_seq;
-  dds_sample_free(&m, TopicTraits<hullpipe_msg_ViewPose>::Descriptor(), DDS_FREE_CONTENTS);
-  return k;
+  return FieldOf<hullpipe_msg_ViewPose>(w, s, [](const hullpipe_msg_ViewPose& m) { return uint64_t(m.pose_seq); });
 }
 
 // first_view_only (recon): send only the first recorded ViewPose of each frameset.
