@@ -402,9 +402,20 @@ int main(int argc, char** argv) {
     Participant p(domain);
     launch::Process proc(args, log);
     const pid_t pid = proc.pid();
-    Result r = node == "capture" ? BenchCapture(p, proc, frames)
-               : node == "render" ? BenchRender(p, pid, recording, frames)
-                                  : BenchReplayed(node, p, pid, recording, frames, views == "first");
+    Result r;
+    try {
+      r = node == "capture"  ? BenchCapture(p, proc, frames)
+          : node == "render" ? BenchRender(p, pid, recording, frames)
+                             : BenchReplayed(node, p, pid, recording, frames, views == "first");
+    } catch (const std::exception& e) {
+      // A node that refused its arguments (a bad --tile) has said which: its last line.
+      if (proc.Running()) throw;
+      std::ifstream in(log);
+      std::string line, last;
+      while (std::getline(in, line))
+        if (!line.empty()) last = line;
+      throw std::runtime_error(std::string(e.what()) + "; " + node + "_node exited: " + last);
+    }
     proc.Stop(10);
     const double fps = r.seconds > 0 ? r.frames / r.seconds : 0;
     if (json) {
